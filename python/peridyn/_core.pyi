@@ -1,0 +1,259 @@
+"""Type stubs for the compiled Rust core ``peridyn._core``.
+
+Every quantity is in SI units: metres, kilograms, seconds, pascals, joules.
+Arrays are returned as new numpy arrays (``float64`` for real values, ``int64`` for indices);
+inputs accept any float or integer dtype and any array-like that numpy can convert.
+Bad input raises ``ValueError`` naming the offending index and value.
+"""
+
+from typing import Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+ArrayLike = npt.ArrayLike
+Vec3 = Union[Sequence[float], npt.ArrayLike]
+
+__version__: str
+
+class DivergenceError(RuntimeError):
+    """A time step produced non-finite positions; the solver state is left at the last good step."""
+
+class StretchA3:
+    """Stretching model of Lu et al. 2023, eq. 39-41: ``Psi = s0 * sum_m A3(lambda_m)``.
+
+    ``A3(s) = ((s^4 - 1)/4 + (s^-2 - 1)/2) / 3``; in-plane small-strain shear modulus ``s0``,
+    Poisson's ratio 0, Young's modulus ``2 s0``.
+    """
+
+    def __init__(self, *, s0: float) -> None: ...
+    @staticmethod
+    def from_young(E: float, nu: float = 0.0) -> "StretchA3":
+        """``s0 = E / 2``; ``nu`` must be 0 (the A3 model has no Poisson coupling)."""
+    @property
+    def s0(self) -> float:
+        """Stiffness in Pa."""
+    @property
+    def shear_modulus(self) -> float:
+        """Small-strain shear modulus in Pa."""
+    @property
+    def youngs_modulus(self) -> float:
+        """Small-strain in-plane Young's modulus in Pa."""
+    @property
+    def poisson_ratio(self) -> float: ...
+    def stress(self, stretches: ArrayLike) -> np.ndarray:
+        """Principal first Piola-Kirchhoff stresses ``dPsi/dlambda`` (Pa) for stretches of shape (..., 3)."""
+    def energy_density(self, stretches: ArrayLike) -> np.ndarray:
+        """Energy density ``Psi`` (J/m^3) for principal stretches of shape (..., 3)."""
+
+class NeoHookean:
+    """Compressible neo-Hookean model of Lu et al. 2023, eq. 36-38:
+    ``Psi = s0 (I1 - 3 - ln I3) + s1 (sqrt(I3) - 1)^2`` (s0, s1 in Pa).
+
+    The membrane keeps its normal unstretched (Kirchhoff-Love), so the in-plane response is that
+    of plane strain with Lame parameters ``mu = 2 s0`` and ``lambda = 2 s1``.
+    """
+
+    def __init__(self, *, s0: float, s1: float) -> None: ...
+    @staticmethod
+    def from_young(E: float, nu: float) -> "NeoHookean":
+        """From the sheet's in-plane (plane-stress) Young's modulus E (Pa) and Poisson ratio nu:
+        ``s0 = E / (4 (1 + nu))``, ``s1 = E nu / (2 (1 - nu^2))``; a thin sheet then answers a small
+        uniaxial stress with strain ``sigma / E`` and lateral contraction ``nu``."""
+    @property
+    def s0(self) -> float: ...
+    @property
+    def s1(self) -> float: ...
+    @property
+    def shear_modulus(self) -> float: ...
+    @property
+    def youngs_modulus(self) -> float: ...
+    @property
+    def poisson_ratio(self) -> float: ...
+    def stress(self, stretches: ArrayLike) -> np.ndarray: ...
+    def energy_density(self, stretches: ArrayLike) -> np.ndarray: ...
+
+Material = Union[StretchA3, NeoHookean]
+
+class Membrane:
+    """A thin hyperelastic membrane (triangle mesh) simulated by projective peridynamics.
+
+    Parameters
+    ----------
+    vertices : (N, 3) rest positions in m (any float dtype).
+    triangles : (M, 3) vertex indices (any integer dtype).
+    thickness : full physical thickness in m (> 0). Mass = density * area * thickness; the
+        Kirchhoff-Love virtual bond has length thickness / 2 (the paper's xi).
+    density : mass density in kg/m^3 (> 0).
+    material : StretchA3 or NeoHookean.
+    bending : bending rigidity D in N*m (J), >= 0: a cylindrical bend of curvature k stores
+        D k^2 / 2 per unit area (Kirchhoff plate with bending Poisson ratio 1/3).
+    hourglass : dimensionless stiffness (>= 0) of the in-plane non-affine (hourglass) penalty,
+        relative to the material's shear modulus; suppresses zero-energy modes of the
+        1-ring deformation gradient, vanishes under mesh refinement for smooth motion.
+    neighbors : k of the k-ring neighbourhood (1 = mesh 1-ring, as in the paper).
+    """
+
+    def __init__(
+        self,
+        vertices: ArrayLike,
+        triangles: ArrayLike,
+        *,
+        thickness: float,
+        density: float,
+        material: Material,
+        bending: float = 0.0,
+        hourglass: float = ...,
+        neighbors: int = 1,
+    ) -> None: ...
+    @property
+    def num_vertices(self) -> int: ...
+    @property
+    def num_triangles(self) -> int: ...
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, 3) current positions in m; settable (takes effect at the next step)."""
+    @positions.setter
+    def positions(self, value: ArrayLike) -> None: ...
+    @property
+    def velocities(self) -> np.ndarray:
+        """(N, 3) velocities in m/s; settable."""
+    @velocities.setter
+    def velocities(self, value: ArrayLike) -> None: ...
+    @property
+    def rest_positions(self) -> np.ndarray: ...
+    @property
+    def triangles(self) -> np.ndarray: ...
+    @property
+    def masses(self) -> np.ndarray:
+        """(N,) lumped vertex masses in kg (density * thickness * area / 3 per incident triangle)."""
+    @property
+    def volumes(self) -> np.ndarray:
+        """(N,) lumped vertex volumes in m^3."""
+    @property
+    def thickness(self) -> float: ...
+    @property
+    def density(self) -> float: ...
+    @property
+    def material(self) -> Material: ...
+    @property
+    def bending(self) -> float: ...
+    @property
+    def hourglass(self) -> float: ...
+    @property
+    def neighbors(self) -> int: ...
+    def neighborhood(self) -> Tuple[np.ndarray, np.ndarray]:
+        """CSR ``(offsets, indices)`` of every vertex's neighbours (int64)."""
+    def pin(self, indices: ArrayLike, targets: Optional[ArrayLike] = None) -> None:
+        """Fix vertices at ``targets`` ((len(indices), 3) m; default: where they are now)."""
+    def unpin(self, indices: Optional[ArrayLike] = None) -> None:
+        """Release the given pinned vertices (all when None)."""
+    @property
+    def pinned(self) -> np.ndarray:
+        """Sorted int64 indices of pinned vertices."""
+    @property
+    def pin_targets(self) -> np.ndarray:
+        """(P, 3) targets of the pinned vertices, in the order of ``pinned``; settable to move
+        them (scripted motion); the solver moves them there at the next step."""
+    @pin_targets.setter
+    def pin_targets(self, value: ArrayLike) -> None: ...
+    def elastic_energy(self) -> float:
+        """Stretching + bending + hourglass energy (J) at the current positions."""
+    def energy_terms(self) -> dict:
+        """{'stretch': J, 'bending': J, 'hourglass': J} at the current positions."""
+    def internal_forces(self) -> np.ndarray:
+        """(N, 3) internal forces in N (minus the gradient of ``elastic_energy``)."""
+    def stretches(self) -> np.ndarray:
+        """(N, 3) principal stretches per vertex (in-plane two descending, then the normal one)."""
+    def kinetic_energy(self) -> float: ...
+
+class Plane:
+    """Half-space collider: vertices stay on the side the ``normal`` points to."""
+
+    def __init__(self, *, point: Vec3 = (0.0, 0.0, 0.0), normal: Vec3 = (0.0, 0.0, 1.0)) -> None: ...
+    @property
+    def point(self) -> np.ndarray: ...
+    @property
+    def normal(self) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
+
+class Sphere:
+    """Solid sphere collider (m)."""
+
+    def __init__(self, *, center: Vec3, radius: float) -> None: ...
+    @property
+    def center(self) -> np.ndarray: ...
+    @property
+    def radius(self) -> float: ...
+    def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
+
+class StepStats:
+    """What one time step did."""
+
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def residual(self) -> float:
+        """Final max_i |y_i^k - y_i^(k-1)| in m (the convergence measure of Algorithm 1)."""
+    @property
+    def converged(self) -> bool:
+        """True when the residual fell below ``tol`` (always False when tol == 0)."""
+    @property
+    def residuals(self) -> np.ndarray:
+        """Residual after each iteration (m)."""
+    @property
+    def timings(self) -> dict:
+        """Milliseconds per phase: 'predict', 'global', 'colliders', 'finish', 'total'."""
+    @property
+    def time(self) -> float:
+        """Simulation time after the step (s)."""
+    @property
+    def step(self) -> int:
+        """Index of the step (0-based)."""
+
+class Solver:
+    """Implicit Euler time stepping by the semi-implicit successive substitution method (SISSM).
+
+    Parameters
+    ----------
+    dt : time step h in s (> 0).
+    gravity : acceleration (m/s^2).
+    tol : stop when max_i |y_i^k - y_i^(k-1)| < tol (m); 0 runs exactly ``max_iters`` iterations.
+    max_iters : cap on global iterations per step (>= 1).
+    threads : worker threads (None: all cores). Results are bit-identical for any count.
+    step_length : apply the per-vertex step length of eq. 31-33 (recommended).
+    """
+
+    def __init__(
+        self,
+        *,
+        dt: float,
+        gravity: Vec3 = (0.0, 0.0, -9.81),
+        tol: float = 1e-4,
+        max_iters: int = 100,
+        threads: Optional[int] = None,
+        step_length: bool = True,
+    ) -> None: ...
+    def add(self, body: Membrane) -> None: ...
+    def add_collider(self, collider: Union[Plane, Sphere]) -> None: ...
+    def step(self) -> StepStats: ...
+    @property
+    def dt(self) -> float: ...
+    @dt.setter
+    def dt(self, value: float) -> None: ...
+    @property
+    def gravity(self) -> np.ndarray: ...
+    @property
+    def tol(self) -> float: ...
+    @property
+    def max_iters(self) -> int: ...
+    @property
+    def threads(self) -> int: ...
+    @property
+    def time(self) -> float: ...
+    @property
+    def steps_taken(self) -> int: ...
+    @property
+    def bodies(self) -> list: ...
+    @property
+    def colliders(self) -> list: ...

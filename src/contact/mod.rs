@@ -1,0 +1,5 @@
+//! Contact handling. For now: analytic colliders projected in the local step.
+
+mod collider;
+
+pub use collider::{Collider, ColliderModel};

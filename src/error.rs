@@ -1,0 +1,41 @@
+//! Errors of the core. The Python edge turns [`Error::InvalidInput`] into `ValueError` and
+//! [`Error::Diverged`] into `peridyn.DivergenceError`.
+
+/// What can go wrong in the core.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Error {
+    /// An input violates a documented requirement; the message names the offending index or value.
+    #[error("{0}")]
+    InvalidInput(String),
+    /// A time step produced non-finite positions; the bodies keep their last good state.
+    #[error("step {step} diverged at iteration {iteration}: vertex {vertex} of body {body} became non-finite; the bodies were left at their last good state (try a smaller dt, more iterations, or check the material parameters)")]
+    Diverged {
+        step: u64,
+        iteration: usize,
+        body: usize,
+        vertex: usize,
+    },
+}
+
+/// Result with the core's [`Error`].
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// Shorthand for an [`Error::InvalidInput`] built with `format!`.
+macro_rules! invalid {
+    ($($arg:tt)*) => { $crate::error::Error::InvalidInput(format!($($arg)*)) };
+}
+pub(crate) use invalid;
+
+/// Checks that a scalar parameter is finite and satisfies `ok`, else names it.
+pub fn check_param(
+    name: &str,
+    value: f64,
+    ok: impl Fn(f64) -> bool,
+    requirement: &str,
+) -> Result<f64> {
+    if value.is_finite() && ok(value) {
+        Ok(value)
+    } else {
+        Err(invalid!("{name} must be {requirement}, got {value}"))
+    }
+}

@@ -1,0 +1,27 @@
+//! peridyn: projective peridynamics for thin hyperelastic membranes (Lu et al. 2023) and
+//! elastoplastic particle materials (He et al. 2017).
+//!
+//! The core is plain Rust (testable with `cargo test`); the Python bindings live in
+//! [`python`] behind the `python` feature, which maturin enables.
+
+pub mod contact;
+pub mod error;
+pub mod material;
+pub mod membrane;
+pub mod mesh;
+pub mod parallel;
+pub mod real;
+pub mod solve;
+
+#[cfg(feature = "python")]
+mod python;
+
+#[cfg(feature = "python")]
+use pyo3::prelude::*;
+
+/// The compiled module `peridyn._core`.
+#[cfg(feature = "python")]
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    python::register(m)
+}

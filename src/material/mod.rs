@@ -1,0 +1,170 @@
+//! Constitutive models written in principal stretches, each split into the positive part of
+//! the diagonal stress that SISSM treats implicitly and the negative part it treats explicitly
+//! (Lu et al. 2023, section 5).
+
+mod neo_hookean;
+mod stretch_a3;
+
+use crate::error::{check_param, Result};
+use crate::real::Real;
+
+/// An isotropic hyperelastic material. Stiffnesses are in Pa, energies in J/m^3.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Material {
+    /// `Psi = s0 sum_m A3(lambda_m)` (eq. 39-41).
+    StretchA3 { s0: f64 },
+    /// `Psi = s0 (I1 - 3 - ln I3) + s1 (sqrt(I3) - 1)^2` (eq. 36-38).
+    NeoHookean { s0: f64, s1: f64 },
+}
+
+impl Material {
+    /// The A3 stretching model with stiffness `s0` (Pa, >= 0).
+    pub fn stretch_a3(s0: f64) -> Result<Self> {
+        let s0 = check_param("s0", s0, |v| v >= 0.0, "a finite stiffness >= 0 Pa")?;
+        Ok(Self::StretchA3 { s0 })
+    }
+
+    /// The compressible neo-Hookean model (`s0`, `s1` in Pa, >= 0).
+    pub fn neo_hookean(s0: f64, s1: f64) -> Result<Self> {
+        let s0 = check_param("s0", s0, |v| v >= 0.0, "a finite stiffness >= 0 Pa")?;
+        let s1 = check_param("s1", s1, |v| v >= 0.0, "a finite stiffness >= 0 Pa")?;
+        Ok(Self::NeoHookean { s0, s1 })
+    }
+
+    /// Small-strain shear modulus (Pa).
+    pub fn shear_modulus(&self) -> f64 {
+        match *self {
+            Self::StretchA3 { s0 } => s0,
+            Self::NeoHookean { s0, .. } => 2.0 * s0,
+        }
+    }
+
+    /// Small-strain first Lame parameter (Pa) of the model with its normal stretch held at 1.
+    pub fn lame_lambda(&self) -> f64 {
+        match *self {
+            Self::StretchA3 { .. } => 0.0,
+            Self::NeoHookean { s1, .. } => 2.0 * s1,
+        }
+    }
+
+    /// The material's constants converted to the simulation's precision.
+    pub fn to_real<T: Real>(&self) -> MaterialModel<T> {
+        match *self {
+            Self::StretchA3 { s0 } => MaterialModel::StretchA3 { s0: T::of(s0) },
+            Self::NeoHookean { s0, s1 } => MaterialModel::NeoHookean {
+                s0: T::of(s0),
+                s1: T::of(s1),
+            },
+        }
+    }
+}
+
+/// [`Material`] in the simulation's precision, evaluated per vertex in the hot loop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MaterialModel<T> {
+    StretchA3 { s0: T },
+    NeoHookean { s0: T, s1: T },
+}
+
+impl<T: Real> MaterialModel<T> {
+    /// Energy density `Psi(lambda)` (J/m^3).
+    #[inline]
+    pub fn energy(&self, l: [T; 3]) -> T {
+        match *self {
+            Self::StretchA3 { s0 } => stretch_a3::energy(s0, l),
+            Self::NeoHookean { s0, s1 } => neo_hookean::energy(s0, s1, l),
+        }
+    }
+
+    /// Diagonal first Piola-Kirchhoff stress `dPsi/dlambda_m` (Pa), eq. 35.
+    #[inline]
+    pub fn stress(&self, l: [T; 3]) -> [T; 3] {
+        let (plus, minus) = self.stress_split(l);
+        [plus[0] + minus[0], plus[1] + minus[1], plus[2] + minus[2]]
+    }
+
+    /// The stress split into its positive and negative parts `(P+, P-)` (eq. 38 and 41).
+    #[inline]
+    pub fn stress_split(&self, l: [T; 3]) -> ([T; 3], [T; 3]) {
+        match *self {
+            Self::StretchA3 { s0 } => stretch_a3::stress_split(s0, l),
+            Self::NeoHookean { s0, s1 } => neo_hookean::stress_split(s0, s1, l),
+        }
+    }
+
+    /// `P+_m / lambda_m` (Pa), the non-negative stiffness that SISSM treats implicitly: the
+    /// matrix `U diag(P+/lambda) U^T` of eq. 24-26.
+    #[inline]
+    pub fn implicit_stiffness(&self, l: [T; 3]) -> [T; 3] {
+        match *self {
+            Self::StretchA3 { s0 } => stretch_a3::implicit_stiffness(s0, l),
+            Self::NeoHookean { s0, s1 } => neo_hookean::implicit_stiffness(s0, s1, l),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stress of every model is the derivative of its energy (central differences), and
+    /// the split parts add up to it with P+ >= 0 >= P-.
+    #[test]
+    fn stress_is_the_gradient_of_energy_and_splits_by_sign() {
+        let models = [
+            MaterialModel::StretchA3 { s0: 1234.0f64 },
+            MaterialModel::NeoHookean {
+                s0: 900.0,
+                s1: 2500.0,
+            },
+        ];
+        let samples: [[f64; 3]; 4] = [
+            [1.0, 1.0, 1.0],
+            [1.3, 0.8, 1.0],
+            [0.4, 2.2, 1.0],
+            [0.9, 1.1, 0.7],
+        ];
+        for m in models {
+            for l in samples {
+                let p = m.stress(l);
+                let (plus, minus) = m.stress_split(l);
+                for k in 0..3 {
+                    let h = 1e-6;
+                    let (mut a, mut b) = (l, l);
+                    a[k] += h;
+                    b[k] -= h;
+                    let fd = (m.energy(a) - m.energy(b)) / (2.0 * h);
+                    assert!(
+                        (fd - p[k]).abs() <= 1e-6 * (1.0 + p[k].abs()),
+                        "{m:?} {l:?} {k}: {fd} vs {}",
+                        p[k]
+                    );
+                    assert!(plus[k] >= 0.0 && minus[k] <= 0.0);
+                    let stiff = m.implicit_stiffness(l)[k];
+                    assert!((stiff - plus[k] / l[k]).abs() <= 1e-12 * stiff.abs().max(1.0));
+                }
+            }
+            assert!(m.energy([1.0; 3]).abs() < 1e-12);
+            assert!(m.stress([1.0; 3]).iter().all(|s| s.abs() < 1e-12));
+        }
+    }
+
+    /// Small strain: Psi ~ mu |eps|^2 + lambda/2 tr(eps)^2 with the moduli reported.
+    #[test]
+    fn small_strain_moduli_match_the_reported_ones() {
+        for m in [
+            Material::stretch_a3(700.0).unwrap(),
+            Material::neo_hookean(300.0, 450.0).unwrap(),
+        ] {
+            let model = m.to_real::<f64>();
+            let e = 1e-4;
+            let (mu, lam) = (m.shear_modulus(), m.lame_lambda());
+            let psi = model.energy([1.0 + e, 1.0 - 0.5 * e, 1.0]);
+            let expected = mu * (e * e + 0.25 * e * e) + 0.5 * lam * (0.5 * e).powi(2);
+            assert!(
+                (psi - expected).abs() < 1e-3 * expected,
+                "{m:?}: {psi} vs {expected}"
+            );
+        }
+    }
+}

@@ -1,0 +1,33 @@
+//! Compressible neo-Hookean model (Lu et al. 2023, eq. 36-38):
+//! `Psi = s0 (I1 - 3 - ln I3) + s1 (J - 1)^2`, `I1 = sum lambda^2`, `I3 = J^2`,
+//! `J = lambda_1 lambda_2 lambda_3`. Lame parameters `mu = 2 s0`, `lambda = 2 s1`.
+
+use crate::real::Real;
+
+/// `Psi` (J/m^3) for `s0`, `s1` (Pa).
+#[inline]
+pub fn energy<T: Real>(s0: T, s1: T, l: [T; 3]) -> T {
+    let i1 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
+    let j = l[0] * l[1] * l[2];
+    let ln_i3 = (l[0].abs().ln() + l[1].abs().ln() + l[2].abs().ln()) * T::of(2.0);
+    s0 * (i1 - T::of(3.0) - ln_i3) + s1 * (j - T::one()) * (j - T::one())
+}
+
+/// `P+ = 2 s0 lambda + 2 s1 I3 / lambda`, `P- = -2 (s0 + s1 J) / lambda` (eq. 38).
+#[inline]
+pub fn stress_split<T: Real>(s0: T, s1: T, l: [T; 3]) -> ([T; 3], [T; 3]) {
+    let two = T::of(2.0);
+    let j = l[0] * l[1] * l[2];
+    (
+        l.map(|s| two * s0 * s + two * s1 * j * j / s),
+        l.map(|s| -two * (s0 + s1 * j) / s),
+    )
+}
+
+/// `P+ / lambda = 2 s0 + 2 s1 I3 / lambda^2`.
+#[inline]
+pub fn implicit_stiffness<T: Real>(s0: T, s1: T, l: [T; 3]) -> [T; 3] {
+    let two = T::of(2.0);
+    let j = l[0] * l[1] * l[2];
+    l.map(|s| two * s0 + two * s1 * j * j / (s * s))
+}

@@ -1,0 +1,32 @@
+//! The A3 stretching model (Lu et al. 2023, eq. 39-41; A_n of Xu et al. 2018 with n = 3):
+//! `Psi = s0 sum_m A3(lambda_m)`, `A3(s) = ((s^4 - 1)/4 + (s^-2 - 1)/2) / 3`.
+//! Each principal stretch is independent: shear modulus `s0`, no Poisson coupling.
+
+use crate::real::Real;
+
+/// `Psi` (J/m^3) for stiffness `s0` (Pa).
+#[inline]
+pub fn energy<T: Real>(s0: T, l: [T; 3]) -> T {
+    let (quarter, half, third) = (T::of(0.25), T::of(0.5), T::of(1.0 / 3.0));
+    l.iter().fold(T::zero(), |acc, &s| {
+        let s2 = s * s;
+        acc + ((s2 * s2 - T::one()) * quarter + (T::one() / s2 - T::one()) * half) * third
+    }) * s0
+}
+
+/// `P+ = s0 lambda^3 / 3`, `P- = -s0 / (3 lambda^3)` (eq. 41).
+#[inline]
+pub fn stress_split<T: Real>(s0: T, l: [T; 3]) -> ([T; 3], [T; 3]) {
+    let third = s0 * T::of(1.0 / 3.0);
+    (
+        l.map(|s| third * s * s * s),
+        l.map(|s| -third / (s * s * s)),
+    )
+}
+
+/// `P+ / lambda = s0 lambda^2 / 3`.
+#[inline]
+pub fn implicit_stiffness<T: Real>(s0: T, l: [T; 3]) -> [T; 3] {
+    let third = s0 * T::of(1.0 / 3.0);
+    l.map(|s| third * s * s)
+}

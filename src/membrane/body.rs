@@ -1,0 +1,360 @@
+//! The membrane body: mesh, parameters, rest data and state (positions, velocities, pins).
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use nalgebra::Vector3;
+
+use crate::error::{check_param, invalid, Result};
+use crate::material::Material;
+use crate::mesh::{Neighborhood, TriangleMesh};
+use crate::parallel::for_each_vertex;
+
+use super::kernel::{vertex_kernel, Deformation, VertexResponse};
+use super::RestData;
+
+/// Physical parameters of a membrane (SI units).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MembraneParams {
+    /// Full physical thickness (m); the virtual bond is half of it (the paper's xi).
+    pub thickness: f64,
+    /// Mass density (kg/m^3).
+    pub density: f64,
+    /// Stretching material.
+    pub material: Material,
+    /// Bending rigidity D (N m): a cylindrical bend of curvature k stores `D k^2 / 2` per area.
+    pub bending: f64,
+    /// In-plane hourglass stiffness relative to the shear modulus (dimensionless).
+    pub hourglass: f64,
+    /// k of the k-ring neighbourhood.
+    pub neighbors: usize,
+}
+
+impl MembraneParams {
+    /// Default hourglass stiffness: enough to suppress the checkerboard modes of the 1-ring
+    /// deformation gradient while leaving smooth deformation untouched.
+    pub const DEFAULT_HOURGLASS: f64 = 0.1;
+
+    /// Checks every parameter, naming the first bad one.
+    pub fn validate(&self) -> Result<()> {
+        check_param(
+            "thickness",
+            self.thickness,
+            |v| v > 0.0,
+            "a finite length > 0 m",
+        )?;
+        check_param(
+            "density",
+            self.density,
+            |v| v > 0.0,
+            "a finite density > 0 kg/m^3",
+        )?;
+        check_param(
+            "bending",
+            self.bending,
+            |v| v >= 0.0,
+            "a finite rigidity >= 0 N m",
+        )?;
+        check_param(
+            "hourglass",
+            self.hourglass,
+            |v| v >= 0.0,
+            "a finite number >= 0",
+        )?;
+        if self.neighbors < 1 {
+            return Err(invalid!(
+                "neighbors must be >= 1 (the k of the k-ring), got {}",
+                self.neighbors
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Elastic energy of a membrane split by term (J).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct EnergyTerms {
+    pub stretch: f64,
+    pub bending: f64,
+    pub hourglass: f64,
+}
+
+impl EnergyTerms {
+    /// Sum of the terms (J).
+    pub fn total(&self) -> f64 {
+        self.stretch + self.bending + self.hourglass
+    }
+}
+
+static NEXT_ID: AtomicU64 = AtomicU64::new(1);
+
+/// A thin hyperelastic membrane. Not `Clone`: its `id` is unique.
+#[derive(Debug)]
+pub struct Membrane {
+    id: u64,
+    mesh: TriangleMesh,
+    neighborhood: Neighborhood,
+    params: MembraneParams,
+    rest: RestData<f64>,
+    positions: Vec<Vector3<f64>>,
+    velocities: Vec<Vector3<f64>>,
+    pins: BTreeMap<u32, Vector3<f64>>,
+}
+
+impl Membrane {
+    /// Builds a membrane at rest (positions = rest positions, zero velocity, nothing pinned).
+    pub fn new(mesh: TriangleMesh, params: MembraneParams) -> Result<Self> {
+        params.validate()?;
+        let neighborhood = Neighborhood::k_ring(&mesh, params.neighbors);
+        let rest = RestData::new(&mesh, &neighborhood, &params)?;
+        let positions = mesh.vertices().to_vec();
+        let velocities = vec![Vector3::zeros(); positions.len()];
+        Ok(Self {
+            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+            mesh,
+            neighborhood,
+            params,
+            rest,
+            positions,
+            velocities,
+            pins: BTreeMap::new(),
+        })
+    }
+
+    /// A process-unique identity, so a solver can tell whether its cached rest data still match.
+    pub fn id(&self) -> u64 {
+        self.id
+    }
+    pub fn mesh(&self) -> &TriangleMesh {
+        &self.mesh
+    }
+    pub fn neighborhood(&self) -> &Neighborhood {
+        &self.neighborhood
+    }
+    pub fn params(&self) -> &MembraneParams {
+        &self.params
+    }
+    pub fn rest(&self) -> &RestData<f64> {
+        &self.rest
+    }
+    pub fn num_vertices(&self) -> usize {
+        self.positions.len()
+    }
+    pub fn positions(&self) -> &[Vector3<f64>] {
+        &self.positions
+    }
+    pub fn velocities(&self) -> &[Vector3<f64>] {
+        &self.velocities
+    }
+
+    /// Replaces the positions (m); every value must be finite.
+    pub fn set_positions(&mut self, positions: Vec<Vector3<f64>>) -> Result<()> {
+        self.check_field("positions", &positions)?;
+        self.positions = positions;
+        Ok(())
+    }
+
+    /// Replaces the velocities (m/s); every value must be finite.
+    pub fn set_velocities(&mut self, velocities: Vec<Vector3<f64>>) -> Result<()> {
+        self.check_field("velocities", &velocities)?;
+        self.velocities = velocities;
+        Ok(())
+    }
+
+    /// Solver write-back of a finished step (already known to be finite).
+    pub(crate) fn state_mut(&mut self) -> (&mut [Vector3<f64>], &mut [Vector3<f64>]) {
+        (&mut self.positions, &mut self.velocities)
+    }
+
+    fn check_field(&self, name: &str, values: &[Vector3<f64>]) -> Result<()> {
+        if values.len() != self.num_vertices() {
+            return Err(invalid!(
+                "{name} must have shape ({}, 3), got ({}, 3)",
+                self.num_vertices(),
+                values.len()
+            ));
+        }
+        if let Some(i) = values.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+            return Err(invalid!(
+                "{name} of vertex {i} is not finite: {:?}",
+                values[i].as_slice()
+            ));
+        }
+        Ok(())
+    }
+
+    /// Pins vertices at `targets` (default: their current positions).
+    pub fn pin(&mut self, indices: &[i64], targets: Option<&[Vector3<f64>]>) -> Result<()> {
+        let n = self.num_vertices();
+        if let Some(t) = targets {
+            if t.len() != indices.len() {
+                return Err(invalid!(
+                    "pin targets must have shape ({}, 3), got ({}, 3)",
+                    indices.len(),
+                    t.len()
+                ));
+            }
+            if let Some(k) = t.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+                return Err(invalid!(
+                    "pin target {k} (vertex {}) is not finite: {:?}",
+                    indices[k],
+                    t[k].as_slice()
+                ));
+            }
+        }
+        for (k, &i) in indices.iter().enumerate() {
+            if i < 0 || i as usize >= n {
+                return Err(invalid!(
+                    "pin index {i} (entry {k}) is out of range [0, {n})"
+                ));
+            }
+        }
+        for (k, &i) in indices.iter().enumerate() {
+            let target = targets.map_or(self.positions[i as usize], |t| t[k]);
+            self.pins.insert(i as u32, target);
+        }
+        Ok(())
+    }
+
+    /// Releases the given vertices (all when `None`); unknown indices are an error.
+    pub fn unpin(&mut self, indices: Option<&[i64]>) -> Result<()> {
+        match indices {
+            None => self.pins.clear(),
+            Some(list) => {
+                for (k, &i) in list.iter().enumerate() {
+                    if i < 0 || !self.pins.contains_key(&(i as u32)) {
+                        return Err(invalid!("vertex {i} (entry {k}) is not pinned"));
+                    }
+                }
+                for &i in list {
+                    self.pins.remove(&(i as u32));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Pinned vertices and their targets, in ascending vertex order.
+    pub fn pins(&self) -> &BTreeMap<u32, Vector3<f64>> {
+        &self.pins
+    }
+
+    /// Moves the pinned vertices' targets (in ascending vertex order).
+    pub fn set_pin_targets(&mut self, targets: &[Vector3<f64>]) -> Result<()> {
+        if targets.len() != self.pins.len() {
+            return Err(invalid!(
+                "pin_targets must have shape ({}, 3), got ({}, 3)",
+                self.pins.len(),
+                targets.len()
+            ));
+        }
+        if let Some(k) = targets
+            .iter()
+            .position(|v| !v.iter().all(|c| c.is_finite()))
+        {
+            return Err(invalid!(
+                "pin target {k} is not finite: {:?}",
+                targets[k].as_slice()
+            ));
+        }
+        for (slot, t) in self.pins.values_mut().zip(targets) {
+            *slot = *t;
+        }
+        Ok(())
+    }
+
+    /// Runs the vertex kernel on every vertex at the current positions.
+    fn evaluate(&self, bond_grad: &mut [Vector3<f64>]) -> Vec<VertexResponse<f64>> {
+        let nb = &self.neighborhood;
+        let y = &self.positions;
+        let rest = &self.rest;
+        let zero = VertexResponse {
+            stretch: 0.0,
+            bending: 0.0,
+            hourglass: 0.0,
+            precond: Default::default(),
+        };
+        let mut out = vec![zero; y.len()];
+        for_each_vertex(
+            &nb.offsets,
+            bond_grad,
+            &mut out,
+            &|i, grads: &mut [Vector3<f64>]| {
+                let r = nb.bonds(i);
+                vertex_kernel(
+                    y[i],
+                    y,
+                    nb.of(i),
+                    &rest.bonds[r],
+                    &rest.frames[i],
+                    &rest.vertices[i],
+                    grads,
+                )
+            },
+        );
+        out
+    }
+
+    /// Elastic energy at the current positions, by term (J).
+    pub fn energy_terms(&self) -> EnergyTerms {
+        let mut grads = vec![Vector3::zeros(); self.neighborhood.indices.len()];
+        self.evaluate(&mut grads)
+            .iter()
+            .fold(EnergyTerms::default(), |acc, r| EnergyTerms {
+                stretch: acc.stretch + r.stretch,
+                bending: acc.bending + r.bending,
+                hourglass: acc.hourglass + r.hourglass,
+            })
+    }
+
+    /// Internal forces `-dE/dy` at the current positions (N).
+    pub fn internal_forces(&self) -> Vec<Vector3<f64>> {
+        let mut grads = vec![Vector3::zeros(); self.neighborhood.indices.len()];
+        self.evaluate(&mut grads);
+        (0..self.num_vertices())
+            .map(|k| internal_force(k, &self.neighborhood, &grads))
+            .collect()
+    }
+
+    /// Principal stretches per vertex (two in-plane, descending, then the normal one).
+    pub fn stretches(&self) -> Vec<[f64; 3]> {
+        let nb = &self.neighborhood;
+        (0..self.num_vertices())
+            .map(|i| {
+                let r = nb.bonds(i);
+                Deformation::of(
+                    self.positions[i],
+                    &self.positions,
+                    nb.of(i),
+                    &self.rest.bonds[r],
+                    &self.rest.frames[i],
+                )
+                .stretches()
+            })
+            .collect()
+    }
+
+    /// Kinetic energy (J).
+    pub fn kinetic_energy(&self) -> f64 {
+        self.velocities
+            .iter()
+            .zip(&self.rest.vertices)
+            .map(|(v, c)| 0.5 * c.mass * v.norm_squared())
+            .sum()
+    }
+}
+
+/// Internal force on vertex `k` from the bond gradients `t_ij = dE_i/d(y_j - y_i)`:
+/// `f_k = sum_j (t_kj - t_jk)` over the (symmetric) neighbourhood.
+#[inline]
+pub fn internal_force<T: crate::real::Real>(
+    k: usize,
+    nb: &Neighborhood,
+    bond_grad: &[Vector3<T>],
+) -> Vector3<T> {
+    let mut f = Vector3::zeros();
+    for b in nb.bonds(k) {
+        f += bond_grad[b] - bond_grad[nb.reverse[b] as usize];
+    }
+    f
+}

@@ -1,0 +1,245 @@
+//! The per-vertex kernel: deformation, energy, its exact gradient with respect to the vertex's
+//! bonds, and the SISSM preconditioner block.
+//!
+//! ## Deformation (Lu et al. 2023, eq. 13-15, Kirchhoff-Love form)
+//!
+//! With the rest frame `(t1, t2, nc)` and bond weights `beta` of [`super::RestData`], the
+//! deformed tangent vectors are `a_k = F t_k = sum_j beta_jk (y_j - y_i)` (eq. 15 restricted to
+//! the tangent plane, where the virtual bond drops out) and the deformed director is the unit
+//! normal `n = (a1 x a2) / |a1 x a2|`. The deformation gradient is
+//! `F = a1 t1^T + a2 t2^T + n nc^T`: the normal stays normal and unstretched, so the principal
+//! stretches are the two singular values of `T = [a1 a2]` and 1, and `det F >= 0`.
+//!
+//! Choosing the director orthogonal to `T` (rather than the angle-weighted normal of the
+//! deformed mesh) keeps the energy an exact function of the positions: the stretch energy is
+//! stationary with respect to the director (its stress along `nc` is parallel to `n`), so the
+//! gradient below is exact, rotations give zero force, and forces and torques balance.
+//!
+//! ## Energy of vertex i
+//!
+//! `E_i = V_i Psi(sigma_1, sigma_2, 1) + 1/2 sum_j q_j^T W_i q_j`, with the non-affine residual
+//! `q_j = F^-1 (y_j - y_i) - xi_j` (zero for every affine map of a flat sheet) and
+//! `W_i = kappa_t (I - nc nc^T) + kappa_n nc nc^T`. The normal part is the bending energy of
+//! eq. 42 (`kb` = `kappa_n`), the in-plane part is an hourglass penalty that removes the
+//! zero-energy modes of the 1-ring deformation gradient (a checkerboard displacement leaves F
+//! unchanged).
+//!
+//! ## Gradient
+//!
+//! `dE_i/d(y_j - y_i) = beta_j1 g_1 + beta_j2 g_2 + d_j`, with `g_k = dE_i/da_k` and
+//! `d_j = F^-T W q_j` (the explicit bending term of eq. 43 with `F^-T`, see DESIGN.md). The
+//! stretch part is `g_k = V_i sum_m P_m u_m v_mk` (`T = U diag(sigma) V^T`, eq. 19); the
+//! non-affine part adds `-(sum_j d_j (F^-1 e_j)^T) t_k` and the director term
+//! `a2 x p`, `p x a1` with `p = (I - n n^T) h / |a1 x a2|`, `h = -(sum_j d_j (F^-1 e_j)^T) nc`.
+//!
+//! ## Preconditioner (eq. 24-26)
+//!
+//! `C_i = V_i k_iso U diag(P+/lambda) U^T + kappa_t sum_m u_m u_m^T / sigma_m^2 + kappa_n n n^T`
+//! (with `u_3 = n`): the Hessian of the quadratic model `1/2 sum_j e_j^T C_i e_j` whose bond
+//! Laplacian SISSM inverts approximately.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::real::Real;
+
+use super::{BondRest, Frame, VertexConstants};
+
+/// What the kernel reports for one vertex.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VertexResponse<T: Real> {
+    /// Stretching energy `V_i Psi` (J).
+    pub stretch: T,
+    /// Bending energy (J).
+    pub bending: T,
+    /// Hourglass energy (J).
+    pub hourglass: T,
+    /// Preconditioner block `C_i` (N/m), symmetric positive semi-definite.
+    pub precond: Matrix3<T>,
+}
+
+impl<T: Real> VertexResponse<T> {
+    /// Total energy of the vertex (J).
+    #[inline]
+    pub fn energy(&self) -> T {
+        self.stretch + self.bending + self.hourglass
+    }
+}
+
+/// The local deformation of a vertex: `T = [a1 a2] = U diag(sigma) V^T`, director `n`.
+#[derive(Debug, Clone, Copy)]
+pub struct Deformation<T: Real> {
+    pub a1: Vector3<T>,
+    pub a2: Vector3<T>,
+    /// `|a1 x a2| = sigma_1 sigma_2` (area ratio).
+    pub area_ratio: T,
+    /// Unit director, orthogonal to `a1` and `a2`.
+    pub normal: Vector3<T>,
+    /// Left singular vectors (deformed tangent plane); `(u1, u2, normal)` is right-handed.
+    pub u: [Vector3<T>; 2],
+    /// Right singular vectors in `(t1, t2)` coordinates, a rotation (det = +1).
+    pub v: [[T; 2]; 2],
+    /// Singular values, descending, clamped from below at [`Real::min_stretch`].
+    pub sigma: [T; 2],
+}
+
+impl<T: Real> Deformation<T> {
+    /// Principal stretches (two in-plane, descending, then the unstretched normal).
+    #[inline]
+    pub fn stretches(&self) -> [T; 3] {
+        [self.sigma[0], self.sigma[1], T::one()]
+    }
+
+    /// Computes the deformation of vertex `i` at `yi` from its neighbours' positions.
+    #[inline]
+    pub fn of(
+        yi: Vector3<T>,
+        y: &[Vector3<T>],
+        neighbors: &[u32],
+        bonds: &[BondRest<T>],
+        frame: &Frame<T>,
+    ) -> Self {
+        let (mut a1, mut a2) = (Vector3::zeros(), Vector3::zeros());
+        for (&j, b) in neighbors.iter().zip(bonds) {
+            let e = y[j as usize] - yi;
+            a1 += e * b.beta[0];
+            a2 += e * b.beta[1];
+        }
+        let (p, r, s) = (a1.dot(&a1), a1.dot(&a2), a2.dot(&a2));
+        // Eigenvectors of the 2x2 metric T^T T: the larger eigenvalue's at angle theta.
+        let theta = T::of(0.5) * (r + r).atan2(p - s);
+        let (sin, cos) = theta.sin_cos();
+        let v = [[cos, sin], [-sin, cos]];
+        let t_v1 = a1 * cos + a2 * sin;
+        let sigma1 = t_v1.norm();
+        let cross = a1.cross(&a2);
+        let area_ratio = cross.norm();
+        let tiny = T::min_stretch() * T::min_stretch();
+        let u1 = if sigma1 > tiny {
+            t_v1 / sigma1
+        } else {
+            frame.t1
+        };
+        let normal = if area_ratio > tiny * (p + s) && area_ratio > T::zero() {
+            cross / area_ratio
+        } else {
+            let n = u1.cross(&frame.nc);
+            if n.norm() > T::of(1e-3) {
+                n.normalize().cross(&u1)
+            } else {
+                any_orthogonal_unit(&u1)
+            }
+        };
+        let u2 = normal.cross(&u1);
+        let sigma2 = if sigma1 > tiny {
+            area_ratio / sigma1
+        } else {
+            T::zero()
+        };
+        let lo = T::min_stretch();
+        Self {
+            a1,
+            a2,
+            area_ratio,
+            normal,
+            u: [u1, u2],
+            v,
+            sigma: [sigma1.max(lo), sigma2.max(lo)],
+        }
+    }
+}
+
+/// Computes vertex `i`'s energy and writes `dE_i / d(y_j - y_i)` into `bond_grad`, one entry per
+/// neighbour in `neighbors` order. `bonds`, `neighbors` and `bond_grad` are vertex i's slices.
+#[inline]
+pub fn vertex_kernel<T: Real>(
+    yi: Vector3<T>,
+    y: &[Vector3<T>],
+    neighbors: &[u32],
+    bonds: &[BondRest<T>],
+    frame: &Frame<T>,
+    c: &VertexConstants<T>,
+    bond_grad: &mut [Vector3<T>],
+) -> VertexResponse<T> {
+    let def = Deformation::of(yi, y, neighbors, bonds, frame);
+    let stretches = def.stretches();
+    let [u1, u2] = def.u;
+    let n = def.normal;
+    let [v1, v2] = def.v;
+
+    // Stretching: dPsi/dT = sum_m P_m u_m v_m^T.
+    let stress = c.material.stress(stretches);
+    let (p1, p2) = (stress[0] * c.volume, stress[1] * c.volume);
+    let mut g1 = u1 * (p1 * v1[0]) + u2 * (p2 * v2[0]);
+    let mut g2 = u1 * (p1 * v1[1]) + u2 * (p2 * v2[1]);
+    let stretch_energy = c.volume * c.material.energy(stretches);
+
+    let stiff = c.material.implicit_stiffness(stretches);
+    let scale = c.volume * c.k_iso;
+    let mut w = [stiff[0] * scale, stiff[1] * scale, stiff[2] * scale];
+
+    let (mut bending, mut hourglass) = (T::zero(), T::zero());
+    let non_affine = c.kappa_t > T::zero() || c.kappa_n > T::zero();
+    if non_affine {
+        // F^-1 = w1 u1^T / s1 + w2 u2^T / s2 + nc n^T, with w_m the rest-frame right singular vectors.
+        let rw1 = frame.t1 * v1[0] + frame.t2 * v1[1];
+        let rw2 = frame.t1 * v2[0] + frame.t2 * v2[1];
+        let inv = [T::one() / def.sigma[0], T::one() / def.sigma[1]];
+        let (mut h1, mut h2, mut hn) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
+        for ((&j, b), out) in neighbors.iter().zip(bonds).zip(bond_grad.iter_mut()) {
+            let e = y[j as usize] - yi;
+            let (c1, c2, cn) = (u1.dot(&e) * inv[0], u2.dot(&e) * inv[1], n.dot(&e));
+            let rest_image = rw1 * c1 + rw2 * c2 + frame.nc * cn; // F^-1 e
+            let q = rest_image - b.xi;
+            let q_n = q.dot(&frame.nc);
+            let q_t = q - frame.nc * q_n;
+            bending += c.kappa_n * q_n * q_n;
+            hourglass += c.kappa_t * q_t.norm_squared();
+            let wq = q_t * c.kappa_t + frame.nc * (c.kappa_n * q_n);
+            let d =
+                u1 * (rw1.dot(&wq) * inv[0]) + u2 * (rw2.dot(&wq) * inv[1]) + n * frame.nc.dot(&wq);
+            *out = d;
+            h1 += d * rest_image.dot(&frame.t1);
+            h2 += d * rest_image.dot(&frame.t2);
+            hn += d * rest_image.dot(&frame.nc);
+        }
+        let half = T::of(0.5);
+        bending *= half;
+        hourglass *= half;
+        g1 -= h1;
+        g2 -= h2;
+        let p = (-hn + n * n.dot(&hn)) / def.area_ratio.max(T::min_stretch() * T::min_stretch());
+        g1 += def.a2.cross(&p);
+        g2 += p.cross(&def.a1);
+        w[0] += c.kappa_t * inv[0] * inv[0];
+        w[1] += c.kappa_t * inv[1] * inv[1];
+        w[2] += c.kappa_n;
+        for (b, out) in bonds.iter().zip(bond_grad.iter_mut()) {
+            *out += g1 * b.beta[0] + g2 * b.beta[1];
+        }
+    } else {
+        for (b, out) in bonds.iter().zip(bond_grad.iter_mut()) {
+            *out = g1 * b.beta[0] + g2 * b.beta[1];
+        }
+    }
+    let precond =
+        u1 * u1.transpose() * w[0] + u2 * u2.transpose() * w[1] + n * n.transpose() * w[2];
+    VertexResponse {
+        stretch: stretch_energy,
+        bending,
+        hourglass,
+        precond,
+    }
+}
+
+/// A unit vector orthogonal to the unit vector `n`, chosen deterministically.
+pub fn any_orthogonal_unit<T: Real>(n: &Vector3<T>) -> Vector3<T> {
+    let (x, y, z) = (n.x.abs(), n.y.abs(), n.z.abs());
+    let axis = if x <= y && x <= z {
+        Vector3::x()
+    } else if y <= z {
+        Vector3::y()
+    } else {
+        Vector3::z()
+    };
+    n.cross(&axis).normalize()
+}

@@ -1,0 +1,13 @@
+//! A membrane body: its validated mesh, parameters, rest data and state, and the per-vertex
+//! kernel that turns positions into energy, forces and the SISSM preconditioner.
+
+mod body;
+mod kernel;
+mod rest;
+
+pub use body::{internal_force, EnergyTerms, Membrane, MembraneParams};
+pub use kernel::{any_orthogonal_unit, vertex_kernel, Deformation, VertexResponse};
+pub use rest::{BondRest, Frame, RestData, VertexConstants};
+
+#[cfg(test)]
+mod tests;

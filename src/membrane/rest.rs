@@ -1,0 +1,199 @@
+//! Rest data of a membrane, computed once: per-vertex rest frame, per-bond weights, masses and
+//! the stiffness constants of the non-affine (bending and hourglass) energy.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::error::{invalid, Result};
+use crate::material::MaterialModel;
+use crate::mesh::{angle_weighted_normals, vertex_areas, Neighborhood, TriangleMesh};
+use crate::real::Real;
+
+use super::kernel::any_orthogonal_unit;
+use super::MembraneParams;
+
+/// Rest frame of a vertex: `t1`, `t2` span the plane on which the deformation gradient does not
+/// depend on the virtual bond; `nc` completes a right-handed orthonormal frame (the rest
+/// normal for a flat sheet).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame<T: Real> {
+    pub t1: Vector3<T>,
+    pub t2: Vector3<T>,
+    pub nc: Vector3<T>,
+}
+
+/// Rest data of a bond `i -> j`: `beta = (xi^T K_i^-1 t1, xi^T K_i^-1 t2)`, so that the
+/// deformed tangent vectors are `a_k = sum_j beta_jk (y_j - y_i)`, and the rest bond `xi`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BondRest<T: Real> {
+    pub beta: [T; 2],
+    pub xi: Vector3<T>,
+}
+
+/// Per-vertex constants.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VertexConstants<T: Real> {
+    /// Lumped volume `V_i = thickness * area_i` (m^3).
+    pub volume: T,
+    /// Lumped mass `m_i = density * V_i` (kg).
+    pub mass: T,
+    /// `2 / sum_j |xi_ij|^2` (1/m^2): the isotropic in-plane approximation of `K_i^-1`
+    /// (the discrete counterpart of the paper's `kappa_i^-1`, eq. 23), used by the preconditioner.
+    pub k_iso: T,
+    /// In-plane (hourglass) stiffness of the non-affine energy (N/m).
+    pub kappa_t: T,
+    /// Normal (bending) stiffness of the non-affine energy (N/m).
+    pub kappa_n: T,
+    /// Half the thickness (m): colliders keep the mid-surface this far away.
+    pub half_thickness: T,
+    /// The material.
+    pub material: MaterialModel<T>,
+}
+
+/// All rest data of one membrane (or of several concatenated ones).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RestData<T: Real> {
+    pub frames: Vec<Frame<T>>,
+    pub bonds: Vec<BondRest<T>>,
+    pub vertices: Vec<VertexConstants<T>>,
+}
+
+impl RestData<f64> {
+    /// Computes the rest data of a membrane.
+    ///
+    /// Shape tensor with the Kirchhoff-Love virtual bond `x_perp = (thickness/2) N_i` (eq. 13-14):
+    /// `K_i = sum_j xi_ij xi_ij^T + x_perp x_perp^T`. The tangent plane is `c^perp` with
+    /// `c = K_i^-1 x_perp`; on it the deformation gradient of eq. 15 is independent of the
+    /// virtual bond.
+    ///
+    /// Non-affine stiffnesses (see `kernel.rs`): bending `kappa_n = 32 D A_i / (3 sum_j |xi|^4)`
+    /// makes a cylindrical bend of curvature k store `D k^2 / 2` per unit area (averaged over
+    /// bend directions); hourglass `kappa_t = hourglass * mu * V_i * k_iso`.
+    pub fn new(mesh: &TriangleMesh, nb: &Neighborhood, params: &MembraneParams) -> Result<Self> {
+        let x = mesh.vertices();
+        let normals = angle_weighted_normals(mesh)?;
+        let areas = vertex_areas(mesh);
+        let material = params.material.to_real::<f64>();
+        let half = 0.5 * params.thickness;
+        let mu = params.material.shear_modulus();
+        let mut frames = Vec::with_capacity(x.len());
+        let mut bonds = Vec::with_capacity(nb.indices.len());
+        let mut vertices = Vec::with_capacity(x.len());
+        for i in 0..x.len() {
+            let x_perp = normals[i] * half;
+            let mut k = x_perp * x_perp.transpose();
+            let (mut sum2, mut sum4) = (0.0, 0.0);
+            for &j in nb.of(i) {
+                let xi = x[j as usize] - x[i];
+                k += xi * xi.transpose();
+                sum2 += xi.norm_squared();
+                sum4 += xi.norm_squared().powi(2);
+            }
+            let k_inv = invert_shape_tensor(i, &k)?;
+            let nc = (k_inv * x_perp).normalize();
+            let t1 = any_orthogonal_unit(&nc);
+            let t2 = nc.cross(&t1);
+            let (d1, d2) = (k_inv * t1, k_inv * t2);
+            for &j in nb.of(i) {
+                let xi = x[j as usize] - x[i];
+                bonds.push(BondRest {
+                    beta: [xi.dot(&d1), xi.dot(&d2)],
+                    xi,
+                });
+            }
+            frames.push(Frame { t1, t2, nc });
+            let volume = params.thickness * areas[i];
+            let k_iso = 2.0 / sum2;
+            vertices.push(VertexConstants {
+                volume,
+                mass: params.density * volume,
+                k_iso,
+                kappa_t: params.hourglass * mu * volume * k_iso,
+                kappa_n: 32.0 * params.bending * areas[i] / (3.0 * sum4),
+                half_thickness: half,
+                material,
+            });
+        }
+        Ok(Self {
+            frames,
+            bonds,
+            vertices,
+        })
+    }
+
+    /// The same data in another precision.
+    pub fn to_real<T: Real>(&self) -> RestData<T> {
+        let v = |a: &Vector3<f64>| a.map(T::of);
+        RestData {
+            frames: self
+                .frames
+                .iter()
+                .map(|f| Frame {
+                    t1: v(&f.t1),
+                    t2: v(&f.t2),
+                    nc: v(&f.nc),
+                })
+                .collect(),
+            bonds: self
+                .bonds
+                .iter()
+                .map(|b| BondRest {
+                    beta: b.beta.map(T::of),
+                    xi: v(&b.xi),
+                })
+                .collect(),
+            vertices: self
+                .vertices
+                .iter()
+                .map(|c| VertexConstants {
+                    volume: T::of(c.volume),
+                    mass: T::of(c.mass),
+                    k_iso: T::of(c.k_iso),
+                    kappa_t: T::of(c.kappa_t),
+                    kappa_n: T::of(c.kappa_n),
+                    half_thickness: T::of(c.half_thickness),
+                    material: match c.material {
+                        MaterialModel::StretchA3 { s0 } => {
+                            MaterialModel::StretchA3 { s0: T::of(s0) }
+                        }
+                        MaterialModel::NeoHookean { s0, s1 } => MaterialModel::NeoHookean {
+                            s0: T::of(s0),
+                            s1: T::of(s1),
+                        },
+                    },
+                })
+                .collect(),
+        }
+    }
+}
+
+impl<T: Real> RestData<T> {
+    /// Appends another body's rest data (its bonds keep their own order).
+    pub fn extend(&mut self, other: &RestData<T>) {
+        self.frames.extend_from_slice(&other.frames);
+        self.bonds.extend_from_slice(&other.bonds);
+        self.vertices.extend_from_slice(&other.vertices);
+    }
+
+    /// Empty rest data.
+    pub fn empty() -> Self {
+        Self {
+            frames: Vec::new(),
+            bonds: Vec::new(),
+            vertices: Vec::new(),
+        }
+    }
+}
+
+/// `K^-1`, refusing shape tensors too ill-conditioned to invert reliably.
+fn invert_shape_tensor(i: usize, k: &Matrix3<f64>) -> Result<Matrix3<f64>> {
+    let eig = k.symmetric_eigen().eigenvalues;
+    let (lo, hi) = (eig.min(), eig.max());
+    if !(lo > 1e-14 * hi) {
+        return Err(invalid!(
+            "vertex {i}: its neighbourhood does not span a plane (shape tensor eigenvalues {lo:e}..{hi:e}); \
+             check for collinear neighbours or a thickness of zero"
+        ));
+    }
+    k.try_inverse()
+        .ok_or_else(|| invalid!("vertex {i}: singular shape tensor"))
+}

@@ -1,0 +1,283 @@
+//! Python wrapper of [`Membrane`]. The membrane lives behind an `Arc<Mutex>` shared with the
+//! solvers it was added to, so Python sees the solver's results and the solver sees Python's
+//! edits (positions, velocities, pins) at its next step.
+
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::membrane::{Membrane, MembraneParams};
+use crate::mesh::TriangleMesh;
+
+use super::arrays::{indices, to_numpy, to_numpy_1d, triangles, vec3s};
+use super::errors::IntoPyResult;
+use super::material;
+
+/// A thin hyperelastic membrane (triangle mesh) simulated by projective peridynamics.
+#[pyclass(module = "peridyn._core", name = "Membrane")]
+pub struct PyMembrane {
+    pub inner: Arc<Mutex<Membrane>>,
+}
+
+impl PyMembrane {
+    pub fn lock(&self) -> MutexGuard<'_, Membrane> {
+        self.inner
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+}
+
+#[pymethods]
+impl PyMembrane {
+    #[new]
+    #[pyo3(signature = (vertices, triangles, *, thickness, density, material, bending = 0.0,
+                        hourglass = MembraneParams::DEFAULT_HOURGLASS, neighbors = 1))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        vertices: &Bound<'_, PyAny>,
+        triangles: &Bound<'_, PyAny>,
+        thickness: f64,
+        density: f64,
+        material: &Bound<'_, PyAny>,
+        bending: f64,
+        hourglass: f64,
+        neighbors: i64,
+    ) -> PyResult<Self> {
+        let v: Vec<[f64; 3]> = vec3s(vertices, "vertices", None)?
+            .iter()
+            .map(|p| [p.x, p.y, p.z])
+            .collect();
+        let t = self::triangles(triangles, "triangles")?;
+        let material = material::extract(material)?;
+        if neighbors < 1 {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "neighbors must be >= 1 (the k of the k-ring), got {neighbors}"
+            )));
+        }
+        let params = MembraneParams {
+            thickness,
+            density,
+            material,
+            bending,
+            hourglass,
+            neighbors: neighbors as usize,
+        };
+        let membrane = py.detach(|| -> crate::error::Result<Membrane> {
+            params.validate()?;
+            Membrane::new(TriangleMesh::new(v, t)?, params)
+        });
+        Ok(Self {
+            inner: Arc::new(Mutex::new(membrane.py()?)),
+        })
+    }
+
+    #[getter]
+    fn num_vertices(&self) -> usize {
+        self.lock().num_vertices()
+    }
+    #[getter]
+    fn num_triangles(&self) -> usize {
+        self.lock().mesh().triangles().len()
+    }
+    /// (N, 3) current positions (m); settable.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_numpy(py, self.lock().positions().iter().copied())
+    }
+    #[setter]
+    fn set_positions(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut m = self.lock();
+        let n = m.num_vertices();
+        m.set_positions(vec3s(value, "positions", Some(n))?).py()
+    }
+    /// (N, 3) velocities (m/s); settable.
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_numpy(py, self.lock().velocities().iter().copied())
+    }
+    #[setter]
+    fn set_velocities(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut m = self.lock();
+        let n = m.num_vertices();
+        m.set_velocities(vec3s(value, "velocities", Some(n))?).py()
+    }
+    /// (N, 3) rest positions (m).
+    #[getter]
+    fn rest_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_numpy(py, self.lock().mesh().vertices().iter().copied())
+    }
+    /// (M, 3) triangles (int64).
+    #[getter]
+    fn triangles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let flat: Vec<i64> = self
+            .lock()
+            .mesh()
+            .triangles()
+            .iter()
+            .flat_map(|t| t.map(i64::from))
+            .collect();
+        let n = flat.len() / 3;
+        to_numpy_1d(py, flat).call_method1("reshape", ((n, 3),))
+    }
+    /// (N,) lumped vertex masses (kg).
+    #[getter]
+    fn masses<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(
+            py,
+            self.lock().rest().vertices.iter().map(|c| c.mass).collect(),
+        )
+    }
+    /// (N,) lumped vertex volumes (m^3).
+    #[getter]
+    fn volumes<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(
+            py,
+            self.lock()
+                .rest()
+                .vertices
+                .iter()
+                .map(|c| c.volume)
+                .collect(),
+        )
+    }
+    #[getter]
+    fn thickness(&self) -> f64 {
+        self.lock().params().thickness
+    }
+    #[getter]
+    fn density(&self) -> f64 {
+        self.lock().params().density
+    }
+    #[getter]
+    fn material(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        material::to_py(py, self.lock().params().material)
+    }
+    #[getter]
+    fn bending(&self) -> f64 {
+        self.lock().params().bending
+    }
+    #[getter]
+    fn hourglass(&self) -> f64 {
+        self.lock().params().hourglass
+    }
+    #[getter]
+    fn neighbors(&self) -> usize {
+        self.lock().params().neighbors
+    }
+    /// CSR (offsets, indices) of every vertex's neighbours (int64).
+    fn neighborhood<'py>(&self, py: Python<'py>) -> (Bound<'py, PyAny>, Bound<'py, PyAny>) {
+        let m = self.lock();
+        let nb = m.neighborhood();
+        (
+            to_numpy_1d(py, nb.offsets.iter().map(|&o| o as i64).collect()),
+            to_numpy_1d(py, nb.indices.iter().map(|&o| o as i64).collect()),
+        )
+    }
+    /// Fixes vertices at `targets` ((len(indices), 3) m; default: where they are now).
+    #[pyo3(signature = (indices, targets = None))]
+    fn pin(&self, indices: &Bound<'_, PyAny>, targets: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        let idx = self::indices(indices, "indices")?;
+        let targets = targets
+            .map(|t| vec3s(t, "targets", Some(idx.len())))
+            .transpose()?;
+        self.lock().pin(&idx, targets.as_deref()).py()
+    }
+    /// Releases the given pinned vertices (all when None).
+    #[pyo3(signature = (indices = None))]
+    fn unpin(&self, indices: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        let idx = indices.map(|i| self::indices(i, "indices")).transpose()?;
+        self.lock().unpin(idx.as_deref()).py()
+    }
+    /// Sorted indices of the pinned vertices (int64).
+    #[getter]
+    fn pinned<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(py, self.lock().pins().keys().map(|&i| i as i64).collect())
+    }
+    /// (P, 3) targets of the pinned vertices, in the order of `pinned`; settable.
+    #[getter]
+    fn pin_targets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_numpy(
+            py,
+            self.lock()
+                .pins()
+                .values()
+                .copied()
+                .collect::<Vec<_>>()
+                .into_iter(),
+        )
+    }
+    #[setter]
+    fn set_pin_targets(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut m = self.lock();
+        let n = m.pins().len();
+        m.set_pin_targets(&vec3s(value, "pin_targets", Some(n))?)
+            .py()
+    }
+    /// Stretching + bending + hourglass energy (J) at the current positions.
+    fn elastic_energy(&self, py: Python<'_>) -> f64 {
+        let inner = self.inner.clone();
+        py.detach(move || {
+            inner
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .energy_terms()
+                .total()
+        })
+    }
+    /// {'stretch': J, 'bending': J, 'hourglass': J} at the current positions.
+    fn energy_terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let inner = self.inner.clone();
+        let e = py.detach(move || {
+            inner
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .energy_terms()
+        });
+        let d = PyDict::new(py);
+        d.set_item("stretch", e.stretch)?;
+        d.set_item("bending", e.bending)?;
+        d.set_item("hourglass", e.hourglass)?;
+        Ok(d)
+    }
+    /// (N, 3) internal forces (N): minus the gradient of `elastic_energy`.
+    fn internal_forces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let inner = self.inner.clone();
+        let f = py.detach(move || {
+            inner
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .internal_forces()
+        });
+        to_numpy(py, f.into_iter())
+    }
+    /// (N, 3) principal stretches per vertex (two in-plane, descending, then the normal one).
+    fn stretches<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let s = self.lock().stretches();
+        to_numpy(py, s.into_iter().map(nalgebra::Vector3::from))
+    }
+    /// Kinetic energy (J).
+    fn kinetic_energy(&self) -> f64 {
+        self.lock().kinetic_energy()
+    }
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let m = self.lock();
+        let p = m.params();
+        let mat = material::to_py(py, p.material)?
+            .bind(py)
+            .repr()?
+            .to_string();
+        Ok(format!(
+            "Membrane(vertices={}, triangles={}, thickness={}, density={}, material={mat}, bending={}, hourglass={}, neighbors={}, pinned={})",
+            m.num_vertices(),
+            m.mesh().triangles().len(),
+            p.thickness,
+            p.density,
+            p.bending,
+            p.hourglass,
+            p.neighbors,
+            m.pins().len()
+        ))
+    }
+}

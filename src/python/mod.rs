@@ -1,0 +1,28 @@
+//! The Python edge: pyo3 wrappers, numpy conversion, argument validation and error bridging.
+//! Nothing outside this module (and `lib.rs`) imports pyo3 or numpy.
+
+mod arrays;
+mod collider;
+mod errors;
+mod material;
+mod membrane;
+mod solver;
+
+use pyo3::prelude::*;
+
+/// Adds every class, function and exception of `peridyn._core` to the module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add(
+        "DivergenceError",
+        m.py().get_type::<errors::DivergenceError>(),
+    )?;
+    m.add_class::<material::PyStretchA3>()?;
+    m.add_class::<material::PyNeoHookean>()?;
+    m.add_class::<membrane::PyMembrane>()?;
+    m.add_class::<collider::PyPlane>()?;
+    m.add_class::<collider::PySphere>()?;
+    m.add_class::<solver::PySolver>()?;
+    m.add_class::<solver::PyStepStats>()?;
+    Ok(())
+}

@@ -1,0 +1,288 @@
+//! Python wrapper of [`Solver`], in f32 or f64, and of [`StepStats`].
+
+use std::sync::{Arc, Mutex};
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::contact::Collider;
+use crate::error::Result;
+use crate::membrane::Membrane;
+use crate::solve::{Solver, SolverParams, StepStats};
+
+use super::arrays::{to_numpy_1d, vec3};
+use super::collider;
+use super::errors::IntoPyResult;
+use super::membrane::PyMembrane;
+
+/// The core solver in the precision the user chose.
+enum Precision {
+    F64(Solver<f64>),
+    F32(Solver<f32>),
+}
+
+impl Precision {
+    fn step(&mut self, bodies: &mut [&mut Membrane]) -> Result<StepStats> {
+        match self {
+            Self::F64(s) => s.step(bodies),
+            Self::F32(s) => s.step(bodies),
+        }
+    }
+    fn name(&self) -> &'static str {
+        match self {
+            Self::F64(_) => "f64",
+            Self::F32(_) => "f32",
+        }
+    }
+}
+
+macro_rules! with_solver {
+    ($p:expr, $s:ident => $body:expr) => {
+        match $p {
+            Precision::F64($s) => $body,
+            Precision::F32($s) => $body,
+        }
+    };
+}
+
+/// Implicit Euler time stepping by the semi-implicit successive substitution method (SISSM).
+#[pyclass(module = "peridyn._core", name = "Solver", subclass)]
+pub struct PySolver {
+    core: Precision,
+    bodies: Vec<Py<PyMembrane>>,
+    colliders: Vec<Py<PyAny>>,
+}
+
+#[pymethods]
+impl PySolver {
+    #[new]
+    #[pyo3(signature = (*, dt, gravity = None, tol = 1e-4, max_iters = 100, threads = None,
+                        step_length = true, precision = "f64"))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        dt: f64,
+        gravity: Option<&Bound<'_, PyAny>>,
+        tol: f64,
+        max_iters: i64,
+        threads: Option<i64>,
+        step_length: bool,
+        precision: &str,
+    ) -> PyResult<Self> {
+        let gravity = gravity
+            .map(|g| vec3(g, "gravity"))
+            .transpose()?
+            .unwrap_or([0.0, 0.0, -9.81]);
+        if max_iters < 1 {
+            return Err(PyValueError::new_err(format!(
+                "max_iters must be >= 1, got {max_iters}"
+            )));
+        }
+        let threads = match threads {
+            None => None,
+            Some(n) if n >= 1 => Some(n as usize),
+            Some(n) => {
+                return Err(PyValueError::new_err(format!(
+                    "threads must be >= 1 or None, got {n}"
+                )))
+            }
+        };
+        let params = SolverParams {
+            dt,
+            gravity,
+            tol,
+            max_iters: max_iters as usize,
+            step_length,
+        };
+        let core = match precision {
+            "f64" => Precision::F64(Solver::new(params, threads).py()?),
+            "f32" => Precision::F32(Solver::new(params, threads).py()?),
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "precision must be 'f32' or 'f64', got {other:?}"
+                )))
+            }
+        };
+        Ok(Self {
+            core,
+            bodies: Vec::new(),
+            colliders: Vec::new(),
+        })
+    }
+
+    /// Adds a membrane; the solver steps it from now on.
+    fn add(&mut self, body: Bound<'_, PyMembrane>) -> PyResult<()> {
+        let new = body.borrow().inner.clone();
+        if self
+            .bodies
+            .iter()
+            .any(|b| Arc::ptr_eq(&b.borrow(body.py()).inner, &new))
+        {
+            return Err(PyValueError::new_err(
+                "this membrane was already added to the solver",
+            ));
+        }
+        self.bodies.push(body.unbind());
+        Ok(())
+    }
+
+    /// Adds a collider (Plane or Sphere).
+    fn add_collider(&mut self, collider: &Bound<'_, PyAny>) -> PyResult<()> {
+        let c: Collider = collider::extract(collider)?;
+        with_solver!(&mut self.core, s => s.add_collider(c));
+        self.colliders.push(collider.clone().unbind());
+        Ok(())
+    }
+
+    /// Advances every body by one time step and returns its statistics. Raises
+    /// `DivergenceError` (bodies unchanged) when the step produces non-finite positions.
+    fn step(&mut self, py: Python<'_>) -> PyResult<PyStepStats> {
+        if self.bodies.is_empty() {
+            return Err(PyValueError::new_err(
+                "the solver has no bodies: call solver.add(membrane) first",
+            ));
+        }
+        let shared: Vec<Arc<Mutex<Membrane>>> = self
+            .bodies
+            .iter()
+            .map(|b| b.borrow(py).inner.clone())
+            .collect();
+        let core = &mut self.core;
+        let stats = py.detach(move || {
+            let mut guards: Vec<_> = shared
+                .iter()
+                .map(|m| m.lock().unwrap_or_else(|p| p.into_inner()))
+                .collect();
+            let mut refs: Vec<&mut Membrane> = guards.iter_mut().map(|g| &mut **g).collect();
+            core.step(&mut refs)
+        });
+        Ok(PyStepStats { inner: stats.py()? })
+    }
+
+    /// Time step h (s); settable.
+    #[getter]
+    fn dt(&self) -> f64 {
+        with_solver!(&self.core, s => s.params().dt)
+    }
+    #[setter]
+    fn set_dt(&mut self, dt: f64) -> PyResult<()> {
+        with_solver!(&mut self.core, s => {
+            let p = SolverParams { dt, ..*s.params() };
+            s.set_params(p).py()
+        })
+    }
+    #[getter]
+    fn gravity(&self) -> Vec<f64> {
+        with_solver!(&self.core, s => s.params().gravity.to_vec())
+    }
+    #[getter]
+    fn tol(&self) -> f64 {
+        with_solver!(&self.core, s => s.params().tol)
+    }
+    #[getter]
+    fn max_iters(&self) -> usize {
+        with_solver!(&self.core, s => s.params().max_iters)
+    }
+    #[getter]
+    fn step_length(&self) -> bool {
+        with_solver!(&self.core, s => s.params().step_length)
+    }
+    #[getter]
+    fn precision(&self) -> &'static str {
+        self.core.name()
+    }
+    #[getter]
+    fn threads(&self) -> usize {
+        with_solver!(&self.core, s => s.threads())
+    }
+    /// Simulation time (s).
+    #[getter]
+    fn time(&self) -> f64 {
+        with_solver!(&self.core, s => s.time())
+    }
+    #[getter]
+    fn steps_taken(&self) -> u64 {
+        with_solver!(&self.core, s => s.steps_taken())
+    }
+    #[getter]
+    fn bodies(&self, py: Python<'_>) -> Vec<Py<PyMembrane>> {
+        self.bodies.iter().map(|b| b.clone_ref(py)).collect()
+    }
+    #[getter]
+    fn colliders(&self, py: Python<'_>) -> Vec<Py<PyAny>> {
+        self.colliders.iter().map(|c| c.clone_ref(py)).collect()
+    }
+    fn __repr__(&self) -> String {
+        with_solver!(&self.core, s => {
+            let p = s.params();
+            format!(
+                "Solver(dt={}, gravity={:?}, tol={}, max_iters={}, precision='{}', threads={}, bodies={}, colliders={}, time={})",
+                p.dt, p.gravity, p.tol, p.max_iters, self.core.name(), s.threads(), self.bodies.len(), self.colliders.len(), s.time()
+            )
+        })
+    }
+}
+
+/// What one time step did.
+#[pyclass(module = "peridyn._core", name = "StepStats", frozen)]
+pub struct PyStepStats {
+    inner: StepStats,
+}
+
+#[pymethods]
+impl PyStepStats {
+    #[getter]
+    fn iterations(&self) -> usize {
+        self.inner.iterations
+    }
+    /// Final max_i |y_i^k - y_i^(k-1)| (m).
+    #[getter]
+    fn residual(&self) -> f64 {
+        self.inner.residual
+    }
+    #[getter]
+    fn converged(&self) -> bool {
+        self.inner.converged
+    }
+    /// Residual after each iteration (m).
+    #[getter]
+    fn residuals<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(py, self.inner.residuals.clone())
+    }
+    /// Milliseconds per phase.
+    #[getter]
+    fn timings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let t = &self.inner.timings;
+        let d = PyDict::new(py);
+        for (k, v) in [
+            ("predict", t.predict),
+            ("global", t.global),
+            ("colliders", t.colliders),
+            ("finish", t.finish),
+            ("total", t.total),
+        ] {
+            d.set_item(k, v)?;
+        }
+        Ok(d)
+    }
+    /// Simulation time after the step (s).
+    #[getter]
+    fn time(&self) -> f64 {
+        self.inner.time
+    }
+    /// 0-based index of the step.
+    #[getter]
+    fn step(&self) -> u64 {
+        self.inner.step
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "StepStats(step={}, iterations={}, residual={:.3e}, converged={}, total_ms={:.3})",
+            self.inner.step,
+            self.inner.iterations,
+            self.inner.residual,
+            self.inner.converged,
+            self.inner.timings.total
+        )
+    }
+}

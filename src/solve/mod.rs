@@ -1,0 +1,10 @@
+//! Time stepping: implicit Euler solved by the semi-implicit successive substitution method.
+
+mod params;
+mod sissm;
+mod stats;
+mod system;
+
+pub use params::SolverParams;
+pub use sissm::Solver;
+pub use stats::{StepStats, Timings};

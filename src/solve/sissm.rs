@@ -1,0 +1,314 @@
+//! The SISSM time step (Lu et al. 2023, Algorithm 1 without the contact local step).
+//!
+//! Implicit Euler asks for `m_i (y_i - y*_i) = h^2 f_i(y)` with `y* = y_t + h v_t + h^2 g`.
+//! Each global iteration takes, per vertex and independently (one Jacobi sweep of eq. 25),
+//!
+//! `delta_i = (m_i I + h^2 sum_j (C_i + C_j))^-1 (m_i (y*_i - y_i) + h^2 f_i(y))`
+//!
+//! which is eq. 25-26 written in residual form: `A_ij = h^2 (C_i + C_j)` are the implicit
+//! (positive) blocks and every other part of the exact force is explicit. The fixed point is
+//! therefore the exact implicit Euler solution for any `C`. The step is scaled by the
+//! per-vertex step length of eq. 31-33, `alpha_i = min(E_i / (f_i . delta_i), 1)`, where `E_i`
+//! is the elastic energy of the vertices whose neighbourhood holds `i` (zero elastic energy is a
+//! lower bound the linearised energy may not cross). Colliders project the result; the loop
+//! stops when `max_i |y_i^{k+1} - y_i^k| < tol`.
+
+use std::time::Instant;
+
+use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
+
+use crate::contact::{Collider, ColliderModel};
+use crate::error::{Error, Result};
+use crate::membrane::{internal_force, vertex_kernel, Membrane};
+use crate::parallel::for_each_vertex;
+use crate::real::Real;
+
+use super::system::System;
+use super::{SolverParams, StepStats, Timings};
+
+/// Steps a set of membranes in time.
+pub struct Solver<T: Real> {
+    params: SolverParams,
+    colliders: Vec<Collider>,
+    pool: Option<rayon::ThreadPool>,
+    system: Option<System<T>>,
+    time: f64,
+    steps: u64,
+}
+
+/// Per-vertex outcome of an update: how far it moved, and whether it became non-finite.
+#[derive(Clone, Copy)]
+struct Update {
+    moved: f64,
+    first_bad: Option<usize>,
+}
+
+impl Update {
+    fn of<T: Real>(vertex: usize, before: &Vector3<T>, after: &Vector3<T>) -> Self {
+        let finite = after.iter().all(|c| c.is_finite());
+        let moved = (after - before).norm().to_f64();
+        Self {
+            moved: if finite { moved } else { 0.0 },
+            first_bad: (!finite).then_some(vertex),
+        }
+    }
+
+    /// Associative and commutative, so the reduction is the same for any thread count.
+    fn merge(a: Self, b: Self) -> Self {
+        let first_bad = match (a.first_bad, b.first_bad) {
+            (Some(x), Some(y)) => Some(x.min(y)),
+            (x, y) => x.or(y),
+        };
+        Self {
+            moved: a.moved.max(b.moved),
+            first_bad,
+        }
+    }
+
+    const NONE: Self = Self {
+        moved: 0.0,
+        first_bad: None,
+    };
+}
+
+fn millis(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+impl<T: Real> Solver<T> {
+    /// A solver with `threads` workers (`None`: rayon's global pool, one per core).
+    pub fn new(params: SolverParams, threads: Option<usize>) -> Result<Self> {
+        params.validate()?;
+        let pool = match threads {
+            None => None,
+            Some(0) => return Err(crate::error::invalid!("threads must be >= 1, got 0")),
+            Some(n) => Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| crate::error::invalid!("cannot start {n} threads: {e}"))?,
+            ),
+        };
+        Ok(Self {
+            params,
+            colliders: Vec::new(),
+            pool,
+            system: None,
+            time: 0.0,
+            steps: 0,
+        })
+    }
+
+    pub fn params(&self) -> &SolverParams {
+        &self.params
+    }
+
+    /// Replaces the parameters (validated).
+    pub fn set_params(&mut self, params: SolverParams) -> Result<()> {
+        params.validate()?;
+        self.params = params;
+        Ok(())
+    }
+
+    /// Number of worker threads used by `step`.
+    pub fn threads(&self) -> usize {
+        self.pool
+            .as_ref()
+            .map_or_else(rayon::current_num_threads, |p| p.current_num_threads())
+    }
+
+    pub fn add_collider(&mut self, collider: Collider) {
+        self.colliders.push(collider);
+    }
+
+    pub fn colliders(&self) -> &[Collider] {
+        &self.colliders
+    }
+
+    /// Simulation time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Steps taken so far.
+    pub fn steps_taken(&self) -> u64 {
+        self.steps
+    }
+
+    /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
+    /// [`Error::Diverged`] names the first non-finite vertex.
+    pub fn step(&mut self, bodies: &mut [&mut Membrane]) -> Result<StepStats> {
+        match self.pool.take() {
+            Some(pool) => {
+                let out = pool.install(|| self.step_in_pool(bodies));
+                self.pool = Some(pool);
+                out
+            }
+            None => self.step_in_pool(bodies),
+        }
+    }
+
+    fn step_in_pool(&mut self, bodies: &mut [&mut Membrane]) -> Result<StepStats> {
+        let started = Instant::now();
+        let params = self.params;
+        if !self.system.as_ref().is_some_and(|s| s.matches(bodies)) {
+            self.system = Some(System::build(bodies));
+        }
+        let colliders: Vec<ColliderModel<T>> = self.colliders.iter().map(|c| c.to_real()).collect();
+        let sys = self.system.as_mut().expect("built above");
+        let h = T::of(params.dt);
+        let gravity = Vector3::from(params.gravity).map(T::of);
+
+        sys.load(bodies);
+        predict(sys, h, gravity);
+        let mut timings = Timings {
+            predict: millis(started),
+            ..Timings::default()
+        };
+
+        let mut stats = StepStats {
+            step: self.steps,
+            ..StepStats::default()
+        };
+        for iteration in 0..params.max_iters {
+            let t = Instant::now();
+            let mut update = global_step(sys, h, params.step_length);
+            timings.global += millis(t);
+            if !colliders.is_empty() {
+                let t = Instant::now();
+                update = project_colliders(sys, &colliders);
+                timings.colliders += millis(t);
+            }
+            if let Some(vertex) = update.first_bad {
+                let (body, vertex) = sys.locate(vertex);
+                return Err(Error::Diverged {
+                    step: self.steps,
+                    iteration,
+                    body,
+                    vertex,
+                });
+            }
+            std::mem::swap(&mut sys.y, &mut sys.y_next);
+            stats.iterations = iteration + 1;
+            stats.residual = update.moved;
+            stats.residuals.push(update.moved);
+            if params.tol > 0.0 && update.moved < params.tol {
+                stats.converged = true;
+                break;
+            }
+        }
+
+        let t = Instant::now();
+        finish(sys, h);
+        sys.store(bodies);
+        timings.finish = millis(t);
+        self.time += params.dt;
+        self.steps += 1;
+        timings.total = millis(started);
+        stats.time = self.time;
+        stats.timings = timings;
+        Ok(stats)
+    }
+}
+
+/// `y* = y_t + h v_t + h^2 g` for free vertices; the initial iterate is `y*` (Algorithm 1, line 2).
+fn predict<T: Real>(sys: &mut System<T>, h: T, gravity: Vector3<T>) {
+    let (y_start, velocity, pinned) = (&sys.y_start, &sys.velocity, &sys.pinned);
+    let kick = gravity * (h * h);
+    sys.y_star.par_iter_mut().enumerate().for_each(|(i, star)| {
+        if !pinned[i] {
+            *star = y_start[i] + velocity[i] * h + kick;
+        }
+    });
+    sys.y.copy_from_slice(&sys.y_star);
+}
+
+/// One global iteration: the vertex kernel everywhere, then the per-vertex Jacobi update with
+/// step length, written to `y_next`.
+fn global_step<T: Real>(sys: &mut System<T>, h: T, step_length: bool) -> Update {
+    let (nb, rest, y) = (&sys.nb, &sys.rest, &sys.y);
+    for_each_vertex(
+        &nb.offsets,
+        &mut sys.bond_grad,
+        &mut sys.response,
+        &|i, grads: &mut [Vector3<T>]| {
+            vertex_kernel(
+                y[i],
+                y,
+                nb.of(i),
+                &rest.bonds[nb.bonds(i)],
+                &rest.frames[i],
+                &rest.vertices[i],
+                grads,
+            )
+        },
+    );
+    let (bond_grad, response, y_star, pinned) =
+        (&sys.bond_grad, &sys.response, &sys.y_star, &sys.pinned);
+    let h2 = h * h;
+    sys.y_next
+        .par_iter_mut()
+        .enumerate()
+        .map(|(k, next)| {
+            if pinned[k] {
+                *next = y[k];
+                return Update::NONE;
+            }
+            let mass = rest.vertices[k].mass;
+            let force = internal_force(k, nb, bond_grad);
+            let residual = (y_star[k] - y[k]) * mass + force * h2;
+            let neighbors = nb.of(k);
+            let mut stiffness = response[k].precond * T::of(neighbors.len() as f64);
+            let mut energy = response[k].energy();
+            for &j in neighbors {
+                stiffness += response[j as usize].precond;
+                energy += response[j as usize].energy();
+            }
+            let system = Matrix3::from_diagonal_element(mass) + stiffness * h2;
+            let delta = system
+                .try_inverse()
+                .map_or(residual / mass, |inv| inv * residual);
+            let descent = force.dot(&delta);
+            let alpha = if step_length && descent > energy {
+                energy / descent
+            } else {
+                T::one()
+            };
+            *next = y[k] + delta * alpha;
+            Update::of(k, &y[k], next)
+        })
+        .reduce(|| Update::NONE, Update::merge)
+}
+
+/// Projects the free vertices of `y_next` out of the colliders and measures the move from `y`.
+fn project_colliders<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>]) -> Update {
+    let (y, pinned, rest) = (&sys.y, &sys.pinned, &sys.rest);
+    sys.y_next
+        .par_iter_mut()
+        .enumerate()
+        .map(|(k, next)| {
+            if !pinned[k] {
+                let margin = rest.vertices[k].half_thickness;
+                for c in colliders {
+                    *next = c.project(*next, margin);
+                }
+            }
+            Update::of(k, &y[k], next)
+        })
+        .reduce(|| Update::NONE, Update::merge)
+}
+
+/// `v_{t+1} = (y_{t+1} - y_t) / h`, `y_t <- y_{t+1}`.
+fn finish<T: Real>(sys: &mut System<T>, h: T) {
+    let inv_h = T::one() / h;
+    let y = &sys.y;
+    sys.velocity
+        .par_iter_mut()
+        .zip(sys.y_start.par_iter_mut())
+        .enumerate()
+        .for_each(|(i, (v, start))| {
+            *v = (y[i] - *start) * inv_h;
+            *start = y[i];
+        });
+}

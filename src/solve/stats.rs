@@ -1,0 +1,35 @@
+//! What a step reports.
+
+/// Wall-clock milliseconds per phase of a step.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Timings {
+    /// Loading state and computing the inertial target y*.
+    pub predict: f64,
+    /// Global steps (vertex kernel and Jacobi update).
+    pub global: f64,
+    /// Collider projection (local step).
+    pub colliders: f64,
+    /// Velocity update and write-back.
+    pub finish: f64,
+    /// The whole step.
+    pub total: f64,
+}
+
+/// Statistics of one time step.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StepStats {
+    /// 0-based index of the step.
+    pub step: u64,
+    /// Simulation time after the step (s).
+    pub time: f64,
+    /// Global iterations performed.
+    pub iterations: usize,
+    /// Final `max_i |y_i^k - y_i^(k-1)|` (m).
+    pub residual: f64,
+    /// Whether the residual fell below `tol` (never when `tol == 0`).
+    pub converged: bool,
+    /// Residual after each iteration (m).
+    pub residuals: Vec<f64>,
+    /// Milliseconds per phase.
+    pub timings: Timings,
+}

@@ -1,0 +1,125 @@
+//! The solver's working set: every body's rest data and state concatenated into one vertex
+//! range, in the simulation's precision.
+
+use std::ops::Range;
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::membrane::{Membrane, RestData, VertexResponse};
+use crate::mesh::Neighborhood;
+use crate::real::Real;
+
+/// Concatenated bodies.
+pub(super) struct System<T: Real> {
+    /// Identity of each body, to detect a changed body list.
+    pub ids: Vec<u64>,
+    /// Vertex range of each body.
+    pub ranges: Vec<Range<usize>>,
+    pub nb: Neighborhood,
+    pub rest: RestData<T>,
+    /// Positions at the start of the step, y_t.
+    pub y_start: Vec<Vector3<T>>,
+    pub velocity: Vec<Vector3<T>>,
+    /// Inertial target y* (pinned vertices: their target).
+    pub y_star: Vec<Vector3<T>>,
+    /// Current iterate and the next one.
+    pub y: Vec<Vector3<T>>,
+    pub y_next: Vec<Vector3<T>>,
+    pub pinned: Vec<bool>,
+    /// Scratch of the global step: per-bond gradients and per-vertex responses.
+    pub bond_grad: Vec<Vector3<T>>,
+    pub response: Vec<VertexResponse<T>>,
+}
+
+impl<T: Real> System<T> {
+    /// Concatenates the bodies' rest data (state is loaded by [`System::load`]).
+    pub fn build(bodies: &[&mut Membrane]) -> Self {
+        let mut ids = Vec::with_capacity(bodies.len());
+        let mut ranges = Vec::with_capacity(bodies.len());
+        let mut nb = Neighborhood {
+            offsets: vec![0],
+            indices: Vec::new(),
+            reverse: Vec::new(),
+        };
+        let mut rest = RestData::empty();
+        let mut start = 0;
+        for body in bodies {
+            let n = body.num_vertices();
+            ids.push(body.id());
+            ranges.push(start..start + n);
+            let (vertex_base, bond_base) = (start as u32, nb.indices.len() as u32);
+            let own = body.neighborhood();
+            nb.offsets
+                .extend(own.offsets[1..].iter().map(|o| o + bond_base));
+            nb.indices
+                .extend(own.indices.iter().map(|j| j + vertex_base));
+            nb.reverse.extend(own.reverse.iter().map(|b| b + bond_base));
+            rest.extend(&body.rest().to_real::<T>());
+            start += n;
+        }
+        let zeros = vec![Vector3::zeros(); start];
+        let zero_response = VertexResponse {
+            stretch: T::zero(),
+            bending: T::zero(),
+            hourglass: T::zero(),
+            precond: Matrix3::zeros(),
+        };
+        Self {
+            ids,
+            ranges,
+            bond_grad: vec![Vector3::zeros(); nb.indices.len()],
+            nb,
+            rest,
+            y_start: zeros.clone(),
+            velocity: zeros.clone(),
+            y_star: zeros.clone(),
+            y: zeros.clone(),
+            y_next: zeros,
+            pinned: vec![false; start],
+            response: vec![zero_response; start],
+        }
+    }
+
+    /// True when the system was built from exactly these bodies.
+    pub fn matches(&self, bodies: &[&mut Membrane]) -> bool {
+        self.ids.len() == bodies.len() && self.ids.iter().zip(bodies).all(|(id, b)| *id == b.id())
+    }
+
+    /// Copies the bodies' positions, velocities and pins in; pinned vertices get their target
+    /// as inertial target.
+    pub fn load(&mut self, bodies: &[&mut Membrane]) {
+        for (body, range) in bodies.iter().zip(&self.ranges) {
+            let base = range.start;
+            for (k, (x, v)) in body.positions().iter().zip(body.velocities()).enumerate() {
+                self.y_start[base + k] = x.map(T::of);
+                self.velocity[base + k] = v.map(T::of);
+                self.pinned[base + k] = false;
+            }
+            for (&i, target) in body.pins() {
+                self.pinned[base + i as usize] = true;
+                self.y_star[base + i as usize] = target.map(T::of);
+            }
+        }
+    }
+
+    /// Copies the state back into the bodies (in f64).
+    pub fn store(&self, bodies: &mut [&mut Membrane]) {
+        for (body, range) in bodies.iter_mut().zip(&self.ranges) {
+            let (x, v) = body.state_mut();
+            for (k, i) in range.clone().enumerate() {
+                x[k] = self.y_start[i].map(|c| c.to_f64());
+                v[k] = self.velocity[i].map(|c| c.to_f64());
+            }
+        }
+    }
+
+    /// The body and local vertex index of a global vertex.
+    pub fn locate(&self, vertex: usize) -> (usize, usize) {
+        let body = self
+            .ranges
+            .iter()
+            .position(|r| r.contains(&vertex))
+            .unwrap_or(0);
+        (body, vertex - self.ranges.get(body).map_or(0, |r| r.start))
+    }
+}
