@@ -92,6 +92,16 @@ impl<T: Real> MaterialModel<T> {
         }
     }
 
+    /// Second derivatives of `Psi` in the in-plane stretches at fixed `lambda_3`:
+    /// `(d2Psi/dl1^2, d2Psi/dl2^2, d2Psi/dl1 dl2)` (Pa).
+    #[inline]
+    pub fn in_plane_hessian(&self, l: [T; 3]) -> [T; 3] {
+        match *self {
+            Self::StretchA3 { s0 } => stretch_a3::in_plane_hessian(s0, l),
+            Self::NeoHookean { s0, s1 } => neo_hookean::in_plane_hessian(s0, s1, l),
+        }
+    }
+
     /// `P+_m / lambda_m` (Pa), the non-negative stiffness that SISSM treats implicitly: the
     /// matrix `U diag(P+/lambda) U^T` of eq. 24-26.
     #[inline]
@@ -142,6 +152,19 @@ mod tests {
                     assert!(plus[k] >= 0.0 && minus[k] <= 0.0);
                     let stiff = m.implicit_stiffness(l)[k];
                     assert!((stiff - plus[k] / l[k]).abs() <= 1e-12 * stiff.abs().max(1.0));
+                }
+                let hess = m.in_plane_hessian(l);
+                for (k, (a, b)) in [(0, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+                    let h = 1e-6;
+                    let (mut up, mut down) = (l, l);
+                    up[b] += h;
+                    down[b] -= h;
+                    let fd = (m.stress(up)[a] - m.stress(down)[a]) / (2.0 * h);
+                    assert!(
+                        (fd - hess[k]).abs() <= 1e-6 * (1.0 + fd.abs()),
+                        "{m:?} {l:?} H{a}{b}: {fd} vs {}",
+                        hess[k]
+                    );
                 }
             }
             assert!(m.energy([1.0; 3]).abs() < 1e-12);

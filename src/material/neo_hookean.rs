@@ -31,3 +31,16 @@ pub fn implicit_stiffness<T: Real>(s0: T, s1: T, l: [T; 3]) -> [T; 3] {
     let j = l[0] * l[1] * l[2];
     l.map(|s| two * s0 + two * s1 * j * j / (s * s))
 }
+
+/// `d2Psi/dl_a^2 = 2 s0 (1 + l_a^-2) + 2 s1 (J / l_a)^2`, `d2Psi/dl1 dl2 = 2 s1 J (2J - 1) / (l1 l2)`.
+#[inline]
+pub fn in_plane_hessian<T: Real>(s0: T, s1: T, l: [T; 3]) -> [T; 3] {
+    let two = T::of(2.0);
+    let j = l[0] * l[1] * l[2];
+    let d = |s: T| two * s0 * (T::one() + T::one() / (s * s)) + two * s1 * (j / s) * (j / s);
+    [
+        d(l[0]),
+        d(l[1]),
+        two * s1 * j * (two * j - T::one()) / (l[0] * l[1]),
+    ]
+}

@@ -30,3 +30,10 @@ pub fn implicit_stiffness<T: Real>(s0: T, l: [T; 3]) -> [T; 3] {
     let third = s0 * T::of(1.0 / 3.0);
     l.map(|s| third * s * s)
 }
+
+/// `(s0 (l1^2 + l1^-4), s0 (l2^2 + l2^-4), 0)`: the stretches are uncoupled.
+#[inline]
+pub fn in_plane_hessian<T: Real>(s0: T, l: [T; 3]) -> [T; 3] {
+    let d = |s: T| s0 * (s * s + T::one() / (s * s * s * s));
+    [d(l[0]), d(l[1]), T::zero()]
+}

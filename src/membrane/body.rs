@@ -10,7 +10,7 @@ use crate::material::Material;
 use crate::mesh::{Neighborhood, TriangleMesh};
 use crate::parallel::for_each_vertex;
 
-use super::kernel::{vertex_kernel, Deformation, VertexResponse};
+use super::kernel::{vertex_kernel, Deformation, Preconditioner, VertexResponse};
 use super::RestData;
 
 /// Physical parameters of a membrane (SI units).
@@ -280,14 +280,11 @@ impl Membrane {
             bond_grad,
             &mut out,
             &|i, grads: &mut [Vector3<f64>]| {
-                let r = nb.bonds(i);
                 vertex_kernel(
                     y[i],
                     y,
-                    nb.of(i),
-                    &rest.bonds[r],
-                    &rest.frames[i],
-                    &rest.vertices[i],
+                    &rest.stencil(nb, i),
+                    Preconditioner::default(),
                     grads,
                 )
             },
@@ -321,13 +318,10 @@ impl Membrane {
         let nb = &self.neighborhood;
         (0..self.num_vertices())
             .map(|i| {
-                let r = nb.bonds(i);
                 Deformation::of(
                     self.positions[i],
                     &self.positions,
-                    nb.of(i),
-                    &self.rest.bonds[r],
-                    &self.rest.frames[i],
+                    &self.rest.stencil(nb, i),
                 )
                 .stretches()
             })

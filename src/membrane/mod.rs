@@ -6,8 +6,8 @@ mod kernel;
 mod rest;
 
 pub use body::{internal_force, EnergyTerms, Membrane, MembraneParams};
-pub use kernel::{any_orthogonal_unit, vertex_kernel, Deformation, VertexResponse};
-pub use rest::{BondRest, Frame, RestData, VertexConstants};
+pub use kernel::{any_orthogonal_unit, vertex_kernel, Deformation, Preconditioner, VertexResponse};
+pub use rest::{BondRest, Frame, RestData, Stencil, VertexConstants};
 
 #[cfg(test)]
 mod tests;

@@ -39,6 +39,9 @@ pub struct VertexConstants<T: Real> {
     /// `2 / sum_j |xi_ij|^2` (1/m^2): the isotropic in-plane approximation of `K_i^-1`
     /// (the discrete counterpart of the paper's `kappa_i^-1`, eq. 23), used by the preconditioner.
     pub k_iso: T,
+    /// `lambda_max(sum_j beta_j beta_j^T)` (1/m^2): bounds `|T|^2 <= k_bound sum_j |e_j|^2`, so
+    /// the bond Laplacian weighted by `k_bound` bounds the 1-ring deformation gradient's energy.
+    pub k_bound: T,
     /// In-plane (hourglass) stiffness of the non-affine energy (N/m).
     pub kappa_t: T,
     /// Normal (bending) stiffness of the non-affine energy (N/m).
@@ -93,10 +96,13 @@ impl RestData<f64> {
             let t1 = any_orthogonal_unit(&nc);
             let t2 = nc.cross(&t1);
             let (d1, d2) = (k_inv * t1, k_inv * t2);
+            let mut beta_gram = nalgebra::Matrix2::zeros();
             for &j in nb.of(i) {
                 let xi = x[j as usize] - x[i];
+                let beta = nalgebra::Vector2::new(xi.dot(&d1), xi.dot(&d2));
+                beta_gram += beta * beta.transpose();
                 bonds.push(BondRest {
-                    beta: [xi.dot(&d1), xi.dot(&d2)],
+                    beta: [beta.x, beta.y],
                     xi,
                 });
             }
@@ -107,6 +113,7 @@ impl RestData<f64> {
                 volume,
                 mass: params.density * volume,
                 k_iso,
+                k_bound: beta_gram.symmetric_eigen().eigenvalues.max(),
                 kappa_t: params.hourglass * mu * volume * k_iso,
                 kappa_n: 32.0 * params.bending * areas[i] / (3.0 * sum4),
                 half_thickness: half,
@@ -148,6 +155,7 @@ impl RestData<f64> {
                     volume: T::of(c.volume),
                     mass: T::of(c.mass),
                     k_iso: T::of(c.k_iso),
+                    k_bound: T::of(c.k_bound),
                     kappa_t: T::of(c.kappa_t),
                     kappa_n: T::of(c.kappa_n),
                     half_thickness: T::of(c.half_thickness),
@@ -166,7 +174,27 @@ impl RestData<f64> {
     }
 }
 
+/// Everything the kernel needs to know about one vertex at rest.
+#[derive(Debug, Clone, Copy)]
+pub struct Stencil<'a, T: Real> {
+    pub neighbors: &'a [u32],
+    pub bonds: &'a [BondRest<T>],
+    pub frame: &'a Frame<T>,
+    pub constants: &'a VertexConstants<T>,
+}
+
 impl<T: Real> RestData<T> {
+    /// The rest stencil of vertex `i` (this data's neighbourhood is `nb`).
+    #[inline]
+    pub fn stencil<'a>(&'a self, nb: &'a Neighborhood, i: usize) -> Stencil<'a, T> {
+        Stencil {
+            neighbors: nb.of(i),
+            bonds: &self.bonds[nb.bonds(i)],
+            frame: &self.frames[i],
+            constants: &self.vertices[i],
+        }
+    }
+
     /// Appends another body's rest data (its bonds keep their own order).
     pub fn extend(&mut self, other: &RestData<T>) {
         self.frames.extend_from_slice(&other.frames);
@@ -188,7 +216,7 @@ impl<T: Real> RestData<T> {
 fn invert_shape_tensor(i: usize, k: &Matrix3<f64>) -> Result<Matrix3<f64>> {
     let eig = k.symmetric_eigen().eigenvalues;
     let (lo, hi) = (eig.min(), eig.max());
-    if !(lo > 1e-14 * hi) {
+    if lo.is_nan() || lo <= 1e-14 * hi {
         return Err(invalid!(
             "vertex {i}: its neighbourhood does not span a plane (shape tensor eigenvalues {lo:e}..{hi:e}); \
              check for collinear neighbours or a thickness of zero"

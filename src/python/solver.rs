@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 
 use crate::contact::Collider;
 use crate::error::Result;
-use crate::membrane::Membrane;
+use crate::membrane::{Membrane, Preconditioner};
 use crate::solve::{Solver, SolverParams, StepStats};
 
 use super::arrays::{to_numpy_1d, vec3};
@@ -58,7 +58,7 @@ pub struct PySolver {
 impl PySolver {
     #[new]
     #[pyo3(signature = (*, dt, gravity = None, tol = 1e-4, max_iters = 100, threads = None,
-                        step_length = true, precision = "f64"))]
+                        step_length = true, precision = "f64", preconditioner = "tangent"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: f64,
@@ -68,6 +68,7 @@ impl PySolver {
         threads: Option<i64>,
         step_length: bool,
         precision: &str,
+        preconditioner: &str,
     ) -> PyResult<Self> {
         let gravity = gravity
             .map(|g| vec3(g, "gravity"))
@@ -93,6 +94,15 @@ impl PySolver {
             tol,
             max_iters: max_iters as usize,
             step_length,
+            preconditioner: match preconditioner {
+                "tangent" => Preconditioner::Tangent,
+                "paper" => Preconditioner::Paper,
+                other => {
+                    return Err(PyValueError::new_err(format!(
+                        "preconditioner must be 'tangent' or 'paper', got {other:?}"
+                    )))
+                }
+            },
         };
         let core = match precision {
             "f64" => Precision::F64(Solver::new(params, threads).py()?),
@@ -186,6 +196,13 @@ impl PySolver {
     #[getter]
     fn step_length(&self) -> bool {
         with_solver!(&self.core, s => s.params().step_length)
+    }
+    #[getter]
+    fn preconditioner(&self) -> &'static str {
+        match with_solver!(&self.core, s => s.params().preconditioner) {
+            Preconditioner::Tangent => "tangent",
+            Preconditioner::Paper => "paper",
+        }
     }
     #[getter]
     fn precision(&self) -> &'static str {

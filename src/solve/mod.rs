@@ -8,3 +8,6 @@ mod system;
 pub use params::SolverParams;
 pub use sissm::Solver;
 pub use stats::{StepStats, Timings};
+
+#[cfg(test)]
+mod tests;

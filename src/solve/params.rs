@@ -1,6 +1,7 @@
 //! Solver parameters.
 
 use crate::error::{check_param, invalid, Result};
+use crate::membrane::Preconditioner;
 
 /// Parameters of [`super::Solver`] (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -15,6 +16,8 @@ pub struct SolverParams {
     pub max_iters: usize,
     /// Apply the per-vertex step length of eq. 31-33.
     pub step_length: bool,
+    /// How the stretching stiffness enters the implicit part.
+    pub preconditioner: Preconditioner,
 }
 
 impl Default for SolverParams {
@@ -25,6 +28,7 @@ impl Default for SolverParams {
             tol: 1e-4,
             max_iters: 100,
             step_length: true,
+            preconditioner: Preconditioner::Tangent,
         }
     }
 }

@@ -1,0 +1,110 @@
+//! Solver invariants: implicit Euler exactness in free fall, determinism across thread
+//! counts, exact iteration counts, and divergence leaving the bodies untouched.
+
+use nalgebra::Vector3;
+
+use crate::contact::Collider;
+use crate::material::Material;
+use crate::membrane::{Membrane, MembraneParams};
+use crate::mesh::TriangleMesh;
+
+use super::{Solver, SolverParams};
+
+fn cloth(n: usize) -> Membrane {
+    let params = MembraneParams {
+        thickness: 1e-3,
+        density: 300.0,
+        material: Material::stretch_a3(1e4).unwrap(),
+        bending: 1e-5,
+        hourglass: 0.1,
+        neighbors: 1,
+    };
+    Membrane::new(TriangleMesh::grid(n, n, 0.5, 0.5).unwrap(), params).unwrap()
+}
+
+/// With no pins and no colliders every vertex follows implicit Euler exactly:
+/// `y_n = y_0 + h^2 g n (n + 1) / 2`, `v_n = h g n`.
+#[test]
+fn free_fall_is_implicit_euler() {
+    let mut body = cloth(6);
+    let x0 = body.positions().to_vec();
+    let params = SolverParams {
+        dt: 0.01,
+        gravity: [0.5, -1.0, -9.81],
+        ..SolverParams::default()
+    };
+    let mut solver = Solver::<f64>::new(params, None).unwrap();
+    let g = Vector3::from(params.gravity);
+    for n in 1..=20u32 {
+        solver.step(&mut [&mut body]).unwrap();
+        let drop = g * (params.dt * params.dt * (n * (n + 1)) as f64 / 2.0);
+        for (y, x) in body.positions().iter().zip(&x0) {
+            assert!((y - (x + drop)).norm() < 1e-12, "step {n}");
+        }
+        for v in body.velocities() {
+            assert!((v - g * (params.dt * n as f64)).norm() < 1e-12);
+        }
+    }
+}
+
+/// The result does not depend on the number of worker threads, bit for bit.
+#[test]
+fn one_and_two_threads_agree_bit_for_bit() {
+    let run = |threads| {
+        let mut body = cloth(30);
+        body.pin(&(0..30).collect::<Vec<i64>>(), None).unwrap();
+        let mut solver = Solver::<f64>::new(
+            SolverParams {
+                tol: 0.0,
+                max_iters: 7,
+                ..SolverParams::default()
+            },
+            Some(threads),
+        )
+        .unwrap();
+        solver.add_collider(Collider::sphere([0.25, 0.3, -0.2], 0.15).unwrap());
+        for _ in 0..15 {
+            solver.step(&mut [&mut body]).unwrap();
+        }
+        body.positions().to_vec()
+    };
+    assert_eq!(run(1), run(2));
+}
+
+/// `tol = 0` runs exactly `max_iters` iterations and never claims convergence.
+#[test]
+fn zero_tolerance_runs_every_iteration() {
+    let mut body = cloth(5);
+    body.pin(&[0, 1, 2], None).unwrap();
+    let mut solver = Solver::<f32>::new(
+        SolverParams {
+            tol: 0.0,
+            max_iters: 13,
+            ..SolverParams::default()
+        },
+        None,
+    )
+    .unwrap();
+    let stats = solver.step(&mut [&mut body]).unwrap();
+    assert_eq!(
+        (stats.iterations, stats.residuals.len(), stats.converged),
+        (13, 13, false)
+    );
+}
+
+/// A step that overflows reports the vertex and leaves positions and velocities as they were.
+#[test]
+fn divergence_leaves_the_last_good_state() {
+    let mut body = cloth(5);
+    let mut solver = Solver::<f64>::new(SolverParams::default(), None).unwrap();
+    solver.step(&mut [&mut body]).unwrap();
+    let mut v = body.velocities().to_vec();
+    v[3] = Vector3::new(1e307, -1e307, 1e307);
+    body.set_velocities(v).unwrap();
+    let (x, v) = (body.positions().to_vec(), body.velocities().to_vec());
+    let err = solver.step(&mut [&mut body]).unwrap_err();
+    assert!(matches!(err, crate::error::Error::Diverged { .. }), "{err}");
+    assert_eq!(body.positions(), &x[..]);
+    assert_eq!(body.velocities(), &v[..]);
+    assert_eq!(solver.steps_taken(), 1);
+}
