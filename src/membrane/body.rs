@@ -33,7 +33,7 @@ pub struct MembraneParams {
 impl MembraneParams {
     /// Default hourglass stiffness: enough to suppress the checkerboard modes of the 1-ring
     /// deformation gradient while leaving smooth deformation untouched.
-    pub const DEFAULT_HOURGLASS: f64 = 0.1;
+    pub const DEFAULT_HOURGLASS: f64 = 0.5;
 
     /// Checks every parameter, naming the first bad one.
     pub fn validate(&self) -> Result<()> {

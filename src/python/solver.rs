@@ -9,7 +9,7 @@ use pyo3::types::PyDict;
 use crate::contact::Collider;
 use crate::error::Result;
 use crate::membrane::{Membrane, Preconditioner};
-use crate::solve::{Solver, SolverParams, StepStats};
+use crate::solve::{Acceleration, Solver, SolverParams, StepStats};
 
 use super::arrays::{to_numpy_1d, vec3};
 use super::collider;
@@ -58,7 +58,9 @@ pub struct PySolver {
 impl PySolver {
     #[new]
     #[pyo3(signature = (*, dt, gravity = None, tol = 1e-4, max_iters = 100, threads = None,
-                        step_length = true, precision = "f64", preconditioner = "tangent"))]
+                        step_length = true, precision = "f64", preconditioner = "tangent",
+                        acceleration = None, chebyshev_rho = Acceleration::DEFAULT_RHO,
+                        chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: f64,
@@ -69,7 +71,27 @@ impl PySolver {
         step_length: bool,
         precision: &str,
         preconditioner: &str,
+        acceleration: Option<&str>,
+        chebyshev_rho: f64,
+        chebyshev_delay: i64,
+        record_energy: bool,
     ) -> PyResult<Self> {
+        let acceleration = match acceleration {
+            None | Some("none") => Acceleration::None,
+            Some("chebyshev") => Acceleration::Chebyshev {
+                rho: chebyshev_rho,
+                delay: usize::try_from(chebyshev_delay).map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "chebyshev_delay must be >= 1, got {chebyshev_delay}"
+                    ))
+                })?,
+            },
+            Some(other) => {
+                return Err(PyValueError::new_err(format!(
+                    "acceleration must be None or 'chebyshev', got {other:?}"
+                )))
+            }
+        };
         let gravity = gravity
             .map(|g| vec3(g, "gravity"))
             .transpose()?
@@ -103,6 +125,8 @@ impl PySolver {
                     )))
                 }
             },
+            acceleration,
+            record_energy,
         };
         let core = match precision {
             "f64" => Precision::F64(Solver::new(params, threads).py()?),
@@ -204,6 +228,18 @@ impl PySolver {
             Preconditioner::Paper => "paper",
         }
     }
+    /// None or "chebyshev".
+    #[getter]
+    fn acceleration(&self) -> Option<&'static str> {
+        match with_solver!(&self.core, s => s.params().acceleration) {
+            Acceleration::None => None,
+            Acceleration::Chebyshev { .. } => Some("chebyshev"),
+        }
+    }
+    #[getter]
+    fn record_energy(&self) -> bool {
+        with_solver!(&self.core, s => s.params().record_energy)
+    }
     #[getter]
     fn precision(&self) -> &'static str {
         self.core.name()
@@ -265,6 +301,12 @@ impl PyStepStats {
     #[getter]
     fn residuals<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         to_numpy_1d(py, self.inner.residuals.clone())
+    }
+    /// Total variational energy E(y^k) (J) of every iterate k = 0..iterations (empty unless the
+    /// solver was built with record_energy=True).
+    #[getter]
+    fn energies<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(py, self.inner.energies.clone())
     }
     /// Milliseconds per phase.
     #[getter]

@@ -5,7 +5,7 @@ mod sissm;
 mod stats;
 mod system;
 
-pub use params::SolverParams;
+pub use params::{Acceleration, SolverParams};
 pub use sissm::Solver;
 pub use stats::{StepStats, Timings};
 

@@ -18,6 +18,48 @@ pub struct SolverParams {
     pub step_length: bool,
     /// How the stretching stiffness enters the implicit part.
     pub preconditioner: Preconditioner,
+    /// Optional acceleration of the global iteration.
+    pub acceleration: Acceleration,
+    /// Record the total variational energy `E(y^k)` of every iterate in [`super::StepStats`]
+    /// (one extra kernel pass per step).
+    pub record_energy: bool,
+}
+
+/// Acceleration of the global iteration.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Acceleration {
+    /// Plain SISSM iterations.
+    #[default]
+    None,
+    /// Chebyshev semi-iterative acceleration (Wang 2015): from iteration `delay` on,
+    /// `y^{k+1} = omega_{k+1} (y_hat^{k+1} - y^{k-1}) + y^{k-1}` with
+    /// `omega = 2 / (2 - rho^2)` first, then `omega_{k+1} = 4 / (4 - rho^2 omega_k)`.
+    /// `rho` in (0, 1) estimates the spectral radius of the plain iteration: too high
+    /// oscillates, too low wastes the acceleration.
+    Chebyshev { rho: f64, delay: usize },
+}
+
+impl Acceleration {
+    /// Default spectral-radius estimate.
+    pub const DEFAULT_RHO: f64 = 0.9;
+    /// Default number of plain iterations before extrapolating.
+    pub const DEFAULT_DELAY: usize = 3;
+
+    /// The extrapolation weight of iteration `k` (0-based) given the previous one; `None`
+    /// means a plain iteration.
+    pub fn omega(&self, k: usize, previous: f64) -> Option<f64> {
+        match *self {
+            Self::None => None,
+            Self::Chebyshev { rho, delay } => {
+                let r2 = rho * rho;
+                match k.cmp(&delay) {
+                    std::cmp::Ordering::Less => None,
+                    std::cmp::Ordering::Equal => Some(2.0 / (2.0 - r2)),
+                    std::cmp::Ordering::Greater => Some(4.0 / (4.0 - r2 * previous)),
+                }
+            }
+        }
+    }
 }
 
 impl Default for SolverParams {
@@ -29,6 +71,8 @@ impl Default for SolverParams {
             max_iters: 100,
             step_length: true,
             preconditioner: Preconditioner::Tangent,
+            acceleration: Acceleration::None,
+            record_energy: false,
         }
     }
 }
@@ -41,6 +85,14 @@ impl SolverParams {
             check_param(&format!("gravity[{k}]"), *g, |_| true, "finite")?;
         }
         check_param("tol", self.tol, |v| v >= 0.0, "a finite distance >= 0 m")?;
+        if let Acceleration::Chebyshev { rho, delay } = self.acceleration {
+            check_param("chebyshev rho", rho, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
+            if delay < 1 {
+                return Err(invalid!(
+                    "chebyshev delay must be >= 1 iteration, got {delay}"
+                ));
+            }
+        }
         if self.max_iters < 1 {
             return Err(invalid!("max_iters must be >= 1, got {}", self.max_iters));
         }

@@ -20,12 +20,12 @@ use rayon::prelude::*;
 
 use crate::contact::{Collider, ColliderModel};
 use crate::error::{Error, Result};
-use crate::membrane::{internal_force, vertex_kernel, Membrane};
+use crate::membrane::{internal_force, vertex_kernel, Membrane, Preconditioner};
 use crate::parallel::for_each_vertex;
 use crate::real::Real;
 
 use super::system::System;
-use super::{SolverParams, StepStats, Timings};
+use super::{Acceleration, SolverParams, StepStats, Timings};
 
 /// Steps a set of membranes in time.
 pub struct Solver<T: Real> {
@@ -171,9 +171,19 @@ impl<T: Real> Solver<T> {
             step: self.steps,
             ..StepStats::default()
         };
+        let accelerated = params.acceleration != Acceleration::None;
+        if accelerated && sys.y_prev.len() != sys.y.len() {
+            sys.y_prev = sys.y.clone();
+        }
+        let mut omega = 1.0;
         for iteration in 0..params.max_iters {
             let t = Instant::now();
-            let mut update = global_step(sys, h, &params);
+            let extrapolation = params.acceleration.omega(iteration, omega);
+            omega = extrapolation.unwrap_or(1.0);
+            let (mut update, energy) = global_step(sys, h, &params, extrapolation.map(T::of));
+            if let Some(e) = energy {
+                stats.energies.push(e);
+            }
             timings.global += millis(t);
             if !colliders.is_empty() {
                 let t = Instant::now();
@@ -189,6 +199,9 @@ impl<T: Real> Solver<T> {
                     vertex,
                 });
             }
+            if accelerated {
+                std::mem::swap(&mut sys.y_prev, &mut sys.y);
+            }
             std::mem::swap(&mut sys.y, &mut sys.y_next);
             stats.iterations = iteration + 1;
             stats.residual = update.moved;
@@ -197,6 +210,13 @@ impl<T: Real> Solver<T> {
                 stats.converged = true;
                 break;
             }
+        }
+
+        if params.record_energy {
+            let t = Instant::now();
+            evaluate(sys, params.preconditioner);
+            stats.energies.push(total_energy(sys, h));
+            timings.global += millis(t);
         }
 
         let t = Instant::now();
@@ -224,10 +244,8 @@ fn predict<T: Real>(sys: &mut System<T>, h: T, gravity: Vector3<T>) {
     sys.y.copy_from_slice(&sys.y_star);
 }
 
-/// One global iteration: the vertex kernel everywhere, then the per-vertex Jacobi update with
-/// step length, written to `y_next`.
-fn global_step<T: Real>(sys: &mut System<T>, h: T, params: &SolverParams) -> Update {
-    let (step_length, mode) = (params.step_length, params.preconditioner);
+/// The vertex kernel at every vertex of the current iterate `y`.
+fn evaluate<T: Real>(sys: &mut System<T>, mode: Preconditioner) {
     let (nb, rest, y) = (&sys.nb, &sys.rest, &sys.y);
     for_each_vertex(
         &nb.offsets,
@@ -235,10 +253,49 @@ fn global_step<T: Real>(sys: &mut System<T>, h: T, params: &SolverParams) -> Upd
         &mut sys.response,
         &|i, grads: &mut [Vector3<T>]| vertex_kernel(y[i], y, &rest.stencil(nb, i), mode, grads),
     );
+}
+
+/// Vertices per partial sum of [`total_energy`]: fixed, so the sum does not depend on threads.
+const ENERGY_CHUNK: usize = 4096;
+
+/// `E(y) = sum_i m_i |y_i - y*_i|^2 / (2 h^2) + sum_i E_i(y)` (eq. 2 without the barrier, J), from
+/// the responses of the last [`evaluate`].
+fn total_energy<T: Real>(sys: &System<T>, h: T) -> f64 {
+    let inv_2h2 = 0.5 / (h.to_f64() * h.to_f64());
+    let partial: Vec<f64> = (0..sys.y.len())
+        .into_par_iter()
+        .step_by(ENERGY_CHUNK)
+        .map(|start| {
+            (start..(start + ENERGY_CHUNK).min(sys.y.len()))
+                .map(|i| {
+                    let inertia = (sys.y[i] - sys.y_star[i]).norm_squared().to_f64()
+                        * sys.rest.vertices[i].mass.to_f64();
+                    inertia * inv_2h2 + sys.response[i].energy().to_f64()
+                })
+                .sum::<f64>()
+        })
+        .collect();
+    partial.iter().sum()
+}
+
+/// One global iteration: the vertex kernel everywhere, then the per-vertex Jacobi update with
+/// step length (and the Chebyshev extrapolation `omega` when given), written to `y_next`.
+/// Returns the update and, when the solver records it, the energy of the current iterate.
+fn global_step<T: Real>(
+    sys: &mut System<T>,
+    h: T,
+    params: &SolverParams,
+    omega: Option<T>,
+) -> (Update, Option<f64>) {
+    evaluate(sys, params.preconditioner);
+    let energy = params.record_energy.then(|| total_energy(sys, h));
+    let step_length = params.step_length;
+    let (nb, rest, y, y_prev) = (&sys.nb, &sys.rest, &sys.y, &sys.y_prev);
     let (bond_grad, response, y_star, pinned) =
         (&sys.bond_grad, &sys.response, &sys.y_star, &sys.pinned);
     let h2 = h * h;
-    sys.y_next
+    let update = sys
+        .y_next
         .par_iter_mut()
         .enumerate()
         .map(|(k, next)| {
@@ -264,9 +321,13 @@ fn global_step<T: Real>(sys: &mut System<T>, h: T, params: &SolverParams) -> Upd
                     force,
                     step_length.then_some(energy),
                 );
+            if let Some(w) = omega {
+                *next = (*next - y_prev[k]) * w + y_prev[k];
+            }
             Update::of(k, &y[k], next)
         })
-        .reduce(|| Update::NONE, Update::merge)
+        .reduce(|| Update::NONE, Update::merge);
+    (update, energy)
 }
 
 /// One vertex's SISSM move (eq. 25 in residual form, with the step length of eq. 31-33):

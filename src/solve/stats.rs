@@ -30,6 +30,9 @@ pub struct StepStats {
     pub converged: bool,
     /// Residual after each iteration (m).
     pub residuals: Vec<f64>,
+    /// Total variational energy `E(y^k)` of eq. 2 without the barrier (J) for `k = 0..=iterations`,
+    /// when the solver records it (else empty).
+    pub energies: Vec<f64>,
     /// Milliseconds per phase.
     pub timings: Timings,
 }

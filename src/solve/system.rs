@@ -25,6 +25,8 @@ pub(super) struct System<T: Real> {
     /// Current iterate and the next one.
     pub y: Vec<Vector3<T>>,
     pub y_next: Vec<Vector3<T>>,
+    /// The iterate before `y`, kept only while Chebyshev acceleration needs it (else empty).
+    pub y_prev: Vec<Vector3<T>>,
     pub pinned: Vec<bool>,
     /// Scratch of the global step: per-bond gradients and per-vertex responses.
     pub bond_grad: Vec<Vector3<T>>,
@@ -75,6 +77,7 @@ impl<T: Real> System<T> {
             y_star: zeros.clone(),
             y: zeros.clone(),
             y_next: zeros,
+            y_prev: Vec::new(),
             pinned: vec![false; start],
             response: vec![zero_response; start],
         }
