@@ -95,6 +95,23 @@ impl<T: Real> ColliderModel<T> {
         }
     }
 
+    /// Unit outward normal of the surface nearest `x`.
+    #[inline]
+    pub fn normal(&self, x: &Vector3<T>) -> Vector3<T> {
+        match *self {
+            Self::Plane { normal, .. } => normal,
+            Self::Sphere { center, .. } => {
+                let r = x - center;
+                let d = r.norm();
+                if d > T::zero() {
+                    r / d
+                } else {
+                    Vector3::z()
+                }
+            }
+        }
+    }
+
     /// The closest point at distance >= `margin` from the surface: `x` itself when it is
     /// already that far out, else its projection onto the offset surface.
     #[inline]

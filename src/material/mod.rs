@@ -31,6 +31,37 @@ impl Material {
         Ok(Self::NeoHookean { s0, s1 })
     }
 
+    /// The A3 model of a sheet with in-plane Young's modulus `E` (Pa): `s0 = E / 2`. A3 has no
+    /// Poisson coupling, so `nu` must be 0.
+    pub fn stretch_a3_from_young(young: f64, nu: f64) -> Result<Self> {
+        check_param("E", young, |v| v > 0.0, "a finite modulus > 0 Pa")?;
+        if nu != 0.0 {
+            return Err(crate::error::invalid!(
+                "StretchA3 has Poisson's ratio 0 (its principal stretches are uncoupled); got nu = {nu}. \
+                 Use NeoHookean.from_young for nu != 0"
+            ));
+        }
+        Self::stretch_a3(young / 2.0)
+    }
+
+    /// The neo-Hookean model of a sheet with in-plane (plane-stress) Young's modulus `E` (Pa)
+    /// and Poisson ratio `nu`: `s0 = E / (4 (1 + nu))`, `s1 = E nu / (2 (1 - nu^2))`, so that
+    /// the sheet (normal unstretched, plane strain with `mu = 2 s0`, `lambda = 2 s1`) answers a
+    /// small uniaxial stress with strain `sigma / E` and lateral contraction `nu`.
+    pub fn neo_hookean_from_young(young: f64, nu: f64) -> Result<Self> {
+        check_param("E", young, |v| v > 0.0, "a finite modulus > 0 Pa")?;
+        check_param(
+            "nu",
+            nu,
+            |v| (0.0..0.5).contains(&v),
+            "in [0, 0.5) for a sheet",
+        )?;
+        Self::neo_hookean(
+            young / (4.0 * (1.0 + nu)),
+            young * nu / (2.0 * (1.0 - nu * nu)),
+        )
+    }
+
     /// Small-strain shear modulus (Pa).
     pub fn shear_modulus(&self) -> f64 {
         match *self {

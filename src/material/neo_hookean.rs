@@ -4,13 +4,16 @@
 
 use crate::real::Real;
 
-/// `Psi` (J/m^3) for `s0`, `s1` (Pa).
+/// `Psi` (J/m^3) for `s0`, `s1` (Pa), written as `s0 sum_m (x - 1 - ln x)` with `x = lambda_m^2`
+/// (each term >= 0) plus `s1 (J - 1)^2`, and clamped at 0 against round-off.
 #[inline]
 pub fn energy<T: Real>(s0: T, s1: T, l: [T; 3]) -> T {
-    let i1 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
     let j = l[0] * l[1] * l[2];
-    let ln_i3 = (l[0].abs().ln() + l[1].abs().ln() + l[2].abs().ln()) * T::of(2.0);
-    s0 * (i1 - T::of(3.0) - ln_i3) + s1 * (j - T::one()) * (j - T::one())
+    let shear = l.iter().fold(T::zero(), |acc, &s| {
+        let u = (s - T::one()) * (s + T::one());
+        acc + (u - u.ln_1p()).max(T::zero())
+    });
+    s0 * shear + s1 * (j - T::one()) * (j - T::one())
 }
 
 /// `P+ = 2 s0 lambda + 2 s1 I3 / lambda`, `P- = -2 (s0 + s1 J) / lambda` (eq. 38).

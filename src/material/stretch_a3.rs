@@ -4,13 +4,16 @@
 
 use crate::real::Real;
 
-/// `Psi` (J/m^3) for stiffness `s0` (Pa).
+/// `Psi` (J/m^3) for stiffness `s0` (Pa), evaluated as the product
+/// `A3(s) = (s^2 - 1)^2 (s^2 + 2) / (12 s^2)`, which is >= 0 in floating point too (the
+/// textbook sum cancels near s = 1).
 #[inline]
 pub fn energy<T: Real>(s0: T, l: [T; 3]) -> T {
-    let (quarter, half, third) = (T::of(0.25), T::of(0.5), T::of(1.0 / 3.0));
+    let twelfth = T::of(1.0 / 12.0);
     l.iter().fold(T::zero(), |acc, &s| {
         let s2 = s * s;
-        acc + ((s2 * s2 - T::one()) * quarter + (T::one() / s2 - T::one()) * half) * third
+        let strain = (s - T::one()) * (s + T::one());
+        acc + strain * strain * (s2 + T::of(2.0)) / s2 * twelfth
     }) * s0
 }
 

@@ -17,17 +17,22 @@
 //!
 //! ## Energy of vertex i
 //!
-//! `E_i = V_i Psi(sigma_1, sigma_2, 1) + 1/2 sum_j q_j^T W_i q_j`, with the non-affine residual
-//! `q_j = F^-1 (y_j - y_i) - xi_j` (zero for every affine map of a flat sheet) and
-//! `W_i = kappa_t (I - nc nc^T) + kappa_n nc nc^T`. The normal part is the bending energy of
-//! eq. 42 (`kb` = `kappa_n`), the in-plane part is an hourglass penalty that removes the
-//! zero-energy modes of the 1-ring deformation gradient (a checkerboard displacement leaves F
-//! unchanged).
+//! `E_i = V_i Psi(sigma_1, sigma_2, 1) + E_bend + E_hourglass`, from the non-affine residuals
+//! `q_j = F^-1 (y_j - y_i) - xi_j` (zero for every affine map of a flat sheet):
+//!
+//! - bending (eq. 42 made isotropic): the normal residuals of a bent sheet are
+//!   `q_j . nc = 1/2 xi_j^T H xi_j` with H the curvature tensor, so H is fitted to them by least
+//!   squares over the 1-ring and `E_bend = A_i D / 2 |H|_F^2 = 1/2 |sum_j c_j (q_j . nc)|^2`
+//!   with per-bond vectors `c_j` (`BondRest::curvature`) computed at rest;
+//! - hourglass: `E_hourglass = kappa_t / 2 sum_j |q_j - nc (q_j . nc)|^2`, a penalty on the
+//!   in-plane zero-energy modes of the 1-ring deformation gradient (a checkerboard
+//!   displacement leaves F unchanged).
 //!
 //! ## Gradient
 //!
 //! `dE_i/d(y_j - y_i) = beta_j1 g_1 + beta_j2 g_2 + d_j`, with `g_k = dE_i/da_k` and
-//! `d_j = F^-T W q_j` (the explicit bending term of eq. 43 with `F^-T`, see DESIGN.md). The
+//! `d_j = F^-T W_j q_j`, `W_j q = kappa_t (q - nc (q . nc)) + nc (c_j . h)` (the explicit bending
+//! term of eq. 43 with `F^-T`, see DESIGN.md). The
 //! stretch part is `g_k = V_i sum_m P_m u_m v_mk` (`T = U diag(sigma) V^T`, eq. 19); the
 //! non-affine part adds `-(sum_j d_j (F^-1 e_j)^T) t_k` and the director term
 //! `a2 x p`, `p x a1` with `p = (I - n n^T) h / |a1 x a2|`, `h = -(sum_j d_j (F^-1 e_j)^T) nc`.
@@ -35,7 +40,7 @@
 //! ## Preconditioner (eq. 24-26)
 //!
 //! `C_i = V_i k [w_1 u1 u1^T + w_2 u2 u2^T + w_n n n^T] + kappa_t sum_m u_m u_m^T / sigma_m^2
-//! + kappa_n n n^T`: the Hessian of the quadratic model `1/2 sum_j e_j^T C_i e_j` whose bond
+//! + kappa_n n n^T` with `kappa_n = lambda_max(sum_j c_j c_j^T)` bounding the bending term: the Hessian of the quadratic model `1/2 sum_j e_j^T C_i e_j` whose bond
 //! Laplacian SISSM inverts approximately; see [`Preconditioner`] for the stretching weights.
 
 use nalgebra::{Matrix3, Vector3};
@@ -181,17 +186,25 @@ pub fn vertex_kernel<T: Real>(
         let rw1 = frame.t1 * v1[0] + frame.t2 * v1[1];
         let rw2 = frame.t1 * v2[0] + frame.t2 * v2[1];
         let inv = [T::one() / def.sigma[0], T::one() / def.sigma[1]];
-        let (mut h1, mut h2, mut hn) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
+        // First pass: the rest-frame images F^-1 e_j (kept in bond_grad for the second pass) and
+        // the fitted curvature h = sum_j curvature_j (q_j . nc).
+        let mut curvature = Vector3::zeros();
         for ((&j, b), out) in neighbors.iter().zip(bonds).zip(bond_grad.iter_mut()) {
             let e = y[j as usize] - yi;
-            let (c1, c2, cn) = (u1.dot(&e) * inv[0], u2.dot(&e) * inv[1], n.dot(&e));
-            let rest_image = rw1 * c1 + rw2 * c2 + frame.nc * cn; // F^-1 e
+            let rest_image =
+                rw1 * (u1.dot(&e) * inv[0]) + rw2 * (u2.dot(&e) * inv[1]) + frame.nc * n.dot(&e);
+            curvature += b.curvature * (rest_image - b.xi).dot(&frame.nc);
+            *out = rest_image;
+        }
+        bending = T::of(0.5) * curvature.norm_squared();
+        let (mut h1, mut h2, mut hn) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
+        for (b, out) in bonds.iter().zip(bond_grad.iter_mut()) {
+            let rest_image = *out;
             let q = rest_image - b.xi;
             let q_n = q.dot(&frame.nc);
             let q_t = q - frame.nc * q_n;
-            bending += c.kappa_n * q_n * q_n;
             hourglass += c.kappa_t * q_t.norm_squared();
-            let wq = q_t * c.kappa_t + frame.nc * (c.kappa_n * q_n);
+            let wq = q_t * c.kappa_t + frame.nc * b.curvature.dot(&curvature);
             let d =
                 u1 * (rw1.dot(&wq) * inv[0]) + u2 * (rw2.dot(&wq) * inv[1]) + n * frame.nc.dot(&wq);
             *out = d;
@@ -199,9 +212,7 @@ pub fn vertex_kernel<T: Real>(
             h2 += d * rest_image.dot(&frame.t2);
             hn += d * rest_image.dot(&frame.nc);
         }
-        let half = T::of(0.5);
-        bending *= half;
-        hourglass *= half;
+        hourglass *= T::of(0.5);
         g1 -= h1;
         g2 -= h2;
         let p = (-hn + n * n.dot(&hn)) / def.area_ratio.max(T::min_stretch() * T::min_stretch());

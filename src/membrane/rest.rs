@@ -22,11 +22,14 @@ pub struct Frame<T: Real> {
 }
 
 /// Rest data of a bond `i -> j`: `beta = (xi^T K_i^-1 t1, xi^T K_i^-1 t2)`, so that the
-/// deformed tangent vectors are `a_k = sum_j beta_jk (y_j - y_i)`, and the rest bond `xi`.
+/// deformed tangent vectors are `a_k = sum_j beta_jk (y_j - y_i)`; the rest bond `xi`; and
+/// `curvature`, this bond's column of the scaled least-squares curvature fit: the bending
+/// energy of the vertex is `1/2 |sum_j curvature_j (q_j . nc)|^2` (J).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BondRest<T: Real> {
     pub beta: [T; 2],
     pub xi: Vector3<T>,
+    pub curvature: Vector3<T>,
 }
 
 /// Per-vertex constants.
@@ -44,7 +47,8 @@ pub struct VertexConstants<T: Real> {
     pub k_bound: T,
     /// In-plane (hourglass) stiffness of the non-affine energy (N/m).
     pub kappa_t: T,
-    /// Normal (bending) stiffness of the non-affine energy (N/m).
+    /// Bound on the bending stiffness per bond, `lambda_max(sum_j c_j c_j^T)` (N/m), for the
+    /// preconditioner.
     pub kappa_n: T,
     /// Half the thickness (m): colliders keep the mid-surface this far away.
     pub half_thickness: T,
@@ -68,9 +72,10 @@ impl RestData<f64> {
     /// `c = K_i^-1 x_perp`; on it the deformation gradient of eq. 15 is independent of the
     /// virtual bond.
     ///
-    /// Non-affine stiffnesses (see `kernel.rs`): bending `kappa_n = 32 D A_i / (3 sum_j |xi|^4)`
-    /// makes a cylindrical bend of curvature k store `D k^2 / 2` per unit area (averaged over
-    /// bend directions); hourglass `kappa_t = hourglass * mu * V_i * k_iso`.
+    /// Bending: the curvature tensor H (in `t1, t2` coordinates) is fitted by least squares to
+    /// the normal residuals, `q_j . nc ~ 1/2 xi_j^T H xi_j`, and the energy is `A_i D / 2 |H|_F^2`,
+    /// a Kirchhoff plate with bending Poisson ratio 0 (a cylindrical bend of curvature k stores
+    /// `D k^2 / 2` per area in any direction). Hourglass: `kappa_t = hourglass * mu * V_i * k_iso`.
     pub fn new(mesh: &TriangleMesh, nb: &Neighborhood, params: &MembraneParams) -> Result<Self> {
         let x = mesh.vertices();
         let normals = angle_weighted_normals(mesh)?;
@@ -84,12 +89,11 @@ impl RestData<f64> {
         for i in 0..x.len() {
             let x_perp = normals[i] * half;
             let mut k = x_perp * x_perp.transpose();
-            let (mut sum2, mut sum4) = (0.0, 0.0);
+            let mut sum2 = 0.0;
             for &j in nb.of(i) {
                 let xi = x[j as usize] - x[i];
                 k += xi * xi.transpose();
                 sum2 += xi.norm_squared();
-                sum4 += xi.norm_squared().powi(2);
             }
             let k_inv = invert_shape_tensor(i, &k)?;
             let nc = (k_inv * x_perp).normalize();
@@ -104,8 +108,11 @@ impl RestData<f64> {
                 bonds.push(BondRest {
                     beta: [beta.x, beta.y],
                     xi,
+                    curvature: Vector3::zeros(),
                 });
             }
+            let first = bonds.len() - nb.of(i).len();
+            let kappa_n = curvature_fit(&mut bonds[first..], &t1, &t2, params.bending * areas[i]);
             frames.push(Frame { t1, t2, nc });
             let volume = params.thickness * areas[i];
             let k_iso = 2.0 / sum2;
@@ -115,7 +122,7 @@ impl RestData<f64> {
                 k_iso,
                 k_bound: beta_gram.symmetric_eigen().eigenvalues.max(),
                 kappa_t: params.hourglass * mu * volume * k_iso,
-                kappa_n: 32.0 * params.bending * areas[i] / (3.0 * sum4),
+                kappa_n,
                 half_thickness: half,
                 material,
             });
@@ -146,6 +153,7 @@ impl RestData<f64> {
                 .map(|b| BondRest {
                     beta: b.beta.map(T::of),
                     xi: v(&b.xi),
+                    curvature: v(&b.curvature),
                 })
                 .collect(),
             vertices: self
@@ -210,6 +218,49 @@ impl<T: Real> RestData<T> {
             vertices: Vec::new(),
         }
     }
+}
+
+/// Fills the bonds' `curvature` vectors of one vertex and returns the preconditioner bound
+/// `lambda_max(sum_j c_j c_j^T)`.
+///
+/// With `phi_j = 1/2 (x^2, y^2, 2xy)` for `(x, y)` the bond in `(t1, t2)` coordinates, the fitted
+/// curvature is `H = (Phi^T Phi)^+ Phi^T q_n`. Scaling by `sqrt(A D) diag(1, 1, sqrt 2)` makes
+/// `|c|^2 = A D |H|_F^2`. Directions the 1-ring cannot resolve (a corner vertex with two
+/// neighbours) are left out of the pseudo-inverse.
+fn curvature_fit(
+    bonds: &mut [BondRest<f64>],
+    t1: &Vector3<f64>,
+    t2: &Vector3<f64>,
+    area_rigidity: f64,
+) -> f64 {
+    if area_rigidity == 0.0 {
+        return 0.0;
+    }
+    let phi = |xi: &Vector3<f64>| {
+        let (x, y) = (xi.dot(t1), xi.dot(t2));
+        Vector3::new(0.5 * x * x, 0.5 * y * y, x * y)
+    };
+    let gram: Matrix3<f64> = bonds
+        .iter()
+        .map(|b| phi(&b.xi) * phi(&b.xi).transpose())
+        .sum();
+    let eig = gram.symmetric_eigen();
+    let top = eig.eigenvalues.max();
+    let mut pinv = Matrix3::zeros();
+    for k in 0..3 {
+        let l = eig.eigenvalues[k];
+        if l > 1e-9 * top {
+            let v = eig.eigenvectors.column(k);
+            pinv += v * v.transpose() / l;
+        }
+    }
+    let scale = Vector3::new(1.0, 1.0, std::f64::consts::SQRT_2) * area_rigidity.sqrt();
+    let mut outer = Matrix3::zeros();
+    for b in bonds.iter_mut() {
+        b.curvature = (pinv * phi(&b.xi)).component_mul(&scale);
+        outer += b.curvature * b.curvature.transpose();
+    }
+    outer.symmetric_eigen().eigenvalues.max()
 }
 
 /// `K^-1`, refusing shape tensors too ill-conditioned to invert reliably.

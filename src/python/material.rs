@@ -102,12 +102,9 @@ material_class!(PyStretchA3, {
     #[pyo3(signature = (E, nu = 0.0))]
     #[allow(non_snake_case)]
     fn from_young(E: f64, nu: f64) -> PyResult<Self> {
-        if nu != 0.0 {
-            return Err(PyValueError::new_err(format!(
-                "StretchA3 has Poisson's ratio 0 (its principal stretches are uncoupled); got nu = {nu}. Use NeoHookean.from_young for nu != 0"
-            )));
-        }
-        Self::new(E / 2.0)
+        Ok(Self {
+            inner: Material::stretch_a3_from_young(E, nu).py()?,
+        })
     }
     /// Stiffness (Pa).
     #[getter]
@@ -142,17 +139,9 @@ material_class!(PyNeoHookean, {
     #[staticmethod]
     #[allow(non_snake_case)]
     fn from_young(E: f64, nu: f64) -> PyResult<Self> {
-        if !(E.is_finite() && E > 0.0) {
-            return Err(PyValueError::new_err(format!(
-                "E must be a finite modulus > 0 Pa, got {E}"
-            )));
-        }
-        if !(nu.is_finite() && (0.0..0.5).contains(&nu)) {
-            return Err(PyValueError::new_err(format!(
-                "nu must be in [0, 0.5) for a sheet, got {nu}"
-            )));
-        }
-        Self::new(E / (4.0 * (1.0 + nu)), E * nu / (2.0 * (1.0 - nu * nu)))
+        Ok(Self {
+            inner: Material::neo_hookean_from_young(E, nu).py()?,
+        })
     }
     #[getter]
     fn s0(&self) -> f64 {

@@ -293,6 +293,11 @@ impl PyStepStats {
     fn residual(&self) -> f64 {
         self.inner.residual
     }
+    /// Estimated distance (m) from the result to the exact implicit Euler solution.
+    #[getter]
+    fn error_estimate(&self) -> f64 {
+        self.inner.error_estimate
+    }
     #[getter]
     fn converged(&self) -> bool {
         self.inner.converged

@@ -1,0 +1,60 @@
+"""peridyn: thin hyperelastic membranes (cloth) with contact, by projective peridynamics.
+
+The simulation runs in a compiled Rust core (:mod:`peridyn._core`); this package re-exports it
+and adds Python helpers: mesh building and loading (:mod:`peridyn.mesh`), output
+(:mod:`peridyn.io`), pictures (:mod:`peridyn.render`), a ``run`` loop with progress bar
+(:class:`peridyn.Solver`) and ready-made scenes (:mod:`peridyn.scenes`).
+
+All quantities are SI: metres, kilograms, seconds, pascals, joules.
+"""
+
+from . import _core
+from ._core import (
+    DivergenceError,
+    Membrane,
+    NeoHookean,
+    Plane,
+    Sphere,
+    StepStats,
+    StretchA3,
+)
+from .io import FrameRecorder, write_mesh
+from .materials import plate_bending_stiffness
+from .mesh import grid, load_mesh
+from .render import draw_scene, render_png
+from .scenes import Scene, default_scene
+from .solver import RunSummary, Solver
+
+__version__: str = _core.__version__
+
+__all__ = [
+    # Rust core
+    "DivergenceError",
+    "Membrane",
+    "NeoHookean",
+    "Plane",
+    "Solver",
+    "Sphere",
+    "StepStats",
+    "StretchA3",
+    # Python layer
+    "FrameRecorder",
+    "RunSummary",
+    "Scene",
+    "default_scene",
+    "draw_scene",
+    "grid",
+    "load_mesh",
+    "plate_bending_stiffness",
+    "render_png",
+    "write_mesh",
+    "__version__",
+]
+
+# Anything else the core makes public is re-exported too (the core may grow faster than this list).
+_name = ""
+for _name in dir(_core):
+    if not _name.startswith("_") and _name not in globals():
+        globals()[_name] = getattr(_core, _name)
+        __all__.append(_name)
+del _name

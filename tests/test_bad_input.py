@@ -1,0 +1,295 @@
+"""Bad input: every case raises ValueError naming the offending index and/or value; no Rust panic
+(pyo3 PanicException derives from BaseException) may reach Python."""
+
+import re
+
+import numpy as np
+import pytest
+
+import peridyn
+from conftest import make_grid, membrane
+
+NAN = float("nan")
+INF = float("inf")
+
+
+def expect_value_error(fn, *patterns):
+    """Call fn; it must raise ValueError (a panic or any other exception fails the test) whose
+    message matches every regex in ``patterns`` (case-insensitive)."""
+    try:
+        fn()
+    except BaseException as e:  # noqa: BLE001 - on purpose: a PanicException must fail here
+        assert isinstance(e, ValueError), f"expected ValueError, got {type(e).__name__}: {e}"
+        msg = str(e)
+        for p in patterns:
+            assert re.search(p, msg, flags=re.IGNORECASE), f"{p!r} not in message {msg!r}"
+        return msg
+    pytest.fail("no exception raised")
+
+
+def expect_clean_error(fn, types=(ValueError, TypeError, OverflowError)):
+    """Some inputs may fairly be a TypeError (wrong Python type) or an OverflowError (negative
+    value for an unsigned argument); never a panic."""
+    try:
+        fn()
+    except BaseException as e:  # noqa: BLE001
+        assert isinstance(e, types), f"expected {types}, got {type(e).__name__}: {e}"
+        return
+    pytest.fail("no exception raised")
+
+
+def new(v, t, **kw):
+    args = dict(thickness=1e-3, density=100.0, material=peridyn.StretchA3(s0=1e3))
+    args.update(kw)
+    return lambda: peridyn.Membrane(v, t, **args)
+
+
+@pytest.fixture
+def mesh():
+    return make_grid(4, 4, 1.0, 1.0)  # 16 vertices, 18 triangles
+
+
+# ------------------------------------------------------------------------------------------------
+# arrays of the mesh
+
+
+def test_vertex_array_shapes(mesh):
+    v, t = mesh
+    expect_value_error(new(v[:, :2], t), r"vert", r"16\D+2\b")
+    expect_value_error(new(v.ravel(), t), r"vert", r"48")
+    expect_value_error(new(np.zeros((16, 3, 1)), t), r"vert")
+    expect_value_error(new(np.zeros((0, 3)), np.zeros((0, 3), int)), r"vert|triang|empty")
+
+
+def test_triangle_array_shapes(mesh):
+    v, t = mesh
+    expect_value_error(new(v, np.c_[t, t[:, :1]]), r"triang", r"18\D+4\b")
+    expect_value_error(new(v, t.ravel()), r"triang", r"54")
+    expect_value_error(new(v, np.zeros((0, 3), int)), r"triang|empty")
+
+
+@pytest.mark.parametrize("bad", [NAN, INF, -INF])
+def test_non_finite_vertex_names_index(mesh, bad):
+    v, t = mesh
+    v = v.copy()
+    v[7, 1] = bad
+    expect_value_error(new(v, t), r"\b7\b", r"nan|inf|finite")
+
+
+def test_triangle_index_out_of_range(mesh):
+    v, t = mesh
+    t = t.copy()
+    t[5, 2] = 19
+    expect_value_error(new(v, t), r"\b5\b", r"\b19\b")
+    t = mesh[1].copy()
+    t[11, 0] = 2**40
+    expect_value_error(new(v, t), r"\b11\b", str(2**40))
+
+
+def test_negative_triangle_index(mesh):
+    v, t = mesh
+    t = t.copy()
+    t[4, 1] = -1
+    expect_value_error(new(v, t), r"\b4\b", r"-1\b")
+
+
+def test_degenerate_triangle_repeated_index(mesh):
+    v, t = mesh
+    t = t.copy()
+    t[3] = [t[3, 0], t[3, 0], t[3, 2]]
+    expect_value_error(new(v, t), r"\b3\b")
+
+
+def test_degenerate_triangle_zero_area():
+    # 0-1-2 collinear on the x axis; 3 above: triangles 0 and 1 are fine, triangle 2 is a sliver of
+    # zero area along edge 0-2 (edges 0-1 and 1-2 each in two triangles: manifold).
+    v = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [1, 1, 0]], float)
+    t = np.array([[0, 1, 3], [1, 2, 3], [0, 2, 1]])
+    expect_value_error(new(v, t), r"\b2\b", r"area|degenerate|collinear")
+
+
+def test_duplicate_triangle(mesh):
+    v, t = mesh
+    t2 = np.vstack([t, t[[6]]])  # triangle 18 repeats triangle 6
+    expect_value_error(new(v, t2), r"\b18\b|\b6\b", r"duplicate")
+    t3 = np.vstack([t, t[[6]][:, [1, 2, 0]]])  # same triangle, rotated index order
+    expect_value_error(new(v, t3), r"\b18\b|\b6\b", r"duplicate")
+
+
+def test_non_manifold_edge():
+    # edge (3, 4) shared by three triangles with apexes 0, 1, 2
+    v = np.array([[0, 1, 0], [0, -1, 0], [0, 0, 1], [-1, 0, 0], [1, 0, 0]], float)
+    t = np.array([[3, 4, 0], [4, 3, 1], [3, 4, 2]])
+    expect_value_error(new(v, t), r"manifold|edge", r"\b3\b", r"\b4\b")
+
+
+def test_unused_vertex(mesh):
+    v, t = mesh
+    v2 = np.vstack([v, [[5.0, 5.0, 0.0]]])  # vertex 16 is in no triangle
+    expect_value_error(new(v2, t), r"\b16\b")
+
+
+# ------------------------------------------------------------------------------------------------
+# scalar parameters
+
+
+@pytest.mark.parametrize("name,value", [
+    ("thickness", 0.0), ("thickness", -1.5), ("thickness", NAN), ("thickness", INF),
+    ("density", 0.0), ("density", -2.5), ("density", NAN),
+    ("bending", -0.25), ("bending", NAN),
+    ("hourglass", -0.75), ("hourglass", NAN),
+])
+def test_bad_membrane_parameter(mesh, name, value):
+    v, t = mesh
+    pat = r"nan" if np.isnan(value) else (r"inf" if np.isinf(value) else re.escape(repr(value))
+                                           .replace(r"\.0", r"(\.0*)?"))
+    expect_value_error(new(v, t, **{name: value}), name, pat)
+
+
+def test_bad_neighbors(mesh):
+    v, t = mesh
+    expect_value_error(new(v, t, neighbors=0), r"neighbo", r"\b0\b")
+    expect_clean_error(new(v, t, neighbors=-1))
+
+
+@pytest.mark.parametrize("kw", [dict(s0=-1.0), dict(s0=NAN), dict(s0=INF)])
+def test_bad_stretch_a3(kw):
+    pat = r"nan" if np.isnan(kw["s0"]) else (r"inf" if np.isinf(kw["s0"]) else r"-1")
+    expect_value_error(lambda: peridyn.StretchA3(**kw), r"s0", pat)
+
+
+@pytest.mark.parametrize("kw,name", [(dict(s0=-1.0, s1=1.0), "s0"), (dict(s0=1.0, s1=-3.0), "s1"),
+                                     (dict(s0=NAN, s1=1.0), "s0"), (dict(s0=1.0, s1=NAN), "s1")])
+def test_bad_neohookean(kw, name):
+    expect_value_error(lambda: peridyn.NeoHookean(**kw), name)
+
+
+def test_bad_from_young():
+    expect_value_error(lambda: peridyn.StretchA3.from_young(1e5, 0.3), r"nu|poisson", r"0\.3")
+    expect_value_error(lambda: peridyn.StretchA3.from_young(-1e5), r"-100000|-1(\.0*)?e\+?0*5")
+    expect_value_error(lambda: peridyn.NeoHookean.from_young(1e5, 0.5), r"0\.5")  # s1 infinite
+    expect_value_error(lambda: peridyn.NeoHookean.from_young(1e5, -1.0), r"-1")  # s0 infinite
+    expect_value_error(lambda: peridyn.NeoHookean.from_young(0.0, 0.3))
+    expect_value_error(lambda: peridyn.NeoHookean.from_young(NAN, 0.3), r"nan")
+
+
+def test_wrong_material_type(mesh):
+    v, t = mesh
+    expect_clean_error(new(v, t, material="steel"))
+
+
+@pytest.mark.parametrize("kw,pat", [
+    (dict(dt=0.0), r"dt"), (dict(dt=-1e-3), r"dt"), (dict(dt=NAN), r"dt"), (dict(dt=INF), r"dt"),
+    (dict(dt=1e-3, tol=-1e-6), r"tol"), (dict(dt=1e-3, tol=NAN), r"tol"),
+    (dict(dt=1e-3, max_iters=0), r"max_iters"),
+    (dict(dt=1e-3, gravity=(0.0, NAN, 0.0)), r"gravity"),
+    (dict(dt=1e-3, gravity=(0.0, 1.0)), r"gravity|length|\b3\b"),
+])
+def test_bad_solver_parameter(kw, pat):
+    expect_value_error(lambda: peridyn.Solver(**kw), pat)
+
+
+def test_bad_solver_misc():
+    expect_clean_error(lambda: peridyn.Solver(dt=1e-3, max_iters=-1))
+    expect_clean_error(lambda: peridyn.Solver(dt=1e-3, threads=0))
+    s = peridyn.Solver(dt=1e-3)
+    expect_value_error(lambda: setattr(s, "dt", 0.0), r"dt")
+    expect_value_error(lambda: setattr(s, "dt", NAN), r"dt")
+    assert s.dt == 1e-3  # unchanged by the failed sets
+    expect_clean_error(lambda: s.add("cloth"))
+    expect_clean_error(lambda: s.add_collider("sphere"))
+
+
+# ------------------------------------------------------------------------------------------------
+# pins and state setters
+
+
+def test_bad_pins(mesh):
+    v, t = mesh
+    m = membrane(v, t)
+    expect_value_error(lambda: m.pin([0, 99]), r"\b99\b")
+    expect_value_error(lambda: m.pin([-2]), r"-2\b")
+    expect_value_error(lambda: m.pin([0, 1], np.zeros((3, 3))), r"target|shape", r"\b3\b")
+    expect_value_error(lambda: m.pin([0, 1], np.zeros((2, 2))), r"target|shape")
+    expect_value_error(lambda: m.pin([0, 1], [[0, 0, 0], [0, NAN, 0]]), r"nan|finite", r"\b1\b")
+    expect_value_error(lambda: m.unpin([42]), r"\b42\b")
+    assert m.pinned.shape == (0,)  # failed calls pinned nothing
+    m.pin([2, 5])
+    expect_value_error(lambda: setattr(m, "pin_targets", np.zeros((3, 3))), r"\b3\b|\b2\b")
+    bad = np.zeros((2, 3))
+    bad[1, 2] = INF
+    expect_value_error(lambda: setattr(m, "pin_targets", bad), r"inf|finite")
+    np.testing.assert_array_equal(m.pin_targets, v[[2, 5]])  # unchanged
+
+
+@pytest.mark.parametrize("attr", ["positions", "velocities"])
+def test_bad_state_setters(mesh, attr):
+    v, t = mesh
+    m = membrane(v, t)
+    before = getattr(m, attr)
+    expect_value_error(lambda: setattr(m, attr, np.zeros((15, 3))), r"15|16")
+    expect_value_error(lambda: setattr(m, attr, np.zeros((16, 2))), r"\b2\b|shape")
+    bad = v.copy()
+    bad[5, 0] = NAN
+    expect_value_error(lambda: setattr(m, attr, bad), r"\b5\b", r"nan|finite")
+    bad[5, 0] = 0.0
+    bad[9, 2] = -INF
+    expect_value_error(lambda: setattr(m, attr, bad), r"\b9\b", r"inf|finite")
+    np.testing.assert_array_equal(getattr(m, attr), before)  # unchanged
+
+
+def test_bad_material_queries():
+    mat = peridyn.StretchA3(s0=1.0)
+    expect_value_error(lambda: mat.stress(np.ones((4, 2))), r"3|shape")
+    expect_value_error(lambda: mat.energy_density(np.ones(5)), r"3|shape")
+
+
+# ------------------------------------------------------------------------------------------------
+# colliders
+
+
+def test_bad_colliders():
+    expect_value_error(lambda: peridyn.Sphere(center=(0, 0, 0), radius=0.0), r"radius", r"\b0")
+    expect_value_error(lambda: peridyn.Sphere(center=(0, 0, 0), radius=-0.5), r"radius", r"-0\.5")
+    expect_value_error(lambda: peridyn.Sphere(center=(0, 0, 0), radius=NAN), r"radius", r"nan")
+    expect_value_error(lambda: peridyn.Sphere(center=(0, NAN, 0), radius=1.0), r"center|nan")
+    expect_value_error(lambda: peridyn.Sphere(center=(0, 0), radius=1.0), r"center|length|\b3\b")
+    expect_value_error(lambda: peridyn.Plane(normal=(0, 0, 0)), r"normal")
+    expect_value_error(lambda: peridyn.Plane(normal=(0, NAN, 1)), r"normal|nan")
+    expect_value_error(lambda: peridyn.Plane(point=(INF, 0, 0)), r"point|inf")
+    sp = peridyn.Sphere(center=(0, 0, 0), radius=1.0)
+    expect_value_error(lambda: sp.signed_distance(np.zeros((4, 2))), r"shape|3")
+
+
+# ------------------------------------------------------------------------------------------------
+# divergence
+
+
+def test_diverging_step_raises_and_keeps_state(mesh):
+    """Velocities of 1e300 make the step non-finite: DivergenceError (a RuntimeError), and the
+    positions, velocities, time and step count stay exactly those before the step; after resetting
+    the velocities, the solver steps normally again."""
+    assert issubclass(peridyn.DivergenceError, RuntimeError)
+    v, t = mesh
+    m = membrane(v, t, bending=1e-3, hourglass=0.5)
+    m.pin([0])
+    s = peridyn.Solver(dt=1e-2, tol=1e-6, max_iters=20)
+    s.add(m)
+    s.step()
+    s.step()
+    vel = np.random.default_rng(0).choice([-1.0, 1.0], size=v.shape) * 1e300
+    m.velocities = vel
+    y_before = m.positions
+    time_before, steps_before = s.time, s.steps_taken
+    try:
+        s.step()
+    except BaseException as e:  # noqa: BLE001
+        assert isinstance(e, peridyn.DivergenceError), f"{type(e).__name__}: {e}"
+    else:
+        pytest.fail("no DivergenceError")
+    assert np.array_equal(m.positions, y_before)
+    assert np.array_equal(m.velocities, vel)
+    assert s.time == time_before and s.steps_taken == steps_before
+    m.velocities = np.zeros_like(vel)
+    st = s.step()
+    assert np.all(np.isfinite(m.positions)) and st.step == steps_before
