@@ -370,14 +370,19 @@ fn jacobi_update<T: Real>(
                 stiffness += response[j as usize].precond;
                 energy += response[j as usize].energy();
             }
-            *next = y[k]
-                + jacobi_step(
-                    mass,
-                    stiffness * h2,
-                    residual,
-                    force * h2,
-                    step_length.then_some(energy * h2),
-                );
+            let (delta, inverse) = jacobi_step(
+                mass,
+                stiffness * h2,
+                residual,
+                force * h2,
+                step_length.then_some(energy * h2),
+            );
+            *next = keep_out(
+                y[k] + delta,
+                &inverse,
+                rest.vertices[k].half_thickness,
+                colliders,
+            );
             if let Some(w) = omega {
                 *next = (*next - y_prev[k]) * w + y_prev[k];
             }
@@ -418,8 +423,8 @@ fn without_contact_reaction<T: Real>(
 }
 
 /// One vertex's SISSM move (eq. 25 in residual form, with the step length of eq. 31-33):
-/// `delta = (m I + A)^-1 r` with `A` the implicit stiffness and `r = m (y* - y) + h^2 f` (all
-/// forces already times `h^2`). With `A = 0` this is plain successive substitution.
+/// `delta = D^-1 r` with `D = m I + A`, `A` the implicit stiffness and `r = m (y* - y) + h^2 f`
+/// (all forces already times `h^2`). With `A = 0` this is plain successive substitution.
 ///
 /// Given the vertex's elastic energy `E >= 0` (times `h^2`), the move is scaled by
 /// `alpha = E / (h^2 f . delta)` where the linearised elastic energy would drop below zero
@@ -427,6 +432,8 @@ fn without_contact_reaction<T: Real>(
 /// inertial cost, `h^2 f . delta > STEP_LENGTH_SIGNIFICANCE m |delta|^2`: below it the
 /// release is either harmless or rounding noise (a vertex at rest has `E` and `f` at round-off
 /// level, and cutting there would freeze it).
+///
+/// Returns the move and `D^-1`.
 #[inline]
 pub fn jacobi_step<T: Real>(
     mass: T,
@@ -434,19 +441,48 @@ pub fn jacobi_step<T: Real>(
     residual: Vector3<T>,
     force_h2: Vector3<T>,
     energy_h2: Option<T>,
-) -> Vector3<T> {
+) -> (Vector3<T>, Matrix3<T>) {
     let system = Matrix3::from_diagonal_element(mass) + stiffness;
-    let delta = system.try_inverse().map_or(residual / mass, |inv| inv * residual);
+    let inverse = system
+        .try_inverse()
+        .unwrap_or_else(|| Matrix3::from_diagonal_element(T::one() / mass));
+    let delta = inverse * residual;
     let Some(energy_h2) = energy_h2 else {
-        return delta;
+        return (delta, inverse);
     };
     let descent = force_h2.dot(&delta);
     let significant = descent > T::of(STEP_LENGTH_SIGNIFICANCE) * mass * delta.norm_squared();
     if descent > energy_h2 && significant {
-        delta * (energy_h2.max(T::zero()) / descent)
+        (delta * (energy_h2.max(T::zero()) / descent), inverse)
     } else {
-        delta
+        (delta, inverse)
     }
+}
+
+/// Keeps a Jacobi move out of the colliders in the metric of its system matrix `D`: where
+/// `y` would end inside (closer than `margin`), it moves along `D^-1 n` instead of `n`, i.e.
+/// it solves `min 1/2 d^T D d - r^T d` subject to the tangent plane of the contact. A
+/// Euclidean projection with an anisotropic `D` would leave a tangential residual
+/// `lambda (D n)_t` at its fixed point: frictionless contact would stick.
+#[inline]
+fn keep_out<T: Real>(
+    mut y: Vector3<T>,
+    inverse: &Matrix3<T>,
+    margin: T,
+    colliders: &[ColliderModel<T>],
+) -> Vector3<T> {
+    for c in colliders {
+        let gap = c.signed_distance(&y) - margin;
+        if gap < T::zero() {
+            let n = c.normal(&y);
+            let along = inverse * n;
+            let reach = n.dot(&along);
+            if reach > T::zero() {
+                y -= along * (gap / reach);
+            }
+        }
+    }
+    y
 }
 
 /// See [`jacobi_step`].
@@ -505,6 +541,7 @@ mod tests {
                     Vector3::zeros(),
                     None,
                 )
+                .0
                 .x;
                 x += step;
                 if k >= 50 {
@@ -530,11 +567,11 @@ mod tests {
     fn step_length_stops_the_linearised_energy_at_zero() {
         let f = Vector3::new(2.0f64, 0.0, 0.0);
         let r = Vector3::new(4.0, 0.0, 0.0);
-        assert_eq!(jacobi_step(1.0, Matrix3::zeros(), r, f, Some(100.0)), r);
-        let limited = jacobi_step(1.0, Matrix3::zeros(), r, f, Some(2.0));
+        assert_eq!(jacobi_step(1.0, Matrix3::zeros(), r, f, Some(100.0)).0, r);
+        let limited = jacobi_step(1.0, Matrix3::zeros(), r, f, Some(2.0)).0;
         assert!((2.0 - f.dot(&limited)).abs() < 1e-15);
         // A vertex at rest: zero energy and a round-off force must still take its full step.
         let noise = Vector3::new(1e-13, 0.0, 0.0);
-        assert_eq!(jacobi_step(1.0, Matrix3::zeros(), r, noise, Some(0.0)), r);
+        assert_eq!(jacobi_step(1.0, Matrix3::zeros(), r, noise, Some(0.0)).0, r);
     }
 }

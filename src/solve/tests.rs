@@ -179,3 +179,41 @@ fn recorded_energy_decreases_to_its_minimum() {
         "final {last} above minimum {min}"
     );
 }
+
+/// A sheet resting on a frictionless slope of angle theta slides down with acceleration
+/// `g sin(theta)`, as implicit Euler predicts, staying on the slope: the collider keeps the
+/// vertices out along the Jacobi metric, so the contact pushes only along the normal.
+#[test]
+fn a_sheet_slides_down_a_frictionless_slope_at_g_sin_theta() {
+    let theta: f64 = 0.4;
+    let rotation = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), theta);
+    let normal = rotation * Vector3::z();
+    let mut body = cloth(8);
+    let half = body.params().thickness / 2.0;
+    let placed = body
+        .positions()
+        .iter()
+        .map(|x| rotation * x + normal * half)
+        .collect();
+    body.set_positions(placed).unwrap();
+    let params = SolverParams {
+        dt: 0.01,
+        tol: 1e-10,
+        max_iters: 2000,
+        ..SolverParams::default()
+    };
+    let mut solver = Solver::<f64>::new(params, None).unwrap();
+    solver.add_collider(Collider::plane([0.0; 3], normal.into()).unwrap());
+    let g = Vector3::from(params.gravity);
+    let along_slope = g - normal * normal.dot(&g);
+    for n in 1..=10 {
+        assert!(solver.step(&mut [&mut body]).unwrap().converged);
+        for (v, y) in body.velocities().iter().zip(body.positions()) {
+            assert!(
+                (v - along_slope * (params.dt * n as f64)).norm() < 1e-7,
+                "step {n}: v = {v}"
+            );
+            assert!((y.dot(&normal) - half).abs() < 1e-9);
+        }
+    }
+}
