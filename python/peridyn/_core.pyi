@@ -86,8 +86,9 @@ class Membrane:
         Kirchhoff-Love virtual bond has length thickness / 2 (the paper's xi).
     density : mass density in kg/m^3 (> 0).
     material : StretchA3 or NeoHookean.
-    bending : bending rigidity D in N*m (J), >= 0: a cylindrical bend of curvature k stores
-        D k^2 / 2 per unit area (Kirchhoff plate with bending Poisson ratio 1/3).
+    bending : bending rigidity D in N*m (J), >= 0: a bend with curvature tensor H stores
+        D |H|^2 / 2 per unit area (Kirchhoff plate with bending Poisson ratio 0; a cylindrical
+        bend of curvature k stores D k^2 / 2 in any direction).
     hourglass : dimensionless stiffness (>= 0) of the in-plane non-affine (hourglass) penalty,
         relative to the material's shear modulus; suppresses zero-energy modes of the
         1-ring deformation gradient, vanishes under mesh refinement for smooth motion.
@@ -103,7 +104,7 @@ class Membrane:
         density: float,
         material: Material,
         bending: float = 0.0,
-        hourglass: float = ...,
+        hourglass: float = 0.5,
         neighbors: int = 1,
     ) -> None: ...
     @property
@@ -197,10 +198,19 @@ class StepStats:
         """Final max_i |y_i^k - y_i^(k-1)| in m (the convergence measure of Algorithm 1)."""
     @property
     def converged(self) -> bool:
-        """True when the residual fell below ``tol`` (always False when tol == 0)."""
+        """True when ``error_estimate`` fell below ``tol`` (always False when tol == 0)."""
     @property
     def residuals(self) -> np.ndarray:
-        """Residual after each iteration (m)."""
+        """Largest vertex move of each iteration (m)."""
+    @property
+    def error_estimate(self) -> float:
+        """max_i |r_i| / m_i (m) for the residual r = m (y* - y) + h^2 f at the last evaluated
+        iterate (contact reactions removed): an upper bound on the mass-weighted RMS distance to
+        the exact implicit Euler solution where the energy is convex."""
+    @property
+    def energies(self) -> np.ndarray:
+        """Total variational energy E(y^k) (J) of every iterate k = 0..iterations; empty unless
+        the solver records it (``record_energy=True``)."""
     @property
     def timings(self) -> dict:
         """Milliseconds per phase: 'predict', 'global', 'colliders', 'finish', 'total'."""
@@ -218,10 +228,19 @@ class Solver:
     ----------
     dt : time step h in s (> 0).
     gravity : acceleration (m/s^2).
-    tol : stop when max_i |y_i^k - y_i^(k-1)| < tol (m); 0 runs exactly ``max_iters`` iterations.
+    tol : stop when the error bound ``StepStats.error_estimate`` < tol (m): the mass-weighted RMS
+        distance to the exact implicit Euler solution is then below tol; 0 runs exactly
+        ``max_iters`` iterations.
     max_iters : cap on global iterations per step (>= 1).
     threads : worker threads (None: all cores). Results are bit-identical for any count.
-    step_length : apply the per-vertex step length of eq. 31-33 (recommended).
+    step_length : apply the per-vertex step length of eq. 31-33.
+    precision : "f64" (reference) or "f32" (fast path).
+    preconditioner : "tangent" (curvature bounds of the energy: convergent at any stiffness and
+        time step) or "paper" (the P+/lambda split of eq. 24-26: cheaper, can diverge when stiff).
+    acceleration : None or "chebyshev" (Wang 2015 semi-iterative acceleration).
+    chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
+    chebyshev_delay : plain iterations before extrapolating (>= 1).
+    record_energy : record the variational energy of every iterate in ``StepStats.energies``.
     """
 
     def __init__(
@@ -233,6 +252,12 @@ class Solver:
         max_iters: int = 100,
         threads: Optional[int] = None,
         step_length: bool = True,
+        precision: str = "f64",
+        preconditioner: str = "tangent",
+        acceleration: Optional[str] = None,
+        chebyshev_rho: float = 0.9,
+        chebyshev_delay: int = 3,
+        record_energy: bool = False,
     ) -> None: ...
     def add(self, body: Membrane) -> None: ...
     def add_collider(self, collider: Union[Plane, Sphere]) -> None: ...
@@ -249,6 +274,16 @@ class Solver:
     def max_iters(self) -> int: ...
     @property
     def threads(self) -> int: ...
+    @property
+    def step_length(self) -> bool: ...
+    @property
+    def precision(self) -> str: ...
+    @property
+    def preconditioner(self) -> str: ...
+    @property
+    def acceleration(self) -> Optional[str]: ...
+    @property
+    def record_energy(self) -> bool: ...
     @property
     def time(self) -> float: ...
     @property
