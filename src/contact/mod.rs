@@ -1,5 +1,8 @@
-//! Contact handling. For now: analytic colliders projected in the local step.
+//! Contact handling (Lu et al. 2023, section 6): analytic colliders, primitive distances,
+//! additive CCD, the barrier, the broad phase and the contact local step of Algorithm 2.
 
+pub mod ccd;
 mod collider;
+pub mod distance;
 
 pub use collider::{Collider, ColliderModel};
