@@ -3,6 +3,7 @@
 
 mod arrays;
 mod collider;
+mod contact;
 mod errors;
 mod material;
 mod membrane;
@@ -24,5 +25,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<collider::PySphere>()?;
     m.add_class::<solver::PySolver>()?;
     m.add_class::<solver::PyStepStats>()?;
+    m.add_submodule(&contact::module(m.py())?)?;
     Ok(())
 }

@@ -1,0 +1,167 @@
+//! `peridyn._core.contact`: the contact kernels, batched over numpy arrays, for tests and
+//! inspection (the solver calls them internally).
+
+use nalgebra::Vector3;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
+use crate::contact::distance::{edge_edge_closest, point_triangle_closest, Closest};
+
+use super::arrays::{to_numpy, to_numpy_1d, vec3s};
+
+/// Four (n, 3) arrays as n quadruples of points.
+fn quadruples(args: [(&Bound<'_, PyAny>, &str); 4]) -> PyResult<Vec<[Vector3<f64>; 4]>> {
+    let first = vec3s(args[0].0, args[0].1, None)?;
+    let n = first.len();
+    let rest = [1, 2, 3].map(|k| vec3s(args[k].0, args[k].1, Some(n)));
+    let [b, c, d] = rest;
+    let (b, c, d) = (b?, c?, d?);
+    Ok((0..n).map(|i| [first[i], b[i], c[i], d[i]]).collect())
+}
+
+/// An (n, 4, 3) array as n quadruples of points.
+fn stacked(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[Vector3<f64>; 4]>> {
+    let np = obj.py().import("numpy")?;
+    let arr = np.call_method1("asarray", (obj, "float64"))?;
+    let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
+    if !(shape.len() == 3 && shape[1] == 4 && shape[2] == 3) {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape (N, 4, 3), got {shape:?}"
+        )));
+    }
+    let flat = vec3s(&arr.call_method1("reshape", (-1, 3))?, name, None)?;
+    Ok(flat
+        .chunks_exact(4)
+        .map(|c| [c[0], c[1], c[2], c[3]])
+        .collect())
+}
+
+/// Squared distances (n,) and their gradients (n, 12).
+fn distances<'py>(
+    py: Python<'py>,
+    points: Vec<[Vector3<f64>; 4]>,
+    closest: fn(&Vector3<f64>, &Vector3<f64>, &Vector3<f64>, &Vector3<f64>) -> Closest,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let found: Vec<Closest> = py.detach(|| {
+        points
+            .iter()
+            .map(|x| closest(&x[0], &x[1], &x[2], &x[3]))
+            .collect()
+    });
+    let d2 = found.iter().map(Closest::distance_squared).collect();
+    let flat: Vec<Vector3<f64>> = found.iter().flat_map(|c| c.gradient_squared()).collect();
+    let grads = to_numpy(py, flat.into_iter())?
+        .call_method1("reshape", (found.len(), 12))?;
+    Ok((to_numpy_1d(py, d2), grads))
+}
+
+/// Squared point-triangle distances (m^2) of n queries and their gradients with respect to
+/// `(p, t0, t1, t2)`, shape (n, 12).
+#[pyfunction]
+fn point_triangle_distance<'py>(
+    p: &Bound<'py, PyAny>,
+    t0: &Bound<'py, PyAny>,
+    t1: &Bound<'py, PyAny>,
+    t2: &Bound<'py, PyAny>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let x = quadruples([(p, "p"), (t0, "t0"), (t1, "t1"), (t2, "t2")])?;
+    distances(p.py(), x, point_triangle_closest)
+}
+
+/// Squared edge-edge distances (m^2) of n queries and their gradients with respect to
+/// `(a0, a1, b0, b1)`, shape (n, 12).
+#[pyfunction]
+fn edge_edge_distance<'py>(
+    a0: &Bound<'py, PyAny>,
+    a1: &Bound<'py, PyAny>,
+    b0: &Bound<'py, PyAny>,
+    b1: &Bound<'py, PyAny>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let x = quadruples([(a0, "a0"), (a1, "a1"), (b0, "b0"), (b1, "b1")])?;
+    distances(a0.py(), x, edge_edge_closest)
+}
+
+type Ccd = fn(&[Vector3<f64>; 4], &[Vector3<f64>; 4], f64, &AdditiveCcd) -> Option<f64>;
+
+fn ccd<'py>(
+    start: &Bound<'py, PyAny>,
+    end: &Bound<'py, PyAny>,
+    min_distance: f64,
+    s: f64,
+    t_c: f64,
+    query: Ccd,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    if !(min_distance >= 0.0 && min_distance.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "min_distance must be a finite distance >= 0 m, got {min_distance}"
+        )));
+    }
+    if !(s > 0.0 && s < 1.0 && t_c > 0.0 && t_c <= 1.0) {
+        return Err(PyValueError::new_err(format!(
+            "need 0 < s < 1 and 0 < t_c <= 1, got s = {s}, t_c = {t_c}"
+        )));
+    }
+    let (a, b) = (stacked(start, "start")?, stacked(end, "end")?);
+    if a.len() != b.len() {
+        return Err(PyValueError::new_err(format!(
+            "start and end hold {} and {} queries",
+            a.len(),
+            b.len()
+        )));
+    }
+    let params = AdditiveCcd {
+        s,
+        t_c,
+        ..AdditiveCcd::default()
+    };
+    let py = start.py();
+    let toi: Vec<Option<f64>> = py.detach(|| {
+        a.iter()
+            .zip(&b)
+            .map(|(x0, x1)| query(x0, x1, min_distance, &params))
+            .collect()
+    });
+    let hit = toi.iter().map(Option::is_some).collect();
+    let times = toi.iter().map(|t| t.unwrap_or(1.0)).collect();
+    Ok((to_numpy_1d(py, hit), to_numpy_1d(py, times)))
+}
+
+/// Additive CCD of n point-triangle pairs moving linearly from `start` to `end` (each (n, 4, 3):
+/// point, then the triangle's vertices). Returns `(hit, toi)`: whether the distance reaches
+/// `min_distance` (m) within the step, and a lower bound of that time (1 where no hit).
+#[pyfunction]
+#[pyo3(signature = (start, end, min_distance = 0.0, *, s = 0.1, t_c = 0.95))]
+fn point_triangle_ccd_additive<'py>(
+    start: &Bound<'py, PyAny>,
+    end: &Bound<'py, PyAny>,
+    min_distance: f64,
+    s: f64,
+    t_c: f64,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    ccd(start, end, min_distance, s, t_c, point_triangle_ccd)
+}
+
+/// Additive CCD of n edge-edge pairs (each (n, 4, 3): `a0, a1, b0, b1`); see
+/// `point_triangle_ccd_additive`.
+#[pyfunction]
+#[pyo3(signature = (start, end, min_distance = 0.0, *, s = 0.1, t_c = 0.95))]
+fn edge_edge_ccd_additive<'py>(
+    start: &Bound<'py, PyAny>,
+    end: &Bound<'py, PyAny>,
+    min_distance: f64,
+    s: f64,
+    t_c: f64,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    ccd(start, end, min_distance, s, t_c, edge_edge_ccd)
+}
+
+/// The `contact` submodule.
+pub fn module<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyModule>> {
+    let m = PyModule::new(py, "contact")?;
+    m.add_function(wrap_pyfunction!(point_triangle_distance, &m)?)?;
+    m.add_function(wrap_pyfunction!(edge_edge_distance, &m)?)?;
+    m.add_function(wrap_pyfunction!(point_triangle_ccd_additive, &m)?)?;
+    m.add_function(wrap_pyfunction!(edge_edge_ccd_additive, &m)?)?;
+    Ok(m)
+}
