@@ -6,5 +6,8 @@ pub mod broad_phase;
 pub mod ccd;
 mod collider;
 pub mod distance;
+pub mod local_step;
 
 pub use collider::{Collider, ColliderModel};
+pub use broad_phase::ContactMesh;
+pub use local_step::{project, ContactParams, ContactStats};
