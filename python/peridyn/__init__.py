@@ -10,6 +10,7 @@ All quantities are SI: metres, kilograms, seconds, pascals, joules.
 
 from . import _core
 from ._core import (
+    Contact,
     DivergenceError,
     Membrane,
     NeoHookean,
@@ -29,6 +30,7 @@ __version__: str = _core.__version__
 
 __all__ = [
     # Rust core
+    "Contact",
     "DivergenceError",
     "Membrane",
     "NeoHookean",

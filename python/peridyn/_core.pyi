@@ -93,6 +93,7 @@ class Membrane:
         relative to the material's shear modulus; suppresses zero-energy modes of the
         1-ring deformation gradient, vanishes under mesh refinement for smooth motion.
     neighbors : k of the k-ring neighbourhood (1 = mesh 1-ring, as in the paper).
+    self_contact : whether a solver with contact keeps this membrane's own triangles apart.
     """
 
     def __init__(
@@ -106,7 +107,12 @@ class Membrane:
         bending: float = 0.0,
         hourglass: float = 0.5,
         neighbors: int = 1,
+        self_contact: bool = True,
     ) -> None: ...
+    @property
+    def self_contact(self) -> bool: ...
+    @self_contact.setter
+    def self_contact(self, value: bool) -> None: ...
     @property
     def num_vertices(self) -> int: ...
     @property
@@ -188,6 +194,47 @@ class Sphere:
     def radius(self) -> float: ...
     def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
 
+class Contact:
+    """Contact between and within membranes: the local step of Algorithm 2 (Lu et al. 2023).
+
+    Parameters
+    ----------
+    thickness : contact thickness xi in m (> 0): mid-surfaces stay about xi apart, never closer
+        than eps * xi.
+    d_hat : barrier range in m on the gap f(d) - xi (None: 4 * thickness, as in Table 1).
+    eps : minimal separation multiplier of eq. 51 in (0, 1); also the largest descent move per
+        iteration in units of xi.
+    weight : barrier weight mu of eq. 47 (> 0).
+    max_iters : descent iterations per local step (>= 1).
+    toi_threshold : times of impact in (toi_threshold, 1) clamp vertices inside the descent.
+    ccd_s, ccd_t_c : the additive CCD's s and t_c (paper: 0.1 and 0.95).
+    """
+
+    def __init__(
+        self,
+        *,
+        thickness: float = 1.5e-3,
+        d_hat: Optional[float] = None,
+        eps: float = 0.1,
+        weight: float = 1.0,
+        max_iters: int = 32,
+        toi_threshold: float = 0.1,
+        ccd_s: float = 0.1,
+        ccd_t_c: float = 0.95,
+    ) -> None: ...
+    @property
+    def thickness(self) -> float: ...
+    @property
+    def d_hat(self) -> float: ...
+    @property
+    def eps(self) -> float: ...
+    @property
+    def weight(self) -> float: ...
+    @property
+    def max_iters(self) -> int: ...
+    @property
+    def toi_threshold(self) -> float: ...
+
 class StepStats:
     """What one time step did."""
 
@@ -215,6 +262,12 @@ class StepStats:
     def timings(self) -> dict:
         """Milliseconds per phase: 'predict', 'global', 'colliders', 'finish', 'total'."""
     @property
+    def contact(self) -> dict:
+        """Contact figures (zeros when contact is off): 'candidate_pairs' (triangle pairs of
+        the broad phase, largest over the iterations), 'active_pairs' (primitive pairs within the
+        barrier's reach at the end), 'local_iterations' (descent iterations, summed), 'clamped'
+        (vertices the final CCD clamp moved, summed), 'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
+    @property
     def time(self) -> float:
         """Simulation time after the step (s)."""
     @property
@@ -241,6 +294,8 @@ class Solver:
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
+    contact : a ``Contact`` to keep every body's triangles apart from the other bodies' (and
+        its own, unless built with ``self_contact=False``); None: no contact between membranes.
     """
 
     def __init__(
@@ -258,6 +313,7 @@ class Solver:
         chebyshev_rho: float = 0.9,
         chebyshev_delay: int = 3,
         record_energy: bool = False,
+        contact: Optional[Contact] = None,
     ) -> None: ...
     def add(self, body: Membrane) -> None: ...
     def add_collider(self, collider: Union[Plane, Sphere]) -> None: ...
@@ -284,6 +340,8 @@ class Solver:
     def acceleration(self) -> Optional[str]: ...
     @property
     def record_energy(self) -> bool: ...
+    @property
+    def contact(self) -> Optional[Contact]: ...
     @property
     def time(self) -> float: ...
     @property

@@ -223,13 +223,17 @@ fn vertex_toi(pairs: &[Pair], toi: &[Option<f64>], n: usize) -> Vec<f64> {
 }
 
 /// Runs the local step: `positions` holds `y^k` on entry and `z` on return; `safe` is
-/// `z^{k-1}`, free of intersections; `fixed` vertices are never moved.
+/// `z^{k-1}`, free of intersections; `fixed` vertices are never moved. `keep_out(i, z_i)`
+/// projects a vertex out of the colliders after every descent move, so the barrier cannot
+/// push a membrane into a collider (the final clamp then only interpolates between positions
+/// outside them).
 pub fn project(
     safe: &[Vector3<f64>],
     positions: &mut [Vector3<f64>],
     fixed: &[bool],
     mesh: &ContactMesh,
     params: &ContactParams,
+    keep_out: &(dyn Fn(usize, &mut Vector3<f64>) + Sync),
 ) -> ContactStats {
     let mut stats = ContactStats::default();
     let barrier = params.barrier();
@@ -300,10 +304,12 @@ pub fn project(
                 if fixed[i] {
                     return 0.0;
                 }
-                let step = (force[i] + target[i] - *zi) * lambda;
-                *zi += step;
-                *di += step.norm();
-                step.norm()
+                let before = *zi;
+                *zi += (force[i] + target[i] - *zi) * lambda;
+                keep_out(i, zi);
+                let step = (*zi - before).norm();
+                *di += step;
+                step
             })
             .reduce(|| 0.0, f64::max);
         stats.iterations += 1;
@@ -411,7 +417,7 @@ mod tests {
         };
         let mut z = target.clone();
         let fixed = vec![false; 6];
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params);
+        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {});
         assert_eq!(stats.candidate_pairs, 1);
         assert!(stats.active_pairs > 0 && stats.iterations > 0);
         let lowest_upper = z[3..].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
@@ -427,7 +433,7 @@ mod tests {
             ..mesh
         };
         let mut z = target.clone();
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params);
+        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {});
         assert_eq!(stats.candidate_pairs, 0);
         assert_eq!(z, target);
     }
@@ -447,7 +453,7 @@ mod tests {
             d_hat: 2e-3,
             ..ContactParams::default()
         };
-        project(&safe, &mut z, &[false; 6], &mesh, &params);
+        project(&safe, &mut z, &[false; 6], &mesh, &params, &|_, _| {});
         assert_eq!(z, safe);
     }
 }

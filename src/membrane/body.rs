@@ -99,6 +99,7 @@ pub struct Membrane {
     positions: Vec<Vector3<f64>>,
     velocities: Vec<Vector3<f64>>,
     pins: BTreeMap<u32, Vector3<f64>>,
+    self_contact: bool,
 }
 
 impl Membrane {
@@ -118,7 +119,18 @@ impl Membrane {
             positions,
             velocities,
             pins: BTreeMap::new(),
+            self_contact: true,
         })
+    }
+
+    /// Whether the contact local step keeps this membrane's triangles apart from each other
+    /// (when the solver has contact on; default true).
+    pub fn self_contact(&self) -> bool {
+        self.self_contact
+    }
+
+    pub fn set_self_contact(&mut self, on: bool) {
+        self.self_contact = on;
     }
 
     /// A process-unique identity, so a solver can tell whether its cached rest data still match.

@@ -6,9 +6,11 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
+use crate::contact::ContactParams;
 use crate::contact::distance::{edge_edge_closest, point_triangle_closest, Closest};
 
 use super::arrays::{to_numpy, to_numpy_1d, vec3s};
+use super::errors::IntoPyResult;
 
 /// Four (n, 3) arrays as n quadruples of points.
 fn quadruples(args: [(&Bound<'_, PyAny>, &str); 4]) -> PyResult<Vec<[Vector3<f64>; 4]>> {
@@ -154,6 +156,91 @@ fn edge_edge_ccd_additive<'py>(
     t_c: f64,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     ccd(start, end, min_distance, s, t_c, edge_edge_ccd)
+}
+
+/// Contact between and within membranes: the local step of Algorithm 2 (Lu et al. 2023).
+///
+/// `thickness` xi (m): primitives keep their mid-surfaces about xi apart, never closer than
+/// `eps * xi`; `d_hat` (m, default 4 xi as in Table 1): barrier range on the gap `f(d) - xi`;
+/// `eps` (default 0.1): minimal separation multiplier of eq. 51, also the largest descent move
+/// per iteration in units of xi; `weight` mu (default 1): barrier weight of eq. 47;
+/// `max_iters` (default 32): descent iterations per local step; `toi_threshold` (default 0.1):
+/// times of impact above it clamp inside the descent; `ccd_s`, `ccd_t_c` (0.1, 0.95): the
+/// additive CCD's parameters.
+#[pyclass(module = "peridyn._core", name = "Contact", frozen)]
+#[derive(Clone)]
+pub struct PyContact {
+    pub inner: ContactParams,
+}
+
+#[pymethods]
+impl PyContact {
+    #[new]
+    #[pyo3(signature = (*, thickness = 1.5e-3, d_hat = None, eps = 0.1, weight = 1.0,
+                        max_iters = 32, toi_threshold = 0.1, ccd_s = 0.1, ccd_t_c = 0.95))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        thickness: f64,
+        d_hat: Option<f64>,
+        eps: f64,
+        weight: f64,
+        max_iters: i64,
+        toi_threshold: f64,
+        ccd_s: f64,
+        ccd_t_c: f64,
+    ) -> PyResult<Self> {
+        let max_iters = usize::try_from(max_iters).map_err(|_| {
+            PyValueError::new_err(format!("max_iters must be >= 1, got {max_iters}"))
+        })?;
+        let inner = ContactParams {
+            thickness,
+            d_hat: d_hat.unwrap_or(4.0 * thickness),
+            eps,
+            weight,
+            max_iters,
+            toi_threshold,
+            ccd: AdditiveCcd {
+                s: ccd_s,
+                t_c: ccd_t_c,
+                ..AdditiveCcd::default()
+            },
+        };
+        inner.validate().py()?;
+        Ok(Self { inner })
+    }
+    /// Contact thickness xi (m).
+    #[getter]
+    fn thickness(&self) -> f64 {
+        self.inner.thickness
+    }
+    /// Barrier range d_hat (m).
+    #[getter]
+    fn d_hat(&self) -> f64 {
+        self.inner.d_hat
+    }
+    #[getter]
+    fn eps(&self) -> f64 {
+        self.inner.eps
+    }
+    #[getter]
+    fn weight(&self) -> f64 {
+        self.inner.weight
+    }
+    #[getter]
+    fn max_iters(&self) -> usize {
+        self.inner.max_iters
+    }
+    #[getter]
+    fn toi_threshold(&self) -> f64 {
+        self.inner.toi_threshold
+    }
+    fn __repr__(&self) -> String {
+        let p = &self.inner;
+        format!(
+            "Contact(thickness={}, d_hat={}, eps={}, weight={}, max_iters={}, toi_threshold={})",
+            p.thickness, p.d_hat, p.eps, p.weight, p.max_iters, p.toi_threshold
+        )
+    }
 }
 
 /// The `contact` submodule.

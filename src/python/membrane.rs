@@ -32,7 +32,8 @@ impl PyMembrane {
 impl PyMembrane {
     #[new]
     #[pyo3(signature = (vertices, triangles, *, thickness, density, material, bending = 0.0,
-                        hourglass = MembraneParams::DEFAULT_HOURGLASS, neighbors = 1))]
+                        hourglass = MembraneParams::DEFAULT_HOURGLASS, neighbors = 1,
+                        self_contact = true))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -44,6 +45,7 @@ impl PyMembrane {
         bending: f64,
         hourglass: f64,
         neighbors: i64,
+        self_contact: bool,
     ) -> PyResult<Self> {
         let v: Vec<[f64; 3]> = vec3s(vertices, "vertices", None)?
             .iter()
@@ -66,13 +68,24 @@ impl PyMembrane {
         };
         let membrane = py.detach(|| -> crate::error::Result<Membrane> {
             params.validate()?;
-            Membrane::new(TriangleMesh::new(v, t)?, params)
+            let mut membrane = Membrane::new(TriangleMesh::new(v, t)?, params)?;
+            membrane.set_self_contact(self_contact);
+            Ok(membrane)
         });
         Ok(Self {
             inner: Arc::new(Mutex::new(membrane.py()?)),
         })
     }
 
+    /// Whether a solver with contact keeps this membrane's triangles apart from each other.
+    #[getter]
+    fn self_contact(&self) -> bool {
+        self.lock().self_contact()
+    }
+    #[setter]
+    fn set_self_contact(&self, on: bool) {
+        self.lock().set_self_contact(on);
+    }
     #[getter]
     fn num_vertices(&self) -> usize {
         self.lock().num_vertices()

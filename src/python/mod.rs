@@ -25,6 +25,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<collider::PySphere>()?;
     m.add_class::<solver::PySolver>()?;
     m.add_class::<solver::PyStepStats>()?;
+    m.add_class::<contact::PyContact>()?;
     m.add_submodule(&contact::module(m.py())?)?;
     Ok(())
 }

@@ -13,6 +13,7 @@ use crate::solve::{Acceleration, Solver, SolverParams, StepStats};
 
 use super::arrays::{to_numpy_1d, vec3};
 use super::collider;
+use super::contact::PyContact;
 use super::errors::IntoPyResult;
 use super::membrane::PyMembrane;
 
@@ -60,7 +61,8 @@ impl PySolver {
     #[pyo3(signature = (*, dt, gravity = None, tol = 1e-4, max_iters = 100, threads = None,
                         step_length = true, precision = "f64", preconditioner = "tangent",
                         acceleration = None, chebyshev_rho = Acceleration::DEFAULT_RHO,
-                        chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false))]
+                        chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false,
+                        contact = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: f64,
@@ -75,6 +77,7 @@ impl PySolver {
         chebyshev_rho: f64,
         chebyshev_delay: i64,
         record_energy: bool,
+        contact: Option<PyRef<'_, PyContact>>,
     ) -> PyResult<Self> {
         let acceleration = match acceleration {
             None | Some("none") => Acceleration::None,
@@ -127,6 +130,7 @@ impl PySolver {
             },
             acceleration,
             record_energy,
+            contact: contact.map(|c| c.inner),
         };
         let core = match precision {
             "f64" => Precision::F64(Solver::new(params, threads).py()?),
@@ -236,6 +240,11 @@ impl PySolver {
             Acceleration::Chebyshev { .. } => Some("chebyshev"),
         }
     }
+    /// The contact parameters, or None when contact is off.
+    #[getter]
+    fn contact(&self) -> Option<PyContact> {
+        with_solver!(&self.core, s => s.params().contact.map(|inner| PyContact { inner }))
+    }
     #[getter]
     fn record_energy(&self) -> bool {
         with_solver!(&self.core, s => s.params().record_energy)
@@ -327,6 +336,24 @@ impl PyStepStats {
         ] {
             d.set_item(k, v)?;
         }
+        Ok(d)
+    }
+    /// Contact figures of the step (zeros when contact is off): `candidate_pairs` (triangle
+    /// pairs of the broad phase, largest over the iterations), `active_pairs` (primitive pairs
+    /// within the barrier's reach at the end), `local_iterations` (descent iterations, summed),
+    /// `clamped` (vertices the final CCD clamp moved, summed), and milliseconds
+    /// `broad_phase_ms`, `ccd_ms`, `descent_ms`.
+    #[getter]
+    fn contact<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let c = &self.inner.contact;
+        let d = PyDict::new(py);
+        d.set_item("candidate_pairs", c.candidate_pairs)?;
+        d.set_item("active_pairs", c.active_pairs)?;
+        d.set_item("local_iterations", c.iterations)?;
+        d.set_item("clamped", c.clamped)?;
+        d.set_item("broad_phase_ms", c.broad_phase_ms)?;
+        d.set_item("ccd_ms", c.ccd_ms)?;
+        d.set_item("descent_ms", c.descent_ms)?;
         Ok(d)
     }
     /// Simulation time after the step (s).

@@ -1,5 +1,6 @@
 //! Time stepping: implicit Euler solved by the semi-implicit successive substitution method.
 
+mod contact_step;
 mod params;
 mod sissm;
 mod stats;

@@ -1,5 +1,6 @@
 //! Solver parameters.
 
+use crate::contact::ContactParams;
 use crate::error::{check_param, invalid, Result};
 use crate::membrane::Preconditioner;
 
@@ -23,6 +24,8 @@ pub struct SolverParams {
     /// Record the total variational energy `E(y^k)` of every iterate in [`super::StepStats`]
     /// (one extra kernel pass per step).
     pub record_energy: bool,
+    /// Contact between and within membranes (the local step of Algorithm 2); `None`: off.
+    pub contact: Option<ContactParams>,
 }
 
 /// Acceleration of the global iteration.
@@ -73,6 +76,7 @@ impl Default for SolverParams {
             preconditioner: Preconditioner::Tangent,
             acceleration: Acceleration::None,
             record_energy: false,
+            contact: None,
         }
     }
 }
@@ -92,6 +96,9 @@ impl SolverParams {
                     "chebyshev delay must be >= 1 iteration, got {delay}"
                 ));
             }
+        }
+        if let Some(contact) = &self.contact {
+            contact.validate()?;
         }
         if self.max_iters < 1 {
             return Err(invalid!("max_iters must be >= 1, got {}", self.max_iters));

@@ -10,7 +10,8 @@
 //! therefore the exact implicit Euler solution for any `C`. The step is scaled by the
 //! per-vertex step length of eq. 31-33, `alpha_i = min(E_i / (f_i . delta_i), 1)`, where `E_i`
 //! is the elastic energy of the vertices whose neighbourhood holds `i` (zero elastic energy is a
-//! lower bound the linearised energy may not cross). Colliders project the result.
+//! lower bound the linearised energy may not cross). Colliders project the result, then the
+//! contact local step (Algorithm 2, [`crate::contact::project`]) when contact is on.
 //!
 //! The iteration starts from the lower-energy of `y*` and `y_t` ([`initial_guess`]) and stops
 //! when `max_i |r_i| / m_i < tol` for the residual `r = m (y* - y) + h^2 f` (without the push
@@ -31,6 +32,7 @@ use crate::membrane::{internal_force, vertex_kernel, Membrane, Preconditioner};
 use crate::parallel::for_each_vertex;
 use crate::real::Real;
 
+use super::contact_step::ContactState;
 use super::system::System;
 use super::{Acceleration, SolverParams, StepStats, Timings};
 
@@ -174,6 +176,7 @@ impl<T: Real> Solver<T> {
         let gravity = Vector3::from(params.gravity).map(T::of);
 
         sys.load(bodies);
+        let mut contact = params.contact.map(|_| ContactState::new(bodies, sys));
         predict(sys, h, gravity);
         let mut energy = initial_guess(sys, h, params.preconditioner);
         let mut timings = Timings {
@@ -229,6 +232,11 @@ impl<T: Real> Solver<T> {
                     body,
                     vertex,
                 });
+            }
+            if let (Some(state), Some(contact_params)) = (contact.as_mut(), &params.contact) {
+                let (moved, figures) = state.local_step(sys, contact_params, &colliders);
+                update.moved = moved;
+                stats.contact.accumulate(&figures);
             }
             if accelerated {
                 std::mem::swap(&mut sys.y_prev, &mut sys.y);

@@ -1,5 +1,7 @@
 //! What a step reports.
 
+use crate::contact::ContactStats;
+
 /// Wall-clock milliseconds per phase of a step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Timings {
@@ -38,4 +40,8 @@ pub struct StepStats {
     pub energies: Vec<f64>,
     /// Milliseconds per phase.
     pub timings: Timings,
+    /// Contact local steps of this time step, summed over the global iterations (all zero when
+    /// contact is off): candidate triangle pairs (largest), active primitive pairs (last),
+    /// descent iterations and milliseconds in broad phase, CCD and descent.
+    pub contact: ContactStats,
 }

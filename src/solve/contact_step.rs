@@ -1,0 +1,85 @@
+//! The solver's side of contact: every body's triangles in global vertex indices, the last
+//! intersection-free positions, and the call of the contact local step (Algorithm 2) after
+//! each global iteration.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use crate::contact::{project, ColliderModel, ContactMesh, ContactParams, ContactStats};
+use crate::membrane::Membrane;
+use crate::real::Real;
+
+use super::system::System;
+
+/// Contact topology and state of one time step.
+pub(super) struct ContactState {
+    triangles: Vec<[u32; 3]>,
+    body: Vec<u32>,
+    self_contact: Vec<bool>,
+    /// `z^{k-1}`: the last positions the local step left (intersection-free), in f64.
+    safe: Vec<Vector3<f64>>,
+}
+
+impl ContactState {
+    /// Concatenates the bodies' triangles in the system's global vertex numbering, and takes
+    /// the start-of-step positions `y_t` as the first safe positions.
+    pub fn new<T: Real>(bodies: &[&mut Membrane], sys: &System<T>) -> Self {
+        let mut triangles = Vec::new();
+        let mut body = Vec::new();
+        for (b, (membrane, range)) in bodies.iter().zip(&sys.ranges).enumerate() {
+            let base = range.start as u32;
+            for t in membrane.mesh().triangles() {
+                triangles.push(t.map(|v| v + base));
+                body.push(b as u32);
+            }
+        }
+        Self {
+            triangles,
+            body,
+            self_contact: bodies.iter().map(|b| b.self_contact()).collect(),
+            safe: sys.y_start.iter().map(|p| p.map(|c| c.to_f64())).collect(),
+        }
+    }
+
+    /// Runs the local step on `sys.y_next` (the global step's result, after colliders), keeping
+    /// vertices out of the colliders, and makes the result the new safe positions. Returns the
+    /// largest move from `sys.y` (m) and the step's figures.
+    pub fn local_step<T: Real>(
+        &mut self,
+        sys: &mut System<T>,
+        params: &ContactParams,
+        colliders: &[ColliderModel<T>],
+    ) -> (f64, ContactStats) {
+        let mut z: Vec<Vector3<f64>> = sys.y_next.iter().map(|p| p.map(|c| c.to_f64())).collect();
+        let mesh = ContactMesh {
+            triangles: &self.triangles,
+            body: &self.body,
+            self_contact: &self.self_contact,
+        };
+        let rest = &sys.rest;
+        let keep_out = |i: usize, zi: &mut Vector3<f64>| {
+            let margin = rest.vertices[i].half_thickness;
+            let mut x = zi.map(T::of);
+            for c in colliders {
+                x = c.project(x, margin);
+            }
+            *zi = x.map(|c| c.to_f64());
+        };
+        let stats = project(&self.safe, &mut z, &sys.pinned, &mesh, params, &keep_out);
+        let y = &sys.y;
+        let moved = sys
+            .y_next
+            .par_iter_mut()
+            .zip(z.par_iter_mut())
+            .enumerate()
+            .map(|(i, (next, zi))| {
+                *next = zi.map(T::of);
+                // The safe positions are the ones the solver holds (rounded in f32).
+                *zi = next.map(|c| c.to_f64());
+                (*next - y[i]).norm().to_f64()
+            })
+            .reduce(|| 0.0, f64::max);
+        self.safe = z;
+        (moved, stats)
+    }
+}

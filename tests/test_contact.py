@@ -1,0 +1,191 @@
+"""Contact between and within membranes (Lu et al. 2023, section 6, Algorithm 2), as physical
+facts: no two non-adjacent triangles ever intersect (exact test by ipctk), primitives stay at
+least eps * xi apart, bodies that collide come apart again, and a folded cloth does not pass
+through itself. Small meshes, so the whole file runs in well under a minute on 2 cores.
+"""
+
+import numpy as np
+import pytest
+
+import peridyn
+from conftest import icosphere, make_grid
+
+ipctk = pytest.importorskip("ipctk")
+
+XI = 2e-3  # contact thickness (m)
+CONTACT = dict(thickness=XI, d_hat=2 * XI, eps=0.1)
+
+
+def sheet(nx, size, z, *, s0=2e3, bending=1e-5, self_contact=True, offset=(0.0, 0.0)):
+    v, t = make_grid(nx, nx, size, size)
+    v = v + np.array([offset[0] - size / 2, offset[1] - size / 2, z])
+    return peridyn.Membrane(v, t, thickness=1e-3, density=200.0,
+                            material=peridyn.StretchA3(s0=s0), bending=bending,
+                            self_contact=self_contact)
+
+
+def mesh_of(bodies):
+    """All bodies' positions and triangles in one numbering, and each triangle's body."""
+    points, triangles, owner, base = [], [], [], 0
+    for b, body in enumerate(bodies):
+        points.append(body.positions)
+        triangles.append(body.triangles + base)
+        owner.append(np.full(len(body.triangles), b))
+        base += body.num_vertices
+    return np.concatenate(points), np.concatenate(triangles), np.concatenate(owner)
+
+
+def close_pairs(x, tris, pad):
+    """Non-adjacent triangle pairs (no shared vertex) whose boxes, padded by `pad`, overlap."""
+    corners = x[tris]
+    lo, hi = corners.min(axis=1) - pad, corners.max(axis=1) + pad
+    i, j = np.triu_indices(len(tris), k=1)
+    overlap = np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
+    i, j = i[overlap], j[overlap]
+    shared = (tris[i][:, :, None] == tris[j][:, None, :]).any(axis=(1, 2))
+    return i[~shared], j[~shared]
+
+
+def intersecting_pairs(x, tris):
+    """Exact triangle-triangle intersection: an edge of one crosses the other (ipctk)."""
+    bad = []
+    for a, b in zip(*close_pairs(x, tris, 0.0)):
+        for p, q in ((a, b), (b, a)):
+            tp, tq = x[tris[p]], x[tris[q]]
+            if any(ipctk.is_edge_intersecting_triangle(tp[k], tp[(k + 1) % 3], *tq)
+                   for k in range(3)):
+                bad.append((a, b))
+                break
+    return bad
+
+
+def min_separation(x, tris, pad):
+    """Smallest point-triangle / edge-edge distance (ipctk) between non-adjacent triangles
+    closer than `pad`; `pad` when none is."""
+    best = pad
+    for a, b in zip(*close_pairs(x, tris, pad)):
+        ta, tb = x[tris[a]], x[tris[b]]
+        for p, q in ((ta, tb), (tb, ta)):
+            for k in range(3):
+                best = min(best, np.sqrt(ipctk.point_triangle_distance(p[k], *q)))
+        for k in range(3):
+            for m in range(3):
+                best = min(best, np.sqrt(ipctk.edge_edge_distance(
+                    ta[k], ta[(k + 1) % 3], tb[m], tb[(m + 1) % 3])))
+    return best
+
+
+def test_contact_parameters_are_validated_and_reported():
+    c = peridyn.Contact(thickness=1.5e-3)
+    assert c.d_hat == pytest.approx(6e-3) and c.eps == 0.1 and c.max_iters >= 1
+    for bad in (dict(thickness=0.0), dict(eps=1.5), dict(weight=-1.0), dict(max_iters=0),
+                dict(toi_threshold=1.0), dict(thickness=float("nan"))):
+        with pytest.raises(ValueError):
+            peridyn.Contact(**bad)
+    solver = peridyn.Solver(dt=1e-3, contact=c)
+    assert solver.contact.thickness == 1.5e-3
+    assert peridyn.Solver(dt=1e-3).contact is None
+
+
+def test_contact_off_runs_nothing_of_it():
+    body = sheet(5, 0.2, 0.0)
+    solver = peridyn.Solver(dt=1e-3)
+    solver.add(body)
+    stats = solver.step()
+    assert all(v == 0 for v in stats.contact.values())
+
+
+def test_three_layers_dropped_on_a_sphere_never_intersect():
+    layers = [sheet(9, 0.3, 0.02 + 0.008 * k) for k in range(3)]
+    solver = peridyn.Solver(dt=2e-3, max_iters=15, tol=1e-5,
+                            contact=peridyn.Contact(**CONTACT))
+    for body in layers:
+        solver.add(body)
+    ball = peridyn.Sphere(center=(0.0, 0.0, -0.1), radius=0.1)
+    solver.add_collider(ball)
+    _, tris, _ = mesh_of(layers)
+    touched = 0
+    for _ in range(40):
+        stats = solver.step()
+        x, _, _ = mesh_of(layers)
+        assert not intersecting_pairs(x, tris)
+        assert min_separation(x, tris, 2 * XI) > CONTACT["eps"] * XI
+        assert ball.signed_distance(x).min() > -1e-6
+        touched = max(touched, stats.contact["active_pairs"])
+    assert touched > 0, "the layers must have come into contact"
+    # The layers lie on the ball, stacked in order at its top.
+    top = [body.positions[np.argmin(np.linalg.norm(body.positions[:, :2], axis=1)), 2]
+           for body in layers]
+    assert top[0] < top[1] < top[2]
+    assert top[0] < 0.01
+
+
+def test_two_bodies_collide_and_separate():
+    # A closed shell shot at a cloth pinned along its border, no gravity (a small "shooting
+    # panda"): the cloth stretches, stops the shell and throws it back.
+    v, t = icosphere(subdiv=2, radius=0.04)
+    shell = peridyn.Membrane(v + np.array([0.0, 0.0, 0.05]), t, thickness=1e-3, density=200.0,
+                             material=peridyn.StretchA3(s0=2e4), bending=1e-4)
+    shell.velocities = np.tile([0.0, 0.0, -2.0], (shell.num_vertices, 1))
+    cloth = sheet(13, 0.3, 0.0, s0=2e3)
+    edge = np.flatnonzero(np.isclose(np.abs(cloth.rest_positions[:, :2]).max(axis=1), 0.15))
+    cloth.pin(edge)
+    solver = peridyn.Solver(dt=1e-3, gravity=(0, 0, 0), max_iters=15, tol=1e-5,
+                            contact=peridyn.Contact(**CONTACT))
+    solver.add(shell)
+    solver.add(cloth)
+    _, tris, _ = mesh_of([shell, cloth])
+    relative = []
+    active = []
+    for _ in range(150):
+        stats = solver.step()
+        relative.append(shell.velocities[:, 2].mean() - cloth.velocities[:, 2].mean())
+        active.append(stats.contact["active_pairs"])
+        x, _, _ = mesh_of([shell, cloth])
+        assert not intersecting_pairs(x, tris)
+    assert max(active) > 0, "the bodies must have touched"
+    assert relative[0] < -1.0
+    assert relative[-1] > 0.1, f"relative normal velocity not reversed: {relative[-1]}"
+    assert active[-1] == 0, "a contact pair stayed active after separation"
+
+
+def folded_strip(self_contact):
+    """A 0.3 x 0.06 m strip folded in half: two layers 12 mm apart joined by a half circle."""
+    v, t = make_grid(31, 7, 0.3, 0.06)
+    s, r = v[:, 0], 0.006
+    half = 0.15 - np.pi * r / 2
+    x = np.where(s < half, s, half)
+    z = np.zeros_like(s)
+    arc = (s >= half) & (s <= half + np.pi * r)
+    phi = (s[arc] - half) / r
+    x[arc] = half + r * np.sin(phi)
+    z[arc] = r - r * np.cos(phi)
+    top = s > half + np.pi * r
+    x[top] = half - (s[top] - half - np.pi * r)
+    z[top] = 2 * r
+    body = peridyn.Membrane(v, t, thickness=1e-3, density=200.0,
+                            material=peridyn.StretchA3(s0=2e3), bending=1e-6,
+                            self_contact=self_contact)
+    body.positions = np.column_stack([x, v[:, 1], z + 0.002])
+    return body
+
+
+@pytest.mark.parametrize("self_contact", [True, False])
+def test_folded_cloth_does_not_pass_through_itself(self_contact):
+    body = folded_strip(self_contact)
+    body.velocities = np.tile([0.0, 0.0, -1.0], (body.num_vertices, 1)) * (
+        body.positions[:, 2:3] > 0.01)
+    solver = peridyn.Solver(dt=2e-3, max_iters=15, tol=1e-5, gravity=(0, 0, -9.81 * 5),
+                            contact=peridyn.Contact(**CONTACT))
+    solver.add(body)
+    solver.add_collider(peridyn.Plane())
+    tris = body.triangles
+    crossed = False
+    for _ in range(40):
+        solver.step()
+        crossed |= bool(intersecting_pairs(body.positions, tris))
+    if self_contact:
+        assert not crossed
+        assert min_separation(body.positions, tris, 2 * XI) > CONTACT["eps"] * XI
+    else:
+        assert crossed, "without self-contact the upper layer should fall through (control)"
