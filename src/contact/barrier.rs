@@ -99,7 +99,10 @@ mod tests {
             let x = b.d_hat * 1.2 * k as f64 / 200.0;
             let h = 1e-9;
             let fd = (b.value(x + h) - b.value(x - h)) / (2.0 * h);
-            assert!((fd - b.derivative(x)).abs() < 1e-6 * (1.0 + fd.abs()), "x = {x}");
+            assert!(
+                (fd - b.derivative(x)).abs() < 1e-6 * (1.0 + fd.abs()),
+                "x = {x}"
+            );
         }
         assert_eq!(b.value(b.d_hat), 0.0);
         assert!(b.derivative(b.d_hat * (1.0 - 1e-9)).abs() < 1e-12);
@@ -116,7 +119,10 @@ mod tests {
             assert!((above - below).abs() < 1e-8 * xi, "value jumps at {d}");
             let slope_below = (b.rescale(d - h) - b.rescale(d - 2.0 * h)) / h;
             let slope_above = (b.rescale(d + 2.0 * h) - b.rescale(d + h)) / h;
-            assert!((slope_above - slope_below).abs() < 1e-5, "slope jumps at {d}");
+            assert!(
+                (slope_above - slope_below).abs() < 1e-5,
+                "slope jumps at {d}"
+            );
         }
         for k in 0..300 {
             let d = 3.0 * xi * k as f64 / 300.0;

@@ -85,8 +85,7 @@ pub fn candidate_pairs(
     if boxes.len() < 2 {
         return Vec::new();
     }
-    let mean_extent =
-        boxes.iter().map(|b| (b.hi - b.lo).max()).sum::<f64>() / boxes.len() as f64;
+    let mean_extent = boxes.iter().map(|b| (b.hi - b.lo).max()).sum::<f64>() / boxes.len() as f64;
     let cell = 2.0 * mean_extent.max(f64::MIN_POSITIVE);
     let cell_of = |p: &Vector3<f64>| -> Cell { [0, 1, 2].map(|k| (p[k] / cell).floor() as i64) };
     let mut grid: HashMap<Cell, Vec<u32>> = HashMap::new();
@@ -137,7 +136,6 @@ mod tests {
         let end: Vec<Vector3<f64>> = points.iter().map(|p| p + rng.vector() * 0.05).collect();
         let triangles: Vec<[u32; 3]> = (0..n as u32)
             .map(|t| [3 * t, 3 * t + 1, (3 * t + 5) % (3 * n as u32)])
-            .map(|[a, b, c]| [a, b, c])
             .collect();
         let small: Vec<[u32; 3]> = triangles
             .iter()
@@ -159,10 +157,17 @@ mod tests {
                         .iter()
                         .flat_map(|&v| [points[v as usize], end[v as usize]])
                         .collect();
-                    let lo = all.iter().fold(Vector3::repeat(f64::INFINITY), |a, p| a.inf(p));
-                    let hi = all.iter().fold(Vector3::repeat(f64::NEG_INFINITY), |a, p| a.sup(p));
+                    let lo = all
+                        .iter()
+                        .fold(Vector3::repeat(f64::INFINITY), |a, p| a.inf(p));
+                    let hi = all
+                        .iter()
+                        .fold(Vector3::repeat(f64::NEG_INFINITY), |a, p| a.sup(p));
                     let pad = Vector3::repeat(0.5 * reach);
-                    Aabb { lo: lo - pad, hi: hi + pad }
+                    Aabb {
+                        lo: lo - pad,
+                        hi: hi + pad,
+                    }
                 })
                 .collect();
             let mut brute = Vec::new();

@@ -78,15 +78,33 @@ impl Default for ContactParams {
 impl ContactParams {
     /// Checks every parameter, naming the first bad one.
     pub fn validate(&self) -> Result<()> {
-        check_param("thickness", self.thickness, |v| v > 0.0, "a finite thickness > 0 m")?;
+        check_param(
+            "thickness",
+            self.thickness,
+            |v| v > 0.0,
+            "a finite thickness > 0 m",
+        )?;
         check_param("d_hat", self.d_hat, |v| v > 0.0, "a finite range > 0 m")?;
         check_param("eps", self.eps, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
         check_param("weight", self.weight, |v| v > 0.0, "a finite weight > 0")?;
-        check_param("toi_threshold", self.toi_threshold, |v| (0.0..1.0).contains(&v), "in [0, 1)")?;
+        check_param(
+            "toi_threshold",
+            self.toi_threshold,
+            |v| (0.0..1.0).contains(&v),
+            "in [0, 1)",
+        )?;
         check_param("ccd s", self.ccd.s, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
-        check_param("ccd t_c", self.ccd.t_c, |v| v > 0.0 && v <= 1.0, "in (0, 1]")?;
+        check_param(
+            "ccd t_c",
+            self.ccd.t_c,
+            |v| v > 0.0 && v <= 1.0,
+            "in (0, 1]",
+        )?;
         if self.max_iters < 1 {
-            return Err(invalid!("contact max_iters must be >= 1, got {}", self.max_iters));
+            return Err(invalid!(
+                "contact max_iters must be >= 1, got {}",
+                self.max_iters
+            ));
         }
         Ok(())
     }
@@ -157,7 +175,13 @@ impl Pair {
         }
     }
 
-    fn ccd(&self, start: &[Vector3<f64>], end: &[Vector3<f64>], min: f64, ccd: &AdditiveCcd) -> Option<f64> {
+    fn ccd(
+        &self,
+        start: &[Vector3<f64>],
+        end: &[Vector3<f64>],
+        min: f64,
+        ccd: &AdditiveCcd,
+    ) -> Option<f64> {
         let (a, b) = (self.points(start), self.points(end));
         if self.edge_edge {
             edge_edge_ccd(&a, &b, min, ccd)
@@ -256,20 +280,37 @@ pub fn project(
     let mut drift = vec![0.0f64; n];
     let mut force = vec![Vector3::zeros(); n];
     let mut alpha = vec![0.0f64; n];
+    // Vertices moved since the last CCD: a pair none of whose vertices moved keeps its time.
+    let mut changed = vec![true; n];
+    let mut toi: Vec<Option<f64>> = vec![None; pairs.len()];
+    // After the first iteration a vertex moves at most `eps xi` per iteration (eq. 53), so
+    // only pairs that were within `(1 + 4 eps) xi` can reach `xi`: the others skip the CCD.
+    let mut near = vec![true; pairs.len()];
+    let near_distance = (1.0 + 4.0 * eps) * xi;
     for _ in 0..params.max_iters {
         // Lines 4-18: CCD between the safe positions and z^m, clamp above the threshold.
         let t = Instant::now();
-        let toi: Vec<Option<f64>> = pairs
-            .par_iter()
-            .map(|p| p.ccd(safe, z, xi, &params.ccd))
-            .collect();
+        toi.par_iter_mut()
+            .zip(&pairs)
+            .zip(&near)
+            .for_each(|((hit, p), &near)| {
+                if !near {
+                    *hit = None;
+                } else if p.v.iter().any(|&v| changed[v as usize]) {
+                    *hit = p.ccd(safe, z, xi, &params.ccd);
+                }
+            });
         let per_vertex = vertex_toi(&pairs, &toi, n);
-        z.par_iter_mut().enumerate().for_each(|(i, zi)| {
-            let ti = per_vertex[i];
-            if !fixed[i] && ti < 1.0 && ti > params.toi_threshold {
-                *zi = safe[i] + (*zi - safe[i]) * ti;
-            }
-        });
+        z.par_iter_mut()
+            .zip(changed.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (zi, moved))| {
+                let ti = per_vertex[i];
+                *moved = !fixed[i] && ti < 1.0 && ti > params.toi_threshold;
+                if *moved {
+                    *zi = safe[i] + (*zi - safe[i]) * ti;
+                }
+            });
         stats.ccd_ms += millis(t);
 
         // Lines 19-27: distances, weights and the descent direction of eq. 49.
@@ -277,8 +318,9 @@ pub fn project(
         let found: Vec<Closest> = pairs.par_iter().map(|p| p.closest(z)).collect();
         force.iter_mut().for_each(|f| *f = Vector3::zeros());
         alpha.iter_mut().for_each(|a| *a = 0.0);
-        for (pair, c) in pairs.iter().zip(&found) {
+        for ((pair, c), near) in pairs.iter().zip(&found).zip(near.iter_mut()) {
             let d = c.separation.norm();
+            *near = d < near_distance;
             if d >= reach || d == 0.0 {
                 continue;
             }
@@ -299,8 +341,9 @@ pub fn project(
         let moved = z
             .par_iter_mut()
             .zip(drift.par_iter_mut())
+            .zip(changed.par_iter_mut())
             .enumerate()
-            .map(|(i, (zi, di))| {
+            .map(|(i, ((zi, di), ci))| {
                 if fixed[i] {
                     return 0.0;
                 }
@@ -308,6 +351,7 @@ pub fn project(
                 *zi += (force[i] + target[i] - *zi) * lambda;
                 keep_out(i, zi);
                 let step = (*zi - before).norm();
+                *ci |= step > 0.0;
                 *di += step;
                 step
             })
@@ -361,7 +405,13 @@ fn guarantee(
         let toi: Vec<Option<f64>> = pairs
             .par_iter()
             .zip(&floors)
-            .map(|(p, &min)| if min > 0.0 { p.ccd(safe, z, min, &params.ccd) } else { None })
+            .map(|(p, &min)| {
+                if min > 0.0 {
+                    p.ccd(safe, z, min, &params.ccd)
+                } else {
+                    None
+                }
+            })
             .collect();
         if toi.iter().all(Option::is_none) {
             break;
@@ -384,8 +434,10 @@ fn guarantee(
 mod tests {
     use super::*;
 
+    type Scene = (Vec<Vector3<f64>>, Vec<Vector3<f64>>, Vec<[u32; 3]>);
+
     /// Two parallel triangles, the upper pushed through the lower by the "global step".
-    fn crossing() -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+    fn crossing() -> Scene {
         let v = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
         let lower = [v(0., 0., 0.), v(1., 0., 0.), v(0., 1., 0.)];
         let safe: Vec<_> = lower

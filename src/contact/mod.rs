@@ -8,6 +8,6 @@ mod collider;
 pub mod distance;
 pub mod local_step;
 
-pub use collider::{Collider, ColliderModel};
 pub use broad_phase::ContactMesh;
+pub use collider::{Collider, ColliderModel};
 pub use local_step::{project, ContactParams, ContactStats};

@@ -6,8 +6,8 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
-use crate::contact::ContactParams;
 use crate::contact::distance::{edge_edge_closest, point_triangle_closest, Closest};
+use crate::contact::ContactParams;
 
 use super::arrays::{to_numpy, to_numpy_1d, vec3s};
 use super::errors::IntoPyResult;
@@ -39,11 +39,14 @@ fn stacked(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[Vector3<f64>; 4]
         .collect())
 }
 
+/// A closest-points query over four vertices.
+type Query = fn(&Vector3<f64>, &Vector3<f64>, &Vector3<f64>, &Vector3<f64>) -> Closest;
+
 /// Squared distances (n,) and their gradients (n, 12).
 fn distances<'py>(
     py: Python<'py>,
     points: Vec<[Vector3<f64>; 4]>,
-    closest: fn(&Vector3<f64>, &Vector3<f64>, &Vector3<f64>, &Vector3<f64>) -> Closest,
+    closest: Query,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let found: Vec<Closest> = py.detach(|| {
         points
@@ -53,8 +56,7 @@ fn distances<'py>(
     });
     let d2 = found.iter().map(Closest::distance_squared).collect();
     let flat: Vec<Vector3<f64>> = found.iter().flat_map(|c| c.gradient_squared()).collect();
-    let grads = to_numpy(py, flat.into_iter())?
-        .call_method1("reshape", (found.len(), 12))?;
+    let grads = to_numpy(py, flat.into_iter())?.call_method1("reshape", (found.len(), 12))?;
     Ok((to_numpy_1d(py, d2), grads))
 }
 

@@ -77,7 +77,8 @@ impl AdditiveCcd {
         for _ in 0..self.max_iterations {
             x.iter_mut().zip(&p).for_each(|(xk, pk)| *xk += pk * step);
             let now = gap(distance_squared(&x));
-            if t > 0.0 && !(now >= stop) {
+            // A NaN distance counts as a collision (conservative).
+            if t > 0.0 && (now < stop || now.is_nan()) {
                 return Some(t);
             }
             t += step;
@@ -145,7 +146,12 @@ mod tests {
     #[test]
     fn parallel_edges_approaching_are_caught() {
         let start = [v(0., 0., 1.), v(1., 0., 1.), v(0.5, 0., 0.), v(1.5, 0., 0.)];
-        let end = [v(0., 0., -1.), v(1., 0., -1.), v(0.5, 0., 0.), v(1.5, 0., 0.)];
+        let end = [
+            v(0., 0., -1.),
+            v(1., 0., -1.),
+            v(0.5, 0., 0.),
+            v(1.5, 0., 0.),
+        ];
         let params = AdditiveCcd::default();
         let toi = edge_edge_ccd(&start, &end, 0.0, &params).expect("collides");
         assert!(toi <= 0.5 && toi > 0.4, "{toi}");

@@ -91,7 +91,12 @@ mod tests {
         let cross = [v(-1., 0., 0.), v(1., 0., 0.), v(0., -1., 1.), v(0., 1., 1.)];
         assert!((d2(cross) - 1.0).abs() < 1e-15);
         // Parallel and overlapping, 0.5 apart; parallel and disjoint along the line.
-        let par = [v(0., 0., 0.), v(1., 0., 0.), v(0.5, 0.5, 0.), v(2., 0.5, 0.)];
+        let par = [
+            v(0., 0., 0.),
+            v(1., 0., 0.),
+            v(0.5, 0.5, 0.),
+            v(2., 0.5, 0.),
+        ];
         assert!((d2(par) - 0.25).abs() < 1e-15);
         let apart = [v(0., 0., 0.), v(1., 0., 0.), v(3., 0., 0.), v(2., 0., 0.)];
         assert!((d2(apart) - 1.0).abs() < 1e-15);

@@ -140,7 +140,8 @@ mod tests {
     #[test]
     fn gradient_matches_finite_differences() {
         for x in random_points(200, 7) {
-            let f = |y: &[Vector3<f64>; 4]| point_triangle_distance_squared(&y[0], &y[1], &y[2], &y[3]);
+            let f =
+                |y: &[Vector3<f64>; 4]| point_triangle_distance_squared(&y[0], &y[1], &y[2], &y[3]);
             let g = point_triangle_gradient(&x[0], &x[1], &x[2], &x[3]);
             finite_difference(&x, f, &g);
         }
