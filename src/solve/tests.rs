@@ -217,3 +217,66 @@ fn a_sheet_slides_down_a_frictionless_slope_at_g_sin_theta() {
         }
     }
 }
+
+/// Contact in the solver: a sheet dropped onto another resting on the ground stays above it
+/// (every upper vertex above the lower sheet's highest point, which is flat), in f64 and f32,
+/// and the step reports the contact figures; without contact it falls through.
+#[test]
+fn contact_keeps_a_falling_sheet_above_a_resting_one() {
+    use crate::contact::ContactParams;
+    fn run<T: crate::real::Real>(contact: Option<ContactParams>) -> (f64, f64, usize) {
+        let mut lower = cloth(6);
+        let mut upper = cloth(6);
+        let lifted: Vec<_> = upper
+            .positions()
+            .iter()
+            .map(|p| p + Vector3::new(0.02, 0.03, 0.01))
+            .collect();
+        upper.set_positions(lifted).unwrap();
+        upper
+            .set_velocities(vec![Vector3::new(0.0, 0.0, -1.0); 36])
+            .unwrap();
+        let mut solver = Solver::<T>::new(
+            SolverParams {
+                dt: 2e-3,
+                max_iters: 10,
+                contact,
+                ..SolverParams::default()
+            },
+            None,
+        )
+        .unwrap();
+        solver.add_collider(Collider::plane([0.0; 3], [0.0, 0.0, 1.0]).unwrap());
+        let mut active = 0;
+        for _ in 0..20 {
+            let stats = solver.step(&mut [&mut lower, &mut upper]).unwrap();
+            active = active.max(stats.contact.active_pairs);
+        }
+        let top = |b: &Membrane, f: fn(f64, f64) -> f64, init| {
+            b.positions().iter().map(|p| p.z).fold(init, f)
+        };
+        (
+            top(&upper, f64::min, f64::INFINITY),
+            top(&lower, f64::max, f64::NEG_INFINITY),
+            active,
+        )
+    }
+    let params = ContactParams {
+        thickness: 2e-3,
+        d_hat: 4e-3,
+        ..ContactParams::default()
+    };
+    for (upper, lower, active) in [run::<f64>(Some(params)), run::<f32>(Some(params))] {
+        assert!(active > 0);
+        assert!(
+            upper - lower > params.eps * params.thickness,
+            "{upper} vs {lower}"
+        );
+    }
+    let (upper, lower, active) = run::<f64>(None);
+    assert_eq!(active, 0);
+    assert!(
+        upper < lower,
+        "without contact the sheets should pass through each other"
+    );
+}
