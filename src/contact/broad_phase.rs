@@ -89,8 +89,15 @@ pub fn candidate_pairs(
     let cell = 2.0 * mean_extent.max(f64::MIN_POSITIVE);
     let cell_of = |p: &Vector3<f64>| -> Cell { [0, 1, 2].map(|k| (p[k] / cell).floor() as i64) };
     let mut grid: HashMap<Cell, Vec<u32>> = HashMap::new();
+    // Boxes spanning many cells (a far-flung vertex) are tested against every box instead.
+    let mut oversized = Vec::new();
     for (t, b) in boxes.iter().enumerate() {
         let (lo, hi) = (cell_of(&b.lo), cell_of(&b.hi));
+        let span = (0..3).map(|k| (hi[k] - lo[k]).saturating_add(1) as f64);
+        if span.product::<f64>() > MAX_CELLS_PER_BOX {
+            oversized.push(t);
+            continue;
+        }
         for i in lo[0]..=hi[0] {
             for j in lo[1]..=hi[1] {
                 for k in lo[2]..=hi[2] {
@@ -118,9 +125,22 @@ pub fn candidate_pairs(
             found
         })
         .collect();
+    for &a in &oversized {
+        pairs.extend((0..boxes.len()).filter_map(|b| {
+            let other_oversized_first = oversized.contains(&b) && b < a;
+            (b != a
+                && !other_oversized_first
+                && boxes[a].overlaps(&boxes[b])
+                && mesh.may_touch(a, b))
+            .then(|| (a.min(b) as u32, a.max(b) as u32))
+        }));
+    }
     pairs.par_sort_unstable();
     pairs
 }
+
+/// Cells a box may cover before it is handled by brute force.
+const MAX_CELLS_PER_BOX: f64 = 512.0;
 
 #[cfg(test)]
 mod tests {
@@ -180,6 +200,12 @@ mod tests {
             }
             assert!(!brute.is_empty());
             assert_eq!(found, brute);
+            // A far-flung vertex makes its triangles' boxes huge: same pairs as brute force.
+            let mut far = points.clone();
+            far[tris[0][0] as usize] = Vector3::new(1e6, 0.0, 0.0);
+            let found = candidate_pairs(&far, &far, &mesh, reach);
+            assert!(found.iter().any(|&(a, _)| a == 0));
+            assert!(found.windows(2).all(|w| w[0] < w[1]), "no duplicates");
         }
     }
 }
