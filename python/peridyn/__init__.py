@@ -17,6 +17,7 @@ from ._core import (
     Sphere,
     StepStats,
     StretchA3,
+    gpu_info,
 )
 from .io import FrameRecorder, write_mesh
 from .materials import plate_bending_stiffness
@@ -37,6 +38,7 @@ __all__ = [
     "Sphere",
     "StepStats",
     "StretchA3",
+    "gpu_info",
     # Python layer
     "FrameRecorder",
     "RunSummary",

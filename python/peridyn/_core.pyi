@@ -234,13 +234,16 @@ class Solver:
     max_iters : cap on global iterations per step (>= 1).
     threads : worker threads (None: all cores). Results are bit-identical for any count.
     step_length : apply the per-vertex step length of eq. 31-33.
-    precision : "f64" (reference) or "f32" (fast path).
+    precision : "f64" (reference) or "f32" (fast path); None: "f64" on the CPU, "f32" on the GPU.
     preconditioner : "tangent" (curvature bounds of the energy: convergent at any stiffness and
         time step) or "paper" (the P+/lambda split of eq. 24-26: cheaper, can diverge when stiff).
     acceleration : None or "chebyshev" (Wang 2015 semi-iterative acceleration).
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
+    backend : "cpu" (Rust, rayon threads) or "gpu" (wgpu compute shaders, f32 only, state on
+        the device; raises RuntimeError naming what is missing when there is no adapter, see
+        :func:`gpu_info`). The adapter follows WGPU_BACKEND, WGPU_POWER_PREF, WGPU_ADAPTER_NAME.
     """
 
     def __init__(
@@ -252,12 +255,13 @@ class Solver:
         max_iters: int = 100,
         threads: Optional[int] = None,
         step_length: bool = True,
-        precision: str = "f64",
+        precision: Optional[str] = None,
         preconditioner: str = "tangent",
         acceleration: Optional[str] = None,
         chebyshev_rho: float = 0.9,
         chebyshev_delay: int = 3,
         record_energy: bool = False,
+        backend: str = "cpu",
     ) -> None: ...
     def add(self, body: Membrane) -> None: ...
     def add_collider(self, collider: Union[Plane, Sphere]) -> None: ...
@@ -273,7 +277,12 @@ class Solver:
     @property
     def max_iters(self) -> int: ...
     @property
+    def backend(self) -> str: ...
+    @property
     def threads(self) -> int: ...
+    @property
+    def bytes_per_iteration(self) -> Optional[int]:
+        """Bytes the GPU kernels load and store per global iteration (None on the CPU)."""
     @property
     def step_length(self) -> bool: ...
     @property
@@ -292,3 +301,9 @@ class Solver:
     def bodies(self) -> list: ...
     @property
     def colliders(self) -> list: ...
+
+def gpu_info() -> dict:
+    """The adapter the GPU backend would use: ``name``, ``backend`` (e.g. "vulkan"),
+    ``device_type`` (e.g. "Cpu" for lavapipe), ``driver``, ``f64`` (SHADER_F64 offered; the
+    backend itself runs in f32) and ``limits`` (dict). Raises RuntimeError naming what is
+    missing when there is no adapter."""

@@ -17,6 +17,7 @@ pub fn to_py(err: Error) -> PyErr {
     match err {
         Error::InvalidInput(msg) => PyValueError::new_err(msg),
         e @ Error::Diverged { .. } => DivergenceError::new_err(e.to_string()),
+        Error::Gpu(msg) => PyRuntimeError::new_err(msg),
     }
 }
 

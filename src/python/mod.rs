@@ -4,6 +4,7 @@
 mod arrays;
 mod collider;
 mod errors;
+mod gpu;
 mod material;
 mod membrane;
 mod solver;
@@ -24,5 +25,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<collider::PySphere>()?;
     m.add_class::<solver::PySolver>()?;
     m.add_class::<solver::PyStepStats>()?;
+    m.add_function(wrap_pyfunction!(gpu::gpu_info, m)?)?;
     Ok(())
 }

@@ -8,6 +8,7 @@ use pyo3::types::PyDict;
 
 use crate::contact::Collider;
 use crate::error::Result;
+use crate::gpu::GpuSolver;
 use crate::membrane::{Membrane, Preconditioner};
 use crate::solve::{Acceleration, Solver, SolverParams, StepStats};
 
@@ -16,10 +17,11 @@ use super::collider;
 use super::errors::IntoPyResult;
 use super::membrane::PyMembrane;
 
-/// The core solver in the precision the user chose.
+/// The core solver: the CPU one in the precision the user chose, or the GPU one (f32).
 enum Precision {
     F64(Solver<f64>),
     F32(Solver<f32>),
+    Gpu(Box<GpuSolver>),
 }
 
 impl Precision {
@@ -27,12 +29,27 @@ impl Precision {
         match self {
             Self::F64(s) => s.step(bodies),
             Self::F32(s) => s.step(bodies),
+            Self::Gpu(s) => s.step(bodies),
         }
     }
     fn name(&self) -> &'static str {
         match self {
             Self::F64(_) => "f64",
-            Self::F32(_) => "f32",
+            Self::F32(_) | Self::Gpu(_) => "f32",
+        }
+    }
+    fn backend(&self) -> &'static str {
+        match self {
+            Self::Gpu(_) => "gpu",
+            _ => "cpu",
+        }
+    }
+    /// Worker threads of the CPU backend; the GPU backend drives the device from one thread.
+    fn threads(&self) -> usize {
+        match self {
+            Self::F64(s) => s.threads(),
+            Self::F32(s) => s.threads(),
+            Self::Gpu(_) => 1,
         }
     }
 }
@@ -42,6 +59,7 @@ macro_rules! with_solver {
         match $p {
             Precision::F64($s) => $body,
             Precision::F32($s) => $body,
+            Precision::Gpu($s) => $body,
         }
     };
 }
@@ -58,9 +76,10 @@ pub struct PySolver {
 impl PySolver {
     #[new]
     #[pyo3(signature = (*, dt, gravity = None, tol = 1e-4, max_iters = 100, threads = None,
-                        step_length = true, precision = "f64", preconditioner = "tangent",
+                        step_length = true, precision = None, preconditioner = "tangent",
                         acceleration = None, chebyshev_rho = Acceleration::DEFAULT_RHO,
-                        chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false))]
+                        chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false,
+                        backend = "cpu"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: f64,
@@ -69,12 +88,13 @@ impl PySolver {
         max_iters: i64,
         threads: Option<i64>,
         step_length: bool,
-        precision: &str,
+        precision: Option<&str>,
         preconditioner: &str,
         acceleration: Option<&str>,
         chebyshev_rho: f64,
         chebyshev_delay: i64,
         record_energy: bool,
+        backend: &str,
     ) -> PyResult<Self> {
         let acceleration = match acceleration {
             None | Some("none") => Acceleration::None,
@@ -128,12 +148,30 @@ impl PySolver {
             acceleration,
             record_energy,
         };
-        let core = match precision {
-            "f64" => Precision::F64(Solver::new(params, threads).py()?),
-            "f32" => Precision::F32(Solver::new(params, threads).py()?),
-            other => {
+        let core = match (backend, precision) {
+            ("cpu", None | Some("f64")) => Precision::F64(Solver::new(params, threads).py()?),
+            ("cpu", Some("f32")) => Precision::F32(Solver::new(params, threads).py()?),
+            ("gpu", None | Some("f32")) => {
+                if threads.is_some() {
+                    return Err(PyValueError::new_err(
+                        "threads applies to backend='cpu' only; the GPU backend takes threads=None",
+                    ));
+                }
+                Precision::Gpu(Box::new(GpuSolver::new(params).py()?))
+            }
+            ("gpu", Some("f64")) => {
+                return Err(PyValueError::new_err(
+                    "the GPU backend runs in f32 only; use precision='f32' (or None) with backend='gpu'",
+                ))
+            }
+            ("cpu" | "gpu", Some(other)) => {
                 return Err(PyValueError::new_err(format!(
                     "precision must be 'f32' or 'f64', got {other:?}"
+                )))
+            }
+            (other, _) => {
+                return Err(PyValueError::new_err(format!(
+                    "backend must be 'cpu' or 'gpu', got {other:?}"
                 )))
             }
         };
@@ -244,9 +282,23 @@ impl PySolver {
     fn precision(&self) -> &'static str {
         self.core.name()
     }
+    /// "cpu" or "gpu".
+    #[getter]
+    fn backend(&self) -> &'static str {
+        self.core.backend()
+    }
     #[getter]
     fn threads(&self) -> usize {
-        with_solver!(&self.core, s => s.threads())
+        self.core.threads()
+    }
+    /// Bytes the GPU kernels load and store per global iteration for the bodies of the last
+    /// step (None on the CPU backend or before the first step).
+    #[getter]
+    fn bytes_per_iteration(&self) -> Option<u64> {
+        match &self.core {
+            Precision::Gpu(s) => s.bytes_per_iteration(),
+            _ => None,
+        }
     }
     /// Simulation time (s).
     #[getter]
@@ -269,8 +321,8 @@ impl PySolver {
         with_solver!(&self.core, s => {
             let p = s.params();
             format!(
-                "Solver(dt={}, gravity={:?}, tol={}, max_iters={}, precision='{}', threads={}, bodies={}, colliders={}, time={})",
-                p.dt, p.gravity, p.tol, p.max_iters, self.core.name(), s.threads(), self.bodies.len(), self.colliders.len(), s.time()
+                "Solver(dt={}, gravity={:?}, tol={}, max_iters={}, backend='{}', precision='{}', threads={}, bodies={}, colliders={}, time={})",
+                p.dt, p.gravity, p.tol, p.max_iters, self.core.backend(), self.core.name(), self.core.threads(), self.bodies.len(), self.colliders.len(), s.time()
             )
         })
     }

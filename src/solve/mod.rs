@@ -3,7 +3,7 @@
 mod params;
 mod sissm;
 mod stats;
-mod system;
+pub(crate) mod system;
 
 pub use params::{Acceleration, SolverParams};
 pub use sissm::Solver;

@@ -10,7 +10,7 @@ use crate::mesh::Neighborhood;
 use crate::real::Real;
 
 /// Concatenated bodies.
-pub(super) struct System<T: Real> {
+pub(crate) struct System<T: Real> {
     /// Identity of each body, to detect a changed body list.
     pub ids: Vec<u64>,
     /// Vertex range of each body.

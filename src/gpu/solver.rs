@@ -1,0 +1,717 @@
+//! The SISSM time step on the GPU: the algorithm of [`crate::solve::Solver`] (f32), with the
+//! rest data, the iterates and the per-bond scratch resident on the device.
+//!
+//! Per step the host uploads the bodies' positions, velocities and pins (so that Python may
+//! change them between steps, as with the CPU solver), records every iteration's commands,
+//! and reads back the small control header every [`CHECK_EVERY`] iterations: the convergence
+//! test (`max_i |r_i| / m_i < tol`) and the divergence test run on the device, which sets a
+//! stopping point that turns every later command of the step into a no-op. The iterations are
+//! thus exactly those of the CPU solver, and the device never waits for the host inside a
+//! batch. At the end of the step the positions, velocities and the per-iteration history are
+//! read back once.
+
+use std::time::Instant;
+
+use bytemuck::Zeroable;
+
+use crate::contact::Collider;
+use crate::error::{invalid, Error, Result};
+use crate::membrane::{Membrane, Preconditioner};
+use crate::real::Real;
+use crate::solve::system::System;
+use crate::solve::{Acceleration, SolverParams, StepStats, Timings};
+
+use super::device::GpuContext;
+use super::layout::{self, Bond, GpuCollider, Iter, Params, Vertex};
+use super::pipelines::{Pipelines, BINDINGS, REDUCE_GROUP, VERTEX_GROUP};
+
+/// Iterations recorded between two reads of the control header.
+pub const CHECK_EVERY: usize = 8;
+
+/// `Iter` records: the two candidates of the initial guess, the energy after the loop, then
+/// one per iteration.
+const RECORD_PREVIOUS: usize = 0;
+const RECORD_PREDICTION: usize = 1;
+const RECORD_FINAL: usize = 2;
+const RECORD_FIRST_ITERATION: usize = 3;
+
+/// Steps a set of membranes in time on the GPU, in f32.
+pub struct GpuSolver {
+    params: SolverParams,
+    colliders: Vec<Collider>,
+    ctx: GpuContext,
+    pipelines: Pipelines,
+    state: Option<State>,
+    time: f64,
+    steps: u64,
+}
+
+/// The device-resident working set of one list of bodies.
+struct State {
+    system: System<f32>,
+    n: u32,
+    bonds: u64,
+    iter_capacity: usize,
+    collider_capacity: usize,
+    /// The parameters the `Iter` records were written for.
+    records_for: Option<SolverParams>,
+    buffers: Buffers,
+    bind_group: wgpu::BindGroup,
+}
+
+struct Buffers {
+    params: wgpu::Buffer,
+    iters: wgpu::Buffer,
+    colliders: wgpu::Buffer,
+    pinned: wgpu::Buffer,
+    y_start: wgpu::Buffer,
+    velocity: wgpu::Buffer,
+    y_star: wgpu::Buffer,
+    ctrl: wgpu::Buffer,
+    /// MAP_READ copies: the control header, and (positions, velocities, history) at the end.
+    header_readback: wgpu::Buffer,
+    state_readback: wgpu::Buffer,
+}
+
+fn millis(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+fn groups(count: u32, size: u32) -> u32 {
+    count.div_ceil(size).max(1)
+}
+
+impl GpuSolver {
+    /// A solver on the adapter [`super::gpu_info`] describes; fails with [`Error::Gpu`] when
+    /// there is none, and builds every pipeline now, so a broken driver fails here.
+    pub fn new(params: SolverParams) -> Result<Self> {
+        params.validate()?;
+        let ctx = GpuContext::new()?;
+        let pipelines = Pipelines::new(&ctx);
+        ctx.wait()?;
+        ctx.check()?;
+        Ok(Self {
+            params,
+            colliders: Vec::new(),
+            ctx,
+            pipelines,
+            state: None,
+            time: 0.0,
+            steps: 0,
+        })
+    }
+
+    /// The device's adapter.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    pub fn params(&self) -> &SolverParams {
+        &self.params
+    }
+
+    /// Replaces the parameters (validated).
+    pub fn set_params(&mut self, params: SolverParams) -> Result<()> {
+        params.validate()?;
+        self.params = params;
+        Ok(())
+    }
+
+    pub fn add_collider(&mut self, collider: Collider) {
+        self.colliders.push(collider);
+    }
+
+    pub fn colliders(&self) -> &[Collider] {
+        &self.colliders
+    }
+
+    /// Simulation time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Steps taken so far.
+    pub fn steps_taken(&self) -> u64 {
+        self.steps
+    }
+
+    /// Bytes the kernels of one global iteration load and store for the bodies of the last
+    /// step (None before the first step), counting every load a kernel issues (a cache may
+    /// serve repeats): with `n` vertices and `b` bonds,
+    ///
+    /// - vertex kernel: per vertex 144 (position, rest constants, offsets, response), per bond
+    ///   100 without and 248 with bending/hourglass (neighbour position and bond rest data
+    ///   read in every pass, the gradient written, re-read and updated);
+    /// - Jacobi update: per vertex 176 (+16 with Chebyshev), per bond 72 (both gradients of
+    ///   the bond, the reverse index, the neighbour's response);
+    /// - colliders, the convergence measure and the commit: per vertex 64 + 16 + 32 (+32 with
+    ///   Chebyshev); with `record_energy` another 68.
+    pub fn bytes_per_iteration(&self) -> Option<u64> {
+        let state = self.state.as_ref()?;
+        let (n, b) = (state.n as u64, state.bonds);
+        let non_affine = state
+            .system
+            .rest
+            .vertices
+            .iter()
+            .any(|c| c.kappa_t > 0.0 || c.kappa_n > 0.0);
+        let accelerated = self.params.acceleration != Acceleration::None;
+        let kernel = 144 * n + if non_affine { 248 } else { 100 } * b;
+        let jacobi = (176 + if accelerated { 16 } else { 0 }) * n + 72 * b;
+        let rest = (64 + 16 + 32 + if accelerated { 32 } else { 0 }) * n;
+        let energy = if self.params.record_energy { 68 * n } else { 0 };
+        Some(kernel + jacobi + rest + energy)
+    }
+
+    /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
+    /// [`Error::Diverged`] names the first non-finite vertex.
+    pub fn step(&mut self, bodies: &mut [&mut Membrane]) -> Result<StepStats> {
+        let started = Instant::now();
+        let params = self.params;
+        let records = params.max_iters + RECORD_FIRST_ITERATION;
+        let rebuild = match &self.state {
+            None => true,
+            Some(s) => {
+                !s.system.matches(bodies)
+                    || s.iter_capacity < records
+                    || s.collider_capacity < self.colliders.len().max(1)
+            }
+        };
+        if rebuild {
+            self.state = None;
+            self.state = Some(State::build(
+                &self.ctx,
+                &self.pipelines,
+                bodies,
+                records,
+                self.colliders.len().max(1),
+            )?);
+        }
+        let state = self.state.as_mut().expect("built above");
+        state.upload(&self.ctx, bodies, &params, &self.colliders);
+        let mut timings = Timings {
+            predict: millis(started),
+            ..Timings::default()
+        };
+        let mut stats = StepStats {
+            step: self.steps,
+            ..StepStats::default()
+        };
+
+        let t = Instant::now();
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = state.pass(&mut encoder, &self.pipelines);
+            pass.initial_guess();
+        }
+        let mut iterations = 0;
+        let mut limit = u32::MAX;
+        while iterations < params.max_iters && limit == u32::MAX {
+            let batch = CHECK_EVERY.min(params.max_iters - iterations);
+            {
+                let mut pass = state.pass(&mut encoder, &self.pipelines);
+                for k in iterations..iterations + batch {
+                    pass.iteration(k, params.record_energy);
+                }
+            }
+            iterations += batch;
+            let header = state.read_header(&self.ctx, encoder)?;
+            limit = header[0];
+            if limit != u32::MAX && header[1] != u32::MAX {
+                let (body, vertex) = state.system.locate(header[1] as usize);
+                return Err(Error::Diverged {
+                    step: self.steps,
+                    iteration: header[2] as usize,
+                    body,
+                    vertex,
+                });
+            }
+            encoder = self.ctx.device.create_command_encoder(&Default::default());
+        }
+        if limit != u32::MAX {
+            iterations = limit as usize;
+            stats.converged = true;
+        }
+        stats.iterations = iterations;
+        timings.global = millis(t);
+
+        let t = Instant::now();
+        if params.record_energy {
+            state.write_record(
+                &self.ctx,
+                RECORD_FINAL,
+                Iter {
+                    slot: 1 + iterations as u32,
+                    lane: 2,
+                    ..Iter::zeroed()
+                },
+            );
+        }
+        {
+            let mut pass = state.pass(&mut encoder, &self.pipelines);
+            if params.record_energy {
+                pass.energy(RECORD_FINAL, true);
+            }
+            pass.finish();
+        }
+        let history = state.read_back(&self.ctx, encoder, params.max_iters)?;
+        for k in 0..iterations {
+            let [moved, residual, _, _] = history[1 + k];
+            stats.residuals.push(moved as f64);
+            stats.residual = moved as f64;
+            stats.error_estimate = residual as f64;
+        }
+        if params.record_energy {
+            let [previous, prediction, _, _] = history[0];
+            stats.energies.push(if previous < prediction {
+                previous
+            } else {
+                prediction
+            } as f64);
+            stats
+                .energies
+                .extend((1..=iterations).map(|k| history[1 + k][2] as f64));
+        }
+        state.system.store(bodies);
+        timings.finish = millis(t);
+        self.time += params.dt;
+        self.steps += 1;
+        timings.total = millis(started);
+        stats.time = self.time;
+        stats.timings = timings;
+        Ok(stats)
+    }
+}
+
+impl State {
+    fn build(
+        ctx: &GpuContext,
+        pipelines: &Pipelines,
+        bodies: &[&mut Membrane],
+        iter_capacity: usize,
+        collider_capacity: usize,
+    ) -> Result<Self> {
+        let system = System::<f32>::build(bodies);
+        let n = system.y.len();
+        let bonds = system.nb.indices.len();
+        if n == 0 {
+            return Err(invalid!("the bodies have no vertices"));
+        }
+        let device = &ctx.device;
+        let limits = &ctx.limits;
+        let too_big = |what: &str, bytes: u64| {
+            Error::Gpu(format!(
+                "{what} needs {bytes} bytes, more than the adapter {:?} binds ({} bytes per storage buffer)",
+                ctx.info.name, limits.max_storage_buffer_binding_size
+            ))
+        };
+        let vertex_groups = groups(n as u32, VERTEX_GROUP);
+        if vertex_groups > limits.max_compute_workgroups_per_dimension {
+            return Err(Error::Gpu(format!(
+                "{n} vertices need {vertex_groups} workgroups, more than the adapter's {}",
+                limits.max_compute_workgroups_per_dimension
+            )));
+        }
+        let storage =
+            |label: &str, bytes: u64, extra: wgpu::BufferUsages| -> Result<wgpu::Buffer> {
+                let bytes = bytes.max(16);
+                if bytes > limits.max_storage_buffer_binding_size {
+                    return Err(too_big(label, bytes));
+                }
+                Ok(device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: bytes,
+                    usage: wgpu::BufferUsages::STORAGE | extra,
+                    mapped_at_creation: false,
+                }))
+            };
+        let init = |label: &str, contents: &[u8]| -> Result<wgpu::Buffer> {
+            let buffer = storage(label, contents.len() as u64, wgpu::BufferUsages::COPY_DST)?;
+            ctx.queue.write_buffer(&buffer, 0, contents);
+            Ok(buffer)
+        };
+        let copy = wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
+        let vec_bytes = n as u64 * layout::VEC_BYTES;
+        let rest = &system.rest;
+        let vertices: Vec<Vertex> = rest
+            .frames
+            .iter()
+            .zip(&rest.vertices)
+            .map(|(f, c)| Vertex::new(f, c))
+            .collect();
+        let bond_data: Vec<Bond> = rest.bonds.iter().map(Bond::from).collect();
+        let history_bytes = (iter_capacity as u64) * layout::VEC_BYTES;
+        let ctrl_bytes = layout::CONTROL_HEADER_BYTES + history_bytes;
+        let uniform = |label: &str, bytes: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let readback = |label: &str, bytes: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let buffers = Buffers {
+            params: uniform("params", std::mem::size_of::<Params>() as u64),
+            iters: uniform("iters", iter_capacity as u64 * layout::ITER_STRIDE),
+            colliders: storage(
+                "colliders",
+                (collider_capacity * std::mem::size_of::<GpuCollider>()) as u64,
+                wgpu::BufferUsages::COPY_DST,
+            )?,
+            pinned: storage("pinned", n as u64 * 4, wgpu::BufferUsages::COPY_DST)?,
+            y_start: storage("y_start", vec_bytes, copy)?,
+            velocity: storage("velocity", vec_bytes, copy)?,
+            y_star: storage("y_star", vec_bytes, copy)?,
+            ctrl: storage("ctrl", ctrl_bytes, copy)?,
+            header_readback: readback("header readback", layout::CONTROL_HEADER_BYTES),
+            state_readback: readback("state readback", 2 * vec_bytes + history_bytes),
+        };
+        let owned = [
+            init("vertices", bytemuck::cast_slice(&vertices))?,
+            init("bonds", bytemuck::cast_slice(&bond_data))?,
+            init("offsets", bytemuck::cast_slice(&system.nb.offsets))?,
+            init("indices", bytemuck::cast_slice(&system.nb.indices))?,
+            init("reverse", bytemuck::cast_slice(&system.nb.reverse))?,
+            storage("y", vec_bytes, wgpu::BufferUsages::empty())?,
+            storage("y_next", vec_bytes, wgpu::BufferUsages::empty())?,
+            storage("y_prev", vec_bytes, wgpu::BufferUsages::empty())?,
+            storage(
+                "bond_grad",
+                bonds as u64 * layout::VEC_BYTES,
+                wgpu::BufferUsages::empty(),
+            )?,
+            storage(
+                "response",
+                n as u64 * layout::RESPONSE_BYTES,
+                wgpu::BufferUsages::empty(),
+            )?,
+            storage(
+                "measure",
+                n as u64 * layout::MEASURE_BYTES,
+                wgpu::BufferUsages::empty(),
+            )?,
+            storage(
+                "partials",
+                groups(n as u32, REDUCE_GROUP) as u64 * layout::PARTIAL_BYTES,
+                wgpu::BufferUsages::empty(),
+            )?,
+        ];
+        let [vertices, bond_buf, offsets, indices, reverse, y, y_next, y_prev, bond_grad, response, measure, partials] =
+            &owned;
+        let b = &buffers;
+        let by_binding: [&wgpu::Buffer; BINDINGS as usize] = [
+            &b.params,
+            &b.iters,
+            vertices,
+            bond_buf,
+            offsets,
+            indices,
+            reverse,
+            &b.colliders,
+            &b.pinned,
+            &b.y_start,
+            &b.velocity,
+            &b.y_star,
+            y,
+            y_next,
+            y_prev,
+            bond_grad,
+            response,
+            measure,
+            partials,
+            &b.ctrl,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = by_binding
+            .iter()
+            .enumerate()
+            .map(|(k, buffer)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: if k == 1 {
+                    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(std::mem::size_of::<Iter>() as u64),
+                    })
+                } else {
+                    buffer.as_entire_binding()
+                },
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("peridyn state"),
+            layout: &pipelines.layout,
+            entries: &entries,
+        });
+        ctx.check()?;
+        Ok(Self {
+            n: n as u32,
+            bonds: bonds as u64,
+            system,
+            iter_capacity,
+            collider_capacity,
+            records_for: None,
+            buffers,
+            bind_group,
+        })
+    }
+
+    /// Loads the bodies' state and pins, and writes the parameters, colliders, per-iteration
+    /// records (when the parameters changed) and a fresh control header.
+    fn upload(
+        &mut self,
+        ctx: &GpuContext,
+        bodies: &[&mut Membrane],
+        params: &SolverParams,
+        colliders: &[Collider],
+    ) {
+        let q = &ctx.queue;
+        let sys = &mut self.system;
+        sys.load(bodies);
+        let as_vec4 = |v: &[nalgebra::Vector3<f32>]| v.iter().map(layout::vec4).collect::<Vec<_>>();
+        q.write_buffer(
+            &self.buffers.y_start,
+            0,
+            bytemuck::cast_slice(&as_vec4(&sys.y_start)),
+        );
+        q.write_buffer(
+            &self.buffers.velocity,
+            0,
+            bytemuck::cast_slice(&as_vec4(&sys.velocity)),
+        );
+        q.write_buffer(
+            &self.buffers.y_star,
+            0,
+            bytemuck::cast_slice(&as_vec4(&sys.y_star)),
+        );
+        let pinned: Vec<u32> = sys.pinned.iter().map(|&p| p as u32).collect();
+        q.write_buffer(&self.buffers.pinned, 0, bytemuck::cast_slice(&pinned));
+        let gpu_colliders: Vec<GpuCollider> = colliders.iter().map(GpuCollider::from).collect();
+        if !gpu_colliders.is_empty() {
+            q.write_buffer(
+                &self.buffers.colliders,
+                0,
+                bytemuck::cast_slice(&gpu_colliders),
+            );
+        }
+        let h = params.dt as f32;
+        let gpu_params = Params {
+            gravity: params.gravity.map(|g| g as f32),
+            h,
+            n: self.n,
+            n_colliders: colliders.len() as u32,
+            step_length: params.step_length as u32,
+            preconditioner: match params.preconditioner {
+                Preconditioner::Tangent => 0,
+                Preconditioner::Paper => 1,
+            },
+            tol: params.tol as f32,
+            min_stretch: f32::min_stretch(),
+            groups: groups(self.n, REDUCE_GROUP),
+            accelerated: (params.acceleration != Acceleration::None) as u32,
+        };
+        q.write_buffer(&self.buffers.params, 0, bytemuck::bytes_of(&gpu_params));
+        q.write_buffer(
+            &self.buffers.ctrl,
+            0,
+            bytemuck::cast_slice(&[u32::MAX, u32::MAX, u32::MAX, 0]),
+        );
+        if self.records_for != Some(*params) {
+            let mut records = vec![Iter::zeroed(); self.iter_capacity];
+            records[RECORD_PREDICTION].lane = 1;
+            let mut omega = 1.0;
+            for k in 0..params.max_iters {
+                let extrapolation = params.acceleration.omega(k, omega);
+                omega = extrapolation.unwrap_or(1.0);
+                records[RECORD_FIRST_ITERATION + k] = Iter {
+                    iteration: k as u32,
+                    slot: 1 + k as u32,
+                    lane: 2,
+                    extrapolate: extrapolation.is_some() as u32,
+                    omega: omega as f32,
+                    pad: [0; 3],
+                };
+            }
+            let mut bytes = vec![0u8; self.iter_capacity * layout::ITER_STRIDE as usize];
+            for (k, r) in records.iter().enumerate() {
+                let at = k * layout::ITER_STRIDE as usize;
+                bytes[at..at + std::mem::size_of::<Iter>()].copy_from_slice(bytemuck::bytes_of(r));
+            }
+            q.write_buffer(&self.buffers.iters, 0, &bytes);
+            self.records_for = Some(*params);
+        }
+    }
+
+    fn write_record(&self, ctx: &GpuContext, index: usize, record: Iter) {
+        ctx.queue.write_buffer(
+            &self.buffers.iters,
+            index as u64 * layout::ITER_STRIDE,
+            bytemuck::bytes_of(&record),
+        );
+    }
+
+    fn pass<'a>(
+        &'a self,
+        encoder: &'a mut wgpu::CommandEncoder,
+        pipelines: &'a Pipelines,
+    ) -> Pass<'a> {
+        Pass {
+            pass: encoder.begin_compute_pass(&Default::default()),
+            pipelines,
+            bind_group: &self.bind_group,
+            vertex_groups: groups(self.n, VERTEX_GROUP),
+            reduce_groups: groups(self.n, REDUCE_GROUP),
+        }
+    }
+
+    /// Submits `encoder` after a copy of the control header, and returns the header
+    /// `(limit, bad_vertex, bad_iteration)`.
+    fn read_header(&self, ctx: &GpuContext, mut encoder: wgpu::CommandEncoder) -> Result<[u32; 3]> {
+        let b = &self.buffers;
+        encoder.copy_buffer_to_buffer(
+            &b.ctrl,
+            0,
+            &b.header_readback,
+            0,
+            layout::CONTROL_HEADER_BYTES,
+        );
+        ctx.queue.submit([encoder.finish()]);
+        let bytes = map_read(ctx, &b.header_readback)?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        Ok([words[0], words[1], words[2]])
+    }
+
+    /// Submits `encoder` after copies of the new positions, velocities and the history, stores
+    /// the first two in the host system and returns the history `[0, max_iters + 2)`.
+    fn read_back(
+        &mut self,
+        ctx: &GpuContext,
+        mut encoder: wgpu::CommandEncoder,
+        max_iters: usize,
+    ) -> Result<Vec<[f32; 4]>> {
+        let b = &self.buffers;
+        let vec_bytes = self.n as u64 * layout::VEC_BYTES;
+        let history_bytes = (max_iters as u64 + 2) * layout::VEC_BYTES;
+        encoder.copy_buffer_to_buffer(&b.y_start, 0, &b.state_readback, 0, vec_bytes);
+        encoder.copy_buffer_to_buffer(&b.velocity, 0, &b.state_readback, vec_bytes, vec_bytes);
+        encoder.copy_buffer_to_buffer(
+            &b.ctrl,
+            layout::CONTROL_HEADER_BYTES,
+            &b.state_readback,
+            2 * vec_bytes,
+            history_bytes,
+        );
+        ctx.queue.submit([encoder.finish()]);
+        let bytes = map_read(ctx, &b.state_readback)?;
+        let all: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+        let n = self.n as usize;
+        for (dst, src) in self.system.y_start.iter_mut().zip(&all[..n]) {
+            *dst = nalgebra::Vector3::new(src[0], src[1], src[2]);
+        }
+        for (dst, src) in self.system.velocity.iter_mut().zip(&all[n..2 * n]) {
+            *dst = nalgebra::Vector3::new(src[0], src[1], src[2]);
+        }
+        Ok(all[2 * n..2 * n + max_iters + 2].to_vec())
+    }
+}
+
+/// Maps `buffer` for reading once the queue has finished, and copies it out.
+fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8>> {
+    let outcome = std::sync::Arc::new(std::sync::Mutex::new(None));
+    let sink = outcome.clone();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        if let Ok(mut slot) = sink.lock() {
+            *slot = Some(r);
+        }
+    });
+    ctx.wait()?;
+    ctx.check()?;
+    let mapped = outcome.lock().unwrap_or_else(|p| p.into_inner()).take();
+    match mapped {
+        Some(Ok(())) => {}
+        Some(Err(e)) => return Err(Error::Gpu(format!("cannot read GPU results back: {e}"))),
+        None => return Err(Error::Gpu("GPU read-back did not complete".into())),
+    }
+    let bytes = buffer
+        .get_mapped_range(..)
+        .map_err(|e| Error::Gpu(format!("cannot read GPU results back: {e}")))?
+        .to_vec();
+    buffer.unmap();
+    Ok(bytes)
+}
+
+/// A compute pass recording the kernels of a step.
+struct Pass<'a> {
+    pass: wgpu::ComputePass<'a>,
+    pipelines: &'a Pipelines,
+    bind_group: &'a wgpu::BindGroup,
+    vertex_groups: u32,
+    reduce_groups: u32,
+}
+
+impl Pass<'_> {
+    fn run(&mut self, pipeline: &wgpu::ComputePipeline, record: usize, groups: u32) {
+        self.pass.set_pipeline(pipeline);
+        let offset = (record as u64 * layout::ITER_STRIDE) as u32;
+        self.pass.set_bind_group(0, self.bind_group, &[offset]);
+        self.pass.dispatch_workgroups(groups, 1, 1);
+    }
+
+    fn per_vertex(&mut self, pipeline: fn(&Pipelines) -> &wgpu::ComputePipeline, record: usize) {
+        let p = pipeline(self.pipelines);
+        self.run(p, record, self.vertex_groups);
+    }
+
+    /// The variational energy of `y` into the history slot of `record` (after the kernel
+    /// when `evaluate`).
+    fn energy(&mut self, record: usize, evaluate: bool) {
+        if evaluate {
+            self.per_vertex(|p| &p.evaluate, record);
+        }
+        let p = self.pipelines;
+        self.run(&p.reduce_energy, record, self.reduce_groups);
+        self.run(&p.finish_energy, record, 1);
+    }
+
+    /// `y* = y_t + h v + h^2 g`, then the lower-energy of `y_t` and `y*` as first iterate,
+    /// evaluated.
+    fn initial_guess(&mut self) {
+        self.per_vertex(|p| &p.predict, RECORD_PREVIOUS);
+        self.per_vertex(|p| &p.use_previous, RECORD_PREVIOUS);
+        self.energy(RECORD_PREVIOUS, true);
+        self.per_vertex(|p| &p.use_prediction, RECORD_PREDICTION);
+        self.energy(RECORD_PREDICTION, true);
+        self.per_vertex(|p| &p.choose_initial, RECORD_PREDICTION);
+        self.per_vertex(|p| &p.evaluate, RECORD_PREDICTION);
+    }
+
+    /// Global iteration `k`: kernel (k > 0), energy, Jacobi update, colliders, convergence
+    /// measure, commit.
+    fn iteration(&mut self, k: usize, record_energy: bool) {
+        let record = RECORD_FIRST_ITERATION + k;
+        if k > 0 {
+            self.per_vertex(|p| &p.evaluate, record);
+            if record_energy {
+                self.energy(record, false);
+            }
+        }
+        self.per_vertex(|p| &p.jacobi, record);
+        self.per_vertex(|p| &p.project, record);
+        let p = self.pipelines;
+        self.run(&p.reduce_measure, record, self.reduce_groups);
+        self.run(&p.finish_measure, record, 1);
+        self.per_vertex(|p| &p.commit, record);
+    }
+
+    /// `v = (y - y_t) / h`, `y_t <- y`.
+    fn finish(&mut self) {
+        self.per_vertex(|p| &p.finish, RECORD_PREVIOUS);
+    }
+}

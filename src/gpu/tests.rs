@@ -1,0 +1,120 @@
+//! GPU against CPU. Without an adapter these tests print why and pass, unless
+//! `PERIDYN_REQUIRE_GPU=1`, which makes a missing adapter a failure (CI sets it).
+
+use nalgebra::Vector3;
+
+use crate::contact::Collider;
+use crate::material::Material;
+use crate::membrane::{Membrane, MembraneParams};
+use crate::mesh::TriangleMesh;
+use crate::solve::{Acceleration, Solver, SolverParams};
+
+use super::GpuSolver;
+
+/// A GPU solver, or None (with the reason printed) when there is no adapter and the
+/// environment does not require one. With an adapter, any failure is a test failure.
+fn gpu(params: SolverParams) -> Option<GpuSolver> {
+    match super::gpu_info() {
+        Ok(_) => Some(GpuSolver::new(params).unwrap()),
+        Err(e) if std::env::var("PERIDYN_REQUIRE_GPU").as_deref() == Ok("1") => {
+            panic!("PERIDYN_REQUIRE_GPU=1 but the GPU backend is unavailable: {e}")
+        }
+        Err(e) => {
+            eprintln!("skipping GPU test: {e}");
+            None
+        }
+    }
+}
+
+fn cloth(n: usize, material: Material) -> Membrane {
+    let params = MembraneParams {
+        thickness: 1e-3,
+        density: 300.0,
+        material,
+        bending: 1e-5,
+        hourglass: 0.1,
+        neighbors: 1,
+    };
+    Membrane::new(TriangleMesh::grid(n, n, 0.5, 0.5).unwrap(), params).unwrap()
+}
+
+/// Free fall is implicit Euler on the GPU too: `y_n = y_0 + h^2 g n (n + 1) / 2`.
+#[test]
+fn free_fall_is_implicit_euler() {
+    let params = SolverParams {
+        dt: 0.01,
+        gravity: [0.5, -1.0, -9.81],
+        ..SolverParams::default()
+    };
+    let Some(mut solver) = gpu(params) else {
+        return;
+    };
+    let mut body = cloth(6, Material::stretch_a3(1e4).unwrap());
+    let x0 = body.positions().to_vec();
+    let g = Vector3::from(params.gravity);
+    for n in 1..=10u32 {
+        let stats = solver.step(&mut [&mut body]).unwrap();
+        assert!(stats.converged, "step {n}: {stats:?}");
+        let drop = g * (params.dt * params.dt * (n * (n + 1)) as f64 / 2.0);
+        for (y, x) in body.positions().iter().zip(&x0) {
+            assert!((y - (x + drop)).norm() < 1e-5, "step {n}");
+        }
+    }
+}
+
+/// A pinned cloth draping onto a sphere above a floor: GPU and CPU (both f32) agree over 40
+/// steps, for both materials, with Chebyshev acceleration and the recorded energies.
+#[test]
+fn draping_cloth_matches_the_cpu() {
+    for material in [
+        Material::stretch_a3(2e4).unwrap(),
+        Material::neo_hookean_from_young(4e4, 0.3).unwrap(),
+    ] {
+        let params = SolverParams {
+            dt: 2e-3,
+            tol: 1e-5,
+            max_iters: 40,
+            acceleration: Acceleration::Chebyshev { rho: 0.9, delay: 3 },
+            record_energy: true,
+            ..SolverParams::default()
+        };
+        let Some(mut gpu) = gpu(params) else {
+            return;
+        };
+        let mut cpu = Solver::<f32>::new(params, Some(1)).unwrap();
+        let colliders = [
+            Collider::sphere([0.25, 0.25, -0.15], 0.12).unwrap(),
+            Collider::plane([0.0, 0.0, -0.2], [0.0, 0.0, 1.0]).unwrap(),
+        ];
+        for c in colliders {
+            gpu.add_collider(c);
+            cpu.add_collider(c);
+        }
+        let mut a = cloth(10, material);
+        a.pin(&[0, 9], None).unwrap();
+        let mut b = cloth(10, material);
+        b.pin(&[0, 9], None).unwrap();
+        for step in 0..40 {
+            let sa = gpu.step(&mut [&mut a]).unwrap();
+            let sb = cpu.step(&mut [&mut b]).unwrap();
+            assert!(
+                sa.iterations.abs_diff(sb.iterations) <= 2,
+                "step {step}: {} vs {} iterations",
+                sa.iterations,
+                sb.iterations
+            );
+            assert_eq!(sa.energies.len(), sa.iterations + 1);
+        }
+        let worst = a
+            .positions()
+            .iter()
+            .zip(b.positions())
+            .map(|(p, q)| (p - q).norm())
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-4,
+            "{material:?}: GPU and CPU differ by {worst} m"
+        );
+        assert!(gpu.bytes_per_iteration().unwrap() > 0);
+    }
+}
