@@ -82,19 +82,20 @@ def test_draping_cloth_matches_cpu_over_100_steps(gpu, material):
 
 
 def test_fixed_iterations_and_energies_match_cpu(gpu):
-    """tol = 0: both run exactly max_iters; the recorded energies agree to f32 precision."""
+    """tol = 0: both run exactly max_iters; the recorded energies and residuals agree to f32
+    precision once the sheet has deformed (A3: its energy is accurate in f32 at small strain)."""
     kw = dict(tol=0.0, max_iters=12, record_energy=True, acceleration=None,
               preconditioner="paper", step_length=True)
     v, t = make_grid(8, 8, 0.5, 0.5)
     out = {}
     for backend in ("cpu", "gpu"):
-        m = membrane(v, t, material=MATERIALS["neo_hookean"](), bending=1e-5, hourglass=0.5,
+        m = membrane(v, t, material=MATERIALS["a3"](), bending=1e-5, hourglass=0.5,
                      density=300.0)
         m.pin([0, 7])
         extra = {"precision": "f32"} if backend == "cpu" else {"backend": "gpu"}
         sol = peridyn.Solver(dt=5e-3, **kw, **extra)
         sol.add(m)
-        stats = [sol.step() for _ in range(5)]
+        stats = [sol.step() for _ in range(30)]
         assert all(s.iterations == 12 and not s.converged for s in stats)
         assert all(len(s.residuals) == 12 and len(s.energies) == 13 for s in stats)
         out[backend] = (m.positions, stats[-1].energies, stats[-1].residuals)
@@ -172,14 +173,23 @@ def test_gpu_info_describes_the_adapter(gpu):
 
 
 def test_divergence_raises_and_leaves_the_body_unchanged(gpu):
+    """Velocities that overflow f32 arithmetic: DivergenceError, state untouched, and the
+    solver steps normally again once the velocities are reset."""
     v, t = make_grid(5, 5, 0.2, 0.2)
     m = membrane(v, t, s0=1e4)
-    sol = peridyn.Solver(dt=1e-2, backend="gpu", gravity=(0, 0, -1e38), max_iters=5)
+    m.pin([0])
+    sol = peridyn.Solver(dt=1e-2, backend="gpu", max_iters=5)
     sol.add(m)
-    before = m.positions
+    sol.step()
+    m.velocities = np.random.default_rng(0).choice([-1.0, 1.0], size=v.shape) * 1e300
+    before, vel = m.positions, m.velocities
     with pytest.raises(peridyn.DivergenceError, match="non-finite"):
         sol.step()
-    assert np.array_equal(m.positions, before)
+    assert np.array_equal(m.positions, before) and np.array_equal(m.velocities, vel)
+    assert sol.steps_taken == 1
+    m.velocities = np.zeros_like(vel)
+    sol.step()
+    assert np.isfinite(m.positions).all() and sol.steps_taken == 2
 
 
 def test_gpu_backend_arguments_are_checked():

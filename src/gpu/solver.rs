@@ -36,6 +36,10 @@ const RECORD_FINAL: usize = 2;
 const RECORD_FIRST_ITERATION: usize = 3;
 
 /// Steps a set of membranes in time on the GPU, in f32.
+///
+/// [`StepStats::timings`] are host wall-clock times: `predict` the upload, `global` the
+/// initial guess and the iterations (colliders included; `colliders` stays 0), `finish` the
+/// velocity update and the read-back.
 pub struct GpuSolver {
     params: SolverParams,
     colliders: Vec<Collider>,
