@@ -4,14 +4,14 @@
 
 const PLANE: u32 = 0u;
 
-fn collider_distance(k: Collider, x: vec3<f32>) -> f32 {
+fn collider_distance(k: Collider, x: vec3<real>) -> real {
     if k.kind == PLANE {
         return dot(x, k.a) - k.b;
     }
     return length(x - k.a) - k.b;
 }
 
-fn collider_normal(k: Collider, x: vec3<f32>) -> vec3<f32> {
+fn collider_normal(k: Collider, x: vec3<real>) -> vec3<real> {
     if k.kind == PLANE {
         return k.a;
     }
@@ -20,11 +20,11 @@ fn collider_normal(k: Collider, x: vec3<f32>) -> vec3<f32> {
     if d > 0.0 {
         return r / d;
     }
-    return vec3<f32>(0.0, 0.0, 1.0);
+    return vec3<real>(0.0, 0.0, 1.0);
 }
 
 // The closest point at distance >= margin from the surface.
-fn collider_project(k: Collider, x: vec3<f32>, margin: f32) -> vec3<f32> {
+fn collider_project(k: Collider, x: vec3<real>, margin: real) -> vec3<real> {
     if k.kind == PLANE {
         let d = dot(x, k.a) - k.b - margin;
         if d < 0.0 {
@@ -40,7 +40,7 @@ fn collider_project(k: Collider, x: vec3<f32>, margin: f32) -> vec3<f32> {
     } else if dist > 0.0 {
         return k.a + r * (reach / dist);
     }
-    return k.a + vec3<f32>(0.0, 0.0, reach);
+    return k.a + vec3<real>(0.0, 0.0, reach);
 }
 
 // The local step: y_next <- the projection of the free vertices out of every collider, in order,
@@ -58,10 +58,10 @@ fn project(@builtin(global_invocation_id) gid: vec3<u32>) {
         for (var c = 0u; c < params.n_colliders; c++) {
             next = collider_project(colliders[c], next, margin);
         }
-        y_next[i] = vec4<f32>(next, 0.0);
+        y_next[i] = vec4<real>(next, 0.0);
     }
     let ok = finite3(next);
-    var moved = 0.0;
+    var moved: real = 0.0;
     if ok {
         moved = length(next - y[i].xyz);
     }

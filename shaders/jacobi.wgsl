@@ -12,23 +12,23 @@
 // and measure.residual = |r without contact reactions| / m (m).
 
 // See jacobi_step in src/solve/sissm.rs.
-const STEP_LENGTH_SIGNIFICANCE: f32 = 0.1;
+const STEP_LENGTH_SIGNIFICANCE: real = 0.1;
 
 // D^-1 by cofactors; 1/m I if D is singular.
-fn inverse_or(d: mat3x3<f32>, mass: f32) -> mat3x3<f32> {
+fn inverse_or(d: mat3x3<real>, mass: real) -> mat3x3<real> {
     let c0 = cross(d[1], d[2]);
     let c1 = cross(d[2], d[0]);
     let c2 = cross(d[0], d[1]);
     let det = dot(d[0], c0);
     if det == 0.0 {
-        return mat3x3<f32>(vec3<f32>(1.0 / mass, 0.0, 0.0), vec3<f32>(0.0, 1.0 / mass, 0.0), vec3<f32>(0.0, 0.0, 1.0 / mass));
+        return mat3x3<real>(vec3<real>(1.0 / mass, 0.0, 0.0), vec3<real>(0.0, 1.0 / mass, 0.0), vec3<real>(0.0, 0.0, 1.0 / mass));
     }
     // Rows of the inverse are the cofactor columns over det; transpose into column form.
-    return transpose(mat3x3<f32>(c0, c1, c2)) * (1.0 / det);
+    return transpose(mat3x3<real>(c0, c1, c2)) * (1.0 / det);
 }
 
 // Keeps a move out of the colliders along D^-1 n (frictionless contact in the D-metric).
-fn keep_out(start: vec3<f32>, inverse: mat3x3<f32>, margin: f32) -> vec3<f32> {
+fn keep_out(start: vec3<real>, inverse: mat3x3<real>, margin: real) -> vec3<real> {
     var x = start;
     for (var c = 0u; c < params.n_colliders; c++) {
         let k = colliders[c];
@@ -46,7 +46,7 @@ fn keep_out(start: vec3<f32>, inverse: mat3x3<f32>, margin: f32) -> vec3<f32> {
 }
 
 // The residual without the push of a collider the vertex touches.
-fn without_contact_reaction(start: vec3<f32>, x: vec3<f32>, margin: f32) -> vec3<f32> {
+fn without_contact_reaction(start: vec3<real>, x: vec3<real>, margin: real) -> vec3<real> {
     var r = start;
     let slack = max(1e-6, margin * 1e-3);
     for (var c = 0u; c < params.n_colliders; c++) {
@@ -70,28 +70,28 @@ fn jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let yk = y[k].xyz;
     if pinned[k] != 0u {
-        y_next[k] = vec4<f32>(yk, 0.0);
+        y_next[k] = vec4<real>(yk, 0.0);
         measure[k].residual = 0.0;
         return;
     }
     let c = vertices[k];
     let mass = c.mass;
     let h2 = params.h * params.h;
-    var force = vec3<f32>(0.0);
+    var force = vec3<real>(0.0);
     let first = offsets[k];
     let last = offsets[k + 1u];
     for (var b = first; b < last; b++) {
         force += bond_grad[b].xyz - bond_grad[reverse[b]].xyz;
     }
     let residual = (y_star[k].xyz - yk) * mass + force * h2;
-    var stiffness = precond_of(k) * f32(last - first);
+    var stiffness = precond_of(k) * real(last - first);
     var energy = response[k].energy;
     for (var b = first; b < last; b++) {
         let j = indices[b];
         stiffness += precond_of(j);
         energy += response[j].energy;
     }
-    let system = mat3x3<f32>(vec3<f32>(mass, 0.0, 0.0), vec3<f32>(0.0, mass, 0.0), vec3<f32>(0.0, 0.0, mass)) + stiffness * h2;
+    let system = mat3x3<real>(vec3<real>(mass, 0.0, 0.0), vec3<real>(0.0, mass, 0.0), vec3<real>(0.0, 0.0, mass)) + stiffness * h2;
     let inverse = inverse_or(system, mass);
     var delta = inverse * residual;
     if params.step_length != 0u {
@@ -107,7 +107,7 @@ fn jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
         let prev = y_prev[k].xyz;
         next = (next - prev) * iter.omega + prev;
     }
-    y_next[k] = vec4<f32>(next, 0.0);
+    y_next[k] = vec4<real>(next, 0.0);
     let free = without_contact_reaction(residual, yk, c.half_thickness);
     measure[k].residual = length(free) / mass;
 }

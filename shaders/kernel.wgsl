@@ -12,41 +12,33 @@
 // Preconditioner: C_i = w1 u1 u1^T + w2 u2 u2^T + wn n n^T.
 
 struct Deformation {
-    a1: vec3<f32>,
-    a2: vec3<f32>,
-    area_ratio: f32,        // |a1 x a2| = sigma1 sigma2
-    normal: vec3<f32>,
-    u1: vec3<f32>,
-    u2: vec3<f32>,
-    v1: vec2<f32>,          // right singular vectors in (t1, t2) coordinates
-    v2: vec2<f32>,
-    sigma: vec2<f32>,       // descending, clamped below at min_stretch
+    a1: vec3<real>,
+    a2: vec3<real>,
+    area_ratio: real,        // |a1 x a2| = sigma1 sigma2
+    normal: vec3<real>,
+    u1: vec3<real>,
+    u2: vec3<real>,
+    v1: vec2<real>,          // right singular vectors in (t1, t2) coordinates
+    v2: vec2<real>,
+    sigma: vec2<real>,       // descending, clamped below at min_stretch
 }
 
 // A unit vector orthogonal to the unit vector n, chosen deterministically.
-fn any_orthogonal_unit(n: vec3<f32>) -> vec3<f32> {
+fn any_orthogonal_unit(n: vec3<real>) -> vec3<real> {
     let a = abs(n);
-    var axis = vec3<f32>(0.0, 0.0, 1.0);
+    var axis = vec3<real>(0.0, 0.0, 1.0);
     if a.x <= a.y && a.x <= a.z {
-        axis = vec3<f32>(1.0, 0.0, 0.0);
+        axis = vec3<real>(1.0, 0.0, 0.0);
     } else if a.y <= a.z {
-        axis = vec3<f32>(0.0, 1.0, 0.0);
+        axis = vec3<real>(0.0, 1.0, 0.0);
     }
     return normalize(cross(n, axis));
 }
 
-// atan2 with atan2(0, 0) = 0, as in Rust (an isotropic metric has r = 0 and p = s).
-fn angle_of(y_: f32, x: f32) -> f32 {
-    if x == 0.0 && y_ == 0.0 {
-        return 0.0;
-    }
-    return atan2(y_, x);
-}
-
-fn deformation_of(i: u32, yi: vec3<f32>) -> Deformation {
+fn deformation_of(i: u32, yi: vec3<real>) -> Deformation {
     let c = vertices[i];
-    var a1 = vec3<f32>(0.0);
-    var a2 = vec3<f32>(0.0);
+    var a1 = vec3<real>(0.0);
+    var a2 = vec3<real>(0.0);
     for (var b = offsets[i]; b < offsets[i + 1u]; b++) {
         let e = y[indices[b]].xyz - yi;
         a1 += e * bonds[b].beta1;
@@ -56,9 +48,9 @@ fn deformation_of(i: u32, yi: vec3<f32>) -> Deformation {
     let r = dot(a1, a2);
     let s = dot(a2, a2);
     // Eigenvectors of the 2x2 metric T^T T: the larger eigenvalue's at angle theta.
-    let theta = 0.5 * angle_of(r + r, p - s);
-    let sn = sin(theta);
-    let cs = cos(theta);
+    let half = half_angle(r + r, p - s);
+    let cs = half.x;
+    let sn = half.y;
     let t_v1 = a1 * cs + a2 * sn;
     let sigma1 = length(t_v1);
     let cr = cross(a1, a2);
@@ -68,7 +60,7 @@ fn deformation_of(i: u32, yi: vec3<f32>) -> Deformation {
     if sigma1 > tiny {
         u1 = t_v1 / sigma1;
     }
-    var normal: vec3<f32>;
+    var normal: vec3<real>;
     if area_ratio > tiny * (p + s) && area_ratio > 0.0 {
         normal = cr / area_ratio;
     } else {
@@ -79,7 +71,7 @@ fn deformation_of(i: u32, yi: vec3<f32>) -> Deformation {
             normal = any_orthogonal_unit(u1);
         }
     }
-    var sigma2 = 0.0;
+    var sigma2: real = 0.0;
     if sigma1 > tiny {
         sigma2 = area_ratio / sigma1;
     }
@@ -90,28 +82,28 @@ fn deformation_of(i: u32, yi: vec3<f32>) -> Deformation {
     d.normal = normal;
     d.u1 = u1;
     d.u2 = cross(normal, u1);
-    d.v1 = vec2<f32>(cs, sn);
-    d.v2 = vec2<f32>(-sn, cs);
-    d.sigma = max(vec2<f32>(sigma1, sigma2), vec2<f32>(params.min_stretch));
+    d.v1 = vec2<real>(cs, sn);
+    d.v2 = vec2<real>(-sn, cs);
+    d.sigma = max(vec2<real>(sigma1, sigma2), vec2<real>(params.min_stretch));
     return d;
 }
 
 // Per-direction stiffness (w_u1, w_u2, w_n) (N/m) of the stretching part of C_i.
-fn stretch_stiffness(c: Vertex, l: vec3<f32>, stress: vec3<f32>) -> vec3<f32> {
+fn stretch_stiffness(c: Vertex, l: vec3<real>, stress: vec3<real>) -> vec3<real> {
     if params.preconditioner == 1u {
         return material_implicit_stiffness(c, l) * (c.volume * c.k_iso);
     }
     let hess = material_in_plane_hessian(c, l);
     let pair_plus = (stress.x + stress.y) / (l.x + l.y);
     let gap = l.x - l.y;
-    var pair_minus = 0.0;
+    var pair_minus: real = 0.0;
     if gap > 1e-6 * l.x {
         pair_minus = (stress.x - stress.y) / gap;
     }
     let shear = max(pair_plus, pair_minus);
     let tension = max(max(stress.x / l.x, stress.y / l.y), 0.0);
     let scale = c.volume * c.k_bound;
-    return vec3<f32>(
+    return vec3<real>(
         max(hess.x + abs(hess.z), shear) * scale,
         max(hess.y + abs(hess.z), shear) * scale,
         tension * scale,
@@ -127,7 +119,7 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>) {
     let c = vertices[i];
     let yi = y[i].xyz;
     let def = deformation_of(i, yi);
-    let l = vec3<f32>(def.sigma, 1.0);
+    let l = vec3<real>(def.sigma, 1.0);
     let u1 = def.u1;
     let u2 = def.u2;
     let n = def.normal;
@@ -149,18 +141,18 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>) {
         let rw2 = c.t1 * def.v2.x + c.t2 * def.v2.y;
         let inv = 1.0 / def.sigma;
         // First pass: rest images F^-1 e_j (kept in bond_grad) and the fitted curvature.
-        var curvature = vec3<f32>(0.0);
+        var curvature = vec3<real>(0.0);
         for (var b = first; b < last; b++) {
             let e = y[indices[b]].xyz - yi;
             let rest_image = rw1 * (dot(u1, e) * inv.x) + rw2 * (dot(u2, e) * inv.y) + c.nc * dot(n, e);
             curvature += bonds[b].curvature * dot(rest_image - bonds[b].xi, c.nc);
-            bond_grad[b] = vec4<f32>(rest_image, 0.0);
+            bond_grad[b] = vec4<real>(rest_image, 0.0);
         }
         let bending = 0.5 * dot(curvature, curvature);
-        var hourglass = 0.0;
-        var h1 = vec3<f32>(0.0);
-        var h2 = vec3<f32>(0.0);
-        var hn = vec3<f32>(0.0);
+        var hourglass: real = 0.0;
+        var h1 = vec3<real>(0.0);
+        var h2 = vec3<real>(0.0);
+        var hn = vec3<real>(0.0);
         for (var b = first; b < last; b++) {
             let rest_image = bond_grad[b].xyz;
             let q = rest_image - bonds[b].xi;
@@ -169,7 +161,7 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>) {
             hourglass += c.kappa_t * dot(q_t, q_t);
             let wq = q_t * c.kappa_t + c.nc * dot(bonds[b].curvature, curvature);
             let d = u1 * (dot(rw1, wq) * inv.x) + u2 * (dot(rw2, wq) * inv.y) + n * dot(c.nc, wq);
-            bond_grad[b] = vec4<f32>(d, 0.0);
+            bond_grad[b] = vec4<real>(d, 0.0);
             h1 += d * dot(rest_image, c.t1);
             h2 += d * dot(rest_image, c.t2);
             hn += d * dot(rest_image, c.nc);
@@ -181,20 +173,20 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>) {
         let pv = (-hn + n * dot(n, hn)) / max(def.area_ratio, tiny);
         g1 += cross(def.a2, pv);
         g2 += cross(pv, def.a1);
-        w += vec3<f32>(c.kappa_t * inv.x * inv.x, c.kappa_t * inv.y * inv.y, c.kappa_n);
+        w += vec3<real>(c.kappa_t * inv.x * inv.x, c.kappa_t * inv.y * inv.y, c.kappa_n);
         for (var b = first; b < last; b++) {
-            bond_grad[b] += vec4<f32>(g1 * bonds[b].beta1 + g2 * bonds[b].beta2, 0.0);
+            bond_grad[b] += vec4<real>(g1 * bonds[b].beta1 + g2 * bonds[b].beta2, 0.0);
         }
     } else {
         for (var b = first; b < last; b++) {
-            bond_grad[b] = vec4<f32>(g1 * bonds[b].beta1 + g2 * bonds[b].beta2, 0.0);
+            bond_grad[b] = vec4<real>(g1 * bonds[b].beta1 + g2 * bonds[b].beta2, 0.0);
         }
     }
     let cm = outer(u1, u1) * w.x + outer(u2, u2) * w.y + outer(n, n) * w.z;
     var out: Response;
-    out.c_diag = vec3<f32>(cm[0][0], cm[1][1], cm[2][2]);
+    out.c_diag = vec3<real>(cm[0][0], cm[1][1], cm[2][2]);
     out.energy = energy;
-    out.c_off = vec3<f32>(cm[1][0], cm[2][0], cm[2][1]);
+    out.c_off = vec3<real>(cm[1][0], cm[2][0], cm[2][1]);
     out.pad = 0.0;
     response[i] = out;
 }

@@ -8,16 +8,7 @@
 
 const STRETCH_A3: u32 = 0u;
 
-// ln(1 + u) without cancellation for small u.
-fn ln_1p(u: f32) -> f32 {
-    let w = 1.0 + u;
-    if w == 1.0 {
-        return u;
-    }
-    return log(w) * u / (w - 1.0);
-}
-
-fn material_energy(c: Vertex, l: vec3<f32>) -> f32 {
+fn material_energy(c: Vertex, l: vec3<real>) -> real {
     if c.model == STRETCH_A3 {
         let s2 = l * l;
         let strain = (l - 1.0) * (l + 1.0);
@@ -25,7 +16,7 @@ fn material_energy(c: Vertex, l: vec3<f32>) -> f32 {
         return (terms.x + terms.y + terms.z) * c.s0;
     }
     let j = l.x * l.y * l.z;
-    var shear = 0.0;
+    var shear: real = 0.0;
     for (var m = 0u; m < 3u; m++) {
         let u = (l[m] - 1.0) * (l[m] + 1.0);
         shear += max(u - ln_1p(u), 0.0);
@@ -34,7 +25,7 @@ fn material_energy(c: Vertex, l: vec3<f32>) -> f32 {
 }
 
 // dPsi/dl_m, summed from the split P+ + P- like the CPU.
-fn material_stress(c: Vertex, l: vec3<f32>) -> vec3<f32> {
+fn material_stress(c: Vertex, l: vec3<real>) -> vec3<real> {
     if c.model == STRETCH_A3 {
         let third = c.s0 * (1.0 / 3.0);
         return third * l * l * l + (-third / (l * l * l));
@@ -44,18 +35,18 @@ fn material_stress(c: Vertex, l: vec3<f32>) -> vec3<f32> {
 }
 
 // (d2Psi/dl1^2, d2Psi/dl2^2, d2Psi/dl1 dl2) at fixed l3.
-fn material_in_plane_hessian(c: Vertex, l: vec3<f32>) -> vec3<f32> {
+fn material_in_plane_hessian(c: Vertex, l: vec3<real>) -> vec3<real> {
     if c.model == STRETCH_A3 {
         let d = c.s0 * (l * l + 1.0 / (l * l * l * l));
-        return vec3<f32>(d.x, d.y, 0.0);
+        return vec3<real>(d.x, d.y, 0.0);
     }
     let j = l.x * l.y * l.z;
     let d = 2.0 * c.s0 * (1.0 + 1.0 / (l * l)) + 2.0 * c.s1 * (j / l) * (j / l);
-    return vec3<f32>(d.x, d.y, 2.0 * c.s1 * j * (2.0 * j - 1.0) / (l.x * l.y));
+    return vec3<real>(d.x, d.y, 2.0 * c.s1 * j * (2.0 * j - 1.0) / (l.x * l.y));
 }
 
 // P+_m / l_m, the implicit stiffness of the paper's split (eq. 24-26).
-fn material_implicit_stiffness(c: Vertex, l: vec3<f32>) -> vec3<f32> {
+fn material_implicit_stiffness(c: Vertex, l: vec3<real>) -> vec3<real> {
     if c.model == STRETCH_A3 {
         return c.s0 * (1.0 / 3.0) * l * l;
     }

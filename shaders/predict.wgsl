@@ -10,7 +10,7 @@ fn predict(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     if pinned[i] == 0u {
         let h = params.h;
-        y_star[i] = vec4<f32>(y_start[i].xyz + velocity[i].xyz * h + params.gravity * (h * h), 0.0);
+        y_star[i] = vec4<real>(y_start[i].xyz + velocity[i].xyz * h + params.gravity * (h * h), 0.0);
     }
     y[i] = y_star[i];
 }
@@ -69,6 +69,6 @@ fn finish(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let yi = y[i].xyz;
-    velocity[i] = vec4<f32>((yi - y_start[i].xyz) * (1.0 / params.h), 0.0);
-    y_start[i] = vec4<f32>(yi, 0.0);
+    velocity[i] = vec4<real>((yi - y_start[i].xyz) * (1.0 / params.h), 0.0);
+    y_start[i] = vec4<real>(yi, 0.0);
 }

@@ -108,11 +108,19 @@ pub fn gpu_info() -> Result<GpuInfo> {
 }
 
 impl GpuContext {
-    /// Opens a device on the chosen adapter, asking for the adapter's own limits (the kernels
-    /// bind [`STORAGE_BUFFERS`] storage buffers, more than WebGPU's default of 8).
-    pub fn new() -> Result<Self> {
+    /// Opens a device on the chosen adapter with `features`, asking for the adapter's own
+    /// limits (the kernels bind [`STORAGE_BUFFERS`] storage buffers, more than WebGPU's
+    /// default of 8).
+    pub fn new(features: wgpu::Features) -> Result<Self> {
         let adapter = adapter()?;
         let info = describe(&adapter);
+        let missing = features - adapter.features();
+        if !missing.is_empty() {
+            return Err(Error::Gpu(format!(
+                "GPU adapter {:?} lacks {missing:?} (64-bit floats in shaders); use precision='f32'",
+                info.name
+            )));
+        }
         let limits = adapter.limits();
         if limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
             return Err(Error::Gpu(format!(
@@ -122,6 +130,7 @@ impl GpuContext {
         }
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("peridyn"),
+            required_features: features,
             required_limits: limits.clone(),
             ..Default::default()
         };

@@ -1,11 +1,12 @@
-//! The compute pipelines, built once per device from one shader module: `shaders/common.wgsl`
-//! (the bind group) followed by one file per concern.
+//! The compute pipelines, built once per device from one shader module: the scalar type's
+//! prelude (`shaders/real_f32.wgsl` or `real_f64.wgsl`), `shaders/common.wgsl` (the bind
+//! group), then one file per concern.
 
 use super::device::GpuContext;
-use super::layout::Iter;
+use super::layout::GpuReal;
 
-/// The WGSL source of every kernel, compiled into the crate.
-pub(super) const SOURCE: &str = concat!(
+/// The WGSL source of every kernel after the prelude, compiled into the crate.
+const KERNELS: &str = concat!(
     include_str!("../../shaders/common.wgsl"),
     include_str!("../../shaders/material.wgsl"),
     include_str!("../../shaders/kernel.wgsl"),
@@ -43,11 +44,12 @@ pub(super) struct Pipelines {
 }
 
 impl Pipelines {
-    pub fn new(ctx: &GpuContext) -> Self {
+    pub fn new<T: GpuReal>(ctx: &GpuContext) -> Self {
         let device = &ctx.device;
+        let source = format!("{}{KERNELS}", T::PRELUDE);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("peridyn kernels"),
-            source: wgpu::ShaderSource::Wgsl(SOURCE.into()),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
         });
         let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..BINDINGS)
             .map(|binding| wgpu::BindGroupLayoutEntry {
@@ -62,7 +64,7 @@ impl Pipelines {
                     },
                     has_dynamic_offset: binding == 1,
                     min_binding_size: (binding == 1)
-                        .then(|| wgpu::BufferSize::new(std::mem::size_of::<Iter>() as u64))
+                        .then(|| wgpu::BufferSize::new(std::mem::size_of::<T::Iter>() as u64))
                         .flatten(),
                 },
                 count: None,

@@ -1,4 +1,4 @@
-//! The SISSM time step on the GPU: the algorithm of [`crate::solve::Solver`] (f32), with the
+//! The SISSM time step on the GPU: the algorithm of [`crate::solve::Solver`] (f32 or f64), with the
 //! rest data, the iterates and the per-bond scratch resident on the device.
 //!
 //! Per step the host uploads the bodies' positions, velocities and pins (so that Python may
@@ -12,17 +12,14 @@
 
 use std::time::Instant;
 
-use bytemuck::Zeroable;
-
 use crate::contact::Collider;
 use crate::error::{invalid, Error, Result};
 use crate::membrane::{Membrane, Preconditioner};
-use crate::real::Real;
 use crate::solve::system::System;
 use crate::solve::{Acceleration, SolverParams, StepStats, Timings};
 
 use super::device::GpuContext;
-use super::layout::{self, Bond, GpuCollider, Iter, Params, Vertex};
+use super::layout::{self, GpuReal, IterValues, ParamValues};
 use super::pipelines::{Pipelines, BINDINGS, REDUCE_GROUP, VERTEX_GROUP};
 
 /// Iterations recorded between two reads of the control header.
@@ -35,24 +32,25 @@ const RECORD_PREDICTION: usize = 1;
 const RECORD_FINAL: usize = 2;
 const RECORD_FIRST_ITERATION: usize = 3;
 
-/// Steps a set of membranes in time on the GPU, in f32.
+/// Steps a set of membranes in time on the GPU, in `T` (f32 on every adapter, f64 where
+/// the adapter has SHADER_F64).
 ///
 /// [`StepStats::timings`] are host wall-clock times: `predict` the upload, `global` the
 /// initial guess and the iterations (colliders included; `colliders` stays 0), `finish` the
 /// velocity update and the read-back.
-pub struct GpuSolver {
+pub struct GpuSolver<T: GpuReal> {
     params: SolverParams,
     colliders: Vec<Collider>,
     ctx: GpuContext,
     pipelines: Pipelines,
-    state: Option<State>,
+    state: Option<State<T>>,
     time: f64,
     steps: u64,
 }
 
 /// The device-resident working set of one list of bodies.
-struct State {
-    system: System<f32>,
+struct State<T: GpuReal> {
+    system: System<T>,
     n: u32,
     bonds: u64,
     iter_capacity: usize,
@@ -85,13 +83,14 @@ fn groups(count: u32, size: u32) -> u32 {
     count.div_ceil(size).max(1)
 }
 
-impl GpuSolver {
+impl<T: GpuReal> GpuSolver<T> {
     /// A solver on the adapter [`super::gpu_info`] describes; fails with [`Error::Gpu`] when
-    /// there is none, and builds every pipeline now, so a broken driver fails here.
+    /// there is none (or it lacks f64 for `T = f64`), and builds every pipeline now, so a
+    /// broken driver fails here.
     pub fn new(params: SolverParams) -> Result<Self> {
         params.validate()?;
-        let ctx = GpuContext::new()?;
-        let pipelines = Pipelines::new(&ctx);
+        let ctx = GpuContext::new(T::FEATURES)?;
+        let pipelines = Pipelines::new::<T>(&ctx);
         ctx.wait()?;
         ctx.check()?;
         Ok(Self {
@@ -141,7 +140,7 @@ impl GpuSolver {
 
     /// Bytes the kernels of one global iteration load and store for the bodies of the last
     /// step (None before the first step), counting every load a kernel issues (a cache may
-    /// serve repeats): with `n` vertices and `b` bonds,
+    /// serve repeats). In f32, with `n` vertices and `b` bonds,
     ///
     /// - vertex kernel: per vertex 144 (position, rest constants, offsets, response), per bond
     ///   100 without and 248 with bending/hourglass (neighbour position and bond rest data
@@ -150,6 +149,8 @@ impl GpuSolver {
     ///   the bond, the reverse index, the neighbour's response);
     /// - colliders, the convergence measure and the commit: per vertex 64 + 16 + 32 (+32 with
     ///   Chebyshev); with `record_energy` another 68.
+    ///
+    /// f64 doubles the count (index loads, a few percent of it, are counted twice too).
     pub fn bytes_per_iteration(&self) -> Option<u64> {
         let state = self.state.as_ref()?;
         let (n, b) = (state.n as u64, state.bonds);
@@ -158,13 +159,14 @@ impl GpuSolver {
             .rest
             .vertices
             .iter()
-            .any(|c| c.kappa_t > 0.0 || c.kappa_n > 0.0);
+            .any(|c| c.kappa_t > T::zero() || c.kappa_n > T::zero());
         let accelerated = self.params.acceleration != Acceleration::None;
         let kernel = 144 * n + if non_affine { 248 } else { 100 } * b;
         let jacobi = (176 + if accelerated { 16 } else { 0 }) * n + 72 * b;
         let rest = (64 + 16 + 32 + if accelerated { 32 } else { 0 }) * n;
         let energy = if self.params.record_energy { 68 * n } else { 0 };
-        Some(kernel + jacobi + rest + energy)
+        let scale = std::mem::size_of::<T>() as u64 / 4;
+        Some((kernel + jacobi + rest + energy) * scale)
     }
 
     /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
@@ -244,10 +246,10 @@ impl GpuSolver {
             state.write_record(
                 &self.ctx,
                 RECORD_FINAL,
-                Iter {
+                &IterValues {
                     slot: 1 + iterations as u32,
                     lane: 2,
-                    ..Iter::zeroed()
+                    ..IterValues::default()
                 },
             );
         }
@@ -261,20 +263,20 @@ impl GpuSolver {
         let history = state.read_back(&self.ctx, encoder, params.max_iters)?;
         for k in 0..iterations {
             let [moved, residual, _, _] = history[1 + k];
-            stats.residuals.push(moved as f64);
-            stats.residual = moved as f64;
-            stats.error_estimate = residual as f64;
+            stats.residuals.push(moved.to_f64());
+            stats.residual = moved.to_f64();
+            stats.error_estimate = residual.to_f64();
         }
         if params.record_energy {
             let [previous, prediction, _, _] = history[0];
             stats.energies.push(if previous < prediction {
-                previous
+                previous.to_f64()
             } else {
-                prediction
-            } as f64);
+                prediction.to_f64()
+            });
             stats
                 .energies
-                .extend((1..=iterations).map(|k| history[1 + k][2] as f64));
+                .extend((1..=iterations).map(|k| history[1 + k][2].to_f64()));
         }
         state.system.store(bodies);
         timings.finish = millis(t);
@@ -287,7 +289,7 @@ impl GpuSolver {
     }
 }
 
-impl State {
+impl<T: GpuReal> State<T> {
     fn build(
         ctx: &GpuContext,
         pipelines: &Pipelines,
@@ -295,7 +297,7 @@ impl State {
         iter_capacity: usize,
         collider_capacity: usize,
     ) -> Result<Self> {
-        let system = System::<f32>::build(bodies);
+        let system = System::<T>::build(bodies);
         let n = system.y.len();
         let bonds = system.nb.indices.len();
         if n == 0 {
@@ -335,17 +337,17 @@ impl State {
             Ok(buffer)
         };
         let copy = wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
-        let vec_bytes = n as u64 * layout::VEC_BYTES;
+        let vec_bytes = n as u64 * T::VEC_BYTES;
         let rest = &system.rest;
-        let vertices: Vec<Vertex> = rest
+        let vertices: Vec<T::Vertex> = rest
             .frames
             .iter()
             .zip(&rest.vertices)
-            .map(|(f, c)| Vertex::new(f, c))
+            .map(|(f, c)| T::vertex(f, c))
             .collect();
-        let bond_data: Vec<Bond> = rest.bonds.iter().map(Bond::from).collect();
-        let history_bytes = (iter_capacity as u64) * layout::VEC_BYTES;
-        let ctrl_bytes = layout::CONTROL_HEADER_BYTES + history_bytes;
+        let bond_data: Vec<T::Bond> = rest.bonds.iter().map(T::bond).collect();
+        let history_bytes = (iter_capacity as u64) * T::VEC_BYTES;
+        let ctrl_bytes = T::CONTROL_HEADER_BYTES + history_bytes;
         let uniform = |label: &str, bytes: u64| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -363,11 +365,11 @@ impl State {
             })
         };
         let buffers = Buffers {
-            params: uniform("params", std::mem::size_of::<Params>() as u64),
+            params: uniform("params", std::mem::size_of::<T::Params>() as u64),
             iters: uniform("iters", iter_capacity as u64 * layout::ITER_STRIDE),
             colliders: storage(
                 "colliders",
-                (collider_capacity * std::mem::size_of::<GpuCollider>()) as u64,
+                (collider_capacity * std::mem::size_of::<T::Collider>()) as u64,
                 wgpu::BufferUsages::COPY_DST,
             )?,
             pinned: storage("pinned", n as u64 * 4, wgpu::BufferUsages::COPY_DST)?,
@@ -375,7 +377,7 @@ impl State {
             velocity: storage("velocity", vec_bytes, copy)?,
             y_star: storage("y_star", vec_bytes, copy)?,
             ctrl: storage("ctrl", ctrl_bytes, copy)?,
-            header_readback: readback("header readback", layout::CONTROL_HEADER_BYTES),
+            header_readback: readback("header readback", T::CONTROL_HEADER_BYTES),
             state_readback: readback("state readback", 2 * vec_bytes + history_bytes),
         };
         let owned = [
@@ -389,22 +391,22 @@ impl State {
             storage("y_prev", vec_bytes, wgpu::BufferUsages::empty())?,
             storage(
                 "bond_grad",
-                bonds as u64 * layout::VEC_BYTES,
+                bonds as u64 * T::VEC_BYTES,
                 wgpu::BufferUsages::empty(),
             )?,
             storage(
                 "response",
-                n as u64 * layout::RESPONSE_BYTES,
+                n as u64 * T::RESPONSE_BYTES,
                 wgpu::BufferUsages::empty(),
             )?,
             storage(
                 "measure",
-                n as u64 * layout::MEASURE_BYTES,
+                n as u64 * T::MEASURE_BYTES,
                 wgpu::BufferUsages::empty(),
             )?,
             storage(
                 "partials",
-                groups(n as u32, REDUCE_GROUP) as u64 * layout::PARTIAL_BYTES,
+                groups(n as u32, REDUCE_GROUP) as u64 * T::PARTIAL_BYTES,
                 wgpu::BufferUsages::empty(),
             )?,
         ];
@@ -442,7 +444,7 @@ impl State {
                     wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                         buffer,
                         offset: 0,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<Iter>() as u64),
+                        size: wgpu::BufferSize::new(std::mem::size_of::<T::Iter>() as u64),
                     })
                 } else {
                     buffer.as_entire_binding()
@@ -479,7 +481,7 @@ impl State {
         let q = &ctx.queue;
         let sys = &mut self.system;
         sys.load(bodies);
-        let as_vec4 = |v: &[nalgebra::Vector3<f32>]| v.iter().map(layout::vec4).collect::<Vec<_>>();
+        let as_vec4 = |v: &[nalgebra::Vector3<T>]| v.iter().map(layout::vec4).collect::<Vec<_>>();
         q.write_buffer(
             &self.buffers.y_start,
             0,
@@ -497,7 +499,7 @@ impl State {
         );
         let pinned: Vec<u32> = sys.pinned.iter().map(|&p| p as u32).collect();
         q.write_buffer(&self.buffers.pinned, 0, bytemuck::cast_slice(&pinned));
-        let gpu_colliders: Vec<GpuCollider> = colliders.iter().map(GpuCollider::from).collect();
+        let gpu_colliders: Vec<T::Collider> = colliders.iter().map(T::collider).collect();
         if !gpu_colliders.is_empty() {
             q.write_buffer(
                 &self.buffers.colliders,
@@ -505,10 +507,9 @@ impl State {
                 bytemuck::cast_slice(&gpu_colliders),
             );
         }
-        let h = params.dt as f32;
-        let gpu_params = Params {
-            gravity: params.gravity.map(|g| g as f32),
-            h,
+        let gpu_params = T::params(&ParamValues {
+            gravity: params.gravity,
+            h: params.dt,
             n: self.n,
             n_colliders: colliders.len() as u32,
             step_length: params.step_length as u32,
@@ -516,11 +517,10 @@ impl State {
                 Preconditioner::Tangent => 0,
                 Preconditioner::Paper => 1,
             },
-            tol: params.tol as f32,
-            min_stretch: f32::min_stretch(),
+            tol: params.tol,
             groups: groups(self.n, REDUCE_GROUP),
             accelerated: (params.acceleration != Acceleration::None) as u32,
-        };
+        });
         q.write_buffer(&self.buffers.params, 0, bytemuck::bytes_of(&gpu_params));
         q.write_buffer(
             &self.buffers.ctrl,
@@ -528,36 +528,37 @@ impl State {
             bytemuck::cast_slice(&[u32::MAX, u32::MAX, u32::MAX, 0]),
         );
         if self.records_for != Some(*params) {
-            let mut records = vec![Iter::zeroed(); self.iter_capacity];
+            let mut records = vec![IterValues::default(); self.iter_capacity];
             records[RECORD_PREDICTION].lane = 1;
             let mut omega = 1.0;
             for k in 0..params.max_iters {
                 let extrapolation = params.acceleration.omega(k, omega);
                 omega = extrapolation.unwrap_or(1.0);
-                records[RECORD_FIRST_ITERATION + k] = Iter {
+                records[RECORD_FIRST_ITERATION + k] = IterValues {
                     iteration: k as u32,
                     slot: 1 + k as u32,
                     lane: 2,
                     extrapolate: extrapolation.is_some() as u32,
-                    omega: omega as f32,
-                    pad: [0; 3],
+                    omega,
                 };
             }
             let mut bytes = vec![0u8; self.iter_capacity * layout::ITER_STRIDE as usize];
             for (k, r) in records.iter().enumerate() {
                 let at = k * layout::ITER_STRIDE as usize;
-                bytes[at..at + std::mem::size_of::<Iter>()].copy_from_slice(bytemuck::bytes_of(r));
+                let record = T::iter(r);
+                bytes[at..at + std::mem::size_of::<T::Iter>()]
+                    .copy_from_slice(bytemuck::bytes_of(&record));
             }
             q.write_buffer(&self.buffers.iters, 0, &bytes);
             self.records_for = Some(*params);
         }
     }
 
-    fn write_record(&self, ctx: &GpuContext, index: usize, record: Iter) {
+    fn write_record(&self, ctx: &GpuContext, index: usize, record: &IterValues) {
         ctx.queue.write_buffer(
             &self.buffers.iters,
             index as u64 * layout::ITER_STRIDE,
-            bytemuck::bytes_of(&record),
+            bytemuck::bytes_of(&T::iter(record)),
         );
     }
 
@@ -579,16 +580,10 @@ impl State {
     /// `(limit, bad_vertex, bad_iteration)`.
     fn read_header(&self, ctx: &GpuContext, mut encoder: wgpu::CommandEncoder) -> Result<[u32; 3]> {
         let b = &self.buffers;
-        encoder.copy_buffer_to_buffer(
-            &b.ctrl,
-            0,
-            &b.header_readback,
-            0,
-            layout::CONTROL_HEADER_BYTES,
-        );
+        encoder.copy_buffer_to_buffer(&b.ctrl, 0, &b.header_readback, 0, T::CONTROL_HEADER_BYTES);
         ctx.queue.submit([encoder.finish()]);
         let bytes = map_read(ctx, &b.header_readback)?;
-        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes);
         Ok([words[0], words[1], words[2]])
     }
 
@@ -599,22 +594,22 @@ impl State {
         ctx: &GpuContext,
         mut encoder: wgpu::CommandEncoder,
         max_iters: usize,
-    ) -> Result<Vec<[f32; 4]>> {
+    ) -> Result<Vec<[T; 4]>> {
         let b = &self.buffers;
-        let vec_bytes = self.n as u64 * layout::VEC_BYTES;
-        let history_bytes = (max_iters as u64 + 2) * layout::VEC_BYTES;
+        let vec_bytes = self.n as u64 * T::VEC_BYTES;
+        let history_bytes = (max_iters as u64 + 2) * T::VEC_BYTES;
         encoder.copy_buffer_to_buffer(&b.y_start, 0, &b.state_readback, 0, vec_bytes);
         encoder.copy_buffer_to_buffer(&b.velocity, 0, &b.state_readback, vec_bytes, vec_bytes);
         encoder.copy_buffer_to_buffer(
             &b.ctrl,
-            layout::CONTROL_HEADER_BYTES,
+            T::CONTROL_HEADER_BYTES,
             &b.state_readback,
             2 * vec_bytes,
             history_bytes,
         );
         ctx.queue.submit([encoder.finish()]);
         let bytes = map_read(ctx, &b.state_readback)?;
-        let all: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+        let all: Vec<[T; 4]> = bytemuck::pod_collect_to_vec(&bytes);
         let n = self.n as usize;
         for (dst, src) in self.system.y_start.iter_mut().zip(&all[..n]) {
             *dst = nalgebra::Vector3::new(src[0], src[1], src[2]);

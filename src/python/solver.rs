@@ -21,7 +21,8 @@ use super::membrane::PyMembrane;
 enum Precision {
     F64(Solver<f64>),
     F32(Solver<f32>),
-    Gpu(Box<GpuSolver>),
+    Gpu32(Box<GpuSolver<f32>>),
+    Gpu64(Box<GpuSolver<f64>>),
 }
 
 impl Precision {
@@ -29,19 +30,20 @@ impl Precision {
         match self {
             Self::F64(s) => s.step(bodies),
             Self::F32(s) => s.step(bodies),
-            Self::Gpu(s) => s.step(bodies),
+            Self::Gpu32(s) => s.step(bodies),
+            Self::Gpu64(s) => s.step(bodies),
         }
     }
     fn name(&self) -> &'static str {
         match self {
-            Self::F64(_) => "f64",
-            Self::F32(_) | Self::Gpu(_) => "f32",
+            Self::F64(_) | Self::Gpu64(_) => "f64",
+            Self::F32(_) | Self::Gpu32(_) => "f32",
         }
     }
     fn backend(&self) -> &'static str {
         match self {
-            Self::Gpu(_) => "gpu",
-            _ => "cpu",
+            Self::F64(_) | Self::F32(_) => "cpu",
+            Self::Gpu32(_) | Self::Gpu64(_) => "gpu",
         }
     }
     /// Worker threads of the CPU backend; the GPU backend drives the device from one thread.
@@ -49,7 +51,7 @@ impl Precision {
         match self {
             Self::F64(s) => s.threads(),
             Self::F32(s) => s.threads(),
-            Self::Gpu(_) => 1,
+            Self::Gpu32(_) | Self::Gpu64(_) => 1,
         }
     }
 }
@@ -59,7 +61,8 @@ macro_rules! with_solver {
         match $p {
             Precision::F64($s) => $body,
             Precision::F32($s) => $body,
-            Precision::Gpu($s) => $body,
+            Precision::Gpu32($s) => $body,
+            Precision::Gpu64($s) => $body,
         }
     };
 }
@@ -151,18 +154,17 @@ impl PySolver {
         let core = match (backend, precision) {
             ("cpu", None | Some("f64")) => Precision::F64(Solver::new(params, threads).py()?),
             ("cpu", Some("f32")) => Precision::F32(Solver::new(params, threads).py()?),
-            ("gpu", None | Some("f32")) => {
+            ("gpu", precision @ (None | Some("f32") | Some("f64"))) => {
                 if threads.is_some() {
                     return Err(PyValueError::new_err(
                         "threads applies to backend='cpu' only; the GPU backend takes threads=None",
                     ));
                 }
-                Precision::Gpu(Box::new(GpuSolver::new(params).py()?))
-            }
-            ("gpu", Some("f64")) => {
-                return Err(PyValueError::new_err(
-                    "the GPU backend runs in f32 only; use precision='f32' (or None) with backend='gpu'",
-                ))
+                if precision == Some("f64") {
+                    Precision::Gpu64(Box::new(GpuSolver::new(params).py()?))
+                } else {
+                    Precision::Gpu32(Box::new(GpuSolver::new(params).py()?))
+                }
             }
             ("cpu" | "gpu", Some(other)) => {
                 return Err(PyValueError::new_err(format!(
@@ -296,7 +298,8 @@ impl PySolver {
     #[getter]
     fn bytes_per_iteration(&self) -> Option<u64> {
         match &self.core {
-            Precision::Gpu(s) => s.bytes_per_iteration(),
+            Precision::Gpu32(s) => s.bytes_per_iteration(),
+            Precision::Gpu64(s) => s.bytes_per_iteration(),
             _ => None,
         }
     }
