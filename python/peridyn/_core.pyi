@@ -241,9 +241,10 @@ class Solver:
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
-    backend : "cpu" (Rust, rayon threads) or "gpu" (wgpu compute shaders, f32 only, state on
-        the device; raises RuntimeError naming what is missing when there is no adapter, see
-        :func:`gpu_info`). The adapter follows WGPU_BACKEND, WGPU_POWER_PREF, WGPU_ADAPTER_NAME.
+    backend : "cpu" (Rust, rayon threads) or "gpu" (wgpu compute shaders, state on the device;
+        f32 by default, f64 where the adapter has SHADER_F64; raises RuntimeError naming what
+        is missing when there is no adapter, see :func:`gpu_info`). The adapter follows
+        WGPU_BACKEND, WGPU_POWER_PREF and WGPU_ADAPTER_NAME.
     """
 
     def __init__(
@@ -304,6 +305,6 @@ class Solver:
 
 def gpu_info() -> dict:
     """The adapter the GPU backend would use: ``name``, ``backend`` (e.g. "vulkan"),
-    ``device_type`` (e.g. "Cpu" for lavapipe), ``driver``, ``f64`` (SHADER_F64 offered; the
-    backend itself runs in f32) and ``limits`` (dict). Raises RuntimeError naming what is
+    ``device_type`` (e.g. "Cpu" for lavapipe), ``driver``, ``f64`` (SHADER_F64 offered, so
+    ``Solver(backend="gpu", precision="f64")`` works) and ``limits`` (dict). Raises RuntimeError naming what is
     missing when there is no adapter."""

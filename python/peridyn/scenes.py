@@ -89,7 +89,7 @@ def default_scene(
     sphere_radius : float
         Sphere radius in m.
     tol, max_iters, threads, backend
-        Passed to :class:`Solver` (``backend="gpu"`` runs in f32 and takes ``threads=None``). ``tol`` is 1e-5 m rather than the solver's default 1e-4 m:
+        Passed to :class:`Solver` (``backend="gpu"`` takes ``threads=None``). ``tol`` is 1e-5 m rather than the solver's default 1e-4 m:
         on this mesh the looser tolerance stops the Jacobi iterations early enough that the
         cloth gains energy (it bounces back above its starting height).
 

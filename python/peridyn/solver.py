@@ -106,8 +106,9 @@ class Solver(_core.Solver):
     step_length : bool
         Use the per-vertex step length (recommended). Default True.
     backend : str
-        "cpu" (default) or "gpu": the same step as wgpu compute shaders, in f32, with the state
-        on the device (see :func:`peridyn.gpu_info`; RuntimeError when there is no adapter).
+        "cpu" (default) or "gpu": the same step as wgpu compute shaders with the state on the
+        device, in f32 (default) or f64 where the adapter has it (see :func:`peridyn.gpu_info`;
+        RuntimeError when there is no adapter).
 
     Notes
     -----

@@ -17,7 +17,7 @@ use super::collider;
 use super::errors::IntoPyResult;
 use super::membrane::PyMembrane;
 
-/// The core solver: the CPU one in the precision the user chose, or the GPU one (f32).
+/// The core solver, on the CPU or the GPU, in the precision the user chose.
 enum Precision {
     F64(Solver<f64>),
     F32(Solver<f32>),
