@@ -1,8 +1,8 @@
 //! The SISSM time step on the GPU: the algorithm of [`crate::solve::Solver`] (f32 or f64), with the
 //! rest data, the iterates and the per-bond scratch resident on the device.
 //!
-//! Per step the host uploads the bodies' positions, velocities and pins (so that Python may
-//! change them between steps, as with the CPU solver), records every iteration's commands,
+//! Per step the host uploads whatever of the bodies' positions, velocities and pins Python
+//! changed since the last step (nothing, usually), records every iteration's commands,
 //! and reads back the small control header every [`CHECK_EVERY`] iterations: the convergence
 //! test (`max_i |r_i| / m_i < tol`) and the divergence test run on the device, which sets a
 //! stopping point that turns every later command of the step into a no-op. The iterations are
@@ -57,6 +57,9 @@ struct State<T: GpuReal> {
     collider_capacity: usize,
     /// The parameters the `Iter` records were written for.
     records_for: Option<SolverParams>,
+    /// Whether the device's y_t, v, pinned targets and pin flags equal the host system's
+    /// (true after a read-back): then only what the bodies changed is uploaded.
+    synced: bool,
     buffers: Buffers,
     bind_group: wgpu::BindGroup,
 }
@@ -260,6 +263,8 @@ impl<T: GpuReal> GpuSolver<T> {
             }
             pass.finish();
         }
+        // y_t and v change on the device now; the host has them again after the read-back.
+        state.synced = false;
         let history = state.read_back(&self.ctx, encoder, params.max_iters)?;
         for k in 0..iterations {
             let [moved, residual, _, _] = history[1 + k];
@@ -464,13 +469,16 @@ impl<T: GpuReal> State<T> {
             iter_capacity,
             collider_capacity,
             records_for: None,
+            synced: false,
             buffers,
             bind_group,
         })
     }
 
-    /// Loads the bodies' state and pins, and writes the parameters, colliders, per-iteration
-    /// records (when the parameters changed) and a fresh control header.
+    /// Loads the bodies' state and pins and uploads what differs from the device's copy
+    /// (nothing when Python left the bodies alone since the last step), then writes the
+    /// parameters, colliders, per-iteration records (when the parameters changed) and a fresh
+    /// control header.
     fn upload(
         &mut self,
         ctx: &GpuContext,
@@ -480,25 +488,42 @@ impl<T: GpuReal> State<T> {
     ) {
         let q = &ctx.queue;
         let sys = &mut self.system;
+        // `load` writes y_star only at pinned vertices (their targets); elsewhere the device
+        // computes it, so comparing the whole host arrays compares exactly what is uploaded.
+        let device = self.synced.then(|| {
+            (
+                sys.y_start.clone(),
+                sys.velocity.clone(),
+                sys.y_star.clone(),
+                sys.pinned.clone(),
+            )
+        });
         sys.load(bodies);
+        let (same_y, same_v, same_star, same_pins) = match &device {
+            Some((y, v, star, pins)) => (
+                *y == sys.y_start,
+                *v == sys.velocity,
+                *star == sys.y_star,
+                *pins == sys.pinned,
+            ),
+            None => (false, false, false, false),
+        };
         let as_vec4 = |v: &[nalgebra::Vector3<T>]| v.iter().map(layout::vec4).collect::<Vec<_>>();
-        q.write_buffer(
-            &self.buffers.y_start,
-            0,
-            bytemuck::cast_slice(&as_vec4(&sys.y_start)),
-        );
-        q.write_buffer(
-            &self.buffers.velocity,
-            0,
-            bytemuck::cast_slice(&as_vec4(&sys.velocity)),
-        );
-        q.write_buffer(
-            &self.buffers.y_star,
-            0,
-            bytemuck::cast_slice(&as_vec4(&sys.y_star)),
-        );
-        let pinned: Vec<u32> = sys.pinned.iter().map(|&p| p as u32).collect();
-        q.write_buffer(&self.buffers.pinned, 0, bytemuck::cast_slice(&pinned));
+        for (same, buffer, host) in [
+            (same_y, &self.buffers.y_start, &sys.y_start),
+            (same_v, &self.buffers.velocity, &sys.velocity),
+            // a vertex pinned anew needs its target even if the host's stale entry matches
+            (same_star && same_pins, &self.buffers.y_star, &sys.y_star),
+        ] {
+            if !same {
+                q.write_buffer(buffer, 0, bytemuck::cast_slice(&as_vec4(host)));
+            }
+        }
+        if !same_pins {
+            let pinned: Vec<u32> = sys.pinned.iter().map(|&p| p as u32).collect();
+            q.write_buffer(&self.buffers.pinned, 0, bytemuck::cast_slice(&pinned));
+        }
+        self.synced = true;
         let gpu_colliders: Vec<T::Collider> = colliders.iter().map(T::collider).collect();
         if !gpu_colliders.is_empty() {
             q.write_buffer(
@@ -617,6 +642,7 @@ impl<T: GpuReal> State<T> {
         for (dst, src) in self.system.velocity.iter_mut().zip(&all[n..2 * n]) {
             *dst = nalgebra::Vector3::new(src[0], src[1], src[2]);
         }
+        self.synced = true;
         Ok(all[2 * n..2 * n + max_iters + 2].to_vec())
     }
 }

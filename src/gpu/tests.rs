@@ -133,3 +133,61 @@ fn draping_cloth_matches_the_cpu_in_f64() {
         _ => draping_cloth_matches_the_cpu::<f64>(1e-9),
     }
 }
+
+/// Positions, velocities and pins changed between steps reach the device (which otherwise
+/// keeps its own copy): GPU and CPU agree through teleports, kicks, unpinning, re-pinning and
+/// moving pin targets.
+#[test]
+fn changes_between_steps_reach_the_device() {
+    let params = SolverParams {
+        dt: 5e-3,
+        tol: 1e-6,
+        max_iters: 30,
+        ..SolverParams::default()
+    };
+    let Some(mut gpu) = gpu::<f32>(params) else {
+        return;
+    };
+    let mut cpu = Solver::<f32>::new(params, Some(1)).unwrap();
+    let material = Material::stretch_a3(1e4).unwrap();
+    let (mut a, mut b) = (cloth(6, material), cloth(6, material));
+    for step in 0..12 {
+        for body in [&mut a, &mut b] {
+            match step {
+                0 => body.pin(&[0, 5], None).unwrap(),
+                3 => {
+                    let moved = body
+                        .positions()
+                        .iter()
+                        .map(|p| p + Vector3::new(0.1, 0.0, 0.2));
+                    body.set_positions(moved.collect()).unwrap();
+                }
+                5 => {
+                    let kicked = body
+                        .velocities()
+                        .iter()
+                        .map(|v| v + Vector3::new(0.0, 1.0, 0.0));
+                    body.set_velocities(kicked.collect()).unwrap();
+                }
+                7 => body.unpin(Some(&[5])).unwrap(),
+                9 => body
+                    .pin(&[5], Some(&[Vector3::new(0.5, 0.0, 0.3)]))
+                    .unwrap(),
+                10 => {
+                    let targets = [Vector3::new(0.1, 0.0, 0.3), Vector3::new(0.6, 0.0, 0.3)];
+                    body.set_pin_targets(&targets).unwrap();
+                }
+                _ => {}
+            }
+        }
+        gpu.step(&mut [&mut a]).unwrap();
+        cpu.step(&mut [&mut b]).unwrap();
+        let worst = a
+            .positions()
+            .iter()
+            .zip(b.positions())
+            .map(|(p, q)| (p - q).norm())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-5, "step {step}: GPU and CPU differ by {worst} m");
+    }
+}
