@@ -27,7 +27,7 @@ pub struct GpuInfo {
 }
 
 /// An open device on the chosen adapter, with the errors it reported since the last check.
-pub struct GpuContext {
+pub(super) struct GpuContext {
     pub(super) device: wgpu::Device,
     pub(super) queue: wgpu::Queue,
     pub(super) info: GpuInfo,
@@ -111,7 +111,7 @@ impl GpuContext {
     /// Opens a device on the chosen adapter with `features`, asking for the adapter's own
     /// limits (the kernels bind [`STORAGE_BUFFERS`] storage buffers, more than WebGPU's
     /// default of 8).
-    pub fn new(features: wgpu::Features) -> Result<Self> {
+    pub(super) fn new(features: wgpu::Features) -> Result<Self> {
         let adapter = adapter()?;
         let info = describe(&adapter);
         let missing = features - adapter.features();
@@ -155,11 +155,6 @@ impl GpuContext {
             limits,
             errors,
         })
-    }
-
-    /// The adapter's description.
-    pub fn info(&self) -> &GpuInfo {
-        &self.info
     }
 
     /// Fails with the errors the device reported since the last call, if any.

@@ -15,7 +15,7 @@ mod layout;
 mod pipelines;
 mod solver;
 
-pub use device::{gpu_info, GpuContext, GpuInfo};
+pub use device::{gpu_info, GpuInfo};
 pub use layout::GpuReal;
 pub use solver::{GpuSolver, CHECK_EVERY};
 

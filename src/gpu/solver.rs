@@ -107,11 +107,6 @@ impl<T: GpuReal> GpuSolver<T> {
         })
     }
 
-    /// The device's adapter.
-    pub fn context(&self) -> &GpuContext {
-        &self.ctx
-    }
-
     pub fn params(&self) -> &SolverParams {
         &self.params
     }
