@@ -277,30 +277,33 @@ fn predict<T: Real>(sys: &mut System<T>, h: T, gravity: Vector3<T>) {
 }
 
 /// Starts the iteration from whichever of the inertial prediction `y*` (Algorithm 1, line 2) and
-/// the previous positions `y_t` has the lower variational energy, and returns that energy.
+/// the previous positions `y_t` has the lower variational energy, and returns that energy;
+/// the responses are left evaluated at the chosen start.
 ///
 /// `y*` is exact in free flight, but for a stiff body it can hold a large elastic energy
 /// (a pinned sheet's first row of bonds stretched by `h^2 g`); starting there, a step that runs
 /// out of iterations releases that energy as spurious motion. From `y_t` an unfinished step
-/// moves too little instead, which dissipates.
+/// moves too little instead, which dissipates. `E(y*)` is the elastic energy `U(y*)`, and
+/// `E(y_t) >= m |y_t - y*|^2 / (2 h^2)`, so `y_t` is evaluated only when `U(y*)` exceeds that
+/// inertial term: most dynamic steps cost one kernel pass here, not two.
 fn initial_guess<T: Real>(sys: &mut System<T>, h: T, mode: Preconditioner) -> f64 {
-    let previous = |sys: &mut System<T>| {
-        let (y_start, y_star, pinned) = (&sys.y_start, &sys.y_star, &sys.pinned);
-        sys.y.par_iter_mut().enumerate().for_each(|(i, y)| {
-            *y = if pinned[i] { y_star[i] } else { y_start[i] };
-        });
-    };
-    previous(sys);
-    evaluate(sys, mode);
-    let at_previous = total_energy(sys, h);
-    sys.y.copy_from_slice(&sys.y_star);
     evaluate(sys, mode);
     let at_prediction = total_energy(sys, h);
+    let inertia_of_previous = inertial_energy(sys, h, |sys, i| sys.y_start[i]);
+    if at_prediction <= inertia_of_previous {
+        return at_prediction;
+    }
+    let (y_start, y_star, pinned) = (&sys.y_start, &sys.y_star, &sys.pinned);
+    sys.y.par_iter_mut().enumerate().for_each(|(i, y)| {
+        *y = if pinned[i] { y_star[i] } else { y_start[i] };
+    });
+    evaluate(sys, mode);
+    let at_previous = total_energy(sys, h);
     if at_previous < at_prediction {
-        previous(sys);
-        evaluate(sys, mode);
         at_previous
     } else {
+        sys.y.copy_from_slice(&sys.y_star);
+        evaluate(sys, mode);
         at_prediction
     }
 }
@@ -316,27 +319,48 @@ fn evaluate<T: Real>(sys: &mut System<T>, mode: Preconditioner) {
     );
 }
 
-/// Vertices per partial sum of [`total_energy`]: fixed, so the sum does not depend on threads.
+/// Vertices per partial sum of the energy reductions: fixed, so that the sums do not depend
+/// on the number of threads.
 const ENERGY_CHUNK: usize = 4096;
 
-/// `E(y) = sum_i m_i |y_i - y*_i|^2 / (2 h^2) + sum_i E_i(y)` (eq. 2 without the barrier, J), from
-/// the responses of the last [`evaluate`].
-fn total_energy<T: Real>(sys: &System<T>, h: T) -> f64 {
-    let inv_2h2 = 0.5 / (h.to_f64() * h.to_f64());
-    let partial: Vec<f64> = (0..sys.y.len())
+/// `sum_i term(i)` over free vertices, summed in fixed chunks (deterministic for any thread count).
+fn chunked_sum<T: Real>(sys: &System<T>, term: impl Fn(usize) -> f64 + Sync) -> f64 {
+    let n = sys.y.len();
+    let partial: Vec<f64> = (0..n)
         .into_par_iter()
         .step_by(ENERGY_CHUNK)
         .map(|start| {
-            (start..(start + ENERGY_CHUNK).min(sys.y.len()))
-                .map(|i| {
-                    let inertia = (sys.y[i] - sys.y_star[i]).norm_squared().to_f64()
-                        * sys.rest.vertices[i].mass.to_f64();
-                    inertia * inv_2h2 + sys.response[i].energy().to_f64()
-                })
+            (start..(start + ENERGY_CHUNK).min(n))
+                .map(&term)
                 .sum::<f64>()
         })
         .collect();
     partial.iter().sum()
+}
+
+/// `sum_i m_i |x_i - y*_i|^2 / (2 h^2)` (J) for the positions `x` picks.
+fn inertial_energy<T: Real>(
+    sys: &System<T>,
+    h: T,
+    x: impl Fn(&System<T>, usize) -> Vector3<T> + Sync,
+) -> f64 {
+    let inv_2h2 = 0.5 / (h.to_f64() * h.to_f64());
+    chunked_sum(sys, |i| {
+        if sys.pinned[i] {
+            0.0
+        } else {
+            (x(sys, i) - sys.y_star[i]).norm_squared().to_f64()
+                * sys.rest.vertices[i].mass.to_f64()
+                * inv_2h2
+        }
+    })
+}
+
+/// `E(y) = sum_i m_i |y_i - y*_i|^2 / (2 h^2) + sum_i E_i(y)` (eq. 2 without the barrier, J), from
+/// the responses of the last [`evaluate`].
+fn total_energy<T: Real>(sys: &System<T>, h: T) -> f64 {
+    inertial_energy(sys, h, |sys, i| sys.y[i])
+        + chunked_sum(sys, |i| sys.response[i].energy().to_f64())
 }
 
 /// The per-vertex Jacobi update with step length (and the Chebyshev extrapolation `omega` when
