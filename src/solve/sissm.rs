@@ -183,6 +183,12 @@ impl<T: Real> Solver<T> {
 
         let mut stats = StepStats {
             step: self.steps,
+            residuals: Vec::with_capacity(params.max_iters.min(4096)),
+            energies: Vec::with_capacity(if params.record_energy {
+                params.max_iters.min(4096) + 1
+            } else {
+                0
+            }),
             ..StepStats::default()
         };
         let accelerated = params.acceleration != Acceleration::None;
@@ -289,7 +295,7 @@ fn predict<T: Real>(sys: &mut System<T>, h: T, gravity: Vector3<T>) {
 fn initial_guess<T: Real>(sys: &mut System<T>, h: T, mode: Preconditioner) -> f64 {
     evaluate(sys, mode);
     let at_prediction = total_energy(sys, h);
-    let inertia_of_previous = inertial_energy(sys, h, |sys, i| sys.y_start[i]);
+    let inertia_of_previous = inertial_energy(sys, h, true);
     if at_prediction <= inertia_of_previous {
         return at_prediction;
     }
@@ -323,44 +329,56 @@ fn evaluate<T: Real>(sys: &mut System<T>, mode: Preconditioner) {
 /// on the number of threads.
 const ENERGY_CHUNK: usize = 4096;
 
-/// `sum_i term(i)` over free vertices, summed in fixed chunks (deterministic for any thread count).
-fn chunked_sum<T: Real>(sys: &System<T>, term: impl Fn(usize) -> f64 + Sync) -> f64 {
-    let n = sys.y.len();
-    let partial: Vec<f64> = (0..n)
+/// `sum_i term(i)` for `i < n`, summed in fixed chunks (the same for any thread count) whose
+/// partial sums go to the reused `scratch`.
+fn chunked_sum(n: usize, scratch: &mut Vec<f64>, term: impl Fn(usize) -> f64 + Sync) -> f64 {
+    (0..n.div_ceil(ENERGY_CHUNK))
         .into_par_iter()
-        .step_by(ENERGY_CHUNK)
-        .map(|start| {
-            (start..(start + ENERGY_CHUNK).min(n))
+        .map(|c| {
+            (c * ENERGY_CHUNK..((c + 1) * ENERGY_CHUNK).min(n))
                 .map(&term)
                 .sum::<f64>()
         })
-        .collect();
-    partial.iter().sum()
+        .collect_into_vec(scratch);
+    scratch.iter().sum()
 }
 
-/// `sum_i m_i |x_i - y*_i|^2 / (2 h^2)` (J) for the positions `x` picks.
-fn inertial_energy<T: Real>(
-    sys: &System<T>,
-    h: T,
-    x: impl Fn(&System<T>, usize) -> Vector3<T> + Sync,
-) -> f64 {
+/// `sum_i m_i |x_i - y*_i|^2 / (2 h^2)` (J) over free vertices, for `x` = `y` or `y_start`.
+fn inertial_energy<T: Real>(sys: &mut System<T>, h: T, at_start: bool) -> f64 {
     let inv_2h2 = 0.5 / (h.to_f64() * h.to_f64());
-    chunked_sum(sys, |i| {
-        if sys.pinned[i] {
+    let System {
+        y,
+        y_start,
+        y_star,
+        pinned,
+        rest,
+        energy_chunks,
+        ..
+    } = sys;
+    let x = if at_start { &*y_start } else { &*y };
+    chunked_sum(x.len(), energy_chunks, |i| {
+        if pinned[i] {
             0.0
         } else {
-            (x(sys, i) - sys.y_star[i]).norm_squared().to_f64()
-                * sys.rest.vertices[i].mass.to_f64()
-                * inv_2h2
+            (x[i] - y_star[i]).norm_squared().to_f64() * rest.vertices[i].mass.to_f64() * inv_2h2
         }
     })
 }
 
 /// `E(y) = sum_i m_i |y_i - y*_i|^2 / (2 h^2) + sum_i E_i(y)` (eq. 2 without the barrier, J), from
 /// the responses of the last [`evaluate`].
-fn total_energy<T: Real>(sys: &System<T>, h: T) -> f64 {
-    inertial_energy(sys, h, |sys, i| sys.y[i])
-        + chunked_sum(sys, |i| sys.response[i].energy().to_f64())
+fn total_energy<T: Real>(sys: &mut System<T>, h: T) -> f64 {
+    let elastic = {
+        let System {
+            response,
+            energy_chunks,
+            ..
+        } = &mut *sys;
+        chunked_sum(response.len(), energy_chunks, |i| {
+            response[i].energy().to_f64()
+        })
+    };
+    inertial_energy(sys, h, false) + elastic
 }
 
 /// The per-vertex Jacobi update with step length (and the Chebyshev extrapolation `omega` when

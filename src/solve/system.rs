@@ -31,6 +31,8 @@ pub(super) struct System<T: Real> {
     /// Scratch of the global step: per-bond gradients and per-vertex responses.
     pub bond_grad: Vec<Vector3<T>>,
     pub response: Vec<VertexResponse<T>>,
+    /// Partial sums of the energy reductions (reused).
+    pub energy_chunks: Vec<f64>,
 }
 
 impl<T: Real> System<T> {
@@ -80,6 +82,7 @@ impl<T: Real> System<T> {
             y_prev: Vec::new(),
             pinned: vec![false; start],
             response: vec![zero_response; start],
+            energy_chunks: Vec::new(),
         }
     }
 
