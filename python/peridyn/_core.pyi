@@ -241,6 +241,9 @@ class Solver:
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
+    method : "sissm" (the paper's method) or "descent" (Jacobi-preconditioned gradient descent
+        with a line search on the energy, Wang and Yang 2016: the baseline of Fig. 13).
+    inner_iters : Jacobi sweeps on the linear system of eq. 25 per global iteration (Fig. 6).
     """
 
     def __init__(
@@ -258,6 +261,8 @@ class Solver:
         chebyshev_rho: float = 0.9,
         chebyshev_delay: int = 3,
         record_energy: bool = False,
+        method: str = "sissm",
+        inner_iters: int = 1,
     ) -> None: ...
     def add(self, body: Membrane) -> None: ...
     def add_collider(self, collider: Union[Plane, Sphere]) -> None: ...
@@ -284,6 +289,10 @@ class Solver:
     def acceleration(self) -> Optional[str]: ...
     @property
     def record_energy(self) -> bool: ...
+    @property
+    def method(self) -> str: ...
+    @property
+    def inner_iters(self) -> int: ...
     @property
     def time(self) -> float: ...
     @property

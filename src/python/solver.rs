@@ -9,7 +9,7 @@ use pyo3::types::PyDict;
 use crate::contact::Collider;
 use crate::error::Result;
 use crate::membrane::{Membrane, Preconditioner};
-use crate::solve::{Acceleration, Solver, SolverParams, StepStats};
+use crate::solve::{Acceleration, Method, Solver, SolverParams, StepStats};
 
 use super::arrays::{to_numpy_1d, vec3};
 use super::collider;
@@ -60,7 +60,8 @@ impl PySolver {
     #[pyo3(signature = (*, dt, gravity = None, tol = 1e-4, max_iters = 100, threads = None,
                         step_length = true, precision = "f64", preconditioner = "tangent",
                         acceleration = None, chebyshev_rho = Acceleration::DEFAULT_RHO,
-                        chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false))]
+                        chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false,
+                        method = "sissm", inner_iters = 1))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: f64,
@@ -75,7 +76,23 @@ impl PySolver {
         chebyshev_rho: f64,
         chebyshev_delay: i64,
         record_energy: bool,
+        method: &str,
+        inner_iters: i64,
     ) -> PyResult<Self> {
+        let method = match method {
+            "sissm" => Method::Sissm,
+            "descent" => Method::Descent,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "method must be 'sissm' or 'descent', got {other:?}"
+                )))
+            }
+        };
+        if inner_iters < 1 {
+            return Err(PyValueError::new_err(format!(
+                "inner_iters must be >= 1, got {inner_iters}"
+            )));
+        }
         let acceleration = match acceleration {
             None | Some("none") => Acceleration::None,
             Some("chebyshev") => Acceleration::Chebyshev {
@@ -126,6 +143,8 @@ impl PySolver {
                 }
             },
             acceleration,
+            method,
+            inner_iters: inner_iters as usize,
             record_energy,
         };
         let core = match precision {
@@ -235,6 +254,19 @@ impl PySolver {
             Acceleration::None => None,
             Acceleration::Chebyshev { .. } => Some("chebyshev"),
         }
+    }
+    /// "sissm" or "descent".
+    #[getter]
+    fn method(&self) -> &'static str {
+        match with_solver!(&self.core, s => s.params().method) {
+            Method::Sissm => "sissm",
+            Method::Descent => "descent",
+        }
+    }
+    /// Jacobi sweeps per global iteration.
+    #[getter]
+    fn inner_iters(&self) -> usize {
+        with_solver!(&self.core, s => s.params().inner_iters)
     }
     #[getter]
     fn record_energy(&self) -> bool {

@@ -9,6 +9,8 @@ use crate::membrane::{Membrane, RestData, VertexResponse};
 use crate::mesh::Neighborhood;
 use crate::real::Real;
 
+use super::jacobi::LocalSystem;
+
 /// Concatenated bodies.
 pub(super) struct System<T: Real> {
     /// Identity of each body, to detect a changed body list.
@@ -33,6 +35,11 @@ pub(super) struct System<T: Real> {
     pub response: Vec<VertexResponse<T>>,
     /// Partial sums of the energy reductions (reused).
     pub energy_chunks: Vec<f64>,
+    /// Per-vertex linear systems and moves, kept only when inner sweeps or the descent method
+    /// need them (else empty).
+    pub locals: Vec<LocalSystem<T>>,
+    pub delta: Vec<Vector3<T>>,
+    pub delta_next: Vec<Vector3<T>>,
 }
 
 impl<T: Real> System<T> {
@@ -83,6 +90,9 @@ impl<T: Real> System<T> {
             pinned: vec![false; start],
             response: vec![zero_response; start],
             energy_chunks: Vec::new(),
+            locals: Vec::new(),
+            delta: Vec::new(),
+            delta_next: Vec::new(),
         }
     }
 

@@ -217,3 +217,59 @@ fn a_sheet_slides_down_a_frictionless_slope_at_g_sin_theta() {
         }
     }
 }
+
+/// Inner Jacobi sweeps (Fig. 6) and the descent baseline solve the same implicit Euler step:
+/// every variant converges to the same positions, and more inner sweeps need fewer iterations.
+#[test]
+fn inner_sweeps_and_descent_reach_the_same_solution() {
+    let tight = SolverParams {
+        tol: 1e-9,
+        max_iters: 20000,
+        ..SolverParams::default()
+    };
+    let (reference, plain) = hanging_step(tight);
+    let (swept, inner) = hanging_step(SolverParams {
+        inner_iters: 4,
+        ..tight
+    });
+    let (descended, descent) = hanging_step(SolverParams {
+        method: super::Method::Descent,
+        ..tight
+    });
+    assert!(plain.converged && inner.converged && descent.converged);
+    assert!(
+        inner.iterations < plain.iterations,
+        "inner {} vs plain {}",
+        inner.iterations,
+        plain.iterations
+    );
+    for other in [&swept, &descended] {
+        let gap = reference
+            .iter()
+            .zip(other)
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0, f64::max);
+        assert!(gap < 1e-6, "solutions differ by {gap} m");
+    }
+}
+
+/// The descent baseline never accepts a rise of the variational energy.
+#[test]
+fn descent_energy_never_rises() {
+    let params = SolverParams {
+        method: super::Method::Descent,
+        tol: 0.0,
+        max_iters: 200,
+        record_energy: true,
+        ..SolverParams::default()
+    };
+    let (_, stats) = hanging_step(params);
+    for pair in stats.energies.windows(2) {
+        assert!(
+            pair[1] <= pair[0] * (1.0 + 1e-12),
+            "energy rose from {} to {}",
+            pair[0],
+            pair[1]
+        );
+    }
+}
