@@ -13,7 +13,7 @@ use crate::solve::{Acceleration, Method, Solver, SolverParams, StepStats};
 
 use super::arrays::{to_numpy_1d, vec3};
 use super::collider;
-use super::errors::IntoPyResult;
+use super::errors::{guard, IntoPyResult};
 use super::membrane::PyMembrane;
 
 /// The core solver in the precision the user chose.
@@ -202,14 +202,16 @@ impl PySolver {
             .collect();
         let core = &mut self.core;
         let stats = py.detach(move || {
-            let mut guards: Vec<_> = shared
-                .iter()
-                .map(|m| m.lock().unwrap_or_else(|p| p.into_inner()))
-                .collect();
-            let mut refs: Vec<&mut Membrane> = guards.iter_mut().map(|g| &mut **g).collect();
-            core.step(&mut refs)
+            guard("Solver.step", || {
+                let mut locks: Vec<_> = shared
+                    .iter()
+                    .map(|m| m.lock().unwrap_or_else(|p| p.into_inner()))
+                    .collect();
+                let mut refs: Vec<&mut Membrane> = locks.iter_mut().map(|g| &mut **g).collect();
+                core.step(&mut refs)
+            })
         });
-        Ok(PyStepStats { inner: stats.py()? })
+        Ok(PyStepStats { inner: stats? })
     }
 
     /// Time step h (s); settable.
