@@ -291,6 +291,10 @@ impl PySolver {
     fn steps_taken(&self) -> u64 {
         with_solver!(&self.core, s => s.steps_taken())
     }
+    /// Sets the simulation time (s) and step count, e.g. when restoring a saved state.
+    fn set_clock(&mut self, time: f64, steps_taken: u64) -> PyResult<()> {
+        with_solver!(&mut self.core, s => s.set_clock(time, steps_taken)).py()
+    }
     #[getter]
     fn bodies(&self, py: Python<'_>) -> Vec<Py<PyMembrane>> {
         self.bodies.iter().map(|b| b.clone_ref(py)).collect()

@@ -110,6 +110,14 @@ impl<T: Real> Solver<T> {
         self.steps
     }
 
+    /// Sets the clock (restoring a saved simulation): time in s (finite) and steps taken.
+    pub fn set_clock(&mut self, time: f64, steps: u64) -> Result<()> {
+        crate::error::check_param("time", time, |_| true, "finite")?;
+        self.time = time;
+        self.steps = steps;
+        Ok(())
+    }
+
     /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
     /// [`Error::Diverged`] names the first non-finite vertex.
     pub fn step(&mut self, bodies: &mut [&mut Membrane]) -> Result<StepStats> {
