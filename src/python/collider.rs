@@ -110,6 +110,130 @@ impl PySphere {
     }
 }
 
+/// Solid oriented box collider.
+#[pyclass(module = "peridyn._core", name = "Box", frozen)]
+#[derive(Clone)]
+pub struct PyBox {
+    pub inner: Collider,
+}
+
+#[pymethods]
+impl PyBox {
+    #[new]
+    #[pyo3(signature = (*, center, half_extents, rotation = None))]
+    fn new(
+        center: &Bound<'_, PyAny>,
+        half_extents: &Bound<'_, PyAny>,
+        rotation: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let rows = match rotation {
+            None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            Some(r) => {
+                let m = vec3s(r, "rotation", Some(3))?;
+                [
+                    [m[0].x, m[0].y, m[0].z],
+                    [m[1].x, m[1].y, m[1].z],
+                    [m[2].x, m[2].y, m[2].z],
+                ]
+            }
+        };
+        Ok(Self {
+            inner: Collider::cuboid(
+                vec3(center, "center")?,
+                vec3(half_extents, "half_extents")?,
+                rows,
+            )
+            .py()?,
+        })
+    }
+    #[getter]
+    fn center(&self) -> Vec<f64> {
+        match self.inner {
+            Collider::Box { center, .. } => center.as_slice().to_vec(),
+            _ => unreachable!("PyBox holds a box"),
+        }
+    }
+    #[getter]
+    fn half_extents(&self) -> Vec<f64> {
+        match self.inner {
+            Collider::Box { half_extents, .. } => half_extents.as_slice().to_vec(),
+            _ => unreachable!("PyBox holds a box"),
+        }
+    }
+    /// Rotation matrix (rows), whose columns are the box's axes.
+    #[getter]
+    fn rotation(&self) -> Vec<Vec<f64>> {
+        match self.inner {
+            Collider::Box { axes, .. } => (0..3)
+                .map(|r| (0..3).map(|c| axes[(r, c)]).collect())
+                .collect(),
+            _ => unreachable!("PyBox holds a box"),
+        }
+    }
+    /// Signed distances (m, positive outside) of (n, 3) points.
+    fn signed_distance<'py>(&self, points: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        distances(&self.inner, points)
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "Box(center={:?}, half_extents={:?})",
+            self.center(),
+            self.half_extents()
+        )
+    }
+}
+
+/// Solid capsule collider: the points within `radius` of the segment from `a` to `b`.
+#[pyclass(module = "peridyn._core", name = "Capsule", frozen)]
+#[derive(Clone)]
+pub struct PyCapsule {
+    pub inner: Collider,
+}
+
+#[pymethods]
+impl PyCapsule {
+    #[new]
+    #[pyo3(signature = (*, a, b, radius))]
+    fn new(a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>, radius: f64) -> PyResult<Self> {
+        Ok(Self {
+            inner: Collider::capsule(vec3(a, "a")?, vec3(b, "b")?, radius).py()?,
+        })
+    }
+    #[getter]
+    fn a(&self) -> Vec<f64> {
+        match self.inner {
+            Collider::Capsule { a, .. } => a.as_slice().to_vec(),
+            _ => unreachable!("PyCapsule holds a capsule"),
+        }
+    }
+    #[getter]
+    fn b(&self) -> Vec<f64> {
+        match self.inner {
+            Collider::Capsule { b, .. } => b.as_slice().to_vec(),
+            _ => unreachable!("PyCapsule holds a capsule"),
+        }
+    }
+    #[getter]
+    fn radius(&self) -> f64 {
+        match self.inner {
+            Collider::Capsule { radius, .. } => radius,
+            _ => unreachable!("PyCapsule holds a capsule"),
+        }
+    }
+    /// Signed distances (m, positive outside) of (n, 3) points.
+    fn signed_distance<'py>(&self, points: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        distances(&self.inner, points)
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "Capsule(a={:?}, b={:?}, radius={})",
+            self.a(),
+            self.b(),
+            self.radius()
+        )
+    }
+}
+
 /// Extracts a collider argument.
 pub fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Collider> {
     if let Ok(p) = obj.cast::<PyPlane>() {
@@ -118,8 +242,14 @@ pub fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Collider> {
     if let Ok(s) = obj.cast::<PySphere>() {
         return Ok(s.get().inner);
     }
+    if let Ok(b) = obj.cast::<PyBox>() {
+        return Ok(b.get().inner);
+    }
+    if let Ok(c) = obj.cast::<PyCapsule>() {
+        return Ok(c.get().inner);
+    }
     Err(pyo3::exceptions::PyValueError::new_err(format!(
-        "collider must be Plane or Sphere, got {}",
+        "collider must be Plane, Sphere, Box or Capsule, got {}",
         obj.get_type().name()?
     )))
 }
