@@ -169,29 +169,47 @@ class Membrane:
     def kinetic_energy(self) -> float: ...
 
 class Plane:
-    """Half-space collider: vertices stay on the side the ``normal`` points to."""
+    """Half-space collider: vertices stay on the side the ``normal`` points to.
 
-    def __init__(self, *, point: Vec3 = (0.0, 0.0, 0.0), normal: Vec3 = (0.0, 0.0, 1.0)) -> None: ...
+    Every collider takes ``friction`` (Coulomb coefficient, >= 0: membranes stick while the
+    tangential force stays within ``friction`` times the contact force, and slide against it
+    otherwise) and ``velocity`` (m/s, constant; the pose given is the one at time 0)."""
+
+    def __init__(self, *, point: Vec3 = (0.0, 0.0, 0.0), normal: Vec3 = (0.0, 0.0, 1.0), friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
     @property
     def point(self) -> np.ndarray: ...
     @property
     def normal(self) -> np.ndarray: ...
-    def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
 
 class Sphere:
     """Solid sphere collider (m)."""
 
-    def __init__(self, *, center: Vec3, radius: float) -> None: ...
+    def __init__(self, *, center: Vec3, radius: float, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
     @property
     def center(self) -> np.ndarray: ...
     @property
     def radius(self) -> float: ...
-    def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
 
 class Box:
     """Solid oriented box collider (m)."""
 
-    def __init__(self, *, center: Vec3, half_extents: Vec3, rotation: Optional[ArrayLike] = None) -> None:
+    def __init__(self, *, center: Vec3, half_extents: Vec3, rotation: Optional[ArrayLike] = None, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None:
         """``rotation``: 3x3 rotation matrix (orthonormal, det +1) whose columns are the box axes
         (default: axis-aligned)."""
     @property
@@ -200,19 +218,33 @@ class Box:
     def half_extents(self) -> np.ndarray: ...
     @property
     def rotation(self) -> np.ndarray: ...
-    def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
 
 class Capsule:
     """Solid capsule collider: the points within ``radius`` (m) of the segment from ``a`` to ``b``."""
 
-    def __init__(self, *, a: Vec3, b: Vec3, radius: float) -> None: ...
+    def __init__(self, *, a: Vec3, b: Vec3, radius: float, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
     @property
     def a(self) -> np.ndarray: ...
     @property
     def b(self) -> np.ndarray: ...
     @property
     def radius(self) -> float: ...
-    def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
 
 class StepStats:
     """What one time step did."""

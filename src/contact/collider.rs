@@ -1,14 +1,15 @@
-//! Analytic colliders, each a signed distance field. After each global iteration every free
-//! vertex is kept at least half the membrane thickness outside every collider.
+//! Analytic colliders: a shape (a signed distance field), a constant velocity and a Coulomb
+//! friction coefficient. After each global iteration every free vertex is kept at least half
+//! the membrane thickness outside every collider.
 
 use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{invalid, Result};
 use crate::real::Real;
 
-/// A static collider (SI units).
+/// The solid shape of a collider (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Collider {
+pub enum Shape {
     /// Half-space `{x : (x - point) . normal >= 0}` is free; `normal` is unit.
     Plane {
         point: Vector3<f64>,
@@ -47,7 +48,7 @@ fn positive(name: &str, v: f64) -> Result<f64> {
     }
 }
 
-impl Collider {
+impl Shape {
     /// A plane through `point` whose free side is the one `normal` points to.
     pub fn plane(point: [f64; 3], normal: [f64; 3]) -> Result<Self> {
         let (point, normal) = (Vector3::from(point), Vector3::from(normal));
@@ -119,14 +120,14 @@ impl Collider {
     }
 
     /// The collider in the simulation's precision.
-    pub fn to_real<T: Real>(&self) -> ColliderModel<T> {
+    pub fn to_real<T: Real>(&self) -> ShapeModel<T> {
         let v = |a: &Vector3<f64>| a.map(T::of);
         match *self {
-            Self::Plane { point, normal } => ColliderModel::Plane {
+            Self::Plane { point, normal } => ShapeModel::Plane {
                 offset: T::of(point.dot(&normal)),
                 normal: v(&normal),
             },
-            Self::Sphere { center, radius } => ColliderModel::Sphere {
+            Self::Sphere { center, radius } => ShapeModel::Sphere {
                 center: v(&center),
                 radius: T::of(radius),
             },
@@ -134,12 +135,12 @@ impl Collider {
                 center,
                 half_extents,
                 axes,
-            } => ColliderModel::Box {
+            } => ShapeModel::Box {
                 center: v(&center),
                 half_extents: v(&half_extents),
                 axes: axes.map(T::of),
             },
-            Self::Capsule { a, b, radius } => ColliderModel::Capsule {
+            Self::Capsule { a, b, radius } => ShapeModel::Capsule {
                 a: v(&a),
                 b: v(&b),
                 radius: T::of(radius),
@@ -148,9 +149,96 @@ impl Collider {
     }
 }
 
-/// [`Collider`] in the simulation's precision.
+/// A collider: a shape moving at a constant `velocity` (m/s) from its pose at time 0, with
+/// Coulomb `friction` (dimensionless, >= 0) against the membranes it touches.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ColliderModel<T: Real> {
+pub struct Collider {
+    pub shape: Shape,
+    pub velocity: Vector3<f64>,
+    pub friction: f64,
+}
+
+impl Collider {
+    /// A collider of `shape`, checking `friction >= 0` and a finite `velocity`.
+    pub fn new(shape: Shape, friction: f64, velocity: [f64; 3]) -> Result<Self> {
+        if !(friction.is_finite() && friction >= 0.0) {
+            return Err(invalid!(
+                "friction must be a finite coefficient >= 0, got {friction}"
+            ));
+        }
+        let velocity = Vector3::from(velocity);
+        finite("collider velocity", &velocity)?;
+        Ok(Self {
+            shape,
+            velocity,
+            friction,
+        })
+    }
+
+    /// A static, frictionless collider.
+    pub fn fixed(shape: Shape) -> Self {
+        Self {
+            shape,
+            velocity: Vector3::zeros(),
+            friction: 0.0,
+        }
+    }
+
+    /// Signed distance (m, positive outside) at time `time` (s).
+    pub fn signed_distance(&self, x: &Vector3<f64>, time: f64) -> f64 {
+        self.shape
+            .to_real::<f64>()
+            .signed_distance(&(x - self.velocity * time))
+    }
+
+    /// The collider during the step ending at `time` (s) of length `dt` (s), in the
+    /// simulation's precision.
+    pub fn during_step<T: Real>(&self, time: f64, dt: f64) -> ColliderModel<T> {
+        ColliderModel {
+            shape: self.shape.to_real(),
+            offset: (self.velocity * time).map(T::of),
+            displacement: (self.velocity * dt).map(T::of),
+            friction: T::of(self.friction),
+        }
+    }
+}
+
+/// A collider during one step: its shape at the end of the step, how far it moved during the
+/// step, and its friction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ColliderModel<T: Real> {
+    shape: ShapeModel<T>,
+    /// Translation of the shape from its pose at time 0 (m).
+    offset: Vector3<T>,
+    /// Its displacement during the step (m).
+    pub displacement: Vector3<T>,
+    pub friction: T,
+}
+
+impl<T: Real> ColliderModel<T> {
+    /// Signed distance (m, positive outside).
+    #[inline]
+    pub fn signed_distance(&self, x: &Vector3<T>) -> T {
+        self.shape.signed_distance(&(x - self.offset))
+    }
+
+    /// Unit outward normal, the gradient of the signed distance.
+    #[inline]
+    pub fn normal(&self, x: &Vector3<T>) -> Vector3<T> {
+        self.shape.normal(&(x - self.offset))
+    }
+
+    /// `x` itself when it is at least `margin` outside, else the point at distance `margin`
+    /// along the normal.
+    #[inline]
+    pub fn project(&self, x: Vector3<T>, margin: T) -> Vector3<T> {
+        self.shape.project(x - self.offset, margin) + self.offset
+    }
+}
+
+/// [`Shape`] in the simulation's precision.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ShapeModel<T: Real> {
     Plane {
         normal: Vector3<T>,
         offset: T,
@@ -171,7 +259,7 @@ pub enum ColliderModel<T: Real> {
     },
 }
 
-impl<T: Real> ColliderModel<T> {
+impl<T: Real> ShapeModel<T> {
     /// Signed distance from the surface (m), positive outside: exact Euclidean distance for
     /// every shape, so that moving along [`Self::normal`] changes it one for one.
     #[inline]
@@ -265,7 +353,7 @@ fn unit_or_z<T: Real>(v: Vector3<T>) -> Vector3<T> {
 mod tests {
     use super::*;
 
-    fn shapes() -> Vec<Collider> {
+    fn shapes() -> Vec<Shape> {
         let turn = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -0.5, 0.2)).into_inner();
         let rows = [
             [turn[(0, 0)], turn[(0, 1)], turn[(0, 2)]],
@@ -273,10 +361,10 @@ mod tests {
             [turn[(2, 0)], turn[(2, 1)], turn[(2, 2)]],
         ];
         vec![
-            Collider::plane([0.0, 0.0, -1.0], [0.0, 1.0, 2.0]).unwrap(),
-            Collider::sphere([0.0, 0.0, 1.0], 0.5).unwrap(),
-            Collider::cuboid([0.1, -0.2, 0.3], [0.4, 0.2, 0.3], rows).unwrap(),
-            Collider::capsule([0.0, 0.0, 0.0], [0.5, 0.2, -0.1], 0.15).unwrap(),
+            Shape::plane([0.0, 0.0, -1.0], [0.0, 1.0, 2.0]).unwrap(),
+            Shape::sphere([0.0, 0.0, 1.0], 0.5).unwrap(),
+            Shape::cuboid([0.1, -0.2, 0.3], [0.4, 0.2, 0.3], rows).unwrap(),
+            Shape::capsule([0.0, 0.0, 0.0], [0.5, 0.2, -0.1], 0.15).unwrap(),
         ]
     }
 
@@ -321,25 +409,25 @@ mod tests {
 
     #[test]
     fn bad_shapes_are_named() {
-        assert!(Collider::sphere([0.0; 3], 0.0)
+        assert!(Shape::sphere([0.0; 3], 0.0)
             .unwrap_err()
             .to_string()
             .contains("radius"));
-        assert!(Collider::plane([0.0; 3], [0.0; 3])
+        assert!(Shape::plane([0.0; 3], [0.0; 3])
             .unwrap_err()
             .to_string()
             .contains("normal"));
         let id = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        assert!(Collider::cuboid([0.0; 3], [1.0, -1.0, 1.0], id)
+        assert!(Shape::cuboid([0.0; 3], [1.0, -1.0, 1.0], id)
             .unwrap_err()
             .to_string()
             .contains("half_extents[1]"));
         let skew = [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        assert!(Collider::cuboid([0.0; 3], [1.0; 3], skew)
+        assert!(Shape::cuboid([0.0; 3], [1.0; 3], skew)
             .unwrap_err()
             .to_string()
             .contains("rotation"));
-        assert!(Collider::capsule([0.0; 3], [f64::NAN, 0.0, 0.0], 1.0)
+        assert!(Shape::capsule([0.0; 3], [f64::NAN, 0.0, 0.0], 1.0)
             .unwrap_err()
             .to_string()
             .contains("end b"));

@@ -73,8 +73,13 @@ pub(super) fn descent_iteration<T: Real>(
             *local = LocalSystem::of(sys_ref, k, h2);
             *d = local.solve();
             let margin = sys_ref.rest.vertices[k].half_thickness;
-            let free =
-                without_contact_reaction(local.residual, &sys_ref.y[k], margin, options.colliders);
+            let free = without_contact_reaction(
+                local.residual,
+                &sys_ref.y[k],
+                &sys_ref.y_start[k],
+                margin,
+                options.colliders,
+            );
             (free.norm() / local.mass).to_f64()
         })
         .reduce(|| 0.0, f64::max);
@@ -83,7 +88,8 @@ pub(super) fn descent_iteration<T: Real>(
     let mut update = Update::NONE;
     for halving in 0..=MAX_HALVINGS {
         let alpha = T::of(search.alpha);
-        let (y, y_prev, pinned, rest) = (&sys.y, &sys.y_prev, &sys.pinned, &sys.rest);
+        let (y, y_prev, y_start, pinned, rest) =
+            (&sys.y, &sys.y_prev, &sys.y_start, &sys.pinned, &sys.rest);
         update = sys
             .y_next
             .par_iter_mut()
@@ -96,6 +102,7 @@ pub(super) fn descent_iteration<T: Real>(
                 let margin = rest.vertices[k].half_thickness;
                 *next = keep_out(
                     y[k] + direction[k] * alpha,
+                    &y_start[k],
                     &locals[k].inverse,
                     margin,
                     options.colliders,

@@ -203,11 +203,23 @@ fn finish_move<T: Real>(
     };
     let margin = sys.rest.vertices[k].half_thickness;
     let y = sys.y[k];
-    *next = keep_out(y + delta * alpha, &local.inverse, margin, options.colliders);
+    *next = keep_out(
+        y + delta * alpha,
+        &sys.y_start[k],
+        &local.inverse,
+        margin,
+        options.colliders,
+    );
     if let Some(w) = options.omega {
         *next = (*next - sys.y_prev[k]) * w + sys.y_prev[k];
     }
-    let free = without_contact_reaction(local.residual, &y, margin, options.colliders);
+    let free = without_contact_reaction(
+        local.residual,
+        &y,
+        &sys.y_start[k],
+        margin,
+        options.colliders,
+    );
     Update {
         residual: (free.norm() / local.mass).to_f64(),
         ..Update::of(k, &y, next)
@@ -270,53 +282,101 @@ fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
     sys.delta_next = scratch;
 }
 
-/// Keeps a move out of the colliders in the metric of its system matrix `D`: where `y` would
-/// end inside (closer than `margin`), it moves along `D^-1 n` instead of `n`, i.e. it solves
-/// `min 1/2 d^T D d - r^T d` subject to the tangent plane of the contact. A Euclidean
-/// projection with an anisotropic `D` would leave a tangential residual `lambda (D n)_t` at its
-/// fixed point: frictionless contact would stick.
+/// Keeps a move out of the colliders in the metric of its system matrix `D`, with Coulomb
+/// friction.
+///
+/// Where `y` would end inside a collider (closer than `margin`), it moves along `D^-1 n`
+/// instead of `n`: it solves `min 1/2 d^T D d - r^T d` on the tangent plane of the contact,
+/// with the normal reaction `lambda = -gap / (n . D^-1 n)` (N s^2). A Euclidean projection
+/// with an anisotropic `D` would leave a tangential residual `lambda (D n)_t` at its fixed
+/// point: frictionless contact would stick.
+///
+/// Friction: the slip `s_t` of the vertex relative to the collider over the whole step
+/// (from `start`, the collider moving by its displacement) is removed when the reaction that
+/// takes, `k |s_t|` with `k = |s_t|^2 / (s_t . D^-1 s_t)` the stiffness along it, is within
+/// the Coulomb cone `friction * lambda` (sticking), and shortened by `friction * lambda / k`
+/// otherwise (sliding).
 #[inline]
 pub(super) fn keep_out<T: Real>(
     mut y: Vector3<T>,
+    start: &Vector3<T>,
     inverse: &Matrix3<T>,
     margin: T,
     colliders: &[ColliderModel<T>],
 ) -> Vector3<T> {
     for c in colliders {
         let gap = c.signed_distance(&y) - margin;
-        if gap < T::zero() {
-            let n = c.normal(&y);
-            let along = inverse * n;
-            let reach = n.dot(&along);
-            if reach > T::zero() {
-                y -= along * (gap / reach);
+        if gap >= T::zero() {
+            continue;
+        }
+        let n = c.normal(&y);
+        let along = inverse * n;
+        let reach = n.dot(&along);
+        if reach <= T::zero() {
+            continue;
+        }
+        let reaction = -gap / reach;
+        y += along * reaction;
+        if c.friction > T::zero() {
+            let slip = (y - start) - c.displacement;
+            let slip_t = slip - n * n.dot(&slip);
+            let compliance = slip_t.dot(&(inverse * slip_t));
+            if compliance > T::zero() {
+                let needed = slip_t.norm_squared() * slip_t.norm() / compliance;
+                let budget = c.friction * reaction;
+                y -= slip_t
+                    * if needed <= budget {
+                        T::one()
+                    } else {
+                        budget / needed
+                    };
             }
         }
     }
     y
 }
 
-/// The residual without the part a collider the vertex touches pushes back: the component
-/// into the collider, which the contact reaction balances at the solution.
+/// The residual without the part the colliders the vertex touches balance at the solution:
+/// the push into the collider, and the Coulomb friction `friction * |push|`: against the slip
+/// when the vertex slides relative to the collider (kinetic friction is exactly that), as much
+/// of the tangential part as the cone holds when it does not (static friction).
 #[inline]
 pub(super) fn without_contact_reaction<T: Real>(
     mut residual: Vector3<T>,
     y: &Vector3<T>,
+    start: &Vector3<T>,
     margin: T,
     colliders: &[ColliderModel<T>],
 ) -> Vector3<T> {
     let slack = T::of(1e-6).max(margin * T::of(1e-3));
     for c in colliders {
-        if c.signed_distance(y) <= margin + slack {
-            let n = c.normal(y);
-            let push = residual.dot(&n);
-            if push < T::zero() {
-                residual -= n * push;
+        if c.signed_distance(y) > margin + slack {
+            continue;
+        }
+        let n = c.normal(y);
+        let push = residual.dot(&n);
+        if push >= T::zero() {
+            continue;
+        }
+        residual -= n * push;
+        if c.friction > T::zero() {
+            let held = c.friction * (-push);
+            let slip = (y - start) - c.displacement;
+            let slip_t = slip - n * n.dot(&slip);
+            let sliding = slip_t.norm() > T::of(SLIP) * (T::one() + y.norm());
+            let tangential = residual - n * residual.dot(&n);
+            if sliding {
+                residual -= slip_t.normalize() * held;
+            } else if tangential.norm() > T::zero() {
+                residual -= tangential * (held / tangential.norm()).min(T::one());
             }
         }
     }
     residual
 }
+
+/// Relative slip (per metre of position) below which a vertex counts as sticking.
+const SLIP: f64 = 1e-6;
 
 #[cfg(test)]
 mod tests {

@@ -137,14 +137,19 @@ impl<T: Real> Solver<T> {
         if !self.system.as_ref().is_some_and(|s| s.matches(bodies)) {
             self.system = Some(System::build(bodies));
         }
-        let colliders: Vec<ColliderModel<T>> = self.colliders.iter().map(|c| c.to_real()).collect();
+        let step_end = self.time + params.dt;
+        let colliders: Vec<ColliderModel<T>> = self
+            .colliders
+            .iter()
+            .map(|c| c.during_step(step_end, params.dt))
+            .collect();
         let sys = self.system.as_mut().expect("built above");
         let h = T::of(params.dt);
         let gravity = Vector3::from(params.gravity).map(T::of);
 
         sys.load(bodies);
         predict(sys, h, gravity);
-        let mut energy = initial_guess(sys, h, params.preconditioner);
+        let mut energy = initial_guess(sys, h, params.preconditioner, &colliders);
         let mut timings = Timings {
             predict: millis(started),
             ..Timings::default()
@@ -278,7 +283,13 @@ fn predict<T: Real>(sys: &mut System<T>, h: T, gravity: Vector3<T>) {
 /// moves too little instead, which dissipates. `E(y*)` is the elastic energy `U(y*)`, and
 /// `E(y_t) >= m |y_t - y*|^2 / (2 h^2)`, so `y_t` is evaluated only when `U(y*)` exceeds that
 /// inertial term: most dynamic steps cost one kernel pass here, not two.
-fn initial_guess<T: Real>(sys: &mut System<T>, h: T, mode: Preconditioner) -> f64 {
+fn initial_guess<T: Real>(
+    sys: &mut System<T>,
+    h: T,
+    mode: Preconditioner,
+    colliders: &[ColliderModel<T>],
+) -> f64 {
+    keep_feasible(sys, colliders);
     evaluate(sys, mode);
     let at_prediction = total_energy(sys, h);
     let inertia_of_previous = inertial_energy(sys, h, true);
@@ -289,15 +300,33 @@ fn initial_guess<T: Real>(sys: &mut System<T>, h: T, mode: Preconditioner) -> f6
     sys.y.par_iter_mut().enumerate().for_each(|(i, y)| {
         *y = if pinned[i] { y_star[i] } else { y_start[i] };
     });
+    keep_feasible(sys, colliders);
     evaluate(sys, mode);
     let at_previous = total_energy(sys, h);
     if at_previous < at_prediction {
         at_previous
     } else {
         sys.y.copy_from_slice(&sys.y_star);
+        keep_feasible(sys, colliders);
         evaluate(sys, mode);
         at_prediction
     }
+}
+
+/// Projects the free vertices of the iterate `y` out of the colliders (a start outside every
+/// collider, so that the residual there measures a feasible state).
+fn keep_feasible<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>]) {
+    if colliders.is_empty() {
+        return;
+    }
+    let (pinned, rest) = (&sys.pinned, &sys.rest);
+    sys.y.par_iter_mut().enumerate().for_each(|(k, y)| {
+        if !pinned[k] {
+            for c in colliders {
+                *y = c.project(*y, rest.vertices[k].half_thickness);
+            }
+        }
+    });
 }
 
 /// Projects the free vertices of `y_next` out of the colliders and measures the move from `y`.
