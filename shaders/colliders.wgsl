@@ -43,6 +43,18 @@ fn collider_project(k: Collider, x: vec3<real>, margin: real) -> vec3<real> {
     return k.a + vec3<real>(0.0, 0.0, reach);
 }
 
+// Vertex i at x kept outside every collider, in order (pinned vertices stay where they are).
+fn feasible(i: u32, x: vec3<real>) -> vec3<real> {
+    var out = x;
+    if pinned[i] == 0u {
+        let margin = vertices[i].half_thickness;
+        for (var c = 0u; c < params.n_colliders; c++) {
+            out = collider_project(colliders[c], out, margin);
+        }
+    }
+    return out;
+}
+
 // The local step: y_next <- the projection of the free vertices out of every collider, in order,
 // then the per-vertex measure for the convergence and divergence tests:
 // moved_i = |y_i^{k+1} - y_i^k|, bad_i = y_i^{k+1} not finite (the residual comes from jacobi).
@@ -52,14 +64,8 @@ fn project(@builtin(global_invocation_id) gid: vec3<u32>) {
     if i >= params.n || !live() {
         return;
     }
-    var next = y_next[i].xyz;
-    if pinned[i] == 0u {
-        let margin = vertices[i].half_thickness;
-        for (var c = 0u; c < params.n_colliders; c++) {
-            next = collider_project(colliders[c], next, margin);
-        }
-        y_next[i] = vec4<real>(next, 0.0);
-    }
+    let next = feasible(i, y_next[i].xyz);
+    y_next[i] = vec4<real>(next, 0.0);
     let ok = finite3(next);
     var moved: real = 0.0;
     if ok {

@@ -35,6 +35,22 @@ fn any_orthogonal_unit(n: vec3<real>) -> vec3<real> {
     return normalize(cross(n, axis));
 }
 
+// Unit eigenvector (cos, sin) of the larger eigenvalue of the symmetric 2x2 matrix
+// [[p, r], [r, s]], from whichever of its two closed forms does not cancel.
+fn leading_eigenvector(p: real, r: real, s: real) -> vec2<real> {
+    let half_gap = (p - s) * 0.5;
+    let root = sqrt(half_gap * half_gap + r * r);
+    var v = vec2<real>(r, root - half_gap);     // (r, lambda_1 - p)
+    if half_gap >= 0.0 {
+        v = vec2<real>(half_gap + root, r);     // (lambda_1 - s, r)
+    }
+    let norm = length(v);
+    if norm > 0.0 {
+        return v / norm;
+    }
+    return vec2<real>(1.0, 0.0);
+}
+
 fn deformation_of(i: u32, yi: vec3<real>) -> Deformation {
     let c = vertices[i];
     var a1 = vec3<real>(0.0);
@@ -47,10 +63,9 @@ fn deformation_of(i: u32, yi: vec3<real>) -> Deformation {
     let p = dot(a1, a1);
     let r = dot(a1, a2);
     let s = dot(a2, a2);
-    // Eigenvectors of the 2x2 metric T^T T: the larger eigenvalue's at angle theta.
-    let half = half_angle(r + r, p - s);
-    let cs = half.x;
-    let sn = half.y;
+    let v = leading_eigenvector(p, r, s);
+    let cs = v.x;
+    let sn = v.y;
     let t_v1 = a1 * cs + a2 * sn;
     let sigma1 = length(t_v1);
     let cr = cross(a1, a2);
@@ -136,17 +151,18 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>) {
     let first = offsets[i];
     let last = offsets[i + 1u];
     if c.kappa_t > 0.0 || c.kappa_n > 0.0 {
-        // F^-1 = w1 u1^T / s1 + w2 u2^T / s2 + nc n^T.
-        let rw1 = c.t1 * def.v1.x + c.t2 * def.v1.y;
-        let rw2 = c.t1 * def.v2.x + c.t2 * def.v2.y;
+        // F^-1 in rest-frame coordinates: rows row1, row2, n map a deformed vector e to the
+        // (t1, t2, nc) coordinates of F^-1 e (bonds[b].xi is in those coordinates too).
         let inv = 1.0 / def.sigma;
+        let row1 = u1 * (def.v1.x * inv.x) + u2 * (def.v2.x * inv.y);
+        let row2 = u1 * (def.v1.y * inv.x) + u2 * (def.v2.y * inv.y);
         // First pass: rest images F^-1 e_j (kept in bond_grad) and the fitted curvature.
         var curvature = vec3<real>(0.0);
         for (var b = first; b < last; b++) {
             let e = y[indices[b]].xyz - yi;
-            let rest_image = rw1 * (dot(u1, e) * inv.x) + rw2 * (dot(u2, e) * inv.y) + c.nc * dot(n, e);
-            curvature += bonds[b].curvature * dot(rest_image - bonds[b].xi, c.nc);
-            bond_grad[b] = vec4<real>(rest_image, 0.0);
+            let image = vec3<real>(dot(row1, e), dot(row2, e), dot(n, e));
+            curvature += bonds[b].curvature * (image.z - bonds[b].xi.z);
+            bond_grad[b] = vec4<real>(image, 0.0);
         }
         let bending = 0.5 * dot(curvature, curvature);
         var hourglass: real = 0.0;
@@ -154,17 +170,16 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>) {
         var h2 = vec3<real>(0.0);
         var hn = vec3<real>(0.0);
         for (var b = first; b < last; b++) {
-            let rest_image = bond_grad[b].xyz;
-            let q = rest_image - bonds[b].xi;
-            let q_n = dot(q, c.nc);
-            let q_t = q - c.nc * q_n;
-            hourglass += c.kappa_t * dot(q_t, q_t);
-            let wq = q_t * c.kappa_t + c.nc * dot(bonds[b].curvature, curvature);
-            let d = u1 * (dot(rw1, wq) * inv.x) + u2 * (dot(rw2, wq) * inv.y) + n * dot(c.nc, wq);
+            let image = bond_grad[b].xyz;
+            let q1 = image.x - bonds[b].xi.x;
+            let q2 = image.y - bonds[b].xi.y;
+            hourglass += c.kappa_t * (q1 * q1 + q2 * q2);
+            // d = F^-T W q with W q = (kappa_t q1, kappa_t q2, curvature_j . h) in the rest frame.
+            let d = row1 * (c.kappa_t * q1) + row2 * (c.kappa_t * q2) + n * dot(bonds[b].curvature, curvature);
             bond_grad[b] = vec4<real>(d, 0.0);
-            h1 += d * dot(rest_image, c.t1);
-            h2 += d * dot(rest_image, c.t2);
-            hn += d * dot(rest_image, c.nc);
+            h1 += d * image.x;
+            h2 += d * image.y;
+            hn += d * image.z;
         }
         energy = energy + bending + 0.5 * hourglass;
         g1 -= h1;

@@ -15,24 +15,25 @@ fn predict(@builtin(global_invocation_id) gid: vec3<u32>) {
     y[i] = y_star[i];
 }
 
-// y <- y_t (pinned vertices: their target), the other candidate of the initial guess.
+// y <- y_t (pinned vertices: their target), kept out of the colliders: the other candidate of
+// the initial guess.
 @compute @workgroup_size(64)
 fn use_previous(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
     if i >= params.n {
         return;
     }
-    y[i] = select(y_start[i], y_star[i], pinned[i] != 0u);
+    y[i] = vec4<real>(feasible(i, select(y_start[i], y_star[i], pinned[i] != 0u).xyz), 0.0);
 }
 
-// y <- y*.
+// y <- y*, kept out of the colliders.
 @compute @workgroup_size(64)
 fn use_prediction(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
     if i >= params.n {
         return;
     }
-    y[i] = y_star[i];
+    y[i] = vec4<real>(feasible(i, y_star[i].xyz), 0.0);
 }
 
 // The initial iterate: y_t where its variational energy (history[0].x) is below that of y*
@@ -44,7 +45,7 @@ fn choose_initial(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     if ctrl.history[0].x < ctrl.history[0].y {
-        y[i] = select(y_start[i], y_star[i], pinned[i] != 0u);
+        y[i] = vec4<real>(feasible(i, select(y_start[i], y_star[i], pinned[i] != 0u).xyz), 0.0);
     }
 }
 

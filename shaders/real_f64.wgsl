@@ -1,30 +1,10 @@
 // The scalar type of the f64 kernels (adapters with SHADER_F64). SPIR-V and the other shading
-// languages offer sin, cos, atan2 and log in 32 bits only, so the two functions that need them
-// are written with sqrt, ldexp and a series instead, to f64 accuracy.
+// languages offer log in 32 bits only, so ln_1p is written with ldexp and a series instead, to
+// f64 accuracy.
 
 alias real = f64;
 const REAL_MAX: real = 1.7976931348623157e308;
 const LN_2: real = 0.6931471805599453;
-
-// (cos theta, sin theta) for theta = atan2(y, x) / 2 by the half-angle formulas:
-// cos 2theta = x / r, cos theta = sqrt((1 + cos 2theta) / 2) >= 0, sin theta = sin 2theta /
-// (2 cos theta); near theta = +-pi/2 the roles swap. atan2(0, 0) = 0.
-fn half_angle(y_: real, x: real) -> vec2<real> {
-    let r = sqrt(x * x + y_ * y_);
-    if r == 0.0 {
-        return vec2<real>(1.0, 0.0);
-    }
-    let c2 = x / r;
-    let cs = sqrt(max(0.5 * (1.0 + c2), 0.0));
-    if cs > 0.5 {
-        return vec2<real>(cs, y_ / (2.0 * r * cs));
-    }
-    var sn = sqrt(max(0.5 * (1.0 - c2), 0.0));
-    if y_ < 0.0 {
-        sn = -sn;
-    }
-    return vec2<real>(y_ / (2.0 * r * sn), sn);
-}
 
 // ln(1 + u) without cancellation for small u: w = 1 + u = m 2^e with m near 1 (e from the
 // f32 logarithm, m exact by ldexp), ln m = 2 atanh(s) = 2 sum_k s^(2k+1) / (2k+1) with

@@ -169,24 +169,82 @@ class Membrane:
     def kinetic_energy(self) -> float: ...
 
 class Plane:
-    """Half-space collider: vertices stay on the side the ``normal`` points to."""
+    """Half-space collider: vertices stay on the side the ``normal`` points to.
 
-    def __init__(self, *, point: Vec3 = (0.0, 0.0, 0.0), normal: Vec3 = (0.0, 0.0, 1.0)) -> None: ...
+    Every collider takes ``friction`` (Coulomb coefficient, >= 0: membranes stick while the
+    tangential force stays within ``friction`` times the contact force, and slide against it
+    otherwise) and ``velocity`` (m/s, constant; the pose given is the one at time 0)."""
+
+    def __init__(self, *, point: Vec3 = (0.0, 0.0, 0.0), normal: Vec3 = (0.0, 0.0, 1.0), friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
     @property
     def point(self) -> np.ndarray: ...
     @property
     def normal(self) -> np.ndarray: ...
-    def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
 
 class Sphere:
     """Solid sphere collider (m)."""
 
-    def __init__(self, *, center: Vec3, radius: float) -> None: ...
+    def __init__(self, *, center: Vec3, radius: float, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
     @property
     def center(self) -> np.ndarray: ...
     @property
     def radius(self) -> float: ...
-    def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
+
+class Box:
+    """Solid oriented box collider (m)."""
+
+    def __init__(self, *, center: Vec3, half_extents: Vec3, rotation: Optional[ArrayLike] = None, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None:
+        """``rotation``: 3x3 rotation matrix (orthonormal, det +1) whose columns are the box axes
+        (default: axis-aligned)."""
+    @property
+    def center(self) -> np.ndarray: ...
+    @property
+    def half_extents(self) -> np.ndarray: ...
+    @property
+    def rotation(self) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
+
+class Capsule:
+    """Solid capsule collider: the points within ``radius`` (m) of the segment from ``a`` to ``b``."""
+
+    def __init__(self, *, a: Vec3, b: Vec3, radius: float, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
+    @property
+    def a(self) -> np.ndarray: ...
+    @property
+    def b(self) -> np.ndarray: ...
+    @property
+    def radius(self) -> float: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
 
 class StepStats:
     """What one time step did."""
@@ -241,10 +299,14 @@ class Solver:
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
+    method : "sissm" (the paper's method) or "descent" (Jacobi-preconditioned gradient descent
+        with a line search on the energy, Wang and Yang 2016: the baseline of Fig. 13).
+    inner_iters : Jacobi sweeps on the linear system of eq. 25 per global iteration (Fig. 6).
     backend : "cpu" (Rust, rayon threads) or "gpu" (wgpu compute shaders, state on the device;
         f32 by default, f64 where the adapter has SHADER_F64; raises RuntimeError naming what
         is missing when there is no adapter, see :func:`gpu_info`). The adapter follows
-        WGPU_BACKEND, WGPU_POWER_PREF and WGPU_ADAPTER_NAME.
+        WGPU_BACKEND, WGPU_POWER_PREF and WGPU_ADAPTER_NAME. The GPU runs SISSM (optionally
+        Chebyshev) with Plane and Sphere colliders without friction or motion.
     """
 
     def __init__(
@@ -262,10 +324,12 @@ class Solver:
         chebyshev_rho: float = 0.9,
         chebyshev_delay: int = 3,
         record_energy: bool = False,
+        method: str = "sissm",
+        inner_iters: int = 1,
         backend: str = "cpu",
     ) -> None: ...
     def add(self, body: Membrane) -> None: ...
-    def add_collider(self, collider: Union[Plane, Sphere]) -> None: ...
+    def add_collider(self, collider: Union[Plane, Sphere, Box, Capsule]) -> None: ...
     def step(self) -> StepStats: ...
     @property
     def dt(self) -> float: ...
@@ -295,9 +359,15 @@ class Solver:
     @property
     def record_energy(self) -> bool: ...
     @property
+    def method(self) -> str: ...
+    @property
+    def inner_iters(self) -> int: ...
+    @property
     def time(self) -> float: ...
     @property
     def steps_taken(self) -> int: ...
+    def set_clock(self, time: float, steps_taken: int) -> None:
+        """Sets the simulation time (s) and step count, e.g. when restoring a saved state."""
     @property
     def bodies(self) -> list: ...
     @property

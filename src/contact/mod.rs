@@ -1,5 +1,5 @@
-//! Contact handling. For now: analytic colliders projected in the local step.
+//! Contact handling. For now: analytic colliders (with motion and friction) in the local step.
 
 mod collider;
 
-pub use collider::{Collider, ColliderModel};
+pub use collider::{Collider, ColliderModel, Shape, ShapeModel};

@@ -5,7 +5,7 @@
 use bytemuck::Pod;
 use nalgebra::Vector3;
 
-use crate::contact::{Collider, ColliderModel};
+use crate::contact::{Collider, ShapeModel};
 use crate::material::MaterialModel;
 use crate::membrane::{BondRest, Frame, VertexConstants};
 use crate::real::Real;
@@ -225,9 +225,12 @@ macro_rules! layout {
             }
 
             fn collider(c: &Collider) -> Self::Collider {
-                let (a, b, kind) = match c.to_real::<$t>() {
-                    ColliderModel::Plane { normal, offset } => (normal, offset, 0),
-                    ColliderModel::Sphere { center, radius } => (center, radius, 1),
+                let (a, b, kind) = match c.shape.to_real::<$t>() {
+                    ShapeModel::Plane { normal, offset } => (normal, offset, 0),
+                    ShapeModel::Sphere { center, radius } => (center, radius, 1),
+                    ShapeModel::Box { .. } | ShapeModel::Capsule { .. } => {
+                        unreachable!("GpuSolver::add_collider admits planes and spheres only")
+                    }
                 };
                 $module::Collider {
                     a: a.into(),

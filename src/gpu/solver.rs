@@ -12,11 +12,11 @@
 
 use std::time::Instant;
 
-use crate::contact::Collider;
+use crate::contact::{Collider, Shape};
 use crate::error::{invalid, Error, Result};
 use crate::membrane::{Membrane, Preconditioner};
 use crate::solve::system::System;
-use crate::solve::{Acceleration, SolverParams, StepStats, Timings};
+use crate::solve::{Acceleration, Method, SolverParams, StepStats, Timings};
 
 use super::device::GpuContext;
 use super::layout::{self, GpuReal, IterValues, ParamValues};
@@ -91,7 +91,7 @@ impl<T: GpuReal> GpuSolver<T> {
     /// there is none (or it lacks f64 for `T = f64`), and builds every pipeline now, so a
     /// broken driver fails here.
     pub fn new(params: SolverParams) -> Result<Self> {
-        params.validate()?;
+        Self::check_supported(&params)?;
         let ctx = GpuContext::new(T::FEATURES)?;
         let pipelines = Pipelines::new::<T>(&ctx);
         ctx.wait()?;
@@ -111,15 +111,39 @@ impl<T: GpuReal> GpuSolver<T> {
         &self.params
     }
 
+    /// Validates parameters and refuses what the GPU kernels do not implement (yet): the
+    /// descent baseline and inner Jacobi sweeps.
+    fn check_supported(params: &SolverParams) -> Result<()> {
+        params.validate()?;
+        if params.method != Method::Sissm || params.inner_iters != 1 {
+            return Err(invalid!(
+                "the GPU backend runs method='sissm' with inner_iters=1; got method={:?}, inner_iters={}",
+                params.method,
+                params.inner_iters
+            ));
+        }
+        Ok(())
+    }
+
     /// Replaces the parameters (validated).
     pub fn set_params(&mut self, params: SolverParams) -> Result<()> {
-        params.validate()?;
+        Self::check_supported(&params)?;
         self.params = params;
         Ok(())
     }
 
-    pub fn add_collider(&mut self, collider: Collider) {
+    /// Adds a collider: on the GPU, a static frictionless plane or sphere.
+    pub fn add_collider(&mut self, collider: Collider) -> Result<()> {
+        let analytic = matches!(collider.shape, Shape::Plane { .. } | Shape::Sphere { .. });
+        if !analytic || collider.friction != 0.0 || collider.velocity != nalgebra::Vector3::zeros()
+        {
+            return Err(invalid!(
+                "the GPU backend supports static frictionless Plane and Sphere colliders only; got {:?}",
+                collider
+            ));
+        }
         self.colliders.push(collider);
+        Ok(())
     }
 
     pub fn colliders(&self) -> &[Collider] {
@@ -134,6 +158,14 @@ impl<T: GpuReal> GpuSolver<T> {
     /// Steps taken so far.
     pub fn steps_taken(&self) -> u64 {
         self.steps
+    }
+
+    /// Sets the clock (restoring a saved simulation): time in s (finite) and steps taken.
+    pub fn set_clock(&mut self, time: f64, steps: u64) -> Result<()> {
+        crate::error::check_param("time", time, |_| true, "finite")?;
+        self.time = time;
+        self.steps = steps;
+        Ok(())
     }
 
     /// Bytes the kernels of one global iteration load and store for the bodies of the last

@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 
-use crate::contact::Collider;
+use crate::contact::{Collider, Shape};
 use crate::material::Material;
 use crate::membrane::{Membrane, MembraneParams};
 use crate::mesh::TriangleMesh;
@@ -83,12 +83,12 @@ fn draping_cloth_matches_the_cpu<T: GpuReal>(tolerance: f64) {
         };
         let mut cpu = Solver::<T>::new(params, Some(1)).unwrap();
         let colliders = [
-            Collider::sphere([0.25, 0.25, -0.15], 0.12).unwrap(),
-            Collider::plane([0.0, 0.0, -0.2], [0.0, 0.0, 1.0]).unwrap(),
+            Collider::fixed(Shape::sphere([0.25, 0.25, -0.15], 0.12).unwrap()),
+            Collider::fixed(Shape::plane([0.0, 0.0, -0.2], [0.0, 0.0, 1.0]).unwrap()),
         ];
         for c in colliders {
-            gpu.add_collider(c);
-            cpu.add_collider(c);
+            gpu.add_collider(c).unwrap();
+            cpu.add_collider(c).unwrap();
         }
         let mut a = cloth(10, material);
         a.pin(&[0, 9], None).unwrap();

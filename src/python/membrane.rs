@@ -11,7 +11,7 @@ use crate::membrane::{Membrane, MembraneParams};
 use crate::mesh::TriangleMesh;
 
 use super::arrays::{indices, to_numpy, to_numpy_1d, triangles, vec3s};
-use super::errors::IntoPyResult;
+use super::errors::{guard, IntoPyResult};
 use super::material;
 
 /// A thin hyperelastic membrane (triangle mesh) simulated by projective peridynamics.
@@ -64,12 +64,14 @@ impl PyMembrane {
             hourglass,
             neighbors: neighbors as usize,
         };
-        let membrane = py.detach(|| -> crate::error::Result<Membrane> {
-            params.validate()?;
-            Membrane::new(TriangleMesh::new(v, t)?, params)
-        });
+        let membrane = py.detach(|| {
+            guard("Membrane()", || {
+                params.validate()?;
+                Membrane::new(TriangleMesh::new(v, t)?, params)
+            })
+        })?;
         Ok(Self {
-            inner: Arc::new(Mutex::new(membrane.py()?)),
+            inner: Arc::new(Mutex::new(membrane)),
         })
     }
 

@@ -23,6 +23,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<membrane::PyMembrane>()?;
     m.add_class::<collider::PyPlane>()?;
     m.add_class::<collider::PySphere>()?;
+    m.add_class::<collider::PyBox>()?;
+    m.add_class::<collider::PyCapsule>()?;
     m.add_class::<solver::PySolver>()?;
     m.add_class::<solver::PyStepStats>()?;
     m.add_function(wrap_pyfunction!(gpu::gpu_info, m)?)?;

@@ -10,11 +10,11 @@ use crate::contact::Collider;
 use crate::error::Result;
 use crate::gpu::GpuSolver;
 use crate::membrane::{Membrane, Preconditioner};
-use crate::solve::{Acceleration, Solver, SolverParams, StepStats};
+use crate::solve::{Acceleration, Method, Solver, SolverParams, StepStats};
 
 use super::arrays::{to_numpy_1d, vec3};
 use super::collider;
-use super::errors::IntoPyResult;
+use super::errors::{guard, IntoPyResult};
 use super::membrane::PyMembrane;
 
 /// The core solver, on the CPU or the GPU, in the precision the user chose.
@@ -82,7 +82,7 @@ impl PySolver {
                         step_length = true, precision = None, preconditioner = "tangent",
                         acceleration = None, chebyshev_rho = Acceleration::DEFAULT_RHO,
                         chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false,
-                        backend = "cpu"))]
+                        method = "sissm", inner_iters = 1, backend = "cpu"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: f64,
@@ -97,8 +97,24 @@ impl PySolver {
         chebyshev_rho: f64,
         chebyshev_delay: i64,
         record_energy: bool,
+        method: &str,
+        inner_iters: i64,
         backend: &str,
     ) -> PyResult<Self> {
+        let method = match method {
+            "sissm" => Method::Sissm,
+            "descent" => Method::Descent,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "method must be 'sissm' or 'descent', got {other:?}"
+                )))
+            }
+        };
+        if inner_iters < 1 {
+            return Err(PyValueError::new_err(format!(
+                "inner_iters must be >= 1, got {inner_iters}"
+            )));
+        }
         let acceleration = match acceleration {
             None | Some("none") => Acceleration::None,
             Some("chebyshev") => Acceleration::Chebyshev {
@@ -149,6 +165,8 @@ impl PySolver {
                 }
             },
             acceleration,
+            method,
+            inner_iters: inner_iters as usize,
             record_energy,
         };
         let core = match (backend, precision) {
@@ -203,7 +221,7 @@ impl PySolver {
     /// Adds a collider (Plane or Sphere).
     fn add_collider(&mut self, collider: &Bound<'_, PyAny>) -> PyResult<()> {
         let c: Collider = collider::extract(collider)?;
-        with_solver!(&mut self.core, s => s.add_collider(c));
+        with_solver!(&mut self.core, s => s.add_collider(c)).py()?;
         self.colliders.push(collider.clone().unbind());
         Ok(())
     }
@@ -223,14 +241,16 @@ impl PySolver {
             .collect();
         let core = &mut self.core;
         let stats = py.detach(move || {
-            let mut guards: Vec<_> = shared
-                .iter()
-                .map(|m| m.lock().unwrap_or_else(|p| p.into_inner()))
-                .collect();
-            let mut refs: Vec<&mut Membrane> = guards.iter_mut().map(|g| &mut **g).collect();
-            core.step(&mut refs)
+            guard("Solver.step", || {
+                let mut locks: Vec<_> = shared
+                    .iter()
+                    .map(|m| m.lock().unwrap_or_else(|p| p.into_inner()))
+                    .collect();
+                let mut refs: Vec<&mut Membrane> = locks.iter_mut().map(|g| &mut **g).collect();
+                core.step(&mut refs)
+            })
         });
-        Ok(PyStepStats { inner: stats.py()? })
+        Ok(PyStepStats { inner: stats? })
     }
 
     /// Time step h (s); settable.
@@ -276,6 +296,19 @@ impl PySolver {
             Acceleration::Chebyshev { .. } => Some("chebyshev"),
         }
     }
+    /// "sissm" or "descent".
+    #[getter]
+    fn method(&self) -> &'static str {
+        match with_solver!(&self.core, s => s.params().method) {
+            Method::Sissm => "sissm",
+            Method::Descent => "descent",
+        }
+    }
+    /// Jacobi sweeps per global iteration.
+    #[getter]
+    fn inner_iters(&self) -> usize {
+        with_solver!(&self.core, s => s.params().inner_iters)
+    }
     #[getter]
     fn record_energy(&self) -> bool {
         with_solver!(&self.core, s => s.params().record_energy)
@@ -311,6 +344,10 @@ impl PySolver {
     #[getter]
     fn steps_taken(&self) -> u64 {
         with_solver!(&self.core, s => s.steps_taken())
+    }
+    /// Sets the simulation time (s) and step count, e.g. when restoring a saved state.
+    fn set_clock(&mut self, time: f64, steps_taken: u64) -> PyResult<()> {
+        with_solver!(&mut self.core, s => s.set_clock(time, steps_taken)).py()
     }
     #[getter]
     fn bodies(&self, py: Python<'_>) -> Vec<Py<PyMembrane>> {

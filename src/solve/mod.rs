@@ -1,11 +1,14 @@
 //! Time stepping: implicit Euler solved by the semi-implicit successive substitution method.
 
+mod descent;
+mod evaluate;
+mod jacobi;
 mod params;
 mod sissm;
 mod stats;
 pub(crate) mod system;
 
-pub use params::{Acceleration, SolverParams};
+pub use params::{Acceleration, Method, SolverParams};
 pub use sissm::Solver;
 pub use stats::{StepStats, Timings};
 

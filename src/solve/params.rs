@@ -20,9 +20,24 @@ pub struct SolverParams {
     pub preconditioner: Preconditioner,
     /// Optional acceleration of the global iteration.
     pub acceleration: Acceleration,
+    /// The iteration: SISSM, or the descent baseline.
+    pub method: Method,
+    /// Jacobi sweeps on the linear system of eq. 25 per global iteration (Fig. 6; 1 in the paper).
+    pub inner_iters: usize,
     /// Record the total variational energy `E(y^k)` of every iterate in [`super::StepStats`]
     /// (one extra kernel pass per step).
     pub record_energy: bool,
+}
+
+/// The global iteration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// The semi-implicit successive substitution method (Lu et al. 2023).
+    #[default]
+    Sissm,
+    /// Jacobi-preconditioned gradient descent with a backtracking line search on the
+    /// variational energy (Wang and Yang 2016), the baseline of the paper's Fig. 13.
+    Descent,
 }
 
 /// Acceleration of the global iteration.
@@ -72,6 +87,8 @@ impl Default for SolverParams {
             step_length: true,
             preconditioner: Preconditioner::Tangent,
             acceleration: Acceleration::None,
+            method: Method::Sissm,
+            inner_iters: 1,
             record_energy: false,
         }
     }
@@ -92,6 +109,12 @@ impl SolverParams {
                     "chebyshev delay must be >= 1 iteration, got {delay}"
                 ));
             }
+        }
+        if self.inner_iters < 1 {
+            return Err(invalid!(
+                "inner_iters must be >= 1, got {}",
+                self.inner_iters
+            ));
         }
         if self.max_iters < 1 {
             return Err(invalid!("max_iters must be >= 1, got {}", self.max_iters));
