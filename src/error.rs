@@ -1,5 +1,5 @@
-//! Errors of the core. The Python edge turns [`Error::InvalidInput`] into `ValueError` and
-//! [`Error::Diverged`] into `peridyn.DivergenceError`.
+//! Errors of the core. The Python edge turns [`Error::InvalidInput`] into `ValueError`,
+//! [`Error::Diverged`] into `peridyn.DivergenceError` and [`Error::Gpu`] into `RuntimeError`.
 
 /// What can go wrong in the core.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -15,6 +15,9 @@ pub enum Error {
         body: usize,
         vertex: usize,
     },
+    /// The GPU backend is unavailable (no adapter, missing capability) or the device failed.
+    #[error("{0}")]
+    Gpu(String),
 }
 
 /// Result with the core's [`Error`].

@@ -6,6 +6,7 @@
 
 pub mod contact;
 pub mod error;
+pub mod gpu;
 pub mod material;
 pub mod membrane;
 pub mod mesh;

@@ -18,8 +18,9 @@ from ._core import (
     Sphere,
     StepStats,
     StretchA3,
+    gpu_info,
 )
-from .io import FrameRecorder, write_mesh
+from .io import FrameRecorder, load_state, save_state, write_mesh
 from .materials import plate_bending_stiffness
 from .mesh import grid, load_mesh
 from .render import draw_scene, render_png
@@ -39,6 +40,7 @@ __all__ = [
     "Sphere",
     "StepStats",
     "StretchA3",
+    "gpu_info",
     # Python layer
     "FrameRecorder",
     "RunSummary",
@@ -47,8 +49,10 @@ __all__ = [
     "draw_scene",
     "grid",
     "load_mesh",
+    "load_state",
     "plate_bending_stiffness",
     "render_png",
+    "save_state",
     "write_mesh",
     "__version__",
 ]

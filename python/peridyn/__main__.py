@@ -41,9 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
         "and final.png to --out, then prints a summary.",
     )
     parser.add_argument("--steps", type=_nonnegative_int, default=None,
-                        help="time steps to run (default: 2 s of simulated time)")
-    parser.add_argument("--n", type=_positive_int, default=80,
-                        help="cloth vertices per side (default: 80, i.e. 6400 vertices)")
+                        help="time steps to run (default: 1 s of simulated time)")
+    parser.add_argument("--n", type=_positive_int, default=120,
+                        help="cloth vertices per side (default: 120, i.e. 14400 vertices)")
     parser.add_argument("--dt", type=_positive_float, default=None,
                         help="time step in s (default: the scene's, 2e-3)")
     parser.add_argument("--out", type=Path, default=Path("peridyn_out"),

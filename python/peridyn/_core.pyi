@@ -175,24 +175,82 @@ class Membrane:
     def kinetic_energy(self) -> float: ...
 
 class Plane:
-    """Half-space collider: vertices stay on the side the ``normal`` points to."""
+    """Half-space collider: vertices stay on the side the ``normal`` points to.
 
-    def __init__(self, *, point: Vec3 = (0.0, 0.0, 0.0), normal: Vec3 = (0.0, 0.0, 1.0)) -> None: ...
+    Every collider takes ``friction`` (Coulomb coefficient, >= 0: membranes stick while the
+    tangential force stays within ``friction`` times the contact force, and slide against it
+    otherwise) and ``velocity`` (m/s, constant; the pose given is the one at time 0)."""
+
+    def __init__(self, *, point: Vec3 = (0.0, 0.0, 0.0), normal: Vec3 = (0.0, 0.0, 1.0), friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
     @property
     def point(self) -> np.ndarray: ...
     @property
     def normal(self) -> np.ndarray: ...
-    def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
 
 class Sphere:
     """Solid sphere collider (m)."""
 
-    def __init__(self, *, center: Vec3, radius: float) -> None: ...
+    def __init__(self, *, center: Vec3, radius: float, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
     @property
     def center(self) -> np.ndarray: ...
     @property
     def radius(self) -> float: ...
-    def signed_distance(self, points: ArrayLike) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
+
+class Box:
+    """Solid oriented box collider (m)."""
+
+    def __init__(self, *, center: Vec3, half_extents: Vec3, rotation: Optional[ArrayLike] = None, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None:
+        """``rotation``: 3x3 rotation matrix (orthonormal, det +1) whose columns are the box axes
+        (default: axis-aligned)."""
+    @property
+    def center(self) -> np.ndarray: ...
+    @property
+    def half_extents(self) -> np.ndarray: ...
+    @property
+    def rotation(self) -> np.ndarray: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
+
+class Capsule:
+    """Solid capsule collider: the points within ``radius`` (m) of the segment from ``a`` to ``b``."""
+
+    def __init__(self, *, a: Vec3, b: Vec3, radius: float, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
+    @property
+    def a(self) -> np.ndarray: ...
+    @property
+    def b(self) -> np.ndarray: ...
+    @property
+    def radius(self) -> float: ...
+    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
+        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
+    @property
+    def friction(self) -> float:
+        """Coulomb friction coefficient against membranes (>= 0)."""
+    @property
+    def velocity(self) -> np.ndarray:
+        """Constant velocity (m/s); the pose given is the one at time 0."""
 
 class Contact:
     """Contact between and within membranes: the local step of Algorithm 2 (Lu et al. 2023).
@@ -287,13 +345,21 @@ class Solver:
     max_iters : cap on global iterations per step (>= 1).
     threads : worker threads (None: all cores). Results are bit-identical for any count.
     step_length : apply the per-vertex step length of eq. 31-33.
-    precision : "f64" (reference) or "f32" (fast path).
+    precision : "f64" (reference) or "f32" (fast path); None: "f64" on the CPU, "f32" on the GPU.
     preconditioner : "tangent" (curvature bounds of the energy: convergent at any stiffness and
         time step) or "paper" (the P+/lambda split of eq. 24-26: cheaper, can diverge when stiff).
     acceleration : None or "chebyshev" (Wang 2015 semi-iterative acceleration).
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
+    method : "sissm" (the paper's method) or "descent" (Jacobi-preconditioned gradient descent
+        with a line search on the energy, Wang and Yang 2016: the baseline of Fig. 13).
+    inner_iters : Jacobi sweeps on the linear system of eq. 25 per global iteration (Fig. 6).
+    backend : "cpu" (Rust, rayon threads) or "gpu" (wgpu compute shaders, state on the device;
+        f32 by default, f64 where the adapter has SHADER_F64; raises RuntimeError naming what
+        is missing when there is no adapter, see :func:`gpu_info`). The adapter follows
+        WGPU_BACKEND, WGPU_POWER_PREF and WGPU_ADAPTER_NAME. The GPU runs SISSM (optionally
+        Chebyshev) with Plane and Sphere colliders without friction or motion.
     contact : a ``Contact`` to keep every body's triangles apart from the other bodies' (and
         its own, unless built with ``self_contact=False``); None: no contact between membranes.
     """
@@ -307,16 +373,19 @@ class Solver:
         max_iters: int = 100,
         threads: Optional[int] = None,
         step_length: bool = True,
-        precision: str = "f64",
+        precision: Optional[str] = None,
         preconditioner: str = "tangent",
         acceleration: Optional[str] = None,
         chebyshev_rho: float = 0.9,
         chebyshev_delay: int = 3,
         record_energy: bool = False,
+        method: str = "sissm",
+        inner_iters: int = 1,
+        backend: str = "cpu",
         contact: Optional[Contact] = None,
     ) -> None: ...
     def add(self, body: Membrane) -> None: ...
-    def add_collider(self, collider: Union[Plane, Sphere]) -> None: ...
+    def add_collider(self, collider: Union[Plane, Sphere, Box, Capsule]) -> None: ...
     def step(self) -> StepStats: ...
     @property
     def dt(self) -> float: ...
@@ -329,7 +398,12 @@ class Solver:
     @property
     def max_iters(self) -> int: ...
     @property
+    def backend(self) -> str: ...
+    @property
     def threads(self) -> int: ...
+    @property
+    def bytes_per_iteration(self) -> Optional[int]:
+        """Bytes the GPU kernels load and store per global iteration (None on the CPU)."""
     @property
     def step_length(self) -> bool: ...
     @property
@@ -341,12 +415,24 @@ class Solver:
     @property
     def record_energy(self) -> bool: ...
     @property
+    def method(self) -> str: ...
+    @property
+    def inner_iters(self) -> int: ...
+    @property
     def contact(self) -> Optional[Contact]: ...
     @property
     def time(self) -> float: ...
     @property
     def steps_taken(self) -> int: ...
+    def set_clock(self, time: float, steps_taken: int) -> None:
+        """Sets the simulation time (s) and step count, e.g. when restoring a saved state."""
     @property
     def bodies(self) -> list: ...
     @property
     def colliders(self) -> list: ...
+
+def gpu_info() -> dict:
+    """The adapter the GPU backend would use: ``name``, ``backend`` (e.g. "vulkan"),
+    ``device_type`` (e.g. "Cpu" for lavapipe), ``driver``, ``f64`` (SHADER_F64 offered, so
+    ``Solver(backend="gpu", precision="f64")`` works) and ``limits`` (dict). Raises RuntimeError naming what is
+    missing when there is no adapter."""

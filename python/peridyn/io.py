@@ -8,12 +8,12 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, List, Optional, Union
+from typing import Any, Dict, List, Optional, Union
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["write_mesh", "FrameRecorder"]
+__all__ = ["write_mesh", "FrameRecorder", "save_state", "load_state"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -185,3 +185,68 @@ class FrameRecorder:
             f"FrameRecorder({str(self.directory)!r}, fmt={self.fmt!r}, every={self.every}, "
             f"frames={self.num_frames})"
         )
+
+
+def save_state(path: PathLike, solver: Any) -> Path:
+    """Saves everything that a solver's next steps depend on to an ``.npz`` file.
+
+    That is each body's positions, velocities, pinned vertices and pin targets, and the solver's
+    clock. :func:`load_state` into a solver set up the same way (same bodies, parameters and
+    colliders) then continues the simulation bit for bit.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination ``.npz`` file.
+    solver : Solver
+        The solver to save.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    path = Path(path)
+    arrays: Dict[str, np.ndarray] = {
+        "time": np.array(solver.time),
+        "steps_taken": np.array(solver.steps_taken),
+        "bodies": np.array(len(solver.bodies)),
+    }
+    for b, body in enumerate(solver.bodies):
+        arrays[f"positions_{b}"] = body.positions
+        arrays[f"velocities_{b}"] = body.velocities
+        arrays[f"pinned_{b}"] = body.pinned
+        arrays[f"pin_targets_{b}"] = body.pin_targets
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(path, **arrays)
+    return path
+
+
+def load_state(path: PathLike, solver: Any) -> None:
+    """Restores a state written by :func:`save_state` into ``solver`` (same bodies, in order).
+
+    Raises
+    ------
+    ValueError
+        If the file holds a different number of bodies, or a body's vertex count differs.
+    """
+    with np.load(Path(path)) as data:
+        bodies = solver.bodies
+        if int(data["bodies"]) != len(bodies):
+            raise ValueError(
+                f"load_state: {path} holds {int(data['bodies'])} bodies, the solver has {len(bodies)}"
+            )
+        for b, body in enumerate(bodies):
+            positions = data[f"positions_{b}"]
+            if positions.shape != (body.num_vertices, 3):
+                raise ValueError(
+                    f"load_state: body {b} has {body.num_vertices} vertices, "
+                    f"the file has {positions.shape[0]}"
+                )
+            body.positions = positions
+            body.velocities = data[f"velocities_{b}"]
+            body.unpin()
+            pinned = data[f"pinned_{b}"]
+            if len(pinned):
+                body.pin(pinned, data[f"pin_targets_{b}"])
+        solver.set_clock(float(data["time"]), int(data["steps_taken"]))

@@ -22,6 +22,71 @@ _MESH_COLORS = ("#4c8bd6", "#d6784c", "#5fb35f", "#b35fb3", "#c9b23c")
 _COLLIDER_COLOR = "#8a8a8a"
 
 
+def _sphere_surface(ax: Any, c: np.ndarray, r: float) -> None:
+    u, v = np.meshgrid(np.linspace(0.0, 2.0 * np.pi, 40), np.linspace(0.0, np.pi, 20))
+    ax.plot_surface(
+        c[0] + r * np.cos(u) * np.sin(v), c[1] + r * np.sin(u) * np.sin(v), c[2] + r * np.cos(v),
+        color=_COLLIDER_COLOR, alpha=0.35, linewidth=0.2, edgecolor="#555555", shade=True,
+    )
+
+
+def _frame(axis: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors orthogonal to the unit ``axis`` and to each other."""
+    t1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    t1 /= np.linalg.norm(t1)
+    return t1, np.cross(axis, t1)
+
+
+def _draw_collider(ax: Any, c: Any, center: np.ndarray, half: float) -> None:
+    """Draws one collider (Sphere, Capsule, Box or Plane) translucently."""
+    from . import _core
+
+    if isinstance(c, _core.Sphere):
+        _sphere_surface(ax, np.asarray(c.center, dtype=np.float64), float(c.radius))
+    elif isinstance(c, _core.Capsule):
+        a, b, r = np.asarray(c.a, dtype=np.float64), np.asarray(c.b, dtype=np.float64), float(c.radius)
+        _sphere_surface(ax, a, r)
+        _sphere_surface(ax, b, r)
+        length = np.linalg.norm(b - a)
+        if length > 0.0:
+            t1, t2 = _frame((b - a) / length)
+            u, s = np.meshgrid(np.linspace(0.0, 2.0 * np.pi, 40), [0.0, 1.0])
+            P = a[:, None, None] + (b - a)[:, None, None] * s + r * (
+                t1[:, None, None] * np.cos(u) + t2[:, None, None] * np.sin(u))
+            ax.plot_surface(P[0], P[1], P[2], color=_COLLIDER_COLOR, alpha=0.35, linewidth=0, shade=True)
+    elif isinstance(c, _core.Box):
+        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+        R = np.asarray(c.rotation, dtype=np.float64)
+        h = np.asarray(c.half_extents, dtype=np.float64)
+        o = np.asarray(c.center, dtype=np.float64)
+        corner = lambda sx, sy, sz: o + R @ (h * np.array([sx, sy, sz]))  # noqa: E731
+        faces = []
+        for axis in range(3):
+            for sign in (-1.0, 1.0):
+                quad = []
+                for s1, s2 in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+                    signs = [0.0, 0.0, 0.0]
+                    signs[axis] = sign
+                    signs[(axis + 1) % 3] = s1
+                    signs[(axis + 2) % 3] = s2
+                    quad.append(corner(*signs))
+                faces.append(quad)
+        ax.add_collection3d(Poly3DCollection(faces, facecolor=_COLLIDER_COLOR, alpha=0.35,
+                                             edgecolor="#555555", linewidth=0.3))
+    elif isinstance(c, _core.Plane):
+        n = np.asarray(c.normal, dtype=np.float64)
+        n = n / np.linalg.norm(n)
+        p = np.asarray(c.point, dtype=np.float64)
+        t1, t2 = _frame(n)
+        origin = center - np.dot(center - p, n) * n  # the scene centre projected on the plane
+        s, t = np.meshgrid([-1.2 * half, 1.2 * half], [-1.2 * half, 1.2 * half])
+        X = origin[0] + s * t1[0] + t * t2[0]
+        Y = origin[1] + s * t1[1] + t * t2[1]
+        Z = origin[2] + s * t1[2] + t * t2[2]
+        ax.plot_surface(X, Y, Z, color=_COLLIDER_COLOR, alpha=0.2, linewidth=0, shade=False)
+
+
 def _as_mesh_list(meshes: Union[MeshLike, Sequence[MeshLike]]) -> List[Tuple[np.ndarray, np.ndarray]]:
     def one(m: MeshLike) -> Tuple[np.ndarray, np.ndarray]:
         if hasattr(m, "positions") and hasattr(m, "triangles"):
@@ -41,6 +106,20 @@ def _as_mesh_list(meshes: Union[MeshLike, Sequence[MeshLike]]) -> List[Tuple[np.
     return [one(m) for m in meshes]
 
 
+def _collider_extent(c: Any) -> List[Tuple[np.ndarray, np.ndarray]]:
+    """Points and reaches whose boxes cover a solid collider (none for a plane)."""
+    from . import _core
+
+    if isinstance(c, _core.Sphere):
+        return [(np.asarray(c.center, dtype=np.float64), np.full(3, c.radius))]
+    if isinstance(c, _core.Capsule):
+        return [(np.asarray(p, dtype=np.float64), np.full(3, c.radius)) for p in (c.a, c.b)]
+    if isinstance(c, _core.Box):
+        reach = np.abs(np.asarray(c.rotation, dtype=np.float64)) @ np.asarray(c.half_extents, dtype=np.float64)
+        return [(np.asarray(c.center, dtype=np.float64), reach)]
+    return []
+
+
 def _bounds(meshes: List[Tuple[np.ndarray, np.ndarray]], colliders: Sequence[Any]) -> Tuple[np.ndarray, np.ndarray]:
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
@@ -49,10 +128,9 @@ def _bounds(meshes: List[Tuple[np.ndarray, np.ndarray]], colliders: Sequence[Any
             lo = np.minimum(lo, V.min(axis=0))
             hi = np.maximum(hi, V.max(axis=0))
     for c in colliders:
-        if hasattr(c, "radius"):
-            center = np.asarray(c.center, dtype=np.float64)
-            lo = np.minimum(lo, center - c.radius)
-            hi = np.maximum(hi, center + c.radius)
+        for point, reach in _collider_extent(c):
+            lo = np.minimum(lo, point - reach)
+            hi = np.maximum(hi, point + reach)
     if not np.all(np.isfinite(lo)):
         lo, hi = -np.ones(3), np.ones(3)
     return lo, hi
@@ -75,8 +153,8 @@ def draw_scene(
         The axes to draw on.
     meshes : (V, F) pair, Membrane, or a sequence of them
         Triangle meshes, positions in m, drawn as shaded surfaces.
-    colliders : sequence of Sphere or Plane
-        Spheres are drawn as translucent surfaces; planes as a translucent square patch
+    colliders : sequence of Sphere, Capsule, Box or Plane
+        Solids are drawn as translucent surfaces; planes as a translucent square patch
         spanning the drawn meshes.
     title : str, optional
         Axes title.
@@ -96,30 +174,8 @@ def draw_scene(
     if not half > 0.0:
         half = 0.5
 
-    for k, c in enumerate(colliders):
-        if hasattr(c, "radius"):
-            u, v = np.meshgrid(np.linspace(0.0, 2.0 * np.pi, 40), np.linspace(0.0, np.pi, 20))
-            cx, cy, cz = np.asarray(c.center, dtype=np.float64)
-            r = float(c.radius)
-            ax.plot_surface(
-                cx + r * np.cos(u) * np.sin(v),
-                cy + r * np.sin(u) * np.sin(v),
-                cz + r * np.cos(v),
-                color=_COLLIDER_COLOR, alpha=0.35, linewidth=0.2, edgecolor="#555555", shade=True,
-            )
-        elif hasattr(c, "normal"):
-            n = np.asarray(c.normal, dtype=np.float64)
-            n = n / np.linalg.norm(n)
-            p = np.asarray(c.point, dtype=np.float64)
-            t1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-            t1 /= np.linalg.norm(t1)
-            t2 = np.cross(n, t1)
-            origin = center - np.dot(center - p, n) * n  # the scene centre projected on the plane
-            s, t = np.meshgrid([-1.2 * half, 1.2 * half], [-1.2 * half, 1.2 * half])
-            X = origin[0] + s * t1[0] + t * t2[0]
-            Y = origin[1] + s * t1[1] + t * t2[1]
-            Z = origin[2] + s * t1[2] + t * t2[2]
-            ax.plot_surface(X, Y, Z, color=_COLLIDER_COLOR, alpha=0.2, linewidth=0, shade=False)
+    for c in colliders:
+        _draw_collider(ax, c, center, half)
 
     for k, (V, F) in enumerate(mesh_list):
         if len(F) == 0:
@@ -161,7 +217,7 @@ def render_png(
         Output PNG file.
     meshes : (V, F) pair, Membrane, or a sequence of them
         Triangle meshes, positions in m.
-    colliders : sequence of Sphere or Plane
+    colliders : sequence of Sphere, Capsule, Box or Plane
         See :func:`draw_scene`.
     title : str, optional
         Figure title.

@@ -105,6 +105,10 @@ class Solver(_core.Solver):
         Worker threads (None: all cores). Results are identical for any count.
     step_length : bool
         Use the per-vertex step length (recommended). Default True.
+    backend : str
+        "cpu" (default) or "gpu": the same step as wgpu compute shaders with the state on the
+        device, in f32 (default) or f64 where the adapter has it (see :func:`peridyn.gpu_info`;
+        RuntimeError when there is no adapter).
 
     Notes
     -----

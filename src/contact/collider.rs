@@ -1,14 +1,15 @@
-//! Analytic colliders. After each global iteration every free vertex is projected out of
-//! every collider so that its mid-surface keeps half the membrane thickness from the surface.
+//! Analytic colliders: a shape (a signed distance field), a constant velocity and a Coulomb
+//! friction coefficient. After each global iteration every free vertex is kept at least half
+//! the membrane thickness outside every collider.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{invalid, Result};
 use crate::real::Real;
 
-/// A static collider (SI units).
+/// The solid shape of a collider (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Collider {
+pub enum Shape {
     /// Half-space `{x : (x - point) . normal >= 0}` is free; `normal` is unit.
     Plane {
         point: Vector3<f64>,
@@ -16,18 +17,42 @@ pub enum Collider {
     },
     /// Solid ball.
     Sphere { center: Vector3<f64>, radius: f64 },
+    /// Solid oriented box: `axes` (orthonormal columns, det +1) are its edge directions,
+    /// `half_extents` its half side lengths along them.
+    Box {
+        center: Vector3<f64>,
+        half_extents: Vector3<f64>,
+        axes: Matrix3<f64>,
+    },
+    /// Solid capsule: the points within `radius` of the segment `a`-`b`.
+    Capsule {
+        a: Vector3<f64>,
+        b: Vector3<f64>,
+        radius: f64,
+    },
 }
 
-impl Collider {
+fn finite(name: &str, v: &Vector3<f64>) -> Result<()> {
+    if v.iter().all(|c| c.is_finite()) {
+        Ok(())
+    } else {
+        Err(invalid!("{name} must be finite, got {:?}", v.as_slice()))
+    }
+}
+
+fn positive(name: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(invalid!("{name} must be a finite length > 0 m, got {v}"))
+    }
+}
+
+impl Shape {
     /// A plane through `point` whose free side is the one `normal` points to.
     pub fn plane(point: [f64; 3], normal: [f64; 3]) -> Result<Self> {
         let (point, normal) = (Vector3::from(point), Vector3::from(normal));
-        if !point.iter().all(|c| c.is_finite()) {
-            return Err(invalid!(
-                "plane point must be finite, got {:?}",
-                point.as_slice()
-            ));
-        }
+        finite("plane point", &point)?;
         let norm = normal.norm();
         if !(norm.is_finite() && norm > 1e-12) {
             return Err(invalid!(
@@ -44,18 +69,49 @@ impl Collider {
     /// A sphere of `radius` (m, > 0) at `center`.
     pub fn sphere(center: [f64; 3], radius: f64) -> Result<Self> {
         let center = Vector3::from(center);
-        if !center.iter().all(|c| c.is_finite()) {
+        finite("sphere center", &center)?;
+        Ok(Self::Sphere {
+            center,
+            radius: positive("sphere radius", radius)?,
+        })
+    }
+
+    /// A box of `half_extents` (m, each > 0) at `center`, turned by the rotation matrix
+    /// `rotation` (orthonormal, det +1; its columns are the box's axes).
+    pub fn cuboid(
+        center: [f64; 3],
+        half_extents: [f64; 3],
+        rotation: [[f64; 3]; 3],
+    ) -> Result<Self> {
+        let center = Vector3::from(center);
+        finite("box center", &center)?;
+        for (k, h) in half_extents.iter().enumerate() {
+            positive(&format!("box half_extents[{k}]"), *h)?;
+        }
+        let axes = Matrix3::from_row_slice(&rotation.concat());
+        let orthonormal = (axes.transpose() * axes - Matrix3::identity()).abs().max() < 1e-9;
+        if !(axes.iter().all(|c| c.is_finite()) && orthonormal && axes.determinant() > 0.0) {
             return Err(invalid!(
-                "sphere center must be finite, got {:?}",
-                center.as_slice()
+                "box rotation must be a rotation matrix (orthonormal, det +1), got {rotation:?}"
             ));
         }
-        if !(radius.is_finite() && radius > 0.0) {
-            return Err(invalid!(
-                "sphere radius must be a finite length > 0 m, got {radius}"
-            ));
-        }
-        Ok(Self::Sphere { center, radius })
+        Ok(Self::Box {
+            center,
+            half_extents: Vector3::from(half_extents),
+            axes,
+        })
+    }
+
+    /// A capsule of `radius` (m, > 0) around the segment from `a` to `b` (m).
+    pub fn capsule(a: [f64; 3], b: [f64; 3], radius: f64) -> Result<Self> {
+        let (a, b) = (Vector3::from(a), Vector3::from(b));
+        finite("capsule end a", &a)?;
+        finite("capsule end b", &b)?;
+        Ok(Self::Capsule {
+            a,
+            b,
+            radius: positive("capsule radius", radius)?,
+        })
     }
 
     /// Signed distance from the surface (m), positive outside.
@@ -64,80 +120,232 @@ impl Collider {
     }
 
     /// The collider in the simulation's precision.
-    pub fn to_real<T: Real>(&self) -> ColliderModel<T> {
+    pub fn to_real<T: Real>(&self) -> ShapeModel<T> {
+        let v = |a: &Vector3<f64>| a.map(T::of);
         match *self {
-            Self::Plane { point, normal } => ColliderModel::Plane {
+            Self::Plane { point, normal } => ShapeModel::Plane {
                 offset: T::of(point.dot(&normal)),
-                normal: normal.map(T::of),
+                normal: v(&normal),
             },
-            Self::Sphere { center, radius } => ColliderModel::Sphere {
-                center: center.map(T::of),
+            Self::Sphere { center, radius } => ShapeModel::Sphere {
+                center: v(&center),
+                radius: T::of(radius),
+            },
+            Self::Box {
+                center,
+                half_extents,
+                axes,
+            } => ShapeModel::Box {
+                center: v(&center),
+                half_extents: v(&half_extents),
+                axes: axes.map(T::of),
+            },
+            Self::Capsule { a, b, radius } => ShapeModel::Capsule {
+                a: v(&a),
+                b: v(&b),
                 radius: T::of(radius),
             },
         }
     }
 }
 
-/// [`Collider`] in the simulation's precision.
+/// A collider: a shape moving at a constant `velocity` (m/s) from its pose at time 0, with
+/// Coulomb `friction` (dimensionless, >= 0) against the membranes it touches.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ColliderModel<T: Real> {
-    Plane { normal: Vector3<T>, offset: T },
-    Sphere { center: Vector3<T>, radius: T },
+pub struct Collider {
+    pub shape: Shape,
+    pub velocity: Vector3<f64>,
+    pub friction: f64,
+}
+
+impl Collider {
+    /// A collider of `shape`, checking `friction >= 0` and a finite `velocity`.
+    pub fn new(shape: Shape, friction: f64, velocity: [f64; 3]) -> Result<Self> {
+        if !(friction.is_finite() && friction >= 0.0) {
+            return Err(invalid!(
+                "friction must be a finite coefficient >= 0, got {friction}"
+            ));
+        }
+        let velocity = Vector3::from(velocity);
+        finite("collider velocity", &velocity)?;
+        Ok(Self {
+            shape,
+            velocity,
+            friction,
+        })
+    }
+
+    /// A static, frictionless collider.
+    pub fn fixed(shape: Shape) -> Self {
+        Self {
+            shape,
+            velocity: Vector3::zeros(),
+            friction: 0.0,
+        }
+    }
+
+    /// Signed distance (m, positive outside) at time `time` (s).
+    pub fn signed_distance(&self, x: &Vector3<f64>, time: f64) -> f64 {
+        self.shape
+            .to_real::<f64>()
+            .signed_distance(&(x - self.velocity * time))
+    }
+
+    /// The collider during the step ending at `time` (s) of length `dt` (s), in the
+    /// simulation's precision.
+    pub fn during_step<T: Real>(&self, time: f64, dt: f64) -> ColliderModel<T> {
+        ColliderModel {
+            shape: self.shape.to_real(),
+            offset: (self.velocity * time).map(T::of),
+            displacement: (self.velocity * dt).map(T::of),
+            friction: T::of(self.friction),
+        }
+    }
+}
+
+/// A collider during one step: its shape at the end of the step, how far it moved during the
+/// step, and its friction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ColliderModel<T: Real> {
+    shape: ShapeModel<T>,
+    /// Translation of the shape from its pose at time 0 (m).
+    offset: Vector3<T>,
+    /// Its displacement during the step (m).
+    pub displacement: Vector3<T>,
+    pub friction: T,
 }
 
 impl<T: Real> ColliderModel<T> {
-    /// Signed distance from the surface (m), positive outside.
+    /// Signed distance (m, positive outside).
+    #[inline]
+    pub fn signed_distance(&self, x: &Vector3<T>) -> T {
+        self.shape.signed_distance(&(x - self.offset))
+    }
+
+    /// Unit outward normal, the gradient of the signed distance.
+    #[inline]
+    pub fn normal(&self, x: &Vector3<T>) -> Vector3<T> {
+        self.shape.normal(&(x - self.offset))
+    }
+
+    /// `x` itself when it is at least `margin` outside, else the point at distance `margin`
+    /// along the normal.
+    #[inline]
+    pub fn project(&self, x: Vector3<T>, margin: T) -> Vector3<T> {
+        self.shape.project(x - self.offset, margin) + self.offset
+    }
+}
+
+/// [`Shape`] in the simulation's precision.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ShapeModel<T: Real> {
+    Plane {
+        normal: Vector3<T>,
+        offset: T,
+    },
+    Sphere {
+        center: Vector3<T>,
+        radius: T,
+    },
+    Box {
+        center: Vector3<T>,
+        half_extents: Vector3<T>,
+        axes: Matrix3<T>,
+    },
+    Capsule {
+        a: Vector3<T>,
+        b: Vector3<T>,
+        radius: T,
+    },
+}
+
+impl<T: Real> ShapeModel<T> {
+    /// Signed distance from the surface (m), positive outside: exact Euclidean distance for
+    /// every shape, so that moving along [`Self::normal`] changes it one for one.
     #[inline]
     pub fn signed_distance(&self, x: &Vector3<T>) -> T {
         match *self {
             Self::Plane { normal, offset } => x.dot(&normal) - offset,
             Self::Sphere { center, radius } => (x - center).norm() - radius,
+            Self::Box {
+                center,
+                half_extents,
+                axes,
+            } => {
+                let q = (axes.transpose() * (x - center)).abs() - half_extents;
+                let outside = q.map(|c| c.max(T::zero())).norm();
+                outside + q.max().min(T::zero())
+            }
+            Self::Capsule { a, b, radius } => (x - closest_on_segment(x, &a, &b)).norm() - radius,
         }
     }
 
-    /// Unit outward normal of the surface nearest `x`.
+    /// Unit outward normal: the gradient of the signed distance at `x` (on the medial axis, a
+    /// fixed choice).
     #[inline]
     pub fn normal(&self, x: &Vector3<T>) -> Vector3<T> {
         match *self {
             Self::Plane { normal, .. } => normal,
-            Self::Sphere { center, .. } => {
-                let r = x - center;
-                let d = r.norm();
-                if d > T::zero() {
-                    r / d
+            Self::Sphere { center, .. } => unit_or_z(x - center),
+            Self::Box {
+                center,
+                half_extents,
+                axes,
+            } => {
+                let p = axes.transpose() * (x - center);
+                let q = p.abs() - half_extents;
+                let sign = p.map(|c| if c < T::zero() { -T::one() } else { T::one() });
+                let local = if q.max() > T::zero() {
+                    q.map(|c| c.max(T::zero())).component_mul(&sign).normalize()
                 } else {
-                    Vector3::z()
+                    let k = q.imax();
+                    Vector3::ith(k, sign[k])
+                };
+                axes * local
+            }
+            Self::Capsule { a, b, .. } => {
+                let d = x - closest_on_segment(x, &a, &b);
+                if d.norm() > T::zero() {
+                    d.normalize()
+                } else {
+                    crate::membrane::any_orthogonal_unit(&unit_or_z(b - a))
                 }
             }
         }
     }
 
-    /// The closest point at distance >= `margin` from the surface: `x` itself when it is
-    /// already that far out, else its projection onto the offset surface.
+    /// `x` itself when it is at least `margin` outside, else the point at distance `margin`
+    /// along the normal (the closest such point).
     #[inline]
     pub fn project(&self, x: Vector3<T>, margin: T) -> Vector3<T> {
-        match *self {
-            Self::Plane { normal, offset } => {
-                let d = x.dot(&normal) - offset - margin;
-                if d < T::zero() {
-                    x - normal * d
-                } else {
-                    x
-                }
-            }
-            Self::Sphere { center, radius } => {
-                let r = x - center;
-                let dist = r.norm();
-                let reach = radius + margin;
-                if dist >= reach {
-                    x
-                } else if dist > T::zero() {
-                    center + r * (reach / dist)
-                } else {
-                    center + Vector3::z() * reach
-                }
-            }
+        let gap = self.signed_distance(&x) - margin;
+        if gap < T::zero() {
+            x - self.normal(&x) * gap
+        } else {
+            x
         }
+    }
+}
+
+/// The point of the segment `a`-`b` closest to `x`.
+#[inline]
+fn closest_on_segment<T: Real>(x: &Vector3<T>, a: &Vector3<T>, b: &Vector3<T>) -> Vector3<T> {
+    let ab = b - a;
+    let len2 = ab.norm_squared();
+    let t = if len2 > T::zero() {
+        ((x - a).dot(&ab) / len2).max(T::zero()).min(T::one())
+    } else {
+        T::zero()
+    };
+    a + ab * t
+}
+
+fn unit_or_z<T: Real>(v: Vector3<T>) -> Vector3<T> {
+    let n = v.norm();
+    if n > T::zero() {
+        v / n
+    } else {
+        Vector3::z()
     }
 }
 
@@ -145,27 +353,83 @@ impl<T: Real> ColliderModel<T> {
 mod tests {
     use super::*;
 
+    fn shapes() -> Vec<Shape> {
+        let turn = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -0.5, 0.2)).into_inner();
+        let rows = [
+            [turn[(0, 0)], turn[(0, 1)], turn[(0, 2)]],
+            [turn[(1, 0)], turn[(1, 1)], turn[(1, 2)]],
+            [turn[(2, 0)], turn[(2, 1)], turn[(2, 2)]],
+        ];
+        vec![
+            Shape::plane([0.0, 0.0, -1.0], [0.0, 1.0, 2.0]).unwrap(),
+            Shape::sphere([0.0, 0.0, 1.0], 0.5).unwrap(),
+            Shape::cuboid([0.1, -0.2, 0.3], [0.4, 0.2, 0.3], rows).unwrap(),
+            Shape::capsule([0.0, 0.0, 0.0], [0.5, 0.2, -0.1], 0.15).unwrap(),
+        ]
+    }
+
+    /// For every shape: the normal is the gradient of the signed distance (central differences),
+    /// and projecting a point inside or near lands exactly at the margin.
     #[test]
-    fn projection_lands_at_the_margin_and_leaves_free_points_alone() {
-        let s = Collider::sphere([0.0, 0.0, 1.0], 0.5)
-            .unwrap()
-            .to_real::<f64>();
-        let p = s.project(Vector3::new(0.1, 0.0, 1.0), 0.01);
-        assert!((s.signed_distance(&p) - 0.01).abs() < 1e-14);
-        let free = Vector3::new(2.0, 0.0, 0.0);
-        assert_eq!(s.project(free, 0.01), free);
-        let plane = Collider::plane([0.0, 0.0, -1.0], [0.0, 0.0, 2.0])
-            .unwrap()
-            .to_real::<f64>();
-        let p = plane.project(Vector3::new(3.0, 4.0, -5.0), 0.002);
-        assert!((p - Vector3::new(3.0, 4.0, -0.998)).norm() < 1e-15);
-        assert!(Collider::sphere([0.0; 3], 0.0)
+    fn normals_are_distance_gradients_and_projection_lands_at_the_margin() {
+        let mut seed = 7u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for shape in shapes() {
+            let model = shape.to_real::<f64>();
+            for _ in 0..300 {
+                let x = Vector3::new(next(), next(), next()) * 0.8 + Vector3::new(0.0, 0.0, 0.3);
+                let h = 1e-7;
+                let fd = Vector3::from_fn(|k, _| {
+                    let e = Vector3::ith(k, h);
+                    (model.signed_distance(&(x + e)) - model.signed_distance(&(x - e))) / (2.0 * h)
+                });
+                // Skip points within reach of a kink of the field (box edges, medial planes).
+                if (fd.norm() - 1.0).abs() < 1e-6 {
+                    assert!(
+                        (fd - model.normal(&x)).norm() < 1e-5,
+                        "{shape:?} at {x}: {fd} vs {}",
+                        model.normal(&x)
+                    );
+                }
+                let p = model.project(x, 0.01);
+                let d = model.signed_distance(&p);
+                if model.signed_distance(&x) < 0.01 {
+                    assert!((d - 0.01).abs() < 1e-12, "{shape:?}: {d}");
+                } else {
+                    assert_eq!(p, x);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bad_shapes_are_named() {
+        assert!(Shape::sphere([0.0; 3], 0.0)
             .unwrap_err()
             .to_string()
             .contains("radius"));
-        assert!(Collider::plane([0.0; 3], [0.0; 3])
+        assert!(Shape::plane([0.0; 3], [0.0; 3])
             .unwrap_err()
             .to_string()
             .contains("normal"));
+        let id = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        assert!(Shape::cuboid([0.0; 3], [1.0, -1.0, 1.0], id)
+            .unwrap_err()
+            .to_string()
+            .contains("half_extents[1]"));
+        let skew = [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        assert!(Shape::cuboid([0.0; 3], [1.0; 3], skew)
+            .unwrap_err()
+            .to_string()
+            .contains("rotation"));
+        assert!(Shape::capsule([0.0; 3], [f64::NAN, 0.0, 0.0], 1.0)
+            .unwrap_err()
+            .to_string()
+            .contains("end b"));
     }
 }

@@ -1,5 +1,6 @@
-//! Contact handling (Lu et al. 2023, section 6): analytic colliders, primitive distances,
-//! additive CCD, the barrier, the broad phase and the contact local step of Algorithm 2.
+//! Contact handling (Lu et al. 2023, section 6): analytic colliders (shapes with motion and
+//! friction), primitive distances, additive CCD, the barrier, the broad phase and the contact
+//! local step of Algorithm 2.
 
 pub mod barrier;
 pub mod broad_phase;
@@ -9,5 +10,5 @@ pub mod distance;
 pub mod local_step;
 
 pub use broad_phase::ContactMesh;
-pub use collider::{Collider, ColliderModel};
+pub use collider::{Collider, ColliderModel, Shape, ShapeModel};
 pub use local_step::{project, ContactParams, ContactStats};

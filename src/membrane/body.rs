@@ -106,7 +106,7 @@ impl Membrane {
     /// Builds a membrane at rest (positions = rest positions, zero velocity, nothing pinned).
     pub fn new(mesh: TriangleMesh, params: MembraneParams) -> Result<Self> {
         params.validate()?;
-        let neighborhood = Neighborhood::k_ring(&mesh, params.neighbors);
+        let neighborhood = Neighborhood::k_ring(&mesh, params.neighbors)?;
         let rest = RestData::new(&mesh, &neighborhood, &params)?;
         let positions = mesh.vertices().to_vec();
         let velocities = vec![Vector3::zeros(); positions.len()];

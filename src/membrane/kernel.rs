@@ -105,9 +105,7 @@ impl<T: Real> Deformation<T> {
             a2 += e * b.beta[1];
         }
         let (p, r, s) = (a1.dot(&a1), a1.dot(&a2), a2.dot(&a2));
-        // Eigenvectors of the 2x2 metric T^T T: the larger eigenvalue's at angle theta.
-        let theta = T::of(0.5) * (r + r).atan2(p - s);
-        let (sin, cos) = theta.sin_cos();
+        let [cos, sin] = leading_eigenvector(p, r, s);
         let v = [[cos, sin], [-sin, cos]];
         let t_v1 = a1 * cos + a2 * sin;
         let sigma1 = t_v1.norm();
@@ -148,6 +146,25 @@ impl<T: Real> Deformation<T> {
     }
 }
 
+/// Unit eigenvector `(cos, sin)` of the larger eigenvalue of the symmetric 2x2 matrix
+/// `[[p, r], [r, s]]`, from whichever of its two closed forms does not cancel.
+#[inline]
+fn leading_eigenvector<T: Real>(p: T, r: T, s: T) -> [T; 2] {
+    let half_gap = (p - s) * T::of(0.5);
+    let root = (half_gap * half_gap + r * r).sqrt();
+    let (x, y) = if half_gap >= T::zero() {
+        (half_gap + root, r) // (lambda_1 - s, r)
+    } else {
+        (r, root - half_gap) // (r, lambda_1 - p)
+    };
+    let norm = (x * x + y * y).sqrt();
+    if norm > T::zero() {
+        [x / norm, y / norm]
+    } else {
+        [T::one(), T::zero()]
+    }
+}
+
 /// Computes vertex `i`'s energy and writes `dE_i / d(y_j - y_i)` into `bond_grad`, one entry per
 /// neighbour of the stencil, in its order.
 #[inline]
@@ -158,12 +175,7 @@ pub fn vertex_kernel<T: Real>(
     mode: Preconditioner,
     bond_grad: &mut [Vector3<T>],
 ) -> VertexResponse<T> {
-    let (neighbors, bonds, frame, c) = (
-        stencil.neighbors,
-        stencil.bonds,
-        stencil.frame,
-        stencil.constants,
-    );
+    let (neighbors, bonds, c) = (stencil.neighbors, stencil.bonds, stencil.constants);
     let def = Deformation::of(yi, y, stencil);
     let stretches = def.stretches();
     let [u1, u2] = def.u;
@@ -182,35 +194,33 @@ pub fn vertex_kernel<T: Real>(
     let (mut bending, mut hourglass) = (T::zero(), T::zero());
     let non_affine = c.kappa_t > T::zero() || c.kappa_n > T::zero();
     if non_affine {
-        // F^-1 = w1 u1^T / s1 + w2 u2^T / s2 + nc n^T, with w_m the rest-frame right singular vectors.
-        let rw1 = frame.t1 * v1[0] + frame.t2 * v1[1];
-        let rw2 = frame.t1 * v2[0] + frame.t2 * v2[1];
+        // F^-1 in rest-frame coordinates: rows g1, g2, n map a deformed vector e to the
+        // (t1, t2, nc) coordinates of F^-1 e.
         let inv = [T::one() / def.sigma[0], T::one() / def.sigma[1]];
-        // First pass: the rest-frame images F^-1 e_j (kept in bond_grad for the second pass) and
-        // the fitted curvature h = sum_j curvature_j (q_j . nc).
+        let row1 = u1 * (v1[0] * inv[0]) + u2 * (v2[0] * inv[1]);
+        let row2 = u1 * (v1[1] * inv[0]) + u2 * (v2[1] * inv[1]);
+        // First pass: the rest images F^-1 e_j (kept in bond_grad for the second pass) and the
+        // fitted curvature h = sum_j curvature_j (q_j . nc).
         let mut curvature = Vector3::zeros();
         for ((&j, b), out) in neighbors.iter().zip(bonds).zip(bond_grad.iter_mut()) {
             let e = y[j as usize] - yi;
-            let rest_image =
-                rw1 * (u1.dot(&e) * inv[0]) + rw2 * (u2.dot(&e) * inv[1]) + frame.nc * n.dot(&e);
-            curvature += b.curvature * (rest_image - b.xi).dot(&frame.nc);
-            *out = rest_image;
+            let image = Vector3::new(row1.dot(&e), row2.dot(&e), n.dot(&e));
+            curvature += b.curvature * (image.z - b.xi.z);
+            *out = image;
         }
         bending = T::of(0.5) * curvature.norm_squared();
         let (mut h1, mut h2, mut hn) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
         for (b, out) in bonds.iter().zip(bond_grad.iter_mut()) {
-            let rest_image = *out;
-            let q = rest_image - b.xi;
-            let q_n = q.dot(&frame.nc);
-            let q_t = q - frame.nc * q_n;
-            hourglass += c.kappa_t * q_t.norm_squared();
-            let wq = q_t * c.kappa_t + frame.nc * b.curvature.dot(&curvature);
+            let image = *out;
+            let (q1, q2) = (image.x - b.xi.x, image.y - b.xi.y);
+            hourglass += c.kappa_t * (q1 * q1 + q2 * q2);
+            // d = F^-T W q with W q = (kappa_t q1, kappa_t q2, curvature_j . h) in the rest frame.
             let d =
-                u1 * (rw1.dot(&wq) * inv[0]) + u2 * (rw2.dot(&wq) * inv[1]) + n * frame.nc.dot(&wq);
+                row1 * (c.kappa_t * q1) + row2 * (c.kappa_t * q2) + n * b.curvature.dot(&curvature);
             *out = d;
-            h1 += d * rest_image.dot(&frame.t1);
-            h2 += d * rest_image.dot(&frame.t2);
-            hn += d * rest_image.dot(&frame.nc);
+            h1 += d * image.x;
+            h2 += d * image.y;
+            hn += d * image.z;
         }
         hourglass *= T::of(0.5);
         g1 -= h1;

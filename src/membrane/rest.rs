@@ -22,7 +22,8 @@ pub struct Frame<T: Real> {
 }
 
 /// Rest data of a bond `i -> j`: `beta = (xi^T K_i^-1 t1, xi^T K_i^-1 t2)`, so that the
-/// deformed tangent vectors are `a_k = sum_j beta_jk (y_j - y_i)`; the rest bond `xi`; and
+/// deformed tangent vectors are `a_k = sum_j beta_jk (y_j - y_i)`; the rest bond `xi` in the
+/// vertex's rest-frame coordinates `(xi . t1, xi . t2, xi . nc)`; and
 /// `curvature`, this bond's column of the scaled least-squares curvature fit: the bending
 /// energy of the vertex is `1/2 |sum_j curvature_j (q_j . nc)|^2` (J).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -107,12 +108,12 @@ impl RestData<f64> {
                 beta_gram += beta * beta.transpose();
                 bonds.push(BondRest {
                     beta: [beta.x, beta.y],
-                    xi,
+                    xi: Vector3::new(xi.dot(&t1), xi.dot(&t2), xi.dot(&nc)),
                     curvature: Vector3::zeros(),
                 });
             }
             let first = bonds.len() - nb.of(i).len();
-            let kappa_n = curvature_fit(&mut bonds[first..], &t1, &t2, params.bending * areas[i]);
+            let kappa_n = curvature_fit(&mut bonds[first..], params.bending * areas[i]);
             frames.push(Frame { t1, t2, nc });
             let volume = params.thickness * areas[i];
             let k_iso = 2.0 / sum2;
@@ -223,21 +224,16 @@ impl<T: Real> RestData<T> {
 /// Fills the bonds' `curvature` vectors of one vertex and returns the preconditioner bound
 /// `lambda_max(sum_j c_j c_j^T)`.
 ///
-/// With `phi_j = 1/2 (x^2, y^2, 2xy)` for `(x, y)` the bond in `(t1, t2)` coordinates, the fitted
+/// With `phi_j = 1/2 (x^2, y^2, 2xy)` for `(x, y)` the bond's `(t1, t2)` coordinates, the fitted
 /// curvature is `H = (Phi^T Phi)^+ Phi^T q_n`. Scaling by `sqrt(A D) diag(1, 1, sqrt 2)` makes
 /// `|c|^2 = A D |H|_F^2`. Directions the 1-ring cannot resolve (a corner vertex with two
 /// neighbours) are left out of the pseudo-inverse.
-fn curvature_fit(
-    bonds: &mut [BondRest<f64>],
-    t1: &Vector3<f64>,
-    t2: &Vector3<f64>,
-    area_rigidity: f64,
-) -> f64 {
+fn curvature_fit(bonds: &mut [BondRest<f64>], area_rigidity: f64) -> f64 {
     if area_rigidity == 0.0 {
         return 0.0;
     }
     let phi = |xi: &Vector3<f64>| {
-        let (x, y) = (xi.dot(t1), xi.dot(t2));
+        let (x, y) = (xi.x, xi.y);
         Vector3::new(0.5 * x * x, 0.5 * y * y, x * y)
     };
     let gram: Matrix3<f64> = bonds

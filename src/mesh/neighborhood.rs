@@ -1,6 +1,7 @@
 //! Vertex neighbourhoods in compressed sparse row (CSR) form, with the index of every bond's
 //! reverse, so that forces can be gathered per vertex without atomics.
 
+use crate::error::{invalid, Result};
 use crate::mesh::TriangleMesh;
 
 /// The k-ring neighbourhood of every vertex of a mesh: vertex `i`'s neighbours are
@@ -14,8 +15,13 @@ pub struct Neighborhood {
 }
 
 impl Neighborhood {
-    /// Vertices within `k` mesh edges of each vertex (k = 1: the 1-ring of the paper).
-    pub fn k_ring(mesh: &TriangleMesh, k: usize) -> Self {
+    /// Most bonds a neighbourhood may hold (about 4 GB of rest data in f64): a k that large
+    /// is a mistake, and is refused rather than exhausting memory.
+    pub const MAX_BONDS: usize = 100_000_000;
+
+    /// Vertices within `k` mesh edges of each vertex (k = 1: the 1-ring of the paper). Fails
+    /// when the neighbourhoods would hold more than [`Self::MAX_BONDS`] bonds.
+    pub fn k_ring(mesh: &TriangleMesh, k: usize) -> Result<Self> {
         let n = mesh.num_vertices();
         let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
         for tri in mesh.triangles() {
@@ -55,6 +61,13 @@ impl Neighborhood {
             }
             reached.sort_unstable();
             indices.extend_from_slice(&reached);
+            if indices.len() > Self::MAX_BONDS {
+                return Err(invalid!(
+                    "neighbors={k} gives more than {} bonds (vertex {start} alone has {}); use a smaller k",
+                    Self::MAX_BONDS,
+                    reached.len()
+                ));
+            }
             offsets.push(indices.len() as u32);
             depth[start] = usize::MAX;
             for &w in &reached {
@@ -62,11 +75,11 @@ impl Neighborhood {
             }
         }
         let reverse = reverse_bonds(&offsets, &indices);
-        Self {
+        Ok(Self {
             offsets,
             indices,
             reverse,
-        }
+        })
     }
 
     /// Number of vertices.
@@ -132,14 +145,14 @@ mod tests {
 
     #[test]
     fn one_ring_of_the_centre_is_its_six_mesh_neighbours() {
-        let nb = Neighborhood::k_ring(&grid3(), 1);
+        let nb = Neighborhood::k_ring(&grid3(), 1).unwrap();
         assert_eq!(nb.of(4), &[0, 1, 3, 5, 7, 8]);
         assert_eq!(nb.of(0), &[1, 3, 4]);
     }
 
     #[test]
     fn two_ring_reaches_everything_in_a_small_grid_and_reverse_is_an_involution() {
-        let nb = Neighborhood::k_ring(&grid3(), 2);
+        let nb = Neighborhood::k_ring(&grid3(), 2).unwrap();
         assert_eq!(nb.of(4).len(), 8);
         assert_eq!(nb.of(0), &[1, 2, 3, 4, 5, 6, 7, 8]);
         for i in 0..nb.len() {

@@ -11,7 +11,7 @@ use crate::membrane::{Membrane, MembraneParams};
 use crate::mesh::TriangleMesh;
 
 use super::arrays::{indices, to_numpy, to_numpy_1d, triangles, vec3s};
-use super::errors::IntoPyResult;
+use super::errors::{guard, IntoPyResult};
 use super::material;
 
 /// A thin hyperelastic membrane (triangle mesh) simulated by projective peridynamics.
@@ -66,14 +66,16 @@ impl PyMembrane {
             hourglass,
             neighbors: neighbors as usize,
         };
-        let membrane = py.detach(|| -> crate::error::Result<Membrane> {
-            params.validate()?;
-            let mut membrane = Membrane::new(TriangleMesh::new(v, t)?, params)?;
-            membrane.set_self_contact(self_contact);
-            Ok(membrane)
-        });
+        let membrane = py.detach(|| {
+            guard("Membrane()", || {
+                params.validate()?;
+                let mut membrane = Membrane::new(TriangleMesh::new(v, t)?, params)?;
+                membrane.set_self_contact(self_contact);
+                Ok(membrane)
+            })
+        })?;
         Ok(Self {
-            inner: Arc::new(Mutex::new(membrane.py()?)),
+            inner: Arc::new(Mutex::new(membrane)),
         })
     }
 

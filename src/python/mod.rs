@@ -5,6 +5,7 @@ mod arrays;
 mod collider;
 mod contact;
 mod errors;
+mod gpu;
 mod material;
 mod membrane;
 mod solver;
@@ -23,9 +24,12 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<membrane::PyMembrane>()?;
     m.add_class::<collider::PyPlane>()?;
     m.add_class::<collider::PySphere>()?;
+    m.add_class::<collider::PyBox>()?;
+    m.add_class::<collider::PyCapsule>()?;
     m.add_class::<solver::PySolver>()?;
     m.add_class::<solver::PyStepStats>()?;
     m.add_class::<contact::PyContact>()?;
     m.add_submodule(&contact::module(m.py())?)?;
+    m.add_function(wrap_pyfunction!(gpu::gpu_info, m)?)?;
     Ok(())
 }

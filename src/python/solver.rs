@@ -8,19 +8,22 @@ use pyo3::types::PyDict;
 
 use crate::contact::Collider;
 use crate::error::Result;
+use crate::gpu::GpuSolver;
 use crate::membrane::{Membrane, Preconditioner};
-use crate::solve::{Acceleration, Solver, SolverParams, StepStats};
+use crate::solve::{Acceleration, Method, Solver, SolverParams, StepStats};
 
 use super::arrays::{to_numpy_1d, vec3};
 use super::collider;
 use super::contact::PyContact;
-use super::errors::IntoPyResult;
+use super::errors::{guard, IntoPyResult};
 use super::membrane::PyMembrane;
 
-/// The core solver in the precision the user chose.
+/// The core solver, on the CPU or the GPU, in the precision the user chose.
 enum Precision {
     F64(Solver<f64>),
     F32(Solver<f32>),
+    Gpu32(Box<GpuSolver<f32>>),
+    Gpu64(Box<GpuSolver<f64>>),
 }
 
 impl Precision {
@@ -28,12 +31,28 @@ impl Precision {
         match self {
             Self::F64(s) => s.step(bodies),
             Self::F32(s) => s.step(bodies),
+            Self::Gpu32(s) => s.step(bodies),
+            Self::Gpu64(s) => s.step(bodies),
         }
     }
     fn name(&self) -> &'static str {
         match self {
-            Self::F64(_) => "f64",
-            Self::F32(_) => "f32",
+            Self::F64(_) | Self::Gpu64(_) => "f64",
+            Self::F32(_) | Self::Gpu32(_) => "f32",
+        }
+    }
+    fn backend(&self) -> &'static str {
+        match self {
+            Self::F64(_) | Self::F32(_) => "cpu",
+            Self::Gpu32(_) | Self::Gpu64(_) => "gpu",
+        }
+    }
+    /// Worker threads of the CPU backend; the GPU backend drives the device from one thread.
+    fn threads(&self) -> usize {
+        match self {
+            Self::F64(s) => s.threads(),
+            Self::F32(s) => s.threads(),
+            Self::Gpu32(_) | Self::Gpu64(_) => 1,
         }
     }
 }
@@ -43,6 +62,8 @@ macro_rules! with_solver {
         match $p {
             Precision::F64($s) => $body,
             Precision::F32($s) => $body,
+            Precision::Gpu32($s) => $body,
+            Precision::Gpu64($s) => $body,
         }
     };
 }
@@ -59,10 +80,10 @@ pub struct PySolver {
 impl PySolver {
     #[new]
     #[pyo3(signature = (*, dt, gravity = None, tol = 1e-4, max_iters = 100, threads = None,
-                        step_length = true, precision = "f64", preconditioner = "tangent",
+                        step_length = true, precision = None, preconditioner = "tangent",
                         acceleration = None, chebyshev_rho = Acceleration::DEFAULT_RHO,
                         chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false,
-                        contact = None))]
+                        method = "sissm", inner_iters = 1, backend = "cpu", contact = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: f64,
@@ -71,14 +92,31 @@ impl PySolver {
         max_iters: i64,
         threads: Option<i64>,
         step_length: bool,
-        precision: &str,
+        precision: Option<&str>,
         preconditioner: &str,
         acceleration: Option<&str>,
         chebyshev_rho: f64,
         chebyshev_delay: i64,
         record_energy: bool,
+        method: &str,
+        inner_iters: i64,
+        backend: &str,
         contact: Option<PyRef<'_, PyContact>>,
     ) -> PyResult<Self> {
+        let method = match method {
+            "sissm" => Method::Sissm,
+            "descent" => Method::Descent,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "method must be 'sissm' or 'descent', got {other:?}"
+                )))
+            }
+        };
+        if inner_iters < 1 {
+            return Err(PyValueError::new_err(format!(
+                "inner_iters must be >= 1, got {inner_iters}"
+            )));
+        }
         let acceleration = match acceleration {
             None | Some("none") => Acceleration::None,
             Some("chebyshev") => Acceleration::Chebyshev {
@@ -129,15 +167,34 @@ impl PySolver {
                 }
             },
             acceleration,
+            method,
+            inner_iters: inner_iters as usize,
             record_energy,
             contact: contact.map(|c| c.inner),
         };
-        let core = match precision {
-            "f64" => Precision::F64(Solver::new(params, threads).py()?),
-            "f32" => Precision::F32(Solver::new(params, threads).py()?),
-            other => {
+        let core = match (backend, precision) {
+            ("cpu", None | Some("f64")) => Precision::F64(Solver::new(params, threads).py()?),
+            ("cpu", Some("f32")) => Precision::F32(Solver::new(params, threads).py()?),
+            ("gpu", precision @ (None | Some("f32") | Some("f64"))) => {
+                if threads.is_some() {
+                    return Err(PyValueError::new_err(
+                        "threads applies to backend='cpu' only; the GPU backend takes threads=None",
+                    ));
+                }
+                if precision == Some("f64") {
+                    Precision::Gpu64(Box::new(GpuSolver::new(params).py()?))
+                } else {
+                    Precision::Gpu32(Box::new(GpuSolver::new(params).py()?))
+                }
+            }
+            ("cpu" | "gpu", Some(other)) => {
                 return Err(PyValueError::new_err(format!(
                     "precision must be 'f32' or 'f64', got {other:?}"
+                )))
+            }
+            (other, _) => {
+                return Err(PyValueError::new_err(format!(
+                    "backend must be 'cpu' or 'gpu', got {other:?}"
                 )))
             }
         };
@@ -167,7 +224,7 @@ impl PySolver {
     /// Adds a collider (Plane or Sphere).
     fn add_collider(&mut self, collider: &Bound<'_, PyAny>) -> PyResult<()> {
         let c: Collider = collider::extract(collider)?;
-        with_solver!(&mut self.core, s => s.add_collider(c));
+        with_solver!(&mut self.core, s => s.add_collider(c)).py()?;
         self.colliders.push(collider.clone().unbind());
         Ok(())
     }
@@ -187,14 +244,16 @@ impl PySolver {
             .collect();
         let core = &mut self.core;
         let stats = py.detach(move || {
-            let mut guards: Vec<_> = shared
-                .iter()
-                .map(|m| m.lock().unwrap_or_else(|p| p.into_inner()))
-                .collect();
-            let mut refs: Vec<&mut Membrane> = guards.iter_mut().map(|g| &mut **g).collect();
-            core.step(&mut refs)
+            guard("Solver.step", || {
+                let mut locks: Vec<_> = shared
+                    .iter()
+                    .map(|m| m.lock().unwrap_or_else(|p| p.into_inner()))
+                    .collect();
+                let mut refs: Vec<&mut Membrane> = locks.iter_mut().map(|g| &mut **g).collect();
+                core.step(&mut refs)
+            })
         });
-        Ok(PyStepStats { inner: stats.py()? })
+        Ok(PyStepStats { inner: stats? })
     }
 
     /// Time step h (s); settable.
@@ -245,6 +304,19 @@ impl PySolver {
     fn contact(&self) -> Option<PyContact> {
         with_solver!(&self.core, s => s.params().contact.map(|inner| PyContact { inner }))
     }
+    /// "sissm" or "descent".
+    #[getter]
+    fn method(&self) -> &'static str {
+        match with_solver!(&self.core, s => s.params().method) {
+            Method::Sissm => "sissm",
+            Method::Descent => "descent",
+        }
+    }
+    /// Jacobi sweeps per global iteration.
+    #[getter]
+    fn inner_iters(&self) -> usize {
+        with_solver!(&self.core, s => s.params().inner_iters)
+    }
     #[getter]
     fn record_energy(&self) -> bool {
         with_solver!(&self.core, s => s.params().record_energy)
@@ -253,9 +325,24 @@ impl PySolver {
     fn precision(&self) -> &'static str {
         self.core.name()
     }
+    /// "cpu" or "gpu".
+    #[getter]
+    fn backend(&self) -> &'static str {
+        self.core.backend()
+    }
     #[getter]
     fn threads(&self) -> usize {
-        with_solver!(&self.core, s => s.threads())
+        self.core.threads()
+    }
+    /// Bytes the GPU kernels load and store per global iteration for the bodies of the last
+    /// step (None on the CPU backend or before the first step).
+    #[getter]
+    fn bytes_per_iteration(&self) -> Option<u64> {
+        match &self.core {
+            Precision::Gpu32(s) => s.bytes_per_iteration(),
+            Precision::Gpu64(s) => s.bytes_per_iteration(),
+            _ => None,
+        }
     }
     /// Simulation time (s).
     #[getter]
@@ -265,6 +352,10 @@ impl PySolver {
     #[getter]
     fn steps_taken(&self) -> u64 {
         with_solver!(&self.core, s => s.steps_taken())
+    }
+    /// Sets the simulation time (s) and step count, e.g. when restoring a saved state.
+    fn set_clock(&mut self, time: f64, steps_taken: u64) -> PyResult<()> {
+        with_solver!(&mut self.core, s => s.set_clock(time, steps_taken)).py()
     }
     #[getter]
     fn bodies(&self, py: Python<'_>) -> Vec<Py<PyMembrane>> {
@@ -278,8 +369,8 @@ impl PySolver {
         with_solver!(&self.core, s => {
             let p = s.params();
             format!(
-                "Solver(dt={}, gravity={:?}, tol={}, max_iters={}, precision='{}', threads={}, bodies={}, colliders={}, time={})",
-                p.dt, p.gravity, p.tol, p.max_iters, self.core.name(), s.threads(), self.bodies.len(), self.colliders.len(), s.time()
+                "Solver(dt={}, gravity={:?}, tol={}, max_iters={}, backend='{}', precision='{}', threads={}, bodies={}, colliders={}, time={})",
+                p.dt, p.gravity, p.tol, p.max_iters, self.core.backend(), self.core.name(), self.core.threads(), self.bodies.len(), self.colliders.len(), s.time()
             )
         })
     }

@@ -1,12 +1,15 @@
 //! Time stepping: implicit Euler solved by the semi-implicit successive substitution method.
 
 mod contact_step;
+mod descent;
+mod evaluate;
+mod jacobi;
 mod params;
 mod sissm;
 mod stats;
-mod system;
+pub(crate) mod system;
 
-pub use params::{Acceleration, SolverParams};
+pub use params::{Acceleration, Method, SolverParams};
 pub use sissm::Solver;
 pub use stats::{StepStats, Timings};
 

@@ -21,11 +21,26 @@ pub struct SolverParams {
     pub preconditioner: Preconditioner,
     /// Optional acceleration of the global iteration.
     pub acceleration: Acceleration,
+    /// The iteration: SISSM, or the descent baseline.
+    pub method: Method,
+    /// Jacobi sweeps on the linear system of eq. 25 per global iteration (Fig. 6; 1 in the paper).
+    pub inner_iters: usize,
     /// Record the total variational energy `E(y^k)` of every iterate in [`super::StepStats`]
     /// (one extra kernel pass per step).
     pub record_energy: bool,
     /// Contact between and within membranes (the local step of Algorithm 2); `None`: off.
     pub contact: Option<ContactParams>,
+}
+
+/// The global iteration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// The semi-implicit successive substitution method (Lu et al. 2023).
+    #[default]
+    Sissm,
+    /// Jacobi-preconditioned gradient descent with a backtracking line search on the
+    /// variational energy (Wang and Yang 2016), the baseline of the paper's Fig. 13.
+    Descent,
 }
 
 /// Acceleration of the global iteration.
@@ -75,6 +90,8 @@ impl Default for SolverParams {
             step_length: true,
             preconditioner: Preconditioner::Tangent,
             acceleration: Acceleration::None,
+            method: Method::Sissm,
+            inner_iters: 1,
             record_energy: false,
             contact: None,
         }
@@ -99,6 +116,12 @@ impl SolverParams {
         }
         if let Some(contact) = &self.contact {
             contact.validate()?;
+        }
+        if self.inner_iters < 1 {
+            return Err(invalid!(
+                "inner_iters must be >= 1, got {}",
+                self.inner_iters
+            ));
         }
         if self.max_iters < 1 {
             return Err(invalid!("max_iters must be >= 1, got {}", self.max_iters));

@@ -9,8 +9,10 @@ use crate::membrane::{Membrane, RestData, VertexResponse};
 use crate::mesh::Neighborhood;
 use crate::real::Real;
 
+use super::jacobi::LocalSystem;
+
 /// Concatenated bodies.
-pub(super) struct System<T: Real> {
+pub(crate) struct System<T: Real> {
     /// Identity of each body, to detect a changed body list.
     pub ids: Vec<u64>,
     /// Vertex range of each body.
@@ -31,6 +33,13 @@ pub(super) struct System<T: Real> {
     /// Scratch of the global step: per-bond gradients and per-vertex responses.
     pub bond_grad: Vec<Vector3<T>>,
     pub response: Vec<VertexResponse<T>>,
+    /// Partial sums of the energy reductions (reused).
+    pub energy_chunks: Vec<f64>,
+    /// Per-vertex linear systems and moves, kept only when inner sweeps or the descent method
+    /// need them (else empty).
+    pub locals: Vec<LocalSystem<T>>,
+    pub delta: Vec<Vector3<T>>,
+    pub delta_next: Vec<Vector3<T>>,
 }
 
 impl<T: Real> System<T> {
@@ -80,6 +89,10 @@ impl<T: Real> System<T> {
             y_prev: Vec::new(),
             pinned: vec![false; start],
             response: vec![zero_response; start],
+            energy_chunks: Vec::new(),
+            locals: Vec::new(),
+            delta: Vec::new(),
+            delta_next: Vec::new(),
         }
     }
 

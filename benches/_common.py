@@ -1,0 +1,171 @@
+"""Shared helpers for the Python benchmarks in benches/: machine record, scenes, JSON output.
+
+Every benchmark records, next to its numbers, what the machine was doing (``os.getloadavg()``
+before and after, CPU count and affinity), which peridyn it measured (version, git commit,
+whether the work tree was dirty) and the exact command that produced the file.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import platform
+import shlex
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Dict, Optional
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+RESULTS = REPO / "benches" / "results"
+
+
+def git_info() -> Dict[str, Any]:
+    def run(*args: str) -> Optional[str]:
+        try:
+            return subprocess.run(
+                ["git", "-C", str(REPO), *args], capture_output=True, text=True, timeout=20
+            ).stdout.strip()
+        except Exception:  # pragma: no cover - git missing
+            return None
+
+    status = run("status", "--porcelain", "--", "src", "python", "Cargo.toml", "pyproject.toml")
+    return {"commit": run("rev-parse", "HEAD"), "core_sources_dirty": bool(status)}
+
+
+def command_line() -> str:
+    """The exact command, as run from the repository root."""
+    script = Path(sys.argv[0]).resolve()
+    try:
+        script_s = str(script.relative_to(REPO))
+    except ValueError:
+        script_s = str(script)
+    return " ".join(["python", shlex.quote(script_s), *map(shlex.quote, sys.argv[1:])])
+
+
+def machine(extra: Optional[Dict[str, Any]] = None) -> Dict[str, Any]:
+    import peridyn
+
+    info = {
+        "utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "loadavg_1_5_15": list(os.getloadavg()),
+        "cpu_count": os.cpu_count(),
+        "cpu_affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
+        "cpu_model": _cpu_model(),
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+        "numpy": np.__version__,
+        "peridyn_version": getattr(peridyn, "__version__", None),
+        "peridyn_module": getattr(peridyn, "__file__", None),
+        "git": git_info(),
+    }
+    if extra:
+        info.update(extra)
+    return info
+
+
+def _cpu_model() -> Optional[str]:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return None
+
+
+class Record:
+    """Collects the run's metadata; ``write`` adds the load at the end and saves JSON."""
+
+    def __init__(self, name: str, args: Any):
+        self.name = name
+        self.t0 = time.perf_counter()
+        self.data: Dict[str, Any] = {
+            "benchmark": name,
+            "command": command_line(),
+            "args": vars(args) if args is not None else {},
+            "machine_start": machine(),
+            "notes": [],
+        }
+
+    def note(self, text: str) -> None:
+        print("note:", text, flush=True)
+        self.data["notes"].append(text)
+
+    def write(self, out: Optional[str] = None) -> Path:
+        self.data["machine_end"] = {
+            "utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "loadavg_1_5_15": list(os.getloadavg()),
+        }
+        self.data["wall_seconds"] = time.perf_counter() - self.t0
+        path = Path(out) if out else RESULTS / f"{self.name}.json"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(_jsonable(self.data), indent=1, allow_nan=True) + "\n")
+        print(f"wrote {path}", flush=True)
+        return path
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, (np.floating,)):
+        return float(x)
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    if isinstance(x, float) and not np.isfinite(x):
+        return None if np.isnan(x) else ("inf" if x > 0 else "-inf")
+    return x
+
+
+def solver_supports(**kwargs: Any) -> bool:
+    """True when this build's Solver accepts the keyword arguments (e.g. method=, inner_iters=)."""
+    import peridyn
+
+    try:
+        peridyn.Solver(dt=1e-3, **kwargs)
+        return True
+    except TypeError:
+        return False
+    except ValueError:
+        return False
+
+
+def hanging_cloth(
+    n: int,
+    *,
+    size: float = 1.0,
+    thickness: float = 1e-3,
+    density: float = 300.0,
+    material: Any = None,
+    bending: Optional[float] = None,
+    diagonal: str = "alternate",
+):
+    """An n x n cloth in z = 0, pinned along the edge y = size (the paper's comparison scene)."""
+    import peridyn
+
+    V, F = peridyn.grid(n, n, size=(size, size), diagonal=diagonal)
+    if material is None:
+        material = peridyn.StretchA3(s0=2e4)
+    if bending is None:
+        E = getattr(material, "youngs_modulus", 4e4)
+        bending = peridyn.plate_bending_stiffness(E, 0.0, thickness)
+    cloth = peridyn.Membrane(
+        V, F, thickness=thickness, density=density, material=material, bending=bending
+    )
+    cloth.pin(np.flatnonzero(np.isclose(V[:, 1], size)))
+    return cloth
+
+
+def median(xs) -> float:
+    xs = [x for x in xs if x is not None]
+    return float(np.median(xs)) if xs else float("nan")

@@ -1,0 +1,305 @@
+"""Convergence of one implicit Euler step: relative error against iterations and wall time.
+
+Fig. 6 / Fig. 13 of Lu et al. 2023. For one step of a cloth pinned along one edge, taken when the
+cloth is stretched most during a short pre-roll, every solver variant starts from the same state
+and runs a fixed number of iterations (tol = 0) with ``record_energy=True``. The relative error
+
+    eta_k = (E(y_k) - E(y*)) / (E(y_0) - E(y*))
+
+uses E(y*) from a long f64 run of the same step (``--ref-iters``, >= 500 iterations; if any f64
+variant reaches a lower energy, that lower value is used and the JSON says so). Wall time per
+iteration comes from separate runs without energy recording: the median over ``--repeats`` of
+the step's total time divided by the iteration count.
+
+Variants: SISSM (tangent preconditioner, f64 and f32), SISSM + Chebyshev for several rho, the
+paper's preconditioner (with and without Chebyshev), inner Jacobi sweeps 1/2/4 (``inner_iters``)
+and the descent baseline of Wang & Yang 2016 (``method="descent"``, with and without Chebyshev)
+when the installed build has them; variants the build lacks are listed in the JSON as skipped.
+
+Scenes: ``moderate`` (A3, s0 = 2e4 Pa) and ``stiff`` (neo-Hookean s0 = 4.8e7, s1 = 1.2e7 Pa, the
+paper's comparison).
+
+Default (a few minutes on 2 shared cores):  python benches/convergence.py
+Full size:  python benches/convergence.py --n 120 --iters 500 --ref-iters 5000 --repeats 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _common as C  # noqa: E402
+
+import peridyn  # noqa: E402
+
+
+def scene_material(name: str):
+    if name == "moderate":
+        return peridyn.StretchA3(s0=2e4)
+    if name == "stiff":
+        return peridyn.NeoHookean(s0=4.8e7, s1=1.2e7)
+    raise ValueError(name)
+
+
+def scene_dt(args, scene: str) -> float:
+    return args.dt_moderate if scene == "moderate" else args.dt_stiff
+
+
+def make_cloth(args, scene: str):
+    return C.hanging_cloth(args.n, thickness=args.thickness, density=args.density,
+                           material=scene_material(scene))
+
+
+# Long f64 runs of the same step; E(y*) is the lowest energy any of them (or any f64 variant) reaches.
+REFERENCES = [("SISSM", {}),
+              ("SISSM+Cheb rho=0.999", {"acceleration": "chebyshev", "chebyshev_rho": 0.999})]
+
+
+def variants(args):
+    rhos = [float(r) for r in args.rhos.split(",")]
+    out = [("SISSM", {}), ("SISSM f32", {"precision": "f32"})]
+    for r in rhos:
+        out.append((f"SISSM+Cheb rho={r:g}", {"acceleration": "chebyshev", "chebyshev_rho": r}))
+    out.append(("paper precond", {"preconditioner": "paper"}))
+    out.append(("paper precond+Cheb rho=0.9",
+                {"preconditioner": "paper", "acceleration": "chebyshev", "chebyshev_rho": 0.9}))
+    for k in (1, 2, 4):
+        out.append((f"inner Jacobi {k}", {"inner_iters": k}))
+    out.append(("descent", {"method": "descent"}))
+    for r in rhos:
+        out.append((f"descent+Cheb rho={r:g}",
+                    {"method": "descent", "acceleration": "chebyshev", "chebyshev_rho": r}))
+    return out
+
+
+def preroll(args, scene: str, rec: C.Record):
+    """Run the scene; return (positions, velocities, step index, max stretch) of the most stretched state."""
+    cloth = make_cloth(args, scene)
+    solver = peridyn.Solver(dt=scene_dt(args, scene), tol=args.preroll_tol,
+                            max_iters=args.preroll_max_iters, threads=args.threads, precision="f64",
+                            acceleration="chebyshev", chebyshev_rho=0.99)
+    solver.add(cloth)
+    best = (cloth.positions, cloth.velocities, 0, 1.0)
+    hist = []
+    for k in range(args.preroll):
+        st = solver.step()
+        smax = float(np.max(cloth.stretches()[:, :2]))
+        hist.append({"step": k, "iterations": st.iterations, "converged": st.converged,
+                     "max_stretch": smax})
+        if k >= args.preroll // 4 and smax > best[3]:
+            best = (cloth.positions, cloth.velocities, k + 1, smax)
+    return best, hist
+
+
+def one_step(args, scene, state, kw, *, iters, record_energy):
+    cloth = make_cloth(args, scene)
+    cloth.positions = state[0]
+    cloth.velocities = state[1]
+    solver = peridyn.Solver(dt=scene_dt(args, scene), tol=0.0, max_iters=iters, threads=args.threads,
+                            record_energy=record_energy, **{"precision": "f64", **kw})
+    solver.add(cloth)
+    t0 = time.perf_counter()
+    st = solver.step()
+    wall = (time.perf_counter() - t0) * 1e3
+    return st, wall
+
+
+def run_scene(args, scene: str, rec: C.Record):
+    print(f"== scene {scene}: pre-roll {args.preroll} steps", flush=True)
+    state, hist = preroll(args, scene, rec)
+    out = {"material": repr(scene_material(scene)), "dt": scene_dt(args, scene), "preroll": hist, "state_step": state[2],
+           "state_max_stretch": state[3]}
+    print(f"   most stretched state after step {state[2]} (max stretch {state[3]:.4f})", flush=True)
+
+    out["references"] = {}
+    e_refs = []
+    for rname, rkw in REFERENCES:
+        print(f"   reference: f64 {rname}, {args.ref_iters} iterations", flush=True)
+        ref, ref_wall = one_step(args, scene, state, rkw, iters=args.ref_iters, record_energy=True)
+        e_ref = np.asarray(ref.energies, float)
+        e_refs.append((float(np.min(e_ref)), rname))
+        out["references"][rname] = {
+            "kwargs": rkw, "iterations": ref.iterations, "E_final": float(e_ref[-1]),
+            "E_min": float(np.min(e_ref)), "E0": float(e_ref[0]),
+            "error_estimate": ref.error_estimate, "residual": ref.residual, "wall_ms": ref_wall,
+            "dE_over_last_100": float(e_ref[-101] - e_ref[-1]) if len(e_ref) > 101 else None}
+        print(f"      E_final {e_ref[-1]:.10g} J, error estimate {ref.error_estimate:.2e} m", flush=True)
+
+    runs = {}
+    for name, kw in variants(args):
+        if not C.solver_supports(**kw):
+            runs[name] = {"kwargs": kw, "skipped": "this peridyn build's Solver does not accept "
+                          + ", ".join(f"{k}={v!r}" for k, v in kw.items())}
+            print(f"   {name:28s} skipped (not in this build)", flush=True)
+            continue
+        try:
+            st, _ = one_step(args, scene, state, kw, iters=args.iters, record_energy=True)
+        except Exception as e:  # DivergenceError or a rejected combination
+            runs[name] = {"kwargs": kw, "failed": f"{type(e).__name__}: {e}"}
+            print(f"   {name:28s} failed: {e}", flush=True)
+            continue
+        runs[name] = {
+            "kwargs": kw,
+            "energies": np.asarray(st.energies, float),
+            "residuals": np.asarray(st.residuals, float),
+            "iterations": st.iterations,
+            "error_estimate": st.error_estimate,
+            "converged_flag": st.converged,
+            "ms_step_all": [], "ms_global_all": [],
+        }
+        print(f"   {name:28s} {st.iterations} it, err est {st.error_estimate:.2e}", flush=True)
+
+    # Timing: rounds over all variants (interleaved, so a burst of load on the shared machine
+    # hits every variant alike), without energy recording; medians over the rounds.
+    for rnd in range(args.repeats):
+        for name, kw in variants(args):
+            r = runs.get(name, {})
+            if "energies" not in r:
+                continue
+            s2, _w = one_step(args, scene, state, kw, iters=args.iters, record_energy=False)
+            r["ms_step_all"].append(s2.timings["total"])
+            r["ms_global_all"].append(s2.timings["global"])
+    for name, r in runs.items():
+        if "energies" in r:
+            r["ms_step_median"] = C.median(r["ms_step_all"])
+            r["ms_global_median"] = C.median(r["ms_global_all"])
+            r["ms_per_iteration"] = r["ms_step_median"] / max(r["iterations"], 1)
+            print(f"   {name:28s} {r['ms_step_median']:8.1f} ms / {r['iterations']} it (median of "
+                  f"{len(r['ms_step_all'])})", flush=True)
+
+    # E(y*): the reference's final energy, or a lower one if an f64 variant found it.
+    e_star, src = min(e_refs)
+    lowest = min(((float(np.min(r["energies"])), n) for n, r in runs.items()
+                  if "energies" in r and r["kwargs"].get("precision", "f64") == "f64"
+                  and len(r["energies"])), default=(np.inf, None))
+    out["E_star_source"] = f"reference {src}"
+    if lowest[0] < e_star:
+        out["E_star_source"] = f"lower energy reached by '{lowest[1]}' (references not fully converged)"
+        out["E_star_reference_minus_lowest"] = e_star - lowest[0]
+        e_star = lowest[0]
+    out["E_star"] = e_star
+    for n, r in runs.items():
+        if "energies" not in r:
+            continue
+        e = r["energies"]
+        denom = e[0] - e_star
+        eta = (e - e_star) / denom if denom > 0 else np.full_like(e, np.nan)
+        r["eta"] = eta
+        r["eta_final"] = float(eta[-1])
+        r["roundoff_floor_eta"] = float(np.finfo(np.float64 if r["kwargs"].get("precision", "f64") == "f64"
+                                                  else np.float32).eps * abs(e_star) / denom) if denom > 0 else None
+        for thr in (1e-1, 1e-2, 1e-3, 1e-4):
+            hit = np.flatnonzero(eta <= thr)
+            r[f"iters_to_eta_{thr:g}"] = int(hit[0]) if len(hit) else None
+            r[f"ms_to_eta_{thr:g}"] = float(hit[0] * r["ms_per_iteration"]) if len(hit) else None
+    # Variants whose iterates coincide (same energy history to round-off), e.g. descent whose
+    # line search always accepts the full step: their curves overlap in the plot.
+    groups, seen = [], set()
+    names = [n for n, r in runs.items() if "energies" in r]
+    for i, a in enumerate(names):
+        if a in seen:
+            continue
+        g = [a]
+        for b in names[i + 1:]:
+            ea, eb = runs[a]["energies"], runs[b]["energies"]
+            if b not in seen and len(ea) == len(eb) and np.allclose(ea, eb, rtol=1e-13, atol=0):
+                g.append(b)
+                seen.add(b)
+        if len(g) > 1:
+            groups.append(g)
+    out["identical_iterates"] = groups
+    out["runs"] = runs
+    return out
+
+
+def plot(data, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scenes = list(data["scenes"])
+    cmap = plt.get_cmap("tab20")
+    fig, axes = plt.subplots(len(scenes), 3, figsize=(17, 5 * len(scenes)), squeeze=False)
+    for row, scene in enumerate(scenes):
+        sd = data["scenes"][scene]
+        for i, (name, r) in enumerate(sd["runs"].items()):
+            if "eta" not in r:
+                continue
+            col = cmap(i % 20)
+            eta = np.clip(np.asarray(r["eta"], float), 1e-12, None)
+            k = np.arange(len(eta))
+            ls = "--" if "descent" in name else (":" if "paper" in name else "-")
+            axes[row, 0].semilogy(k, eta, ls, label=name, color=col)
+            axes[row, 1].semilogy(k * r["ms_per_iteration"], eta, ls, label=name, color=col)
+            res = np.asarray(r["residuals"], float)
+            axes[row, 2].semilogy(np.arange(1, len(res) + 1), np.clip(res, 1e-16, None), ls, label=name, color=col)
+        axes[row, 0].set(xlabel="iteration k", ylabel="eta_k = (E_k - E*) / (E_0 - E*)",
+                         title=f"{scene}: relative energy error vs iterations")
+        axes[row, 1].set(xlabel="wall time (ms, median of repeats)", ylabel="eta_k",
+                         title=f"{scene}: relative energy error vs wall time")
+        axes[row, 2].set(xlabel="iteration k", ylabel="largest vertex move (m)",
+                         title=f"{scene}: residual (move per iteration)")
+        for ax in axes[row]:
+            ax.grid(True, which="both", alpha=0.3)
+        axes[row, 0].legend(fontsize=7)
+    a = data["args"]
+    fig.suptitle(f"peridyn convergence of one step: {a['n']}x{a['n']} cloth, h={a['dt_moderate']:g} s (moderate), "
+                 f"{a['dt_stiff']:g} s (stiff), "
+                 f"threads={a['threads']}, load {data['machine_start']['loadavg_1_5_15'][0]:.1f} "
+                 f"on {data['machine_start']['cpu_count']} CPUs", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    print(f"wrote {path}")
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--n", type=int, default=40, help="vertices per side (default 40)")
+    p.add_argument("--dt-moderate", type=float, default=1e-2, help="time step of the moderate scene (s)")
+    p.add_argument("--dt-stiff", type=float, default=1e-3, help="time step of the stiff scene (s); at 1e-2 "
+                   "plain SISSM does not converge in 3000 iterations on 40x40")
+    p.add_argument("--thickness", type=float, default=1e-3)
+    p.add_argument("--density", type=float, default=300.0)
+    p.add_argument("--preroll", type=int, default=20, help="pre-roll steps; the most stretched state "
+                   "after the first quarter of them is the benchmark step's start")
+    p.add_argument("--preroll-tol", type=float, default=1e-5)
+    p.add_argument("--preroll-max-iters", type=int, default=300)
+    p.add_argument("--iters", type=int, default=300, help="iterations per variant")
+    p.add_argument("--ref-iters", type=int, default=2000, help="iterations of the f64 reference (>= 500)")
+    p.add_argument("--repeats", type=int, default=5, help="timing repeats (median)")
+    p.add_argument("--threads", type=int, default=1)
+    p.add_argument("--rhos", default="0.9,0.95,0.99,0.999")
+    p.add_argument("--scenes", default="moderate,stiff")
+    p.add_argument("--out", default=None, help="JSON path (default benches/results/convergence.json)")
+    args = p.parse_args(argv)
+    if args.ref_iters < 500:
+        p.error("--ref-iters must be >= 500")
+
+    rec = C.Record("convergence", args)
+    rec.data["features"] = {"method": C.solver_supports(method="sissm"),
+                            "inner_iters": C.solver_supports(inner_iters=1)}
+    rec.data["scenes"] = {}
+    for scene in args.scenes.split(","):
+        rec.data["scenes"][scene] = run_scene(args, scene, rec)
+    path = rec.write(args.out)
+    plot(rec.data, path.with_suffix(".png"))
+    for scene, sd in rec.data["scenes"].items():
+        print(f"\n{scene}: E* from {sd['E_star_source']}")
+        print(f"  {'variant':30s} {'ms/it':>7s} {'eta_final':>10s} {'it->1e-2':>9s} {'ms->1e-2':>9s} {'it->1e-4':>9s}")
+        for n, r in sd["runs"].items():
+            if "eta" in r:
+                print(f"  {n:30s} {r['ms_per_iteration']:7.3f} {r['eta_final']:10.2e} "
+                      f"{str(r['iters_to_eta_0.01']):>9s} {('%.1f' % r['ms_to_eta_0.01']) if r['ms_to_eta_0.01'] is not None else 'None':>9s} "
+                      f"{str(r['iters_to_eta_0.0001']):>9s}")
+            else:
+                print(f"  {n:30s} {r.get('skipped') or r.get('failed')}")
+
+
+if __name__ == "__main__":
+    main()

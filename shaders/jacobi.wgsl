@@ -1,0 +1,113 @@
+// The SISSM Jacobi update of one vertex k (src/solve/sissm.rs, Lu et al. 2023 eq. 25 in
+// residual form with the step length of eq. 31-33):
+//
+//   f_k = sum_j (t_kj - t_jk)                        gathered via reverse[] (N), no atomics
+//   r   = m (y* - y) + h^2 f                         (kg m)
+//   D   = m I + h^2 (n_k C_k + sum_j C_j)            (kg)
+//   delta = D^-1 r, scaled by alpha = E h^2 / (h^2 f . delta) where the linearised elastic
+//           energy E = E_k + sum_j E_j would drop below zero and the release is significant
+//   y_next = keep_out(y + delta) in the D-metric, then Chebyshev:
+//            y_next = omega (y_next - y_prev) + y_prev
+//
+// and measure.residual = |r without contact reactions| / m (m).
+
+// See jacobi_step in src/solve/sissm.rs.
+const STEP_LENGTH_SIGNIFICANCE: real = 0.1;
+
+// D^-1 by cofactors; 1/m I if D is singular.
+fn inverse_or(d: mat3x3<real>, mass: real) -> mat3x3<real> {
+    let c0 = cross(d[1], d[2]);
+    let c1 = cross(d[2], d[0]);
+    let c2 = cross(d[0], d[1]);
+    let det = dot(d[0], c0);
+    if det == 0.0 {
+        return mat3x3<real>(vec3<real>(1.0 / mass, 0.0, 0.0), vec3<real>(0.0, 1.0 / mass, 0.0), vec3<real>(0.0, 0.0, 1.0 / mass));
+    }
+    // Rows of the inverse are the cofactor columns over det; transpose into column form.
+    return transpose(mat3x3<real>(c0, c1, c2)) * (1.0 / det);
+}
+
+// Keeps a move out of the colliders along D^-1 n (frictionless contact in the D-metric).
+fn keep_out(start: vec3<real>, inverse: mat3x3<real>, margin: real) -> vec3<real> {
+    var x = start;
+    for (var c = 0u; c < params.n_colliders; c++) {
+        let k = colliders[c];
+        let gap = collider_distance(k, x) - margin;
+        if gap < 0.0 {
+            let n = collider_normal(k, x);
+            let along = inverse * n;
+            let reach = dot(n, along);
+            if reach > 0.0 {
+                x -= along * (gap / reach);
+            }
+        }
+    }
+    return x;
+}
+
+// The residual without the push of a collider the vertex touches.
+fn without_contact_reaction(start: vec3<real>, x: vec3<real>, margin: real) -> vec3<real> {
+    var r = start;
+    let slack = max(1e-6, margin * 1e-3);
+    for (var c = 0u; c < params.n_colliders; c++) {
+        let k = colliders[c];
+        if collider_distance(k, x) <= margin + slack {
+            let n = collider_normal(k, x);
+            let push = dot(r, n);
+            if push < 0.0 {
+                r -= n * push;
+            }
+        }
+    }
+    return r;
+}
+
+@compute @workgroup_size(64)
+fn jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if k >= params.n || !live() {
+        return;
+    }
+    let yk = y[k].xyz;
+    if pinned[k] != 0u {
+        y_next[k] = vec4<real>(yk, 0.0);
+        measure[k].residual = 0.0;
+        return;
+    }
+    let c = vertices[k];
+    let mass = c.mass;
+    let h2 = params.h * params.h;
+    var force = vec3<real>(0.0);
+    let first = offsets[k];
+    let last = offsets[k + 1u];
+    for (var b = first; b < last; b++) {
+        force += bond_grad[b].xyz - bond_grad[reverse[b]].xyz;
+    }
+    let residual = (y_star[k].xyz - yk) * mass + force * h2;
+    var stiffness = precond_of(k) * real(last - first);
+    var energy = response[k].energy;
+    for (var b = first; b < last; b++) {
+        let j = indices[b];
+        stiffness += precond_of(j);
+        energy += response[j].energy;
+    }
+    let system = mat3x3<real>(vec3<real>(mass, 0.0, 0.0), vec3<real>(0.0, mass, 0.0), vec3<real>(0.0, 0.0, mass)) + stiffness * h2;
+    let inverse = inverse_or(system, mass);
+    var delta = inverse * residual;
+    if params.step_length != 0u {
+        let energy_h2 = energy * h2;
+        let descent = dot(force * h2, delta);
+        let significant = descent > STEP_LENGTH_SIGNIFICANCE * mass * dot(delta, delta);
+        if descent > energy_h2 && significant {
+            delta *= max(energy_h2, 0.0) / descent;
+        }
+    }
+    var next = keep_out(yk + delta, inverse, c.half_thickness);
+    if iter.extrapolate != 0u {
+        let prev = y_prev[k].xyz;
+        next = (next - prev) * iter.omega + prev;
+    }
+    y_next[k] = vec4<real>(next, 0.0);
+    let free = without_contact_reaction(residual, yk, c.half_thickness);
+    measure[k].residual = length(free) / mass;
+}

@@ -1,0 +1,13 @@
+// The scalar type of the f32 kernels, and the functions whose f64 form needs care.
+
+alias real = f32;
+const REAL_MAX: real = 3.40282347e38;
+
+// ln(1 + u) without cancellation for small u.
+fn ln_1p(u: real) -> real {
+    let w = 1.0 + u;
+    if w == 1.0 {
+        return u;
+    }
+    return log(w) * u / (w - 1.0);
+}

@@ -1,0 +1,772 @@
+//! The SISSM time step on the GPU: the algorithm of [`crate::solve::Solver`] (f32 or f64), with the
+//! rest data, the iterates and the per-bond scratch resident on the device.
+//!
+//! Per step the host uploads whatever of the bodies' positions, velocities and pins Python
+//! changed since the last step (nothing, usually), records every iteration's commands,
+//! and reads back the small control header every [`CHECK_EVERY`] iterations: the convergence
+//! test (`max_i |r_i| / m_i < tol`) and the divergence test run on the device, which sets a
+//! stopping point that turns every later command of the step into a no-op. The iterations are
+//! thus exactly those of the CPU solver, and the device never waits for the host inside a
+//! batch. At the end of the step the positions, velocities and the per-iteration history are
+//! read back once.
+
+use std::time::Instant;
+
+use crate::contact::{Collider, Shape};
+use crate::error::{invalid, Error, Result};
+use crate::membrane::{Membrane, Preconditioner};
+use crate::solve::system::System;
+use crate::solve::{Acceleration, Method, SolverParams, StepStats, Timings};
+
+use super::device::GpuContext;
+use super::layout::{self, GpuReal, IterValues, ParamValues};
+use super::pipelines::{Pipelines, BINDINGS, REDUCE_GROUP, VERTEX_GROUP};
+
+/// Iterations recorded between two reads of the control header.
+pub const CHECK_EVERY: usize = 8;
+
+/// `Iter` records: the two candidates of the initial guess, the energy after the loop, then
+/// one per iteration.
+const RECORD_PREVIOUS: usize = 0;
+const RECORD_PREDICTION: usize = 1;
+const RECORD_FINAL: usize = 2;
+const RECORD_FIRST_ITERATION: usize = 3;
+
+/// Steps a set of membranes in time on the GPU, in `T` (f32 on every adapter, f64 where
+/// the adapter has SHADER_F64).
+///
+/// [`StepStats::timings`] are host wall-clock times: `predict` the upload, `global` the
+/// initial guess and the iterations (colliders included; `colliders` stays 0), `finish` the
+/// velocity update and the read-back.
+pub struct GpuSolver<T: GpuReal> {
+    params: SolverParams,
+    colliders: Vec<Collider>,
+    ctx: GpuContext,
+    pipelines: Pipelines,
+    state: Option<State<T>>,
+    time: f64,
+    steps: u64,
+}
+
+/// The device-resident working set of one list of bodies.
+struct State<T: GpuReal> {
+    system: System<T>,
+    n: u32,
+    bonds: u64,
+    iter_capacity: usize,
+    collider_capacity: usize,
+    /// The parameters the `Iter` records were written for.
+    records_for: Option<SolverParams>,
+    /// Whether the device's y_t, v, pinned targets and pin flags equal the host system's
+    /// (true after a read-back): then only what the bodies changed is uploaded.
+    synced: bool,
+    buffers: Buffers,
+    bind_group: wgpu::BindGroup,
+}
+
+struct Buffers {
+    params: wgpu::Buffer,
+    iters: wgpu::Buffer,
+    colliders: wgpu::Buffer,
+    pinned: wgpu::Buffer,
+    y_start: wgpu::Buffer,
+    velocity: wgpu::Buffer,
+    y_star: wgpu::Buffer,
+    ctrl: wgpu::Buffer,
+    /// MAP_READ copies: the control header, and (positions, velocities, history) at the end.
+    header_readback: wgpu::Buffer,
+    state_readback: wgpu::Buffer,
+}
+
+fn millis(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+fn groups(count: u32, size: u32) -> u32 {
+    count.div_ceil(size).max(1)
+}
+
+impl<T: GpuReal> GpuSolver<T> {
+    /// A solver on the adapter [`super::gpu_info`] describes; fails with [`Error::Gpu`] when
+    /// there is none (or it lacks f64 for `T = f64`), and builds every pipeline now, so a
+    /// broken driver fails here.
+    pub fn new(params: SolverParams) -> Result<Self> {
+        Self::check_supported(&params)?;
+        let ctx = GpuContext::new(T::FEATURES)?;
+        let pipelines = Pipelines::new::<T>(&ctx);
+        ctx.wait()?;
+        ctx.check()?;
+        Ok(Self {
+            params,
+            colliders: Vec::new(),
+            ctx,
+            pipelines,
+            state: None,
+            time: 0.0,
+            steps: 0,
+        })
+    }
+
+    pub fn params(&self) -> &SolverParams {
+        &self.params
+    }
+
+    /// Validates parameters and refuses what the GPU kernels do not implement (yet): contact,
+    /// the descent baseline and inner Jacobi sweeps.
+    fn check_supported(params: &SolverParams) -> Result<()> {
+        params.validate()?;
+        if params.contact.is_some() {
+            return Err(invalid!("the GPU backend has no contact between membranes yet; use backend='cpu' for contact"));
+        }
+        if params.method != Method::Sissm || params.inner_iters != 1 {
+            return Err(invalid!(
+                "the GPU backend runs method='sissm' with inner_iters=1; got method={:?}, inner_iters={}",
+                params.method,
+                params.inner_iters
+            ));
+        }
+        Ok(())
+    }
+
+    /// Replaces the parameters (validated).
+    pub fn set_params(&mut self, params: SolverParams) -> Result<()> {
+        Self::check_supported(&params)?;
+        self.params = params;
+        Ok(())
+    }
+
+    /// Adds a collider: on the GPU, a static frictionless plane or sphere.
+    pub fn add_collider(&mut self, collider: Collider) -> Result<()> {
+        let analytic = matches!(collider.shape, Shape::Plane { .. } | Shape::Sphere { .. });
+        if !analytic || collider.friction != 0.0 || collider.velocity != nalgebra::Vector3::zeros()
+        {
+            return Err(invalid!(
+                "the GPU backend supports static frictionless Plane and Sphere colliders only; got {:?}",
+                collider
+            ));
+        }
+        self.colliders.push(collider);
+        Ok(())
+    }
+
+    pub fn colliders(&self) -> &[Collider] {
+        &self.colliders
+    }
+
+    /// Simulation time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Steps taken so far.
+    pub fn steps_taken(&self) -> u64 {
+        self.steps
+    }
+
+    /// Sets the clock (restoring a saved simulation): time in s (finite) and steps taken.
+    pub fn set_clock(&mut self, time: f64, steps: u64) -> Result<()> {
+        crate::error::check_param("time", time, |_| true, "finite")?;
+        self.time = time;
+        self.steps = steps;
+        Ok(())
+    }
+
+    /// Bytes the kernels of one global iteration load and store for the bodies of the last
+    /// step (None before the first step), counting every load a kernel issues (a cache may
+    /// serve repeats). In f32, with `n` vertices and `b` bonds,
+    ///
+    /// - vertex kernel: per vertex 144 (position, rest constants, offsets, response), per bond
+    ///   100 without and 248 with bending/hourglass (neighbour position and bond rest data
+    ///   read in every pass, the gradient written, re-read and updated);
+    /// - Jacobi update: per vertex 176 (+16 with Chebyshev), per bond 72 (both gradients of
+    ///   the bond, the reverse index, the neighbour's response);
+    /// - colliders, the convergence measure and the commit: per vertex 64 + 16 + 32 (+32 with
+    ///   Chebyshev); with `record_energy` another 68.
+    ///
+    /// f64 doubles the count (index loads, a few percent of it, are counted twice too).
+    pub fn bytes_per_iteration(&self) -> Option<u64> {
+        let state = self.state.as_ref()?;
+        let (n, b) = (state.n as u64, state.bonds);
+        let non_affine = state
+            .system
+            .rest
+            .vertices
+            .iter()
+            .any(|c| c.kappa_t > T::zero() || c.kappa_n > T::zero());
+        let accelerated = self.params.acceleration != Acceleration::None;
+        let kernel = 144 * n + if non_affine { 248 } else { 100 } * b;
+        let jacobi = (176 + if accelerated { 16 } else { 0 }) * n + 72 * b;
+        let rest = (64 + 16 + 32 + if accelerated { 32 } else { 0 }) * n;
+        let energy = if self.params.record_energy { 68 * n } else { 0 };
+        let scale = std::mem::size_of::<T>() as u64 / 4;
+        Some((kernel + jacobi + rest + energy) * scale)
+    }
+
+    /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
+    /// [`Error::Diverged`] names the first non-finite vertex.
+    pub fn step(&mut self, bodies: &mut [&mut Membrane]) -> Result<StepStats> {
+        let started = Instant::now();
+        let params = self.params;
+        let records = params.max_iters + RECORD_FIRST_ITERATION;
+        let rebuild = match &self.state {
+            None => true,
+            Some(s) => {
+                !s.system.matches(bodies)
+                    || s.iter_capacity < records
+                    || s.collider_capacity < self.colliders.len().max(1)
+            }
+        };
+        if rebuild {
+            self.state = None;
+            self.state = Some(State::build(
+                &self.ctx,
+                &self.pipelines,
+                bodies,
+                records,
+                self.colliders.len().max(1),
+            )?);
+        }
+        let state = self.state.as_mut().expect("built above");
+        state.upload(&self.ctx, bodies, &params, &self.colliders);
+        let mut timings = Timings {
+            predict: millis(started),
+            ..Timings::default()
+        };
+        let mut stats = StepStats {
+            step: self.steps,
+            ..StepStats::default()
+        };
+
+        let t = Instant::now();
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = state.pass(&mut encoder, &self.pipelines);
+            pass.initial_guess();
+        }
+        let mut iterations = 0;
+        let mut limit = u32::MAX;
+        while iterations < params.max_iters && limit == u32::MAX {
+            let batch = CHECK_EVERY.min(params.max_iters - iterations);
+            {
+                let mut pass = state.pass(&mut encoder, &self.pipelines);
+                for k in iterations..iterations + batch {
+                    pass.iteration(k, params.record_energy);
+                }
+            }
+            iterations += batch;
+            let header = state.read_header(&self.ctx, encoder)?;
+            limit = header[0];
+            if limit != u32::MAX && header[1] != u32::MAX {
+                let (body, vertex) = state.system.locate(header[1] as usize);
+                return Err(Error::Diverged {
+                    step: self.steps,
+                    iteration: header[2] as usize,
+                    body,
+                    vertex,
+                });
+            }
+            encoder = self.ctx.device.create_command_encoder(&Default::default());
+        }
+        if limit != u32::MAX {
+            iterations = limit as usize;
+            stats.converged = true;
+        }
+        stats.iterations = iterations;
+        timings.global = millis(t);
+
+        let t = Instant::now();
+        if params.record_energy {
+            state.write_record(
+                &self.ctx,
+                RECORD_FINAL,
+                &IterValues {
+                    slot: 1 + iterations as u32,
+                    lane: 2,
+                    ..IterValues::default()
+                },
+            );
+        }
+        {
+            let mut pass = state.pass(&mut encoder, &self.pipelines);
+            if params.record_energy {
+                pass.energy(RECORD_FINAL, true);
+            }
+            pass.finish();
+        }
+        // y_t and v change on the device now; the host has them again after the read-back.
+        state.synced = false;
+        let history = state.read_back(&self.ctx, encoder, params.max_iters)?;
+        for k in 0..iterations {
+            let [moved, residual, _, _] = history[1 + k];
+            stats.residuals.push(moved.to_f64());
+            stats.residual = moved.to_f64();
+            stats.error_estimate = residual.to_f64();
+        }
+        if params.record_energy {
+            let [previous, prediction, _, _] = history[0];
+            stats.energies.push(if previous < prediction {
+                previous.to_f64()
+            } else {
+                prediction.to_f64()
+            });
+            stats
+                .energies
+                .extend((1..=iterations).map(|k| history[1 + k][2].to_f64()));
+        }
+        state.system.store(bodies);
+        timings.finish = millis(t);
+        self.time += params.dt;
+        self.steps += 1;
+        timings.total = millis(started);
+        stats.time = self.time;
+        stats.timings = timings;
+        Ok(stats)
+    }
+}
+
+impl<T: GpuReal> State<T> {
+    fn build(
+        ctx: &GpuContext,
+        pipelines: &Pipelines,
+        bodies: &[&mut Membrane],
+        iter_capacity: usize,
+        collider_capacity: usize,
+    ) -> Result<Self> {
+        let system = System::<T>::build(bodies);
+        let n = system.y.len();
+        let bonds = system.nb.indices.len();
+        if n == 0 {
+            return Err(invalid!("the bodies have no vertices"));
+        }
+        let device = &ctx.device;
+        let limits = &ctx.limits;
+        let too_big = |what: &str, bytes: u64| {
+            Error::Gpu(format!(
+                "{what} needs {bytes} bytes, more than the adapter {:?} binds ({} bytes per storage buffer)",
+                ctx.info.name, limits.max_storage_buffer_binding_size
+            ))
+        };
+        let vertex_groups = groups(n as u32, VERTEX_GROUP);
+        if vertex_groups > limits.max_compute_workgroups_per_dimension {
+            return Err(Error::Gpu(format!(
+                "{n} vertices need {vertex_groups} workgroups, more than the adapter's {}",
+                limits.max_compute_workgroups_per_dimension
+            )));
+        }
+        let storage =
+            |label: &str, bytes: u64, extra: wgpu::BufferUsages| -> Result<wgpu::Buffer> {
+                let bytes = bytes.max(16);
+                if bytes > limits.max_storage_buffer_binding_size {
+                    return Err(too_big(label, bytes));
+                }
+                Ok(device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: bytes,
+                    usage: wgpu::BufferUsages::STORAGE | extra,
+                    mapped_at_creation: false,
+                }))
+            };
+        let init = |label: &str, contents: &[u8]| -> Result<wgpu::Buffer> {
+            let buffer = storage(label, contents.len() as u64, wgpu::BufferUsages::COPY_DST)?;
+            ctx.queue.write_buffer(&buffer, 0, contents);
+            Ok(buffer)
+        };
+        let copy = wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
+        let vec_bytes = n as u64 * T::VEC_BYTES;
+        let rest = &system.rest;
+        let vertices: Vec<T::Vertex> = rest
+            .frames
+            .iter()
+            .zip(&rest.vertices)
+            .map(|(f, c)| T::vertex(f, c))
+            .collect();
+        let bond_data: Vec<T::Bond> = rest.bonds.iter().map(T::bond).collect();
+        let history_bytes = (iter_capacity as u64) * T::VEC_BYTES;
+        let ctrl_bytes = T::CONTROL_HEADER_BYTES + history_bytes;
+        let uniform = |label: &str, bytes: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let readback = |label: &str, bytes: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let buffers = Buffers {
+            params: uniform("params", std::mem::size_of::<T::Params>() as u64),
+            iters: uniform("iters", iter_capacity as u64 * layout::ITER_STRIDE),
+            colliders: storage(
+                "colliders",
+                (collider_capacity * std::mem::size_of::<T::Collider>()) as u64,
+                wgpu::BufferUsages::COPY_DST,
+            )?,
+            pinned: storage("pinned", n as u64 * 4, wgpu::BufferUsages::COPY_DST)?,
+            y_start: storage("y_start", vec_bytes, copy)?,
+            velocity: storage("velocity", vec_bytes, copy)?,
+            y_star: storage("y_star", vec_bytes, copy)?,
+            ctrl: storage("ctrl", ctrl_bytes, copy)?,
+            header_readback: readback("header readback", T::CONTROL_HEADER_BYTES),
+            state_readback: readback("state readback", 2 * vec_bytes + history_bytes),
+        };
+        let owned = [
+            init("vertices", bytemuck::cast_slice(&vertices))?,
+            init("bonds", bytemuck::cast_slice(&bond_data))?,
+            init("offsets", bytemuck::cast_slice(&system.nb.offsets))?,
+            init("indices", bytemuck::cast_slice(&system.nb.indices))?,
+            init("reverse", bytemuck::cast_slice(&system.nb.reverse))?,
+            storage("y", vec_bytes, wgpu::BufferUsages::empty())?,
+            storage("y_next", vec_bytes, wgpu::BufferUsages::empty())?,
+            storage("y_prev", vec_bytes, wgpu::BufferUsages::empty())?,
+            storage(
+                "bond_grad",
+                bonds as u64 * T::VEC_BYTES,
+                wgpu::BufferUsages::empty(),
+            )?,
+            storage(
+                "response",
+                n as u64 * T::RESPONSE_BYTES,
+                wgpu::BufferUsages::empty(),
+            )?,
+            storage(
+                "measure",
+                n as u64 * T::MEASURE_BYTES,
+                wgpu::BufferUsages::empty(),
+            )?,
+            storage(
+                "partials",
+                groups(n as u32, REDUCE_GROUP) as u64 * T::PARTIAL_BYTES,
+                wgpu::BufferUsages::empty(),
+            )?,
+        ];
+        let [vertices, bond_buf, offsets, indices, reverse, y, y_next, y_prev, bond_grad, response, measure, partials] =
+            &owned;
+        let b = &buffers;
+        let by_binding: [&wgpu::Buffer; BINDINGS as usize] = [
+            &b.params,
+            &b.iters,
+            vertices,
+            bond_buf,
+            offsets,
+            indices,
+            reverse,
+            &b.colliders,
+            &b.pinned,
+            &b.y_start,
+            &b.velocity,
+            &b.y_star,
+            y,
+            y_next,
+            y_prev,
+            bond_grad,
+            response,
+            measure,
+            partials,
+            &b.ctrl,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = by_binding
+            .iter()
+            .enumerate()
+            .map(|(k, buffer)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: if k == 1 {
+                    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(std::mem::size_of::<T::Iter>() as u64),
+                    })
+                } else {
+                    buffer.as_entire_binding()
+                },
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("peridyn state"),
+            layout: &pipelines.layout,
+            entries: &entries,
+        });
+        ctx.check()?;
+        Ok(Self {
+            n: n as u32,
+            bonds: bonds as u64,
+            system,
+            iter_capacity,
+            collider_capacity,
+            records_for: None,
+            synced: false,
+            buffers,
+            bind_group,
+        })
+    }
+
+    /// Loads the bodies' state and pins and uploads what differs from the device's copy
+    /// (nothing when Python left the bodies alone since the last step), then writes the
+    /// parameters, colliders, per-iteration records (when the parameters changed) and a fresh
+    /// control header.
+    fn upload(
+        &mut self,
+        ctx: &GpuContext,
+        bodies: &[&mut Membrane],
+        params: &SolverParams,
+        colliders: &[Collider],
+    ) {
+        let q = &ctx.queue;
+        let sys = &mut self.system;
+        // `load` writes y_star only at pinned vertices (their targets); elsewhere the device
+        // computes it, so comparing the whole host arrays compares exactly what is uploaded.
+        let device = self.synced.then(|| {
+            (
+                sys.y_start.clone(),
+                sys.velocity.clone(),
+                sys.y_star.clone(),
+                sys.pinned.clone(),
+            )
+        });
+        sys.load(bodies);
+        let (same_y, same_v, same_star, same_pins) = match &device {
+            Some((y, v, star, pins)) => (
+                *y == sys.y_start,
+                *v == sys.velocity,
+                *star == sys.y_star,
+                *pins == sys.pinned,
+            ),
+            None => (false, false, false, false),
+        };
+        let as_vec4 = |v: &[nalgebra::Vector3<T>]| v.iter().map(layout::vec4).collect::<Vec<_>>();
+        for (same, buffer, host) in [
+            (same_y, &self.buffers.y_start, &sys.y_start),
+            (same_v, &self.buffers.velocity, &sys.velocity),
+            // a vertex pinned anew needs its target even if the host's stale entry matches
+            (same_star && same_pins, &self.buffers.y_star, &sys.y_star),
+        ] {
+            if !same {
+                q.write_buffer(buffer, 0, bytemuck::cast_slice(&as_vec4(host)));
+            }
+        }
+        if !same_pins {
+            let pinned: Vec<u32> = sys.pinned.iter().map(|&p| p as u32).collect();
+            q.write_buffer(&self.buffers.pinned, 0, bytemuck::cast_slice(&pinned));
+        }
+        self.synced = true;
+        let gpu_colliders: Vec<T::Collider> = colliders.iter().map(T::collider).collect();
+        if !gpu_colliders.is_empty() {
+            q.write_buffer(
+                &self.buffers.colliders,
+                0,
+                bytemuck::cast_slice(&gpu_colliders),
+            );
+        }
+        let gpu_params = T::params(&ParamValues {
+            gravity: params.gravity,
+            h: params.dt,
+            n: self.n,
+            n_colliders: colliders.len() as u32,
+            step_length: params.step_length as u32,
+            preconditioner: match params.preconditioner {
+                Preconditioner::Tangent => 0,
+                Preconditioner::Paper => 1,
+            },
+            tol: params.tol,
+            groups: groups(self.n, REDUCE_GROUP),
+            accelerated: (params.acceleration != Acceleration::None) as u32,
+        });
+        q.write_buffer(&self.buffers.params, 0, bytemuck::bytes_of(&gpu_params));
+        q.write_buffer(
+            &self.buffers.ctrl,
+            0,
+            bytemuck::cast_slice(&[u32::MAX, u32::MAX, u32::MAX, 0]),
+        );
+        if self.records_for != Some(*params) {
+            let mut records = vec![IterValues::default(); self.iter_capacity];
+            records[RECORD_PREDICTION].lane = 1;
+            let mut omega = 1.0;
+            for k in 0..params.max_iters {
+                let extrapolation = params.acceleration.omega(k, omega);
+                omega = extrapolation.unwrap_or(1.0);
+                records[RECORD_FIRST_ITERATION + k] = IterValues {
+                    iteration: k as u32,
+                    slot: 1 + k as u32,
+                    lane: 2,
+                    extrapolate: extrapolation.is_some() as u32,
+                    omega,
+                };
+            }
+            let mut bytes = vec![0u8; self.iter_capacity * layout::ITER_STRIDE as usize];
+            for (k, r) in records.iter().enumerate() {
+                let at = k * layout::ITER_STRIDE as usize;
+                let record = T::iter(r);
+                bytes[at..at + std::mem::size_of::<T::Iter>()]
+                    .copy_from_slice(bytemuck::bytes_of(&record));
+            }
+            q.write_buffer(&self.buffers.iters, 0, &bytes);
+            self.records_for = Some(*params);
+        }
+    }
+
+    fn write_record(&self, ctx: &GpuContext, index: usize, record: &IterValues) {
+        ctx.queue.write_buffer(
+            &self.buffers.iters,
+            index as u64 * layout::ITER_STRIDE,
+            bytemuck::bytes_of(&T::iter(record)),
+        );
+    }
+
+    fn pass<'a>(
+        &'a self,
+        encoder: &'a mut wgpu::CommandEncoder,
+        pipelines: &'a Pipelines,
+    ) -> Pass<'a> {
+        Pass {
+            pass: encoder.begin_compute_pass(&Default::default()),
+            pipelines,
+            bind_group: &self.bind_group,
+            vertex_groups: groups(self.n, VERTEX_GROUP),
+            reduce_groups: groups(self.n, REDUCE_GROUP),
+        }
+    }
+
+    /// Submits `encoder` after a copy of the control header, and returns the header
+    /// `(limit, bad_vertex, bad_iteration)`.
+    fn read_header(&self, ctx: &GpuContext, mut encoder: wgpu::CommandEncoder) -> Result<[u32; 3]> {
+        let b = &self.buffers;
+        encoder.copy_buffer_to_buffer(&b.ctrl, 0, &b.header_readback, 0, T::CONTROL_HEADER_BYTES);
+        ctx.queue.submit([encoder.finish()]);
+        let bytes = map_read(ctx, &b.header_readback)?;
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes);
+        Ok([words[0], words[1], words[2]])
+    }
+
+    /// Submits `encoder` after copies of the new positions, velocities and the history, stores
+    /// the first two in the host system and returns the history `[0, max_iters + 2)`.
+    fn read_back(
+        &mut self,
+        ctx: &GpuContext,
+        mut encoder: wgpu::CommandEncoder,
+        max_iters: usize,
+    ) -> Result<Vec<[T; 4]>> {
+        let b = &self.buffers;
+        let vec_bytes = self.n as u64 * T::VEC_BYTES;
+        let history_bytes = (max_iters as u64 + 2) * T::VEC_BYTES;
+        encoder.copy_buffer_to_buffer(&b.y_start, 0, &b.state_readback, 0, vec_bytes);
+        encoder.copy_buffer_to_buffer(&b.velocity, 0, &b.state_readback, vec_bytes, vec_bytes);
+        encoder.copy_buffer_to_buffer(
+            &b.ctrl,
+            T::CONTROL_HEADER_BYTES,
+            &b.state_readback,
+            2 * vec_bytes,
+            history_bytes,
+        );
+        ctx.queue.submit([encoder.finish()]);
+        let bytes = map_read(ctx, &b.state_readback)?;
+        let all: Vec<[T; 4]> = bytemuck::pod_collect_to_vec(&bytes);
+        let n = self.n as usize;
+        for (dst, src) in self.system.y_start.iter_mut().zip(&all[..n]) {
+            *dst = nalgebra::Vector3::new(src[0], src[1], src[2]);
+        }
+        for (dst, src) in self.system.velocity.iter_mut().zip(&all[n..2 * n]) {
+            *dst = nalgebra::Vector3::new(src[0], src[1], src[2]);
+        }
+        self.synced = true;
+        Ok(all[2 * n..2 * n + max_iters + 2].to_vec())
+    }
+}
+
+/// Maps `buffer` for reading once the queue has finished, and copies it out.
+fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8>> {
+    let outcome = std::sync::Arc::new(std::sync::Mutex::new(None));
+    let sink = outcome.clone();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        if let Ok(mut slot) = sink.lock() {
+            *slot = Some(r);
+        }
+    });
+    ctx.wait()?;
+    ctx.check()?;
+    let mapped = outcome.lock().unwrap_or_else(|p| p.into_inner()).take();
+    match mapped {
+        Some(Ok(())) => {}
+        Some(Err(e)) => return Err(Error::Gpu(format!("cannot read GPU results back: {e}"))),
+        None => return Err(Error::Gpu("GPU read-back did not complete".into())),
+    }
+    let bytes = buffer
+        .get_mapped_range(..)
+        .map_err(|e| Error::Gpu(format!("cannot read GPU results back: {e}")))?
+        .to_vec();
+    buffer.unmap();
+    Ok(bytes)
+}
+
+/// A compute pass recording the kernels of a step.
+struct Pass<'a> {
+    pass: wgpu::ComputePass<'a>,
+    pipelines: &'a Pipelines,
+    bind_group: &'a wgpu::BindGroup,
+    vertex_groups: u32,
+    reduce_groups: u32,
+}
+
+impl Pass<'_> {
+    fn run(&mut self, pipeline: &wgpu::ComputePipeline, record: usize, groups: u32) {
+        self.pass.set_pipeline(pipeline);
+        let offset = (record as u64 * layout::ITER_STRIDE) as u32;
+        self.pass.set_bind_group(0, self.bind_group, &[offset]);
+        self.pass.dispatch_workgroups(groups, 1, 1);
+    }
+
+    fn per_vertex(&mut self, pipeline: fn(&Pipelines) -> &wgpu::ComputePipeline, record: usize) {
+        let p = pipeline(self.pipelines);
+        self.run(p, record, self.vertex_groups);
+    }
+
+    /// The variational energy of `y` into the history slot of `record` (after the kernel
+    /// when `evaluate`).
+    fn energy(&mut self, record: usize, evaluate: bool) {
+        if evaluate {
+            self.per_vertex(|p| &p.evaluate, record);
+        }
+        let p = self.pipelines;
+        self.run(&p.reduce_energy, record, self.reduce_groups);
+        self.run(&p.finish_energy, record, 1);
+    }
+
+    /// `y* = y_t + h v + h^2 g`, then the lower-energy of `y_t` and `y*` as first iterate,
+    /// evaluated.
+    fn initial_guess(&mut self) {
+        self.per_vertex(|p| &p.predict, RECORD_PREVIOUS);
+        self.per_vertex(|p| &p.use_previous, RECORD_PREVIOUS);
+        self.energy(RECORD_PREVIOUS, true);
+        self.per_vertex(|p| &p.use_prediction, RECORD_PREDICTION);
+        self.energy(RECORD_PREDICTION, true);
+        self.per_vertex(|p| &p.choose_initial, RECORD_PREDICTION);
+        self.per_vertex(|p| &p.evaluate, RECORD_PREDICTION);
+    }
+
+    /// Global iteration `k`: kernel (k > 0), energy, Jacobi update, colliders, convergence
+    /// measure, commit.
+    fn iteration(&mut self, k: usize, record_energy: bool) {
+        let record = RECORD_FIRST_ITERATION + k;
+        if k > 0 {
+            self.per_vertex(|p| &p.evaluate, record);
+            if record_energy {
+                self.energy(record, false);
+            }
+        }
+        self.per_vertex(|p| &p.jacobi, record);
+        self.per_vertex(|p| &p.project, record);
+        let p = self.pipelines;
+        self.run(&p.reduce_measure, record, self.reduce_groups);
+        self.run(&p.finish_measure, record, 1);
+        self.per_vertex(|p| &p.commit, record);
+    }
+
+    /// `v = (y - y_t) / h`, `y_t <- y`.
+    fn finish(&mut self) {
+        self.per_vertex(|p| &p.finish, RECORD_PREVIOUS);
+    }
+}

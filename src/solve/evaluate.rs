@@ -1,0 +1,79 @@
+//! Evaluating an iterate: the vertex kernel at every vertex, and the variational energy.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use crate::membrane::{vertex_kernel, Preconditioner};
+use crate::parallel::for_each_vertex;
+use crate::real::Real;
+
+use super::system::System;
+
+/// The vertex kernel at every vertex of the current iterate `y`: per-bond gradients and
+/// per-vertex responses (energy, preconditioner block).
+pub(super) fn evaluate<T: Real>(sys: &mut System<T>, mode: Preconditioner) {
+    let (nb, rest, y) = (&sys.nb, &sys.rest, &sys.y);
+    for_each_vertex(
+        &nb.offsets,
+        &mut sys.bond_grad,
+        &mut sys.response,
+        &|i, grads: &mut [Vector3<T>]| vertex_kernel(y[i], y, &rest.stencil(nb, i), mode, grads),
+    );
+}
+
+/// Vertices per partial sum of the energy reductions: fixed, so that the sums do not depend
+/// on the number of threads.
+const ENERGY_CHUNK: usize = 4096;
+
+/// `sum_i term(i)` for `i < n`, summed in fixed chunks (the same for any thread count) whose
+/// partial sums go to the reused `scratch`.
+fn chunked_sum(n: usize, scratch: &mut Vec<f64>, term: impl Fn(usize) -> f64 + Sync) -> f64 {
+    (0..n.div_ceil(ENERGY_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            (c * ENERGY_CHUNK..((c + 1) * ENERGY_CHUNK).min(n))
+                .map(&term)
+                .sum::<f64>()
+        })
+        .collect_into_vec(scratch);
+    scratch.iter().sum()
+}
+
+/// `sum_i m_i |x_i - y*_i|^2 / (2 h^2)` (J) over free vertices, for `x` = `y_start` when
+/// `at_start`, else `y`.
+pub(super) fn inertial_energy<T: Real>(sys: &mut System<T>, h: T, at_start: bool) -> f64 {
+    let inv_2h2 = 0.5 / (h.to_f64() * h.to_f64());
+    let System {
+        y,
+        y_start,
+        y_star,
+        pinned,
+        rest,
+        energy_chunks,
+        ..
+    } = sys;
+    let x = if at_start { &*y_start } else { &*y };
+    chunked_sum(x.len(), energy_chunks, |i| {
+        if pinned[i] {
+            0.0
+        } else {
+            (x[i] - y_star[i]).norm_squared().to_f64() * rest.vertices[i].mass.to_f64() * inv_2h2
+        }
+    })
+}
+
+/// `E(y) = sum_i m_i |y_i - y*_i|^2 / (2 h^2) + sum_i E_i(y)` (eq. 2 without the barrier, J), from
+/// the responses of the last [`evaluate`].
+pub(super) fn total_energy<T: Real>(sys: &mut System<T>, h: T) -> f64 {
+    let elastic = {
+        let System {
+            response,
+            energy_chunks,
+            ..
+        } = &mut *sys;
+        chunked_sum(response.len(), energy_chunks, |i| {
+            response[i].energy().to_f64()
+        })
+    };
+    inertial_energy(sys, h, false) + elastic
+}

@@ -1,0 +1,276 @@
+"""The GPU backend (``Solver(backend="gpu")``, wgpu compute shaders) against the CPU backend in
+the same precision (f32, and f64 where the adapter has SHADER_F64, as lavapipe does), and
+validation cases rerun on the GPU.
+
+Without a GPU adapter these tests skip, saying why; ``PERIDYN_REQUIRE_GPU=1`` (set in CI, which
+installs Mesa's lavapipe) turns the skip into a failure.
+
+Parity tolerance: the GPU evaluates the same arithmetic in a different order (fused
+multiply-adds, its own sin/cos/atan2/log; in f64 a half-angle SVD and a series logarithm), so
+single iterates differ by a few ulps and the iteration can stop one Chebyshev-extrapolated
+iteration apart. Over 100 steps of a draping 20 x 20 cloth (0.5 m) the positions stay within
+2e-4 m (0.04 % of the cloth size) of the CPU in f32, and within 1e-10 m in f64.
+"""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import peridyn
+from conftest import G, make_grid, membrane
+
+REQUIRE = os.environ.get("PERIDYN_REQUIRE_GPU") == "1"
+
+
+def _probe():
+    try:
+        return peridyn.gpu_info(), None
+    except RuntimeError as e:
+        return None, str(e)
+
+
+INFO, WHY = _probe()
+
+
+TOLERANCE = {"f32": 2e-4, "f64": 1e-10}
+
+
+@pytest.fixture(scope="module")
+def gpu():
+    """The adapter description; skips (or fails under PERIDYN_REQUIRE_GPU=1) without one."""
+    if INFO is None:
+        if REQUIRE:
+            pytest.fail(f"PERIDYN_REQUIRE_GPU=1 but no GPU adapter: {WHY}")
+        pytest.skip(f"no GPU adapter: {WHY}")
+    return INFO
+
+
+MATERIALS = {
+    "a3": lambda: peridyn.StretchA3(s0=2e4),
+    "neo_hookean": lambda: peridyn.NeoHookean.from_young(4e4, 0.3),
+}
+
+
+def gpu_precision(gpu, precision):
+    if precision == "f64" and not gpu["f64"]:
+        pytest.skip(f"{gpu['name']} lacks SHADER_F64")
+
+
+def drape(backend, precision, material, steps, **solver_kw):
+    """A 20 x 20 cloth pinned at two corners, with bending, falling onto a sphere above a floor."""
+    v, t = make_grid(20, 20, 0.5, 0.5)
+    m = membrane(v, t, material=MATERIALS[material](), thickness=1e-3, density=300.0,
+                 bending=1e-5, hourglass=0.1)
+    m.pin([0, 19])
+    kw = dict(dt=2e-3, tol=1e-5, max_iters=60, acceleration="chebyshev")
+    kw.update(solver_kw)
+    sol = peridyn.Solver(backend=backend, precision=precision, **kw)
+    sol.add(m)
+    sol.add_collider(peridyn.Sphere(center=(0.25, 0.2, -0.15), radius=0.12))
+    sol.add_collider(peridyn.Plane(point=(0.0, 0.0, -0.2), normal=(0.0, 0.0, 1.0)))
+    iters = [sol.step().iterations for _ in range(steps)]
+    return m, np.array(iters)
+
+
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+@pytest.mark.parametrize("material", sorted(MATERIALS))
+def test_draping_cloth_matches_cpu_over_100_steps(gpu, material, precision):
+    gpu_precision(gpu, precision)
+    mg, ig = drape("gpu", precision, material, 100)
+    mc, ic = drape("cpu", precision, material, 100)
+    diff = np.abs(mg.positions - mc.positions).max()
+    print(f"{material} {precision}: max |y_gpu - y_cpu| = {diff:.3e} m, "
+          f"iterations {ig.sum()} vs {ic.sum()}")
+    assert diff < TOLERANCE[precision]
+    assert np.abs(mg.velocities - mc.velocities).max() < 250 * TOLERANCE[precision]
+    assert abs(int(ig.sum()) - int(ic.sum())) <= 0.05 * ic.sum()
+    # the cloth did reach the colliders
+    assert mg.positions[:, 2].min() < -0.03
+
+
+@pytest.mark.parametrize("precision, material, rtol", [("f32", "a3", 1e-3),
+                                                      ("f64", "neo_hookean", 1e-9)])
+def test_fixed_iterations_and_energies_match_cpu(gpu, precision, material, rtol):
+    """tol = 0: both run exactly max_iters; the recorded energies and residuals agree to the
+    precision once the sheet has deformed (f32 with A3, whose energy is accurate in f32 at
+    small strain; f64 with neo-Hookean, whose energy needs ln(1 + u) in f64)."""
+    gpu_precision(gpu, precision)
+    kw = dict(tol=0.0, max_iters=12, record_energy=True, acceleration=None,
+              preconditioner="paper", step_length=True, precision=precision)
+    v, t = make_grid(8, 8, 0.5, 0.5)
+    out = {}
+    for backend in ("cpu", "gpu"):
+        m = membrane(v, t, material=MATERIALS[material](), bending=1e-5, hourglass=0.5,
+                     density=300.0)
+        m.pin([0, 7])
+        sol = peridyn.Solver(dt=5e-3, backend=backend, **kw)
+        sol.add(m)
+        stats = [sol.step() for _ in range(30)]
+        assert all(s.iterations == 12 and not s.converged for s in stats)
+        assert all(len(s.residuals) == 12 and len(s.energies) == 13 for s in stats)
+        out[backend] = (m.positions, stats[-1].energies, stats[-1].residuals)
+    assert np.abs(out["gpu"][0] - out["cpu"][0]).max() < 1e-2 * rtol
+    np.testing.assert_allclose(out["gpu"][1], out["cpu"][1], rtol=rtol)
+    np.testing.assert_allclose(out["gpu"][2], out["cpu"][2], rtol=10 * rtol, atol=1e-4 * rtol)
+
+
+def test_free_fall_f64_is_implicit_euler_to_rounding(gpu):
+    gpu_precision(gpu, "f64")
+    v, t = make_grid(6, 5, 1.0, 0.8)
+    m = membrane(v, t, bending=1e-2, hourglass=1.0)
+    g = np.array([0.3, -0.2, -G])
+    h = 1e-2
+    sol = peridyn.Solver(dt=h, gravity=g, tol=1e-9, max_iters=20, backend="gpu", precision="f64")
+    sol.add(m)
+    y0 = m.positions
+    for n in range(1, 26):
+        sol.step()
+        exp_y = y0 + h * h * g * n * (n + 1) / 2
+        assert np.abs(m.positions - exp_y).max() <= 1e-12 * max(1.0, np.abs(exp_y).max())
+    assert sol.precision == "f64"
+
+
+def test_free_fall_is_implicit_euler_to_f32_rounding(gpu):
+    v, t = make_grid(6, 5, 1.0, 0.8)
+    m = membrane(v, t, bending=1e-2, hourglass=1.0)
+    g = np.array([0.3, -0.2, -G])
+    h = 1e-2
+    sol = peridyn.Solver(dt=h, gravity=g, tol=1e-6, max_iters=20, backend="gpu")
+    sol.add(m)
+    y0 = m.positions
+    for n in range(1, 26):
+        st = sol.step()
+        exp_y = y0 + h * h * g * n * (n + 1) / 2
+        # each step rounds y to f32 (relative 6e-8 of |y| <= ~1.1 m): n steps accumulate <= n ulps
+        assert np.abs(m.positions - exp_y).max() <= 2e-7 * n
+        assert st.iterations == 1 and st.converged
+    assert sol.time == pytest.approx(25 * h, rel=1e-12)
+
+
+def test_rigid_rotation_is_force_free(gpu):
+    """A rotated and translated copy of the rest shape, at rest and without gravity, stays put."""
+    rng = np.random.default_rng(3)
+    v, t = make_grid(7, 6, 0.6, 0.5)
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    q *= np.sign(np.linalg.det(q))
+    m = membrane(v, t, bending=1e-3, hourglass=0.5)
+    moved = v @ q.T + np.array([0.3, -0.1, 0.2])
+    m.positions = moved
+    sol = peridyn.Solver(dt=1e-2, gravity=(0, 0, 0), tol=1e-7, max_iters=20, backend="gpu")
+    sol.add(m)
+    for _ in range(5):
+        sol.step()
+    assert np.abs(m.positions - moved).max() < 1e-6
+    assert np.abs(m.velocities).max() < 1e-4
+
+
+def test_pinned_sheet_static_sag_matches_cpu(gpu):
+    """A sheet pinned along one edge sags to the same static shape on both backends."""
+    v, t = make_grid(9, 9, 0.4, 0.4)
+    out = {}
+    for backend in ("cpu", "gpu"):
+        m = membrane(v, t, s0=5e3, bending=1e-4, hourglass=0.5, density=200.0)
+        m.pin(np.flatnonzero(np.isclose(v[:, 1], 0.4)))
+        extra = {"precision": "f32"} if backend == "cpu" else {"backend": "gpu"}
+        sol = peridyn.Solver(dt=0.02, tol=1e-6, max_iters=200, **extra)
+        sol.add(m)
+        for _ in range(150):
+            sol.step()
+        out[backend] = m.positions
+    sag = -out["cpu"][:, 2].min()
+    assert sag > 0.05
+    assert np.abs(out["gpu"] - out["cpu"]).max() < 1e-3 * sag
+
+
+def test_two_bodies_in_one_gpu_solver_match_cpu(gpu):
+    """Bodies are concatenated into one vertex range on the device as on the CPU; adding a body
+    later rebuilds the device buffers."""
+    v, t = make_grid(6, 6, 0.3, 0.3)
+    out = {}
+    for backend in ("cpu", "gpu"):
+        a = membrane(v, t, s0=1e4, bending=1e-5, hourglass=0.5)
+        b = membrane(v + np.array([0.0, 0.0, 0.5]), t,
+                     material=peridyn.NeoHookean.from_young(3e4, 0.2), hourglass=0.5)
+        a.pin([0])
+        sol = peridyn.Solver(dt=5e-3, tol=1e-6, backend=backend, precision="f32")
+        sol.add(a)
+        for _ in range(5):
+            sol.step()
+        sol.add(b)
+        for _ in range(10):
+            sol.step()
+        out[backend] = (a.positions, b.positions)
+    for k in range(2):
+        assert np.abs(out["gpu"][k] - out["cpu"][k]).max() < 1e-5
+
+
+def test_default_scene_runs_on_gpu(gpu):
+    scene = peridyn.default_scene(n=16, backend="gpu")
+    assert scene.solver.backend == "gpu" and scene.solver.precision == "f32"
+    summary = scene.solver.run(20)
+    assert summary.steps == 20
+    assert np.isfinite(scene.cloth.positions).all()
+    assert scene.solver.bytes_per_iteration > 0
+
+
+def test_gpu_info_describes_the_adapter(gpu):
+    assert isinstance(gpu["name"], str) and gpu["name"]
+    assert gpu["backend"] in {"vulkan", "metal", "dx12", "gl"}
+    assert isinstance(gpu["f64"], bool)
+    assert gpu["limits"]["max_storage_buffers_per_shader_stage"] >= 18
+
+
+def test_divergence_raises_and_leaves_the_body_unchanged(gpu):
+    """Velocities that overflow f32 arithmetic: DivergenceError, state untouched, and the
+    solver steps normally again once the velocities are reset."""
+    v, t = make_grid(5, 5, 0.2, 0.2)
+    m = membrane(v, t, s0=1e4)
+    m.pin([0])
+    sol = peridyn.Solver(dt=1e-2, backend="gpu", max_iters=5)
+    sol.add(m)
+    sol.step()
+    m.velocities = np.random.default_rng(0).choice([-1.0, 1.0], size=v.shape) * 1e300
+    before, vel = m.positions, m.velocities
+    with pytest.raises(peridyn.DivergenceError, match="non-finite"):
+        sol.step()
+    assert np.array_equal(m.positions, before) and np.array_equal(m.velocities, vel)
+    assert sol.steps_taken == 1
+    m.velocities = np.zeros_like(vel)
+    sol.step()
+    assert np.isfinite(m.positions).all() and sol.steps_taken == 2
+
+
+def test_gpu_backend_arguments_are_checked():
+    with pytest.raises(ValueError, match="precision must be"):
+        peridyn.Solver(dt=1e-3, backend="gpu", precision="f16")
+    with pytest.raises(ValueError, match="backend must be"):
+        peridyn.Solver(dt=1e-3, backend="cuda")
+    with pytest.raises(ValueError, match="threads"):
+        peridyn.Solver(dt=1e-3, backend="gpu", threads=2)
+    assert peridyn.Solver(dt=1e-3).backend == "cpu"
+    assert peridyn.Solver(dt=1e-3).bytes_per_iteration is None
+
+
+def test_missing_adapter_raises_a_clear_error():
+    """With the Vulkan loader pointed at nothing, gpu_info and backend="gpu" raise RuntimeError
+    saying what is missing (in a subprocess: the loader reads the variables once)."""
+    code = (
+        "import peridyn\n"
+        "for f in (peridyn.gpu_info, lambda: peridyn.Solver(dt=1e-3, backend='gpu')):\n"
+        "    try:\n"
+        "        f()\n"
+        "    except RuntimeError as e:\n"
+        "        print('RuntimeError:', e)\n"
+    )
+    env = dict(os.environ, VK_ICD_FILENAMES="/nonexistent",
+               __EGL_VENDOR_LIBRARY_FILENAMES="/nonexistent", WGPU_BACKEND="vulkan")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    lines = [ln for ln in out.stdout.splitlines() if ln.startswith("RuntimeError:")]
+    assert len(lines) == 2, out.stdout + out.stderr
+    for ln in lines:
+        assert "no GPU adapter" in ln and "mesa-vulkan-drivers" in ln
