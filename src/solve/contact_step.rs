@@ -11,18 +11,20 @@ use crate::real::Real;
 
 use super::system::System;
 
-/// Contact topology and state of one time step.
+/// Contact topology (built once per body list) and the state of the current time step.
 pub(super) struct ContactState {
     triangles: Vec<[u32; 3]>,
     body: Vec<u32>,
     self_contact: Vec<bool>,
     /// `z^{k-1}`: the last positions the local step left (intersection-free), in f64.
     safe: Vec<Vector3<f64>>,
+    /// `z^k` while the local step works on it (reused, swapped with `safe`).
+    next: Vec<Vector3<f64>>,
 }
 
 impl ContactState {
-    /// Concatenates the bodies' triangles in the system's global vertex numbering, and takes
-    /// the start-of-step positions `y_t` as the first safe positions.
+    /// Concatenates the bodies' triangles in the system's global vertex numbering; call
+    /// [`Self::start_step`] before each step.
     pub fn new<T: Real>(bodies: &[&mut Membrane], sys: &System<T>) -> Self {
         let mut triangles = Vec::new();
         let mut body = Vec::new();
@@ -33,11 +35,24 @@ impl ContactState {
                 body.push(b as u32);
             }
         }
+        let n = sys.y_start.len();
         Self {
             triangles,
             body,
-            self_contact: bodies.iter().map(|b| b.self_contact()).collect(),
-            safe: sys.y_start.iter().map(|p| p.map(|c| c.to_f64())).collect(),
+            self_contact: Vec::with_capacity(bodies.len()),
+            safe: vec![Vector3::zeros(); n],
+            next: vec![Vector3::zeros(); n],
+        }
+    }
+
+    /// Takes the bodies' current self-contact switches, and the start-of-step positions `y_t`
+    /// as the first safe positions.
+    pub fn start_step<T: Real>(&mut self, bodies: &[&mut Membrane], sys: &System<T>) {
+        self.self_contact.clear();
+        self.self_contact
+            .extend(bodies.iter().map(|b| b.self_contact()));
+        for (safe, start) in self.safe.iter_mut().zip(&sys.y_start) {
+            *safe = start.map(|c| c.to_f64());
         }
     }
 
@@ -50,7 +65,10 @@ impl ContactState {
         params: &ContactParams,
         colliders: &[ColliderModel<T>],
     ) -> (f64, ContactStats) {
-        let mut z: Vec<Vector3<f64>> = sys.y_next.iter().map(|p| p.map(|c| c.to_f64())).collect();
+        let mut z = std::mem::take(&mut self.next);
+        for (zi, next) in z.iter_mut().zip(&sys.y_next) {
+            *zi = next.map(|c| c.to_f64());
+        }
         let mesh = ContactMesh {
             triangles: &self.triangles,
             body: &self.body,
@@ -79,7 +97,7 @@ impl ContactState {
                 (*next - y[i]).norm().to_f64()
             })
             .reduce(|| 0.0, f64::max);
-        self.safe = z;
+        self.next = std::mem::replace(&mut self.safe, z);
         (moved, stats)
     }
 }

@@ -44,6 +44,8 @@ pub struct Solver<T: Real> {
     colliders: Vec<Collider>,
     pool: Option<rayon::ThreadPool>,
     system: Option<System<T>>,
+    /// Contact topology of the current body list (built on the first step with contact).
+    contact: Option<ContactState>,
     time: f64,
     steps: u64,
 }
@@ -71,6 +73,7 @@ impl<T: Real> Solver<T> {
             colliders: Vec::new(),
             pool,
             system: None,
+            contact: None,
             time: 0.0,
             steps: 0,
         })
@@ -140,6 +143,7 @@ impl<T: Real> Solver<T> {
         let params = self.params;
         if !self.system.as_ref().is_some_and(|s| s.matches(bodies)) {
             self.system = Some(System::build(bodies));
+            self.contact = None;
         }
         let step_end = self.time + params.dt;
         let colliders: Vec<ColliderModel<T>> = self
@@ -152,7 +156,12 @@ impl<T: Real> Solver<T> {
         let gravity = Vector3::from(params.gravity).map(T::of);
 
         sys.load(bodies);
-        let mut contact = params.contact.map(|_| ContactState::new(bodies, sys));
+        if params.contact.is_some() {
+            let contact = self
+                .contact
+                .get_or_insert_with(|| ContactState::new(bodies, sys));
+            contact.start_step(bodies, sys);
+        }
         predict(sys, h, gravity);
         let mut energy = initial_guess(sys, h, params.preconditioner, &colliders);
         let mut timings = Timings {
@@ -226,7 +235,7 @@ impl<T: Real> Solver<T> {
                     vertex,
                 });
             }
-            if let (Some(state), Some(contact_params)) = (contact.as_mut(), &params.contact) {
+            if let (Some(state), Some(contact_params)) = (self.contact.as_mut(), &params.contact) {
                 let (moved, figures) = state.local_step(sys, contact_params, &colliders);
                 update.moved = moved;
                 stats.contact.accumulate(&figures);
