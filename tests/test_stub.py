@@ -9,16 +9,26 @@ STUB = Path(core.__file__).with_name("_core.pyi")
 
 
 def stub_classes():
+    """Every class of the stub with its members, inherited members (from stub bases) included."""
     tree = ast.parse(STUB.read_text())
-    out = {}
+    own, bases = {}, {}
     for node in tree.body:
         if isinstance(node, ast.ClassDef):
-            out[node.name] = {
+            own[node.name] = {
                 item.name
                 for item in node.body
                 if isinstance(item, ast.FunctionDef) and not item.name.startswith("__")
             }
-    return out
+            bases[node.name] = [b.id for b in node.bases if isinstance(b, ast.Name)]
+
+    def members(name):
+        out = set(own[name])
+        for base in bases[name]:
+            if base in own:
+                out |= members(base)
+        return out
+
+    return {name: members(name) for name in own}
 
 
 def public(obj):

@@ -174,18 +174,12 @@ class Membrane:
         """(N, 3) principal stretches per vertex (in-plane two descending, then the normal one)."""
     def kinetic_energy(self) -> float: ...
 
-class Plane:
-    """Half-space collider: vertices stay on the side the ``normal`` points to.
+class Collider:
+    """Base of every collider. Every collider takes ``friction`` (Coulomb coefficient, >= 0:
+    membranes stick while the tangential force stays within ``friction`` times the contact
+    force, and slide against it otherwise) and ``velocity`` (m/s, constant; the pose given is
+    the one at time 0)."""
 
-    Every collider takes ``friction`` (Coulomb coefficient, >= 0: membranes stick while the
-    tangential force stays within ``friction`` times the contact force, and slide against it
-    otherwise) and ``velocity`` (m/s, constant; the pose given is the one at time 0)."""
-
-    def __init__(self, *, point: Vec3 = (0.0, 0.0, 0.0), normal: Vec3 = (0.0, 0.0, 1.0), friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
-    @property
-    def point(self) -> np.ndarray: ...
-    @property
-    def normal(self) -> np.ndarray: ...
     def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
         """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
     @property
@@ -195,7 +189,16 @@ class Plane:
     def velocity(self) -> np.ndarray:
         """Constant velocity (m/s); the pose given is the one at time 0."""
 
-class Sphere:
+class Plane(Collider):
+    """Half-space collider: vertices stay on the side the ``normal`` points to."""
+
+    def __init__(self, *, point: Vec3 = (0.0, 0.0, 0.0), normal: Vec3 = (0.0, 0.0, 1.0), friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
+    @property
+    def point(self) -> np.ndarray: ...
+    @property
+    def normal(self) -> np.ndarray: ...
+
+class Sphere(Collider):
     """Solid sphere collider (m)."""
 
     def __init__(self, *, center: Vec3, radius: float, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
@@ -203,16 +206,8 @@ class Sphere:
     def center(self) -> np.ndarray: ...
     @property
     def radius(self) -> float: ...
-    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
-        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
-    @property
-    def friction(self) -> float:
-        """Coulomb friction coefficient against membranes (>= 0)."""
-    @property
-    def velocity(self) -> np.ndarray:
-        """Constant velocity (m/s); the pose given is the one at time 0."""
 
-class Box:
+class Box(Collider):
     """Solid oriented box collider (m)."""
 
     def __init__(self, *, center: Vec3, half_extents: Vec3, rotation: Optional[ArrayLike] = None, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None:
@@ -224,16 +219,8 @@ class Box:
     def half_extents(self) -> np.ndarray: ...
     @property
     def rotation(self) -> np.ndarray: ...
-    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
-        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
-    @property
-    def friction(self) -> float:
-        """Coulomb friction coefficient against membranes (>= 0)."""
-    @property
-    def velocity(self) -> np.ndarray:
-        """Constant velocity (m/s); the pose given is the one at time 0."""
 
-class Capsule:
+class Capsule(Collider):
     """Solid capsule collider: the points within ``radius`` (m) of the segment from ``a`` to ``b``."""
 
     def __init__(self, *, a: Vec3, b: Vec3, radius: float, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None: ...
@@ -243,14 +230,6 @@ class Capsule:
     def b(self) -> np.ndarray: ...
     @property
     def radius(self) -> float: ...
-    def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
-        """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""
-    @property
-    def friction(self) -> float:
-        """Coulomb friction coefficient against membranes (>= 0)."""
-    @property
-    def velocity(self) -> np.ndarray:
-        """Constant velocity (m/s); the pose given is the one at time 0."""
 
 class Contact:
     """Contact between and within membranes: the local step of Algorithm 2 (Lu et al. 2023).
@@ -385,7 +364,7 @@ class Solver:
         contact: Optional[Contact] = None,
     ) -> None: ...
     def add(self, body: Membrane) -> None: ...
-    def add_collider(self, collider: Union[Plane, Sphere, Box, Capsule]) -> None: ...
+    def add_collider(self, collider: Collider) -> None: ...
     def step(self) -> StepStats: ...
     @property
     def dt(self) -> float: ...

@@ -1,4 +1,6 @@
-//! Python wrappers of the colliders.
+//! Python wrappers of the colliders: a base class `Collider` holds the core collider (shape,
+//! friction, motion) and what every shape shares; `Plane`, `Sphere`, `Box` and `Capsule`
+//! construct it and expose their own geometry.
 
 use pyo3::prelude::*;
 
@@ -7,37 +9,67 @@ use crate::contact::{Collider, Shape};
 use super::arrays::{to_numpy_1d, vec3, vec3s};
 use super::errors::IntoPyResult;
 
-fn distances<'py>(
-    c: &Collider,
-    points: &Bound<'py, PyAny>,
-    time: f64,
-) -> PyResult<Bound<'py, PyAny>> {
-    let p = vec3s(points, "points", None)?;
-    Ok(to_numpy_1d(
-        points.py(),
-        p.iter().map(|x| c.signed_distance(x, time)).collect(),
-    ))
+/// Base of every collider: a solid shape, a Coulomb `friction` coefficient (>= 0) and a
+/// constant `velocity` (m/s) from the pose given at time 0.
+#[pyclass(module = "peridyn._core", name = "Collider", subclass, frozen)]
+pub struct PyCollider {
+    pub inner: Collider,
 }
 
-/// A collider of `shape` with the keyword arguments every collider takes.
-fn collider(
-    shape: crate::error::Result<Shape>,
-    friction: f64,
-    velocity: Option<&Bound<'_, PyAny>>,
-) -> PyResult<Collider> {
-    let velocity = velocity
-        .map(|v| vec3(v, "velocity"))
-        .transpose()?
-        .unwrap_or([0.0; 3]);
-    Collider::new(shape.py()?, friction, velocity).py()
+impl PyCollider {
+    /// The base part of a collider of `shape` with the keyword arguments every collider takes.
+    fn new(
+        shape: crate::error::Result<Shape>,
+        friction: f64,
+        velocity: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let velocity = velocity
+            .map(|v| vec3(v, "velocity"))
+            .transpose()?
+            .unwrap_or([0.0; 3]);
+        Ok(Self {
+            inner: Collider::new(shape.py()?, friction, velocity).py()?,
+        })
+    }
+}
+
+#[pymethods]
+impl PyCollider {
+    /// Coulomb friction coefficient.
+    #[getter]
+    fn friction(&self) -> f64 {
+        self.inner.friction
+    }
+    /// Constant velocity (m/s) from the pose given at time 0.
+    #[getter]
+    fn velocity(&self) -> Vec<f64> {
+        self.inner.velocity.as_slice().to_vec()
+    }
+    /// Signed distances (m, positive outside) of (n, 3) points at `time` (s).
+    #[pyo3(signature = (points, time = 0.0))]
+    fn signed_distance<'py>(
+        &self,
+        points: &Bound<'py, PyAny>,
+        time: f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let p = vec3s(points, "points", None)?;
+        Ok(to_numpy_1d(
+            points.py(),
+            p.iter()
+                .map(|x| self.inner.signed_distance(x, time))
+                .collect(),
+        ))
+    }
+}
+
+/// The shape of a collider subclass.
+fn shape<T: pyo3::PyClass<BaseType = PyCollider>>(slf: &PyRef<'_, T>) -> Shape {
+    slf.as_super().inner.shape
 }
 
 /// Half-space collider: vertices stay on the side the normal points to.
-#[pyclass(module = "peridyn._core", name = "Plane", frozen)]
-#[derive(Clone)]
-pub struct PyPlane {
-    pub inner: Collider,
-}
+#[pyclass(module = "peridyn._core", name = "Plane", extends = PyCollider, frozen)]
+pub struct PyPlane;
 
 #[pymethods]
 impl PyPlane {
@@ -48,7 +80,7 @@ impl PyPlane {
         normal: Option<&Bound<'_, PyAny>>,
         friction: f64,
         velocity: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Self> {
+    ) -> PyResult<PyClassInitializer<Self>> {
         let point = point
             .map(|p| vec3(p, "point"))
             .transpose()?
@@ -57,59 +89,45 @@ impl PyPlane {
             .map(|n| vec3(n, "normal"))
             .transpose()?
             .unwrap_or([0.0, 0.0, 1.0]);
-        Ok(Self {
-            inner: collider(Shape::plane(point, normal), friction, velocity)?,
-        })
+        Ok(PyClassInitializer::from(PyCollider::new(
+            Shape::plane(point, normal),
+            friction,
+            velocity,
+        )?)
+        .add_subclass(Self))
     }
     #[getter]
-    fn point(&self) -> Vec<f64> {
-        match self.inner.shape {
+    fn point(slf: PyRef<'_, Self>) -> Vec<f64> {
+        match shape(&slf) {
             Shape::Plane { point, .. } => point.as_slice().to_vec(),
-            _ => unreachable!("PyPlane holds a plane"),
+            _ => unreachable!("a Plane holds a plane"),
         }
     }
     /// Unit normal.
     #[getter]
-    fn normal(&self) -> Vec<f64> {
-        match self.inner.shape {
+    fn normal(slf: PyRef<'_, Self>) -> Vec<f64> {
+        match shape(&slf) {
             Shape::Plane { normal, .. } => normal.as_slice().to_vec(),
-            _ => unreachable!("PyPlane holds a plane"),
+            _ => unreachable!("a Plane holds a plane"),
         }
     }
-    /// Signed distances (m, positive on the free side) of (n, 3) points at `time` (s).
-    #[pyo3(signature = (points, time = 0.0))]
-    fn signed_distance<'py>(
-        &self,
-        points: &Bound<'py, PyAny>,
-        time: f64,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        distances(&self.inner, points, time)
-    }
-    /// Coulomb friction coefficient.
-    #[getter]
-    fn friction(&self) -> f64 {
-        self.inner.friction
-    }
-    /// Constant velocity (m/s) from the pose given at time 0.
-    #[getter]
-    fn velocity(&self) -> Vec<f64> {
-        self.inner.velocity.as_slice().to_vec()
-    }
-    fn __repr__(&self) -> String {
-        format!(
-            "Plane(point={:?}, normal={:?})",
-            self.point(),
-            self.normal()
-        )
+    fn __repr__(slf: PyRef<'_, Self>) -> String {
+        match shape(&slf) {
+            Shape::Plane { point, normal } => {
+                format!(
+                    "Plane(point={:?}, normal={:?})",
+                    point.as_slice(),
+                    normal.as_slice()
+                )
+            }
+            _ => unreachable!("a Plane holds a plane"),
+        }
     }
 }
 
 /// Solid sphere collider.
-#[pyclass(module = "peridyn._core", name = "Sphere", frozen)]
-#[derive(Clone)]
-pub struct PySphere {
-    pub inner: Collider,
-}
+#[pyclass(module = "peridyn._core", name = "Sphere", extends = PyCollider, frozen)]
+pub struct PySphere;
 
 #[pymethods]
 impl PySphere {
@@ -120,63 +138,41 @@ impl PySphere {
         radius: f64,
         friction: f64,
         velocity: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Self> {
-        Ok(Self {
-            inner: collider(
-                Shape::sphere(vec3(center, "center")?, radius),
-                friction,
-                velocity,
-            )?,
-        })
+    ) -> PyResult<PyClassInitializer<Self>> {
+        Ok(PyClassInitializer::from(PyCollider::new(
+            Shape::sphere(vec3(center, "center")?, radius),
+            friction,
+            velocity,
+        )?)
+        .add_subclass(Self))
     }
     #[getter]
-    fn center(&self) -> Vec<f64> {
-        match self.inner.shape {
+    fn center(slf: PyRef<'_, Self>) -> Vec<f64> {
+        match shape(&slf) {
             Shape::Sphere { center, .. } => center.as_slice().to_vec(),
-            _ => unreachable!("PySphere holds a sphere"),
+            _ => unreachable!("a Sphere holds a sphere"),
         }
     }
     #[getter]
-    fn radius(&self) -> f64 {
-        match self.inner.shape {
+    fn radius(slf: PyRef<'_, Self>) -> f64 {
+        match shape(&slf) {
             Shape::Sphere { radius, .. } => radius,
-            _ => unreachable!("PySphere holds a sphere"),
+            _ => unreachable!("a Sphere holds a sphere"),
         }
     }
-    /// Signed distances (m, positive outside) of (n, 3) points at `time` (s).
-    #[pyo3(signature = (points, time = 0.0))]
-    fn signed_distance<'py>(
-        &self,
-        points: &Bound<'py, PyAny>,
-        time: f64,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        distances(&self.inner, points, time)
-    }
-    /// Coulomb friction coefficient.
-    #[getter]
-    fn friction(&self) -> f64 {
-        self.inner.friction
-    }
-    /// Constant velocity (m/s) from the pose given at time 0.
-    #[getter]
-    fn velocity(&self) -> Vec<f64> {
-        self.inner.velocity.as_slice().to_vec()
-    }
-    fn __repr__(&self) -> String {
-        format!(
-            "Sphere(center={:?}, radius={})",
-            self.center(),
-            self.radius()
-        )
+    fn __repr__(slf: PyRef<'_, Self>) -> String {
+        match shape(&slf) {
+            Shape::Sphere { center, radius } => {
+                format!("Sphere(center={:?}, radius={radius})", center.as_slice())
+            }
+            _ => unreachable!("a Sphere holds a sphere"),
+        }
     }
 }
 
 /// Solid oriented box collider.
-#[pyclass(module = "peridyn._core", name = "Box", frozen)]
-#[derive(Clone)]
-pub struct PyBox {
-    pub inner: Collider,
-}
+#[pyclass(module = "peridyn._core", name = "Box", extends = PyCollider, frozen)]
+pub struct PyBox;
 
 #[pymethods]
 impl PyBox {
@@ -188,7 +184,7 @@ impl PyBox {
         rotation: Option<&Bound<'_, PyAny>>,
         friction: f64,
         velocity: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Self> {
+    ) -> PyResult<PyClassInitializer<Self>> {
         let rows = match rotation {
             None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             Some(r) => {
@@ -200,76 +196,61 @@ impl PyBox {
                 ]
             }
         };
-        Ok(Self {
-            inner: collider(
-                Shape::cuboid(
-                    vec3(center, "center")?,
-                    vec3(half_extents, "half_extents")?,
-                    rows,
-                ),
-                friction,
-                velocity,
-            )?,
-        })
+        let cuboid = Shape::cuboid(
+            vec3(center, "center")?,
+            vec3(half_extents, "half_extents")?,
+            rows,
+        );
+        Ok(
+            PyClassInitializer::from(PyCollider::new(cuboid, friction, velocity)?)
+                .add_subclass(Self),
+        )
     }
     #[getter]
-    fn center(&self) -> Vec<f64> {
-        match self.inner.shape {
+    fn center(slf: PyRef<'_, Self>) -> Vec<f64> {
+        match shape(&slf) {
             Shape::Box { center, .. } => center.as_slice().to_vec(),
-            _ => unreachable!("PyBox holds a box"),
+            _ => unreachable!("a Box holds a box"),
         }
     }
     #[getter]
-    fn half_extents(&self) -> Vec<f64> {
-        match self.inner.shape {
+    fn half_extents(slf: PyRef<'_, Self>) -> Vec<f64> {
+        match shape(&slf) {
             Shape::Box { half_extents, .. } => half_extents.as_slice().to_vec(),
-            _ => unreachable!("PyBox holds a box"),
+            _ => unreachable!("a Box holds a box"),
         }
     }
     /// Rotation matrix (rows), whose columns are the box's axes.
     #[getter]
-    fn rotation(&self) -> Vec<Vec<f64>> {
-        match self.inner.shape {
+    fn rotation(slf: PyRef<'_, Self>) -> Vec<Vec<f64>> {
+        match shape(&slf) {
             Shape::Box { axes, .. } => (0..3)
                 .map(|r| (0..3).map(|c| axes[(r, c)]).collect())
                 .collect(),
-            _ => unreachable!("PyBox holds a box"),
+            _ => unreachable!("a Box holds a box"),
         }
     }
-    /// Signed distances (m, positive outside) of (n, 3) points at `time` (s).
-    #[pyo3(signature = (points, time = 0.0))]
-    fn signed_distance<'py>(
-        &self,
-        points: &Bound<'py, PyAny>,
-        time: f64,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        distances(&self.inner, points, time)
-    }
-    /// Coulomb friction coefficient.
-    #[getter]
-    fn friction(&self) -> f64 {
-        self.inner.friction
-    }
-    /// Constant velocity (m/s) from the pose given at time 0.
-    #[getter]
-    fn velocity(&self) -> Vec<f64> {
-        self.inner.velocity.as_slice().to_vec()
-    }
-    fn __repr__(&self) -> String {
-        format!(
-            "Box(center={:?}, half_extents={:?})",
-            self.center(),
-            self.half_extents()
-        )
+    fn __repr__(slf: PyRef<'_, Self>) -> String {
+        match shape(&slf) {
+            Shape::Box {
+                center,
+                half_extents,
+                ..
+            } => {
+                format!(
+                    "Box(center={:?}, half_extents={:?})",
+                    center.as_slice(),
+                    half_extents.as_slice()
+                )
+            }
+            _ => unreachable!("a Box holds a box"),
+        }
     }
 }
 
 /// Solid capsule collider: the points within `radius` of the segment from `a` to `b`.
-#[pyclass(module = "peridyn._core", name = "Capsule", frozen)]
-#[derive(Clone)]
-pub struct PyCapsule {
-    pub inner: Collider,
-}
+#[pyclass(module = "peridyn._core", name = "Capsule", extends = PyCollider, frozen)]
+pub struct PyCapsule;
 
 #[pymethods]
 impl PyCapsule {
@@ -281,81 +262,55 @@ impl PyCapsule {
         radius: f64,
         friction: f64,
         velocity: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Self> {
-        Ok(Self {
-            inner: collider(
-                Shape::capsule(vec3(a, "a")?, vec3(b, "b")?, radius),
-                friction,
-                velocity,
-            )?,
-        })
-    }
-    #[getter]
-    fn a(&self) -> Vec<f64> {
-        match self.inner.shape {
-            Shape::Capsule { a, .. } => a.as_slice().to_vec(),
-            _ => unreachable!("PyCapsule holds a capsule"),
-        }
-    }
-    #[getter]
-    fn b(&self) -> Vec<f64> {
-        match self.inner.shape {
-            Shape::Capsule { b, .. } => b.as_slice().to_vec(),
-            _ => unreachable!("PyCapsule holds a capsule"),
-        }
-    }
-    #[getter]
-    fn radius(&self) -> f64 {
-        match self.inner.shape {
-            Shape::Capsule { radius, .. } => radius,
-            _ => unreachable!("PyCapsule holds a capsule"),
-        }
-    }
-    /// Signed distances (m, positive outside) of (n, 3) points at `time` (s).
-    #[pyo3(signature = (points, time = 0.0))]
-    fn signed_distance<'py>(
-        &self,
-        points: &Bound<'py, PyAny>,
-        time: f64,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        distances(&self.inner, points, time)
-    }
-    /// Coulomb friction coefficient.
-    #[getter]
-    fn friction(&self) -> f64 {
-        self.inner.friction
-    }
-    /// Constant velocity (m/s) from the pose given at time 0.
-    #[getter]
-    fn velocity(&self) -> Vec<f64> {
-        self.inner.velocity.as_slice().to_vec()
-    }
-    fn __repr__(&self) -> String {
-        format!(
-            "Capsule(a={:?}, b={:?}, radius={})",
-            self.a(),
-            self.b(),
-            self.radius()
+    ) -> PyResult<PyClassInitializer<Self>> {
+        let capsule = Shape::capsule(vec3(a, "a")?, vec3(b, "b")?, radius);
+        Ok(
+            PyClassInitializer::from(PyCollider::new(capsule, friction, velocity)?)
+                .add_subclass(Self),
         )
+    }
+    #[getter]
+    fn a(slf: PyRef<'_, Self>) -> Vec<f64> {
+        match shape(&slf) {
+            Shape::Capsule { a, .. } => a.as_slice().to_vec(),
+            _ => unreachable!("a Capsule holds a capsule"),
+        }
+    }
+    #[getter]
+    fn b(slf: PyRef<'_, Self>) -> Vec<f64> {
+        match shape(&slf) {
+            Shape::Capsule { b, .. } => b.as_slice().to_vec(),
+            _ => unreachable!("a Capsule holds a capsule"),
+        }
+    }
+    #[getter]
+    fn radius(slf: PyRef<'_, Self>) -> f64 {
+        match shape(&slf) {
+            Shape::Capsule { radius, .. } => radius,
+            _ => unreachable!("a Capsule holds a capsule"),
+        }
+    }
+    fn __repr__(slf: PyRef<'_, Self>) -> String {
+        match shape(&slf) {
+            Shape::Capsule { a, b, radius } => {
+                format!(
+                    "Capsule(a={:?}, b={:?}, radius={radius})",
+                    a.as_slice(),
+                    b.as_slice()
+                )
+            }
+            _ => unreachable!("a Capsule holds a capsule"),
+        }
     }
 }
 
-/// Extracts a collider argument.
+/// Extracts a collider argument (any subclass of `Collider`).
 pub fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Collider> {
-    if let Ok(p) = obj.cast::<PyPlane>() {
-        return Ok(p.get().inner);
+    match obj.cast::<PyCollider>() {
+        Ok(c) => Ok(c.get().inner),
+        Err(_) => Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "collider must be Plane, Sphere, Box or Capsule, got {}",
+            obj.get_type().name()?
+        ))),
     }
-    if let Ok(s) = obj.cast::<PySphere>() {
-        return Ok(s.get().inner);
-    }
-    if let Ok(b) = obj.cast::<PyBox>() {
-        return Ok(b.get().inner);
-    }
-    if let Ok(c) = obj.cast::<PyCapsule>() {
-        return Ok(c.get().inner);
-    }
-    Err(pyo3::exceptions::PyValueError::new_err(format!(
-        "collider must be Plane, Sphere, Box or Capsule, got {}",
-        obj.get_type().name()?
-    )))
 }

@@ -22,6 +22,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<material::PyStretchA3>()?;
     m.add_class::<material::PyNeoHookean>()?;
     m.add_class::<membrane::PyMembrane>()?;
+    m.add_class::<collider::PyCollider>()?;
     m.add_class::<collider::PyPlane>()?;
     m.add_class::<collider::PySphere>()?;
     m.add_class::<collider::PyBox>()?;
