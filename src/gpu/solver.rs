@@ -16,7 +16,7 @@ use crate::contact::{Collider, Shape};
 use crate::error::{invalid, Error, Result};
 use crate::membrane::{Membrane, Preconditioner};
 use crate::solve::system::System;
-use crate::solve::{Acceleration, Method, SolverParams, StepStats, Timings};
+use crate::solve::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
 
 use super::device::GpuContext;
 use super::layout::{self, GpuReal, IterValues, ParamValues};
@@ -44,8 +44,7 @@ pub struct GpuSolver<T: GpuReal> {
     ctx: GpuContext,
     pipelines: Pipelines,
     state: Option<State<T>>,
-    time: f64,
-    steps: u64,
+    clock: Clock,
 }
 
 /// The device-resident working set of one list of bodies.
@@ -102,8 +101,7 @@ impl<T: GpuReal> GpuSolver<T> {
             ctx,
             pipelines,
             state: None,
-            time: 0.0,
-            steps: 0,
+            clock: Clock::default(),
         })
     }
 
@@ -153,22 +151,14 @@ impl<T: GpuReal> GpuSolver<T> {
         &self.colliders
     }
 
-    /// Simulation time (s).
-    pub fn time(&self) -> f64 {
-        self.time
+    /// Simulation time and steps taken.
+    pub fn clock(&self) -> Clock {
+        self.clock
     }
 
-    /// Steps taken so far.
-    pub fn steps_taken(&self) -> u64 {
-        self.steps
-    }
-
-    /// Sets the clock (restoring a saved simulation): time in s (finite) and steps taken.
-    pub fn set_clock(&mut self, time: f64, steps: u64) -> Result<()> {
-        crate::error::check_param("time", time, |_| true, "finite")?;
-        self.time = time;
-        self.steps = steps;
-        Ok(())
+    /// Sets the clock (restoring a saved simulation).
+    pub fn set_clock(&mut self, clock: Clock) {
+        self.clock = clock;
     }
 
     /// Bytes the kernels of one global iteration load and store for the bodies of the last
@@ -233,7 +223,7 @@ impl<T: GpuReal> GpuSolver<T> {
             ..Timings::default()
         };
         let mut stats = StepStats {
-            step: self.steps,
+            step: self.clock.steps,
             ..StepStats::default()
         };
 
@@ -259,7 +249,7 @@ impl<T: GpuReal> GpuSolver<T> {
             if limit != u32::MAX && header[1] != u32::MAX {
                 let (body, vertex) = state.system.locate(header[1] as usize);
                 return Err(Error::Diverged {
-                    step: self.steps,
+                    step: self.clock.steps,
                     iteration: header[2] as usize,
                     body,
                     vertex,
@@ -315,10 +305,9 @@ impl<T: GpuReal> GpuSolver<T> {
         }
         state.system.store(bodies);
         timings.finish = millis(t);
-        self.time += params.dt;
-        self.steps += 1;
+        self.clock.tick(params.dt);
         timings.total = millis(started);
-        stats.time = self.time;
+        stats.time = self.clock.time;
         stats.timings = timings;
         Ok(stats)
     }

@@ -10,7 +10,7 @@ use crate::contact::Collider;
 use crate::error::Result;
 use crate::gpu::GpuSolver;
 use crate::membrane::{Membrane, Preconditioner};
-use crate::solve::{Acceleration, Method, Solver, SolverParams, StepStats};
+use crate::solve::{Acceleration, Clock, Method, Solver, SolverParams, StepStats};
 
 use super::arrays::{to_numpy_1d, vec3};
 use super::collider;
@@ -347,15 +347,17 @@ impl PySolver {
     /// Simulation time (s).
     #[getter]
     fn time(&self) -> f64 {
-        with_solver!(&self.core, s => s.time())
+        with_solver!(&self.core, s => s.clock().time)
     }
     #[getter]
     fn steps_taken(&self) -> u64 {
-        with_solver!(&self.core, s => s.steps_taken())
+        with_solver!(&self.core, s => s.clock().steps)
     }
     /// Sets the simulation time (s) and step count, e.g. when restoring a saved state.
     fn set_clock(&mut self, time: f64, steps_taken: u64) -> PyResult<()> {
-        with_solver!(&mut self.core, s => s.set_clock(time, steps_taken)).py()
+        let clock = Clock::at(time, steps_taken).py()?;
+        with_solver!(&mut self.core, s => s.set_clock(clock));
+        Ok(())
     }
     #[getter]
     fn bodies(&self, py: Python<'_>) -> Vec<Py<PyMembrane>> {
@@ -370,7 +372,7 @@ impl PySolver {
             let p = s.params();
             format!(
                 "Solver(dt={}, gravity={:?}, tol={}, max_iters={}, backend='{}', precision='{}', threads={}, bodies={}, colliders={}, time={})",
-                p.dt, p.gravity, p.tol, p.max_iters, self.core.backend(), self.core.name(), self.core.threads(), self.bodies.len(), self.colliders.len(), s.time()
+                p.dt, p.gravity, p.tol, p.max_iters, self.core.backend(), self.core.name(), self.core.threads(), self.bodies.len(), self.colliders.len(), s.clock().time
             )
         })
     }

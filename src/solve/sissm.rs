@@ -36,7 +36,7 @@ use super::descent::{descent_iteration, LineSearch};
 use super::evaluate::{evaluate, inertial_energy, total_energy};
 use super::jacobi::{jacobi_update, MoveOptions, Update};
 use super::system::System;
-use super::{Acceleration, Method, SolverParams, StepStats, Timings};
+use super::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
 
 /// Steps a set of membranes in time.
 pub struct Solver<T: Real> {
@@ -46,8 +46,7 @@ pub struct Solver<T: Real> {
     system: Option<System<T>>,
     /// Contact topology of the current body list (built on the first step with contact).
     contact: Option<ContactState>,
-    time: f64,
-    steps: u64,
+    clock: Clock,
 }
 
 fn millis(since: Instant) -> f64 {
@@ -74,8 +73,7 @@ impl<T: Real> Solver<T> {
             pool,
             system: None,
             contact: None,
-            time: 0.0,
-            steps: 0,
+            clock: Clock::default(),
         })
     }
 
@@ -107,22 +105,14 @@ impl<T: Real> Solver<T> {
         &self.colliders
     }
 
-    /// Simulation time (s).
-    pub fn time(&self) -> f64 {
-        self.time
+    /// Simulation time and steps taken.
+    pub fn clock(&self) -> Clock {
+        self.clock
     }
 
-    /// Steps taken so far.
-    pub fn steps_taken(&self) -> u64 {
-        self.steps
-    }
-
-    /// Sets the clock (restoring a saved simulation): time in s (finite) and steps taken.
-    pub fn set_clock(&mut self, time: f64, steps: u64) -> Result<()> {
-        crate::error::check_param("time", time, |_| true, "finite")?;
-        self.time = time;
-        self.steps = steps;
-        Ok(())
+    /// Sets the clock (restoring a saved simulation).
+    pub fn set_clock(&mut self, clock: Clock) {
+        self.clock = clock;
     }
 
     /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
@@ -145,7 +135,7 @@ impl<T: Real> Solver<T> {
             self.system = Some(System::build(bodies));
             self.contact = None;
         }
-        let step_end = self.time + params.dt;
+        let step_end = self.clock.time + params.dt;
         let colliders: Vec<ColliderModel<T>> = self
             .colliders
             .iter()
@@ -170,7 +160,7 @@ impl<T: Real> Solver<T> {
         };
 
         let mut stats = StepStats {
-            step: self.steps,
+            step: self.clock.steps,
             residuals: Vec::with_capacity(params.max_iters.min(4096)),
             energies: Vec::with_capacity(if params.record_energy {
                 params.max_iters.min(4096) + 1
@@ -229,7 +219,7 @@ impl<T: Real> Solver<T> {
             if let Some(vertex) = update.first_bad {
                 let (body, vertex) = sys.locate(vertex);
                 return Err(Error::Diverged {
-                    step: self.steps,
+                    step: self.clock.steps,
                     iteration,
                     body,
                     vertex,
@@ -271,10 +261,9 @@ impl<T: Real> Solver<T> {
         finish(sys, h);
         sys.store(bodies);
         timings.finish = millis(t);
-        self.time += params.dt;
-        self.steps += 1;
+        self.clock.tick(params.dt);
         timings.total = millis(started);
-        stats.time = self.time;
+        stats.time = self.clock.time;
         stats.timings = timings;
         Ok(stats)
     }
