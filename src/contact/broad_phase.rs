@@ -11,8 +11,6 @@
 //! continuous collision detection sees every pair that can meet) inflated by half the contact
 //! reach on each side (so two boxes overlap whenever the triangles come within the reach).
 
-use std::collections::HashMap;
-
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
@@ -55,92 +53,143 @@ impl Aabb {
 
 type Cell = [i64; 3];
 
-/// Triangle pairs `(a, b)`, `a < b`, whose boxes over the motion `start -> end`, inflated by
-/// `reach / 2` (m), overlap and that [`ContactMesh::may_touch`] allows; sorted.
-pub fn candidate_pairs(
-    start: &[Vector3<f64>],
-    end: &[Vector3<f64>],
-    mesh: &ContactMesh,
-    reach: f64,
-) -> Vec<(u32, u32)> {
-    let boxes: Vec<Aabb> = mesh
-        .triangles
-        .par_iter()
-        .map(|t| {
-            let mut lo = Vector3::repeat(f64::INFINITY);
-            let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-            for &v in t {
-                for p in [&start[v as usize], &end[v as usize]] {
-                    lo = lo.inf(p);
-                    hi = hi.sup(p);
-                }
-            }
-            let pad = Vector3::repeat(0.5 * reach);
-            Aabb {
-                lo: lo - pad,
-                hi: hi + pad,
-            }
-        })
-        .collect();
-    if boxes.len() < 2 {
-        return Vec::new();
-    }
-    let mean_extent = boxes.iter().map(|b| (b.hi - b.lo).max()).sum::<f64>() / boxes.len() as f64;
-    let cell = 2.0 * mean_extent.max(f64::MIN_POSITIVE);
-    let cell_of = |p: &Vector3<f64>| -> Cell { [0, 1, 2].map(|k| (p[k] / cell).floor() as i64) };
-    let mut grid: HashMap<Cell, Vec<u32>> = HashMap::new();
-    // Boxes spanning many cells (a far-flung vertex) are tested against every box instead.
-    let mut oversized = Vec::new();
-    for (t, b) in boxes.iter().enumerate() {
-        let (lo, hi) = (cell_of(&b.lo), cell_of(&b.hi));
-        let span = (0..3).map(|k| (hi[k] - lo[k]).saturating_add(1) as f64);
-        if span.product::<f64>() > MAX_CELLS_PER_BOX {
-            oversized.push(t);
-            continue;
-        }
-        for i in lo[0]..=hi[0] {
-            for j in lo[1]..=hi[1] {
-                for k in lo[2]..=hi[2] {
-                    grid.entry([i, j, k]).or_default().push(t as u32);
-                }
-            }
-        }
-    }
-    let cells: Vec<(&Cell, &Vec<u32>)> = grid.iter().filter(|(_, v)| v.len() > 1).collect();
-    let mut pairs: Vec<(u32, u32)> = cells
-        .par_iter()
-        .flat_map_iter(|(key, members)| {
-            let mut found = Vec::new();
-            for (n, &a) in members.iter().enumerate() {
-                for &b in &members[n + 1..] {
-                    let (ba, bb) = (&boxes[a as usize], &boxes[b as usize]);
-                    if !ba.overlaps(bb) || cell_of(&ba.lo.sup(&bb.lo)) != **key {
-                        continue;
-                    }
-                    if mesh.may_touch(a as usize, b as usize) {
-                        found.push((a.min(b), a.max(b)));
-                    }
-                }
-            }
-            found
-        })
-        .collect();
-    for &a in &oversized {
-        pairs.extend((0..boxes.len()).filter_map(|b| {
-            let other_oversized_first = oversized.contains(&b) && b < a;
-            (b != a
-                && !other_oversized_first
-                && boxes[a].overlaps(&boxes[b])
-                && mesh.may_touch(a, b))
-            .then(|| (a.min(b) as u32, a.max(b) as u32))
-        }));
-    }
-    pairs.par_sort_unstable();
-    pairs
-}
-
 /// Cells a box may cover before it is handled by brute force.
 const MAX_CELLS_PER_BOX: f64 = 512.0;
+
+/// Groups of grid cells searched in parallel, each into its own buffer (a fixed number, so the
+/// work split does not depend on the thread count; the result is sorted anyway).
+const CELL_GROUPS: usize = 64;
+
+/// The hash grid and its buffers, kept between calls: once they have grown to the scene's
+/// size, a call allocates nothing.
+#[derive(Default)]
+pub struct BroadPhase {
+    boxes: Vec<Aabb>,
+    /// `(cell, triangle)` for every cell each box covers, sorted: the grid.
+    entries: Vec<(Cell, u32)>,
+    /// Ranges of `entries` holding one cell with at least two triangles.
+    cells: Vec<(usize, usize)>,
+    /// Boxes spanning too many cells, tested against every box instead.
+    oversized: Vec<usize>,
+    /// The pairs found in each group of cells.
+    found: Vec<Vec<(u32, u32)>>,
+    pairs: Vec<(u32, u32)>,
+}
+
+impl BroadPhase {
+    /// Triangle pairs `(a, b)`, `a < b`, whose boxes over the motion `start -> end`, inflated
+    /// by `reach / 2` (m), overlap and that [`ContactMesh::may_touch`] allows; sorted.
+    pub fn candidate_pairs(
+        &mut self,
+        start: &[Vector3<f64>],
+        end: &[Vector3<f64>],
+        mesh: &ContactMesh,
+        reach: f64,
+    ) -> &[(u32, u32)] {
+        self.pairs.clear();
+        mesh.triangles
+            .par_iter()
+            .map(|t| {
+                let mut lo = Vector3::repeat(f64::INFINITY);
+                let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+                for &v in t {
+                    for p in [&start[v as usize], &end[v as usize]] {
+                        lo = lo.inf(p);
+                        hi = hi.sup(p);
+                    }
+                }
+                let pad = Vector3::repeat(0.5 * reach);
+                Aabb {
+                    lo: lo - pad,
+                    hi: hi + pad,
+                }
+            })
+            .collect_into_vec(&mut self.boxes);
+        let boxes = &self.boxes;
+        if boxes.len() < 2 {
+            return &self.pairs;
+        }
+        let mean_extent =
+            boxes.iter().map(|b| (b.hi - b.lo).max()).sum::<f64>() / boxes.len() as f64;
+        let cell = 2.0 * mean_extent.max(f64::MIN_POSITIVE);
+        let cell_of =
+            |p: &Vector3<f64>| -> Cell { [0, 1, 2].map(|k| (p[k] / cell).floor() as i64) };
+
+        self.entries.clear();
+        self.oversized.clear();
+        for (t, b) in boxes.iter().enumerate() {
+            let (lo, hi) = (cell_of(&b.lo), cell_of(&b.hi));
+            let span = (0..3).map(|k| (hi[k] - lo[k]).saturating_add(1) as f64);
+            if span.product::<f64>() > MAX_CELLS_PER_BOX {
+                self.oversized.push(t);
+                continue;
+            }
+            for i in lo[0]..=hi[0] {
+                for j in lo[1]..=hi[1] {
+                    for k in lo[2]..=hi[2] {
+                        self.entries.push(([i, j, k], t as u32));
+                    }
+                }
+            }
+        }
+        self.entries.par_sort_unstable();
+        let entries = &self.entries;
+        self.cells.clear();
+        let mut first = 0;
+        for end in 1..=entries.len() {
+            if end == entries.len() || entries[end].0 != entries[first].0 {
+                if end - first > 1 {
+                    self.cells.push((first, end));
+                }
+                first = end;
+            }
+        }
+
+        // Each pair once: in the cell holding the lower corner of the two boxes' overlap.
+        let cells = &self.cells;
+        let per_group = cells.len().div_ceil(CELL_GROUPS).max(1);
+        self.found.resize_with(CELL_GROUPS, Vec::new);
+        self.found
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(g, found)| {
+                found.clear();
+                let lo = (g * per_group).min(cells.len());
+                let hi = ((g + 1) * per_group).min(cells.len());
+                for &(first, end) in &cells[lo..hi] {
+                    let key = entries[first].0;
+                    let members = &entries[first..end];
+                    for (n, &(_, a)) in members.iter().enumerate() {
+                        for &(_, b) in &members[n + 1..] {
+                            let (ba, bb) = (&boxes[a as usize], &boxes[b as usize]);
+                            if !ba.overlaps(bb) || cell_of(&ba.lo.sup(&bb.lo)) != key {
+                                continue;
+                            }
+                            if mesh.may_touch(a as usize, b as usize) {
+                                found.push((a.min(b), a.max(b)));
+                            }
+                        }
+                    }
+                }
+            });
+        for found in &self.found {
+            self.pairs.extend_from_slice(found);
+        }
+        let oversized = &self.oversized;
+        for &a in oversized {
+            self.pairs.extend((0..boxes.len()).filter_map(|b| {
+                let other_oversized_first = oversized.contains(&b) && b < a;
+                (b != a
+                    && !other_oversized_first
+                    && boxes[a].overlaps(&boxes[b])
+                    && mesh.may_touch(a, b))
+                .then(|| (a.min(b) as u32, a.max(b) as u32))
+            }));
+        }
+        self.pairs.par_sort_unstable();
+        &self.pairs
+    }
+}
 
 #[cfg(test)]
 mod tests {
@@ -162,6 +211,8 @@ mod tests {
             .map(|&[a, _, _]| [a, a + 1, a + 2])
             .collect();
         let body: Vec<u32> = (0..n as u32).map(|t| t % 2).collect();
+        // One grid for all the calls: reused buffers must not leak pairs from call to call.
+        let mut grid = BroadPhase::default();
         for (tris, self_contact) in [(&triangles, [true, false]), (&small, [true, true])] {
             let mesh = ContactMesh {
                 triangles: tris,
@@ -169,7 +220,7 @@ mod tests {
                 self_contact: &self_contact,
             };
             let reach = 0.1;
-            let found = candidate_pairs(&points, &end, &mesh, reach);
+            let found = grid.candidate_pairs(&points, &end, &mesh, reach).to_vec();
             let boxes: Vec<Aabb> = tris
                 .iter()
                 .map(|t| {
@@ -203,7 +254,7 @@ mod tests {
             // A far-flung vertex makes its triangles' boxes huge: same pairs as brute force.
             let mut far = points.clone();
             far[tris[0][0] as usize] = Vector3::new(1e6, 0.0, 0.0);
-            let found = candidate_pairs(&far, &far, &mesh, reach);
+            let found = grid.candidate_pairs(&far, &far, &mesh, reach);
             assert!(found.iter().any(|&(a, _)| a == 0));
             assert!(found.windows(2).all(|w| w[0] < w[1]), "no duplicates");
         }

@@ -32,9 +32,10 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::barrier::Barrier;
-use super::broad_phase::{candidate_pairs, ContactMesh};
-use super::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
-use super::distance::{edge_edge_closest, point_triangle_closest, Closest};
+use super::broad_phase::{BroadPhase, ContactMesh};
+use super::ccd::AdditiveCcd;
+use super::distance::Closest;
+use super::primitive_pairs::{primitive_pairs, Pair};
 use crate::error::{check_param, invalid, Result};
 
 /// Contact parameters (SI units). Defaults follow Table 1 of the paper (cloths over a ball):
@@ -154,88 +155,62 @@ impl ContactStats {
     }
 }
 
-/// A primitive pair: point-triangle `[p, t0, t1, t2]` or edge-edge `[a0, a1, b0, b1]`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-struct Pair {
-    edge_edge: bool,
-    v: [u32; 4],
+/// The local step's buffers, owned by the caller and kept between calls (one per body list):
+/// once they have grown to the scene's size, a local step allocates nothing.
+#[derive(Default)]
+pub struct Workspace {
+    broad_phase: BroadPhase,
+    pairs: Vec<Pair>,
+    /// `y^k`, the target of the proximal term.
+    target: Vec<Vector3<f64>>,
+    /// Per vertex: total distance moved by the descent (m).
+    drift: Vec<f64>,
+    /// Per vertex: the barrier part of the descent direction of eq. 49 (m).
+    force: Vec<Vector3<f64>>,
+    /// Per vertex: `sum_c |alpha_c^i|` of eq. 53.
+    alpha: Vec<f64>,
+    /// Per vertex: moved since the last CCD.
+    changed: Vec<bool>,
+    /// Per vertex: smallest time of impact.
+    vertex_toi: Vec<f64>,
+    /// Per vertex: clamped by the final guarantee pass.
+    clamped: Vec<bool>,
+    /// Per pair: time of impact.
+    toi: Vec<Option<f64>>,
+    /// Per pair: within `(1 + 4 eps) xi` at the last distance evaluation.
+    near: Vec<bool>,
+    /// Per pair: closest points.
+    closest: Vec<Closest>,
+    /// Per pair: separation floor of the guarantee pass (m).
+    floors: Vec<f64>,
+    /// Per vertex: the barrier push at the returned positions (see [`Workspace::push`]).
+    push: Vec<Vector3<f64>>,
 }
 
-impl Pair {
-    fn points(&self, x: &[Vector3<f64>]) -> [Vector3<f64>; 4] {
-        self.v.map(|i| x[i as usize])
-    }
-
-    fn closest(&self, x: &[Vector3<f64>]) -> Closest {
-        let p = self.points(x);
-        if self.edge_edge {
-            edge_edge_closest(&p[0], &p[1], &p[2], &p[3])
-        } else {
-            point_triangle_closest(&p[0], &p[1], &p[2], &p[3])
-        }
-    }
-
-    fn ccd(
-        &self,
-        start: &[Vector3<f64>],
-        end: &[Vector3<f64>],
-        min: f64,
-        ccd: &AdditiveCcd,
-    ) -> Option<f64> {
-        let (a, b) = (self.points(start), self.points(end));
-        if self.edge_edge {
-            edge_edge_ccd(&a, &b, min, ccd)
-        } else {
-            point_triangle_ccd(&a, &b, min, ccd)
-        }
+impl Workspace {
+    /// Per vertex, the barrier push `p_i = -mu sum_c B'(f(d_c) - xi) alpha_c^i n_c` (m) of
+    /// eq. 49 at the positions the last [`project`] returned: where the descent has converged,
+    /// `z_i - y_i^k = p_i`, so `p` is the displacement by which contact holds each vertex
+    /// back from the global step's target (zero away from contact; empty before any call).
+    pub fn push(&self) -> &[Vector3<f64>] {
+        &self.push
     }
 }
 
-/// The 6 point-triangle and 9 edge-edge pairs of the candidate triangle pairs, deduplicated
-/// (an edge or a vertex belongs to several triangles).
-fn primitive_pairs(triangles: &[[u32; 3]], candidates: &[(u32, u32)]) -> Vec<Pair> {
-    let edge = |t: &[u32; 3], k: usize| {
-        let (a, b) = (t[k], t[(k + 1) % 3]);
-        [a.min(b), a.max(b)]
-    };
-    let mut pairs: Vec<Pair> = candidates
-        .par_iter()
-        .flat_map_iter(|&(i, j)| {
-            let (ti, tj) = (&triangles[i as usize], &triangles[j as usize]);
-            let mut out = Vec::with_capacity(15);
-            for (a, b) in [(ti, tj), (tj, ti)] {
-                for &p in a {
-                    out.push(Pair {
-                        edge_edge: false,
-                        v: [p, b[0], b[1], b[2]],
-                    });
-                }
-            }
-            for ki in 0..3 {
-                for kj in 0..3 {
-                    let (ea, eb) = (edge(ti, ki), edge(tj, kj));
-                    let (ea, eb) = if ea <= eb { (ea, eb) } else { (eb, ea) };
-                    out.push(Pair {
-                        edge_edge: true,
-                        v: [ea[0], ea[1], eb[0], eb[1]],
-                    });
-                }
-            }
-            out
-        })
-        .collect();
-    pairs.par_sort_unstable();
-    pairs.dedup();
-    pairs
+/// Sets `v` to `n` copies of `value`, reusing its allocation.
+fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
+    v.clear();
+    v.resize(n, value);
 }
 
 fn millis(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-/// Smallest time of impact per vertex over the pairs that collide (1 where none).
-fn vertex_toi(pairs: &[Pair], toi: &[Option<f64>], n: usize) -> Vec<f64> {
-    let mut t = vec![1.0f64; n];
+/// Writes into `t` the smallest time of impact per vertex over the pairs that collide (1 where
+/// none).
+fn vertex_toi(pairs: &[Pair], toi: &[Option<f64>], t: &mut Vec<f64>, n: usize) {
+    refill(t, n, 1.0);
     for (pair, hit) in pairs.iter().zip(toi) {
         if let Some(time) = hit {
             for &v in &pair.v {
@@ -243,14 +218,13 @@ fn vertex_toi(pairs: &[Pair], toi: &[Option<f64>], n: usize) -> Vec<f64> {
             }
         }
     }
-    t
 }
 
 /// Runs the local step: `positions` holds `y^k` on entry and `z` on return; `safe` is
 /// `z^{k-1}`, free of intersections; `fixed` vertices are never moved. `keep_out(i, z_i)`
 /// projects a vertex out of the colliders after every descent move, so the barrier cannot
 /// push a membrane into a collider (the final clamp then only interpolates between positions
-/// outside them).
+/// outside them). `work` holds the buffers between calls.
 pub fn project(
     safe: &[Vector3<f64>],
     positions: &mut [Vector3<f64>],
@@ -258,6 +232,7 @@ pub fn project(
     mesh: &ContactMesh,
     params: &ContactParams,
     keep_out: &(dyn Fn(usize, &mut Vector3<f64>) + Sync),
+    work: &mut Workspace,
 ) -> ContactStats {
     let mut stats = ContactStats::default();
     let barrier = params.barrier();
@@ -266,41 +241,59 @@ pub fn project(
     let n = positions.len();
 
     let t = Instant::now();
-    let candidates = candidate_pairs(safe, positions, mesh, reach);
-    let mut pairs = primitive_pairs(mesh.triangles, &candidates);
+    let candidates = work
+        .broad_phase
+        .candidate_pairs(safe, positions, mesh, reach);
     stats.candidate_pairs = candidates.len();
+    primitive_pairs(mesh.triangles, candidates, &mut work.pairs);
     stats.broad_phase_ms += millis(t);
-    if pairs.is_empty() {
+    refill(&mut work.push, n, Vector3::zeros());
+    if work.pairs.is_empty() {
         return stats;
     }
 
-    let target: Vec<Vector3<f64>> = positions.to_vec();
+    work.target.clear();
+    work.target.extend_from_slice(positions);
     let z = positions;
     let bound = barrier.derivative_bound();
-    let mut drift = vec![0.0f64; n];
-    let mut force = vec![Vector3::zeros(); n];
-    let mut alpha = vec![0.0f64; n];
+    refill(&mut work.drift, n, 0.0);
+    refill(&mut work.force, n, Vector3::zeros());
+    refill(&mut work.alpha, n, 0.0);
     // Vertices moved since the last CCD: a pair none of whose vertices moved keeps its time.
-    let mut changed = vec![true; n];
-    let mut toi: Vec<Option<f64>> = vec![None; pairs.len()];
+    refill(&mut work.changed, n, true);
+    refill(&mut work.toi, work.pairs.len(), None);
     // After the first iteration a vertex moves at most `eps xi` per iteration (eq. 53), so
     // only pairs that were within `(1 + 4 eps) xi` can reach `xi`: the others skip the CCD.
-    let mut near = vec![true; pairs.len()];
+    refill(&mut work.near, work.pairs.len(), true);
     let near_distance = (1.0 + 4.0 * eps) * xi;
+    let Workspace {
+        pairs,
+        target,
+        drift,
+        force,
+        alpha,
+        changed,
+        vertex_toi: per_vertex,
+        toi,
+        near,
+        closest,
+        ..
+    } = work;
     for _ in 0..params.max_iters {
         // Lines 4-18: CCD between the safe positions and z^m, clamp above the threshold.
         let t = Instant::now();
+        let changed_now = &*changed;
         toi.par_iter_mut()
-            .zip(&pairs)
-            .zip(&near)
+            .zip(&*pairs)
+            .zip(&*near)
             .for_each(|((hit, p), &near)| {
                 if !near {
                     *hit = None;
-                } else if p.v.iter().any(|&v| changed[v as usize]) {
+                } else if p.v.iter().any(|&v| changed_now[v as usize]) {
                     *hit = p.ccd(safe, z, xi, &params.ccd);
                 }
             });
-        let per_vertex = vertex_toi(&pairs, &toi, n);
+        vertex_toi(pairs, toi, per_vertex, n);
         z.par_iter_mut()
             .zip(changed.par_iter_mut())
             .enumerate()
@@ -315,22 +308,14 @@ pub fn project(
 
         // Lines 19-27: distances, weights and the descent direction of eq. 49.
         let t = Instant::now();
-        let found: Vec<Closest> = pairs.par_iter().map(|p| p.closest(z)).collect();
-        force.iter_mut().for_each(|f| *f = Vector3::zeros());
-        alpha.iter_mut().for_each(|a| *a = 0.0);
-        for ((pair, c), near) in pairs.iter().zip(&found).zip(near.iter_mut()) {
-            let d = c.separation.norm();
-            *near = d < near_distance;
-            if d >= reach || d == 0.0 {
-                continue;
-            }
-            let push = -mu * barrier.derivative(barrier.gap(d));
-            let normal = c.separation / d;
-            for (&v, &w) in pair.v.iter().zip(&c.weights) {
-                force[v as usize] += normal * (push * w);
-                alpha[v as usize] += w.abs();
-            }
+        pairs
+            .par_iter()
+            .map(|p| p.closest(z))
+            .collect_into_vec(closest);
+        for (c, near) in closest.iter().zip(near.iter_mut()) {
+            *near = c.separation.norm() < near_distance;
         }
+        barrier_push(pairs, closest, &barrier, mu, force, alpha);
         let (alpha_0, farthest) = (0..n)
             .into_par_iter()
             .filter(|&i| !fixed[i])
@@ -365,46 +350,96 @@ pub fn project(
 
     // Pairs the descent may have brought together beyond the broad phase's margin.
     let t = Instant::now();
-    let max_drift = drift.iter().copied().fold(0.0, f64::max);
+    let max_drift = work.drift.iter().copied().fold(0.0, f64::max);
     if 2.0 * max_drift + eps * xi > reach {
-        let candidates = candidate_pairs(safe, z, mesh, eps * xi);
-        pairs = primitive_pairs(mesh.triangles, &candidates);
+        let candidates = work.broad_phase.candidate_pairs(safe, z, mesh, eps * xi);
+        primitive_pairs(mesh.triangles, candidates, &mut work.pairs);
     }
     stats.broad_phase_ms += millis(t);
 
     let t = Instant::now();
-    stats.clamped = guarantee(safe, z, fixed, &pairs, params);
+    stats.clamped = guarantee(safe, z, fixed, params, work);
     stats.ccd_ms += millis(t);
 
     let t = Instant::now();
-    stats.active_pairs = pairs
+    work.pairs
         .par_iter()
-        .filter(|p| p.closest(z).separation.norm() < reach)
+        .map(|p| p.closest(z))
+        .collect_into_vec(&mut work.closest);
+    stats.active_pairs = work
+        .closest
+        .iter()
+        .filter(|c| c.separation.norm() < reach)
         .count();
+    barrier_push(
+        &work.pairs,
+        &work.closest,
+        &barrier,
+        mu,
+        &mut work.push,
+        &mut work.alpha,
+    );
     stats.descent_ms += millis(t);
     stats
 }
 
-/// The final clamp (see the module doc): returns the number of vertices it moved.
+/// Writes into `push` the barrier part of the descent direction of eq. 49,
+/// `p_i = -mu sum_c B'(f(d_c) - xi) alpha_c^i n_c` (m), and into `alpha` the sums
+/// `sum_c |alpha_c^i|` of eq. 53, over the pairs within the barrier's reach.
+fn barrier_push(
+    pairs: &[Pair],
+    closest: &[Closest],
+    barrier: &Barrier,
+    mu: f64,
+    push: &mut [Vector3<f64>],
+    alpha: &mut [f64],
+) {
+    let reach = barrier.reach();
+    push.iter_mut().for_each(|f| *f = Vector3::zeros());
+    alpha.iter_mut().for_each(|a| *a = 0.0);
+    for (pair, c) in pairs.iter().zip(closest) {
+        let d = c.separation.norm();
+        if d >= reach || d == 0.0 {
+            continue;
+        }
+        let slope = -mu * barrier.derivative(barrier.gap(d));
+        let normal = c.separation / d;
+        for (&v, &w) in pair.v.iter().zip(&c.weights) {
+            push[v as usize] += normal * (slope * w);
+            alpha[v as usize] += w.abs();
+        }
+    }
+}
+
+/// The final clamp (see the module doc) over the pairs in `work`: returns the number of
+/// vertices it moved.
 fn guarantee(
     safe: &[Vector3<f64>],
     z: &mut [Vector3<f64>],
     fixed: &[bool],
-    pairs: &[Pair],
     params: &ContactParams,
+    work: &mut Workspace,
 ) -> usize {
     let floor = params.eps * params.thickness;
+    let Workspace {
+        pairs,
+        floors,
+        toi,
+        vertex_toi: per_vertex,
+        clamped,
+        ..
+    } = work;
     // Each pair's separation floor, from its distance at the safe positions; pairs already
     // touching there cannot be helped and are skipped.
-    let floors: Vec<f64> = pairs
+    pairs
         .par_iter()
         .map(|p| floor.min(0.9 * p.closest(safe).separation.norm()))
-        .collect();
-    let mut moved = vec![false; z.len()];
+        .collect_into_vec(floors);
+    refill(clamped, z.len(), false);
     for pass in 0..=CLAMP_PASSES {
-        let toi: Vec<Option<f64>> = pairs
+        pairs
             .par_iter()
-            .zip(&floors)
+            .zip(&*floors)
             .map(|(p, &min)| {
                 if min > 0.0 {
                     p.ccd(safe, z, min, &params.ccd)
@@ -412,11 +447,11 @@ fn guarantee(
                     None
                 }
             })
-            .collect();
+            .collect_into_vec(toi);
         if toi.iter().all(Option::is_none) {
             break;
         }
-        let per_vertex = vertex_toi(pairs, &toi, z.len());
+        vertex_toi(pairs, toi, per_vertex, z.len());
         for (i, zi) in z.iter_mut().enumerate() {
             let ti = per_vertex[i];
             if fixed[i] || ti >= 1.0 {
@@ -424,10 +459,10 @@ fn guarantee(
             }
             let keep = if pass < CLAMP_PASSES { ti } else { 0.0 };
             *zi = safe[i] + (*zi - safe[i]) * keep;
-            moved[i] = true;
+            clamped[i] = true;
         }
     }
-    moved.iter().filter(|&&m| m).count()
+    clamped.iter().filter(|&&m| m).count()
 }
 
 #[cfg(test)]
@@ -469,7 +504,8 @@ mod tests {
         };
         let mut z = target.clone();
         let fixed = vec![false; 6];
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {});
+        let mut work = Workspace::default();
+        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {}, &mut work);
         assert_eq!(stats.candidate_pairs, 1);
         assert!(stats.active_pairs > 0 && stats.iterations > 0);
         let lowest_upper = z[3..].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
@@ -485,7 +521,7 @@ mod tests {
             ..mesh
         };
         let mut z = target.clone();
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {});
+        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {}, &mut work);
         assert_eq!(stats.candidate_pairs, 0);
         assert_eq!(z, target);
     }
@@ -505,7 +541,15 @@ mod tests {
             d_hat: 2e-3,
             ..ContactParams::default()
         };
-        project(&safe, &mut z, &[false; 6], &mesh, &params, &|_, _| {});
+        project(
+            &safe,
+            &mut z,
+            &[false; 6],
+            &mesh,
+            &params,
+            &|_, _| {},
+            &mut Workspace::default(),
+        );
         assert_eq!(z, safe);
     }
 }

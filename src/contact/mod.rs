@@ -8,7 +8,8 @@ pub mod ccd;
 mod collider;
 pub mod distance;
 pub mod local_step;
+mod primitive_pairs;
 
-pub use broad_phase::ContactMesh;
+pub use broad_phase::{BroadPhase, ContactMesh};
 pub use collider::{Collider, ColliderModel, Shape, ShapeModel};
-pub use local_step::{project, ContactParams, ContactStats};
+pub use local_step::{project, ContactParams, ContactStats, Workspace};
