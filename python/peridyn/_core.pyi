@@ -289,8 +289,10 @@ class StepStats:
     @property
     def error_estimate(self) -> float:
         """max_i |r_i| / m_i (m) for the residual r = m (y* - y) + h^2 f at the last evaluated
-        iterate (contact reactions removed): an upper bound on the mass-weighted RMS distance to
-        the exact implicit Euler solution where the energy is convex."""
+        iterate, without the contact reactions (the push of the colliders a vertex touches, and
+        the barrier push the contact local step exerts there): an upper bound on the
+        mass-weighted RMS distance to the exact implicit Euler solution where the energy is
+        convex."""
     @property
     def energies(self) -> np.ndarray:
         """Total variational energy E(y^k) (J) of every iterate k = 0..iterations; empty unless

@@ -5,14 +5,14 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::contact::{project, ColliderModel, ContactMesh, ContactParams, ContactStats};
+use crate::contact::{project, ColliderModel, ContactMesh, ContactParams, ContactStats, Workspace};
 use crate::membrane::Membrane;
 use crate::real::Real;
 
 use super::system::System;
 
 /// Contact topology (built once per body list) and the state of the current time step.
-pub(super) struct ContactState {
+pub(super) struct ContactState<T: Real> {
     triangles: Vec<[u32; 3]>,
     body: Vec<u32>,
     self_contact: Vec<bool>,
@@ -20,12 +20,18 @@ pub(super) struct ContactState {
     safe: Vec<Vector3<f64>>,
     /// `z^k` while the local step works on it (reused, swapped with `safe`).
     next: Vec<Vector3<f64>>,
+    /// The local step's buffers, kept from iteration to iteration and step to step.
+    work: Workspace,
+    /// Per vertex, the last local step's move `z_i - y_i^k` projected on the direction of the
+    /// barrier's push at `z_i` (and clamped to the push's side): the contact reaction it
+    /// realised (m; zero away from contact; empty before the first local step of a time step).
+    reaction: Vec<Vector3<T>>,
 }
 
-impl ContactState {
+impl<T: Real> ContactState<T> {
     /// Concatenates the bodies' triangles in the system's global vertex numbering; call
     /// [`Self::start_step`] before each step.
-    pub fn new<T: Real>(bodies: &[&mut Membrane], sys: &System<T>) -> Self {
+    pub fn new(bodies: &[&mut Membrane], sys: &System<T>) -> Self {
         let mut triangles = Vec::new();
         let mut body = Vec::new();
         for (b, (membrane, range)) in bodies.iter().zip(&sys.ranges).enumerate() {
@@ -42,12 +48,15 @@ impl ContactState {
             self_contact: Vec::with_capacity(bodies.len()),
             safe: vec![Vector3::zeros(); n],
             next: vec![Vector3::zeros(); n],
+            work: Workspace::default(),
+            reaction: Vec::with_capacity(n),
         }
     }
 
     /// Takes the bodies' current self-contact switches, and the start-of-step positions `y_t`
     /// as the first safe positions.
-    pub fn start_step<T: Real>(&mut self, bodies: &[&mut Membrane], sys: &System<T>) {
+    pub fn start_step(&mut self, bodies: &[&mut Membrane], sys: &System<T>) {
+        self.reaction.clear();
         self.self_contact.clear();
         self.self_contact
             .extend(bodies.iter().map(|b| b.self_contact()));
@@ -59,7 +68,7 @@ impl ContactState {
     /// Runs the local step on `sys.y_next` (the global step's result, after colliders), keeping
     /// vertices out of the colliders, and makes the result the new safe positions. Returns the
     /// largest move from `sys.y` (m) and the step's figures.
-    pub fn local_step<T: Real>(
+    pub fn local_step(
         &mut self,
         sys: &mut System<T>,
         params: &ContactParams,
@@ -83,14 +92,33 @@ impl ContactState {
             }
             *zi = x.map(|c| c.to_f64());
         };
-        let stats = project(&self.safe, &mut z, &sys.pinned, &mesh, params, &keep_out);
+        let stats = project(
+            &self.safe,
+            &mut z,
+            &sys.pinned,
+            &mesh,
+            params,
+            &keep_out,
+            &mut self.work,
+        );
         let y = &sys.y;
+        let push = self.work.push();
+        self.reaction.clear();
+        self.reaction.resize(z.len(), Vector3::zeros());
         let moved = sys
             .y_next
             .par_iter_mut()
             .zip(z.par_iter_mut())
+            .zip(self.reaction.par_iter_mut())
             .enumerate()
-            .map(|(i, (next, zi))| {
+            .map(|(i, ((next, zi), reaction))| {
+                // The local step's move along the barrier's push: the realised contact reaction.
+                let norm = push[i].norm();
+                if norm > 0.0 {
+                    let normal = push[i] / norm;
+                    let along = normal.dot(&(*zi - next.map(|c| c.to_f64())));
+                    *reaction = (normal * along.max(0.0)).map(T::of);
+                }
                 *next = zi.map(T::of);
                 // The safe positions are the ones the solver holds (rounded in f32).
                 *zi = next.map(|c| c.to_f64());
@@ -99,5 +127,11 @@ impl ContactState {
             .reduce(|| 0.0, f64::max);
         self.next = std::mem::replace(&mut self.safe, z);
         (moved, stats)
+    }
+
+    /// Per vertex, the contact reaction the last local step realised (m), for the convergence
+    /// measure (empty before the first local step of the time step).
+    pub fn reaction(&self) -> &[Vector3<T>] {
+        &self.reaction
     }
 }

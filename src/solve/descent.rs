@@ -14,7 +14,7 @@ use crate::membrane::Preconditioner;
 use crate::real::Real;
 
 use super::evaluate::{evaluate, total_energy};
-use super::jacobi::{keep_out, without_contact_reaction, LocalSystem, MoveOptions, Update};
+use super::jacobi::{free_residual, keep_out, LocalSystem, MoveOptions, Update};
 use super::system::System;
 
 /// Halvings of the step length tried before a (tiny) step is taken regardless.
@@ -72,15 +72,7 @@ pub(super) fn descent_iteration<T: Real>(
             }
             *local = LocalSystem::of(sys_ref, k, h2);
             *d = local.solve();
-            let margin = sys_ref.rest.vertices[k].half_thickness;
-            let free = without_contact_reaction(
-                local.residual,
-                &sys_ref.y[k],
-                &sys_ref.y_start[k],
-                margin,
-                options.colliders,
-            );
-            (free.norm() / local.mass).to_f64()
+            free_residual(sys_ref, k, local, options)
         })
         .reduce(|| 0.0, f64::max);
 

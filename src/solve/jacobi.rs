@@ -63,6 +63,10 @@ pub(super) struct MoveOptions<'a, T: Real> {
     /// Chebyshev extrapolation weight of this iteration, if any.
     pub omega: Option<T>,
     pub colliders: &'a [ColliderModel<T>],
+    /// Per vertex: the contact reaction the last local step realised at the current iterate
+    /// (m; see [`free_residual`]), or empty when contact is off or no local step ran yet this
+    /// step.
+    pub contact_reaction: &'a [Vector3<T>],
 }
 
 /// The linear system of vertex `k` at the current iterate: `D delta = r` with
@@ -71,6 +75,8 @@ pub(super) struct MoveOptions<'a, T: Real> {
 pub(crate) struct LocalSystem<T: Real> {
     pub mass: T,
     pub residual: Vector3<T>,
+    /// `D` (kg).
+    pub system: Matrix3<T>,
     pub inverse: Matrix3<T>,
     /// `h^2 f`.
     pub force_h2: Vector3<T>,
@@ -112,6 +118,7 @@ impl<T: Real> LocalSystem<T> {
         Self {
             mass,
             residual,
+            system,
             inverse,
             force_h2,
             energy_h2,
@@ -213,15 +220,8 @@ fn finish_move<T: Real>(
     if let Some(w) = options.omega {
         *next = (*next - sys.y_prev[k]) * w + sys.y_prev[k];
     }
-    let free = without_contact_reaction(
-        local.residual,
-        &y,
-        &sys.y_start[k],
-        margin,
-        options.colliders,
-    );
     Update {
-        residual: (free.norm() / local.mass).to_f64(),
+        residual: free_residual(sys, k, local, options),
         ..Update::of(k, &y, next)
     }
 }
@@ -336,12 +336,50 @@ pub(super) fn keep_out<T: Real>(
     y
 }
 
+/// The convergence measure of vertex `k`, `|r_free| / m` (m): its residual `r` at the current
+/// iterate `y` without the reactions of the contacts it is in.
+///
+/// Membrane contact: the global step sends `y` to `y^k = y + D^-1 r`, and the local step
+/// (Algorithm 2) moves that to `z`. At a fixed point `z = y`, so `r = -D (z - y^k)`: the local
+/// step's move, weighted by `D`, is the reaction that balances the residual. Only its part
+/// along the barrier's push `p_i` (the contact normals weighted by the closest-point weights)
+/// counts as reaction, `q_i = n_i max(n_i . (z_i - y_i^k), 0)` with `n_i = p_i / |p_i|`, and
+/// what is measured is `r + D q` with the `q` of the local step that produced `y`. So a vertex
+/// out of the barrier's reach (in free flight) keeps its whole residual, and a tangential
+/// imbalance (sliding not yet resolved, or held back by a CCD clamp) stays in the measure;
+/// and the measure vanishes only where the local step's push and the global step's pull
+/// balance, not merely where a pair is close. The first iteration of a step, before any local
+/// step, has no `q` and measures the whole residual (and cannot decide convergence, see
+/// [`super::sissm`]).
+///
+/// Colliders: see [`without_contact_reaction`].
+#[inline]
+pub(super) fn free_residual<T: Real>(
+    sys: &System<T>,
+    k: usize,
+    local: &LocalSystem<T>,
+    options: &MoveOptions<'_, T>,
+) -> f64 {
+    let mut residual = local.residual;
+    if let Some(reaction) = options.contact_reaction.get(k) {
+        residual += local.system * reaction;
+    }
+    let free = without_contact_reaction(
+        residual,
+        &sys.y[k],
+        &sys.y_start[k],
+        sys.rest.vertices[k].half_thickness,
+        options.colliders,
+    );
+    (free.norm() / local.mass).to_f64()
+}
+
 /// The residual without the part the colliders the vertex touches balance at the solution:
 /// the push into the collider, and the Coulomb friction `friction * |push|`: against the slip
 /// when the vertex slides relative to the collider (kinetic friction is exactly that), as much
 /// of the tangential part as the cone holds when it does not (static friction).
 #[inline]
-pub(super) fn without_contact_reaction<T: Real>(
+fn without_contact_reaction<T: Real>(
     mut residual: Vector3<T>,
     y: &Vector3<T>,
     start: &Vector3<T>,

@@ -14,8 +14,9 @@
 //! contact local step (Algorithm 2, [`crate::contact::project`]) when contact is on.
 //!
 //! The iteration starts from the lower-energy of `y*` and `y_t` ([`initial_guess`]) and stops
-//! when `max_i |r_i| / m_i < tol` for the residual `r = m (y* - y) + h^2 f` (without the push
-//! into colliders the vertex touches). Where the energy is convex its Hessian `H` satisfies
+//! when `max_i |r_i| / m_i < tol` for the residual `r = m (y* - y) + h^2 f` (without the
+//! reactions of the colliders and of the membrane contacts the vertex is in, see
+//! [`super::jacobi::free_residual`]; with contact, not before the first local step). Where the energy is convex its Hessian `H` satisfies
 //! `H >= M`, so the error `e = H^-1 r` obeys `|e|_M <= |r|_(M^-1)`: the test bounds the
 //! mass-weighted RMS distance to the exact implicit Euler solution. Algorithm 1 tests the last
 //! move `max_i |y_i^{k+1} - y_i^k|` instead, which declares slowly converging (stiff, fine)
@@ -45,7 +46,7 @@ pub struct Solver<T: Real> {
     pool: Option<rayon::ThreadPool>,
     system: Option<System<T>>,
     /// Contact topology of the current body list (built on the first step with contact).
-    contact: Option<ContactState>,
+    contact: Option<ContactState<T>>,
     clock: Clock,
 }
 
@@ -179,11 +180,20 @@ impl<T: Real> Solver<T> {
             let t = Instant::now();
             let extrapolation = params.acceleration.omega(iteration, omega);
             omega = extrapolation.unwrap_or(1.0);
+            let contact_reaction = self
+                .contact
+                .as_ref()
+                .map(ContactState::reaction)
+                .unwrap_or_default();
+            // With contact, the first iterate of a step has not been through a local step: its
+            // residual says nothing of the contacts, so it cannot decide convergence.
+            let decisive = params.contact.is_none() || !contact_reaction.is_empty();
             let options = MoveOptions {
                 step_length: params.step_length,
                 inner_iters: params.inner_iters,
                 omega: extrapolation.map(T::of),
                 colliders: &colliders,
+                contact_reaction,
             };
             let mut update = match params.method {
                 Method::Sissm => {
@@ -238,7 +248,7 @@ impl<T: Real> Solver<T> {
             stats.residual = update.moved;
             stats.residuals.push(update.moved);
             stats.error_estimate = update.residual;
-            if params.tol > 0.0 && stats.error_estimate < params.tol {
+            if decisive && params.tol > 0.0 && stats.error_estimate < params.tol {
                 stats.converged = true;
                 break;
             }

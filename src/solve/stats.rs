@@ -28,8 +28,10 @@ pub struct StepStats {
     pub iterations: usize,
     /// Final `max_i |y_i^k - y_i^(k-1)|` (m).
     pub residual: f64,
-    /// `max_i |r_i| / m_i` (m) at the last iterate the kernel evaluated: an upper bound on the
-    /// mass-weighted RMS distance to the exact implicit Euler solution where the energy is convex.
+    /// `max_i |r_i| / m_i` (m) at the last iterate the kernel evaluated, without the contact
+    /// reactions (colliders, and the barrier push of the contact local step): an upper bound on
+    /// the mass-weighted RMS distance to the exact implicit Euler solution where the energy is
+    /// convex.
     pub error_estimate: f64,
     /// Whether `error_estimate` fell below `tol` (never when `tol == 0`).
     pub converged: bool,
