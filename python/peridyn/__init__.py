@@ -3,7 +3,8 @@
 The simulation runs in a compiled Rust core (:mod:`peridyn._core`); this package re-exports it
 and adds Python helpers: mesh building and loading (:mod:`peridyn.mesh`), output
 (:mod:`peridyn.io`), pictures (:mod:`peridyn.render`), a ``run`` loop with progress bar
-(:class:`peridyn.Solver`) and ready-made scenes (:mod:`peridyn.scenes`).
+(:class:`peridyn.Solver`) and ready-made scenes (:mod:`peridyn.scenes`, and the paper's
+contact scenes in :mod:`peridyn.paper_scenes`).
 
 All quantities are SI: metres, kilograms, seconds, pascals, joules.
 """
@@ -24,6 +25,7 @@ from .io import FrameRecorder, load_state, save_state, write_mesh
 from .materials import plate_bending_stiffness
 from .mesh import grid, load_mesh
 from .render import draw_scene, render_png
+from .paper_scenes import antependium, cloths_over_ball, shooting_shell
 from .scenes import Scene, default_scene
 from .solver import RunSummary, Solver
 
@@ -45,6 +47,8 @@ __all__ = [
     "FrameRecorder",
     "RunSummary",
     "Scene",
+    "antependium",
+    "cloths_over_ball",
     "default_scene",
     "draw_scene",
     "grid",
@@ -53,6 +57,7 @@ __all__ = [
     "plate_bending_stiffness",
     "render_png",
     "save_state",
+    "shooting_shell",
     "write_mesh",
     "__version__",
 ]

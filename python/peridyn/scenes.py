@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import Any, Dict, Optional
 
 import numpy as np
 
@@ -19,14 +19,17 @@ __all__ = ["Scene", "default_scene"]
 class Scene:
     """A solver together with the objects it simulates.
 
+    Bodies and colliders are also attributes by name: ``scene.cloth`` is
+    ``scene.bodies["cloth"]``, ``scene.sphere`` is ``scene.colliders["sphere"]``.
+
     Attributes
     ----------
     solver : Solver
         The time stepper, bodies and colliders already added.
-    cloth : Membrane
-        The cloth.
-    sphere : Sphere
-        The sphere collider.
+    bodies : dict of str to Membrane
+        The membranes, by name, in the order they were added to the solver.
+    colliders : dict of str to Collider
+        The colliders, by name, in the order they were added to the solver.
     steps : int
         Suggested number of steps to run (``duration / dt``).
     description : str
@@ -34,10 +37,19 @@ class Scene:
     """
 
     solver: Solver
-    cloth: _core.Membrane
-    sphere: _core.Sphere
+    bodies: Dict[str, _core.Membrane]
+    colliders: Dict[str, Any]
     steps: int
     description: str
+
+    def __getattr__(self, name: str) -> Any:
+        # Only called when ordinary lookup fails; the fields themselves never come here
+        # (except while half-built, e.g. during unpickling: then they are simply missing).
+        if name not in ("bodies", "colliders"):
+            for group in (self.bodies, self.colliders):
+                if name in group:
+                    return group[name]
+        raise AttributeError(f"Scene has no attribute, body or collider named {name!r}")
 
 
 def default_scene(
@@ -127,4 +139,10 @@ def default_scene(
         f"{n}x{n} cloth ({size:g} m, s0 = {s0:g} Pa, t = {thickness * 1e3:g} mm), "
         f"pinned along y = {size:g} m, draping onto a sphere of radius {sphere_radius:g} m"
     )
-    return Scene(solver=solver, cloth=cloth, sphere=sphere, steps=steps, description=description)
+    return Scene(
+        solver=solver,
+        bodies={"cloth": cloth},
+        colliders={"sphere": sphere},
+        steps=steps,
+        description=description,
+    )

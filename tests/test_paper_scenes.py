@@ -1,0 +1,94 @@
+"""The paper's contact scenes (Table 1 of Lu et al. 2023) at small sizes: at every checked step
+no two triangles intersect, non-adjacent primitives stay eps * xi apart and no vertex is inside
+a collider, and each scene does what it is for (layers stack on the ball, the antependium
+hangs over the table's edge and stays on the table, the shell is stopped by the target).
+"""
+
+import numpy as np
+import pytest
+
+import peridyn
+from contact_checks import assert_apart
+from peridyn.paper_scenes import antependium, cloths_over_ball, shooting_shell
+
+
+def run_checked(scene, steps, every=1):
+    """Steps the scene, checking the contact promises every `every` steps; returns the
+    largest number of active contact pairs seen."""
+    contact = scene.solver.contact
+    bodies, colliders = list(scene.bodies.values()), list(scene.colliders.values())
+    active = 0
+    for k in range(steps):
+        stats = scene.solver.step()
+        active = max(active, stats.contact["active_pairs"])
+        if k % every == every - 1:
+            assert_apart(bodies, colliders, contact.thickness, contact.eps)
+    return active
+
+
+def test_three_cloths_stack_on_the_ball():
+    scene = cloths_over_ball(layers=3, n=9, size=0.5, dt=2e-3, max_iters=30, threads=1)
+    assert list(scene.bodies) == ["layer0", "layer1", "layer2"]
+    assert len(scene.solver.bodies) == 3 and len(scene.solver.colliders) == 2
+    ball = scene.ball
+    top = ball.center[2] + ball.radius
+    start = [layer.positions[:, 2].max() for layer in scene.bodies.values()]
+    assert top < start[0] < start[1] < start[2]
+    active = run_checked(scene, 40)
+    assert active > 0, "the layers must have touched"
+    # Each layer's centre vertex sits on the one below, the lowest on the ball.
+    centre = [layer.positions[np.argmin(np.linalg.norm(layer.positions[:, :2], axis=1))]
+              for layer in scene.bodies.values()]
+    z = [c[2] for c in centre]
+    assert z[0] < z[1] < z[2], z
+    assert top < z[0] < start[0], "the lowest layer rests on the ball"
+    assert max(np.abs(c[:2]).max() for c in centre) < 0.05, "the stack did not slide off"
+
+
+def test_antependium_hangs_over_the_edge_and_stays_on_the_table():
+    scene = antependium(n=10, bending=0.03, dt=2e-3, max_iters=30, threads=1)
+    cloth, table = scene.cloth, scene.table
+    rest = cloth.rest_positions
+    on_table = rest[:, 1] < -0.3
+    front = np.isclose(rest[:, 1], rest[:, 1].max())
+    run_checked(scene, 150, every=10)
+    x = cloth.positions
+    assert x[front, 2].max() < -0.15, "the free part must hang down the table's front"
+    assert np.abs(x[on_table] - rest[on_table]).max() < 0.01, "the cloth slid on the table"
+    assert table.signed_distance(x).min() > -1e-6
+
+
+def test_shell_shot_into_the_target_is_stopped():
+    scene = shooting_shell(subdivisions=1, n=8, radius=0.15, size=0.8, target_s0=4e4,
+                           max_iters=30, threads=1)
+    shell, target = scene.shell, scene.target
+    assert scene.colliders == {} and shell.velocities[:, 2].mean() == pytest.approx(-15.0)
+    active = run_checked(scene, 100, every=5)
+    assert active > 0, "the shell must have hit the target"
+    assert shell.velocities[:, 2].mean() > -0.8 * 15.0, "the target did not slow the shell down"
+    # The target caught it: stretched into a pocket (the pinned border stays put).
+    assert target.positions[:, 2].min() < -0.1
+    pinned = target.pinned
+    np.testing.assert_allclose(target.positions[pinned], target.rest_positions[pinned])
+
+
+@pytest.mark.parametrize("build, kwargs", [
+    (cloths_over_ball, dict(layers=0)),
+    (cloths_over_ball, dict(n=400, size=0.5)),  # too fine for xi = 1.5 mm
+    (antependium, dict(overhang=2.0)),
+    (antependium, dict(bending=-1.0)),
+    (antependium, dict(books=5)),
+    (shooting_shell, dict(subdivisions=0)),
+    (shooting_shell, dict(radius=2.0)),
+    (shooting_shell, dict(xi=-1.0)),
+])
+def test_scene_builders_refuse_bad_input(build, kwargs):
+    with pytest.raises(ValueError):
+        build(**kwargs)
+
+
+def test_scene_names_its_bodies_and_colliders():
+    scene = peridyn.default_scene(n=4)
+    assert scene.cloth is scene.bodies["cloth"] and scene.sphere is scene.colliders["sphere"]
+    with pytest.raises(AttributeError, match="no attribute, body or collider named 'table'"):
+        scene.table
