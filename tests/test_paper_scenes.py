@@ -74,6 +74,7 @@ def test_shell_shot_into_the_target_is_stopped():
 
 @pytest.mark.parametrize("build, kwargs", [
     (cloths_over_ball, dict(layers=0)),
+    (cloths_over_ball, dict(layer_gap=0.5)),
     (cloths_over_ball, dict(n=400, size=0.5)),  # too fine for xi = 1.5 mm
     (antependium, dict(overhang=2.0)),
     (antependium, dict(bending=-1.0)),

@@ -86,6 +86,7 @@ def cloths_over_ball(
     xi: float = 1.5e-3,
     ball_radius: Optional[float] = None,
     drop: float = 5e-3,
+    layer_gap: float = 1.5,
     friction: float = 0.3,
     duration: float = 2.0,
     tol: float = 1e-4,
@@ -97,8 +98,8 @@ def cloths_over_ball(
 
     The ball (a :class:`Sphere` of radius ``ball_radius``) touches the ground plane ``z = 0``
     at the origin; the lowest cloth lies ``drop`` above its top, the others above it, each
-    1.5 barrier reaches (``xi + d_hat``) above the one below, so that they start out of
-    contact. The cloths are ``layer0`` (lowest) ... in ``Scene.bodies``, the colliders
+    ``layer_gap`` barrier reaches (``xi + d_hat``) above the one below, so that they start out
+    of contact. The cloths are ``layer0`` (lowest) ... in ``Scene.bodies``, the colliders
     ``ball`` and ``ground``.
 
     Parameters
@@ -121,6 +122,8 @@ def cloths_over_ball(
         In m; default ``0.3 * size``.
     drop : float
         Height of the lowest cloth above the ball's top in m.
+    layer_gap : float
+        Spacing of the layers in barrier reaches (> 1: out of contact at the start).
     friction : float
         Coulomb coefficient of the ball and of the ground.
     duration : float
@@ -137,10 +140,12 @@ def cloths_over_ball(
         raise ValueError(f"{name}: layers must be an integer >= 1, got {layers!r}")
     radius = 0.3 * size if ball_radius is None else ball_radius
     _check(name, size=size, dt=dt, s0=s0, xi=xi, ball_radius=radius, drop=drop)
+    if not layer_gap > 1.0:
+        raise ValueError(f"{name}: layer_gap must be > 1 barrier reach, got {layer_gap!r}")
     V, F = grid(n, n, size=(size, size), diagonal="alternate")
     V = V - np.array([0.5 * size, 0.5 * size, 0.0])
     contact = _contact(name, xi, [(V, F)])
-    gap = 1.5 * (xi + contact.d_hat)
+    gap = layer_gap * (xi + contact.d_hat)
     solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=contact)
     bodies = {}
     for k in range(int(layers)):
