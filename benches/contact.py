@@ -1,0 +1,200 @@
+"""Cost of a step with contact (Lu et al. 2023, Algorithm 2), split by phase.
+
+Scene: :func:`peridyn.paper_scenes.cloths_over_ball` (1.7 m cloths, s0 = 12000 Pa, kb = 0.1,
+xi = 1.5 mm, h = 1e-3 s, gravity g, ball and ground with friction), dropped from 1 mm above the
+ball with the layers 1.05 barrier reaches apart, so that contact with the ball and between the
+layers starts within the warm-up. The issue's sizes, 14.4K and 40K vertices,
+are covered by one layer of 120 x 120 and 200 x 200 and by three layers of 69 x 69 (14.3K)
+and 115 x 115 (39.7K). Each case runs in a fresh subprocess, one after another, so its peak
+resident memory (``VmHWM`` delta, Rust allocations included) is its own.
+
+Per case: ``--warmup`` steps (the fall onto the ball and the first contact), then ``--steps``
+timed steps with exactly ``--iters`` global iterations each (``tol = 0``) unless ``--tol`` is
+given. Reported as medians over the timed steps: ms per step and per phase (global, colliders,
+broad phase, CCD, descent = local step distances and moves), global and local (descent)
+iterations, candidate triangle pairs, active primitive pairs, clamped vertices, peak memory.
+
+Broad-phase cost against vertex count: one layer at ``--bp-sizes``, ms of broad phase per
+local step (there is one local step per global iteration).
+
+Quick check (a minute):   python benches/contact.py --sizes 1:30,3:17 --bp-sizes 20,40 --steps 2 --warmup 12
+Full size:                python benches/contact.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _common as C  # noqa: E402
+
+
+def vm_kib(field: str) -> int:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith(field + ":"):
+            return int(line.split()[1])
+    return -1
+
+
+def child(layers: int, n: int, steps: int, warmup: int, iters: int, tol: float, threads):
+    """Runs in the subprocess: prints one JSON line."""
+    import os
+
+    from peridyn.paper_scenes import cloths_over_ball
+
+    hwm0 = vm_kib("VmHWM")
+    scene = cloths_over_ball(layers=layers, n=n, drop=1e-3, layer_gap=1.05, tol=tol,
+                             max_iters=iters, threads=threads)
+    solver = scene.solver
+    rows = []
+    for k in range(warmup + steps):
+        c0, t0 = time.process_time(), time.perf_counter()
+        st = solver.step()
+        wall = (time.perf_counter() - t0) * 1e3
+        if k < warmup:
+            continue
+        t, c = st.timings, st.contact
+        rows.append({
+            "total": t["total"], "global": t["global"], "colliders": t["colliders"],
+            "predict_finish": t["predict"] + t["finish"],
+            "broad_phase": c["broad_phase_ms"], "ccd": c["ccd_ms"], "descent": c["descent_ms"],
+            "iterations": st.iterations, "local_iterations": c["local_iterations"],
+            "candidate_pairs": c["candidate_pairs"], "active_pairs": c["active_pairs"],
+            "clamped": c["clamped"], "error_estimate": st.error_estimate,
+            "converged": st.converged, "wall": wall,
+            "cpu": (time.process_time() - c0) * 1e3,
+        })
+    hwm1 = vm_kib("VmHWM")
+    x = np.concatenate([b.positions for b in scene.bodies.values()])
+    ball = scene.ball
+    med = {key: float(np.median([r[key] for r in rows]))
+           for key in rows[0] if key != "converged"}
+    nv = layers * n * n
+    print(json.dumps({
+        "layers": layers, "n": n, "vertices": nv, "threads": solver.threads,
+        "median": med, "steps": rows,
+        "ms_step_median": med["total"],
+        "broad_phase_ms_per_local_step": med["broad_phase"] / max(med["iterations"], 1.0),
+        "cores_busy": med["cpu"] / med["wall"],
+        "peak_bytes_per_vertex": (hwm1 - hwm0) * 1024.0 / nv,
+        "VmHWM_kib": [hwm0, hwm1],
+        "deepest_in_ball_m": float(-ball.signed_distance(x).min()),
+        "lowest_z": float(x[:, 2].min()),
+        "loadavg_1": os.getloadavg()[0],
+    }), flush=True)
+
+
+PHASES = ("global", "broad_phase", "ccd", "descent", "colliders", "predict_finish")
+
+
+def plot(data, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(14, 4.8))
+    rows = [r for r in data["cases"] if "median" in r]
+    labels = [f"{r['layers']}x{r['n']}^2\n{r['vertices'] / 1000:.1f}K" for r in rows]
+    bottom = np.zeros(len(rows))
+    for phase in PHASES:
+        ms = np.array([r["median"][phase] for r in rows])
+        a1.bar(labels, ms, bottom=bottom, label=phase)
+        bottom += ms
+    a1.set(ylabel="ms per step (median)", title="step with contact, by phase "
+           f"({data['args']['iters']} global iterations)")
+    a1.legend(fontsize=8)
+    bp = sorted([r for r in data["broad_phase"] if "median" in r], key=lambda r: r["vertices"])
+    if bp:
+        v = np.array([r["vertices"] for r in bp], float)
+        ms = np.array([r["broad_phase_ms_per_local_step"] for r in bp])
+        a2.loglog(v, ms, "o-", label="broad phase per local step")
+        a2.loglog(v, ms[-1] * v / v[-1], "k:", lw=1, label="linear")
+        a2.legend(fontsize=8)
+    a2.set(xlabel="vertices (one layer)", ylabel="ms", title="broad-phase cost against size")
+    a2.grid(True, which="both", alpha=0.3)
+    m = data["machine_start"]
+    fig.suptitle(f"peridyn contact: cloths over a ball; load {m['loadavg_1_5_15'][0]:.1f} on "
+                 f"{m['cpu_count']} CPUs (shared machine: medians)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    print(f"wrote {path}")
+
+
+def run_case(args, layers: int, n: int, steps: int):
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(layers), str(n),
+           "--steps", str(steps), "--warmup", str(args.warmup), "--iters", str(args.iters),
+           "--tol", str(args.tol)]
+    if args.threads is not None:
+        cmd += ["--threads", str(args.threads)]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    lines = [line for line in r.stdout.splitlines() if line.startswith("{")]
+    if r.returncode != 0 or not lines:
+        case = {"layers": layers, "n": n, "failed": (r.stderr or r.stdout)[-2000:]}
+        print(f"{layers} x {n}^2: FAILED\n{case['failed']}", flush=True)
+        return case
+    case = json.loads(lines[-1])
+    m = case["median"]
+    print(f"{layers} x {n:3d}^2 = {case['vertices']:6d} v: {m['total']:8.1f} ms/step "
+          f"(global {m['global']:.1f}, broad {m['broad_phase']:.1f}, CCD {m['ccd']:.1f}, "
+          f"descent {m['descent']:.1f}, colliders {m['colliders']:.1f}), "
+          f"{m['iterations']:.0f} it, {m['local_iterations']:.0f} local it, "
+          f"{m['candidate_pairs']:.0f} candidates, {m['active_pairs']:.0f} active, "
+          f"peak {case['peak_bytes_per_vertex']:.0f} B/v, load {case['loadavg_1']:.1f}",
+          flush=True)
+    return case
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--sizes", default="1:120,1:200,3:69,3:115",
+                   help="LAYERS:N cases, comma-separated (N vertices per side per layer)")
+    p.add_argument("--bp-sizes", default="40,80,120,160,200",
+                   help="one-layer sizes for the broad-phase sweep")
+    p.add_argument("--steps", type=int, default=5, help="timed steps per case (median)")
+    p.add_argument("--bp-steps", type=int, default=2, help="timed steps per broad-phase case")
+    p.add_argument("--warmup", type=int, default=20, help="steps before timing (fall, contact)")
+    p.add_argument("--iters", type=int, default=10, help="global iterations per step")
+    p.add_argument("--tol", type=float, default=0.0, help="0: exactly --iters iterations")
+    p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--out", default=None)
+    p.add_argument("--child", nargs=2, metavar=("LAYERS", "N"), help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    if args.child:
+        child(int(args.child[0]), int(args.child[1]), args.steps, args.warmup, args.iters,
+              args.tol, args.threads)
+        return
+
+    rec = C.Record("contact", args)
+    sizes = [tuple(int(v) for v in s.split(":")) for s in args.sizes.split(",")]
+    rec.data["cases"] = [run_case(args, layers, n, args.steps) for layers, n in sizes]
+    rec.data["broad_phase"] = [run_case(args, 1, int(n), args.bp_steps)
+                               for n in args.bp_sizes.split(",")]
+    ok = [c for c in rec.data["cases"] if "median" in c]
+    rec.data["headline"] = {
+        f"{c['layers']}x{c['n']}^2 ({c['vertices']} v)": {
+            "ms_per_step": c["ms_step_median"],
+            "ms_by_phase": {k: c["median"][k] for k in PHASES},
+            "iterations": c["median"]["iterations"],
+            "local_iterations": c["median"]["local_iterations"],
+            "active_pairs": c["median"]["active_pairs"],
+            "peak_bytes_per_vertex": c["peak_bytes_per_vertex"],
+        }
+        for c in ok
+    }
+    rec.note("Medians over the timed steps of each case; a loaded machine (see loadavg) "
+             "inflates every figure.")
+    path = rec.write(args.out)
+    plot(rec.data, path.with_suffix(".png"))
+
+
+if __name__ == "__main__":
+    main()
