@@ -526,6 +526,40 @@ mod tests {
         assert_eq!(z, target);
     }
 
+    /// A workspace that served a bigger scene before gives the same result as a fresh one.
+    #[test]
+    fn a_reused_workspace_gives_the_fresh_result() {
+        let (safe, target, triangles) = crossing();
+        let params = ContactParams {
+            thickness: 2e-3,
+            d_hat: 4e-3,
+            ..ContactParams::default()
+        };
+        let solve = |work: &mut Workspace, scale: f64| {
+            let safe: Vec<_> = safe.iter().map(|p| p * scale).collect();
+            let mut z: Vec<_> = target.iter().map(|p| p * scale).collect();
+            let mesh = ContactMesh {
+                triangles: &triangles,
+                body: &[0, 1],
+                self_contact: &[true, true],
+            };
+            let stats = project(&safe, &mut z, &[false; 6], &mesh, &params, &|_, _| {}, work);
+            let counts = (
+                stats.candidate_pairs,
+                stats.active_pairs,
+                stats.iterations,
+                stats.clamped,
+            );
+            (z, counts, work.push().to_vec())
+        };
+        let mut used = Workspace::default();
+        solve(&mut used, 0.5);
+        let fresh = solve(&mut Workspace::default(), 1.0);
+        let (_, (_, active, _, _), _) = &fresh;
+        assert!(*active > 0);
+        assert_eq!(solve(&mut used, 1.0), fresh);
+    }
+
     #[test]
     fn far_apart_bodies_are_left_alone() {
         let (safe, _, triangles) = crossing();
