@@ -228,7 +228,7 @@ macro_rules! layout {
                 let (a, b, kind) = match c.shape.to_real::<$t>() {
                     ShapeModel::Plane { normal, offset } => (normal, offset, 0),
                     ShapeModel::Sphere { center, radius } => (center, radius, 1),
-                    ShapeModel::Box { .. } | ShapeModel::Capsule { .. } => {
+                    ShapeModel::Box { .. } | ShapeModel::Capsule { .. } | ShapeModel::Mesh(_) => {
                         unreachable!("GpuSolver::add_collider admits planes and spheres only")
                     }
                 };

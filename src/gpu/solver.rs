@@ -135,6 +135,11 @@ impl<T: GpuReal> GpuSolver<T> {
 
     /// Adds a collider: on the GPU, a static frictionless plane or sphere.
     pub fn add_collider(&mut self, collider: Collider) -> Result<()> {
+        if let Shape::Mesh(grid) = &collider.shape {
+            return Err(invalid!(
+                "the GPU backend does not support MeshCollider ({grid:?}); use backend='cpu'"
+            ));
+        }
         let analytic = matches!(collider.shape, Shape::Plane { .. } | Shape::Sphere { .. });
         if !analytic || collider.friction != 0.0 || collider.velocity != nalgebra::Vector3::zeros()
         {

@@ -87,7 +87,7 @@ fn draping_cloth_matches_the_cpu<T: GpuReal>(tolerance: f64) {
             Collider::fixed(Shape::plane([0.0, 0.0, -0.2], [0.0, 0.0, 1.0]).unwrap()),
         ];
         for c in colliders {
-            gpu.add_collider(c).unwrap();
+            gpu.add_collider(c.clone()).unwrap();
             cpu.add_collider(c).unwrap();
         }
         let mut a = cloth(10, material);
