@@ -252,7 +252,9 @@ class MeshCollider(Collider):
         """``vertices`` (n, 3) in m and ``triangles`` (m, 3) vertex indices, or a
         ``trimesh.Trimesh`` alone. ``resolution``: cells along the longest side of the mesh's
         bounding box (>= 2; cell size = longest side / resolution, m): the speed/accuracy
-        knob. ``margin`` (m, >= 0): how far the grid reaches beyond the mesh's bounding box
+        knob (the default 64 gives about 78^3 = 475K nodes; measured build cost about 4 CPU-s
+        per million nodes for a 5K-triangle mesh, 9 for 20K triangles, spread over the
+        threads). ``margin`` (m, >= 0): how far the grid reaches beyond the mesh's bounding box
         (default max(0.1 longest side, 2 cells)); keep the membranes' reach within it."""
     @property
     def cell_size(self) -> float:

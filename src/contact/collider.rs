@@ -303,7 +303,8 @@ fn wide<T: Real>(x: &Vector3<T>) -> Vector3<f64> {
 
 impl<T: Real> ShapeModel<T> {
     /// Signed distance from the surface (m), positive outside: exact Euclidean distance for
-    /// every shape, so that moving along [`Self::normal`] changes it one for one.
+    /// every analytic shape, so that moving along [`Self::normal`] changes it one for one; the
+    /// grid's interpolated distance for a mesh (see [`SdfGrid`] for its accuracy).
     #[inline]
     pub fn signed_distance(&self, x: &Vector3<T>) -> T {
         match *self {
@@ -359,7 +360,8 @@ impl<T: Real> ShapeModel<T> {
     }
 
     /// `x` itself when it is at least `margin` outside, else the point at distance `margin`
-    /// along the normal (the closest such point).
+    /// along the normal (the closest such point); for a mesh, Newton steps along the field's
+    /// gradient to its `margin` level ([`SdfGrid::project`]).
     #[inline]
     pub fn project(&self, x: Vector3<T>, margin: T) -> Vector3<T> {
         if let Self::Mesh(grid) = self {

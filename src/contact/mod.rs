@@ -14,7 +14,7 @@ mod sdf;
 
 pub use broad_phase::ContactMesh;
 pub use collider::{Collider, ColliderModel, Shape, ShapeModel};
+pub use local_step::{project, ContactParams, ContactStats};
 pub use motion::MovingCollider;
 pub use pose::{rotation_matrix, Pose};
 pub use sdf::SdfGrid;
-pub use local_step::{project, ContactParams, ContactStats};

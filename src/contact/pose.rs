@@ -34,11 +34,6 @@ impl Pose {
         })
     }
 
-    /// `R x + t`.
-    pub fn apply(&self, x: &Vector3<f64>) -> Vector3<f64> {
-        self.rotation * x + self.translation
-    }
-
     /// The pose moved on by the translation `shift` (m).
     pub fn shifted(&self, shift: &Vector3<f64>) -> Self {
         Self {
@@ -103,21 +98,27 @@ mod tests {
             [0.0, 0.0, 2.0],
         )
         .unwrap();
+        let apply = |p: &Pose, x: &Vector3<f64>| p.rotation * x + p.translation;
         let body = Vector3::new(0.3, -0.2, 0.5);
         let back = end.back_to(&start);
-        assert!((back.apply(&end.apply(&body)) - start.apply(&body)).norm() < 1e-15);
+        assert!((apply(&back, &apply(&end, &body)) - apply(&start, &body)).norm() < 1e-15);
     }
 
     #[test]
     fn bad_rotations_are_named() {
         let msg = |rows| rotation_matrix("rotation", rows).unwrap_err().to_string();
-        assert!(msg([[1.0, 0.0, 0.0], [0.0, f64::NAN, 0.0], [0.0, 0.0, 1.0]])
-            .contains("rotation[1][1]"));
+        assert!(
+            msg([[1.0, 0.0, 0.0], [0.0, f64::NAN, 0.0], [0.0, 0.0, 1.0]])
+                .contains("rotation[1][1]")
+        );
         assert!(msg([[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]).contains("orthonormal"));
         assert!(msg([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]]).contains("det"));
-        assert!(Pose::new([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0, f64::INFINITY, 0.0])
-            .unwrap_err()
-            .to_string()
-            .contains("translation[1]"));
+        assert!(Pose::new(
+            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            [0.0, f64::INFINITY, 0.0]
+        )
+        .unwrap_err()
+        .to_string()
+        .contains("translation[1]"));
     }
 }

@@ -329,7 +329,9 @@ impl PyMeshCollider {
     ) -> PyResult<PyClassInitializer<Self>> {
         let (vertices, faces) = match triangles {
             Some(t) => (vertices.clone(), t.clone()),
-            None if vertices.hasattr("faces")? => (vertices.getattr("vertices")?, vertices.getattr("faces")?),
+            None if vertices.hasattr("faces")? => {
+                (vertices.getattr("vertices")?, vertices.getattr("faces")?)
+            }
             None => {
                 return Err(PyValueError::new_err(
                     "MeshCollider takes vertices and triangles, or a trimesh.Trimesh alone",
@@ -346,15 +348,9 @@ impl PyMeshCollider {
                 "resolution (cells along the mesh's longest side) must be >= 2, got {resolution}"
             ))
         })?;
-        let mesh = py.detach(|| {
-            guard("MeshCollider", || {
-                Ok(Shape::mesh(v, t, resolution, margin))
-            })
-        })?;
-        Ok(
-            PyClassInitializer::from(PyCollider::new(mesh, friction, velocity)?)
-                .add_subclass(Self),
-        )
+        let mesh =
+            py.detach(|| guard("MeshCollider", || Ok(Shape::mesh(v, t, resolution, margin))))?;
+        Ok(PyClassInitializer::from(PyCollider::new(mesh, friction, velocity)?).add_subclass(Self))
     }
     /// Grid node spacing (m).
     #[getter]

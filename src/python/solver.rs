@@ -267,8 +267,12 @@ impl PySolver {
         let pose = match &self.core {
             Precision::F64(s) => s.collider_pose(index).py()?,
             Precision::F32(s) => s.collider_pose(index).py()?,
-            Precision::Gpu32(s) => MovingCollider::new(s.colliders()[index].clone()).pose(s.clock().time),
-            Precision::Gpu64(s) => MovingCollider::new(s.colliders()[index].clone()).pose(s.clock().time),
+            Precision::Gpu32(s) => {
+                MovingCollider::new(s.colliders()[index].clone()).pose(s.clock().time)
+            }
+            Precision::Gpu64(s) => {
+                MovingCollider::new(s.colliders()[index].clone()).pose(s.clock().time)
+            }
         };
         let rows = (0..3)
             .map(|r| (0..3).map(|c| pose.rotation[(r, c)]).collect())

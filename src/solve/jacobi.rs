@@ -361,7 +361,7 @@ pub(super) fn without_contact_reaction<T: Real>(
         residual -= n * push;
         if c.friction > T::zero() {
             let held = c.friction * (-push);
-            let slip = (y - start) - c.displacement(&y);
+            let slip = (y - start) - c.displacement(y);
             let slip_t = slip - n * n.dot(&slip);
             let sliding = slip_t.norm() > T::of(SLIP) * (T::one() + y.norm());
             let tangential = residual - n * residual.dot(&n);

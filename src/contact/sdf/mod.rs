@@ -109,22 +109,20 @@ impl SdfGrid {
         let tree = TriangleTree::new(surface.corners());
         let [nx, ny, _] = dims;
         let mut values = vec![0.0; nodes];
-        // Rows along x in parallel; along a row each node's distance is at most the previous
-        // node's plus h, a bound that spares the search most of the tree.
+        // Rows along x in parallel; each node's search starts from the previous node's nearest
+        // triangle, whose distance bounds it tightly.
         values
             .par_chunks_mut(nx)
             .enumerate()
             .for_each(|(row, out)| {
                 let (j, k) = (row % ny, row / ny);
-                let mut bound = f64::INFINITY;
+                let mut hint = 0;
                 for (i, value) in out.iter_mut().enumerate() {
                     let x = origin + Vector3::new(i as f64, j as f64, k as f64) * cell;
-                    let nearest = tree
-                        .nearest_within(&x, bound)
-                        .unwrap_or_else(|| tree.nearest(&x));
+                    let nearest = tree.nearest_from(&x, hint);
                     let d = nearest.separation.norm();
                     *value = if surface.is_inside(&nearest) { -d } else { d };
-                    bound = (d + cell) * (1.0 + 1e-9);
+                    hint = nearest.triangle;
                 }
             });
         Ok(Self {
@@ -239,10 +237,10 @@ impl SdfGrid {
         let at = |i: usize, j: usize, k: usize| {
             self.values[(base[0] + i) + nx * ((base[1] + j) + ny * (base[2] + k))]
         };
-        let c = [[[at(0, 0, 0), at(0, 0, 1)], [at(0, 1, 0), at(0, 1, 1)]], [
-            [at(1, 0, 0), at(1, 0, 1)],
-            [at(1, 1, 0), at(1, 1, 1)],
-        ]];
+        let c = [
+            [[at(0, 0, 0), at(0, 0, 1)], [at(0, 1, 0), at(0, 1, 1)]],
+            [[at(1, 0, 0), at(1, 0, 1)], [at(1, 1, 0), at(1, 1, 1)]],
+        ];
         let (tx, ty, tz) = (t.x, t.y, t.z);
         // Interpolate along z, then y, then x; the gradient follows by the product rule.
         let lerp = |a: f64, b: f64, s: f64| a + (b - a) * s;

@@ -6,7 +6,7 @@
 
 use nalgebra::Vector3;
 
-use crate::contact::distance::point_triangle_closest;
+use crate::contact::distance::{point_triangle_closest, Closest};
 
 /// Triangles per leaf.
 const LEAF_SIZE: usize = 4;
@@ -42,6 +42,18 @@ pub struct Nearest {
     pub separation: Vector3<f64>,
 }
 
+impl Nearest {
+    /// From a point-triangle query on `triangle` (weights `[1, -w_0, -w_1, -w_2]`).
+    fn of(triangle: usize, closest: &Closest) -> Self {
+        let w = closest.weights;
+        Self {
+            triangle,
+            weights: [-w[1], -w[2], -w[3]],
+            separation: closest.separation,
+        }
+    }
+}
+
 /// Bounding volume hierarchy over the triangles of a mesh.
 #[derive(Debug, Clone)]
 pub struct TriangleTree {
@@ -54,10 +66,8 @@ impl TriangleTree {
     /// The tree of triangles given by their corners (m); at least one triangle.
     pub fn new(corners: Vec<[Vector3<f64>; 3]>) -> Self {
         assert!(!corners.is_empty(), "a triangle tree needs triangles");
-        let centroids: Vec<Vector3<f64>> = corners
-            .iter()
-            .map(|c| (c[0] + c[1] + c[2]) / 3.0)
-            .collect();
+        let centroids: Vec<Vector3<f64>> =
+            corners.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
         let mut order: Vec<u32> = (0..corners.len() as u32).collect();
         let mut nodes = Vec::with_capacity(2 * corners.len() / LEAF_SIZE + 1);
         build(&mut nodes, &mut order, 0, &corners, &centroids);
@@ -68,17 +78,14 @@ impl TriangleTree {
         }
     }
 
-    /// The closest point of the mesh to `p`.
-    pub fn nearest(&self, p: &Vector3<f64>) -> Nearest {
-        self.nearest_within(p, f64::INFINITY)
-            .expect("a mesh has a nearest point")
-    }
-
-    /// The closest point of the mesh to `p` if it lies closer than `bound` (m): a known upper
-    /// bound (the distance of a neighbouring point plus the distance to it) prunes most boxes.
-    pub fn nearest_within(&self, p: &Vector3<f64>, bound: f64) -> Option<Nearest> {
-        let mut best = bound * bound;
-        let mut found = None;
+    /// The closest point of the mesh to `p`, starting from the candidate triangle `hint` (the
+    /// nearest triangle of a neighbouring point, usually nearest here too or nearly): its
+    /// distance bounds the search from the start, which then opens few boxes.
+    pub fn nearest_from(&self, p: &Vector3<f64>, hint: usize) -> Nearest {
+        let [a, b, c] = &self.corners[hint];
+        let closest = point_triangle_closest(p, a, b, c);
+        let mut best = closest.distance_squared();
+        let mut found = Nearest::of(hint, &closest);
         let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
         stack.push((0, self.nodes[0].distance_squared(p)));
         while let Some((index, reach)) = stack.pop() {
@@ -94,12 +101,7 @@ impl TriangleTree {
                     let d2 = closest.distance_squared();
                     if d2 < best {
                         best = d2;
-                        let w = closest.weights;
-                        found = Some(Nearest {
-                            triangle: t as usize,
-                            weights: [-w[1], -w[2], -w[3]],
-                            separation: closest.separation,
-                        });
+                        found = Nearest::of(t as usize, &closest);
                     }
                 }
             } else {
@@ -193,10 +195,9 @@ mod tests {
                 .iter()
                 .map(|[a, b, c]| point_triangle_distance_squared(&p, a, b, c))
                 .fold(f64::INFINITY, f64::min);
-            let found = tree.nearest(&p);
-            let bounded = tree.nearest_within(&p, brute.sqrt() * (1.0 + 1e-9));
-            assert_eq!(bounded.map(|n| n.triangle), Some(found.triangle));
-            assert!(tree.nearest_within(&p, brute.sqrt() * (1.0 - 1e-6)).is_none());
+            let found = tree.nearest_from(&p, 0);
+            let hinted = tree.nearest_from(&p, 123);
+            assert!((hinted.separation.norm_squared() - brute).abs() <= 1e-14 * (1.0 + brute));
             assert!((found.separation.norm_squared() - brute).abs() <= 1e-14 * (1.0 + brute));
             let [a, b, c] = &corners[found.triangle];
             let w = found.weights;
