@@ -207,9 +207,10 @@ impl Collider {
 /// step, and its friction.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ColliderModel<T: Real> {
-    shape: ShapeModel<T>,
+    /// The shape at its pose of time 0.
+    pub shape: ShapeModel<T>,
     /// Translation of the shape from its pose at time 0 (m).
-    offset: Vector3<T>,
+    pub offset: Vector3<T>,
     /// Its displacement during the step (m).
     pub displacement: Vector3<T>,
     pub friction: T,

@@ -109,11 +109,18 @@ impl<T: Real> System<T> {
             for (k, (x, v)) in body.positions().iter().zip(body.velocities()).enumerate() {
                 self.y_start[base + k] = x.map(T::of);
                 self.velocity[base + k] = v.map(T::of);
-                self.pinned[base + k] = false;
             }
+        }
+        self.load_pins(bodies);
+    }
+
+    /// Copies the bodies' pins in: the flags, and their targets into `y_star`.
+    pub fn load_pins(&mut self, bodies: &[&mut Membrane]) {
+        self.pinned.fill(false);
+        for (body, range) in bodies.iter().zip(&self.ranges) {
             for (&i, target) in body.pins() {
-                self.pinned[base + i as usize] = true;
-                self.y_star[base + i as usize] = target.map(T::of);
+                self.pinned[range.start + i as usize] = true;
+                self.y_star[range.start + i as usize] = target.map(T::of);
             }
         }
     }
