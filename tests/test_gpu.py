@@ -281,9 +281,12 @@ def test_missing_adapter_raises_a_clear_error():
 #
 # Tolerances as above (positions in m after 100 steps): the collider arithmetic is the CPU's in
 # the same order, so the only differences are the GPU's rounding (fused multiply-adds, its own
-# sqrt); contact, friction's stick/slip switch and the moving colliders do not amplify them
-# beyond the draping case's bounds. Velocities are (y_{t+1} - y_t) / h: 1 / h = 500 times the
-# position rounding at most, hence the 250x factor above (the differences do not all align).
+# sqrt). Measured on lavapipe: box, capsule and the slopes 2e-11 to 2.4e-6 m in f32 and 5e-15 m
+# in f64; the rising sphere, which stretches the cloth taut between the pins and its pole,
+# 1.8e-4 m in f32 (2.0e-4 without friction: the taut cloth, not friction, amplifies the
+# rounding) and 4e-13 m in f64, so that case allows 5e-4 m (0.1 % of the cloth) in f32.
+# Velocities are (y_{t+1} - y_t) / h: 1 / h = 500 times the position difference at most,
+# hence the 250x factor (the differences do not all align).
 
 
 def _turned(angle, axis):
@@ -315,11 +318,12 @@ COLLIDERS = {
 }
 
 
-def assert_parity(mg, mc, ig, ic, precision):
+def assert_parity(mg, mc, ig, ic, precision, tolerance=None):
+    tolerance = TOLERANCE[precision] if tolerance is None else tolerance
     diff = np.abs(mg.positions - mc.positions).max()
     print(f"{precision}: max |y_gpu - y_cpu| = {diff:.3e} m, iterations {ig.sum()} vs {ic.sum()}")
-    assert diff < TOLERANCE[precision]
-    assert np.abs(mg.velocities - mc.velocities).max() < 250 * TOLERANCE[precision]
+    assert diff < tolerance
+    assert np.abs(mg.velocities - mc.velocities).max() < 250 * tolerance
     assert abs(int(ig.sum()) - int(ic.sum())) <= 0.05 * ic.sum()
 
 
@@ -356,7 +360,9 @@ def on_slope(backend, precision, shape, mu, steps=100):
     else:
         collider = peridyn.Box(center=surface - 0.1 * normal + 0.15 * downhill + [0, 0.15, 0],
                                half_extents=(1.0, 1.0, 0.1), rotation=turn, friction=mu)
-    sol = peridyn.Solver(backend=backend, precision=precision, dt=2e-3, tol=1e-6, max_iters=60)
+    # friction needs the step solved tightly: at tol = 1e-6 the iteration stops while the
+    # tangential reaction is still short of the Coulomb bound (the cloth slides 5 % too far)
+    sol = peridyn.Solver(backend=backend, precision=precision, dt=2e-3, tol=1e-8, max_iters=60)
     sol.add(m)
     sol.add_collider(collider)
     iters = [sol.step().iterations for _ in range(steps)]
@@ -367,18 +373,20 @@ def on_slope(backend, precision, shape, mu, steps=100):
 @pytest.mark.parametrize("mu", [1.0, 0.1])
 def test_friction_on_a_slope_matches_cpu_and_coulomb(gpu, shape, mu):
     """mu = 1 > tan(slope): the cloth stays put (within 0.2 mm over 0.2 s, where frictionless
-    it would slide 88 mm). mu = 0.1: it slides as a Coulomb block, s = g (sin - mu cos) t^2 / 2
-    (70 mm), within 5 %. GPU equals CPU in f32 within the tolerance."""
+    it would slide 88 mm). mu = 0.1: it slides as a Coulomb block under implicit Euler,
+    s_n = a h^2 n (n + 1) / 2 with a = g (sin - mu cos) (71 mm), within 1 %. GPU equals CPU
+    in f32 within the tolerance."""
     mg, ig, downhill, x0 = on_slope("gpu", "f32", shape, mu)
     mc, ic, _, _ = on_slope("cpu", "f32", shape, mu)
     assert_parity(mg, mc, ig, ic, "f32")
     slide = ((mg.positions - x0) @ downhill).mean()
-    t = 100 * 2e-3
+    print(f"{shape} mu = {mu}: slid {slide:.4e} m")
     if mu > np.tan(SLOPE):
         assert abs(slide) < 2e-4, slide
     else:
-        expected = 0.5 * G * (np.sin(SLOPE) - mu * np.cos(SLOPE)) * t * t
-        assert slide == pytest.approx(expected, rel=0.05)
+        h, n = 2e-3, 100
+        expected = G * (np.sin(SLOPE) - mu * np.cos(SLOPE)) * h * h * n * (n + 1) / 2
+        assert slide == pytest.approx(expected, rel=0.01)
 
 
 @pytest.mark.parametrize("precision", ["f32", "f64"])
@@ -391,12 +399,13 @@ def test_rising_sphere_lifts_the_cloth_as_on_cpu(gpu, precision):
                             velocity=(0.0, 0.0, 0.6))
     mg, ig = drape_over("gpu", precision, sphere)
     mc, ic = drape_over("cpu", precision, sphere)
-    assert_parity(mg, mc, ig, ic, precision)
+    assert_parity(mg, mc, ig, ic, precision, tolerance={"f32": 5e-4, "f64": 1e-10}[precision])
     t = 100 * 2e-3
     d = sphere.signed_distance(mg.positions, time=t)
     assert d.min() > 0.5e-3 - 1e-5
     top = -0.15 + 0.6 * t + 0.1  # the sphere's top, 0.07 m above the pins
-    assert mg.positions[:, 2].max() > top
+    # the vertices nearest the pole (grid spacing 26 mm) sit on the sphere within 2 mm of it
+    assert top - 2e-3 < mg.positions[:, 2].max() < top + 2e-3
 
 
 def test_state_is_read_back_only_on_demand(gpu):
