@@ -8,9 +8,9 @@ use nalgebra::Vector3;
 use crate::error::{check_param, invalid, Result};
 use crate::material::Material;
 use crate::mesh::{Neighborhood, TriangleMesh};
-use crate::parallel::for_each_vertex;
 
-use super::kernel::{vertex_kernel, Deformation, Preconditioner, VertexResponse};
+use super::kernel::{bond_vectors, Deformation, Preconditioner, VertexResponse};
+use super::packed::evaluate_vertices;
 use super::{DeviceCopy, RestData};
 
 /// Physical parameters of a membrane (SI units).
@@ -342,19 +342,14 @@ impl Membrane {
             precond: Default::default(),
         };
         let mut out = vec![zero; y.len()];
-        for_each_vertex(
-            &nb.offsets,
+        evaluate_vertices(
+            nb,
+            rest,
+            None,
+            y,
+            Preconditioner::default(),
             bond_grad,
             &mut out,
-            &|i, grads: &mut [Vector3<f64>]| {
-                vertex_kernel(
-                    y[i],
-                    y,
-                    &rest.stencil(nb, i),
-                    Preconditioner::default(),
-                    grads,
-                )
-            },
         );
         out
     }
@@ -383,14 +378,12 @@ impl Membrane {
     /// Principal stretches per vertex (two in-plane, descending, then the normal one).
     pub fn stretches(&self) -> Vec<[f64; 3]> {
         let nb = &self.neighborhood;
+        let mut edges = Vec::new();
         (0..self.num_vertices())
             .map(|i| {
-                Deformation::of(
-                    self.positions()[i],
-                    self.positions(),
-                    &self.rest.stencil(nb, i),
-                )
-                .stretches()
+                edges.resize(nb.of(i).len(), Vector3::zeros());
+                bond_vectors(i, self.positions(), nb.of(i), &mut edges);
+                Deformation::of(&edges, &self.rest.stencil(nb, i)).stretches()
             })
             .collect()
     }
