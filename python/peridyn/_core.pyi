@@ -379,7 +379,9 @@ class Solver:
         f32 by default, f64 where the adapter has SHADER_F64; raises RuntimeError naming what
         is missing when there is no adapter, see :func:`gpu_info`). The adapter follows
         WGPU_BACKEND, WGPU_POWER_PREF and WGPU_ADAPTER_NAME. The GPU runs SISSM (optionally
-        Chebyshev) with Plane and Sphere colliders without friction or motion.
+        Chebyshev) with every collider (friction and motion included) and leaves the bodies'
+        positions and velocities on the device until they are read; it refuses contact,
+        method="descent" and inner_iters > 1 (ValueError).
     contact : a ``Contact`` to keep every body's triangles apart from the other bodies' (and
         its own, unless built with ``self_contact=False``); None: no contact between membranes.
     """

@@ -237,6 +237,22 @@ impl<T: Real> ColliderModel<T> {
         }
     }
 
+    /// The shape, in its own frame.
+    pub fn shape(&self) -> &ShapeModel<T> {
+        &self.shape
+    }
+
+    /// The translation `t` of the end pose (m); for a collider that does not turn, the shape
+    /// is the given geometry moved by `t`.
+    pub fn translation(&self) -> Vector3<T> {
+        self.translation
+    }
+
+    /// Whether the collider keeps its given orientation during the step (only translates).
+    pub fn translates_only(&self) -> bool {
+        self.rotation == Matrix3::identity() && self.back_rotation == Matrix3::identity()
+    }
+
     /// `x` in the shape's frame, `R^T (x - t)`.
     #[inline]
     fn local(&self, x: &Vector3<T>) -> Vector3<T> {

@@ -221,7 +221,8 @@ impl PySolver {
         Ok(())
     }
 
-    /// Adds a collider (Plane, Sphere, Box, Capsule or MeshCollider).
+    /// Adds a collider (Plane, Sphere, Box, Capsule or MeshCollider, with its friction and
+    /// velocity).
     fn add_collider(&mut self, collider: &Bound<'_, PyAny>) -> PyResult<()> {
         let c: Collider = collider::extract(collider)?;
         with_solver!(&mut self.core, s => s.add_collider(c)).py()?;

@@ -167,6 +167,9 @@ impl<T: Real> Solver<T> {
         let h = T::of(params.dt);
         let gravity = Vector3::from(params.gravity).map(T::of);
 
+        for body in bodies.iter_mut() {
+            body.sync()?;
+        }
         sys.load(bodies);
         if params.contact.is_some() {
             let contact = self
