@@ -234,7 +234,10 @@ macro_rules! layout {
             fn collider(c: &ColliderModel<Self>) -> Self::Collider {
                 let zero = Vector3::zeros();
                 let mut axes = Matrix3::identity();
-                debug_assert!(c.translates_only(), "the GPU backend refuses collider poses");
+                debug_assert!(
+                    c.translates_only(),
+                    "the GPU backend refuses collider poses"
+                );
                 let (a, b, c3, kind) = match *c.shape() {
                     ShapeModel::Plane { normal, offset } => (normal, offset, zero, 0),
                     ShapeModel::Sphere { center, radius } => (center, radius, zero, 1),

@@ -229,8 +229,8 @@ fn collider_parity<T: GpuReal>(
     let mut gpu = gpu::<T>(params)?;
     let mut cpu = Solver::<T>::new(params, Some(1)).unwrap();
     for c in colliders {
-        gpu.add_collider(*c).unwrap();
-        cpu.add_collider(*c).unwrap();
+        gpu.add_collider(c.clone()).unwrap();
+        cpu.add_collider(c.clone()).unwrap();
     }
     let material = Material::stretch_a3(2e4).unwrap();
     let (mut a, mut b) = (cloth(10, material), cloth(10, material));
