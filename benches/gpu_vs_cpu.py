@@ -1,7 +1,8 @@
 """Milliseconds per time step of the GPU backend beside the CPU backend, in the same run.
 
 A 120 x 120 cloth (14 400 vertices, 1-ring, bending and hourglass) pinned along one edge
-swings onto a sphere. Every step runs exactly ``--iters`` global iterations (tol = 0), so both
+swings onto a sphere and a turned box with friction (every vertex tests both colliders in
+every iteration). Every step runs exactly ``--iters`` global iterations (tol = 0), so both
 backends do the same work; the first ``--warmup`` steps are not timed. For each backend the
 median over ``--repeats`` fresh runs of the median ms per step is reported, with the bytes the
 GPU kernels load and store per iteration and the effective bandwidth that implies.
@@ -35,6 +36,10 @@ def scene(n: int, backend: str, precision: str, iters: int):
     solver = peridyn.Solver(backend=backend, precision=precision, **kw)
     solver.add(cloth)
     solver.add_collider(peridyn.Sphere(center=(0.5, 0.45, -0.3), radius=0.25))
+    c, s = np.cos(0.3), np.sin(0.3)
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    solver.add_collider(peridyn.Box(center=(0.5, 0.2, -0.45), half_extents=(0.3, 0.1, 0.1),
+                                    rotation=turn, friction=0.5))
     return solver, cloth
 
 
@@ -86,7 +91,8 @@ def main():
     gpu = results["gpu_f32"]
     out = {
         "benchmark": "gpu_vs_cpu",
-        "scene": f"{a.n}x{a.n} cloth, 1-ring, bending + hourglass, pinned edge, sphere collider",
+        "scene": (f"{a.n}x{a.n} cloth, 1-ring, bending + hourglass, pinned edge, sphere and "
+                  "box (friction 0.5) colliders"),
         "vertices": a.n * a.n,
         "iterations_per_step": a.iters,
         "timed_steps_per_run": a.steps,

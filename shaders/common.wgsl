@@ -63,13 +63,17 @@ struct Response {
     pad: real,
 }
 
+// A collider during one step (src/contact/collider.rs, ColliderModel): its shape at time 0,
+// translated by `offset` at the end of the step.
 struct Collider {
-    a: vec3<real>,           // plane: unit normal; sphere: centre (m)
-    b: real,                 // plane: offset normal . point (m); sphere: radius (m)
-    kind: u32,              // 0: plane, 1: sphere
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    a: vec3<real>,           // plane: unit normal; sphere, box: centre; capsule: end a (m)
+    b: real,                 // plane: offset normal . point (m); sphere, capsule: radius (m)
+    c: vec3<real>,           // box: half extents (m); capsule: end b (m)
+    friction: real,          // Coulomb coefficient (1)
+    axes: mat3x3<real>,      // box: rotation, its columns the box's axes
+    offset: vec3<real>,      // translation from the pose of time 0 at the end of the step (m)
+    kind: u32,              // 0: plane, 1: sphere, 2: box, 3: capsule
+    displacement: vec3<real>, // translation during the step (m)
 }
 
 // Per-vertex outcome of one iteration, reduced by reduce.wgsl.

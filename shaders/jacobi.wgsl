@@ -6,7 +6,7 @@
 //   D   = m I + h^2 (n_k C_k + sum_j C_j)            (kg)
 //   delta = D^-1 r, scaled by alpha = E h^2 / (h^2 f . delta) where the linearised elastic
 //           energy E = E_k + sum_j E_j would drop below zero and the release is significant
-//   y_next = keep_out(y + delta) in the D-metric, then Chebyshev:
+//   y_next = keep_out(y + delta) in the D-metric with friction, then Chebyshev:
 //            y_next = omega (y_next - y_prev) + y_prev
 //
 // and measure.residual = |r without contact reactions| / m (m).
@@ -27,35 +27,78 @@ fn inverse_or(d: mat3x3<real>, mass: real) -> mat3x3<real> {
     return transpose(mat3x3<real>(c0, c1, c2)) * (1.0 / det);
 }
 
-// Keeps a move out of the colliders along D^-1 n (frictionless contact in the D-metric).
-fn keep_out(start: vec3<real>, inverse: mat3x3<real>, margin: real) -> vec3<real> {
-    var x = start;
+// Keeps a move out of the colliders in the metric of D, with Coulomb friction (keep_out in
+// src/solve/jacobi.rs). Where y ends closer than `margin` to a collider it moves along D^-1 n
+// by the normal reaction lambda = -gap / (n . D^-1 n) (N s^2). With friction, the slip of the
+// vertex relative to the collider over the step, s = (y - y_t) - displacement, tangential part
+// s_t, is removed when the reaction that takes, k |s_t| with k = |s_t|^2 / (s_t . D^-1 s_t),
+// is within friction * lambda (sticking), and shortened by friction * lambda / k otherwise.
+fn keep_out(moved: vec3<real>, start: vec3<real>, inverse: mat3x3<real>, margin: real) -> vec3<real> {
+    var y = moved;
     for (var c = 0u; c < params.n_colliders; c++) {
         let k = colliders[c];
-        let gap = collider_distance(k, x) - margin;
-        if gap < 0.0 {
-            let n = collider_normal(k, x);
-            let along = inverse * n;
-            let reach = dot(n, along);
-            if reach > 0.0 {
-                x -= along * (gap / reach);
+        let gap = collider_distance(k, y) - margin;
+        if gap >= 0.0 {
+            continue;
+        }
+        let n = collider_normal(k, y);
+        let along = inverse * n;
+        let reach = dot(n, along);
+        if reach <= 0.0 {
+            continue;
+        }
+        let reaction = -gap / reach;
+        y += along * reaction;
+        if k.friction > 0.0 {
+            let slip = (y - start) - k.displacement;
+            let slip_t = slip - n * dot(n, slip);
+            let compliance = dot(slip_t, inverse * slip_t);
+            if compliance > 0.0 {
+                let needed = dot(slip_t, slip_t) * length(slip_t) / compliance;
+                let budget = k.friction * reaction;
+                var cut: real = 1.0;
+                if needed > budget {
+                    cut = budget / needed;
+                }
+                y -= slip_t * cut;
             }
         }
     }
-    return x;
+    return y;
 }
 
-// The residual without the push of a collider the vertex touches.
-fn without_contact_reaction(start: vec3<real>, x: vec3<real>, margin: real) -> vec3<real> {
-    var r = start;
+// Relative slip (per metre of position) below which a vertex counts as sticking.
+const SLIP: real = 1e-6;
+
+// The residual without the reactions of the colliders the vertex at y touches
+// (without_contact_reaction in src/solve/jacobi.rs): the push into the collider, and the
+// Coulomb friction friction * |push|, against the slip when the vertex slides (kinetic), as
+// much of the tangential residual as the cone holds when it sticks (static).
+fn without_contact_reaction(residual: vec3<real>, y: vec3<real>, start: vec3<real>, margin: real) -> vec3<real> {
+    var r = residual;
     let slack = max(1e-6, margin * 1e-3);
     for (var c = 0u; c < params.n_colliders; c++) {
         let k = colliders[c];
-        if collider_distance(k, x) <= margin + slack {
-            let n = collider_normal(k, x);
-            let push = dot(r, n);
-            if push < 0.0 {
-                r -= n * push;
+        if collider_distance(k, y) > margin + slack {
+            continue;
+        }
+        let n = collider_normal(k, y);
+        let push = dot(r, n);
+        if push >= 0.0 {
+            continue;
+        }
+        r -= n * push;
+        if k.friction > 0.0 {
+            let held = k.friction * (-push);
+            let slip = (y - start) - k.displacement;
+            let slip_t = slip - n * dot(n, slip);
+            let slip_len = length(slip_t);
+            let tangential = r - n * dot(r, n);
+            let t_len = length(tangential);
+            if slip_len > SLIP * (1.0 + length(y)) {
+                r -= (slip_t / slip_len) * held;
+            } else if t_len > 0.0 {
+                r -= tangential * min(held / t_len, 1.0);
             }
         }
     }
@@ -102,12 +145,13 @@ fn jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
             delta *= max(energy_h2, 0.0) / descent;
         }
     }
-    var next = keep_out(yk + delta, inverse, c.half_thickness);
+    let start = y_start[k].xyz;
+    var next = keep_out(yk + delta, start, inverse, c.half_thickness);
     if iter.extrapolate != 0u {
         let prev = y_prev[k].xyz;
         next = (next - prev) * iter.omega + prev;
     }
     y_next[k] = vec4<real>(next, 0.0);
-    let free = without_contact_reaction(residual, yk, c.half_thickness);
+    let free = without_contact_reaction(residual, yk, start, c.half_thickness);
     measure[k].residual = length(free) / mass;
 }

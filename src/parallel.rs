@@ -14,30 +14,55 @@ where
     R: Send,
     F: Fn(usize, &mut [B]) -> R + Sync,
 {
-    split(offsets, 0, bonds, out, f);
-}
-
-fn split<B, R, F>(offsets: &[u32], first: usize, bonds: &mut [B], out: &mut [R], f: &F)
-where
-    B: Send,
-    R: Send,
-    F: Fn(usize, &mut [B]) -> R + Sync,
-{
-    let base = offsets[first] as usize;
-    if out.len() <= GRAIN {
+    for_each_range(offsets, 1, bonds, out, &|first, bonds, out: &mut [R]| {
+        let base = offsets[first] as usize;
         for (k, slot) in out.iter_mut().enumerate() {
             let i = first + k;
             let range = offsets[i] as usize - base..offsets[i + 1] as usize - base;
             *slot = f(i, &mut bonds[range]);
         }
+    });
+}
+
+/// Calls `f(first, bonds, out)` in parallel on disjoint ranges of consecutive vertices that
+/// together cover `out`: the range starting at vertex `first` gets its own `out` entries and
+/// its vertices' bonds (CSR `offsets`, as in [`for_each_vertex`]). Every range but the last
+/// starts at a multiple of `align` (> 0) and holds a multiple of `align` vertices, so aligned
+/// groups of `align` vertices are never split; the ranges do not depend on the number of
+/// threads.
+pub fn for_each_range<B, R, F>(offsets: &[u32], align: usize, bonds: &mut [B], out: &mut [R], f: &F)
+where
+    B: Send,
+    R: Send,
+    F: Fn(usize, &mut [B], &mut [R]) + Sync,
+{
+    assert!(align > 0, "ranges must be aligned to at least one vertex");
+    split(offsets, align, 0, bonds, out, f);
+}
+
+fn split<B, R, F>(
+    offsets: &[u32],
+    align: usize,
+    first: usize,
+    bonds: &mut [B],
+    out: &mut [R],
+    f: &F,
+) where
+    B: Send,
+    R: Send,
+    F: Fn(usize, &mut [B], &mut [R]) + Sync,
+{
+    let mid = (out.len() / 2) / align * align;
+    if out.len() <= GRAIN || mid == 0 {
+        f(first, bonds, out);
         return;
     }
-    let mid = out.len() / 2;
+    let base = offsets[first] as usize;
     let (bonds_lo, bonds_hi) = bonds.split_at_mut(offsets[first + mid] as usize - base);
     let (out_lo, out_hi) = out.split_at_mut(mid);
     rayon::join(
-        || split(offsets, first, bonds_lo, out_lo, f),
-        || split(offsets, first + mid, bonds_hi, out_hi, f),
+        || split(offsets, align, first, bonds_lo, out_lo, f),
+        || split(offsets, align, first + mid, bonds_hi, out_hi, f),
     );
 }
 

@@ -14,6 +14,8 @@ pub trait Real: RealField + Copy + Send + Sync + Default + std::fmt::Debug + 'st
     fn min_stretch() -> Self;
     /// Name used in reprs and benchmarks.
     const NAME: &'static str;
+    /// The SIMD pack of this scalar that the vertex kernel runs on.
+    type Pack: Lanes<Scalar = Self>;
 }
 
 impl Real for f64 {
@@ -27,6 +29,7 @@ impl Real for f64 {
         1e-6
     }
     const NAME: &'static str = "f64";
+    type Pack = F64Pack;
 }
 
 impl Real for f32 {
@@ -40,4 +43,66 @@ impl Real for f32 {
         1e-4
     }
     const NAME: &'static str = "f32";
+    type Pack = F32Pack;
+}
+
+/// A pack of [`Lanes::LANES`] scalars computed on in lock step: a scalar [`Real`] itself (one
+/// lane) or a SIMD vector of them. The per-vertex kernels are written once over `Lanes`, so the
+/// same code runs one vertex at a time or [`Lanes::LANES`] vertices at a time (one per lane).
+///
+/// Every lane performs exactly the IEEE operations the scalar code performs, in the same order
+/// (no fused multiply-add, no approximate reciprocals), so a pack's lanes are bit-identical to
+/// the scalar results: the SIMD path changes the speed, never the numbers.
+pub trait Lanes:
+    nalgebra::SimdRealField<Element = <Self as Lanes>::Scalar> + Copy + Send + Sync + 'static
+{
+    /// The scalar of one lane.
+    type Scalar: Real;
+
+    /// `x` (converted to the scalar type) in every lane.
+    #[inline(always)]
+    fn lit(x: f64) -> Self {
+        Self::splat(Self::Scalar::of(x))
+    }
+
+    /// [`Real::min_stretch`] in every lane.
+    #[inline(always)]
+    fn stretch_floor() -> Self {
+        Self::splat(<Self::Scalar as Real>::min_stretch())
+    }
+
+    /// The pack whose lane `l` is `lane(l)`.
+    fn gather(lane: impl FnMut(usize) -> Self::Scalar) -> Self;
+}
+
+impl<T: Real> Lanes for T {
+    type Scalar = T;
+
+    #[inline(always)]
+    fn gather(mut lane: impl FnMut(usize) -> T) -> Self {
+        lane(0)
+    }
+}
+
+/// Eight `f32` lanes (one AVX register, or two SSE registers on CPUs without AVX).
+pub type F32Pack = simba::simd::WideF32x8;
+/// Four `f64` lanes.
+pub type F64Pack = simba::simd::WideF64x4;
+
+impl Lanes for F32Pack {
+    type Scalar = f32;
+
+    #[inline(always)]
+    fn gather(lane: impl FnMut(usize) -> f32) -> Self {
+        Self(std::array::from_fn::<f32, 8, _>(lane).into())
+    }
+}
+
+impl Lanes for F64Pack {
+    type Scalar = f64;
+
+    #[inline(always)]
+    fn gather(lane: impl FnMut(usize) -> f64) -> Self {
+        Self(std::array::from_fn::<f64, 4, _>(lane).into())
+    }
 }

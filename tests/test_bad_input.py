@@ -261,6 +261,56 @@ def test_bad_colliders():
     expect_value_error(lambda: sp.signed_distance(np.zeros((4, 2))), r"shape|3")
 
 
+def cube():
+    """Closed unit cube: 8 vertices, 12 outward triangles."""
+    v = np.array([[x, y, z] for z in (0.0, 1.0) for y in (0.0, 1.0) for x in (0.0, 1.0)])
+    quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+    t = np.array([tri for q in quads for tri in ([q[0], q[1], q[2]], [q[0], q[2], q[3]])])
+    return v, t
+
+
+def test_bad_mesh_colliders():
+    v, t = cube()
+    nan = v.copy()
+    nan[3, 2] = NAN
+    expect_value_error(lambda: peridyn.MeshCollider(nan, t), r"vertex 3", r"non-finite")
+    bad = t.copy()
+    bad[7, 1] = 8
+    expect_value_error(lambda: peridyn.MeshCollider(v, bad), r"triangle 7", r"index 8")
+    bad[7, 1] = -1
+    expect_value_error(lambda: peridyn.MeshCollider(v, bad), r"triangle 7", r"-1")
+    expect_value_error(lambda: peridyn.MeshCollider(v, t[:-1]), r"not closed", r"edge")
+    flipped = t.copy()
+    flipped[4] = flipped[4, ::-1]
+    expect_value_error(lambda: peridyn.MeshCollider(v, flipped), r"same direction", r"triangles? \d")
+    sliver = v.copy()
+    sliver[1] = sliver[0] + 1e-14 * (sliver[1] - sliver[0])
+    expect_value_error(lambda: peridyn.MeshCollider(sliver, t), r"triangle \d+", r"degenerate")
+    for res in (0, 1, -4):
+        expect_value_error(lambda: peridyn.MeshCollider(v, t, resolution=res), r"resolution", str(res))
+    expect_value_error(lambda: peridyn.MeshCollider(v, t, margin=-0.1), r"margin", r"-0\.1")
+    expect_value_error(lambda: peridyn.MeshCollider(v), r"triangles")
+    expect_value_error(lambda: peridyn.MeshCollider(v[:, :2], t), r"vertices", r"shape")
+    expect_value_error(lambda: peridyn.MeshCollider(v, t[:, :2]), r"triangles", r"shape")
+
+
+def test_bad_collider_poses(mesh):
+    s = peridyn.Solver(dt=1e-3)
+    s.add_collider(peridyn.Plane())
+    expect_value_error(lambda: s.set_collider_pose(1, translation=(0, 0, 1)), r"index 1", r"1 collider")
+    expect_value_error(lambda: s.set_collider_pose(-1), r"index -1")
+    expect_value_error(lambda: s.collider_pose(2), r"index 2")
+    skew = [[1, 0.1, 0], [0, 1, 0], [0, 0, 1]]
+    expect_value_error(lambda: s.set_collider_pose(0, rotation=skew), r"rotation", r"orthonormal")
+    mirror = np.diag([1.0, 1.0, -1.0])
+    expect_value_error(lambda: s.set_collider_pose(0, rotation=mirror), r"rotation", r"det")
+    nan = np.eye(3)
+    nan[2, 0] = NAN
+    expect_value_error(lambda: s.set_collider_pose(0, rotation=nan), r"rotation\[2\]\[0\]")
+    expect_value_error(lambda: s.set_collider_pose(0, rotation=np.eye(2)), r"rotation", r"shape|3")
+    expect_value_error(lambda: s.set_collider_pose(0, translation=(0, INF, 0)), r"translation\[1\]")
+
+
 # ------------------------------------------------------------------------------------------------
 # divergence
 

@@ -274,3 +274,194 @@ def test_missing_adapter_raises_a_clear_error():
     assert len(lines) == 2, out.stdout + out.stderr
     for ln in lines:
         assert "no GPU adapter" in ln and "mesa-vulkan-drivers" in ln
+
+
+# ----------------------------------------------------------------------------------------------
+# Box, Capsule, friction and moving colliders on the GPU against the CPU.
+#
+# Tolerances as above (positions in m after 100 steps): the collider arithmetic is the CPU's in
+# the same order, so the only differences are the GPU's rounding (fused multiply-adds, its own
+# sqrt). Measured on lavapipe: box, capsule and the slopes 2e-11 to 2.4e-6 m in f32 and 5e-15 m
+# in f64; the rising sphere, which stretches the cloth taut between the pins and its pole,
+# 1.8e-4 m in f32 (2.0e-4 without friction: the taut cloth, not friction, amplifies the
+# rounding) and 4e-13 m in f64, so that case allows 5e-4 m (0.1 % of the cloth) in f32.
+# Velocities are (y_{t+1} - y_t) / h: 1 / h = 500 times the position difference at most,
+# hence the 250x factor (the differences do not all align).
+
+
+def _turned(angle, axis):
+    """Rotation matrix by `angle` (rad) about the unit `axis` (Rodrigues)."""
+    k = np.asarray(axis, float)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def drape_over(backend, precision, collider, steps=100, pins=(0, 19)):
+    """The 20 x 20 cloth of `drape`, pinned at `pins`, falling onto `collider`."""
+    v, t = make_grid(20, 20, 0.5, 0.5)
+    m = membrane(v, t, material=peridyn.StretchA3(s0=2e4), thickness=1e-3, density=300.0,
+                 bending=1e-5, hourglass=0.1)
+    if pins:
+        m.pin(list(pins))
+    sol = peridyn.Solver(backend=backend, precision=precision, dt=2e-3, tol=1e-5, max_iters=60,
+                         acceleration="chebyshev")
+    sol.add(m)
+    sol.add_collider(collider)
+    iters = [sol.step().iterations for _ in range(steps)]
+    return m, np.array(iters)
+
+
+COLLIDERS = {
+    "box": lambda: peridyn.Box(center=(0.25, 0.2, -0.12), half_extents=(0.12, 0.08, 0.06),
+                               rotation=_turned(0.4, (0.0, 0.6, 0.8))),
+    "capsule": lambda: peridyn.Capsule(a=(0.05, 0.1, -0.1), b=(0.45, 0.3, -0.14), radius=0.05),
+}
+
+
+def assert_parity(mg, mc, ig, ic, precision, tolerance=None):
+    tolerance = TOLERANCE[precision] if tolerance is None else tolerance
+    diff = np.abs(mg.positions - mc.positions).max()
+    print(f"{precision}: max |y_gpu - y_cpu| = {diff:.3e} m, iterations {ig.sum()} vs {ic.sum()}")
+    assert diff < tolerance
+    assert np.abs(mg.velocities - mc.velocities).max() < 250 * tolerance
+    assert abs(int(ig.sum()) - int(ic.sum())) <= 0.05 * ic.sum()
+
+
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+@pytest.mark.parametrize("shape", sorted(COLLIDERS))
+def test_draping_over_box_and_capsule_matches_cpu(gpu, shape, precision):
+    """100 steps over a turned Box, or a Capsule: GPU equals CPU within the tolerance, and the
+    cloth rests on the collider, at least half the thickness out of it."""
+    gpu_precision(gpu, precision)
+    collider = COLLIDERS[shape]()
+    mg, ig = drape_over("gpu", precision, collider)
+    mc, ic = drape_over("cpu", precision, collider)
+    assert_parity(mg, mc, ig, ic, precision)
+    d = collider.signed_distance(mg.positions)
+    assert d.min() > 0.5e-3 - 1e-5  # outside by the margin (half the thickness)
+    assert d.min() < 2e-3  # ... and touching it
+
+
+SLOPE = np.arctan(0.5)  # tan = 0.5: Coulomb friction holds the cloth for mu > 0.5
+
+
+def on_slope(backend, precision, shape, mu, steps=100):
+    """A free 12 x 12 cloth (0.3 m) lying on a slope of angle SLOPE (a plane or the top face
+    of a turned box), released at rest; returns the membrane, the iterations and the downhill
+    direction."""
+    turn = _turned(SLOPE, (0.0, 1.0, 0.0))  # x -> downhill (cos, 0, -sin); z -> the normal
+    normal, downhill = turn[:, 2], turn[:, 0]
+    v, t = make_grid(12, 12, 0.3, 0.3)
+    m = membrane(v @ turn.T, t, material=peridyn.StretchA3(s0=2e4), thickness=1e-3,
+                 density=300.0, bending=1e-5, hourglass=0.1)
+    surface = -0.5e-3 * normal  # the cloth's mid-surface sits half its thickness above it
+    if shape == "plane":
+        collider = peridyn.Plane(point=surface, normal=normal, friction=mu)
+    else:
+        collider = peridyn.Box(center=surface - 0.1 * normal + 0.15 * downhill + [0, 0.15, 0],
+                               half_extents=(1.0, 1.0, 0.1), rotation=turn, friction=mu)
+    # friction needs the step solved tightly: at tol = 1e-6 the iteration stops while the
+    # tangential reaction is still short of the Coulomb bound (the cloth slides 5 % too far)
+    sol = peridyn.Solver(backend=backend, precision=precision, dt=2e-3, tol=1e-8, max_iters=60)
+    sol.add(m)
+    sol.add_collider(collider)
+    iters = [sol.step().iterations for _ in range(steps)]
+    return m, np.array(iters), downhill, (v @ turn.T)
+
+
+@pytest.mark.parametrize("shape", ["plane", "box"])
+@pytest.mark.parametrize("mu", [1.0, 0.1])
+def test_friction_on_a_slope_matches_cpu_and_coulomb(gpu, shape, mu):
+    """mu = 1 > tan(slope): the cloth stays put (within 0.2 mm over 0.2 s, where frictionless
+    it would slide 88 mm). mu = 0.1: it slides as a Coulomb block under implicit Euler,
+    s_n = a h^2 n (n + 1) / 2 with a = g (sin - mu cos) (71 mm), within 1 %. GPU equals CPU
+    in f32 within the tolerance."""
+    mg, ig, downhill, x0 = on_slope("gpu", "f32", shape, mu)
+    mc, ic, _, _ = on_slope("cpu", "f32", shape, mu)
+    assert_parity(mg, mc, ig, ic, "f32")
+    slide = ((mg.positions - x0) @ downhill).mean()
+    print(f"{shape} mu = {mu}: slid {slide:.4e} m")
+    if mu > np.tan(SLOPE):
+        assert abs(slide) < 2e-4, slide
+    else:
+        h, n = 2e-3, 100
+        expected = G * (np.sin(SLOPE) - mu * np.cos(SLOPE)) * h * h * n * (n + 1) / 2
+        assert slide == pytest.approx(expected, rel=0.01)
+
+
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+def test_rising_sphere_lifts_the_cloth_as_on_cpu(gpu, precision):
+    """A sphere moving up at 0.6 m/s (friction 0.3) into a cloth pinned at two corners: GPU
+    equals CPU within the tolerance; at the end every vertex is outside the sphere where it is
+    then (the collider at time t), and the cloth is lifted over it."""
+    gpu_precision(gpu, precision)
+    sphere = peridyn.Sphere(center=(0.25, 0.25, -0.15), radius=0.1, friction=0.3,
+                            velocity=(0.0, 0.0, 0.6))
+    mg, ig = drape_over("gpu", precision, sphere)
+    mc, ic = drape_over("cpu", precision, sphere)
+    assert_parity(mg, mc, ig, ic, precision, tolerance={"f32": 5e-4, "f64": 1e-10}[precision])
+    t = 100 * 2e-3
+    d = sphere.signed_distance(mg.positions, time=t)
+    assert d.min() > 0.5e-3 - 1e-5
+    top = -0.15 + 0.6 * t + 0.1  # the sphere's top, 0.07 m above the pins
+    # the vertices nearest the pole (grid spacing 26 mm) sit on the sphere within 2 mm of it
+    assert top - 2e-3 < mg.positions[:, 2].max() < top + 2e-3
+
+
+def test_state_is_read_back_only_on_demand(gpu):
+    """The GPU step leaves positions and velocities on the device; reading them at any time,
+    and writing positions, velocities and pins between steps, gives what the CPU gives."""
+    v, t = make_grid(8, 8, 0.3, 0.3)
+    bodies = {}
+    for backend in ("cpu", "gpu"):
+        m = membrane(v, t, s0=1e4, bending=1e-5, hourglass=0.5)
+        m.pin([0, 7])
+        sol = peridyn.Solver(dt=5e-3, tol=1e-6, max_iters=40, backend=backend, precision="f32")
+        sol.add(m)
+        sol.add_collider(peridyn.Sphere(center=(0.15, 0.15, -0.1), radius=0.06, friction=0.5))
+        bodies[backend] = (m, sol)
+    for step in range(16):
+        for backend, (m, sol) in bodies.items():
+            if step == 4:
+                m.velocities = m.velocities + [0.0, 0.3, 0.0]
+            if step == 6:
+                m.positions = m.positions + [0.0, 0.0, 0.05]
+            if step == 9:
+                m.pin([63], targets=[[0.3, 0.3, 0.1]])
+            if step == 12:
+                m.unpin([0])
+            sol.step()
+        if step % 5 == 4:
+            a, b = bodies["gpu"][0], bodies["cpu"][0]
+            assert np.abs(a.positions - b.positions).max() < 2e-5, step
+            assert np.abs(a.velocities - b.velocities).max() < 1e-2, step
+            assert a.kinetic_energy() == pytest.approx(b.kinetic_energy(), rel=1e-3)
+    a, b = bodies["gpu"][0], bodies["cpu"][0]
+    assert np.abs(a.positions - b.positions).max() < 2e-5
+    np.testing.assert_allclose(a.positions[63], [0.3, 0.3, 0.1], atol=1e-6)
+
+
+def test_cli_runs_on_the_gpu(gpu, tmp_path):
+    out = tmp_path / "out"
+    proc = subprocess.run(
+        [sys.executable, "-m", "peridyn", "--n", "8", "--steps", "4", "--frame-every", "2",
+         "--out", str(out), "--backend", "gpu", "--no-progress"],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "backend gpu" in proc.stdout and "vertices           64" in proc.stdout
+    data = np.load(out / "frames.npz")
+    assert data["positions_0"].shape == (3, 64, 3)
+    assert np.isfinite(data["positions_0"]).all()
+    assert not np.array_equal(data["positions_0"][0], data["positions_0"][-1])
+
+
+def test_gpu_refuses_what_it_does_not_implement():
+    """Contact, the descent baseline and inner sweeps raise ValueError naming what to use
+    instead (checked before any adapter is opened)."""
+    with pytest.raises(ValueError, match="contact"):
+        peridyn.Solver(dt=1e-3, backend="gpu", contact=peridyn.Contact())
+    with pytest.raises(ValueError, match="inner_iters"):
+        peridyn.Solver(dt=1e-3, backend="gpu", inner_iters=3)
+    with pytest.raises(ValueError, match="method"):
+        peridyn.Solver(dt=1e-3, backend="gpu", method="descent")

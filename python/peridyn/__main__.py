@@ -51,7 +51,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--frame-every", type=_positive_int, default=25,
                         help="write a frame every this many steps (default: 25)")
     parser.add_argument("--threads", type=_positive_int, default=None,
-                        help="worker threads (default: all cores)")
+                        help="worker threads of the CPU backend (default: all cores)")
+    parser.add_argument("--backend", choices=("cpu", "gpu"), default="cpu",
+                        help="'cpu' (Rust threads) or 'gpu' (wgpu compute shaders, f32; "
+                        "see peridyn.gpu_info()) (default: cpu)")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     return parser
 
@@ -67,10 +70,18 @@ def main(argv: Optional[List[str]] = None) -> int:
     from peridyn.render import render_png
     from peridyn.scenes import default_scene
 
-    kwargs = {"n": args.n, "threads": args.threads}
+    if args.backend == "gpu" and args.threads is not None:
+        print("error: --threads applies to --backend cpu only", file=sys.stderr)
+        return 2
+
+    kwargs = {"n": args.n, "threads": args.threads, "backend": args.backend}
     if args.dt is not None:
         kwargs["dt"] = args.dt
-    scene = default_scene(**kwargs)
+    try:
+        scene = default_scene(**kwargs)
+    except RuntimeError as err:  # no GPU adapter: the message says what is missing
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     steps = scene.steps if args.steps is None else args.steps
     solver, cloth = scene.solver, scene.cloth
 
@@ -78,7 +89,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     print(f"peridyn {peridyn.__version__}: {scene.description}")
     print(f"{cloth.num_vertices} vertices, {cloth.num_triangles} triangles, dt = {solver.dt:g} s, "
-          f"{steps} steps, {solver.threads} threads")
+          f"{steps} steps, backend {solver.backend}, {solver.threads} threads")
 
     recorder = FrameRecorder(out, fmt="ply", every=args.frame_every)
     recorder.record(solver)  # the initial state is frame 0

@@ -108,7 +108,10 @@ class Solver(_core.Solver):
     backend : str
         "cpu" (default) or "gpu": the same step as wgpu compute shaders with the state on the
         device, in f32 (default) or f64 where the adapter has it (see :func:`peridyn.gpu_info`;
-        RuntimeError when there is no adapter).
+        RuntimeError when there is no adapter). A GPU step leaves the bodies' positions and
+        velocities on the device; reading them (or anything that needs them) reads them back.
+        Every collider works on the GPU; contact, ``method="descent"`` and ``inner_iters > 1``
+        raise ValueError there.
 
     Notes
     -----

@@ -1,14 +1,19 @@
-//! Analytic colliders: a shape (a signed distance field), a constant velocity and a Coulomb
-//! friction coefficient. After each global iteration every free vertex is kept at least half
-//! the membrane thickness outside every collider.
+//! Colliders: a shape (a signed distance field: analytic, or a mesh sampled on a grid), a
+//! constant velocity and a Coulomb friction coefficient. After each global iteration every
+//! free vertex is kept at least half the membrane thickness outside every collider.
+
+use std::sync::Arc;
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::pose::{rotation_matrix, Pose};
+use super::sdf::SdfGrid;
 use crate::error::{invalid, Result};
 use crate::real::Real;
 
-/// The solid shape of a collider (SI units).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The solid shape of a collider (SI units), in its own frame (the pose given at time 0).
+/// Cloning is cheap: a mesh's grid is shared.
+#[derive(Debug, Clone, PartialEq)]
 pub enum Shape {
     /// Half-space `{x : (x - point) . normal >= 0}` is free; `normal` is unit.
     Plane {
@@ -30,6 +35,8 @@ pub enum Shape {
         b: Vector3<f64>,
         radius: f64,
     },
+    /// Solid bounded by a closed triangle mesh, as a signed distance grid.
+    Mesh(Arc<SdfGrid>),
 }
 
 fn finite(name: &str, v: &Vector3<f64>) -> Result<()> {
@@ -88,17 +95,10 @@ impl Shape {
         for (k, h) in half_extents.iter().enumerate() {
             positive(&format!("box half_extents[{k}]"), *h)?;
         }
-        let axes = Matrix3::from_row_slice(&rotation.concat());
-        let orthonormal = (axes.transpose() * axes - Matrix3::identity()).abs().max() < 1e-9;
-        if !(axes.iter().all(|c| c.is_finite()) && orthonormal && axes.determinant() > 0.0) {
-            return Err(invalid!(
-                "box rotation must be a rotation matrix (orthonormal, det +1), got {rotation:?}"
-            ));
-        }
         Ok(Self::Box {
             center,
             half_extents: Vector3::from(half_extents),
-            axes,
+            axes: rotation_matrix("box rotation", rotation)?,
         })
     }
 
@@ -112,6 +112,20 @@ impl Shape {
             b,
             radius: positive("capsule radius", radius)?,
         })
+    }
+
+    /// The solid bounded by the closed mesh `vertices` (m) / `triangles`, as a signed distance
+    /// grid of `resolution` cells along the mesh's longest side, padded by `margin` (m); see
+    /// [`SdfGrid::build`].
+    pub fn mesh(
+        vertices: Vec<[f64; 3]>,
+        triangles: Vec<[i64; 3]>,
+        resolution: usize,
+        margin: Option<f64>,
+    ) -> Result<Self> {
+        Ok(Self::Mesh(Arc::new(SdfGrid::build(
+            vertices, triangles, resolution, margin,
+        )?)))
     }
 
     /// Signed distance from the surface (m), positive outside.
@@ -145,13 +159,15 @@ impl Shape {
                 b: v(&b),
                 radius: T::of(radius),
             },
+            Self::Mesh(ref grid) => ShapeModel::Mesh(grid.clone()),
         }
     }
 }
 
 /// A collider: a shape moving at a constant `velocity` (m/s) from its pose at time 0, with
-/// Coulomb `friction` (dimensionless, >= 0) against the membranes it touches.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Coulomb `friction` (dimensionless, >= 0) against the membranes it touches. A solver may
+/// move it further by poses ([`super::MovingCollider`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Collider {
     pub shape: Shape,
     pub velocity: Vector3<f64>,
@@ -184,60 +200,94 @@ impl Collider {
         }
     }
 
-    /// Signed distance (m, positive outside) at time `time` (s).
+    /// Signed distance (m, positive outside) at time `time` (s), moved by the velocity alone.
     pub fn signed_distance(&self, x: &Vector3<f64>, time: f64) -> f64 {
         self.shape
             .to_real::<f64>()
             .signed_distance(&(x - self.velocity * time))
     }
-
-    /// The collider during the step ending at `time` (s) of length `dt` (s), in the
-    /// simulation's precision.
-    pub fn during_step<T: Real>(&self, time: f64, dt: f64) -> ColliderModel<T> {
-        ColliderModel {
-            shape: self.shape.to_real(),
-            offset: (self.velocity * time).map(T::of),
-            displacement: (self.velocity * dt).map(T::of),
-            friction: T::of(self.friction),
-        }
-    }
 }
 
-/// A collider during one step: its shape at the end of the step, how far it moved during the
-/// step, and its friction.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A collider during one step: its shape in the pose it reaches at the end of the step, the
+/// rigid map from there back to its pose at the start (for friction: where the collider's
+/// material point under a contact was), and its friction.
+#[derive(Debug, Clone, PartialEq)]
 pub struct ColliderModel<T: Real> {
     shape: ShapeModel<T>,
-    /// Translation of the shape from its pose at time 0 (m).
-    offset: Vector3<T>,
-    /// Its displacement during the step (m).
-    pub displacement: Vector3<T>,
+    /// End pose `x = R b + t` of a shape point `b`.
+    rotation: Matrix3<T>,
+    translation: Vector3<T>,
+    /// `x -> R_0 R^T (x - t) + t_0`: a material point's start position from its end position.
+    back_rotation: Matrix3<T>,
+    back_translation: Vector3<T>,
     pub friction: T,
 }
 
 impl<T: Real> ColliderModel<T> {
+    /// `collider` moving during a step from the pose `start` to the pose `end`.
+    pub fn new(collider: &Collider, start: &Pose, end: &Pose) -> Self {
+        let back = end.back_to(start);
+        Self {
+            shape: collider.shape.to_real(),
+            rotation: end.rotation.map(T::of),
+            translation: end.translation.map(T::of),
+            back_rotation: back.rotation.map(T::of),
+            back_translation: back.translation.map(T::of),
+            friction: T::of(collider.friction),
+        }
+    }
+
+    /// The shape, in its own frame.
+    pub fn shape(&self) -> &ShapeModel<T> {
+        &self.shape
+    }
+
+    /// The translation `t` of the end pose (m); for a collider that does not turn, the shape
+    /// is the given geometry moved by `t`.
+    pub fn translation(&self) -> Vector3<T> {
+        self.translation
+    }
+
+    /// Whether the collider keeps its given orientation during the step (only translates).
+    pub fn translates_only(&self) -> bool {
+        self.rotation == Matrix3::identity() && self.back_rotation == Matrix3::identity()
+    }
+
+    /// `x` in the shape's frame, `R^T (x - t)`.
+    #[inline]
+    fn local(&self, x: &Vector3<T>) -> Vector3<T> {
+        self.rotation.tr_mul(&(x - self.translation))
+    }
+
     /// Signed distance (m, positive outside).
     #[inline]
     pub fn signed_distance(&self, x: &Vector3<T>) -> T {
-        self.shape.signed_distance(&(x - self.offset))
+        self.shape.signed_distance(&self.local(x))
     }
 
     /// Unit outward normal, the gradient of the signed distance.
     #[inline]
     pub fn normal(&self, x: &Vector3<T>) -> Vector3<T> {
-        self.shape.normal(&(x - self.offset))
+        self.rotation * self.shape.normal(&self.local(x))
     }
 
     /// `x` itself when it is at least `margin` outside, else the point at distance `margin`
     /// along the normal.
     #[inline]
     pub fn project(&self, x: Vector3<T>, margin: T) -> Vector3<T> {
-        self.shape.project(x - self.offset, margin) + self.offset
+        self.rotation * self.shape.project(self.local(&x), margin) + self.translation
+    }
+
+    /// How far the collider's material point now at `x` moved during the step (m):
+    /// `x - (R_0 R^T (x - t) + t_0)`; the same for every point of a translating collider.
+    #[inline]
+    pub fn displacement(&self, x: &Vector3<T>) -> Vector3<T> {
+        x - (self.back_rotation * x + self.back_translation)
     }
 }
 
 /// [`Shape`] in the simulation's precision.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum ShapeModel<T: Real> {
     Plane {
         normal: Vector3<T>,
@@ -257,11 +307,20 @@ pub enum ShapeModel<T: Real> {
         b: Vector3<T>,
         radius: T,
     },
+    /// Queried in f64 whatever `T`.
+    Mesh(Arc<SdfGrid>),
+}
+
+/// `x` in f64.
+#[inline]
+fn wide<T: Real>(x: &Vector3<T>) -> Vector3<f64> {
+    x.map(|c| c.to_f64())
 }
 
 impl<T: Real> ShapeModel<T> {
     /// Signed distance from the surface (m), positive outside: exact Euclidean distance for
-    /// every shape, so that moving along [`Self::normal`] changes it one for one.
+    /// every analytic shape, so that moving along [`Self::normal`] changes it one for one; the
+    /// grid's interpolated distance for a mesh (see [`SdfGrid`] for its accuracy).
     #[inline]
     pub fn signed_distance(&self, x: &Vector3<T>) -> T {
         match *self {
@@ -277,6 +336,7 @@ impl<T: Real> ShapeModel<T> {
                 outside + q.max().min(T::zero())
             }
             Self::Capsule { a, b, radius } => (x - closest_on_segment(x, &a, &b)).norm() - radius,
+            Self::Mesh(ref grid) => T::of(grid.signed_distance(&wide(x))),
         }
     }
 
@@ -311,13 +371,18 @@ impl<T: Real> ShapeModel<T> {
                     crate::membrane::any_orthogonal_unit(&unit_or_z(b - a))
                 }
             }
+            Self::Mesh(ref grid) => grid.normal(&wide(x)).map(T::of),
         }
     }
 
     /// `x` itself when it is at least `margin` outside, else the point at distance `margin`
-    /// along the normal (the closest such point).
+    /// along the normal (the closest such point); for a mesh, Newton steps along the field's
+    /// gradient to its `margin` level ([`SdfGrid::project`]).
     #[inline]
     pub fn project(&self, x: Vector3<T>, margin: T) -> Vector3<T> {
+        if let Self::Mesh(grid) = self {
+            return grid.project(wide(&x), margin.to_f64()).map(T::of);
+        }
         let gap = self.signed_distance(&x) - margin;
         if gap < T::zero() {
             x - self.normal(&x) * gap

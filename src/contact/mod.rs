@@ -1,5 +1,5 @@
-//! Contact handling (Lu et al. 2023, section 6): analytic colliders (shapes with motion and
-//! friction), primitive distances, additive CCD, the barrier, the broad phase and the contact
+//! Contact handling (Lu et al. 2023, section 6): colliders (analytic shapes and meshes as
+//! signed distance grids, with motion and friction), primitive distances, additive CCD, the barrier, the broad phase and the contact
 //! local step of Algorithm 2.
 
 pub mod barrier;
@@ -8,8 +8,14 @@ pub mod ccd;
 mod collider;
 pub mod distance;
 pub mod local_step;
+mod motion;
+mod pose;
 mod primitive_pairs;
+mod sdf;
 
 pub use broad_phase::{BroadPhase, ContactMesh};
 pub use collider::{Collider, ColliderModel, Shape, ShapeModel};
 pub use local_step::{project, ContactParams, ContactStats, Workspace};
+pub use motion::MovingCollider;
+pub use pose::{rotation_matrix, Pose};
+pub use sdf::SdfGrid;

@@ -26,7 +26,9 @@ pub struct GpuInfo {
     pub limits: Vec<(&'static str, u64)>,
 }
 
-/// An open device on the chosen adapter, with the errors it reported since the last check.
+/// An open device on the chosen adapter, with the errors it reported since the last check
+/// (clones share the device).
+#[derive(Clone)]
 pub(super) struct GpuContext {
     pub(super) device: wgpu::Device,
     pub(super) queue: wgpu::Queue,

@@ -3,9 +3,9 @@
 //! `vec3<f64>`), and their conversion from the CPU solver's data.
 
 use bytemuck::Pod;
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
-use crate::contact::{Collider, ShapeModel};
+use crate::contact::{ColliderModel, ShapeModel};
 use crate::material::MaterialModel;
 use crate::membrane::{BondRest, Frame, VertexConstants};
 use crate::real::Real;
@@ -74,14 +74,15 @@ pub trait GpuReal: Real + Pod {
     #[doc(hidden)]
     fn bond(b: &BondRest<Self>) -> Self::Bond;
     #[doc(hidden)]
-    fn collider(c: &Collider) -> Self::Collider;
+    fn collider(c: &ColliderModel<Self>) -> Self::Collider;
 }
 
 /// Defines the layout structs of one scalar type; the pads are the u32 words WGSL's
-/// alignment adds at the end of `Params`, `Iter`, `Vertex` and `Collider`.
+/// alignment adds at the end of `Params`, `Iter` and `Vertex`, after `Collider::kind` and at
+/// the end of `Collider`.
 macro_rules! layout {
     ($module:ident, $t:ty, $prelude:literal, $features:expr, vec = $vec:literal,
-     pads = ($pp:literal, $ip:literal, $vp:literal, $cp:literal),
+     pads = ($pp:literal, $ip:literal, $vp:literal, $kp:literal, $cp:literal),
      response = $rb:literal, measure = $mb:literal, partial = $pb:literal, header = $hb:literal) => {
         mod $module {
             use bytemuck::{Pod, Zeroable};
@@ -146,7 +147,13 @@ macro_rules! layout {
             pub struct Collider {
                 pub a: [$t; 3],
                 pub b: $t,
+                pub c: [$t; 3],
+                pub friction: $t,
+                pub axes: [[$t; 4]; 3],
+                pub offset: [$t; 3],
                 pub kind: u32,
+                pub kind_pad: [u32; $kp],
+                pub displacement: [$t; 3],
                 pub pad: [u32; $cp],
             }
         }
@@ -224,18 +231,38 @@ macro_rules! layout {
                 }
             }
 
-            fn collider(c: &Collider) -> Self::Collider {
-                let (a, b, kind) = match c.shape.to_real::<$t>() {
-                    ShapeModel::Plane { normal, offset } => (normal, offset, 0),
-                    ShapeModel::Sphere { center, radius } => (center, radius, 1),
-                    ShapeModel::Box { .. } | ShapeModel::Capsule { .. } => {
-                        unreachable!("GpuSolver::add_collider admits planes and spheres only")
+            fn collider(c: &ColliderModel<Self>) -> Self::Collider {
+                let zero = Vector3::zeros();
+                let mut axes = Matrix3::identity();
+                debug_assert!(
+                    c.translates_only(),
+                    "the GPU backend refuses collider poses"
+                );
+                let (a, b, c3, kind) = match *c.shape() {
+                    ShapeModel::Plane { normal, offset } => (normal, offset, zero, 0),
+                    ShapeModel::Sphere { center, radius } => (center, radius, zero, 1),
+                    ShapeModel::Box {
+                        center,
+                        half_extents,
+                        axes: rotation,
+                    } => {
+                        axes = rotation;
+                        (center, 0.0, half_extents, 2)
                     }
+                    ShapeModel::Capsule { a, b, radius } => (a, radius, b, 3),
+                    ShapeModel::Mesh(_) => unreachable!("GpuSolver::add_collider refuses meshes"),
                 };
+                let column = |k: usize| vec4(&axes.column(k).into_owned());
                 $module::Collider {
                     a: a.into(),
                     b,
+                    c: c3.into(),
+                    friction: c.friction,
+                    axes: [column(0), column(1), column(2)],
+                    offset: c.translation().into(),
                     kind,
+                    kind_pad: [0; $kp],
+                    displacement: c.displacement(&Vector3::zeros()).into(),
                     pad: [0; $cp],
                 }
             }
@@ -249,7 +276,7 @@ layout!(
     "../../shaders/real_f32.wgsl",
     wgpu::Features::empty(),
     vec = 16,
-    pads = (0, 3, 1, 3),
+    pads = (0, 3, 1, 0, 1),
     response = 32,
     measure = 16,
     partial = 16,
@@ -261,7 +288,7 @@ layout!(
     "../../shaders/real_f64.wgsl",
     wgpu::Features::SHADER_F64,
     vec = 32,
-    pads = (6, 2, 3, 7),
+    pads = (6, 2, 3, 1, 2),
     response = 64,
     measure = 24,
     partial = 32,

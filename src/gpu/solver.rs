@@ -7,14 +7,21 @@
 //! test (`max_i |r_i| / m_i < tol`) and the divergence test run on the device, which sets a
 //! stopping point that turns every later command of the step into a no-op. The iterations are
 //! thus exactly those of the CPU solver, and the device never waits for the host inside a
-//! batch. At the end of the step the positions, velocities and the per-iteration history are
-//! read back once.
+//! batch. At the end of the step only the per-iteration history is read back: the new
+//! positions and velocities stay on the device, and each body reads its own back when
+//! something asks for them ([`Membrane::sync`], which the Python layer calls before every
+//! access to a body's state, and which this solver calls for bodies another solver stepped).
 
+use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
-use crate::contact::{Collider, Shape};
+use nalgebra::Vector3;
+
+use crate::contact::{Collider, ColliderModel, MovingCollider, Shape};
 use crate::error::{invalid, Error, Result};
-use crate::membrane::{Membrane, Preconditioner};
+use crate::membrane::{DeviceCopy, Fetch, Membrane, Preconditioner};
 use crate::solve::system::System;
 use crate::solve::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
 
@@ -37,7 +44,8 @@ const RECORD_FIRST_ITERATION: usize = 3;
 ///
 /// [`StepStats::timings`] are host wall-clock times: `predict` the upload, `global` the
 /// initial guess and the iterations (colliders included; `colliders` stays 0), `finish` the
-/// velocity update and the read-back.
+/// velocity update and the read-back of the history (positions and velocities stay on the
+/// device until a body is synced).
 pub struct GpuSolver<T: GpuReal> {
     params: SolverParams,
     colliders: Vec<Collider>,
@@ -47,8 +55,15 @@ pub struct GpuSolver<T: GpuReal> {
     clock: Clock,
 }
 
+/// Identities of the device working sets, unique in the process.
+static NEXT_STATE: AtomicU64 = AtomicU64::new(1);
+
 /// The device-resident working set of one list of bodies.
 struct State<T: GpuReal> {
+    /// Identifies these buffers in the bodies' [`DeviceCopy`].
+    id: u64,
+    /// Steps these buffers have finished.
+    epoch: u64,
     system: System<T>,
     n: u32,
     bonds: u64,
@@ -56,9 +71,9 @@ struct State<T: GpuReal> {
     collider_capacity: usize,
     /// The parameters the `Iter` records were written for.
     records_for: Option<SolverParams>,
-    /// Whether the device's y_t, v, pinned targets and pin flags equal the host system's
-    /// (true after a read-back): then only what the bodies changed is uploaded.
-    synced: bool,
+    /// Whether the device's pin flags and pinned targets equal the host system's (after the
+    /// first upload): then only pin changes are uploaded.
+    pins_synced: bool,
     buffers: Buffers,
     bind_group: wgpu::BindGroup,
 }
@@ -72,9 +87,9 @@ struct Buffers {
     velocity: wgpu::Buffer,
     y_star: wgpu::Buffer,
     ctrl: wgpu::Buffer,
-    /// MAP_READ copies: the control header, and (positions, velocities, history) at the end.
+    /// MAP_READ copies: the control header, and the history at the end of a step.
     header_readback: wgpu::Buffer,
-    state_readback: wgpu::Buffer,
+    history_readback: wgpu::Buffer,
 }
 
 fn millis(since: Instant) -> f64 {
@@ -133,14 +148,11 @@ impl<T: GpuReal> GpuSolver<T> {
         Ok(())
     }
 
-    /// Adds a collider: on the GPU, a static frictionless plane or sphere.
+    /// Adds a collider (any shape, friction and motion, as on the CPU).
     pub fn add_collider(&mut self, collider: Collider) -> Result<()> {
-        let analytic = matches!(collider.shape, Shape::Plane { .. } | Shape::Sphere { .. });
-        if !analytic || collider.friction != 0.0 || collider.velocity != nalgebra::Vector3::zeros()
-        {
+        if let Shape::Mesh(grid) = &collider.shape {
             return Err(invalid!(
-                "the GPU backend supports static frictionless Plane and Sphere colliders only; got {:?}",
-                collider
+                "the GPU backend does not support MeshCollider ({grid:?}); use backend='cpu'"
             ));
         }
         self.colliders.push(collider);
@@ -207,6 +219,10 @@ impl<T: GpuReal> GpuSolver<T> {
             }
         };
         if rebuild {
+            // read back what the old buffers hold before they go
+            for body in bodies.iter_mut() {
+                body.sync()?;
+            }
             self.state = None;
             self.state = Some(State::build(
                 &self.ctx,
@@ -216,8 +232,14 @@ impl<T: GpuReal> GpuSolver<T> {
                 self.colliders.len().max(1),
             )?);
         }
+        let step_end = self.clock.time + params.dt;
+        let colliders: Vec<ColliderModel<T>> = self
+            .colliders
+            .iter()
+            .map(|c| MovingCollider::new(c.clone()).during_step(self.clock.time, step_end))
+            .collect();
         let state = self.state.as_mut().expect("built above");
-        state.upload(&self.ctx, bodies, &params, &self.colliders);
+        state.upload(&self.ctx, bodies, &params, &colliders)?;
         let mut timings = Timings {
             predict: millis(started),
             ..Timings::default()
@@ -283,9 +305,7 @@ impl<T: GpuReal> GpuSolver<T> {
             }
             pass.finish();
         }
-        // y_t and v change on the device now; the host has them again after the read-back.
-        state.synced = false;
-        let history = state.read_back(&self.ctx, encoder, params.max_iters)?;
+        let history = state.finish_step(&self.ctx, encoder, bodies, params.max_iters)?;
         for k in 0..iterations {
             let [moved, residual, _, _] = history[1 + k];
             stats.residuals.push(moved.to_f64());
@@ -303,7 +323,6 @@ impl<T: GpuReal> GpuSolver<T> {
                 .energies
                 .extend((1..=iterations).map(|k| history[1 + k][2].to_f64()));
         }
-        state.system.store(bodies);
         timings.finish = millis(t);
         self.clock.tick(params.dt);
         timings.total = millis(started);
@@ -402,7 +421,7 @@ impl<T: GpuReal> State<T> {
             y_star: storage("y_star", vec_bytes, copy)?,
             ctrl: storage("ctrl", ctrl_bytes, copy)?,
             header_readback: readback("header readback", T::CONTROL_HEADER_BYTES),
-            state_readback: readback("state readback", 2 * vec_bytes + history_bytes),
+            history_readback: readback("history readback", history_bytes),
         };
         let owned = [
             init("vertices", bytemuck::cast_slice(&vertices))?,
@@ -482,67 +501,69 @@ impl<T: GpuReal> State<T> {
         });
         ctx.check()?;
         Ok(Self {
+            id: NEXT_STATE.fetch_add(1, Ordering::Relaxed),
+            epoch: 0,
             n: n as u32,
             bonds: bonds as u64,
             system,
             iter_capacity,
             collider_capacity,
             records_for: None,
-            synced: false,
+            pins_synced: false,
             buffers,
             bind_group,
         })
     }
 
-    /// Loads the bodies' state and pins and uploads what differs from the device's copy
-    /// (nothing when Python left the bodies alone since the last step), then writes the
-    /// parameters, colliders, per-iteration records (when the parameters changed) and a fresh
-    /// control header.
+    /// Uploads the positions and velocities of the bodies whose newest state the device does
+    /// not hold (those Python set, or another solver stepped), and the pins when they changed;
+    /// then writes the parameters, colliders, per-iteration records (when the parameters
+    /// changed) and a fresh control header.
     fn upload(
         &mut self,
         ctx: &GpuContext,
-        bodies: &[&mut Membrane],
+        bodies: &mut [&mut Membrane],
         params: &SolverParams,
-        colliders: &[Collider],
-    ) {
+        colliders: &[ColliderModel<T>],
+    ) -> Result<()> {
         let q = &ctx.queue;
         let sys = &mut self.system;
-        // `load` writes y_star only at pinned vertices (their targets); elsewhere the device
-        // computes it, so comparing the whole host arrays compares exactly what is uploaded.
-        let device = self.synced.then(|| {
-            (
-                sys.y_start.clone(),
-                sys.velocity.clone(),
-                sys.y_star.clone(),
-                sys.pinned.clone(),
-            )
-        });
-        sys.load(bodies);
-        let (same_y, same_v, same_star, same_pins) = match &device {
-            Some((y, v, star, pins)) => (
-                *y == sys.y_start,
-                *v == sys.velocity,
-                *star == sys.y_star,
-                *pins == sys.pinned,
-            ),
-            None => (false, false, false, false),
+        let as_vec4 = |v: &[Vector3<f64>]| {
+            v.iter()
+                .map(|x| layout::vec4(&x.map(T::of)))
+                .collect::<Vec<_>>()
         };
-        let as_vec4 = |v: &[nalgebra::Vector3<T>]| v.iter().map(layout::vec4).collect::<Vec<_>>();
-        for (same, buffer, host) in [
-            (same_y, &self.buffers.y_start, &sys.y_start),
-            (same_v, &self.buffers.velocity, &sys.velocity),
-            // a vertex pinned anew needs its target even if the host's stale entry matches
-            (same_star && same_pins, &self.buffers.y_star, &sys.y_star),
-        ] {
-            if !same {
-                q.write_buffer(buffer, 0, bytemuck::cast_slice(&as_vec4(host)));
+        for (body, range) in bodies.iter_mut().zip(&sys.ranges) {
+            if body.device_copy() == Some((self.id, self.epoch)) {
+                continue;
             }
+            body.sync()?;
+            let at = range.start as u64 * T::VEC_BYTES;
+            let (y, v) = (as_vec4(body.positions()), as_vec4(body.velocities()));
+            q.write_buffer(&self.buffers.y_start, at, bytemuck::cast_slice(&y));
+            q.write_buffer(&self.buffers.velocity, at, bytemuck::cast_slice(&v));
+        }
+        // `load_pins` writes y_star only at pinned vertices (their targets); elsewhere the
+        // device computes it, so comparing the whole host arrays compares exactly what is
+        // uploaded.
+        let device = self
+            .pins_synced
+            .then(|| (sys.y_star.clone(), sys.pinned.clone()));
+        sys.load_pins(bodies);
+        let (same_star, same_pins) = match &device {
+            Some((star, pins)) => (*star == sys.y_star, *pins == sys.pinned),
+            None => (false, false),
+        };
+        // a vertex pinned anew needs its target even if the host's stale entry matches
+        if !(same_star && same_pins) {
+            let targets: Vec<[T; 4]> = sys.y_star.iter().map(layout::vec4).collect();
+            q.write_buffer(&self.buffers.y_star, 0, bytemuck::cast_slice(&targets));
         }
         if !same_pins {
             let pinned: Vec<u32> = sys.pinned.iter().map(|&p| p as u32).collect();
             q.write_buffer(&self.buffers.pinned, 0, bytemuck::cast_slice(&pinned));
         }
-        self.synced = true;
+        self.pins_synced = true;
         let gpu_colliders: Vec<T::Collider> = colliders.iter().map(T::collider).collect();
         if !gpu_colliders.is_empty() {
             q.write_buffer(
@@ -596,6 +617,7 @@ impl<T: GpuReal> State<T> {
             q.write_buffer(&self.buffers.iters, 0, &bytes);
             self.records_for = Some(*params);
         }
+        Ok(())
     }
 
     fn write_record(&self, ctx: &GpuContext, index: usize, record: &IterValues) {
@@ -631,39 +653,65 @@ impl<T: GpuReal> State<T> {
         Ok([words[0], words[1], words[2]])
     }
 
-    /// Submits `encoder` after copies of the new positions, velocities and the history, stores
-    /// the first two in the host system and returns the history `[0, max_iters + 2)`.
-    fn read_back(
+    /// Submits `encoder` (the end of a step) after a copy of the history, records in every
+    /// body that its new state is on the device, and returns the history `[0, max_iters + 2)`.
+    fn finish_step(
         &mut self,
         ctx: &GpuContext,
         mut encoder: wgpu::CommandEncoder,
+        bodies: &mut [&mut Membrane],
         max_iters: usize,
     ) -> Result<Vec<[T; 4]>> {
         let b = &self.buffers;
-        let vec_bytes = self.n as u64 * T::VEC_BYTES;
         let history_bytes = (max_iters as u64 + 2) * T::VEC_BYTES;
-        encoder.copy_buffer_to_buffer(&b.y_start, 0, &b.state_readback, 0, vec_bytes);
-        encoder.copy_buffer_to_buffer(&b.velocity, 0, &b.state_readback, vec_bytes, vec_bytes);
         encoder.copy_buffer_to_buffer(
             &b.ctrl,
             T::CONTROL_HEADER_BYTES,
-            &b.state_readback,
-            2 * vec_bytes,
+            &b.history_readback,
+            0,
             history_bytes,
         );
         ctx.queue.submit([encoder.finish()]);
-        let bytes = map_read(ctx, &b.state_readback)?;
+        // y_t and v hold the new state on the device from here on (the queue runs in order,
+        // so a body's read-back sees it)
+        self.epoch += 1;
+        for (body, range) in bodies.iter_mut().zip(&self.system.ranges) {
+            let fetch = fetch_body::<T>(ctx, b, range.clone());
+            body.leave_on_device(DeviceCopy::pending(self.id, self.epoch, fetch));
+        }
+        let bytes = map_read(ctx, &b.history_readback)?;
         let all: Vec<[T; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-        let n = self.n as usize;
-        for (dst, src) in self.system.y_start.iter_mut().zip(&all[..n]) {
-            *dst = nalgebra::Vector3::new(src[0], src[1], src[2]);
-        }
-        for (dst, src) in self.system.velocity.iter_mut().zip(&all[n..2 * n]) {
-            *dst = nalgebra::Vector3::new(src[0], src[1], src[2]);
-        }
-        self.synced = true;
-        Ok(all[2 * n..2 * n + max_iters + 2].to_vec())
+        Ok(all[..max_iters + 2].to_vec())
     }
+}
+
+/// Reads the positions and velocities of the vertices `range` back from `buffers` (through a
+/// staging buffer of its own, so that bodies can be read from any thread).
+fn fetch_body<T: GpuReal>(ctx: &GpuContext, buffers: &Buffers, range: Range<usize>) -> Fetch {
+    let ctx = ctx.clone();
+    let (y_start, velocity) = (buffers.y_start.clone(), buffers.velocity.clone());
+    Arc::new(move || {
+        let at = range.start as u64 * T::VEC_BYTES;
+        let bytes = range.len() as u64 * T::VEC_BYTES;
+        let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("body readback"),
+            size: 2 * bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&y_start, at, &staging, 0, bytes);
+        encoder.copy_buffer_to_buffer(&velocity, at, &staging, bytes, bytes);
+        ctx.queue.submit([encoder.finish()]);
+        let all: Vec<[T; 4]> = bytemuck::pod_collect_to_vec(&map_read(&ctx, &staging)?);
+        let f64s = |v: &[[T; 4]]| {
+            v.iter()
+                .map(|c| Vector3::new(c[0].to_f64(), c[1].to_f64(), c[2].to_f64()))
+                .collect::<Vec<_>>()
+        };
+        let (y, v) = all.split_at(range.len());
+        Ok((f64s(y), f64s(v)))
+    })
 }
 
 /// Maps `buffer` for reading once the queue has finished, and copies it out.

@@ -6,7 +6,7 @@ mod neo_hookean;
 mod stretch_a3;
 
 use crate::error::{check_param, Result};
-use crate::real::Real;
+use crate::real::{Lanes, Real};
 
 /// An isotropic hyperelastic material. Stiffnesses are in Pa, energies in J/m^3.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -97,10 +97,10 @@ pub enum MaterialModel<T> {
     NeoHookean { s0: T, s1: T },
 }
 
-impl<T: Real> MaterialModel<T> {
+impl<S: Lanes> MaterialModel<S> {
     /// Energy density `Psi(lambda)` (J/m^3).
     #[inline]
-    pub fn energy(&self, l: [T; 3]) -> T {
+    pub fn energy(&self, l: [S; 3]) -> S {
         match *self {
             Self::StretchA3 { s0 } => stretch_a3::energy(s0, l),
             Self::NeoHookean { s0, s1 } => neo_hookean::energy(s0, s1, l),
@@ -109,14 +109,14 @@ impl<T: Real> MaterialModel<T> {
 
     /// Diagonal first Piola-Kirchhoff stress `dPsi/dlambda_m` (Pa), eq. 35.
     #[inline]
-    pub fn stress(&self, l: [T; 3]) -> [T; 3] {
+    pub fn stress(&self, l: [S; 3]) -> [S; 3] {
         let (plus, minus) = self.stress_split(l);
         [plus[0] + minus[0], plus[1] + minus[1], plus[2] + minus[2]]
     }
 
     /// The stress split into its positive and negative parts `(P+, P-)` (eq. 38 and 41).
     #[inline]
-    pub fn stress_split(&self, l: [T; 3]) -> ([T; 3], [T; 3]) {
+    pub fn stress_split(&self, l: [S; 3]) -> ([S; 3], [S; 3]) {
         match *self {
             Self::StretchA3 { s0 } => stretch_a3::stress_split(s0, l),
             Self::NeoHookean { s0, s1 } => neo_hookean::stress_split(s0, s1, l),
@@ -126,7 +126,7 @@ impl<T: Real> MaterialModel<T> {
     /// Second derivatives of `Psi` in the in-plane stretches at fixed `lambda_3`:
     /// `(d2Psi/dl1^2, d2Psi/dl2^2, d2Psi/dl1 dl2)` (Pa).
     #[inline]
-    pub fn in_plane_hessian(&self, l: [T; 3]) -> [T; 3] {
+    pub fn in_plane_hessian(&self, l: [S; 3]) -> [S; 3] {
         match *self {
             Self::StretchA3 { s0 } => stretch_a3::in_plane_hessian(s0, l),
             Self::NeoHookean { s0, s1 } => neo_hookean::in_plane_hessian(s0, s1, l),
@@ -136,7 +136,7 @@ impl<T: Real> MaterialModel<T> {
     /// `P+_m / lambda_m` (Pa), the non-negative stiffness that SISSM treats implicitly: the
     /// matrix `U diag(P+/lambda) U^T` of eq. 24-26.
     #[inline]
-    pub fn implicit_stiffness(&self, l: [T; 3]) -> [T; 3] {
+    pub fn implicit_stiffness(&self, l: [S; 3]) -> [S; 3] {
         match *self {
             Self::StretchA3 { s0 } => stretch_a3::implicit_stiffness(s0, l),
             Self::NeoHookean { s0, s1 } => neo_hookean::implicit_stiffness(s0, s1, l),
@@ -200,6 +200,32 @@ mod tests {
             }
             assert!(m.energy([1.0; 3]).abs() < 1e-12);
             assert!(m.stress([1.0; 3]).iter().all(|s| s.abs() < 1e-12));
+        }
+    }
+
+    /// At the stretch floor of f32 (a collapsed neighbourhood) the energies stay finite and
+    /// agree with f64 to 1e-4 (the neo-Hookean `u - ln(1 + u)` still loses digits near 1 in f32):
+    /// the neo-Hookean `ln x` must not be taken as `ln(1 + u)` at the floor.
+    #[test]
+    fn f32_energies_are_finite_and_accurate_at_extreme_stretches() {
+        for m in [
+            Material::stretch_a3(3e4).unwrap(),
+            Material::neo_hookean(1e4, 2e4).unwrap(),
+        ] {
+            // Stretches exactly representable in f32, so only the evaluation differs.
+            for l in [
+                [1.0 / 8192.0, 1.0 / 8192.0, 1.0],
+                [1.0 / 8192.0, 3.0, 1.0],
+                [1.0 + 1.0 / 8192.0, 1.0, 1.0],
+                [40.0, 0.75, 1.0],
+            ] {
+                let wide = m.to_real::<f64>().energy(l);
+                let narrow = m.to_real::<f32>().energy(l.map(|x| x as f32)) as f64;
+                assert!(
+                    narrow.is_finite() && (narrow - wide).abs() <= 1e-4 * wide,
+                    "{m:?} {l:?}: f32 {narrow} vs f64 {wide}"
+                );
+            }
         }
     }
 

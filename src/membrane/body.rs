@@ -8,10 +8,10 @@ use nalgebra::Vector3;
 use crate::error::{check_param, invalid, Result};
 use crate::material::Material;
 use crate::mesh::{Neighborhood, TriangleMesh};
-use crate::parallel::for_each_vertex;
 
-use super::kernel::{vertex_kernel, Deformation, Preconditioner, VertexResponse};
-use super::RestData;
+use super::kernel::{bond_vectors, Deformation, Preconditioner, VertexResponse};
+use super::packed::evaluate_vertices;
+use super::{DeviceCopy, RestData};
 
 /// Physical parameters of a membrane (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -100,6 +100,8 @@ pub struct Membrane {
     velocities: Vec<Vector3<f64>>,
     pins: BTreeMap<u32, Vector3<f64>>,
     self_contact: bool,
+    /// The copy of `positions` and `velocities` a GPU step left on its device, if any.
+    device: Option<DeviceCopy>,
 }
 
 impl Membrane {
@@ -120,6 +122,7 @@ impl Membrane {
             velocities,
             pins: BTreeMap::new(),
             self_contact: true,
+            device: None,
         })
     }
 
@@ -152,29 +155,78 @@ impl Membrane {
     pub fn num_vertices(&self) -> usize {
         self.positions.len()
     }
+    /// Positions (m) as of the last [`Self::sync`] when a GPU step left newer ones on its
+    /// device (the Python layer syncs before every access).
     pub fn positions(&self) -> &[Vector3<f64>] {
+        debug_assert!(!self.is_pending(), "call Membrane::sync after a GPU step");
         &self.positions
     }
+    /// Velocities (m/s); see [`Self::positions`].
     pub fn velocities(&self) -> &[Vector3<f64>] {
+        debug_assert!(!self.is_pending(), "call Membrane::sync after a GPU step");
         &self.velocities
+    }
+
+    /// Whether a GPU step left positions and velocities on its device that are newer than
+    /// the membrane's own.
+    pub fn is_pending(&self) -> bool {
+        self.device.as_ref().is_some_and(DeviceCopy::is_pending)
+    }
+
+    /// Reads positions and velocities back from the device a GPU step left them on (nothing
+    /// when they are current).
+    pub fn sync(&mut self) -> Result<()> {
+        if let Some(fetch) = self.device.as_mut().and_then(|d| d.fetch.take()) {
+            match fetch() {
+                Ok((positions, velocities)) => {
+                    self.positions = positions;
+                    self.velocities = velocities;
+                }
+                Err(e) => {
+                    // still pending: a later sync may succeed
+                    if let Some(d) = self.device.as_mut() {
+                        d.fetch = Some(fetch);
+                    }
+                    return Err(e);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The device buffers that hold a copy of this membrane's state (`owner`, `epoch`), if its
+    /// state has not been replaced since.
+    pub fn device_copy(&self) -> Option<(u64, u64)> {
+        self.device.as_ref().map(|d| (d.owner, d.epoch))
+    }
+
+    /// Records that a GPU step left this membrane's state on its device.
+    pub fn leave_on_device(&mut self, copy: DeviceCopy) {
+        self.device = Some(copy);
     }
 
     /// Replaces the positions (m); every value must be finite.
     pub fn set_positions(&mut self, positions: Vec<Vector3<f64>>) -> Result<()> {
         self.check_field("positions", &positions)?;
+        self.sync()?;
         self.positions = positions;
+        self.device = None;
         Ok(())
     }
 
     /// Replaces the velocities (m/s); every value must be finite.
     pub fn set_velocities(&mut self, velocities: Vec<Vector3<f64>>) -> Result<()> {
         self.check_field("velocities", &velocities)?;
+        self.sync()?;
         self.velocities = velocities;
+        self.device = None;
         Ok(())
     }
 
-    /// Solver write-back of a finished step (already known to be finite).
+    /// Solver write-back of a finished step (already known to be finite): the host copy is
+    /// the newest.
     pub(crate) fn state_mut(&mut self) -> (&mut [Vector3<f64>], &mut [Vector3<f64>]) {
+        self.device = None;
         (&mut self.positions, &mut self.velocities)
     }
 
@@ -220,6 +272,9 @@ impl Membrane {
                     "pin index {i} (entry {k}) is out of range [0, {n})"
                 ));
             }
+        }
+        if targets.is_none() {
+            self.sync()?;
         }
         for (k, &i) in indices.iter().enumerate() {
             let target = targets.map_or(self.positions[i as usize], |t| t[k]);
@@ -278,7 +333,7 @@ impl Membrane {
     /// Runs the vertex kernel on every vertex at the current positions.
     fn evaluate(&self, bond_grad: &mut [Vector3<f64>]) -> Vec<VertexResponse<f64>> {
         let nb = &self.neighborhood;
-        let y = &self.positions;
+        let y = self.positions();
         let rest = &self.rest;
         let zero = VertexResponse {
             stretch: 0.0,
@@ -287,19 +342,14 @@ impl Membrane {
             precond: Default::default(),
         };
         let mut out = vec![zero; y.len()];
-        for_each_vertex(
-            &nb.offsets,
+        evaluate_vertices(
+            nb,
+            rest,
+            None,
+            y,
+            Preconditioner::default(),
             bond_grad,
             &mut out,
-            &|i, grads: &mut [Vector3<f64>]| {
-                vertex_kernel(
-                    y[i],
-                    y,
-                    &rest.stencil(nb, i),
-                    Preconditioner::default(),
-                    grads,
-                )
-            },
         );
         out
     }
@@ -328,21 +378,19 @@ impl Membrane {
     /// Principal stretches per vertex (two in-plane, descending, then the normal one).
     pub fn stretches(&self) -> Vec<[f64; 3]> {
         let nb = &self.neighborhood;
+        let mut edges = Vec::new();
         (0..self.num_vertices())
             .map(|i| {
-                Deformation::of(
-                    self.positions[i],
-                    &self.positions,
-                    &self.rest.stencil(nb, i),
-                )
-                .stretches()
+                edges.resize(nb.of(i).len(), Vector3::zeros());
+                bond_vectors(i, self.positions(), nb.of(i), &mut edges);
+                Deformation::of(&edges, &self.rest.stencil(nb, i)).stretches()
             })
             .collect()
     }
 
     /// Kinetic energy (J).
     pub fn kinetic_energy(&self) -> f64 {
-        self.velocities
+        self.velocities()
             .iter()
             .zip(&self.rest.vertices)
             .map(|(v, c)| 0.5 * c.mass * v.norm_squared())

@@ -43,64 +43,84 @@
 //! + kappa_n n n^T` with `kappa_n = lambda_max(sum_j c_j c_j^T)` bounding the bending term: the Hessian of the quadratic model `1/2 sum_j e_j^T C_i e_j` whose bond
 //! Laplacian SISSM inverts approximately; see [`Preconditioner`] for the stretching weights.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, SimdBool, Vector3};
 
-use crate::real::Real;
+use crate::real::{Lanes, Real};
 
 use super::{Stencil, VertexConstants};
 
-/// What the kernel reports for one vertex.
+/// What the kernel reports for one vertex (or, for a SIMD pack, for one vertex per lane).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct VertexResponse<T: Real> {
+pub struct VertexResponse<S> {
     /// Stretching energy `V_i Psi` (J).
-    pub stretch: T,
+    pub stretch: S,
     /// Bending energy (J).
-    pub bending: T,
+    pub bending: S,
     /// Hourglass energy (J).
-    pub hourglass: T,
+    pub hourglass: S,
     /// Preconditioner block `C_i` (N/m), symmetric positive semi-definite.
-    pub precond: Matrix3<T>,
+    pub precond: Matrix3<S>,
 }
 
-impl<T: Real> VertexResponse<T> {
+impl<S: Lanes> VertexResponse<S> {
     /// Total energy of the vertex (J).
     #[inline]
-    pub fn energy(&self) -> T {
+    pub fn energy(&self) -> S {
         self.stretch + self.bending + self.hourglass
     }
+
+    /// The response of lane `l` of a pack.
+    #[inline]
+    pub fn lane(&self, l: usize) -> VertexResponse<S::Scalar> {
+        VertexResponse {
+            stretch: self.stretch.extract(l),
+            bending: self.bending.extract(l),
+            hourglass: self.hourglass.extract(l),
+            precond: self.precond.map(|x| x.extract(l)),
+        }
+    }
+}
+
+/// `a` in the lanes where `mask` holds, else `b`.
+#[inline(always)]
+fn select<S: Lanes>(mask: S::SimdBool, a: Vector3<S>, b: Vector3<S>) -> Vector3<S> {
+    Vector3::new(
+        a.x.select(mask, b.x),
+        a.y.select(mask, b.y),
+        a.z.select(mask, b.z),
+    )
 }
 
 /// The local deformation of a vertex: `T = [a1 a2] = U diag(sigma) V^T`, director `n`.
 #[derive(Debug, Clone, Copy)]
-pub struct Deformation<T: Real> {
-    pub a1: Vector3<T>,
-    pub a2: Vector3<T>,
+pub struct Deformation<S: Lanes> {
+    pub a1: Vector3<S>,
+    pub a2: Vector3<S>,
     /// `|a1 x a2| = sigma_1 sigma_2` (area ratio).
-    pub area_ratio: T,
+    pub area_ratio: S,
     /// Unit director, orthogonal to `a1` and `a2`.
-    pub normal: Vector3<T>,
+    pub normal: Vector3<S>,
     /// Left singular vectors (deformed tangent plane); `(u1, u2, normal)` is right-handed.
-    pub u: [Vector3<T>; 2],
+    pub u: [Vector3<S>; 2],
     /// Right singular vectors in `(t1, t2)` coordinates, a rotation (det = +1).
-    pub v: [[T; 2]; 2],
-    /// Singular values, descending, clamped from below at [`Real::min_stretch`].
-    pub sigma: [T; 2],
+    pub v: [[S; 2]; 2],
+    /// Singular values, descending, clamped from below at [`Lanes::stretch_floor`].
+    pub sigma: [S; 2],
 }
 
-impl<T: Real> Deformation<T> {
+impl<S: Lanes> Deformation<S> {
     /// Principal stretches (two in-plane, descending, then the unstretched normal).
     #[inline]
-    pub fn stretches(&self) -> [T; 3] {
-        [self.sigma[0], self.sigma[1], T::one()]
+    pub fn stretches(&self) -> [S; 3] {
+        [self.sigma[0], self.sigma[1], S::one()]
     }
 
-    /// Computes the deformation of vertex `i` at `yi` from its neighbours' positions.
+    /// Computes the deformation of a vertex from its deformed bond vectors `edges[j] = y_j - y_i`
+    /// (in the order of the stencil's bonds).
     #[inline]
-    pub fn of(yi: Vector3<T>, y: &[Vector3<T>], stencil: &Stencil<'_, T>) -> Self {
-        let (neighbors, bonds, frame) = (stencil.neighbors, stencil.bonds, stencil.frame);
+    pub fn of(edges: &[Vector3<S>], stencil: &Stencil<'_, S>) -> Self {
         let (mut a1, mut a2) = (Vector3::zeros(), Vector3::zeros());
-        for (&j, b) in neighbors.iter().zip(bonds) {
-            let e = y[j as usize] - yi;
+        for (e, b) in edges.iter().zip(stencil.bonds) {
             a1 += e * b.beta[0];
             a2 += e * b.beta[1];
         }
@@ -111,29 +131,17 @@ impl<T: Real> Deformation<T> {
         let sigma1 = t_v1.norm();
         let cross = a1.cross(&a2);
         let area_ratio = cross.norm();
-        let tiny = T::min_stretch() * T::min_stretch();
-        let u1 = if sigma1 > tiny {
-            t_v1 / sigma1
-        } else {
-            frame.t1
-        };
-        let normal = if area_ratio > tiny * (p + s) && area_ratio > T::zero() {
-            cross / area_ratio
-        } else {
-            let n = u1.cross(&frame.nc);
-            if n.norm() > T::of(1e-3) {
-                n.normalize().cross(&u1)
-            } else {
-                any_orthogonal_unit(&u1)
-            }
-        };
+        let tiny = S::stretch_floor() * S::stretch_floor();
+        let stretched = sigma1.simd_gt(tiny);
+        let u1 = select(stretched, t_v1 / sigma1, stencil.frame.t1);
+        let regular = area_ratio.simd_gt(tiny * (p + s)) & area_ratio.simd_gt(S::zero());
+        let mut normal = cross / area_ratio;
+        if !regular.all() {
+            normal = select(regular, normal, fallback_normal(&u1, &stencil.frame.nc));
+        }
         let u2 = normal.cross(&u1);
-        let sigma2 = if sigma1 > tiny {
-            area_ratio / sigma1
-        } else {
-            T::zero()
-        };
-        let lo = T::min_stretch();
+        let sigma2 = (area_ratio / sigma1).select(stretched, S::zero());
+        let lo = S::stretch_floor();
         Self {
             a1,
             a2,
@@ -141,42 +149,67 @@ impl<T: Real> Deformation<T> {
             normal,
             u: [u1, u2],
             v,
-            sigma: [sigma1.max(lo), sigma2.max(lo)],
+            sigma: [sigma1.simd_max(lo), sigma2.simd_max(lo)],
         }
     }
+}
+
+/// A director for a collapsed neighbourhood: orthogonal to `u1`, as close to the rest normal
+/// `nc` as possible.
+#[inline]
+fn fallback_normal<S: Lanes>(u1: &Vector3<S>, nc: &Vector3<S>) -> Vector3<S> {
+    let n = u1.cross(nc);
+    let usable = n.norm().simd_gt(S::lit(1e-3));
+    select(usable, n.normalize().cross(u1), any_orthogonal_unit(u1))
 }
 
 /// Unit eigenvector `(cos, sin)` of the larger eigenvalue of the symmetric 2x2 matrix
 /// `[[p, r], [r, s]]`, from whichever of its two closed forms does not cancel.
 #[inline]
-fn leading_eigenvector<T: Real>(p: T, r: T, s: T) -> [T; 2] {
-    let half_gap = (p - s) * T::of(0.5);
-    let root = (half_gap * half_gap + r * r).sqrt();
-    let (x, y) = if half_gap >= T::zero() {
-        (half_gap + root, r) // (lambda_1 - s, r)
-    } else {
-        (r, root - half_gap) // (r, lambda_1 - p)
-    };
-    let norm = (x * x + y * y).sqrt();
-    if norm > T::zero() {
-        [x / norm, y / norm]
-    } else {
-        [T::one(), T::zero()]
+fn leading_eigenvector<S: Lanes>(p: S, r: S, s: S) -> [S; 2] {
+    let half_gap = (p - s) * S::lit(0.5);
+    let root = (half_gap * half_gap + r * r).simd_sqrt();
+    let upper = half_gap.simd_ge(S::zero());
+    let x = (half_gap + root).select(upper, r); // (lambda_1 - s, r)
+    let y = r.select(upper, root - half_gap); // (r, lambda_1 - p)
+    let norm = (x * x + y * y).simd_sqrt();
+    let defined = norm.simd_gt(S::zero());
+    [
+        (x / norm).select(defined, S::one()),
+        (y / norm).select(defined, S::zero()),
+    ]
+}
+
+/// Writes the deformed bond vectors `y_j - y_i` of vertex `i`, whose neighbours are `neighbors`,
+/// into `edges` (the input of [`Deformation::of`] and [`vertex_kernel`]).
+#[inline]
+pub fn bond_vectors<T: Real>(
+    i: usize,
+    y: &[Vector3<T>],
+    neighbors: &[u32],
+    edges: &mut [Vector3<T>],
+) {
+    let yi = y[i];
+    for (&j, e) in neighbors.iter().zip(edges) {
+        *e = y[j as usize] - yi;
     }
 }
 
-/// Computes vertex `i`'s energy and writes `dE_i / d(y_j - y_i)` into `bond_grad`, one entry per
-/// neighbour of the stencil, in its order.
+/// Computes a vertex's energy and the gradient with respect to its bonds. On entry `bonds[j]`
+/// holds the deformed bond vector `y_j - y_i` of the stencil's `j`-th bond; on return it holds
+/// `dE_i / d(y_j - y_i)`.
+///
+/// Written over [`Lanes`]: with a SIMD pack, every lane is one vertex (a vertex with fewer
+/// bonds than the pack's slots has zero rest data and zero bond vectors in the extra slots,
+/// which contribute exactly nothing).
 #[inline]
-pub fn vertex_kernel<T: Real>(
-    yi: Vector3<T>,
-    y: &[Vector3<T>],
-    stencil: &Stencil<'_, T>,
+pub fn vertex_kernel<S: Lanes>(
+    stencil: &Stencil<'_, S>,
     mode: Preconditioner,
-    bond_grad: &mut [Vector3<T>],
-) -> VertexResponse<T> {
-    let (neighbors, bonds, c) = (stencil.neighbors, stencil.bonds, stencil.constants);
-    let def = Deformation::of(yi, y, stencil);
+    bonds: &mut [Vector3<S>],
+) -> VertexResponse<S> {
+    let (rest, c) = (stencil.bonds, stencil.constants);
+    let def = Deformation::of(bonds, stencil);
     let stretches = def.stretches();
     let [u1, u2] = def.u;
     let n = def.normal;
@@ -189,54 +222,57 @@ pub fn vertex_kernel<T: Real>(
     let mut g2 = u1 * (p1 * v1[1]) + u2 * (p2 * v2[1]);
     let stretch_energy = c.volume * c.material.energy(stretches);
 
-    let mut w = stretch_stiffness(mode, &c.material, stretches, stress, c);
+    let mut w = stretch_stiffness(mode, stretches, stress, c);
 
-    let (mut bending, mut hourglass) = (T::zero(), T::zero());
-    let non_affine = c.kappa_t > T::zero() || c.kappa_n > T::zero();
-    if non_affine {
+    let (mut bending, mut hourglass) = (S::zero(), S::zero());
+    let non_affine = c.kappa_t.simd_gt(S::zero()) | c.kappa_n.simd_gt(S::zero());
+    if non_affine.any() {
         // F^-1 in rest-frame coordinates: rows g1, g2, n map a deformed vector e to the
         // (t1, t2, nc) coordinates of F^-1 e.
-        let inv = [T::one() / def.sigma[0], T::one() / def.sigma[1]];
+        let inv = [S::one() / def.sigma[0], S::one() / def.sigma[1]];
         let row1 = u1 * (v1[0] * inv[0]) + u2 * (v2[0] * inv[1]);
         let row2 = u1 * (v1[1] * inv[0]) + u2 * (v2[1] * inv[1]);
-        // First pass: the rest images F^-1 e_j (kept in bond_grad for the second pass) and the
+        // First pass: the rest images F^-1 e_j (kept in `bonds` for the second pass) and the
         // fitted curvature h = sum_j curvature_j (q_j . nc).
         let mut curvature = Vector3::zeros();
-        for ((&j, b), out) in neighbors.iter().zip(bonds).zip(bond_grad.iter_mut()) {
-            let e = y[j as usize] - yi;
+        for (b, io) in rest.iter().zip(bonds.iter_mut()) {
+            let e = *io;
             let image = Vector3::new(row1.dot(&e), row2.dot(&e), n.dot(&e));
             curvature += b.curvature * (image.z - b.xi.z);
-            *out = image;
+            *io = image;
         }
-        bending = T::of(0.5) * curvature.norm_squared();
+        bending = S::lit(0.5) * curvature.norm_squared();
         let (mut h1, mut h2, mut hn) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
-        for (b, out) in bonds.iter().zip(bond_grad.iter_mut()) {
-            let image = *out;
+        for (b, io) in rest.iter().zip(bonds.iter_mut()) {
+            let image = *io;
             let (q1, q2) = (image.x - b.xi.x, image.y - b.xi.y);
             hourglass += c.kappa_t * (q1 * q1 + q2 * q2);
             // d = F^-T W q with W q = (kappa_t q1, kappa_t q2, curvature_j . h) in the rest frame.
             let d =
                 row1 * (c.kappa_t * q1) + row2 * (c.kappa_t * q2) + n * b.curvature.dot(&curvature);
-            *out = d;
+            *io = d;
             h1 += d * image.x;
             h2 += d * image.y;
             hn += d * image.z;
         }
-        hourglass *= T::of(0.5);
+        hourglass *= S::lit(0.5);
         g1 -= h1;
         g2 -= h2;
-        let p = (-hn + n * n.dot(&hn)) / def.area_ratio.max(T::min_stretch() * T::min_stretch());
+        let p = (-hn + n * n.dot(&hn))
+            / def
+                .area_ratio
+                .simd_max(S::stretch_floor() * S::stretch_floor());
         g1 += def.a2.cross(&p);
         g2 += p.cross(&def.a1);
         w[0] += c.kappa_t * inv[0] * inv[0];
         w[1] += c.kappa_t * inv[1] * inv[1];
         w[2] += c.kappa_n;
-        for (b, out) in bonds.iter().zip(bond_grad.iter_mut()) {
-            *out += g1 * b.beta[0] + g2 * b.beta[1];
+        for (b, io) in rest.iter().zip(bonds.iter_mut()) {
+            *io += g1 * b.beta[0] + g2 * b.beta[1];
         }
     } else {
-        for (b, out) in bonds.iter().zip(bond_grad.iter_mut()) {
-            *out = g1 * b.beta[0] + g2 * b.beta[1];
+        for (b, io) in rest.iter().zip(bonds.iter_mut()) {
+            *io = g1 * b.beta[0] + g2 * b.beta[1];
         }
     }
     let precond =
@@ -266,34 +302,33 @@ pub enum Preconditioner {
 
 /// Per-direction stiffness `(w_u1, w_u2, w_n)` (N/m) of the stretching part of `C_i`.
 #[inline]
-fn stretch_stiffness<T: Real>(
+fn stretch_stiffness<S: Lanes>(
     mode: Preconditioner,
-    material: &crate::material::MaterialModel<T>,
-    stretches: [T; 3],
-    stress: [T; 3],
-    c: &VertexConstants<T>,
-) -> [T; 3] {
+    stretches: [S; 3],
+    stress: [S; 3],
+    c: &VertexConstants<S>,
+) -> [S; 3] {
     match mode {
         Preconditioner::Paper => {
             let scale = c.volume * c.k_iso;
-            material.implicit_stiffness(stretches).map(|s| s * scale)
+            c.material.implicit_stiffness(stretches).map(|s| s * scale)
         }
         Preconditioner::Tangent => {
             let [l1, l2, _] = stretches;
-            let [h11, h22, h12] = material.in_plane_hessian(stretches);
+            let [h11, h22, h12] = c.material.in_plane_hessian(stretches);
             let pair_plus = (stress[0] + stress[1]) / (l1 + l2);
             let gap = l1 - l2;
-            let pair_minus = if gap > T::of(1e-6) * l1 {
-                (stress[0] - stress[1]) / gap
-            } else {
-                T::zero()
-            };
-            let shear = pair_plus.max(pair_minus);
-            let tension = (stress[0] / l1).max(stress[1] / l2).max(T::zero());
+            let distinct = gap.simd_gt(S::lit(1e-6) * l1);
+            let pair_minus = ((stress[0] - stress[1]) / gap).select(distinct, S::zero());
+            let shear = pair_plus.simd_max(pair_minus);
+            let tension = (stress[0] / l1)
+                .simd_max(stress[1] / l2)
+                .simd_max(S::zero());
             let scale = c.volume * c.k_bound;
+            let h12 = h12.simd_abs();
             [
-                (h11 + h12.abs()).max(shear) * scale,
-                (h22 + h12.abs()).max(shear) * scale,
+                (h11 + h12).simd_max(shear) * scale,
+                (h22 + h12).simd_max(shear) * scale,
                 tension * scale,
             ]
         }
@@ -301,14 +336,13 @@ fn stretch_stiffness<T: Real>(
 }
 
 /// A unit vector orthogonal to the unit vector `n`, chosen deterministically.
-pub fn any_orthogonal_unit<T: Real>(n: &Vector3<T>) -> Vector3<T> {
-    let (x, y, z) = (n.x.abs(), n.y.abs(), n.z.abs());
-    let axis = if x <= y && x <= z {
-        Vector3::x()
-    } else if y <= z {
-        Vector3::y()
-    } else {
-        Vector3::z()
-    };
+/// (The cross product with the coordinate axis along which `n` is smallest.)
+pub fn any_orthogonal_unit<S: Lanes>(n: &Vector3<S>) -> Vector3<S> {
+    let (x, y, z) = (n.x.simd_abs(), n.y.simd_abs(), n.z.simd_abs());
+    let axis = select(
+        x.simd_le(y) & x.simd_le(z),
+        Vector3::x(),
+        select(y.simd_le(z), Vector3::y(), Vector3::z()),
+    );
     n.cross(&axis).normalize()
 }

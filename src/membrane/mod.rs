@@ -2,11 +2,17 @@
 //! kernel that turns positions into energy, forces and the SISSM preconditioner.
 
 mod body;
+mod device_copy;
 mod kernel;
+mod packed;
 mod rest;
 
 pub use body::{internal_force, EnergyTerms, Membrane, MembraneParams};
-pub use kernel::{any_orthogonal_unit, vertex_kernel, Deformation, Preconditioner, VertexResponse};
+pub use device_copy::{DeviceCopy, Fetch};
+pub use kernel::{
+    any_orthogonal_unit, bond_vectors, vertex_kernel, Deformation, Preconditioner, VertexResponse,
+};
+pub use packed::{evaluate_vertices, PackedRest};
 pub use rest::{BondRest, Frame, RestData, Stencil, VertexConstants};
 
 #[cfg(test)]

@@ -15,7 +15,7 @@ use super::MembraneParams;
 /// depend on the virtual bond; `nc` completes a right-handed orthonormal frame (the rest
 /// normal for a flat sheet).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Frame<T: Real> {
+pub struct Frame<T> {
     pub t1: Vector3<T>,
     pub t2: Vector3<T>,
     pub nc: Vector3<T>,
@@ -27,7 +27,7 @@ pub struct Frame<T: Real> {
 /// `curvature`, this bond's column of the scaled least-squares curvature fit: the bending
 /// energy of the vertex is `1/2 |sum_j curvature_j (q_j . nc)|^2` (J).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BondRest<T: Real> {
+pub struct BondRest<T> {
     pub beta: [T; 2],
     pub xi: Vector3<T>,
     pub curvature: Vector3<T>,
@@ -35,7 +35,7 @@ pub struct BondRest<T: Real> {
 
 /// Per-vertex constants.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct VertexConstants<T: Real> {
+pub struct VertexConstants<T> {
     /// Lumped volume `V_i = thickness * area_i` (m^3).
     pub volume: T,
     /// Lumped mass `m_i = density * V_i` (kg).
@@ -183,21 +183,21 @@ impl RestData<f64> {
     }
 }
 
-/// Everything the kernel needs to know about one vertex at rest.
+/// Everything the kernel needs to know about one vertex at rest (or, with a SIMD pack, about
+/// one vertex per lane).
 #[derive(Debug, Clone, Copy)]
-pub struct Stencil<'a, T: Real> {
-    pub neighbors: &'a [u32],
+pub struct Stencil<'a, T> {
     pub bonds: &'a [BondRest<T>],
     pub frame: &'a Frame<T>,
     pub constants: &'a VertexConstants<T>,
 }
 
 impl<T: Real> RestData<T> {
-    /// The rest stencil of vertex `i` (this data's neighbourhood is `nb`).
+    /// The rest stencil of vertex `i` (this data's neighbourhood is `nb`); its bonds are those
+    /// to `nb.of(i)`, in that order.
     #[inline]
     pub fn stencil<'a>(&'a self, nb: &'a Neighborhood, i: usize) -> Stencil<'a, T> {
         Stencil {
-            neighbors: nb.of(i),
             bonds: &self.bonds[nb.bonds(i)],
             frame: &self.frames[i],
             constants: &self.vertices[i],

@@ -1,13 +1,15 @@
 //! Python wrappers of the colliders: a base class `Collider` holds the core collider (shape,
-//! friction, motion) and what every shape shares; `Plane`, `Sphere`, `Box` and `Capsule`
-//! construct it and expose their own geometry.
+//! friction, motion) and what every shape shares; `Plane`, `Sphere`, `Box`, `Capsule` and
+//! `MeshCollider` construct it and expose their own geometry.
 
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use crate::contact::{Collider, Shape};
 
-use super::arrays::{to_numpy_1d, vec3, vec3s};
-use super::errors::IntoPyResult;
+use super::arrays::{to_numpy, to_numpy_1d, triangles, vec3, vec3s};
+use super::errors::{guard, IntoPyResult};
 
 /// Base of every collider: a solid shape, a Coulomb `friction` coefficient (>= 0) and a
 /// constant `velocity` (m/s) from the pose given at time 0.
@@ -64,7 +66,7 @@ impl PyCollider {
 
 /// The shape of a collider subclass.
 fn shape<T: pyo3::PyClass<BaseType = PyCollider>>(slf: &PyRef<'_, T>) -> Shape {
-    slf.as_super().inner.shape
+    slf.as_super().inner.shape.clone()
 }
 
 /// Half-space collider: vertices stay on the side the normal points to.
@@ -304,12 +306,115 @@ impl PyCapsule {
     }
 }
 
+/// Solid bounded by a closed triangle mesh, sampled as a signed distance field on a grid.
+#[pyclass(module = "peridyn._core", name = "MeshCollider", extends = PyCollider, frozen)]
+pub struct PyMeshCollider;
+
+#[pymethods]
+impl PyMeshCollider {
+    /// `vertices` (n, 3) in m and `triangles` (m, 3), or a trimesh.Trimesh (anything with
+    /// `vertices` and `faces`) alone; `resolution` cells along the mesh's longest side;
+    /// `margin` (m) padding of the grid around the mesh.
+    #[new]
+    #[pyo3(signature = (vertices, triangles = None, *, resolution = 64, margin = None,
+                        friction = 0.0, velocity = None))]
+    fn new(
+        py: Python<'_>,
+        vertices: &Bound<'_, PyAny>,
+        triangles: Option<&Bound<'_, PyAny>>,
+        resolution: i64,
+        margin: Option<f64>,
+        friction: f64,
+        velocity: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PyClassInitializer<Self>> {
+        let (vertices, faces) = match triangles {
+            Some(t) => (vertices.clone(), t.clone()),
+            None if vertices.hasattr("faces")? => {
+                (vertices.getattr("vertices")?, vertices.getattr("faces")?)
+            }
+            None => {
+                return Err(PyValueError::new_err(
+                    "MeshCollider takes vertices and triangles, or a trimesh.Trimesh alone",
+                ))
+            }
+        };
+        let v: Vec<[f64; 3]> = vec3s(&vertices, "vertices", None)?
+            .iter()
+            .map(|x| (*x).into())
+            .collect();
+        let t = self::triangles(&faces, "triangles")?;
+        let resolution = usize::try_from(resolution).map_err(|_| {
+            PyValueError::new_err(format!(
+                "resolution (cells along the mesh's longest side) must be >= 2, got {resolution}"
+            ))
+        })?;
+        let mesh =
+            py.detach(|| guard("MeshCollider", || Ok(Shape::mesh(v, t, resolution, margin))))?;
+        Ok(PyClassInitializer::from(PyCollider::new(mesh, friction, velocity)?).add_subclass(Self))
+    }
+    /// Grid node spacing (m).
+    #[getter]
+    fn cell_size(slf: PyRef<'_, Self>) -> f64 {
+        grid_of(&slf, |g| g.cell_size())
+    }
+    /// Grid nodes along x, y and z.
+    #[getter]
+    fn grid_shape(slf: PyRef<'_, Self>) -> (usize, usize, usize) {
+        grid_of(&slf, |g| {
+            let [x, y, z] = g.dims();
+            (x, y, z)
+        })
+    }
+    /// Lowest and highest corner of the grid box (m).
+    #[getter]
+    fn bounds(slf: PyRef<'_, Self>) -> (Vec<f64>, Vec<f64>) {
+        grid_of(&slf, |g| {
+            let (lo, hi) = g.bounds();
+            (lo.as_slice().to_vec(), hi.as_slice().to_vec())
+        })
+    }
+    /// (n, 3) vertices (m).
+    #[getter]
+    fn vertices<'py>(slf: PyRef<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        let py = slf.py();
+        grid_of(&slf, |g| to_numpy(py, g.mesh().0.iter().copied()))
+    }
+    /// (m, 3) triangles, oriented outward (counter-clockwise seen from outside).
+    #[getter]
+    fn triangles<'py>(slf: PyRef<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        let py = slf.py();
+        grid_of(&slf, |g| {
+            let flat: Vec<i64> = g.mesh().1.iter().flatten().map(|&i| i as i64).collect();
+            let n = flat.len() / 3;
+            Ok(PyArray1::from_vec(py, flat).reshape([n, 3])?.into_any())
+        })
+    }
+    fn __repr__(slf: PyRef<'_, Self>) -> String {
+        grid_of(&slf, |g| {
+            format!(
+                "MeshCollider(triangles={}, grid_shape={:?}, cell_size={})",
+                g.mesh().1.len(),
+                g.dims(),
+                g.cell_size()
+            )
+        })
+    }
+}
+
+/// `f` of a MeshCollider's grid.
+fn grid_of<R>(slf: &PyRef<'_, PyMeshCollider>, f: impl FnOnce(&crate::contact::SdfGrid) -> R) -> R {
+    match &slf.as_super().inner.shape {
+        Shape::Mesh(grid) => f(grid),
+        _ => unreachable!("a MeshCollider holds a mesh"),
+    }
+}
+
 /// Extracts a collider argument (any subclass of `Collider`).
 pub fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Collider> {
     match obj.cast::<PyCollider>() {
-        Ok(c) => Ok(c.get().inner),
-        Err(_) => Err(pyo3::exceptions::PyValueError::new_err(format!(
-            "collider must be Plane, Sphere, Box or Capsule, got {}",
+        Ok(c) => Ok(c.get().inner.clone()),
+        Err(_) => Err(PyValueError::new_err(format!(
+            "collider must be Plane, Sphere, Box, Capsule or MeshCollider, got {}",
             obj.get_type().name()?
         ))),
     }

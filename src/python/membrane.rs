@@ -22,10 +22,27 @@ pub struct PyMembrane {
 
 impl PyMembrane {
     pub fn lock(&self) -> MutexGuard<'_, Membrane> {
-        self.inner
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner())
+        synced_or_not(&self.inner)
     }
+
+    /// Locks the membrane with its positions and velocities current: read back from the
+    /// device a GPU step left them on, if any.
+    pub fn state(&self) -> PyResult<MutexGuard<'_, Membrane>> {
+        synced(&self.inner)
+    }
+}
+
+fn synced_or_not(inner: &Mutex<Membrane>) -> MutexGuard<'_, Membrane> {
+    inner
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// See [`PyMembrane::state`].
+fn synced(inner: &Mutex<Membrane>) -> PyResult<MutexGuard<'_, Membrane>> {
+    let mut m = synced_or_not(inner);
+    m.sync().py()?;
+    Ok(m)
 }
 
 #[pymethods]
@@ -99,7 +116,7 @@ impl PyMembrane {
     /// (N, 3) current positions (m); settable.
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_numpy(py, self.lock().positions().iter().copied())
+        to_numpy(py, self.state()?.positions().iter().copied())
     }
     #[setter]
     fn set_positions(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
@@ -110,7 +127,7 @@ impl PyMembrane {
     /// (N, 3) velocities (m/s); settable.
     #[getter]
     fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_numpy(py, self.lock().velocities().iter().copied())
+        to_numpy(py, self.state()?.velocities().iter().copied())
     }
     #[setter]
     fn set_velocities(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
@@ -197,7 +214,7 @@ impl PyMembrane {
         let targets = targets
             .map(|t| vec3s(t, "targets", Some(idx.len())))
             .transpose()?;
-        self.lock().pin(&idx, targets.as_deref()).py()
+        self.state()?.pin(&idx, targets.as_deref()).py()
     }
     /// Releases the given pinned vertices (all when None).
     #[pyo3(signature = (indices = None))]
@@ -231,25 +248,14 @@ impl PyMembrane {
             .py()
     }
     /// Stretching + bending + hourglass energy (J) at the current positions.
-    fn elastic_energy(&self, py: Python<'_>) -> f64 {
+    fn elastic_energy(&self, py: Python<'_>) -> PyResult<f64> {
         let inner = self.inner.clone();
-        py.detach(move || {
-            inner
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .energy_terms()
-                .total()
-        })
+        py.detach(move || Ok(synced(&inner)?.energy_terms().total()))
     }
     /// {'stretch': J, 'bending': J, 'hourglass': J} at the current positions.
     fn energy_terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let inner = self.inner.clone();
-        let e = py.detach(move || {
-            inner
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .energy_terms()
-        });
+        let e = py.detach(move || synced(&inner).map(|m| m.energy_terms()))?;
         let d = PyDict::new(py);
         d.set_item("stretch", e.stretch)?;
         d.set_item("bending", e.bending)?;
@@ -259,22 +265,17 @@ impl PyMembrane {
     /// (N, 3) internal forces (N): minus the gradient of `elastic_energy`.
     fn internal_forces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let inner = self.inner.clone();
-        let f = py.detach(move || {
-            inner
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .internal_forces()
-        });
+        let f = py.detach(move || synced(&inner).map(|m| m.internal_forces()))?;
         to_numpy(py, f.into_iter())
     }
     /// (N, 3) principal stretches per vertex (two in-plane, descending, then the normal one).
     fn stretches<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let s = self.lock().stretches();
+        let s = self.state()?.stretches();
         to_numpy(py, s.into_iter().map(nalgebra::Vector3::from))
     }
     /// Kinetic energy (J).
-    fn kinetic_energy(&self) -> f64 {
-        self.lock().kinetic_energy()
+    fn kinetic_energy(&self) -> PyResult<f64> {
+        Ok(self.state()?.kinetic_energy())
     }
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
         let m = self.lock();

@@ -27,6 +27,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<collider::PySphere>()?;
     m.add_class::<collider::PyBox>()?;
     m.add_class::<collider::PyCapsule>()?;
+    m.add_class::<collider::PyMeshCollider>()?;
     m.add_class::<solver::PySolver>()?;
     m.add_class::<solver::PyStepStats>()?;
     m.add_class::<contact::PyContact>()?;

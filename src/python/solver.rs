@@ -6,13 +6,13 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::contact::Collider;
+use crate::contact::{Collider, MovingCollider, Pose};
 use crate::error::Result;
 use crate::gpu::GpuSolver;
 use crate::membrane::{Membrane, Preconditioner};
 use crate::solve::{Acceleration, Clock, Method, Solver, SolverParams, StepStats};
 
-use super::arrays::{to_numpy_1d, vec3};
+use super::arrays::{to_numpy_1d, vec3, vec3s};
 use super::collider;
 use super::contact::PyContact;
 use super::errors::{guard, IntoPyResult};
@@ -221,12 +221,64 @@ impl PySolver {
         Ok(())
     }
 
-    /// Adds a collider (Plane or Sphere).
+    /// Adds a collider (Plane, Sphere, Box, Capsule or MeshCollider, with its friction and
+    /// velocity).
     fn add_collider(&mut self, collider: &Bound<'_, PyAny>) -> PyResult<()> {
         let c: Collider = collider::extract(collider)?;
         with_solver!(&mut self.core, s => s.add_collider(c)).py()?;
         self.colliders.push(collider.clone().unbind());
         Ok(())
+    }
+
+    /// Sets the pose collider `index` reaches at the end of the next step: its geometry as
+    /// given, turned by `rotation` (3x3, orthonormal, det +1) and moved by `translation` (m).
+    #[pyo3(signature = (index, *, rotation = None, translation = None))]
+    fn set_collider_pose(
+        &mut self,
+        index: i64,
+        rotation: Option<&Bound<'_, PyAny>>,
+        translation: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let index = self.collider_index(index)?;
+        let rows = match rotation {
+            None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            Some(r) => {
+                let m = vec3s(r, "rotation", Some(3))?;
+                [0, 1, 2].map(|k| [m[k].x, m[k].y, m[k].z])
+            }
+        };
+        let translation = translation
+            .map(|t| vec3(t, "translation"))
+            .transpose()?
+            .unwrap_or([0.0; 3]);
+        let pose = Pose::new(rows, translation).py()?;
+        match &mut self.core {
+            Precision::F64(s) => s.set_collider_pose(index, pose).py(),
+            Precision::F32(s) => s.set_collider_pose(index, pose).py(),
+            Precision::Gpu32(_) | Precision::Gpu64(_) => Err(PyValueError::new_err(
+                "the GPU backend does not move colliders by pose; use backend='cpu'",
+            )),
+        }
+    }
+
+    /// The current pose of collider `index`: (rotation (3, 3), translation (3,) in m), such that
+    /// a point `b` of the geometry as given is now at `rotation @ b + translation`.
+    fn collider_pose(&self, index: i64) -> PyResult<(Vec<Vec<f64>>, Vec<f64>)> {
+        let index = self.collider_index(index)?;
+        let pose = match &self.core {
+            Precision::F64(s) => s.collider_pose(index).py()?,
+            Precision::F32(s) => s.collider_pose(index).py()?,
+            Precision::Gpu32(s) => {
+                MovingCollider::new(s.colliders()[index].clone()).pose(s.clock().time)
+            }
+            Precision::Gpu64(s) => {
+                MovingCollider::new(s.colliders()[index].clone()).pose(s.clock().time)
+            }
+        };
+        let rows = (0..3)
+            .map(|r| (0..3).map(|c| pose.rotation[(r, c)]).collect())
+            .collect();
+        Ok((rows, pose.translation.as_slice().to_vec()))
     }
 
     /// Advances every body by one time step and returns its statistics. Raises
@@ -375,6 +427,21 @@ impl PySolver {
                 p.dt, p.gravity, p.tol, p.max_iters, self.core.backend(), self.core.name(), self.core.threads(), self.bodies.len(), self.colliders.len(), s.clock().time
             )
         })
+    }
+}
+
+impl PySolver {
+    /// `index` checked against the colliders added.
+    fn collider_index(&self, index: i64) -> PyResult<usize> {
+        usize::try_from(index)
+            .ok()
+            .filter(|i| *i < self.colliders.len())
+            .ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "collider index {index} is out of range: the solver has {} colliders",
+                    self.colliders.len()
+                ))
+            })
     }
 }
 

@@ -1,24 +1,26 @@
 //! Evaluating an iterate: the vertex kernel at every vertex, and the variational energy.
 
-use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::membrane::{vertex_kernel, Preconditioner};
-use crate::parallel::for_each_vertex;
+use crate::membrane::{evaluate_vertices, PackedRest, Preconditioner};
 use crate::real::Real;
 
 use super::system::System;
 
 /// The vertex kernel at every vertex of the current iterate `y`: per-bond gradients and
-/// per-vertex responses (energy, preconditioner block).
+/// per-vertex responses (energy, preconditioner block), a SIMD pack of vertices at a time.
 pub(super) fn evaluate<T: Real>(sys: &mut System<T>, mode: Preconditioner) {
-    let (nb, rest, y) = (&sys.nb, &sys.rest, &sys.y);
-    for_each_vertex(
-        &nb.offsets,
-        &mut sys.bond_grad,
-        &mut sys.response,
-        &|i, grads: &mut [Vector3<T>]| vertex_kernel(y[i], y, &rest.stencil(nb, i), mode, grads),
-    );
+    let System {
+        nb,
+        rest,
+        packed,
+        y,
+        bond_grad,
+        response,
+        ..
+    } = sys;
+    let packed = packed.get_or_insert_with(|| PackedRest::new(nb, rest));
+    evaluate_vertices(nb, rest, Some(packed), y, mode, bond_grad, response);
 }
 
 /// Vertices per partial sum of the energy reductions: fixed, so that the sums do not depend

@@ -292,7 +292,7 @@ fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
 /// point: frictionless contact would stick.
 ///
 /// Friction: the slip `s_t` of the vertex relative to the collider over the whole step
-/// (from `start`, the collider moving by its displacement) is removed when the reaction that
+/// (from `start`, the collider's material point under `y` moving by its displacement) is removed when the reaction that
 /// takes, `k |s_t|` with `k = |s_t|^2 / (s_t . D^-1 s_t)` the stiffness along it, is within
 /// the Coulomb cone `friction * lambda` (sticking), and shortened by `friction * lambda / k`
 /// otherwise (sliding).
@@ -318,7 +318,7 @@ pub(super) fn keep_out<T: Real>(
         let reaction = -gap / reach;
         y += along * reaction;
         if c.friction > T::zero() {
-            let slip = (y - start) - c.displacement;
+            let slip = (y - start) - c.displacement(&y);
             let slip_t = slip - n * n.dot(&slip);
             let compliance = slip_t.dot(&(inverse * slip_t));
             if compliance > T::zero() {
@@ -399,7 +399,7 @@ fn without_contact_reaction<T: Real>(
         residual -= n * push;
         if c.friction > T::zero() {
             let held = c.friction * (-push);
-            let slip = (y - start) - c.displacement;
+            let slip = (y - start) - c.displacement(y);
             let slip_t = slip - n * n.dot(&slip);
             let sliding = slip_t.norm() > T::of(SLIP) * (T::one() + y.norm());
             let tangential = residual - n * residual.dot(&n);

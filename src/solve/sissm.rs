@@ -27,8 +27,8 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::contact::{Collider, ColliderModel};
-use crate::error::{Error, Result};
+use crate::contact::{Collider, ColliderModel, MovingCollider, Pose};
+use crate::error::{invalid, Error, Result};
 use crate::membrane::{Membrane, Preconditioner};
 use crate::real::Real;
 
@@ -42,7 +42,7 @@ use super::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
 /// Steps a set of membranes in time.
 pub struct Solver<T: Real> {
     params: SolverParams,
-    colliders: Vec<Collider>,
+    colliders: Vec<MovingCollider>,
     pool: Option<rayon::ThreadPool>,
     system: Option<System<T>>,
     /// Contact topology of the current body list (built on the first step with contact).
@@ -60,12 +60,12 @@ impl<T: Real> Solver<T> {
         params.validate()?;
         let pool = match threads {
             None => None,
-            Some(0) => return Err(crate::error::invalid!("threads must be >= 1, got 0")),
+            Some(0) => return Err(invalid!("threads must be >= 1, got 0")),
             Some(n) => Some(
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(n)
                     .build()
-                    .map_err(|e| crate::error::invalid!("cannot start {n} threads: {e}"))?,
+                    .map_err(|e| invalid!("cannot start {n} threads: {e}"))?,
             ),
         };
         Ok(Self {
@@ -98,12 +98,34 @@ impl<T: Real> Solver<T> {
 
     /// Adds a collider (any shape, friction and motion).
     pub fn add_collider(&mut self, collider: Collider) -> Result<()> {
-        self.colliders.push(collider);
+        self.colliders.push(MovingCollider::new(collider));
         Ok(())
     }
 
-    pub fn colliders(&self) -> &[Collider] {
-        &self.colliders
+    pub fn colliders(&self) -> impl Iterator<Item = &Collider> {
+        self.colliders.iter().map(|c| &c.collider)
+    }
+
+    /// The pose (shape frame to world) of collider `index` now.
+    pub fn collider_pose(&self, index: usize) -> Result<Pose> {
+        Ok(self.moving_collider(index)?.pose(self.clock.time))
+    }
+
+    /// Sets the pose collider `index` reaches at the end of the next step (see
+    /// [`MovingCollider`]).
+    pub fn set_collider_pose(&mut self, index: usize, pose: Pose) -> Result<()> {
+        self.moving_collider(index)?;
+        self.colliders[index].set_target(pose);
+        Ok(())
+    }
+
+    fn moving_collider(&self, index: usize) -> Result<&MovingCollider> {
+        self.colliders.get(index).ok_or_else(|| {
+            invalid!(
+                "collider index {index} is out of range: the solver has {} colliders",
+                self.colliders.len()
+            )
+        })
     }
 
     /// Simulation time and steps taken.
@@ -140,12 +162,15 @@ impl<T: Real> Solver<T> {
         let colliders: Vec<ColliderModel<T>> = self
             .colliders
             .iter()
-            .map(|c| c.during_step(step_end, params.dt))
+            .map(|c| c.during_step(self.clock.time, step_end))
             .collect();
         let sys = self.system.as_mut().expect("built above");
         let h = T::of(params.dt);
         let gravity = Vector3::from(params.gravity).map(T::of);
 
+        for body in bodies.iter_mut() {
+            body.sync()?;
+        }
         sys.load(bodies);
         if params.contact.is_some() {
             let contact = self
@@ -271,6 +296,9 @@ impl<T: Real> Solver<T> {
         finish(sys, h);
         sys.store(bodies);
         timings.finish = millis(t);
+        for c in &mut self.colliders {
+            c.finish_step(step_end);
+        }
         self.clock.tick(params.dt);
         timings.total = millis(started);
         stats.time = self.clock.time;

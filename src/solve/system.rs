@@ -5,7 +5,7 @@ use std::ops::Range;
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::membrane::{Membrane, RestData, VertexResponse};
+use crate::membrane::{Membrane, PackedRest, RestData, VertexResponse};
 use crate::mesh::Neighborhood;
 use crate::real::Real;
 
@@ -19,6 +19,9 @@ pub(crate) struct System<T: Real> {
     pub ranges: Vec<Range<usize>>,
     pub nb: Neighborhood,
     pub rest: RestData<T>,
+    /// `rest` regrouped for the SIMD kernel, built at the first evaluation (the GPU solver,
+    /// which shares this struct, never needs it).
+    pub packed: Option<PackedRest<T::Pack>>,
     /// Positions at the start of the step, y_t.
     pub y_start: Vec<Vector3<T>>,
     pub velocity: Vec<Vector3<T>>,
@@ -81,6 +84,7 @@ impl<T: Real> System<T> {
             bond_grad: vec![Vector3::zeros(); nb.indices.len()],
             nb,
             rest,
+            packed: None,
             y_start: zeros.clone(),
             velocity: zeros.clone(),
             y_star: zeros.clone(),
@@ -109,11 +113,18 @@ impl<T: Real> System<T> {
             for (k, (x, v)) in body.positions().iter().zip(body.velocities()).enumerate() {
                 self.y_start[base + k] = x.map(T::of);
                 self.velocity[base + k] = v.map(T::of);
-                self.pinned[base + k] = false;
             }
+        }
+        self.load_pins(bodies);
+    }
+
+    /// Copies the bodies' pins in: the flags, and their targets into `y_star`.
+    pub fn load_pins(&mut self, bodies: &[&mut Membrane]) {
+        self.pinned.fill(false);
+        for (body, range) in bodies.iter().zip(&self.ranges) {
             for (&i, target) in body.pins() {
-                self.pinned[base + i as usize] = true;
-                self.y_star[base + i as usize] = target.map(T::of);
+                self.pinned[range.start + i as usize] = true;
+                self.y_star[range.start + i as usize] = target.map(T::of);
             }
         }
     }
