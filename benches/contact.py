@@ -12,7 +12,9 @@ Per case: ``--warmup`` steps (the fall onto the ball and the first contact), the
 timed steps with exactly ``--iters`` global iterations each (``tol = 0``) unless ``--tol`` is
 given. Reported as medians over the timed steps: ms per step and per phase (global, colliders,
 broad phase, CCD, descent = local step distances and moves), global and local (descent)
-iterations, candidate triangle pairs, active primitive pairs, clamped vertices, peak memory.
+iterations, candidate triangle pairs, live primitive pairs (those that may come within the
+barrier's reach), CCD queries and broad-phase builds per step, active primitive pairs, clamped
+vertices, peak memory.
 
 Broad-phase cost against vertex count: one layer at ``--bp-sizes``, ms of broad phase per
 local step (there is one local step per global iteration).
@@ -67,6 +69,8 @@ def child(layers: int, n: int, steps: int, warmup: int, iters: int, tol: float, 
             "broad_phase": c["broad_phase_ms"], "ccd": c["ccd_ms"], "descent": c["descent_ms"],
             "iterations": st.iterations, "local_iterations": c["local_iterations"],
             "candidate_pairs": c["candidate_pairs"], "active_pairs": c["active_pairs"],
+            "primitive_pairs": c["primitive_pairs"], "ccd_queries": c["ccd_queries"],
+            "broad_phase_builds": c["broad_phase_builds"],
             "clamped": c["clamped"], "error_estimate": st.error_estimate,
             "converged": st.converged, "wall": wall,
             "cpu": (time.process_time() - c0) * 1e3,
@@ -146,7 +150,9 @@ def run_case(args, layers: int, n: int, steps: int):
           f"(global {m['global']:.1f}, broad {m['broad_phase']:.1f}, CCD {m['ccd']:.1f}, "
           f"descent {m['descent']:.1f}, colliders {m['colliders']:.1f}), "
           f"{m['iterations']:.0f} it, {m['local_iterations']:.0f} local it, "
-          f"{m['candidate_pairs']:.0f} candidates, {m['active_pairs']:.0f} active, "
+          f"{m['candidate_pairs']:.0f} candidates, {m['primitive_pairs']:.0f} live primitive "
+          f"pairs, {m['ccd_queries']:.0f} CCD queries, {m['broad_phase_builds']:.0f} builds, "
+          f"{m['active_pairs']:.0f} active, "
           f"peak {case['peak_bytes_per_vertex']:.0f} B/v, load {case['loadavg_1']:.1f}",
           flush=True)
     return case

@@ -43,6 +43,24 @@ def test_contact_off_runs_nothing_of_it():
     assert all(v == 0 for v in stats.contact.values())
 
 
+def test_a_lone_flat_cloth_reuses_the_broad_phase_and_tests_no_pair():
+    # Near triangles of one flat sheet are broad-phase candidates, but none of their primitive
+    # pairs can come within the barrier's reach while the sheet falls: no pair is live, no CCD
+    # runs, and the broad phase built once is reused by the later local steps.
+    cloth = sheet(12, 0.3, 0.0)
+    solver = peridyn.Solver(dt=1e-3, max_iters=10, tol=0.0, contact=peridyn.Contact(**CONTACT))
+    solver.add(cloth)
+    builds = local_steps = 0
+    for _ in range(5):
+        stats = solver.step()
+        c = stats.contact
+        assert c["candidate_pairs"] > 0
+        assert c["primitive_pairs"] == c["ccd_queries"] == c["active_pairs"] == 0
+        builds += c["broad_phase_builds"]
+        local_steps += stats.iterations
+    assert local_steps == 50 and 1 <= builds <= 2
+
+
 def test_three_layers_dropped_on_a_sphere_never_intersect():
     layers = [sheet(9, 0.3, 0.02 + 0.008 * k) for k in range(3)]
     solver = peridyn.Solver(dt=2e-3, max_iters=15, tol=1e-5,

@@ -344,9 +344,12 @@ class StepStats:
     @property
     def contact(self) -> dict:
         """Contact figures (zeros when contact is off): 'candidate_pairs' (triangle pairs of
-        the broad phase, largest over the iterations), 'active_pairs' (primitive pairs within the
-        barrier's reach at the end), 'local_iterations' (descent iterations, summed), 'clamped'
-        (vertices the final CCD clamp moved, summed), 'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
+        the broad phase's last build, largest over the iterations), 'primitive_pairs'
+        (primitive pairs that may come within the barrier's reach, largest), 'active_pairs'
+        (primitive pairs within the barrier's reach at the end), 'local_iterations' (descent
+        iterations, summed), 'clamped' (vertices the final CCD clamp moved, summed),
+        'ccd_queries' (primitive pair CCD queries, summed), 'broad_phase_builds' (summed; the
+        other local steps reused the last build), 'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
     @property
     def time(self) -> float:
         """Simulation time after the step (s)."""

@@ -4,8 +4,10 @@
 //! a global step, it looks for `z` near `y^k` that keeps every pair of primitives apart,
 //! minimising eq. 47, `sum_i |z_i - y_i^k|^2 / 2 + mu sum_c B(f(d_c) - xi)`, by gradient descent:
 //!
-//! 1. broad phase: candidate triangle pairs over the motion `z^{k-1} -> y^k`, expanded into
-//!    6 point-triangle and 9 edge-edge primitive pairs per triangle pair (deduplicated);
+//! 1. broad phase: candidate triangle pairs, expanded into 6 point-triangle and 9 edge-edge
+//!    primitive pairs per triangle pair (deduplicated), kept from one local step to the next
+//!    while they provably contain every pair that can come within the barrier's reach, and
+//!    filtered down to those (see [`super::pair_cache`]);
 //! 2. per iteration `m`: additive CCD of every primitive pair between `z^{k-1}` and `z^m`
 //!    (lines 4-12); a vertex whose smallest time of impact `t_i` is in `(threshold, 1)` is
 //!    clamped to `z^{k-1} + t_i (z^m - z^{k-1})` (lines 13-18);
@@ -32,10 +34,11 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::barrier::Barrier;
-use super::broad_phase::{BroadPhase, ContactMesh};
+use super::broad_phase::ContactMesh;
 use super::ccd::AdditiveCcd;
 use super::distance::Closest;
-use super::primitive_pairs::{primitive_pairs, Pair};
+use super::pair_cache::PairCache;
+use super::primitive_pairs::Pair;
 use crate::error::{check_param, invalid, Result};
 
 /// Contact parameters (SI units). Defaults follow Table 1 of the paper (cloths over a ball):
@@ -125,11 +128,23 @@ pub const STOP_FRACTION: f64 = 1e-2;
 /// Passes of the final clamp before the remaining colliding vertices fall back to safety.
 pub const CLAMP_PASSES: usize = 16;
 
+/// The descent's first allowance of total move per vertex, as a fraction of the barrier's
+/// reach: the live pairs cover moves up to it, and are refreshed with twice the drift when a
+/// vertex drifts further (a cost trade-off only; five descent moves of `eps xi` at the
+/// defaults).
+const DRIFT_ALLOWANCE: f64 = 0.1;
+
 /// What one local step did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ContactStats {
-    /// Candidate triangle pairs from the broad phase.
+    /// Candidate triangle pairs of the broad phase's last build.
     pub candidate_pairs: usize,
+    /// Primitive pairs that may come within the barrier's reach (the live pairs).
+    pub primitive_pairs: usize,
+    /// Primitive pair CCD queries (descent and guarantee pass).
+    pub ccd_queries: usize,
+    /// Broad phase builds (the others reused the last build's pairs).
+    pub broad_phase_builds: usize,
     /// Primitive pairs within the barrier's reach at the end.
     pub active_pairs: usize,
     /// Descent iterations.
@@ -143,9 +158,13 @@ pub struct ContactStats {
 }
 
 impl ContactStats {
-    /// Sums the counts and times of two local steps (active pairs: the later one's).
+    /// Sums the counts and times of two local steps (active pairs: the later one's; candidate
+    /// and primitive pairs: the larger).
     pub fn accumulate(&mut self, other: &ContactStats) {
         self.candidate_pairs = self.candidate_pairs.max(other.candidate_pairs);
+        self.primitive_pairs = self.primitive_pairs.max(other.primitive_pairs);
+        self.ccd_queries += other.ccd_queries;
+        self.broad_phase_builds += other.broad_phase_builds;
         self.active_pairs = other.active_pairs;
         self.iterations += other.iterations;
         self.clamped += other.clamped;
@@ -159,7 +178,8 @@ impl ContactStats {
 /// once they have grown to the scene's size, a local step allocates nothing.
 #[derive(Default)]
 pub struct Workspace {
-    broad_phase: BroadPhase,
+    cache: PairCache,
+    /// The live pairs.
     pairs: Vec<Pair>,
     /// `y^k`, the target of the proximal term.
     target: Vec<Vector3<f64>>,
@@ -241,11 +261,13 @@ pub fn project(
     let n = positions.len();
 
     let t = Instant::now();
-    let candidates = work
-        .broad_phase
-        .candidate_pairs(safe, positions, mesh, reach);
-    stats.candidate_pairs = candidates.len();
-    primitive_pairs(mesh.triangles, candidates, &mut work.pairs);
+    let mut allowance = DRIFT_ALLOWANCE * reach;
+    let built = work
+        .cache
+        .live_pairs(safe, positions, allowance, mesh, reach, &mut work.pairs);
+    stats.broad_phase_builds += usize::from(built);
+    stats.candidate_pairs = work.cache.candidates();
+    stats.primitive_pairs = work.pairs.len();
     stats.broad_phase_ms += millis(t);
     refill(&mut work.push, n, Vector3::zeros());
     if work.pairs.is_empty() {
@@ -267,6 +289,7 @@ pub fn project(
     refill(&mut work.near, work.pairs.len(), true);
     let near_distance = (1.0 + 4.0 * eps) * xi;
     let Workspace {
+        cache,
         pairs,
         target,
         drift,
@@ -283,16 +306,20 @@ pub fn project(
         // Lines 4-18: CCD between the safe positions and z^m, clamp above the threshold.
         let t = Instant::now();
         let changed_now = &*changed;
-        toi.par_iter_mut()
+        stats.ccd_queries += toi
+            .par_iter_mut()
             .zip(&*pairs)
             .zip(&*near)
-            .for_each(|((hit, p), &near)| {
+            .map(|((hit, p), &near)| {
                 if !near {
                     *hit = None;
                 } else if p.v.iter().any(|&v| changed_now[v as usize]) {
                     *hit = p.ccd(safe, z, xi, &params.ccd);
+                    return 1;
                 }
-            });
+                0
+            })
+            .sum::<usize>();
         vertex_toi(pairs, toi, per_vertex, n);
         z.par_iter_mut()
             .zip(changed.par_iter_mut())
@@ -323,14 +350,14 @@ pub fn project(
             .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
         // Eq. 53.
         let lambda = (eps * xi / (mu * alpha_0 * bound + farthest)).min(1.0);
-        let moved = z
+        let (moved, max_drift) = z
             .par_iter_mut()
             .zip(drift.par_iter_mut())
             .zip(changed.par_iter_mut())
             .enumerate()
             .map(|(i, ((zi, di), ci))| {
                 if fixed[i] {
-                    return 0.0;
+                    return (0.0, 0.0);
                 }
                 let before = *zi;
                 *zi += (force[i] + target[i] - *zi) * lambda;
@@ -338,27 +365,35 @@ pub fn project(
                 let step = (*zi - before).norm();
                 *ci |= step > 0.0;
                 *di += step;
-                step
+                (step, *di)
             })
-            .reduce(|| 0.0, f64::max);
+            .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
         stats.iterations += 1;
         stats.descent_ms += millis(t);
+
+        // A vertex drifted beyond the live pairs' allowance: they may miss a pair now (NaN
+        // counts as beyond). Refresh them and start the CCD afresh on the new list.
+        if !(max_drift <= allowance) {
+            let t = Instant::now();
+            allowance = 2.0 * max_drift;
+            let built = cache.live_pairs(safe, target, allowance, mesh, reach, pairs);
+            stats.broad_phase_builds += usize::from(built);
+            stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
+            stats.primitive_pairs = stats.primitive_pairs.max(pairs.len());
+            refill(toi, pairs.len(), None);
+            refill(near, pairs.len(), true);
+            refill(changed, n, true);
+            stats.broad_phase_ms += millis(t);
+        }
         if moved < STOP_FRACTION * eps * xi {
             break;
         }
     }
 
-    // Pairs the descent may have brought together beyond the broad phase's margin.
     let t = Instant::now();
-    let max_drift = work.drift.iter().copied().fold(0.0, f64::max);
-    if 2.0 * max_drift + eps * xi > reach {
-        let candidates = work.broad_phase.candidate_pairs(safe, z, mesh, eps * xi);
-        primitive_pairs(mesh.triangles, candidates, &mut work.pairs);
-    }
-    stats.broad_phase_ms += millis(t);
-
-    let t = Instant::now();
-    stats.clamped = guarantee(safe, z, fixed, params, work);
+    let (clamped, queries) = guarantee(safe, z, fixed, params, work);
+    stats.clamped = clamped;
+    stats.ccd_queries += queries;
     stats.ccd_ms += millis(t);
 
     let t = Instant::now();
@@ -412,14 +447,14 @@ fn barrier_push(
 }
 
 /// The final clamp (see the module doc) over the pairs in `work`: returns the number of
-/// vertices it moved.
+/// vertices it moved and the CCD queries it made.
 fn guarantee(
     safe: &[Vector3<f64>],
     z: &mut [Vector3<f64>],
     fixed: &[bool],
     params: &ContactParams,
     work: &mut Workspace,
-) -> usize {
+) -> (usize, usize) {
     let floor = params.eps * params.thickness;
     let Workspace {
         pairs,
@@ -436,7 +471,10 @@ fn guarantee(
         .map(|p| floor.min(0.9 * p.closest(safe).separation.norm()))
         .collect_into_vec(floors);
     refill(clamped, z.len(), false);
+    let queried = floors.iter().filter(|&&min| min > 0.0).count();
+    let mut queries = 0;
     for pass in 0..=CLAMP_PASSES {
+        queries += queried;
         pairs
             .par_iter()
             .zip(&*floors)
@@ -462,7 +500,7 @@ fn guarantee(
             clamped[i] = true;
         }
     }
-    clamped.iter().filter(|&&m| m).count()
+    (clamped.iter().filter(|&&m| m).count(), queries)
 }
 
 #[cfg(test)]

@@ -9,6 +9,7 @@ mod collider;
 pub mod distance;
 pub mod local_step;
 mod motion;
+mod pair_cache;
 mod pose;
 mod primitive_pairs;
 mod sdf;

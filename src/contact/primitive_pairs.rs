@@ -23,6 +23,11 @@ impl Pair {
         self.v.map(|i| x[i as usize])
     }
 
+    /// The vertices of the two primitives: the point and the triangle, or the two edges.
+    pub fn primitives(&self) -> (&[u32], &[u32]) {
+        self.v.split_at(if self.edge_edge { 2 } else { 1 })
+    }
+
     /// Closest points at the positions `x` (m).
     pub fn closest(&self, x: &[Vector3<f64>]) -> Closest {
         let p = self.points(x);

@@ -499,18 +499,24 @@ impl PyStepStats {
         Ok(d)
     }
     /// Contact figures of the step (zeros when contact is off): `candidate_pairs` (triangle
-    /// pairs of the broad phase, largest over the iterations), `active_pairs` (primitive pairs
-    /// within the barrier's reach at the end), `local_iterations` (descent iterations, summed),
-    /// `clamped` (vertices the final CCD clamp moved, summed), and milliseconds
-    /// `broad_phase_ms`, `ccd_ms`, `descent_ms`.
+    /// pairs of the broad phase's last build, largest over the iterations), `primitive_pairs`
+    /// (primitive pairs that may come within the barrier's reach, largest), `active_pairs`
+    /// (primitive pairs within the barrier's reach at the end), `local_iterations` (descent
+    /// iterations, summed), `clamped` (vertices the final CCD clamp moved, summed),
+    /// `ccd_queries` (primitive pair CCD queries, summed), `broad_phase_builds` (summed; the
+    /// other local steps reused the last build), and milliseconds `broad_phase_ms`, `ccd_ms`,
+    /// `descent_ms`.
     #[getter]
     fn contact<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let c = &self.inner.contact;
         let d = PyDict::new(py);
         d.set_item("candidate_pairs", c.candidate_pairs)?;
+        d.set_item("primitive_pairs", c.primitive_pairs)?;
         d.set_item("active_pairs", c.active_pairs)?;
         d.set_item("local_iterations", c.iterations)?;
         d.set_item("clamped", c.clamped)?;
+        d.set_item("ccd_queries", c.ccd_queries)?;
+        d.set_item("broad_phase_builds", c.broad_phase_builds)?;
         d.set_item("broad_phase_ms", c.broad_phase_ms)?;
         d.set_item("ccd_ms", c.ccd_ms)?;
         d.set_item("descent_ms", c.descent_ms)?;

@@ -8,7 +8,8 @@
 //! `(d - xi) / l_p = (d^2 - xi^2) / ((d + xi) l_p)`: the algorithm advances by such safe steps
 //! (the first scaled by `1 - s`, the later ones by `t_c`) until the gap has fallen to `s` times
 //! its initial value (a collision: the time reached is a lower bound of the time of impact)
-//! or the time passes 1 (no collision in the step). The result is conservative by
+//! or the time passes 1 (no collision in the step); when the initial gap already exceeds `l_p`
+//! the gap cannot close within the step and the search is skipped. The result is conservative by
 //! construction: it never reports a time after the true time at which the distance reaches
 //! `xi`.
 
@@ -68,7 +69,9 @@ impl AdditiveCcd {
         if initial.is_nan() || initial <= 0.0 {
             return Some(0.0);
         }
-        if l_p == 0.0 {
+        // The gap closes at most at `l_p` per unit time: if it exceeds `l_p` the distance stays
+        // above `min_distance` over the whole step (covers `l_p == 0`), no search needed.
+        if initial > l_p {
             return None;
         }
         let stop = self.s * initial;
