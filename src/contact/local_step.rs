@@ -9,8 +9,10 @@
 //!    while they provably contain every pair that can come within the barrier's reach, and
 //!    filtered down to those (see [`super::pair_cache`]);
 //! 2. per iteration `m`: additive CCD of every primitive pair between `z^{k-1}` and `z^m`
-//!    (lines 4-12); a vertex whose smallest time of impact `t_i` is in `(threshold, 1)` is
-//!    clamped to `z^{k-1} + t_i (z^m - z^{k-1})` (lines 13-18);
+//!    (lines 4-12), except the pairs whose distance at `z^{k-1}` minus the largest moves of
+//!    their two primitives stays above the CCD's separation (they cannot reach it); a vertex
+//!    whose smallest time of impact `t_i` is in `(threshold, 1)` is clamped to
+//!    `z^{k-1} + t_i (z^m - z^{k-1})` (lines 13-18);
 //! 3. distances and closest-point weights of the pairs (lines 19-23), and the descent
 //!    direction of eq. 49, `g_i = -mu sum_c alpha_c^i B'(f(d_c) - xi) n_c + y_i^k - z_i`, where
 //!    `alpha_c^i` is vertex `i`'s barycentric weight in pair `c` and `n_c` the unit separation;
@@ -201,8 +203,12 @@ pub struct Workspace {
     near: Vec<bool>,
     /// Per pair: closest points.
     closest: Vec<Closest>,
-    /// Per pair: separation floor of the guarantee pass (m).
+    /// Per pair: separation floor of the guarantee pass (m), 0 where it needs no CCD.
     floors: Vec<f64>,
+    /// Per vertex: `|y_i^k - z_i^{k-1}|` (m), how far the global step took it from safety.
+    motion: Vec<f64>,
+    /// Per pair: distance at the safe positions `z^{k-1}` (m).
+    start: Vec<f64>,
     /// Per vertex: the barrier push at the returned positions (see [`Workspace::push`]).
     push: Vec<Vector3<f64>>,
 }
@@ -277,6 +283,11 @@ pub fn project(
     work.target.clear();
     work.target.extend_from_slice(positions);
     let z = positions;
+    safe.par_iter()
+        .zip(&*z)
+        .map(|(s, y)| (y - s).norm())
+        .collect_into_vec(&mut work.motion);
+    start_distances(&work.pairs, safe, &mut work.start);
     let bound = barrier.derivative_bound();
     refill(&mut work.drift, n, 0.0);
     refill(&mut work.force, n, Vector3::zeros());
@@ -288,9 +299,13 @@ pub fn project(
     // only pairs that were within `(1 + 4 eps) xi` can reach `xi`: the others skip the CCD.
     refill(&mut work.near, work.pairs.len(), true);
     let near_distance = (1.0 + 4.0 * eps) * xi;
+    // The largest total descent move of a vertex so far (m).
+    let mut max_drift = 0.0;
     let Workspace {
         cache,
         pairs,
+        motion,
+        start,
         target,
         drift,
         force,
@@ -306,12 +321,17 @@ pub fn project(
         // Lines 4-18: CCD between the safe positions and z^m, clamp above the threshold.
         let t = Instant::now();
         let changed_now = &*changed;
+        // Every vertex of the path from `z^{k-1}` to `z^m` is within `motion_i + drift_i` of
+        // `z^{k-1}` (see `pair_cache`): a pair whose distance bound over such moves exceeds
+        // `xi` cannot reach `xi` on it, so its CCD is skipped.
+        let drift_now = max_drift;
         stats.ccd_queries += toi
             .par_iter_mut()
             .zip(&*pairs)
             .zip(&*near)
-            .map(|((hit, p), &near)| {
-                if !near {
+            .zip(&*start)
+            .map(|(((hit, p), &near), &d0)| {
+                if !near || p.distance_bound(d0, motion, drift_now) > xi {
                     *hit = None;
                 } else if p.v.iter().any(|&v| changed_now[v as usize]) {
                     *hit = p.ccd(safe, z, xi, &params.ccd);
@@ -350,7 +370,8 @@ pub fn project(
             .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
         // Eq. 53.
         let lambda = (eps * xi / (mu * alpha_0 * bound + farthest)).min(1.0);
-        let (moved, max_drift) = z
+        let moved;
+        (moved, max_drift) = z
             .par_iter_mut()
             .zip(drift.par_iter_mut())
             .zip(changed.par_iter_mut())
@@ -380,6 +401,7 @@ pub fn project(
             stats.broad_phase_builds += usize::from(built);
             stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
             stats.primitive_pairs = stats.primitive_pairs.max(pairs.len());
+            start_distances(pairs, safe, start);
             refill(toi, pairs.len(), None);
             refill(near, pairs.len(), true);
             refill(changed, n, true);
@@ -391,7 +413,7 @@ pub fn project(
     }
 
     let t = Instant::now();
-    let (clamped, queries) = guarantee(safe, z, fixed, params, work);
+    let (clamped, queries) = guarantee(safe, z, fixed, params, max_drift, work);
     stats.clamped = clamped;
     stats.ccd_queries += queries;
     stats.ccd_ms += millis(t);
@@ -446,18 +468,30 @@ fn barrier_push(
     }
 }
 
-/// The final clamp (see the module doc) over the pairs in `work`: returns the number of
-/// vertices it moved and the CCD queries it made.
+/// Writes into `start` each pair's distance at the safe positions (m).
+fn start_distances(pairs: &[Pair], safe: &[Vector3<f64>], start: &mut Vec<f64>) {
+    pairs
+        .par_iter()
+        .map(|p| p.closest(safe).separation.norm())
+        .collect_into_vec(start);
+}
+
+/// The final clamp (see the module doc) over the pairs in `work`, with `max_drift` the
+/// descent's largest total move of a vertex (m): returns the number of vertices it moved and
+/// the CCD queries it made.
 fn guarantee(
     safe: &[Vector3<f64>],
     z: &mut [Vector3<f64>],
     fixed: &[bool],
     params: &ContactParams,
+    max_drift: f64,
     work: &mut Workspace,
 ) -> (usize, usize) {
     let floor = params.eps * params.thickness;
     let Workspace {
         pairs,
+        motion,
+        start,
         floors,
         toi,
         vertex_toi: per_vertex,
@@ -465,10 +499,20 @@ fn guarantee(
         ..
     } = work;
     // Each pair's separation floor, from its distance at the safe positions; pairs already
-    // touching there cannot be helped and are skipped.
+    // touching there cannot be helped and are skipped, and so are pairs whose distance bound
+    // stays above the floor (the clamps below only bring vertices closer to safety, so the
+    // bound holds on every path `z^{k-1} -> z` the passes test).
     pairs
         .par_iter()
-        .map(|p| floor.min(0.9 * p.closest(safe).separation.norm()))
+        .zip(&*start)
+        .map(|(p, &d0)| {
+            let min = floor.min(0.9 * d0);
+            if p.distance_bound(d0, motion, max_drift) > min {
+                0.0
+            } else {
+                min
+            }
+        })
         .collect_into_vec(floors);
     refill(clamped, z.len(), false);
     let queried = floors.iter().filter(|&&min| min > 0.0).count();

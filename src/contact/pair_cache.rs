@@ -80,22 +80,13 @@ impl PairCache {
             self.build(safe, target, allowance, mesh, reach);
         }
         let bound = &self.bound;
-        let reach_of = |vertices: &[u32]| {
-            vertices
-                .iter()
-                .map(|&v| bound[v as usize])
-                .fold(0.0, f64::max)
-        };
         live.clear();
         live.par_extend(
             self.pairs
                 .par_iter()
                 .zip(&self.distance)
-                .filter(|(pair, &d)| {
-                    let (a, b) = pair.primitives();
-                    // Written so that a NaN keeps the pair.
-                    !(d - reach_of(a) - reach_of(b) - 2.0 * allowance >= reach)
-                })
+                // Written so that a NaN keeps the pair.
+                .filter(|(pair, &d)| !(pair.distance_bound(d, bound, allowance) >= reach))
                 .map(|(pair, _)| *pair),
         );
         rebuild

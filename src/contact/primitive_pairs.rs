@@ -23,9 +23,20 @@ impl Pair {
         self.v.map(|i| x[i as usize])
     }
 
-    /// The vertices of the two primitives: the point and the triangle, or the two edges.
-    pub fn primitives(&self) -> (&[u32], &[u32]) {
-        self.v.split_at(if self.edge_edge { 2 } else { 1 })
+    /// A lower bound of the pair's distance (m) wherever each vertex `i` is at most
+    /// `moved[i] + extra` (m) from where the distance was `distance` (m): a point of a
+    /// primitive is a convex combination of its vertices, so it moves at most as far as the
+    /// farthest of them, and the distance shrinks at most by the two primitives' moves. NaN
+    /// if an input is NaN (callers keep the pair then).
+    pub fn distance_bound(&self, distance: f64, moved: &[f64], extra: f64) -> f64 {
+        let (a, b) = self.v.split_at(if self.edge_edge { 2 } else { 1 });
+        let farthest = |vertices: &[u32]| {
+            vertices
+                .iter()
+                .map(|&v| moved[v as usize])
+                .fold(0.0, |m: f64, x| if x.is_nan() || x > m { x } else { m })
+        };
+        distance - farthest(a) - farthest(b) - 2.0 * extra
     }
 
     /// Closest points at the positions `x` (m).
@@ -100,4 +111,47 @@ pub(super) fn primitive_pairs(
         });
     pairs.par_sort_unstable();
     pairs.dedup();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::distance::tests::Rng;
+    use super::*;
+
+    /// Moving every vertex by at most its bound never brings a pair closer than
+    /// [`Pair::distance_bound`], and a NaN bound stays NaN.
+    #[test]
+    fn the_distance_bound_holds_under_bounded_moves() {
+        let mut rng = Rng::new(11);
+        for k in 0..2000 {
+            let pair = Pair {
+                edge_edge: k % 2 == 0,
+                v: [0, 1, 2, 3],
+            };
+            let x: Vec<_> = (0..4).map(|_| rng.vector()).collect();
+            let moved: Vec<f64> = (0..4).map(|_| 0.2 * (rng.uniform() + 1.0)).collect();
+            let extra = 0.05 * (rng.uniform() + 1.0);
+            let y: Vec<_> = x
+                .iter()
+                .zip(&moved)
+                .map(|(p, &m)| {
+                    let dir = rng.vector();
+                    p + dir * ((m + extra) * rng.uniform().abs() / dir.norm())
+                })
+                .collect();
+            let d = pair.closest(&x).separation.norm();
+            let bound = pair.distance_bound(d, &moved, extra);
+            assert!(
+                pair.closest(&y).separation.norm() >= bound - 1e-12,
+                "case {k}"
+            );
+        }
+        let pair = Pair {
+            edge_edge: false,
+            v: [0, 1, 2, 3],
+        };
+        assert!(pair
+            .distance_bound(1.0, &[0.0, f64::NAN, 0.0, 0.0], 0.0)
+            .is_nan());
+    }
 }
