@@ -355,10 +355,10 @@ pub fn project(
 
         // Lines 19-27: distances, weights and the descent direction of eq. 49.
         let t = Instant::now();
-        pairs
-            .par_iter()
-            .map(|p| p.closest(z))
-            .collect_into_vec(closest);
+        closest_within(pairs, start, motion, max_drift, reach, z, closest);
+        // A pair left out by `closest_within` is not near: it is at least `reach` apart,
+        // which is beyond `(1 + 4 eps) xi` whenever `d_hat >= 4 eps xi` (the defaults), so the
+        // full evaluation would not call it near either.
         for (c, near) in closest.iter().zip(near.iter_mut()) {
             *near = c.separation.norm() < near_distance;
         }
@@ -394,7 +394,7 @@ pub fn project(
 
         // A vertex drifted beyond the live pairs' allowance: they may miss a pair now (NaN
         // counts as beyond). Refresh them and start the CCD afresh on the new list.
-        if !(max_drift <= allowance) {
+        if max_drift > allowance || max_drift.is_nan() {
             let t = Instant::now();
             allowance = 2.0 * max_drift;
             let built = cache.live_pairs(safe, target, allowance, mesh, reach, pairs);
@@ -419,10 +419,15 @@ pub fn project(
     stats.ccd_ms += millis(t);
 
     let t = Instant::now();
-    work.pairs
-        .par_iter()
-        .map(|p| p.closest(z))
-        .collect_into_vec(&mut work.closest);
+    closest_within(
+        &work.pairs,
+        &work.start,
+        &work.motion,
+        max_drift,
+        reach,
+        z,
+        &mut work.closest,
+    );
     stats.active_pairs = work
         .closest
         .iter()
@@ -467,6 +472,39 @@ fn barrier_push(
         }
     }
 }
+
+/// Writes into `closest` the closest points of every pair at `z`, except for the pairs whose
+/// distance bound (from their distance `start` at the safe positions, the vertices' `motion`
+/// and the descent's largest total move `drift`, all m) is at least `reach`: they feel no
+/// barrier, so their closest points are not needed, and they get [`FAR`].
+fn closest_within(
+    pairs: &[Pair],
+    start: &[f64],
+    motion: &[f64],
+    drift: f64,
+    reach: f64,
+    z: &[Vector3<f64>],
+    closest: &mut Vec<Closest>,
+) {
+    pairs
+        .par_iter()
+        .zip(start)
+        .map(|(p, &d0)| {
+            if p.distance_bound(d0, motion, drift) >= reach {
+                FAR
+            } else {
+                p.closest(z)
+            }
+        })
+        .collect_into_vec(closest);
+}
+
+/// Stands for the closest points of a pair beyond the barrier's reach: no weights, an infinite
+/// separation (so no barrier, not active, and NaN as its direction is never taken).
+const FAR: Closest = Closest {
+    weights: [0.0; 4],
+    separation: Vector3::new(f64::INFINITY, 0.0, 0.0),
+};
 
 /// Writes into `start` each pair's distance at the safe positions (m).
 fn start_distances(pairs: &[Pair], safe: &[Vector3<f64>], start: &mut Vec<f64>) {

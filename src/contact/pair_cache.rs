@@ -74,7 +74,8 @@ impl PairCache {
     ) -> bool {
         let rebuild = !self.fits(mesh, safe.len()) || {
             self.bound_motion(safe, target);
-            !(largest(&self.bound) + allowance <= self.skin)
+            let needed = largest(&self.bound) + allowance;
+            needed > self.skin || needed.is_nan()
         };
         if rebuild {
             self.build(safe, target, allowance, mesh, reach);
@@ -85,8 +86,10 @@ impl PairCache {
             self.pairs
                 .par_iter()
                 .zip(&self.distance)
-                // Written so that a NaN keeps the pair.
-                .filter(|(pair, &d)| !(pair.distance_bound(d, bound, allowance) >= reach))
+                .filter(|(pair, &d)| {
+                    let lower = pair.distance_bound(d, bound, allowance);
+                    lower < reach || lower.is_nan()
+                })
                 .map(|(pair, _)| *pair),
         );
         rebuild
