@@ -2,7 +2,8 @@
 //!
 //! Why a grid and not a BVH: cloth triangles are nearly uniform in size, so one cell size
 //! (twice the mean box extent) puts each box in a few cells; the grid is rebuilt from scratch
-//! in `O(n)` every local step, so it never degrades under the large deformations and
+//! in `O(n)` whenever the local step needs new candidates (see `pair_cache`), so it never
+//! degrades under the large deformations and
 //! layer-crossing motions where a refitted BVH's boxes grow loose, and it has no tree to
 //! maintain. Each pair is reported once: by the cell holding the lower corner of the two
 //! boxes' intersection.
