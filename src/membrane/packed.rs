@@ -44,14 +44,22 @@ impl<S: Lanes> PackedRest<S> {
     pub fn new(nb: &Neighborhood, rest: &RestData<S::Scalar>) -> Self {
         let lanes = S::LANES;
         let packs = rest.vertices.len() / lanes;
+        let slots_of = |p: usize| {
+            (0..lanes)
+                .map(|l| nb.of(p * lanes + l).len())
+                .max()
+                .unwrap_or(0)
+        };
+        let all_slots: usize = (0..packs).map(slots_of).sum();
         let mut out = Self {
             stored: Vec::with_capacity(packs),
-            slot_offsets: vec![0],
-            neighbors: Vec::new(),
-            bonds: Vec::new(),
-            frames: Vec::new(),
-            constants: Vec::new(),
+            slot_offsets: Vec::with_capacity(packs + 1),
+            neighbors: Vec::with_capacity(all_slots * lanes),
+            bonds: Vec::with_capacity(all_slots),
+            frames: Vec::with_capacity(packs),
+            constants: Vec::with_capacity(packs),
         };
+        out.slot_offsets.push(0);
         for p in 0..packs {
             let first = p * lanes;
             let vertex = |l: usize| first + l;
@@ -111,7 +119,17 @@ impl<S: Lanes> PackedRest<S> {
                 material,
             });
         }
+        out.shrink_to_fit();
         out
+    }
+
+    /// Releases the capacity left by packs that run on the scalar path.
+    fn shrink_to_fit(&mut self) {
+        self.slot_offsets.shrink_to_fit();
+        self.neighbors.shrink_to_fit();
+        self.bonds.shrink_to_fit();
+        self.frames.shrink_to_fit();
+        self.constants.shrink_to_fit();
     }
 
     /// Most slots of any pack.

@@ -50,12 +50,16 @@ impl<T: Real> System<T> {
     pub fn build(bodies: &[&mut Membrane]) -> Self {
         let mut ids = Vec::with_capacity(bodies.len());
         let mut ranges = Vec::with_capacity(bodies.len());
+        let vertices: usize = bodies.iter().map(|b| b.num_vertices()).sum();
+        let bonds: usize = bodies.iter().map(|b| b.neighborhood().indices.len()).sum();
         let mut nb = Neighborhood {
-            offsets: vec![0],
-            indices: Vec::new(),
-            reverse: Vec::new(),
+            offsets: Vec::with_capacity(vertices + 1),
+            indices: Vec::with_capacity(bonds),
+            reverse: Vec::with_capacity(bonds),
         };
+        nb.offsets.push(0);
         let mut rest = RestData::empty();
+        rest.reserve(vertices, bonds);
         let mut start = 0;
         for body in bodies {
             let n = body.num_vertices();
@@ -68,7 +72,7 @@ impl<T: Real> System<T> {
             nb.indices
                 .extend(own.indices.iter().map(|j| j + vertex_base));
             nb.reverse.extend(own.reverse.iter().map(|b| b + bond_base));
-            rest.extend(&body.rest().to_real::<T>());
+            rest.extend_converted(body.rest());
             start += n;
         }
         let zeros = vec![Vector3::zeros(); start];
