@@ -138,7 +138,7 @@ impl RestData<f64> {
     /// The same data in another precision.
     pub fn to_real<T: Real>(&self) -> RestData<T> {
         let mut out = RestData::empty();
-        out.extend_converted(self);
+        out.extend_converted(self, true);
         out
     }
 }
@@ -165,19 +165,22 @@ impl<T: Real> RestData<T> {
     }
 
     /// Appends another body's rest data, converted to this precision (its bonds keep their
-    /// own order); no intermediate copy is made.
-    pub fn extend_converted(&mut self, other: &RestData<f64>) {
+    /// own order; with `with_bonds` false the bonds are left out, for a user that keeps them
+    /// elsewhere); no intermediate copy is made.
+    pub fn extend_converted(&mut self, other: &RestData<f64>, with_bonds: bool) {
         let v = |a: &Vector3<f64>| a.map(T::of);
         self.frames.extend(other.frames.iter().map(|f| Frame {
             t1: v(&f.t1),
             t2: v(&f.t2),
             nc: v(&f.nc),
         }));
-        self.bonds.extend(other.bonds.iter().map(|b| BondRest {
-            beta: b.beta.map(T::of),
-            xi: v(&b.xi),
-            curvature: v(&b.curvature),
-        }));
+        if with_bonds {
+            self.bonds.extend(other.bonds.iter().map(|b| BondRest {
+                beta: b.beta.map(T::of),
+                xi: v(&b.xi),
+                curvature: v(&b.curvature),
+            }));
+        }
         self.vertices
             .extend(other.vertices.iter().map(|c| VertexConstants {
                 volume: T::of(c.volume),
