@@ -68,6 +68,19 @@ def machine(extra: Optional[Dict[str, Any]] = None) -> Dict[str, Any]:
     return info
 
 
+def vm_kib(field: str) -> int:
+    """A ``/proc/self/status`` memory figure of this process (e.g. ``"VmHWM"``, the peak resident
+    size) in KiB, or -1 where the file does not exist."""
+    try:
+        text = Path("/proc/self/status").read_text()
+    except OSError:
+        return -1
+    for line in text.splitlines():
+        if line.startswith(field + ":"):
+            return int(line.split()[1])
+    return -1
+
+
 def _cpu_model() -> Optional[str]:
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():

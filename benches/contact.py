@@ -38,20 +38,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _common as C  # noqa: E402
 
 
-def vm_kib(field: str) -> int:
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith(field + ":"):
-            return int(line.split()[1])
-    return -1
-
-
 def child(layers: int, n: int, steps: int, warmup: int, iters: int, tol: float, threads):
     """Runs in the subprocess: prints one JSON line."""
     import os
 
     from peridyn.paper_scenes import cloths_over_ball
 
-    hwm0 = vm_kib("VmHWM")
+    hwm0 = C.vm_kib("VmHWM")
     scene = cloths_over_ball(layers=layers, n=n, drop=1e-3, layer_gap=1.05, tol=tol,
                              max_iters=iters, threads=threads)
     solver = scene.solver
@@ -75,7 +68,7 @@ def child(layers: int, n: int, steps: int, warmup: int, iters: int, tol: float, 
             "converged": st.converged, "wall": wall,
             "cpu": (time.process_time() - c0) * 1e3,
         })
-    hwm1 = vm_kib("VmHWM")
+    hwm1 = C.vm_kib("VmHWM")
     x = np.concatenate([b.positions for b in scene.bodies.values()])
     ball = scene.ball
     med = {key: float(np.median([r[key] for r in rows]))

@@ -30,13 +30,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _common as C  # noqa: E402
 
 
-def vm_kib(field: str) -> int:
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith(field + ":"):
-            return int(line.split()[1])
-    return -1
-
-
 def child(n: int, precision: str, threads: int, steps: int, warmup: int, iters: int, dt: float):
     """Runs in the subprocess: prints one JSON line."""
     import os
@@ -45,14 +38,14 @@ def child(n: int, precision: str, threads: int, steps: int, warmup: int, iters: 
 
     V, F = peridyn.grid(n, n, size=(1.0, 1.0), diagonal="alternate")
     pins = np.flatnonzero(np.isclose(V[:, 1], 1.0))
-    hwm0, rss0 = vm_kib("VmHWM"), vm_kib("VmRSS")
+    hwm0, rss0 = C.vm_kib("VmHWM"), C.vm_kib("VmRSS")
     cloth = peridyn.Membrane(V, F, thickness=1e-3, density=300.0,
                              material=peridyn.StretchA3(s0=2e4),
                              bending=peridyn.plate_bending_stiffness(4e4, 0.0, 1e-3))
     cloth.pin(pins)
     solver = peridyn.Solver(dt=dt, tol=0.0, max_iters=iters, threads=threads, precision=precision)
     solver.add(cloth)
-    hwm_built = vm_kib("VmHWM")
+    hwm_built = C.vm_kib("VmHWM")
     totals, walls, globals_, its, cpus = [], [], [], [], []
     for k in range(warmup + steps):
         c0, t0 = time.process_time(), time.perf_counter()
@@ -64,7 +57,7 @@ def child(n: int, precision: str, threads: int, steps: int, warmup: int, iters: 
             globals_.append(st.timings["global"])
             walls.append(w)
             its.append(st.iterations)
-    hwm1, rss1 = vm_kib("VmHWM"), vm_kib("VmRSS")
+    hwm1, rss1 = C.vm_kib("VmHWM"), C.vm_kib("VmRSS")
     nv = n * n
     print(json.dumps({
         "n": n, "vertices": nv, "precision": precision, "threads": threads,

@@ -6,8 +6,8 @@
 //   D   = m I + h^2 (n_k C_k + sum_j C_j)            (kg)
 //   delta = D^-1 r, scaled by alpha = E h^2 / (h^2 f . delta) where the linearised elastic
 //           energy E = E_k + sum_j E_j would drop below zero and the release is significant
-//   y_next = keep_out(y + delta) in the D-metric with friction, then Chebyshev:
-//            y_next = omega (y_next - y_prev) + y_prev
+//   y_next = keep_out(y + delta) in the D-metric with friction, then Chebyshev where no
+//            collider acted: y_next = omega (y_next - y_prev) + y_prev
 //
 // and measure.residual = |r without contact reactions| / m (m).
 
@@ -146,8 +146,9 @@ fn jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     let start = y_start[k].xyz;
-    var next = keep_out(yk + delta, start, inverse, c.half_thickness);
-    if iter.extrapolate != 0u {
+    let free_move = yk + delta;
+    var next = keep_out(free_move, start, inverse, c.half_thickness);
+    if iter.extrapolate != 0u && all(next == free_move) {
         let prev = y_prev[k].xyz;
         next = (next - prev) * iter.omega + prev;
     }

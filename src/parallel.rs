@@ -14,55 +14,83 @@ where
     R: Send,
     F: Fn(usize, &mut [B]) -> R + Sync,
 {
-    for_each_range(offsets, 1, bonds, out, &|first, bonds, out: &mut [R]| {
-        let base = offsets[first] as usize;
-        for (k, slot) in out.iter_mut().enumerate() {
-            let i = first + k;
-            let range = offsets[i] as usize - base..offsets[i + 1] as usize - base;
-            *slot = f(i, &mut bonds[range]);
-        }
-    });
+    let n = out.len();
+    split(
+        offsets,
+        &|b| b,
+        0..n,
+        bonds,
+        out,
+        &|_, first, bonds, out: &mut [R]| {
+            let base = offsets[first] as usize;
+            for (k, slot) in out.iter_mut().enumerate() {
+                let i = first + k;
+                let range = offsets[i] as usize - base..offsets[i + 1] as usize - base;
+                *slot = f(i, &mut bonds[range]);
+            }
+        },
+    );
 }
 
-/// Calls `f(first, bonds, out)` in parallel on disjoint ranges of consecutive vertices that
-/// together cover `out`: the range starting at vertex `first` gets its own `out` entries and
-/// its vertices' bonds (CSR `offsets`, as in [`for_each_vertex`]). Every range but the last
-/// starts at a multiple of `align` (> 0) and holds a multiple of `align` vertices, so aligned
-/// groups of `align` vertices are never split; the ranges do not depend on the number of
-/// threads.
-pub fn for_each_range<B, R, F>(offsets: &[u32], align: usize, bonds: &mut [B], out: &mut [R], f: &F)
-where
-    B: Send,
-    R: Send,
-    F: Fn(usize, &mut [B], &mut [R]) + Sync,
-{
-    assert!(align > 0, "ranges must be aligned to at least one vertex");
-    split(offsets, align, 0, bonds, out, f);
-}
-
-fn split<B, R, F>(
+/// Calls `f(blocks, first, bonds, out)` in parallel on disjoint runs of consecutive blocks of
+/// vertices: block `b` is vertices `starts[b]..starts[b + 1]` (`starts` ascending from 0 to
+/// `out.len()`); the run `blocks` starts at vertex `first` and gets its vertices' `out`
+/// entries and bonds (CSR `offsets`). Blocks are never split; the runs do not depend on the
+/// number of threads.
+pub fn for_each_block<B, R, F>(
     offsets: &[u32],
-    align: usize,
-    first: usize,
+    starts: &[u32],
     bonds: &mut [B],
     out: &mut [R],
     f: &F,
 ) where
     B: Send,
     R: Send,
-    F: Fn(usize, &mut [B], &mut [R]) + Sync,
+    F: Fn(std::ops::Range<usize>, usize, &mut [B], &mut [R]) + Sync,
 {
-    let mid = (out.len() / 2) / align * align;
-    if out.len() <= GRAIN || mid == 0 {
-        f(first, bonds, out);
+    assert_eq!(
+        starts.last().map(|&s| s as usize),
+        Some(out.len()),
+        "blocks must cover the vertices"
+    );
+    split(
+        offsets,
+        &|b| starts[b] as usize,
+        0..starts.len() - 1,
+        bonds,
+        out,
+        f,
+    );
+}
+
+/// Splits the blocks `blocks` (block `b` starts at vertex `start(b)`; the run's first vertex is
+/// `start(blocks.start)`) in halves until a run holds at most [`GRAIN`] vertices or one block.
+fn split<B, R, S, F>(
+    offsets: &[u32],
+    start: &S,
+    blocks: std::ops::Range<usize>,
+    bonds: &mut [B],
+    out: &mut [R],
+    f: &F,
+) where
+    B: Send,
+    R: Send,
+    S: Fn(usize) -> usize + Sync,
+    F: Fn(std::ops::Range<usize>, usize, &mut [B], &mut [R]) + Sync,
+{
+    let first = start(blocks.start);
+    if out.len() <= GRAIN || blocks.len() <= 1 {
+        f(blocks, first, bonds, out);
         return;
     }
+    let mid_block = blocks.start + blocks.len() / 2;
+    let mid = start(mid_block) - first;
     let base = offsets[first] as usize;
     let (bonds_lo, bonds_hi) = bonds.split_at_mut(offsets[first + mid] as usize - base);
     let (out_lo, out_hi) = out.split_at_mut(mid);
     rayon::join(
-        || split(offsets, align, first, bonds_lo, out_lo, f),
-        || split(offsets, align, first + mid, bonds_hi, out_hi, f),
+        || split(offsets, start, blocks.start..mid_block, bonds_lo, out_lo, f),
+        || split(offsets, start, mid_block..blocks.end, bonds_hi, out_hi, f),
     );
 }
 

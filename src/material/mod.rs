@@ -80,13 +80,11 @@ impl Material {
 
     /// The material's constants converted to the simulation's precision.
     pub fn to_real<T: Real>(&self) -> MaterialModel<T> {
-        match *self {
-            Self::StretchA3 { s0 } => MaterialModel::StretchA3 { s0: T::of(s0) },
-            Self::NeoHookean { s0, s1 } => MaterialModel::NeoHookean {
-                s0: T::of(s0),
-                s1: T::of(s1),
-            },
-        }
+        let model = match *self {
+            Self::StretchA3 { s0 } => MaterialModel::StretchA3 { s0 },
+            Self::NeoHookean { s0, s1 } => MaterialModel::NeoHookean { s0, s1 },
+        };
+        model.to_real()
     }
 }
 
@@ -95,6 +93,19 @@ impl Material {
 pub enum MaterialModel<T> {
     StretchA3 { s0: T },
     NeoHookean { s0: T, s1: T },
+}
+
+impl MaterialModel<f64> {
+    /// The same model in another precision.
+    pub fn to_real<T: Real>(&self) -> MaterialModel<T> {
+        match *self {
+            Self::StretchA3 { s0 } => MaterialModel::StretchA3 { s0: T::of(s0) },
+            Self::NeoHookean { s0, s1 } => MaterialModel::NeoHookean {
+                s0: T::of(s0),
+                s1: T::of(s1),
+            },
+        }
+    }
 }
 
 impl<S: Lanes> MaterialModel<S> {

@@ -1,33 +1,34 @@
 //! The kernel pass over every vertex, with the rest data regrouped for SIMD.
 //!
-//! Vertices `p L .. p L + L` (`L` = [`SimdValue::LANES`] of the precision's
-//! [`Real::Pack`]) form pack `p`; lane `l` of the pack is vertex `p L + l`. The pack's bonds are
-//! stored in slots: slot `k` holds every lane's `k`-th bond (in CSR order), as one
-//! [`BondRest`] of packs, and the neighbour each lane's bond points to. A lane with fewer bonds
-//! than the pack has slots points its extra slots at itself with zero rest data, so they
-//! contribute exactly nothing. The kernel then runs once per pack with every operation on `L`
-//! vertices at a time, and every lane's result is bit-identical to the scalar kernel's for that
-//! vertex (see [`Lanes`]).
-//!
-//! A pack runs on the scalar path instead when its lanes have different material models (a
-//! pack across two bodies), and so do the last `n mod L` vertices.
+//! Each body's vertices are cut into packs of `L` consecutive vertices (`L` =
+//! [`SimdValue::LANES`] of the precision's [`Real::Pack`]); lane `l` of a pack is its `l`-th
+//! vertex, and a body's last pack, when short, repeats its last vertex in the spare lanes
+//! (computed and discarded). The pack's bonds are stored in slots: slot `k` holds every lane's
+//! `k`-th bond (in CSR order), as one [`BondRest`] of packs, and the neighbour each lane's bond
+//! points to. A lane with fewer bonds than the pack has slots points its extra slots at itself
+//! with zero rest data, so they contribute exactly nothing. The kernel then runs once per pack
+//! with every operation on `L` vertices at a time, and every lane's result is bit-identical to
+//! the scalar kernel's for that vertex (see [`Lanes`]). A pack never spans two bodies, so its
+//! lanes share one material model.
 
 use nalgebra::{SimdValue, Vector3};
 
 use crate::material::MaterialModel;
 use crate::mesh::Neighborhood;
-use crate::parallel::for_each_range;
+use crate::parallel::{for_each_block, for_each_vertex};
 use crate::real::{Lanes, Real};
 
 use super::kernel::{bond_vectors, vertex_kernel, Preconditioner, VertexResponse};
 use super::{BondRest, Frame, RestData, Stencil, VertexConstants};
 
-/// Rest data of whole packs of vertices (see the module documentation).
+/// Rest data of whole packs of vertices (see the module documentation): everything the kernel
+/// needs, so the scalar bonds it was built from can be released.
 #[derive(Debug, Clone)]
 pub struct PackedRest<S: Lanes> {
-    /// Storage index of each pack's data, or [`SCALAR`] for a pack run vertex by vertex.
-    stored: Vec<u32>,
-    /// Slots of stored pack `s`: `slot_offsets[s]..slot_offsets[s + 1]`.
+    /// First vertex of each pack, then the vertex count: pack `p` is vertices
+    /// `starts[p]..starts[p + 1]` (at most `L`).
+    starts: Vec<u32>,
+    /// Slots of pack `p`: `slot_offsets[p]..slot_offsets[p + 1]`.
     slot_offsets: Vec<u32>,
     /// Per slot, `L` neighbour indices (lane-major within the slot).
     neighbors: Vec<u32>,
@@ -36,48 +37,61 @@ pub struct PackedRest<S: Lanes> {
     constants: Vec<VertexConstants<S>>,
 }
 
-/// Marks a pack that runs on the scalar path.
-const SCALAR: u32 = u32::MAX;
-
 impl<S: Lanes> PackedRest<S> {
-    /// Regroups `rest` (whose neighbourhood is `nb`) into packs.
-    pub fn new(nb: &Neighborhood, rest: &RestData<S::Scalar>) -> Self {
-        let lanes = S::LANES;
-        let packs = rest.vertices.len() / lanes;
-        let mut out = Self {
-            stored: Vec::with_capacity(packs),
+    /// No packs.
+    pub fn empty() -> Self {
+        Self {
+            starts: vec![0],
             slot_offsets: vec![0],
             neighbors: Vec::new(),
             bonds: Vec::new(),
             frames: Vec::new(),
             constants: Vec::new(),
-        };
-        for p in 0..packs {
-            let first = p * lanes;
-            let vertex = |l: usize| first + l;
-            let Some(material) = pack_material::<S>(|l| rest.vertices[vertex(l)].material) else {
-                out.stored.push(SCALAR);
-                continue;
-            };
-            out.stored.push(out.frames.len() as u32);
-            let slots = (0..lanes)
-                .map(|l| nb.of(vertex(l)).len())
+        }
+    }
+
+    /// Appends the packs of one body, given by its own neighbourhood `nb` and rest data (in
+    /// f64, converted here), whose vertices follow the ones already packed.
+    pub fn add_body(&mut self, nb: &Neighborhood, rest: &RestData<f64>) {
+        let lanes = S::LANES;
+        let n = rest.vertices.len();
+        let base = *self.starts.last().expect("starts holds the vertex count") as usize;
+        self.starts.pop();
+        self.starts
+            .extend((0..n).step_by(lanes).map(|v| (base + v) as u32));
+        self.starts.push((base + n) as u32);
+        let of = |x: f64| <S::Scalar as Real>::of(x);
+        // Lane `l` of the body's pack starting at vertex `v` computes vertex `v + l`, or the
+        // body's last vertex in the spare lanes of a short pack.
+        let lane_vertex = |v: usize, l: usize| (v + l).min(n - 1);
+        let slots_of = |v: usize| {
+            (0..lanes)
+                .map(|l| nb.of(lane_vertex(v, l)).len())
                 .max()
-                .unwrap_or(0);
-            for k in 0..slots {
+                .unwrap_or(0)
+        };
+        let all_slots: usize = (0..n).step_by(lanes).map(slots_of).sum();
+        self.slot_offsets.reserve_exact(n.div_ceil(lanes));
+        self.neighbors.reserve_exact(all_slots * lanes);
+        self.bonds.reserve_exact(all_slots);
+        self.frames.reserve_exact(n.div_ceil(lanes));
+        self.constants.reserve_exact(n.div_ceil(lanes));
+        for v in (0..n).step_by(lanes) {
+            let vertex = |l: usize| lane_vertex(v, l);
+            for k in 0..slots_of(v) {
                 for l in 0..lanes {
                     let own = nb.of(vertex(l));
-                    out.neighbors
-                        .push(own.get(k).copied().unwrap_or(vertex(l) as u32));
+                    let j = own.get(k).map_or(vertex(l), |&j| j as usize);
+                    self.neighbors.push((base + j) as u32);
                 }
                 let bond = |l: usize| {
                     let range = nb.bonds(vertex(l));
                     (k < range.len()).then(|| rest.bonds[range.start + k])
                 };
-                let part = |f: fn(&BondRest<S::Scalar>) -> S::Scalar| {
-                    S::gather(|l| bond(l).map_or_else(nalgebra::zero, |b| f(&b)))
+                let part = |f: fn(&BondRest<f64>) -> f64| {
+                    S::gather(|l| of(bond(l).map_or(0.0, |b| f(&b))))
                 };
-                out.bonds.push(BondRest {
+                self.bonds.push(BondRest {
                     beta: [part(|b| b.beta[0]), part(|b| b.beta[1])],
                     xi: Vector3::new(part(|b| b.xi.x), part(|b| b.xi.y), part(|b| b.xi.z)),
                     curvature: Vector3::new(
@@ -87,20 +101,20 @@ impl<S: Lanes> PackedRest<S> {
                     ),
                 });
             }
-            out.slot_offsets.push(out.bonds.len() as u32);
-            let frame = |f: fn(&Frame<S::Scalar>) -> Vector3<S::Scalar>| {
-                let v = |c: usize| S::gather(|l| f(&rest.frames[vertex(l)])[c]);
-                Vector3::new(v(0), v(1), v(2))
+            self.slot_offsets.push(self.bonds.len() as u32);
+            let frame = |f: fn(&Frame<f64>) -> Vector3<f64>| {
+                let c = |c: usize| S::gather(|l| of(f(&rest.frames[vertex(l)])[c]));
+                Vector3::new(c(0), c(1), c(2))
             };
-            out.frames.push(Frame {
+            self.frames.push(Frame {
                 t1: frame(|f| f.t1),
                 t2: frame(|f| f.t2),
                 nc: frame(|f| f.nc),
             });
-            let constant = |f: fn(&VertexConstants<S::Scalar>) -> S::Scalar| {
-                S::gather(|l| f(&rest.vertices[vertex(l)]))
+            let constant = |f: fn(&VertexConstants<f64>) -> f64| {
+                S::gather(|l| of(f(&rest.vertices[vertex(l)])))
             };
-            out.constants.push(VertexConstants {
+            self.constants.push(VertexConstants {
                 volume: constant(|c| c.volume),
                 mass: constant(|c| c.mass),
                 k_iso: constant(|c| c.k_iso),
@@ -108,10 +122,11 @@ impl<S: Lanes> PackedRest<S> {
                 kappa_t: constant(|c| c.kappa_t),
                 kappa_n: constant(|c| c.kappa_n),
                 half_thickness: constant(|c| c.half_thickness),
-                material,
+                material: pack_material(|l| rest.vertices[vertex(l)].material.to_real())
+                    .expect("a body has one material"),
             });
         }
-        out
+        debug_assert_eq!(self.frames.len(), self.starts.len() - 1);
     }
 
     /// Most slots of any pack.
@@ -158,8 +173,8 @@ fn pack_material<S: Lanes>(
 
 /// The kernel at every vertex of `y`: per-bond gradients `dE_i/d(y_j - y_i)` into `bond_grad`
 /// (CSR order of `nb`) and per-vertex responses into `response`. With `packed` (the same rest
-/// data regrouped) whole packs of vertices run at once; the results are the same bit for bit,
-/// and for any number of threads.
+/// data regrouped; `rest.bonds` is then not read) whole packs of vertices run at once; the
+/// results are the same bit for bit, and for any number of threads.
 pub fn evaluate_vertices<T: Real>(
     nb: &Neighborhood,
     rest: &RestData<T>,
@@ -169,55 +184,54 @@ pub fn evaluate_vertices<T: Real>(
     bond_grad: &mut [Vector3<T>],
     response: &mut [VertexResponse<T>],
 ) {
+    let Some(p) = packed else {
+        for_each_vertex(
+            &nb.offsets,
+            bond_grad,
+            response,
+            &|i, grads: &mut [Vector3<T>]| {
+                bond_vectors(i, y, nb.of(i), grads);
+                vertex_kernel(&rest.stencil(nb, i), mode, grads)
+            },
+        );
+        return;
+    };
     let lanes = T::Pack::LANES;
-    let align = if packed.is_some() { lanes } else { 1 };
-    let slots = packed.map_or(0, PackedRest::max_slots);
-    for_each_range(
+    let slots = p.max_slots();
+    for_each_block(
         &nb.offsets,
-        align,
+        &p.starts,
         bond_grad,
         response,
-        &|first, bonds, out| {
+        &|packs, first, bonds, out| {
             let base = nb.offsets[first] as usize;
             let mut edges = Vec::with_capacity(slots);
-            let mut k = 0;
-            while k < out.len() {
-                let i = first + k;
-                let pack = packed.filter(|_| i % lanes == 0 && k + lanes <= out.len());
-                let stored = pack.map_or(SCALAR, |p| p.stored[i / lanes]);
-                if let (Some(p), true) = (pack, stored != SCALAR) {
-                    let s = stored as usize;
-                    let slot_range = p.slot_offsets[s] as usize..p.slot_offsets[s + 1] as usize;
-                    let own = |c: usize| T::Pack::gather(|l| y[i + l][c]);
-                    let yi = Vector3::new(own(0), own(1), own(2));
-                    edges.clear();
-                    for slot in slot_range.clone() {
-                        let j = &p.neighbors[slot * lanes..(slot + 1) * lanes];
-                        let at = |c: usize| T::Pack::gather(|l| y[j[l] as usize][c]);
-                        edges.push(Vector3::new(at(0), at(1), at(2)) - yi);
-                    }
-                    let stencil = Stencil {
-                        bonds: &p.bonds[slot_range],
-                        frame: &p.frames[s],
-                        constants: &p.constants[s],
-                    };
-                    let r = vertex_kernel(&stencil, mode, &mut edges);
-                    for l in 0..lanes {
-                        let range = nb.bonds(i + l);
-                        let local = range.start - base..range.end - base;
-                        for (slot, g) in bonds[local].iter_mut().enumerate() {
-                            let e = &edges[slot];
-                            *g = Vector3::new(e.x.extract(l), e.y.extract(l), e.z.extract(l));
-                        }
-                        out[k + l] = r.lane(l);
-                    }
-                    k += lanes;
-                } else {
+            for pack in packs {
+                let (start, end) = (p.starts[pack] as usize, p.starts[pack + 1] as usize);
+                let slot_range = p.slot_offsets[pack] as usize..p.slot_offsets[pack + 1] as usize;
+                let own = |c: usize| T::Pack::gather(|l| y[(start + l).min(end - 1)][c]);
+                let yi = Vector3::new(own(0), own(1), own(2));
+                edges.clear();
+                for slot in slot_range.clone() {
+                    let j = &p.neighbors[slot * lanes..(slot + 1) * lanes];
+                    let at = |c: usize| T::Pack::gather(|l| y[j[l] as usize][c]);
+                    edges.push(Vector3::new(at(0), at(1), at(2)) - yi);
+                }
+                let stencil = Stencil {
+                    bonds: &p.bonds[slot_range],
+                    frame: &p.frames[pack],
+                    constants: &p.constants[pack],
+                };
+                let r = vertex_kernel(&stencil, mode, &mut edges);
+                for (l, i) in (start..end).enumerate() {
                     let range = nb.bonds(i);
-                    let grads = &mut bonds[range.start - base..range.end - base];
-                    bond_vectors(i, y, nb.of(i), grads);
-                    out[k] = vertex_kernel(&rest.stencil(nb, i), mode, grads);
-                    k += 1;
+                    for (e, g) in edges
+                        .iter()
+                        .zip(&mut bonds[range.start - base..range.end - base])
+                    {
+                        *g = Vector3::new(e.x.extract(l), e.y.extract(l), e.z.extract(l));
+                    }
+                    out[i - first] = r.lane(l);
                 }
             }
         },
@@ -231,10 +245,10 @@ mod tests {
     use super::*;
     use crate::material::Material;
     use crate::membrane::{Membrane, MembraneParams};
-    use crate::mesh::TriangleMesh;
+    use crate::mesh::{Neighborhood, TriangleMesh};
 
-    /// A 9 x 7 grid (63 vertices: packs of 8 and 4 plus a scalar remainder; corner, edge and
-    /// interior vertices have different bond counts) with 2-ring bonds, bending and hourglass,
+    /// A 9 x 7 grid (63 vertices, so the last pack is short; corner, edge and interior vertices
+    /// have different bond counts) with 2-ring bonds, bending and hourglass,
     /// deformed by a smooth bend plus noise, with one neighbourhood collapsed to a point and
     /// one flattened to a line (the director fallbacks).
     fn body(material: Material) -> Membrane {
@@ -273,25 +287,56 @@ mod tests {
         m
     }
 
-    fn check<T: Real>(m: &Membrane, mode: Preconditioner) {
-        let (nb, rest) = (m.neighborhood(), m.rest().to_real::<T>());
-        let y: Vec<Vector3<T>> = m.positions().iter().map(|p| p.map(T::of)).collect();
-        let zero = VertexResponse {
+    fn zero<T: Real>() -> VertexResponse<T> {
+        VertexResponse {
             stretch: T::zero(),
             bending: T::zero(),
             hourglass: T::zero(),
             precond: Matrix3::zeros(),
+        }
+    }
+
+    /// The bodies concatenated (as the solver does) and evaluated in packs, against each body
+    /// evaluated alone by the scalar kernel: equal bit for bit.
+    fn check<T: Real>(bodies: &[&Membrane], mode: Preconditioner) {
+        let mut nb = Neighborhood {
+            offsets: vec![0],
+            indices: Vec::new(),
+            reverse: Vec::new(),
         };
-        let run = |packed: Option<&PackedRest<T::Pack>>| {
-            let mut grads = vec![Vector3::zeros(); nb.indices.len()];
-            let mut out = vec![zero; y.len()];
-            evaluate_vertices(nb, &rest, packed, &y, mode, &mut grads, &mut out);
-            (grads, out)
-        };
-        let packed = PackedRest::new(nb, &rest);
-        assert!(packed.stored.iter().all(|&s| s != SCALAR));
-        let (scalar, simd) = (run(None), run(Some(&packed)));
-        for (i, (a, b)) in scalar.1.iter().zip(&simd.1).enumerate() {
+        let (mut y, mut packed) = (Vec::new(), PackedRest::<T::Pack>::empty());
+        let (mut grads, mut out) = (Vec::new(), Vec::new());
+        for m in bodies {
+            let own = m.neighborhood();
+            let (vertex_base, bond_base) = (y.len() as u32, nb.indices.len() as u32);
+            nb.offsets
+                .extend(own.offsets[1..].iter().map(|o| o + bond_base));
+            nb.indices
+                .extend(own.indices.iter().map(|j| j + vertex_base));
+            nb.reverse.extend(own.reverse.iter().map(|b| b + bond_base));
+            let yb: Vec<Vector3<T>> = m.positions().iter().map(|p| p.map(T::of)).collect();
+            let mut g = vec![Vector3::zeros(); own.indices.len()];
+            let mut o = vec![zero(); yb.len()];
+            let rest = m.rest().to_real::<T>();
+            evaluate_vertices(own, &rest, None, &yb, mode, &mut g, &mut o);
+            packed.add_body(own, m.rest());
+            y.extend(yb);
+            grads.extend(g);
+            out.extend(o);
+        }
+        let mut simd_grads = vec![Vector3::zeros(); nb.indices.len()];
+        let mut simd_out = vec![zero(); y.len()];
+        let unused = RestData::empty();
+        evaluate_vertices(
+            &nb,
+            &unused,
+            Some(&packed),
+            &y,
+            mode,
+            &mut simd_grads,
+            &mut simd_out,
+        );
+        for (i, (a, b)) in out.iter().zip(&simd_out).enumerate() {
             assert!(
                 a.energy().is_finite() && a.precond.iter().all(|x| x.is_finite()),
                 "{} {i} {a:?}",
@@ -299,31 +344,45 @@ mod tests {
             );
             assert_eq!(a, b, "{} vertex {i}", T::NAME);
         }
-        for (k, (a, b)) in scalar.0.iter().zip(&simd.0).enumerate() {
+        for (k, (a, b)) in grads.iter().zip(&simd_grads).enumerate() {
             assert!(a.iter().all(|x| x.is_finite()));
             assert_eq!(a, b, "{} bond {k}", T::NAME);
         }
     }
 
     /// The SIMD packs give the scalar kernel's results bit for bit, for both precisions,
-    /// materials and preconditioners, degenerate neighbourhoods included.
+    /// materials and preconditioners, degenerate neighbourhoods, short packs and a body
+    /// boundary (two bodies of different materials) included.
     #[test]
     fn packs_match_the_scalar_kernel_exactly() {
-        for material in [
-            Material::stretch_a3(3e4).unwrap(),
-            Material::neo_hookean(1e4, 2e4).unwrap(),
-        ] {
-            let m = body(material);
-            for mode in [Preconditioner::Tangent, Preconditioner::Paper] {
-                check::<f32>(&m, mode);
-                check::<f64>(&m, mode);
-            }
+        let a3 = body(Material::stretch_a3(3e4).unwrap());
+        let nh = body(Material::neo_hookean(1e4, 2e4).unwrap());
+        for mode in [Preconditioner::Tangent, Preconditioner::Paper] {
+            check::<f32>(&[&a3, &nh], mode);
+            check::<f64>(&[&nh, &a3], mode);
         }
     }
 
-    /// A pack whose lanes hold different material models runs on the scalar path.
+    /// Packs are cut at body boundaries: two bodies of 63 vertices give, in f32, packs starting
+    /// every 8 vertices within each body and short ones of 7 at each body's end.
     #[test]
-    fn mixed_materials_fall_back_to_scalar() {
+    fn packs_never_span_two_bodies() {
+        let m = body(Material::stretch_a3(1e3).unwrap());
+        let mut packed = PackedRest::<crate::real::F32Pack>::empty();
+        packed.add_body(m.neighborhood(), m.rest());
+        packed.add_body(m.neighborhood(), m.rest());
+        let expected: Vec<u32> = (0..63)
+            .step_by(8)
+            .chain((63..126).step_by(8))
+            .chain([126])
+            .collect();
+        assert_eq!(packed.starts, expected);
+        assert_eq!(packed.frames.len(), 16);
+    }
+
+    /// Lanes of different material models do not make a pack.
+    #[test]
+    fn mixed_materials_do_not_pack() {
         let a3 = MaterialModel::StretchA3 { s0: 1.0f32 };
         let nh = MaterialModel::NeoHookean {
             s0: 1.0f32,

@@ -137,49 +137,9 @@ impl RestData<f64> {
 
     /// The same data in another precision.
     pub fn to_real<T: Real>(&self) -> RestData<T> {
-        let v = |a: &Vector3<f64>| a.map(T::of);
-        RestData {
-            frames: self
-                .frames
-                .iter()
-                .map(|f| Frame {
-                    t1: v(&f.t1),
-                    t2: v(&f.t2),
-                    nc: v(&f.nc),
-                })
-                .collect(),
-            bonds: self
-                .bonds
-                .iter()
-                .map(|b| BondRest {
-                    beta: b.beta.map(T::of),
-                    xi: v(&b.xi),
-                    curvature: v(&b.curvature),
-                })
-                .collect(),
-            vertices: self
-                .vertices
-                .iter()
-                .map(|c| VertexConstants {
-                    volume: T::of(c.volume),
-                    mass: T::of(c.mass),
-                    k_iso: T::of(c.k_iso),
-                    k_bound: T::of(c.k_bound),
-                    kappa_t: T::of(c.kappa_t),
-                    kappa_n: T::of(c.kappa_n),
-                    half_thickness: T::of(c.half_thickness),
-                    material: match c.material {
-                        MaterialModel::StretchA3 { s0 } => {
-                            MaterialModel::StretchA3 { s0: T::of(s0) }
-                        }
-                        MaterialModel::NeoHookean { s0, s1 } => MaterialModel::NeoHookean {
-                            s0: T::of(s0),
-                            s1: T::of(s1),
-                        },
-                    },
-                })
-                .collect(),
-        }
+        let mut out = RestData::empty();
+        out.extend_converted(self, true);
+        out
     }
 }
 
@@ -204,11 +164,41 @@ impl<T: Real> RestData<T> {
         }
     }
 
-    /// Appends another body's rest data (its bonds keep their own order).
-    pub fn extend(&mut self, other: &RestData<T>) {
-        self.frames.extend_from_slice(&other.frames);
-        self.bonds.extend_from_slice(&other.bonds);
-        self.vertices.extend_from_slice(&other.vertices);
+    /// Appends another body's rest data, converted to this precision (its bonds keep their
+    /// own order; with `with_bonds` false the bonds are left out, for a user that keeps them
+    /// elsewhere); no intermediate copy is made.
+    pub fn extend_converted(&mut self, other: &RestData<f64>, with_bonds: bool) {
+        let v = |a: &Vector3<f64>| a.map(T::of);
+        self.frames.extend(other.frames.iter().map(|f| Frame {
+            t1: v(&f.t1),
+            t2: v(&f.t2),
+            nc: v(&f.nc),
+        }));
+        if with_bonds {
+            self.bonds.extend(other.bonds.iter().map(|b| BondRest {
+                beta: b.beta.map(T::of),
+                xi: v(&b.xi),
+                curvature: v(&b.curvature),
+            }));
+        }
+        self.vertices
+            .extend(other.vertices.iter().map(|c| VertexConstants {
+                volume: T::of(c.volume),
+                mass: T::of(c.mass),
+                k_iso: T::of(c.k_iso),
+                k_bound: T::of(c.k_bound),
+                kappa_t: T::of(c.kappa_t),
+                kappa_n: T::of(c.kappa_n),
+                half_thickness: T::of(c.half_thickness),
+                material: c.material.to_real(),
+            }));
+    }
+
+    /// Reserves room for `vertices` more vertices and `bonds` more bonds.
+    pub fn reserve(&mut self, vertices: usize, bonds: usize) {
+        self.frames.reserve_exact(vertices);
+        self.bonds.reserve_exact(bonds);
+        self.vertices.reserve_exact(vertices);
     }
 
     /// Empty rest data.

@@ -2,7 +2,7 @@
 
 use rayon::prelude::*;
 
-use crate::membrane::{evaluate_vertices, PackedRest, Preconditioner};
+use crate::membrane::{evaluate_vertices, Preconditioner};
 use crate::real::Real;
 
 use super::system::System;
@@ -19,8 +19,7 @@ pub(super) fn evaluate<T: Real>(sys: &mut System<T>, mode: Preconditioner) {
         response,
         ..
     } = sys;
-    let packed = packed.get_or_insert_with(|| PackedRest::new(nb, rest));
-    evaluate_vertices(nb, rest, Some(packed), y, mode, bond_grad, response);
+    evaluate_vertices(nb, rest, packed.as_ref(), y, mode, bond_grad, response);
 }
 
 /// Vertices per partial sum of the energy reductions: fixed, so that the sums do not depend

@@ -210,14 +210,18 @@ fn finish_move<T: Real>(
     };
     let margin = sys.rest.vertices[k].half_thickness;
     let y = sys.y[k];
+    let free_move = y + delta * alpha;
     *next = keep_out(
-        y + delta * alpha,
+        free_move,
         &sys.y_start[k],
         &local.inverse,
         margin,
         options.colliders,
     );
-    if let Some(w) = options.omega {
+    // Chebyshev extrapolates the unconstrained iteration only: a vertex a collider holds keeps
+    // its projected position, else the extrapolation would push it along the contact past
+    // what its friction cone allows (a resting cloth would creep).
+    if let (Some(w), true) = (options.omega, *next == free_move) {
         *next = (*next - sys.y_prev[k]) * w + sys.y_prev[k];
     }
     Update {

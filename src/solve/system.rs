@@ -19,8 +19,8 @@ pub(crate) struct System<T: Real> {
     pub ranges: Vec<Range<usize>>,
     pub nb: Neighborhood,
     pub rest: RestData<T>,
-    /// `rest` regrouped for the SIMD kernel, built at the first evaluation (the GPU solver,
-    /// which shares this struct, never needs it).
+    /// The bonds' rest data in SIMD packs for the host kernel, when built for it (then
+    /// `rest.bonds` is empty).
     pub packed: Option<PackedRest<T::Pack>>,
     /// Positions at the start of the step, y_t.
     pub y_start: Vec<Vector3<T>>,
@@ -47,15 +47,23 @@ pub(crate) struct System<T: Real> {
 
 impl<T: Real> System<T> {
     /// Concatenates the bodies' rest data (state is loaded by [`System::load`]).
-    pub fn build(bodies: &[&mut Membrane]) -> Self {
+    ///
+    /// With `packed`, the bonds go into SIMD packs for the host kernel (the CPU solver) and
+    /// `rest.bonds` stays empty; without, into `rest.bonds` (for upload to a GPU).
+    pub fn build(bodies: &[&mut Membrane], packed: bool) -> Self {
         let mut ids = Vec::with_capacity(bodies.len());
         let mut ranges = Vec::with_capacity(bodies.len());
+        let vertices: usize = bodies.iter().map(|b| b.num_vertices()).sum();
+        let bonds: usize = bodies.iter().map(|b| b.neighborhood().indices.len()).sum();
         let mut nb = Neighborhood {
-            offsets: vec![0],
-            indices: Vec::new(),
-            reverse: Vec::new(),
+            offsets: Vec::with_capacity(vertices + 1),
+            indices: Vec::with_capacity(bonds),
+            reverse: Vec::with_capacity(bonds),
         };
+        nb.offsets.push(0);
         let mut rest = RestData::empty();
+        rest.reserve(vertices, if packed { 0 } else { bonds });
+        let mut packs = packed.then(PackedRest::empty);
         let mut start = 0;
         for body in bodies {
             let n = body.num_vertices();
@@ -68,7 +76,10 @@ impl<T: Real> System<T> {
             nb.indices
                 .extend(own.indices.iter().map(|j| j + vertex_base));
             nb.reverse.extend(own.reverse.iter().map(|b| b + bond_base));
-            rest.extend(&body.rest().to_real::<T>());
+            rest.extend_converted(body.rest(), !packed);
+            if let Some(packs) = &mut packs {
+                packs.add_body(own, body.rest());
+            }
             start += n;
         }
         let zeros = vec![Vector3::zeros(); start];
@@ -84,7 +95,7 @@ impl<T: Real> System<T> {
             bond_grad: vec![Vector3::zeros(); nb.indices.len()],
             nb,
             rest,
-            packed: None,
+            packed: packs,
             y_start: zeros.clone(),
             velocity: zeros.clone(),
             y_star: zeros.clone(),

@@ -137,6 +137,7 @@ fn chebyshev_converges_to_the_same_solution_faster() {
     let tight = SolverParams {
         tol: 1e-10,
         max_iters: 5000,
+        acceleration: super::Acceleration::None,
         ..SolverParams::default()
     };
     let (plain, plain_stats) = hanging_step(tight);
@@ -341,6 +342,7 @@ fn inner_sweeps_and_descent_reach_the_same_solution() {
     let tight = SolverParams {
         tol: 1e-9,
         max_iters: 20000,
+        acceleration: super::Acceleration::None,
         ..SolverParams::default()
     };
     let (reference, plain) = hanging_step(tight);
