@@ -13,6 +13,8 @@ pub mod mesh;
 pub mod parallel;
 pub mod real;
 pub mod solve;
+#[cfg(test)]
+mod test_rng;
 
 #[cfg(feature = "python")]
 mod python;

@@ -417,6 +417,7 @@ fn unit_or_z<T: Real>(v: Vector3<T>) -> Vector3<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Rng;
 
     fn shapes() -> Vec<Shape> {
         let turn = nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.3, -0.5, 0.2)).into_inner();
@@ -437,13 +438,8 @@ mod tests {
     /// and projecting a point inside or near lands exactly at the margin.
     #[test]
     fn normals_are_distance_gradients_and_projection_lands_at_the_margin() {
-        let mut seed = 7u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = Rng::new(7);
+        let mut next = move || rng.uniform();
         for shape in shapes() {
             let model = shape.to_real::<f64>();
             for _ in 0..300 {

@@ -246,6 +246,7 @@ mod tests {
     use crate::material::Material;
     use crate::membrane::{Membrane, MembraneParams};
     use crate::mesh::{Neighborhood, TriangleMesh};
+    use crate::test_rng::Rng;
 
     /// A 9 x 7 grid (63 vertices, so the last pack is short; corner, edge and interior vertices
     /// have different bond counts) with 2-ring bonds, bending and hourglass,
@@ -261,19 +262,13 @@ mod tests {
             neighbors: 2,
         };
         let mut m = Membrane::new(TriangleMesh::grid(9, 7, 0.8, 0.6).unwrap(), params).unwrap();
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut noise = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        };
+        let mut rng = Rng::new(5);
         let mut y: Vec<Vector3<f64>> = m
             .positions()
             .iter()
             .map(|p| {
                 let bend = Vector3::new(p.x, p.y, 0.3 * (2.0 * p.x).sin() * p.y);
-                bend + Vector3::new(noise(), noise(), noise()) * 0.02
+                bend + rng.vector() * 0.02
             })
             .collect();
         let hub = 9 * 3 + 4;

@@ -7,20 +7,7 @@ use crate::material::Material;
 use crate::mesh::TriangleMesh;
 
 use super::{Membrane, MembraneParams};
-
-/// Deterministic pseudo-random numbers in [-1, 1) (xorshift), so tests need no extra crate.
-struct Noise(u64);
-impl Noise {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
-    fn vec(&mut self) -> Vector3<f64> {
-        Vector3::new(self.next(), self.next(), self.next())
-    }
-}
+use crate::test_rng::Rng;
 
 fn params(material: Material, bending: f64, hourglass: f64, neighbors: usize) -> MembraneParams {
     MembraneParams {
@@ -52,12 +39,12 @@ fn cylinder_patch() -> TriangleMesh {
     TriangleMesh::new(v, t).unwrap()
 }
 
-fn deform(m: &mut Membrane, noise: &mut Noise, amplitude: f64) {
+fn deform(m: &mut Membrane, noise: &mut Rng, amplitude: f64) {
     let rot = Rotation3::from_scaled_axis(Vector3::new(0.3, -0.2, 0.5));
     let y = m
         .positions()
         .iter()
-        .map(|x| rot * (x * 1.1) + noise.vec() * amplitude)
+        .map(|x| rot * (x * 1.1) + noise.vector() * amplitude)
         .collect();
     m.set_positions(y).unwrap();
 }
@@ -74,7 +61,7 @@ fn forces_are_the_exact_negative_gradient_of_the_energy() {
         TriangleMesh::grid(5, 4, 0.3, 0.2).unwrap(),
         cylinder_patch(),
     ];
-    let mut noise = Noise(0x9e3779b97f4a7c15);
+    let mut noise = Rng::new(0x9e3779b97f4a7c15);
     for material in materials {
         for mesh in &meshes {
             for (bending, hourglass, k) in [(0.0, 0.0, 1), (1e-3, 0.5, 1), (2e-4, 0.2, 2)] {
@@ -85,7 +72,7 @@ fn forces_are_the_exact_negative_gradient_of_the_energy() {
                 let scale = forces.iter().map(|f| f.norm()).fold(0.0, f64::max);
                 let y0 = m.positions().to_vec();
                 for trial in 0..6 {
-                    let dir: Vec<Vector3<f64>> = y0.iter().map(|_| noise.vec()).collect();
+                    let dir: Vec<Vector3<f64>> = y0.iter().map(|_| noise.vector()).collect();
                     let eps = 1e-6;
                     let at = |s: f64, m: &mut Membrane| {
                         m.set_positions(y0.iter().zip(&dir).map(|(y, d)| y + d * s).collect())
@@ -111,7 +98,7 @@ fn forces_are_the_exact_negative_gradient_of_the_energy() {
 /// torques balance in any state.
 #[test]
 fn rigid_motion_is_free_and_forces_balance() {
-    let mut noise = Noise(7);
+    let mut noise = Rng::new(7);
     for mesh in [
         TriangleMesh::grid(6, 6, 0.5, 0.5).unwrap(),
         cylinder_patch(),

@@ -66,26 +66,7 @@ fn segment_parameter(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f6
 pub(crate) mod tests {
     use nalgebra::Vector3;
 
-    /// A small deterministic generator (xorshift), so the tests need no extra crate.
-    pub struct Rng(u64);
-
-    impl Rng {
-        pub fn new(seed: u64) -> Self {
-            Self(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-        }
-
-        /// Uniform in `[-1, 1)`.
-        pub fn uniform(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        }
-
-        pub fn vector(&mut self) -> Vector3<f64> {
-            Vector3::new(self.uniform(), self.uniform(), self.uniform())
-        }
-    }
+    pub use crate::test_rng::Rng;
 
     /// `n` random sets of four points in the unit cube.
     pub fn random_points(n: usize, seed: u64) -> Vec<[Vector3<f64>; 4]> {

@@ -169,18 +169,14 @@ fn build(
 mod tests {
     use super::*;
     use crate::contact::distance::point_triangle_distance_squared;
+    use crate::test_rng::Rng;
 
     /// The tree finds the same nearest distance as checking every triangle, for random
     /// triangles and points near and far.
     #[test]
     fn tree_agrees_with_brute_force() {
-        let mut seed = 11u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = Rng::new(11);
+        let mut next = move || rng.uniform();
         let corners: Vec<[Vector3<f64>; 3]> = (0..500)
             .map(|_| {
                 let c = Vector3::new(next(), next(), next());

@@ -6,6 +6,7 @@ use nalgebra::Vector3;
 
 use super::*;
 use crate::contact::distance::point_triangle_distance_squared;
+use crate::test_rng::Rng;
 
 /// Closed box mesh of half extents `h` at the origin (12 triangles, outward).
 fn box_mesh(h: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[i64; 3]>) {
@@ -97,13 +98,8 @@ fn icosphere(subdivisions: usize, radius: f64) -> (Vec<[f64; 3]>, Vec<[i64; 3]>)
 }
 
 fn random_points(n: usize, seed: u64, half: f64) -> Vec<Vector3<f64>> {
-    let mut s = seed;
-    let mut next = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut rng = Rng::new(seed);
+    let mut next = move || rng.uniform();
     (0..n)
         .map(|_| Vector3::new(next(), next(), next()) * half)
         .collect()
