@@ -18,10 +18,31 @@ fn material_energy(c: Vertex, l: vec3<real>) -> real {
     let j = l.x * l.y * l.z;
     var shear: real = 0.0;
     for (var m = 0u; m < 3u; m++) {
+        // As src/material/neo_hookean.rs: u - ln(1 + u) near 1, u - ln x far from it (in f32
+        // 1 + u does not hold a tiny x = l^2).
         let u = (l[m] - 1.0) * (l[m] + 1.0);
-        shear += max(u - ln_1p(u), 0.0);
+        var term: real;
+        if abs(u) < 0.5 {
+            term = u_minus_ln_1p(u);
+        } else {
+            term = u - ln_real(l[m] * l[m]);
+        }
+        shear += max(term, 0.0);
     }
     return c.s0 * shear + c.s1 * (j - 1.0) * (j - 1.0);
+}
+
+// u - ln(1 + u) for |u| < 1/2: below |u| = 0.1 the series u^2 (1/2 - u/3 + u^2/4 - ...) in 14
+// terms (the difference of the two terms would cancel), as u_minus_ln_1p on the CPU.
+fn u_minus_ln_1p(u: real) -> real {
+    if abs(u) < 0.1 {
+        var series: real = 0.0;
+        for (var k = 15; k >= 2; k--) {
+            series = series * u + select(real(-1.0), real(1.0), k % 2 == 0) / real(k);
+        }
+        return u * u * series;
+    }
+    return u - ln_1p(u);
 }
 
 // dPsi/dl_m, summed from the split P+ + P- like the CPU.

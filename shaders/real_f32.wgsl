@@ -3,6 +3,11 @@
 alias real = f32;
 const REAL_MAX: real = 3.40282347e38;
 
+// ln(x) for x > 0.
+fn ln_real(x: real) -> real {
+    return log(x);
+}
+
 // ln(1 + u) without cancellation for small u.
 fn ln_1p(u: real) -> real {
     let w = 1.0 + u;
