@@ -50,13 +50,14 @@ fn run<T: Real>(n: usize, iterations: usize, steps: usize) -> String {
     let wall = start.elapsed().as_secs_f64() * 1e3 / steps as f64;
     let pick = |f: fn(&StepStats) -> f64| median(all.iter().map(f).collect());
     format!(
-        "{{\"precision\": \"{}\", \"vertices\": {}, \"iterations\": {}, \"threads\": {}, \"ms_per_step\": {:.3}, \"ms_global\": {:.3}, \"ms_predict\": {:.3}, \"ms_finish\": {:.3}, \"ms_per_iteration\": {:.4}, \"wall_ms_per_step_mean\": {:.3}}}",
+        "{{\"precision\": \"{}\", \"vertices\": {}, \"iterations\": {}, \"threads\": {}, \"ms_per_step\": {:.3}, \"ms_global\": {:.3}, \"ms_kernel\": {:.3}, \"ms_predict\": {:.3}, \"ms_finish\": {:.3}, \"ms_per_iteration\": {:.4}, \"wall_ms_per_step_mean\": {:.3}}}",
         T::NAME,
         n * n,
         iterations,
         solver.threads(),
         pick(|s| s.timings.total),
         pick(|s| s.timings.global),
+        pick(|s| s.timings.kernel),
         pick(|s| s.timings.predict),
         pick(|s| s.timings.finish),
         pick(|s| s.timings.global) / iterations as f64,

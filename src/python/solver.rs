@@ -490,6 +490,7 @@ impl PyStepStats {
         for (k, v) in [
             ("predict", t.predict),
             ("global", t.global),
+            ("kernel", t.kernel),
             ("colliders", t.colliders),
             ("finish", t.finish),
             ("total", t.total),

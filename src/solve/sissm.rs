@@ -223,7 +223,9 @@ impl<T: Real> Solver<T> {
             let mut update = match params.method {
                 Method::Sissm => {
                     if iteration > 0 {
+                        let t = Instant::now();
                         evaluate(sys, params.preconditioner);
+                        timings.kernel += millis(t);
                         if params.record_energy {
                             energy = total_energy(sys, h);
                         }

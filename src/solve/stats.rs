@@ -9,6 +9,9 @@ pub struct Timings {
     pub predict: f64,
     /// Global steps (vertex kernel and Jacobi update).
     pub global: f64,
+    /// Of `global`: the vertex kernel (bond gradients, energies and preconditioner blocks of
+    /// every vertex); the rest of `global` is the per-vertex move.
+    pub kernel: f64,
     /// Collider projection (local step).
     pub colliders: f64,
     /// Velocity update and write-back.
