@@ -344,7 +344,9 @@ class StepStats:
     @property
     def contact(self) -> dict:
         """Contact figures (zeros when contact is off): 'candidate_pairs' (triangle pairs of
-        the broad phase's last build, largest over the iterations), 'primitive_pairs'
+        the broad phase's last build, largest over the iterations), 'box_pairs' (the triangle
+        pairs of that build whose inflated boxes overlap, before the distance test that leaves
+        the candidates; largest), 'primitive_pairs'
         (primitive pairs that may come within the barrier's reach, largest), 'active_pairs'
         (primitive pairs within the barrier's reach at the end), 'local_iterations' (descent
         iterations, summed), 'clamped' (vertices the final CCD clamp moved, summed),

@@ -139,8 +139,11 @@ const DRIFT_ALLOWANCE: f64 = 0.1;
 /// What one local step did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ContactStats {
-    /// Candidate triangle pairs of the broad phase's last build.
+    /// Candidate triangle pairs of the broad phase's last build (see [`super::pair_cache`]).
     pub candidate_pairs: usize,
+    /// Triangle pairs of that build whose inflated boxes overlap (before the distance test
+    /// that leaves the candidates).
+    pub box_pairs: usize,
     /// Primitive pairs that may come within the barrier's reach (the live pairs).
     pub primitive_pairs: usize,
     /// Primitive pair CCD queries (descent and guarantee pass).
@@ -162,10 +165,11 @@ pub struct ContactStats {
 }
 
 impl ContactStats {
-    /// Sums the counts and times of two local steps (active pairs: the later one's; candidate
-    /// and primitive pairs: the larger).
+    /// Sums the counts and times of two local steps (active pairs: the later one's; box,
+    /// candidate and primitive pairs: the larger).
     pub fn accumulate(&mut self, other: &ContactStats) {
         self.candidate_pairs = self.candidate_pairs.max(other.candidate_pairs);
+        self.box_pairs = self.box_pairs.max(other.box_pairs);
         self.primitive_pairs = self.primitive_pairs.max(other.primitive_pairs);
         self.ccd_queries += other.ccd_queries;
         self.broad_phase_builds += other.broad_phase_builds;
@@ -275,6 +279,7 @@ pub fn project(
         .live_pairs(safe, positions, allowance, mesh, reach, &mut work.pairs);
     stats.broad_phase_builds += usize::from(built);
     stats.candidate_pairs = work.cache.candidates();
+    stats.box_pairs = work.cache.box_pairs();
     stats.primitive_pairs = work.pairs.len();
     stats.broad_phase_ms += millis(t);
     refill(&mut work.push, n, Vector3::zeros());
@@ -404,6 +409,7 @@ pub fn project(
             let built = cache.live_pairs(safe, target, allowance, mesh, reach, pairs);
             stats.broad_phase_builds += usize::from(built);
             stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
+            stats.box_pairs = stats.box_pairs.max(cache.box_pairs());
             stats.primitive_pairs = stats.primitive_pairs.max(pairs.len());
             start_distances(pairs, safe, start);
             refill(toi, pairs.len(), None);

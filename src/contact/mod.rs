@@ -19,4 +19,5 @@ pub use collider::{Collider, ColliderModel, Shape, ShapeModel};
 pub use local_step::{project, ContactParams, ContactStats, Workspace};
 pub use motion::MovingCollider;
 pub use pose::{rotation_matrix, Pose};
+pub use primitive_pairs::closest_primitive_distance;
 pub use sdf::SdfGrid;

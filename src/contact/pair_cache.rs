@@ -2,9 +2,12 @@
 //! a Verlet neighbour list: the broad phase and the expansion into primitive pairs run only
 //! when some vertex may have left the region the lists were built for.
 //!
-//! A build at reference positions `r` (m) with skin `R` (m) keeps every primitive pair of the
-//! triangle pairs whose boxes around `r`, inflated by `R + reach / 2`, overlap, together with
-//! its distance `d_r` at `r`. A local step then bounds, per vertex, how far from `r` it can get:
+//! A build at reference positions `r` (m) with skin `R` (m) keeps, with its distance `d_r` at
+//! `r`, every primitive pair closer than `reach + 2 R` at `r` that belongs to a candidate: a
+//! triangle pair (sharing no vertex) whose boxes around `r`, inflated by `R + reach / 2`,
+//! overlap and one of whose 15 primitive pairs is closer than `reach + 2 R` at `r`. The second
+//! test matters on fine meshes: there the padding exceeds the triangle size, and a box
+//! overlaps those of dozens of triangles of the same sheet that are much farther apart. A local step then bounds, per vertex, how far from `r` it can get:
 //! `b_i = |s_i - r_i| + |y_i - s_i| + D`, with `s` the safe positions, `y` the global step's
 //! result and `D` a bound on the descent's total move of any vertex (m). Why `b_i` bounds
 //! `|x_i - r_i|` at every position `x` the local step looks at: `|x_i - r_i| <= |s_i - r_i| +
@@ -14,10 +17,12 @@
 //! counts; the points `s + t (z - s)` the CCD visits are closer to `s` still.
 //!
 //! Two consequences, both conservative:
-//! - **Reuse**: while `max_i b_i <= R`, every triangle stays inside its box around `r`
-//!   inflated by `R` (its points are convex combinations of its vertices), so two triangles
-//!   closer than `reach` have boxes inflated by `R + reach / 2` that overlap: the stored pairs
-//!   are a superset of the ones a fresh broad phase would find.
+//! - **Reuse**: while `max_i b_i <= R`, every point of a triangle stays within `R` of where it
+//!   was at `r` (its points are convex combinations of its vertices), so a primitive pair
+//!   within `reach` at `x` was closer than `reach + 2 R` at `r`: its triangle pairs had
+//!   overlapping inflated boxes and a primitive pair (itself) that close, so they were
+//!   candidates, and it was kept. The stored pairs are a superset of the ones a fresh broad
+//!   phase would find.
 //! - **Skip**: a point of a primitive moves at most the largest `b_i` of its vertices, so at
 //!   every such `x` the pair's distance is at least `d_r - max_A b - max_B b` (A, B the two
 //!   primitives). Where that is `>= reach` the pair feels no barrier (it acts only below
@@ -30,7 +35,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::broad_phase::{BroadPhase, ContactMesh};
-use super::primitive_pairs::{primitive_pairs, Pair};
+use super::primitive_pairs::{close_primitive_pairs, closest_primitive_distance, Pair};
 
 /// The primitive pairs of the last build and their distances at its reference positions.
 #[derive(Default)]
@@ -44,9 +49,15 @@ pub(super) struct PairCache {
     reference: Vec<Vector3<f64>>,
     /// `R`: how far a vertex may move from `reference` before the lists must be rebuilt (m).
     skin: f64,
-    /// Candidate triangle pairs of the last build.
-    candidates: usize,
+    /// Triangle pairs of the last build whose inflated boxes overlap.
+    box_pairs: usize,
+    /// Those of them with a primitive pair closer than `reach + 2 R` at `reference`: the
+    /// candidates.
+    candidates: Vec<(u32, u32)>,
     pairs: Vec<Pair>,
+    /// The build's pairs with their distances, before they are split into `pairs` and
+    /// `distance`.
+    found: Vec<(Pair, f64)>,
     /// Per pair: distance at `reference` (m).
     distance: Vec<f64>,
     /// Per vertex: `b_i - D` (m), the bound without the descent's allowance.
@@ -54,9 +65,15 @@ pub(super) struct PairCache {
 }
 
 impl PairCache {
-    /// Candidate triangle pairs of the last build.
+    /// Candidate triangle pairs of the last build (see the module doc).
     pub fn candidates(&self) -> usize {
-        self.candidates
+        self.candidates.len()
+    }
+
+    /// Triangle pairs of the last build whose inflated boxes overlap (the candidates before
+    /// the distance test).
+    pub fn box_pairs(&self) -> usize {
+        self.box_pairs
     }
 
     /// Writes into `live` the pairs that may come within `reach` (m) while the descent moves no
@@ -123,8 +140,9 @@ impl PairCache {
     /// Builds the lists at `r = safe`. The skin `R = 2 max_i |y_i - s_i| + D + reach / 4` is a
     /// cost trade-off only (any `R >= max_i b_i` is correct): room for about one more global
     /// step's move, and a quarter reach of slow drift, before the next build; a larger skin is
-    /// reused longer but keeps more pairs (their number grows with the square of the padding
-    /// over the triangle size), each filtered at every local step.
+    /// reused longer but keeps more pairs (all those within `reach + 2 R` on a sheet: their
+    /// number grows with the square of `(reach + 2 R) / l`, `l` the edge length), each
+    /// filtered at every local step.
     fn build(
         &mut self,
         safe: &[Vector3<f64>],
@@ -144,15 +162,30 @@ impl PairCache {
         self.bound_motion(safe, target);
         self.skin = 2.0 * largest(&self.bound) + allowance + 0.25 * reach;
         let reference = &self.reference;
-        let candidates =
-            self.broad_phase
-                .candidate_pairs(reference, reference, mesh, reach + 2.0 * self.skin);
-        self.candidates = candidates.len();
-        primitive_pairs(mesh.triangles, candidates, &mut self.pairs);
-        self.pairs
-            .par_iter()
-            .map(|p| p.closest(reference).separation.norm())
-            .collect_into_vec(&mut self.distance);
+        let limit = reach + 2.0 * self.skin;
+        // NaN distances (NaN positions) are kept.
+        let boxes = self
+            .broad_phase
+            .candidate_pairs(reference, reference, mesh, limit);
+        self.box_pairs = boxes.len();
+        self.candidates.clear();
+        self.candidates.par_extend(boxes.par_iter().copied().filter(|&(a, b)| {
+            let (ta, tb) = (&mesh.triangles[a as usize], &mesh.triangles[b as usize]);
+            let d = closest_primitive_distance(reference, ta, tb);
+            d < limit || d.is_nan()
+        }));
+        // A primitive pair `reach + 2 R` apart cannot come within `reach` before the next build.
+        close_primitive_pairs(
+            mesh.triangles,
+            &self.candidates,
+            reference,
+            limit,
+            &mut self.found,
+        );
+        self.pairs.clear();
+        self.pairs.extend(self.found.iter().map(|&(p, _)| p));
+        self.distance.clear();
+        self.distance.extend(self.found.iter().map(|&(_, d)| d));
     }
 }
 
@@ -168,6 +201,118 @@ fn largest(values: &[f64]) -> f64 {
 mod tests {
     use super::super::distance::tests::Rng;
     use super::*;
+
+    /// Checks, at points along the way from `safe` to `target` each moved by up to
+    /// `allowance` (m), that every pair of `every` within `reach` (m) is in `live`; returns how
+    /// many were within reach.
+    #[allow(clippy::too_many_arguments)]
+    fn assert_live_hold_every_pair_within_reach(
+        every: &[Pair],
+        live: &[Pair],
+        safe: &[Vector3<f64>],
+        target: &[Vector3<f64>],
+        allowance: f64,
+        reach: f64,
+        rng: &mut Rng,
+        step: usize,
+    ) -> usize {
+        let mut within = 0;
+        for t in [0.0, 0.3, 0.7, 1.0] {
+            let x: Vec<_> = safe
+                .iter()
+                .zip(target)
+                .map(|(s, y)| s + (y - s) * t + rng.vector() * (allowance / 3f64.sqrt()))
+                .collect();
+            for p in every {
+                if p.closest(&x).separation.norm() < reach {
+                    within += 1;
+                    assert!(live.binary_search(p).is_ok(), "step {step}: missed {p:?}");
+                }
+            }
+        }
+        within
+    }
+
+    /// A rolled-up grid (a spiral of one and a half turns, its layers a little more than the
+    /// barrier's reach apart, jittered) moving over several local steps: the live pairs hold
+    /// every primitive pair of non-adjacent triangles that a brute-force search finds within
+    /// `reach` along the way; each build's candidates are exactly the triangle pairs with a
+    /// primitive pair closer than `reach + 2 R` (brute force), at the first build less than half
+    /// the box pairs, and its stored primitive pairs are all closer than that.
+    #[test]
+    fn crumpled_grid_keeps_every_pair_a_brute_force_search_finds() {
+        let mut rng = Rng::new(19);
+        let n = 14u32;
+        let gap = 0.03;
+        let mut safe = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let theta = 3.0 * std::f64::consts::PI * f64::from(i) / f64::from(n - 1);
+                let r = 0.1 + gap * theta / (2.0 * std::f64::consts::PI);
+                let (u, v) = (r * theta.cos(), r * theta.sin());
+                safe.push(Vector3::new(u, f64::from(j) * 0.04, v) + rng.vector() * 0.003);
+            }
+        }
+        let mut triangles = Vec::new();
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                let v = j * n + i;
+                triangles.push([v, v + 1, v + n + 1]);
+                triangles.push([v, v + n + 1, v + n]);
+            }
+        }
+        let body = vec![0; triangles.len()];
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[true],
+        };
+        let nt = triangles.len();
+        let all: Vec<(u32, u32)> = (0..nt)
+            .flat_map(|a| (a + 1..nt).map(move |b| (a, b)))
+            .filter(|&(a, b)| mesh.may_touch(a, b))
+            .map(|(a, b)| (a as u32, b as u32))
+            .collect();
+        let mut every = Vec::new();
+        close_primitive_pairs(&triangles, &all, &safe, f64::INFINITY, &mut every);
+        let every: Vec<Pair> = every.into_iter().map(|(p, _)| p).collect();
+        let (reach, allowance) = (0.02, 0.002);
+        let mut cache = PairCache::default();
+        let mut live = Vec::new();
+        let mut builds = Vec::new();
+        let mut within = 0;
+        for (k, size) in [0.002, 0.004, 0.015, 0.002, 0.004].into_iter().enumerate() {
+            let target: Vec<_> = safe.iter().map(|p| p + rng.vector() * size).collect();
+            let built = cache.live_pairs(&safe, &target, allowance, &mesh, reach, &mut live);
+            builds.push(built);
+            if built {
+                let limit = reach + 2.0 * cache.skin;
+                let r = &cache.reference;
+                let near: Vec<_> = all
+                    .iter()
+                    .copied()
+                    .filter(|&(a, b)| {
+                        closest_primitive_distance(r, &triangles[a as usize], &triangles[b as usize])
+                            < limit
+                    })
+                    .collect();
+                assert_eq!(cache.candidates, near, "step {k}");
+                assert!(
+                    k > 0 || 2 * cache.candidates() < cache.box_pairs(),
+                    "step {k}: {} candidates of {} box pairs",
+                    cache.candidates(),
+                    cache.box_pairs()
+                );
+                assert!(cache.distance.iter().all(|&d| d < limit));
+            }
+            within += assert_live_hold_every_pair_within_reach(
+                &every, &live, &safe, &target, allowance, reach, &mut rng, k,
+            );
+            safe = target;
+        }
+        assert!(within > 100, "the scene has pairs within reach: {within}");
+        assert_eq!(builds, [true, false, true, false, false]);
+    }
 
     /// Over a sequence of local steps (small moves that reuse the build, a large one that
     /// forces a new build), the live pairs hold every primitive pair a fresh brute-force
@@ -195,7 +340,8 @@ mod tests {
             .flat_map(|a| (a + 1..n as u32).map(move |b| (a, b)))
             .collect();
         let mut every = Vec::new();
-        primitive_pairs(&triangles, &all, &mut every);
+        close_primitive_pairs(&triangles, &all, &safe, f64::INFINITY, &mut every);
+        let every: Vec<Pair> = every.into_iter().map(|(p, _)| p).collect();
         let (reach, allowance) = (0.03, 0.005);
         let mut cache = PairCache::default();
         let mut live = Vec::new();
@@ -212,19 +358,9 @@ mod tests {
                     live.len()
                 );
             }
-            for t in [0.0, 0.3, 0.7, 1.0] {
-                let x: Vec<_> = safe
-                    .iter()
-                    .zip(&target)
-                    .map(|(s, y)| s + (y - s) * t + rng.vector() * (allowance / 3f64.sqrt()))
-                    .collect();
-                for p in &every {
-                    if p.closest(&x).separation.norm() < reach {
-                        within += 1;
-                        assert!(live.binary_search(p).is_ok(), "step {k}: missed {p:?}");
-                    }
-                }
-            }
+            within += assert_live_hold_every_pair_within_reach(
+                &every, &live, &safe, &target, allowance, reach, &mut rng, k,
+            );
             safe = target;
         }
         assert!(within > 100, "the scene has pairs within reach: {within}");

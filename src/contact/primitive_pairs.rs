@@ -67,56 +67,124 @@ impl Pair {
     }
 }
 
-/// Writes into `pairs` the primitive pairs of the candidate triangle pairs, sorted and
-/// deduplicated (reusing its allocation).
-pub(super) fn primitive_pairs(
-    triangles: &[[u32; 3]],
-    candidates: &[(u32, u32)],
-    pairs: &mut Vec<Pair>,
-) {
+/// The 6 point-triangle and 9 edge-edge pairs of the triangles `ti` and `tj` (eq. 48), each
+/// edge-edge pair with its lower edge first (so that expansions of several triangle pairs
+/// deduplicate).
+fn expand(ti: &[u32; 3], tj: &[u32; 3]) -> [Pair; PER_TRIANGLE_PAIR] {
     let edge = |t: &[u32; 3], k: usize| {
         let (a, b) = (t[k], t[(k + 1) % 3]);
         [a.min(b), a.max(b)]
     };
-    let blank = Pair {
+    let mut out = [Pair {
         edge_edge: false,
         v: [0; 4],
-    };
-    pairs.clear();
-    pairs.resize(PER_TRIANGLE_PAIR * candidates.len(), blank);
-    pairs
-        .par_chunks_mut(PER_TRIANGLE_PAIR)
-        .zip(candidates)
-        .for_each(|(out, &(i, j))| {
-            let (ti, tj) = (&triangles[i as usize], &triangles[j as usize]);
-            let mut out = out.iter_mut();
-            for (a, b) in [(ti, tj), (tj, ti)] {
-                for &p in a {
-                    *out.next().expect("15 slots") = Pair {
-                        edge_edge: false,
-                        v: [p, b[0], b[1], b[2]],
-                    };
-                }
-            }
-            for ki in 0..3 {
-                for kj in 0..3 {
-                    let (ea, eb) = (edge(ti, ki), edge(tj, kj));
-                    let (ea, eb) = if ea <= eb { (ea, eb) } else { (eb, ea) };
-                    *out.next().expect("15 slots") = Pair {
-                        edge_edge: true,
-                        v: [ea[0], ea[1], eb[0], eb[1]],
-                    };
-                }
-            }
-        });
-    pairs.par_sort_unstable();
-    pairs.dedup();
+    }; PER_TRIANGLE_PAIR];
+    let mut slots = out.iter_mut();
+    for (a, b) in [(ti, tj), (tj, ti)] {
+        for &p in a {
+            *slots.next().expect("15 slots") = Pair {
+                edge_edge: false,
+                v: [p, b[0], b[1], b[2]],
+            };
+        }
+    }
+    for ki in 0..3 {
+        for kj in 0..3 {
+            let (ea, eb) = (edge(ti, ki), edge(tj, kj));
+            let (ea, eb) = if ea <= eb { (ea, eb) } else { (eb, ea) };
+            *slots.next().expect("15 slots") = Pair {
+                edge_edge: true,
+                v: [ea[0], ea[1], eb[0], eb[1]],
+            };
+        }
+    }
+    out
+}
+
+/// The smallest of the 15 primitive distances (eq. 48) of the triangles `ti` and `tj` at the
+/// positions `x` (m): their distance unless they cross (two disjoint triangles' closest points
+/// lie on a vertex of one or on an edge of each), and at least the distance of every
+/// primitive pair they expand into. NaN if a position is NaN.
+pub fn closest_primitive_distance(x: &[Vector3<f64>], ti: &[u32; 3], tj: &[u32; 3]) -> f64 {
+    expand(ti, tj)
+        .iter()
+        .map(|p| p.closest(x).separation.norm())
+        .fold(f64::INFINITY, |m, d| if d.is_nan() || d < m { d } else { m })
+}
+
+/// Writes into `found` the primitive pairs of the candidate triangle pairs that are closer
+/// than `limit` (m) at the positions `x` (m), each with that distance (NaN distances count as
+/// close), sorted by pair and deduplicated (reusing its allocation). Each distance is computed
+/// once, and only the close pairs are sorted.
+pub(super) fn close_primitive_pairs(
+    triangles: &[[u32; 3]],
+    candidates: &[(u32, u32)],
+    x: &[Vector3<f64>],
+    limit: f64,
+    found: &mut Vec<(Pair, f64)>,
+) {
+    found.clear();
+    found.par_extend(candidates.par_iter().flat_map_iter(|&(i, j)| {
+        expand(&triangles[i as usize], &triangles[j as usize])
+            .into_iter()
+            .map(|p| (p, p.closest(x).separation.norm()))
+            .filter(|&(_, d)| d < limit || d.is_nan())
+    }));
+    found.par_sort_unstable_by(|a, b| a.0.cmp(&b.0));
+    found.dedup_by(|a, b| a.0 == b.0);
 }
 
 #[cfg(test)]
 mod tests {
     use super::super::distance::tests::Rng;
     use super::*;
+
+    /// For triangles on either side of a plane (so they do not cross), the closest primitive
+    /// distance is the smallest distance between their points: never above the distance of
+    /// sampled points on them, close to the sampled minimum, and exact for a triangle lifted
+    /// along its normal.
+    #[test]
+    fn closest_primitive_distance_is_the_distance_of_disjoint_triangles() {
+        let mut rng = Rng::new(5);
+        let sample = |x: &[Vector3<f64>], t: &[u32; 3], rng: &mut Rng| {
+            let (mut a, mut b) = (rng.uniform().abs(), rng.uniform().abs());
+            if a + b > 1.0 {
+                (a, b) = (1.0 - a, 1.0 - b);
+            }
+            let [p, q, r] = t.map(|v| x[v as usize]);
+            p + (q - p) * a + (r - p) * b
+        };
+        let (ti, tj) = ([0, 1, 2], [3, 4, 5]);
+        for k in 0..300 {
+            // Below and above the plane z = 0.
+            let x: Vec<_> = (0..6)
+                .map(|v| {
+                    let mut p = rng.vector();
+                    p.z = p.z.abs() * if v < 3 { -1.0 } else { 1.0 };
+                    p
+                })
+                .collect();
+            let d = closest_primitive_distance(&x, &ti, &tj);
+            let a: Vec<_> = (0..60).map(|_| sample(&x, &ti, &mut rng)).collect();
+            let b: Vec<_> = (0..60).map(|_| sample(&x, &tj, &mut rng)).collect();
+            let sampled = a
+                .iter()
+                .flat_map(|p| b.iter().map(move |q| (p - q).norm()))
+                .fold(f64::INFINITY, f64::min);
+            assert!(d <= sampled + 1e-12, "case {k}: {d} above sampled {sampled}");
+            assert!(sampled - d < 0.4, "case {k}: {d} far below sampled {sampled}");
+            // The first triangle lifted by 0.25 along its normal: exactly 0.25 apart.
+            let normal = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
+            let lifted: Vec<_> = (0..6)
+                .map(|v| x[v % 3] + normal * (0.25 * (v / 3) as f64))
+                .collect();
+            let d = closest_primitive_distance(&lifted, &ti, &tj);
+            assert!((d - 0.25).abs() < 1e-9, "case {k}: {d}");
+        }
+        let mut x = vec![Vector3::zeros(); 6];
+        x[4].x = f64::NAN;
+        assert!(closest_primitive_distance(&x, &ti, &tj).is_nan());
+    }
 
     /// Moving every vertex by at most its bound never brings a pair closer than
     /// [`Pair::distance_bound`], and a NaN bound stays NaN.

@@ -4,12 +4,13 @@
 use nalgebra::Vector3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use rayon::prelude::*;
 
 use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use crate::contact::distance::{edge_edge_closest, point_triangle_closest, Closest};
-use crate::contact::ContactParams;
+use crate::contact::{closest_primitive_distance, BroadPhase, ContactMesh, ContactParams};
 
-use super::arrays::{to_numpy, to_numpy_1d, vec3s};
+use super::arrays::{self, to_numpy, to_numpy_1d, vec3s};
 use super::errors::IntoPyResult;
 
 /// Four (n, 3) arrays as n quadruples of points.
@@ -84,6 +85,73 @@ fn edge_edge_distance<'py>(
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let x = quadruples([(a0, "a0"), (a1, "a1"), (b0, "b0"), (b1, "b1")])?;
     distances(a0.py(), x, edge_edge_closest)
+}
+
+/// Triangle pairs for geometric checks: the pairs of triangles sharing no vertex whose
+/// bounding boxes at `positions` ((n, 3), m), inflated by `reach / 2` (m) on each side,
+/// overlap (the solver's broad phase; every pair closer than `reach` is among them), and per
+/// pair the smallest of its 15 primitive distances (eq. 48; m), which is the triangles'
+/// distance unless they cross. Returns `(pairs, distances)`, shapes (m, 2) int64 (`a < b`,
+/// sorted) and (m,).
+#[pyfunction]
+fn near_triangle_pairs<'py>(
+    positions: &Bound<'py, PyAny>,
+    triangles: &Bound<'py, PyAny>,
+    reach: f64,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    if !(reach > 0.0 && reach.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "reach must be a finite distance > 0 m, got {reach}"
+        )));
+    }
+    let x = vec3s(positions, "positions", None)?;
+    if let Some(bad) = x.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(PyValueError::new_err(format!(
+            "positions must be finite, row {bad} is {:?}",
+            x[bad].as_slice()
+        )));
+    }
+    let n = x.len() as i64;
+    let tris = triangles_in(triangles, "triangles", n)?;
+    let py = positions.py();
+    let (pairs, distances): (Vec<(u32, u32)>, Vec<f64>) = py.detach(|| {
+        let body = vec![0; tris.len()];
+        let mesh = ContactMesh {
+            triangles: &tris,
+            body: &body,
+            self_contact: &[true],
+        };
+        let mut grid = BroadPhase::default();
+        let pairs = grid.candidate_pairs(&x, &x, &mesh, reach).to_vec();
+        let distances = pairs
+            .par_iter()
+            .map(|&(a, b)| {
+                closest_primitive_distance(&x, &tris[a as usize], &tris[b as usize])
+            })
+            .collect();
+        (pairs, distances)
+    });
+    let flat: Vec<i64> = pairs.iter().flat_map(|&(a, b)| [a.into(), b.into()]).collect();
+    let m = pairs.len();
+    let pairs = to_numpy_1d(py, flat).call_method1("reshape", (m, 2))?;
+    Ok((pairs, to_numpy_1d(py, distances)))
+}
+
+/// An (m, 3) integer array of vertex indices in `[0, n)`.
+fn triangles_in(obj: &Bound<'_, PyAny>, name: &str, n: i64) -> PyResult<Vec<[u32; 3]>> {
+    arrays::triangles(obj, name)?
+        .into_iter()
+        .enumerate()
+        .map(|(t, tri)| {
+            if tri.iter().all(|&v| (0..n).contains(&v)) {
+                Ok(tri.map(|v| v as u32))
+            } else {
+                Err(PyValueError::new_err(format!(
+                    "{name}[{t}] = {tri:?} has an index outside [0, {n})"
+                )))
+            }
+        })
+        .collect()
 }
 
 type Ccd = fn(&[Vector3<f64>; 4], &[Vector3<f64>; 4], f64, &AdditiveCcd) -> Option<f64>;
@@ -249,6 +317,7 @@ impl PyContact {
 pub fn module<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyModule>> {
     let m = PyModule::new(py, "contact")?;
     m.add_function(wrap_pyfunction!(point_triangle_distance, &m)?)?;
+    m.add_function(wrap_pyfunction!(near_triangle_pairs, &m)?)?;
     m.add_function(wrap_pyfunction!(edge_edge_distance, &m)?)?;
     m.add_function(wrap_pyfunction!(point_triangle_ccd_additive, &m)?)?;
     m.add_function(wrap_pyfunction!(edge_edge_ccd_additive, &m)?)?;

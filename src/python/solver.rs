@@ -500,7 +500,9 @@ impl PyStepStats {
         Ok(d)
     }
     /// Contact figures of the step (zeros when contact is off): `candidate_pairs` (triangle
-    /// pairs of the broad phase's last build, largest over the iterations), `primitive_pairs`
+    /// pairs of the broad phase's last build, largest over the iterations), `box_pairs` (the
+    /// triangle pairs of that build whose inflated boxes overlap, before the distance test that
+    /// leaves the candidates; largest), `primitive_pairs`
     /// (primitive pairs that may come within the barrier's reach, largest), `active_pairs`
     /// (primitive pairs within the barrier's reach at the end), `local_iterations` (descent
     /// iterations, summed), `clamped` (vertices the final CCD clamp moved, summed),
@@ -512,6 +514,7 @@ impl PyStepStats {
         let c = &self.inner.contact;
         let d = PyDict::new(py);
         d.set_item("candidate_pairs", c.candidate_pairs)?;
+        d.set_item("box_pairs", c.box_pairs)?;
         d.set_item("primitive_pairs", c.primitive_pairs)?;
         d.set_item("active_pairs", c.active_pairs)?;
         d.set_item("local_iterations", c.iterations)?;
