@@ -109,7 +109,10 @@ pub fn closest_primitive_distance(x: &[Vector3<f64>], ti: &[u32; 3], tj: &[u32; 
     expand(ti, tj)
         .iter()
         .map(|p| p.closest(x).separation.norm())
-        .fold(f64::INFINITY, |m, d| if d.is_nan() || d < m { d } else { m })
+        .fold(
+            f64::INFINITY,
+            |m, d| if d.is_nan() || d < m { d } else { m },
+        )
 }
 
 /// Writes into `found` the primitive pairs of the candidate triangle pairs that are closer
@@ -171,8 +174,14 @@ mod tests {
                 .iter()
                 .flat_map(|p| b.iter().map(move |q| (p - q).norm()))
                 .fold(f64::INFINITY, f64::min);
-            assert!(d <= sampled + 1e-12, "case {k}: {d} above sampled {sampled}");
-            assert!(sampled - d < 0.4, "case {k}: {d} far below sampled {sampled}");
+            assert!(
+                d <= sampled + 1e-12,
+                "case {k}: {d} above sampled {sampled}"
+            );
+            assert!(
+                sampled - d < 0.4,
+                "case {k}: {d} far below sampled {sampled}"
+            );
             // The first triangle lifted by 0.25 along its normal: exactly 0.25 apart.
             let normal = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
             let lifted: Vec<_> = (0..6)

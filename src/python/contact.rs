@@ -125,13 +125,14 @@ fn near_triangle_pairs<'py>(
         let pairs = grid.candidate_pairs(&x, &x, &mesh, reach).to_vec();
         let distances = pairs
             .par_iter()
-            .map(|&(a, b)| {
-                closest_primitive_distance(&x, &tris[a as usize], &tris[b as usize])
-            })
+            .map(|&(a, b)| closest_primitive_distance(&x, &tris[a as usize], &tris[b as usize]))
             .collect();
         (pairs, distances)
     });
-    let flat: Vec<i64> = pairs.iter().flat_map(|&(a, b)| [a.into(), b.into()]).collect();
+    let flat: Vec<i64> = pairs
+        .iter()
+        .flat_map(|&(a, b)| [a.into(), b.into()])
+        .collect();
     let m = pairs.len();
     let pairs = to_numpy_1d(py, flat).call_method1("reshape", (m, 2))?;
     Ok((pairs, to_numpy_1d(py, distances)))
