@@ -54,12 +54,8 @@ pub(super) struct PairCache {
     /// Those of them with a primitive pair closer than `reach + 2 R` at `reference`: the
     /// candidates.
     candidates: Vec<(u32, u32)>,
-    pairs: Vec<Pair>,
-    /// The build's pairs with their distances, before they are split into `pairs` and
-    /// `distance`.
-    found: Vec<(Pair, f64)>,
-    /// Per pair: distance at `reference` (m).
-    distance: Vec<f64>,
+    /// The primitive pairs of the build, each with its distance at `reference` (m).
+    pairs: Vec<(Pair, f64)>,
     /// Per vertex: `b_i - D` (m), the bound without the descent's allowance.
     bound: Vec<f64>,
 }
@@ -102,9 +98,8 @@ impl PairCache {
         live.par_extend(
             self.pairs
                 .par_iter()
-                .zip(&self.distance)
-                .filter(|(pair, &d)| {
-                    let lower = pair.distance_bound(d, bound, allowance);
+                .filter(|(pair, d)| {
+                    let lower = pair.distance_bound(*d, bound, allowance);
                     lower < reach || lower.is_nan()
                 })
                 .map(|(pair, _)| *pair),
@@ -181,12 +176,8 @@ impl PairCache {
             &self.candidates,
             reference,
             limit,
-            &mut self.found,
+            &mut self.pairs,
         );
-        self.pairs.clear();
-        self.pairs.extend(self.found.iter().map(|&(p, _)| p));
-        self.distance.clear();
-        self.distance.extend(self.found.iter().map(|&(_, d)| d));
     }
 }
 
@@ -307,7 +298,7 @@ mod tests {
                     cache.candidates(),
                     cache.box_pairs()
                 );
-                assert!(cache.distance.iter().all(|&d| d < limit));
+                assert!(cache.pairs.iter().all(|&(_, d)| d < limit));
             }
             within += assert_live_hold_every_pair_within_reach(
                 &every, &live, &safe, &target, allowance, reach, &mut rng, k,
