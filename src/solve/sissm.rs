@@ -33,7 +33,7 @@ use crate::membrane::{Membrane, Preconditioner};
 use crate::real::Real;
 
 use super::contact_step::ContactState;
-use super::descent::{descent_iteration, LineSearch};
+use super::descent::{descent_iteration, DescentState, LineSearch};
 use super::evaluate::{evaluate, inertial_energy, total_energy};
 use super::jacobi::{jacobi_update, MoveOptions, Update};
 use super::system::System;
@@ -47,6 +47,8 @@ pub struct Solver<T: Real> {
     system: Option<System<T>>,
     /// Contact topology of the current body list (built on the first step with contact).
     contact: Option<ContactState<T>>,
+    /// The descent method's working set (built on the first descent step).
+    descent: Option<DescentState>,
     clock: Clock,
 }
 
@@ -74,6 +76,7 @@ impl<T: Real> Solver<T> {
             pool,
             system: None,
             contact: None,
+            descent: None,
             clock: Clock::default(),
         })
     }
@@ -157,6 +160,10 @@ impl<T: Real> Solver<T> {
         if !self.system.as_ref().is_some_and(|s| s.matches(bodies)) {
             self.system = Some(System::build(bodies, true));
             self.contact = None;
+            self.descent = None;
+        }
+        if params.method == Method::Descent && self.descent.is_none() {
+            self.descent = Some(DescentState::new(bodies));
         }
         let step_end = self.clock.time + params.dt;
         let colliders: Vec<ColliderModel<T>> = self
@@ -199,11 +206,16 @@ impl<T: Real> Solver<T> {
         if accelerated && sys.y_prev.len() != sys.y.len() {
             sys.y_prev = sys.y.clone();
         }
-        let mut search = LineSearch { alpha: 1.0, energy };
+        let mut search = LineSearch::new(energy);
         let mut omega = 1.0;
+        // Iteration at which the Chebyshev sequence (re)started: 0, or after a descent trial
+        // was rejected.
+        let mut chebyshev_origin = 0;
         for iteration in 0..params.max_iters {
             let t = Instant::now();
-            let extrapolation = params.acceleration.omega(iteration, omega);
+            let extrapolation = params
+                .acceleration
+                .omega(iteration - chebyshev_origin, omega);
             omega = extrapolation.unwrap_or(1.0);
             let contact_reaction = self
                 .contact
@@ -239,7 +251,20 @@ impl<T: Real> Solver<T> {
                     if params.record_energy {
                         stats.energies.push(search.energy);
                     }
-                    descent_iteration(sys, h, params.preconditioner, &options, &mut search)
+                    let state = self.descent.as_mut().expect("built above");
+                    let update = descent_iteration(
+                        sys,
+                        state,
+                        h,
+                        params.preconditioner,
+                        &options,
+                        &mut search,
+                    );
+                    if search.restarted {
+                        chebyshev_origin = iteration + 1;
+                        omega = 1.0;
+                    }
+                    update
                 }
             };
             timings.global += millis(t);
