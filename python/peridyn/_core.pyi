@@ -379,8 +379,11 @@ class Solver:
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
-    method : "sissm" (the paper's method) or "descent" (Jacobi-preconditioned gradient descent
-        with a line search on the energy, Wang and Yang 2016: the baseline of Fig. 13).
+    method : "sissm" (the paper's method) or "descent" (the baseline of Fig. 13, Wang and Yang
+        2016: gradient descent preconditioned by the diagonal of the energy's Hessian, with a
+        step length halved whenever the energy would rise and Chebyshev restarted then; the
+        Hessian diagonal is taken by finite differences, so an iteration costs tens of SISSM
+        iterations).
     inner_iters : Jacobi sweeps on the linear system of eq. 25 per global iteration (Fig. 6).
     backend : "cpu" (Rust, rayon threads) or "gpu" (wgpu compute shaders, state on the device;
         f32 by default, f64 where the adapter has SHADER_F64; raises RuntimeError naming what

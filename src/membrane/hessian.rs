@@ -1,7 +1,7 @@
 //! The diagonal 3x3 blocks of the elastic energy's Hessian, `H_kk = d^2 U / dy_k^2` with
-//! `U = sum_i E_i`: the Jacobi preconditioner of the descent baseline (Wang and Yang 2016,
-//! section 4: "Jacobi preconditioning" with the diagonal of the Hessian of the variational
-//! energy, whose mass part `m_k I` the solver adds).
+//! `U = sum_i E_i`: the Jacobi preconditioner of the descent baseline (Wang and Yang 2016 precondition
+//! gradient descent with the diagonal of the Hessian of the variational energy, whose mass part
+//! `m_k I` the solver adds; see `solve/descent.rs`).
 //!
 //! `E_i` depends on the bond vectors `e_j = y_j - y_i` of vertex `i`'s stencil, so
 //!
@@ -148,9 +148,8 @@ fn shifted_gradients(
         }
         vertex_kernel(&packed, Preconditioner::Tangent, &mut trial);
         for (l, slot) in out[first..].iter_mut().take(F64Pack::LANES).enumerate() {
-            let lane = |v: &Vector3<F64Pack>| {
-                Vector3::new(v.x.extract(l), v.y.extract(l), v.z.extract(l))
-            };
+            let lane =
+                |v: &Vector3<F64Pack>| Vector3::new(v.x.extract(l), v.y.extract(l), v.z.extract(l));
             let (s, _) = lane_shift(l);
             *slot = if s < n {
                 lane(&trial[s])

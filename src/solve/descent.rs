@@ -1,6 +1,9 @@
 //! The baseline of the paper's Fig. 13: Jacobi-preconditioned gradient descent on the
 //! variational energy with an adaptive step length (Wang and Yang 2016, "Descent methods for
-//! elastic body simulation on the GPU", section 4-5), optionally Chebyshev-accelerated.
+//! elastic body simulation on the GPU"), optionally Chebyshev-accelerated. Their paper is not
+//! in `/work/shared/papers`; this follows its abstract (Jacobi preconditioning, Chebyshev
+//! acceleration, no dot products) and Lu et al. 2023's account of its line search (section 1:
+//! the Armijo condition with `lambda = 0`, values of `alpha` reused across iterations).
 //!
 //! Implicit Euler minimises `E(y) = sum_k m_k |y_k - y*_k|^2 / (2 h^2) + U(y)` (J). Scaled by
 //! `h^2`, its gradient is `-r` with `r_k = m_k (y*_k - y_k) + h^2 f_k(y)` (kg m) and its Hessian
@@ -13,12 +16,13 @@
 //! preconditioner, i.e. the diagonal entries of the Hessian of `h^2 E`. A diagonal entry of the
 //! elastic Hessian is negative only where the energy is non-convex along that axis (a
 //! compressed or buckling neighbourhood); it is floored at zero, so `P_k >= m_k I > 0` and the
-//! move is a descent direction of `E` wherever `r != 0`. (Unlike SISSM, this preconditioner
-//! is not SISSM's bound `D` of [`super::jacobi::LocalSystem`]: it ignores the coupling to the
-//! neighbours, and the step may overshoot; the line search is what keeps it stable.)
+//! move is a descent direction of `E` wherever `r != 0`. (SISSM's `D` of
+//! [`super::jacobi::LocalSystem`] bounds the energy's curvature, the coupling to the
+//! neighbours included; this diagonal does not, so a unit step can overshoot, and the line
+//! search is what keeps the iteration stable.)
 //!
-//! Step length (Wang and Yang's adjustment, dot-product free: accept when the energy does not
-//! rise, i.e. Armijo with `c = 0`): `alpha` starts at 1 each time step and is kept across
+//! Step length (dot-product free: a trial is accepted when the energy does not rise, Armijo
+//! with `lambda = 0`): `alpha` starts at 1 each time step and is kept across
 //! iterations; when a trial raises `E` (beyond round-off) it is rejected, `alpha` halves, the
 //! Chebyshev sequence restarts ([`LineSearch::restarted`]) and the trial is redone from the same
 //! iterate without extrapolation. `alpha` never grows back within the step. Every trial costs a

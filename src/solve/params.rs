@@ -38,8 +38,9 @@ pub enum Method {
     /// The semi-implicit successive substitution method (Lu et al. 2023).
     #[default]
     Sissm,
-    /// Jacobi-preconditioned gradient descent with a backtracking line search on the
-    /// variational energy (Wang and Yang 2016), the baseline of the paper's Fig. 13.
+    /// Gradient descent on the variational energy preconditioned by the diagonal of its
+    /// Hessian, with a step length halved on every energy rise (Wang and Yang 2016), the
+    /// baseline of the paper's Fig. 13; see `solve/descent.rs`.
     Descent,
 }
 
