@@ -155,7 +155,7 @@ impl<T: Real> Solver<T> {
         let started = Instant::now();
         let params = self.params;
         if !self.system.as_ref().is_some_and(|s| s.matches(bodies)) {
-            self.system = Some(System::build(bodies, true));
+            self.system = Some(System::build(bodies, true)?);
             self.contact = None;
         }
         let step_end = self.clock.time + params.dt;
