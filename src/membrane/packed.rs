@@ -23,7 +23,7 @@ use super::kernel::{bond_vectors, vertex_kernel, Preconditioner, VertexResponse}
 use super::{BondRest, Frame, RestData, RestSource, Stencil, VertexConstants, VertexRest};
 
 /// Rest data of whole packs of vertices (see the module documentation): everything the kernel
-/// needs, so the scalar bonds it was built from can be released.
+/// needs, built a pack at a time from the rest data source, with no scalar copy kept.
 #[derive(Debug, Clone)]
 pub struct PackedRest<S: Lanes> {
     /// First vertex of each pack, then the vertex count: pack `p` is vertices
