@@ -430,6 +430,14 @@ class Solver:
         """Current pose of collider ``index``: ``(rotation, translation)``, a point ``b`` of the
         geometry as given is now at ``rotation @ b + translation``; the distance to the
         collider where it is now is ``collider.signed_distance((x - translation) @ rotation)``."""
+    def collider_motion(self, index: int) -> Tuple[Tuple[np.ndarray, np.ndarray], Optional[Tuple[np.ndarray, np.ndarray]]]:
+        """What the motion of collider ``index`` depends on besides its velocity and the clock,
+        for saving a simulation (:func:`peridyn.save_state`): ``(base, target)``, the pose at
+        time 0 its velocity carries on from and the pose set with :meth:`set_collider_pose` for
+        the end of the next step (None when none is pending), each ``(rotation, translation)``."""
+    def set_collider_motion(self, index: int, *, base_rotation: ArrayLike, base_translation: Vec3, target_rotation: Optional[ArrayLike] = None, target_translation: Optional[Vec3] = None) -> None:
+        """Restores a motion read with :meth:`collider_motion` (both parts of the target, or
+        neither)."""
     def step(self) -> StepStats: ...
     @property
     def dt(self) -> float: ...

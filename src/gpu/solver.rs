@@ -340,7 +340,7 @@ impl<T: GpuReal> State<T> {
         iter_capacity: usize,
         collider_capacity: usize,
     ) -> Result<Self> {
-        let system = System::<T>::build(bodies, false);
+        let system = System::<T>::build(bodies, false)?;
         let n = system.y.len();
         let bonds = system.nb.indices.len();
         if n == 0 {

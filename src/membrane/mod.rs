@@ -15,7 +15,7 @@ pub use kernel::{
     any_orthogonal_unit, bond_vectors, vertex_kernel, Deformation, Preconditioner, VertexResponse,
 };
 pub use packed::{evaluate_vertices, PackedRest};
-pub use rest::{BondRest, Frame, RestData, Stencil, VertexConstants};
+pub use rest::{BondRest, Frame, RestData, RestSource, Stencil, VertexConstants, VertexRest};
 
 #[cfg(test)]
 mod tests;

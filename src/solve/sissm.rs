@@ -122,6 +122,23 @@ impl<T: Real> Solver<T> {
         Ok(())
     }
 
+    /// The base pose and pending target of collider `index` (see [`MovingCollider::motion`]).
+    pub fn collider_motion(&self, index: usize) -> Result<(Pose, Option<Pose>)> {
+        Ok(self.moving_collider(index)?.motion())
+    }
+
+    /// Restores the motion of collider `index` read with [`Self::collider_motion`].
+    pub fn set_collider_motion(
+        &mut self,
+        index: usize,
+        base: Pose,
+        target: Option<Pose>,
+    ) -> Result<()> {
+        self.moving_collider(index)?;
+        self.colliders[index].set_motion(base, target);
+        Ok(())
+    }
+
     fn moving_collider(&self, index: usize) -> Result<&MovingCollider> {
         self.colliders.get(index).ok_or_else(|| {
             invalid!(
@@ -158,7 +175,7 @@ impl<T: Real> Solver<T> {
         let started = Instant::now();
         let params = self.params;
         if !self.system.as_ref().is_some_and(|s| s.matches(bodies)) {
-            self.system = Some(System::build(bodies, true));
+            self.system = Some(System::build(bodies, true)?);
             self.contact = None;
             self.descent = None;
         }
