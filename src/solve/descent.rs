@@ -35,6 +35,7 @@ use crate::membrane::{
     hessian_diagonal_block, internal_force, vertex_hessian_blocks, Membrane, Preconditioner,
     RestData,
 };
+use crate::error::Result;
 use crate::real::Real;
 
 use super::evaluate::{evaluate, total_energy};
@@ -84,18 +85,18 @@ pub(super) struct DescentState {
 
 impl DescentState {
     /// Concatenates the bodies' rest data (in the vertex and bond order of [`System::build`]).
-    pub fn new(bodies: &[&mut Membrane]) -> Self {
+    pub fn new(bodies: &[&mut Membrane]) -> Result<Self> {
         let mut rest = RestData::empty();
         for body in bodies {
-            rest.extend_converted(body.rest(), true);
+            rest.extend_from(&body.rest_source()?, true)?;
         }
         let (n, bonds) = (rest.vertices.len(), rest.bonds.len());
-        Self {
+        Ok(Self {
             rest,
             y: vec![Vector3::zeros(); n],
             bond_blocks: vec![Matrix3::zeros(); bonds],
             self_blocks: vec![Matrix3::zeros(); n],
-        }
+        })
     }
 }
 

@@ -180,7 +180,7 @@ impl<T: Real> Solver<T> {
             self.descent = None;
         }
         if params.method == Method::Descent && self.descent.is_none() {
-            self.descent = Some(DescentState::new(bodies));
+            self.descent = Some(DescentState::new(bodies)?);
         }
         let step_end = self.clock.time + params.dt;
         let colliders: Vec<ColliderModel<T>> = self
