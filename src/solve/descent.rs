@@ -31,11 +31,11 @@
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
+use crate::error::Result;
 use crate::membrane::{
     hessian_diagonal_block, internal_force, vertex_hessian_blocks, Membrane, Preconditioner,
     RestData,
 };
-use crate::error::Result;
 use crate::real::Real;
 
 use super::evaluate::{evaluate, total_energy};

@@ -219,7 +219,8 @@ impl<T: Real> Solver<T> {
             }),
             ..StepStats::default()
         };
-        let accelerated = params.acceleration != Acceleration::None;
+        let acceleration = params.effective_acceleration();
+        let accelerated = acceleration != Acceleration::None;
         if accelerated && sys.y_prev.len() != sys.y.len() {
             sys.y_prev = sys.y.clone();
         }
@@ -230,9 +231,7 @@ impl<T: Real> Solver<T> {
         let mut chebyshev_origin = 0;
         for iteration in 0..params.max_iters {
             let t = Instant::now();
-            let extrapolation = params
-                .acceleration
-                .omega(iteration - chebyshev_origin, omega);
+            let extrapolation = acceleration.omega(iteration - chebyshev_origin, omega);
             omega = extrapolation.unwrap_or(1.0);
             let contact_reaction = self
                 .contact
