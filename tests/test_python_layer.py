@@ -311,6 +311,42 @@ def test_render_png_writes_a_png(tmp_path):
     assert single.read_bytes()[:4] == b"\x89PNG"
 
 
+def test_render_draws_a_mesh_collider_where_it_is():
+    """A mesh box between two strips of cloth changes the picture inside the box's projected
+    outline (its triangles are drawn) and nowhere else (it lies within the strips' bounds, so
+    the view is unchanged)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from mpl_toolkits.mplot3d import proj3d
+
+    V, F = grid(10, 3, size=(1.0, 0.1))
+    strips = [(V, F), (V + [0.0, 0.9, 0.0], F)]  # spanning the unit square at z = 0
+    box = trimesh.creation.box(extents=(0.3, 0.3, 0.3))
+    box.apply_translation((0.5, 0.5, 0.0))
+    collider = peridyn.MeshCollider(box.vertices, box.faces, resolution=8)
+
+    def picture(colliders):
+        fig = Figure(figsize=(4.0, 4.0), dpi=80)
+        canvas = FigureCanvasAgg(fig)
+        ax = fig.add_subplot(projection="3d")
+        peridyn.draw_scene(ax, strips, colliders=colliders)
+        canvas.draw()
+        image = np.asarray(canvas.buffer_rgba())[:, :, :3].astype(float)
+        # the box's corners in image pixels (row 0 at the top)
+        x, y, _ = proj3d.proj_transform(*box.vertices.T, ax.get_proj())
+        px = ax.transData.transform(np.column_stack([x, y]))
+        return image, px[:, 0], image.shape[0] - px[:, 1]
+
+    plain, _, _ = picture([])
+    drawn, cols, rows = picture([collider])
+    changed = np.abs(drawn - plain).sum(axis=2) > 30.0
+    r, c = np.nonzero(changed)
+    assert len(r) > 300, f"only {len(r)} pixels changed: the mesh collider was not drawn"
+    pad = 3.0
+    assert rows.min() - pad <= r.min() and r.max() <= rows.max() + pad, (r.min(), r.max(), rows)
+    assert cols.min() - pad <= c.min() and c.max() <= cols.max() + pad, (c.min(), c.max(), cols)
+
+
 # --------------------------------------------------------------------------------------------
 # Scenes, helpers and the package
 

@@ -375,14 +375,19 @@ class Solver:
     precision : "f64" (reference) or "f32" (fast path); None: "f64" on the CPU, "f32" on the GPU.
     preconditioner : "tangent" (curvature bounds of the energy: convergent at any stiffness and
         time step) or "paper" (the P+/lambda split of eq. 24-26: cheaper, can diverge when stiff).
-    acceleration : None (plain SISSM iterations) or "chebyshev" (Wang 2015 semi-iterative
-        acceleration: 5-9x fewer iterations to a given error on benches/convergence.py; not
-        with contact; in f32 it amplifies round-off near the precision floor).
+    acceleration : "auto" (default: "chebyshev" for SISSM without contact, else None), None
+        (plain SISSM iterations) or "chebyshev" (Wang 2015 semi-iterative acceleration: 3-9x
+        fewer iterations to a given error on benches/convergence.py; refused with contact; it
+        stops at a different point within ``tol`` than plain iterations, and in f32 near the
+        precision floor it amplifies round-off more).
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
-    method : "sissm" (the paper's method) or "descent" (Jacobi-preconditioned gradient descent
-        with a line search on the energy, Wang and Yang 2016: the baseline of Fig. 13).
+    method : "sissm" (the paper's method) or "descent" (the baseline of Fig. 13, Wang and Yang
+        2016: gradient descent preconditioned by the diagonal of the energy's Hessian, with a
+        step length halved whenever the energy would rise and Chebyshev restarted then; the
+        Hessian diagonal is taken by finite differences, so an iteration costs tens of SISSM
+        iterations).
     inner_iters : Jacobi sweeps on the linear system of eq. 25 per global iteration (Fig. 6).
     backend : "cpu" (Rust, rayon threads) or "gpu" (wgpu compute shaders, state on the device;
         f32 by default, f64 where the adapter has SHADER_F64; raises RuntimeError naming what
@@ -406,7 +411,7 @@ class Solver:
         step_length: bool = True,
         precision: Optional[str] = None,
         preconditioner: str = "tangent",
-        acceleration: Optional[str] = None,
+        acceleration: Optional[str] = "auto",
         chebyshev_rho: float = 0.99,
         chebyshev_delay: int = 3,
         record_energy: bool = False,
@@ -429,6 +434,14 @@ class Solver:
         """Current pose of collider ``index``: ``(rotation, translation)``, a point ``b`` of the
         geometry as given is now at ``rotation @ b + translation``; the distance to the
         collider where it is now is ``collider.signed_distance((x - translation) @ rotation)``."""
+    def collider_motion(self, index: int) -> Tuple[Tuple[np.ndarray, np.ndarray], Optional[Tuple[np.ndarray, np.ndarray]]]:
+        """What the motion of collider ``index`` depends on besides its velocity and the clock,
+        for saving a simulation (:func:`peridyn.save_state`): ``(base, target)``, the pose at
+        time 0 its velocity carries on from and the pose set with :meth:`set_collider_pose` for
+        the end of the next step (None when none is pending), each ``(rotation, translation)``."""
+    def set_collider_motion(self, index: int, *, base_rotation: ArrayLike, base_translation: Vec3, target_rotation: Optional[ArrayLike] = None, target_translation: Optional[Vec3] = None) -> None:
+        """Restores a motion read with :meth:`collider_motion` (both parts of the target, or
+        neither)."""
     def step(self) -> StepStats: ...
     @property
     def dt(self) -> float: ...
@@ -454,7 +467,8 @@ class Solver:
     @property
     def preconditioner(self) -> str: ...
     @property
-    def acceleration(self) -> Optional[str]: ...
+    def acceleration(self) -> Optional[str]:
+        """As given: "auto", "chebyshev" or None."""
     @property
     def record_energy(self) -> bool: ...
     @property

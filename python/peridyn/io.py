@@ -190,9 +190,11 @@ class FrameRecorder:
 def save_state(path: PathLike, solver: Any) -> Path:
     """Saves everything that a solver's next steps depend on to an ``.npz`` file.
 
-    That is each body's positions, velocities, pinned vertices and pin targets, and the solver's
-    clock. :func:`load_state` into a solver set up the same way (same bodies, parameters and
-    colliders) then continues the simulation bit for bit.
+    That is each body's positions, velocities, pinned vertices and pin targets, each collider's
+    motion (the pose its velocity carries on from and a pose set with
+    ``Solver.set_collider_pose`` for the next step, if any) and the solver's clock.
+    :func:`load_state` into a solver set up the same way (same bodies, parameters and colliders)
+    then continues the simulation bit for bit.
 
     Parameters
     ----------
@@ -217,18 +219,28 @@ def save_state(path: PathLike, solver: Any) -> Path:
         arrays[f"velocities_{b}"] = body.velocities
         arrays[f"pinned_{b}"] = body.pinned
         arrays[f"pin_targets_{b}"] = body.pin_targets
+    arrays["colliders"] = np.array(len(solver.colliders))
+    for c in range(len(solver.colliders)):
+        (base_r, base_t), target = solver.collider_motion(c)
+        arrays[f"collider_base_rotation_{c}"] = np.asarray(base_r, dtype=np.float64)
+        arrays[f"collider_base_translation_{c}"] = np.asarray(base_t, dtype=np.float64)
+        if target is not None:
+            arrays[f"collider_target_rotation_{c}"] = np.asarray(target[0], dtype=np.float64)
+            arrays[f"collider_target_translation_{c}"] = np.asarray(target[1], dtype=np.float64)
     path.parent.mkdir(parents=True, exist_ok=True)
     np.savez(path, **arrays)
     return path
 
 
 def load_state(path: PathLike, solver: Any) -> None:
-    """Restores a state written by :func:`save_state` into ``solver`` (same bodies, in order).
+    """Restores a state written by :func:`save_state` into ``solver`` (same bodies and
+    colliders, in order).
 
     Raises
     ------
     ValueError
-        If the file holds a different number of bodies, or a body's vertex count differs.
+        If the file holds a different number of bodies or colliders, or a body's vertex count
+        differs.
     """
     with np.load(Path(path)) as data:
         bodies = solver.bodies
@@ -243,10 +255,24 @@ def load_state(path: PathLike, solver: Any) -> None:
                     f"load_state: body {b} has {body.num_vertices} vertices, "
                     f"the file has {positions.shape[0]}"
                 )
-            body.positions = positions
+        # files written before collider motion was saved hold no "colliders"
+        colliders = int(data["colliders"]) if "colliders" in data else 0
+        if "colliders" in data and colliders != len(solver.colliders):
+            raise ValueError(
+                f"load_state: {path} holds {colliders} colliders, the solver has {len(solver.colliders)}"
+            )
+        for b, body in enumerate(bodies):
+            body.positions = data[f"positions_{b}"]
             body.velocities = data[f"velocities_{b}"]
             body.unpin()
             pinned = data[f"pinned_{b}"]
             if len(pinned):
                 body.pin(pinned, data[f"pin_targets_{b}"])
+        for c in range(colliders):
+            target = {}
+            if f"collider_target_rotation_{c}" in data:
+                target = dict(target_rotation=data[f"collider_target_rotation_{c}"],
+                              target_translation=data[f"collider_target_translation_{c}"])
+            solver.set_collider_motion(c, base_rotation=data[f"collider_base_rotation_{c}"],
+                                       base_translation=data[f"collider_base_translation_{c}"], **target)
         solver.set_clock(float(data["time"]), int(data["steps_taken"]))

@@ -38,7 +38,7 @@ def _frame(axis: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
 
 
 def _draw_collider(ax: Any, c: Any, center: np.ndarray, half: float) -> None:
-    """Draws one collider (Sphere, Capsule, Box or Plane) translucently."""
+    """Draws one collider (Sphere, Capsule, Box, MeshCollider or Plane) translucently."""
     from . import _core
 
     if isinstance(c, _core.Sphere):
@@ -74,6 +74,13 @@ def _draw_collider(ax: Any, c: Any, center: np.ndarray, half: float) -> None:
                 faces.append(quad)
         ax.add_collection3d(Poly3DCollection(faces, facecolor=_COLLIDER_COLOR, alpha=0.35,
                                              edgecolor="#555555", linewidth=0.3))
+    elif isinstance(c, _core.MeshCollider):
+        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+        V = np.asarray(c.vertices, dtype=np.float64)
+        F = np.asarray(c.triangles, dtype=np.int64)
+        ax.add_collection3d(Poly3DCollection(V[F], facecolor=_COLLIDER_COLOR, alpha=0.35,
+                                             edgecolor="#555555", linewidth=0.2))
     elif isinstance(c, _core.Plane):
         n = np.asarray(c.normal, dtype=np.float64)
         n = n / np.linalg.norm(n)
@@ -117,6 +124,10 @@ def _collider_extent(c: Any) -> List[Tuple[np.ndarray, np.ndarray]]:
     if isinstance(c, _core.Box):
         reach = np.abs(np.asarray(c.rotation, dtype=np.float64)) @ np.asarray(c.half_extents, dtype=np.float64)
         return [(np.asarray(c.center, dtype=np.float64), reach)]
+    if isinstance(c, _core.MeshCollider):
+        V = np.asarray(c.vertices, dtype=np.float64)
+        lo, hi = V.min(axis=0), V.max(axis=0)
+        return [(0.5 * (lo + hi), 0.5 * (hi - lo))]
     return []
 
 
@@ -153,8 +164,8 @@ def draw_scene(
         The axes to draw on.
     meshes : (V, F) pair, Membrane, or a sequence of them
         Triangle meshes, positions in m, drawn as shaded surfaces.
-    colliders : sequence of Sphere, Capsule, Box or Plane
-        Solids are drawn as translucent surfaces; planes as a translucent square patch
+    colliders : sequence of Sphere, Capsule, Box, MeshCollider or Plane
+        Solids are drawn (a MeshCollider as its triangles) as translucent surfaces; planes as a translucent square patch
         spanning the drawn meshes.
     title : str, optional
         Axes title.
@@ -217,7 +228,7 @@ def render_png(
         Output PNG file.
     meshes : (V, F) pair, Membrane, or a sequence of them
         Triangle meshes, positions in m.
-    colliders : sequence of Sphere, Capsule, Box or Plane
+    colliders : sequence of Sphere, Capsule, Box, MeshCollider or Plane
         See :func:`draw_scene`.
     title : str, optional
         Figure title.

@@ -97,8 +97,8 @@ class Solver(_core.Solver):
     gravity : (3,) float
         Acceleration in m/s^2; default ``(0, 0, -9.81)``.
     tol : float
-        Convergence tolerance in m on the largest vertex displacement between two global
-        iterations; 0 always runs ``max_iters`` iterations. Default 1e-4.
+        Convergence tolerance in m on the error bound ``StepStats.error_estimate`` (largest
+        residual over mass); 0 always runs ``max_iters`` iterations. Default 1e-4.
     max_iters : int
         Cap on global iterations per step. Default 100.
     threads : int or None

@@ -41,6 +41,18 @@ impl MovingCollider {
         self.target = Some(pose);
     }
 
+    /// The base pose and the pending target: with the collider and the clock, everything its
+    /// motion depends on (for saving a simulation).
+    pub fn motion(&self) -> (Pose, Option<Pose>) {
+        (self.base, self.target)
+    }
+
+    /// Restores a motion read with [`Self::motion`].
+    pub fn set_motion(&mut self, base: Pose, target: Option<Pose>) {
+        self.base = base;
+        self.target = target;
+    }
+
     /// The collider during the step from `start` to `end` (s).
     pub fn during_step<T: Real>(&self, start: f64, end: f64) -> ColliderModel<T> {
         let to = self.target.unwrap_or_else(|| self.pose(end));

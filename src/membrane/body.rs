@@ -1,4 +1,5 @@
-//! The membrane body: mesh, parameters, rest data and state (positions, velocities, pins).
+//! The membrane body: mesh, parameters and state (positions, velocities, pins). Its rest data
+//! are not stored: they are computed from the rest mesh whenever needed ([`RestSource`]).
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -9,9 +10,11 @@ use crate::error::{check_param, invalid, Result};
 use crate::material::Material;
 use crate::mesh::{Neighborhood, TriangleMesh};
 
-use super::kernel::{bond_vectors, Deformation, Preconditioner, VertexResponse};
-use super::packed::evaluate_vertices;
-use super::{DeviceCopy, RestData};
+use crate::parallel::for_each_vertex;
+
+use super::kernel::{bond_vectors, vertex_kernel, Deformation, Preconditioner, VertexResponse};
+use super::rest::lumped_volumes;
+use super::{DeviceCopy, RestSource};
 
 /// Physical parameters of a membrane (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -95,7 +98,6 @@ pub struct Membrane {
     mesh: TriangleMesh,
     neighborhood: Neighborhood,
     params: MembraneParams,
-    rest: RestData<f64>,
     positions: Vec<Vector3<f64>>,
     velocities: Vec<Vector3<f64>>,
     pins: BTreeMap<u32, Vector3<f64>>,
@@ -106,10 +108,16 @@ pub struct Membrane {
 
 impl Membrane {
     /// Builds a membrane at rest (positions = rest positions, zero velocity, nothing pinned).
+    /// Fails, naming the vertex, where the rest data cannot be computed (every vertex's are
+    /// computed once here and dropped, so that later computations cannot fail).
     pub fn new(mesh: TriangleMesh, params: MembraneParams) -> Result<Self> {
         params.validate()?;
         let neighborhood = Neighborhood::k_ring(&mesh, params.neighbors)?;
-        let rest = RestData::new(&mesh, &neighborhood, &params)?;
+        let source = RestSource::new(&mesh, &neighborhood, &params)?;
+        for i in 0..source.len() {
+            source.vertex(i)?;
+        }
+        drop(source);
         let positions = mesh.vertices().to_vec();
         let velocities = vec![Vector3::zeros(); positions.len()];
         Ok(Self {
@@ -117,7 +125,6 @@ impl Membrane {
             mesh,
             neighborhood,
             params,
-            rest,
             positions,
             velocities,
             pins: BTreeMap::new(),
@@ -149,8 +156,18 @@ impl Membrane {
     pub fn params(&self) -> &MembraneParams {
         &self.params
     }
-    pub fn rest(&self) -> &RestData<f64> {
-        &self.rest
+    /// The source of this membrane's rest data (computed a vertex at a time).
+    pub fn rest_source(&self) -> Result<RestSource<'_>> {
+        RestSource::new(&self.mesh, &self.neighborhood, &self.params)
+    }
+    /// Lumped vertex volumes `V_i = thickness * area_i` (m^3).
+    pub fn volumes(&self) -> Vec<f64> {
+        lumped_volumes(&self.mesh, self.params.thickness)
+    }
+    /// Lumped vertex masses `m_i = density * V_i` (kg).
+    pub fn masses(&self) -> Vec<f64> {
+        let density = self.params.density;
+        self.volumes().iter().map(|v| density * v).collect()
     }
     pub fn num_vertices(&self) -> usize {
         self.positions.len()
@@ -330,60 +347,63 @@ impl Membrane {
         Ok(())
     }
 
-    /// Runs the vertex kernel on every vertex at the current positions.
-    fn evaluate(&self, bond_grad: &mut [Vector3<f64>]) -> Vec<VertexResponse<f64>> {
+    /// Runs the vertex kernel on every vertex at the current positions, each vertex's rest
+    /// data computed on the fly (no per-bond rest data of the whole membrane is held).
+    fn evaluate(&self, bond_grad: &mut [Vector3<f64>]) -> Result<Vec<VertexResponse<f64>>> {
         let nb = &self.neighborhood;
         let y = self.positions();
-        let rest = &self.rest;
+        let source = self.rest_source()?;
         let zero = VertexResponse {
             stretch: 0.0,
             bending: 0.0,
             hourglass: 0.0,
             precond: Default::default(),
         };
-        let mut out = vec![zero; y.len()];
-        evaluate_vertices(
-            nb,
-            rest,
-            None,
-            y,
-            Preconditioner::default(),
-            bond_grad,
-            &mut out,
-        );
-        out
+        let mut out = vec![Ok(zero); y.len()];
+        for_each_vertex(&nb.offsets, bond_grad, &mut out, &|i, grads| {
+            let rest = source.vertex(i)?;
+            bond_vectors(i, y, nb.of(i), grads);
+            Ok(vertex_kernel(
+                &rest.stencil(),
+                Preconditioner::default(),
+                grads,
+            ))
+        });
+        out.into_iter().collect()
     }
 
     /// Elastic energy at the current positions, by term (J).
-    pub fn energy_terms(&self) -> EnergyTerms {
+    pub fn energy_terms(&self) -> Result<EnergyTerms> {
         let mut grads = vec![Vector3::zeros(); self.neighborhood.indices.len()];
-        self.evaluate(&mut grads)
+        Ok(self
+            .evaluate(&mut grads)?
             .iter()
             .fold(EnergyTerms::default(), |acc, r| EnergyTerms {
                 stretch: acc.stretch + r.stretch,
                 bending: acc.bending + r.bending,
                 hourglass: acc.hourglass + r.hourglass,
-            })
+            }))
     }
 
     /// Internal forces `-dE/dy` at the current positions (N).
-    pub fn internal_forces(&self) -> Vec<Vector3<f64>> {
+    pub fn internal_forces(&self) -> Result<Vec<Vector3<f64>>> {
         let mut grads = vec![Vector3::zeros(); self.neighborhood.indices.len()];
-        self.evaluate(&mut grads);
-        (0..self.num_vertices())
+        self.evaluate(&mut grads)?;
+        Ok((0..self.num_vertices())
             .map(|k| internal_force(k, &self.neighborhood, &grads))
-            .collect()
+            .collect())
     }
 
     /// Principal stretches per vertex (two in-plane, descending, then the normal one).
-    pub fn stretches(&self) -> Vec<[f64; 3]> {
+    pub fn stretches(&self) -> Result<Vec<[f64; 3]>> {
         let nb = &self.neighborhood;
+        let source = self.rest_source()?;
         let mut edges = Vec::new();
         (0..self.num_vertices())
             .map(|i| {
                 edges.resize(nb.of(i).len(), Vector3::zeros());
                 bond_vectors(i, self.positions(), nb.of(i), &mut edges);
-                Deformation::of(&edges, &self.rest.stencil(nb, i)).stretches()
+                Ok(Deformation::of(&edges, &source.vertex(i)?.stencil()).stretches())
             })
             .collect()
     }
@@ -392,8 +412,8 @@ impl Membrane {
     pub fn kinetic_energy(&self) -> f64 {
         self.velocities()
             .iter()
-            .zip(&self.rest.vertices)
-            .map(|(v, c)| 0.5 * c.mass * v.norm_squared())
+            .zip(self.masses())
+            .map(|(v, m)| 0.5 * m * v.norm_squared())
             .sum()
     }
 }

@@ -13,16 +13,17 @@
 
 use nalgebra::{SimdValue, Vector3};
 
+use crate::error::Result;
 use crate::material::MaterialModel;
 use crate::mesh::Neighborhood;
 use crate::parallel::{for_each_block, for_each_vertex};
 use crate::real::{Lanes, Real};
 
 use super::kernel::{bond_vectors, vertex_kernel, Preconditioner, VertexResponse};
-use super::{BondRest, Frame, RestData, Stencil, VertexConstants};
+use super::{BondRest, Frame, RestData, RestSource, Stencil, VertexConstants, VertexRest};
 
 /// Rest data of whole packs of vertices (see the module documentation): everything the kernel
-/// needs, so the scalar bonds it was built from can be released.
+/// needs, built a pack at a time from the rest data source, with no scalar copy kept.
 #[derive(Debug, Clone)]
 pub struct PackedRest<S: Lanes> {
     /// First vertex of each pack, then the vertex count: pack `p` is vertices
@@ -50,11 +51,18 @@ impl<S: Lanes> PackedRest<S> {
         }
     }
 
-    /// Appends the packs of one body, given by its own neighbourhood `nb` and rest data (in
-    /// f64, converted here), whose vertices follow the ones already packed.
-    pub fn add_body(&mut self, nb: &Neighborhood, rest: &RestData<f64>) {
+    /// Appends the packs of one body, given by its own neighbourhood `nb` and its rest data
+    /// `source` (in f64, converted here), whose vertices follow the ones already packed. The
+    /// rest data are computed a pack at a time, never for the whole body at once; `each` sees
+    /// every vertex's, in order (for a user that keeps per-vertex data of its own).
+    pub fn add_body(
+        &mut self,
+        nb: &Neighborhood,
+        source: &RestSource,
+        each: &mut impl FnMut(&VertexRest<f64>),
+    ) -> Result<()> {
         let lanes = S::LANES;
-        let n = rest.vertices.len();
+        let n = source.len();
         let base = *self.starts.last().expect("starts holds the vertex count") as usize;
         self.starts.pop();
         self.starts
@@ -76,20 +84,23 @@ impl<S: Lanes> PackedRest<S> {
         self.bonds.reserve_exact(all_slots);
         self.frames.reserve_exact(n.div_ceil(lanes));
         self.constants.reserve_exact(n.div_ceil(lanes));
+        let mut pack = Vec::with_capacity(lanes);
         for v in (0..n).step_by(lanes) {
+            pack.clear();
+            for i in v..(v + lanes).min(n) {
+                pack.push(source.vertex(i)?);
+                each(&pack[i - v]);
+            }
             let vertex = |l: usize| lane_vertex(v, l);
+            let rest = |l: usize| &pack[vertex(l) - v];
             for k in 0..slots_of(v) {
                 for l in 0..lanes {
                     let own = nb.of(vertex(l));
                     let j = own.get(k).map_or(vertex(l), |&j| j as usize);
                     self.neighbors.push((base + j) as u32);
                 }
-                let bond = |l: usize| {
-                    let range = nb.bonds(vertex(l));
-                    (k < range.len()).then(|| rest.bonds[range.start + k])
-                };
                 let part = |f: fn(&BondRest<f64>) -> f64| {
-                    S::gather(|l| of(bond(l).map_or(0.0, |b| f(&b))))
+                    S::gather(|l| of(rest(l).bonds.get(k).map_or(0.0, f)))
                 };
                 self.bonds.push(BondRest {
                     beta: [part(|b| b.beta[0]), part(|b| b.beta[1])],
@@ -103,7 +114,7 @@ impl<S: Lanes> PackedRest<S> {
             }
             self.slot_offsets.push(self.bonds.len() as u32);
             let frame = |f: fn(&Frame<f64>) -> Vector3<f64>| {
-                let c = |c: usize| S::gather(|l| of(f(&rest.frames[vertex(l)])[c]));
+                let c = |c: usize| S::gather(|l| of(f(&rest(l).frame)[c]));
                 Vector3::new(c(0), c(1), c(2))
             };
             self.frames.push(Frame {
@@ -111,9 +122,8 @@ impl<S: Lanes> PackedRest<S> {
                 t2: frame(|f| f.t2),
                 nc: frame(|f| f.nc),
             });
-            let constant = |f: fn(&VertexConstants<f64>) -> f64| {
-                S::gather(|l| of(f(&rest.vertices[vertex(l)])))
-            };
+            let constant =
+                |f: fn(&VertexConstants<f64>) -> f64| S::gather(|l| of(f(&rest(l).constants)));
             self.constants.push(VertexConstants {
                 volume: constant(|c| c.volume),
                 mass: constant(|c| c.mass),
@@ -122,11 +132,12 @@ impl<S: Lanes> PackedRest<S> {
                 kappa_t: constant(|c| c.kappa_t),
                 kappa_n: constant(|c| c.kappa_n),
                 half_thickness: constant(|c| c.half_thickness),
-                material: pack_material(|l| rest.vertices[vertex(l)].material.to_real())
+                material: pack_material(|l| rest(l).constants.material.to_real())
                     .expect("a body has one material"),
             });
         }
         debug_assert_eq!(self.frames.len(), self.starts.len() - 1);
+        Ok(())
     }
 
     /// Most slots of any pack.
@@ -312,9 +323,11 @@ mod tests {
             let yb: Vec<Vector3<T>> = m.positions().iter().map(|p| p.map(T::of)).collect();
             let mut g = vec![Vector3::zeros(); own.indices.len()];
             let mut o = vec![zero(); yb.len()];
-            let rest = m.rest().to_real::<T>();
+            let source = m.rest_source().unwrap();
+            let mut rest = RestData::<T>::empty();
+            rest.extend_from(&source, true).unwrap();
             evaluate_vertices(own, &rest, None, &yb, mode, &mut g, &mut o);
-            packed.add_body(own, m.rest());
+            packed.add_body(own, &source, &mut |_| {}).unwrap();
             y.extend(yb);
             grads.extend(g);
             out.extend(o);
@@ -364,8 +377,13 @@ mod tests {
     fn packs_never_span_two_bodies() {
         let m = body(Material::stretch_a3(1e3).unwrap());
         let mut packed = PackedRest::<crate::real::F32Pack>::empty();
-        packed.add_body(m.neighborhood(), m.rest());
-        packed.add_body(m.neighborhood(), m.rest());
+        let source = m.rest_source().unwrap();
+        packed
+            .add_body(m.neighborhood(), &source, &mut |_| {})
+            .unwrap();
+        packed
+            .add_body(m.neighborhood(), &source, &mut |_| {})
+            .unwrap();
         let expected: Vec<u32> = (0..63)
             .step_by(8)
             .chain((63..126).step_by(8))

@@ -1,5 +1,6 @@
-//! Rest data of a membrane, computed once: per-vertex rest frame, per-bond weights, masses and
-//! the stiffness constants of the non-affine (bending and hourglass) energy.
+//! Rest data of a membrane: per-vertex rest frame, per-bond weights, masses and the stiffness
+//! constants of the non-affine (bending and hourglass) energy, computed a vertex at a time
+//! whenever needed (a solver build, a GPU upload, a query) rather than stored with the body.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -57,7 +58,8 @@ pub struct VertexConstants<T> {
     pub material: MaterialModel<T>,
 }
 
-/// All rest data of one membrane (or of several concatenated ones).
+/// Rest data of several vertices (of one membrane or of several concatenated ones), in the
+/// solver's precision. A user that keeps the bonds (and frames) elsewhere leaves them empty.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RestData<T: Real> {
     pub frames: Vec<Frame<T>>,
@@ -65,8 +67,63 @@ pub struct RestData<T: Real> {
     pub vertices: Vec<VertexConstants<T>>,
 }
 
-impl RestData<f64> {
-    /// Computes the rest data of a membrane.
+/// The rest data of one vertex: its frame, its constants and its bonds (to `nb.of(i)`, in
+/// that order), as computed by [`RestSource::vertex`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct VertexRest<T> {
+    pub frame: Frame<T>,
+    pub constants: VertexConstants<T>,
+    pub bonds: Vec<BondRest<T>>,
+}
+
+/// Lumped vertex volumes `V_i = thickness * area_i` (m^3), `area_i` a third of the area of
+/// every incident triangle.
+pub fn lumped_volumes(mesh: &TriangleMesh, thickness: f64) -> Vec<f64> {
+    vertex_areas(mesh).iter().map(|a| thickness * a).collect()
+}
+
+/// Computes the rest data of a membrane one vertex at a time, so that no user has to hold the
+/// per-bond data of a whole membrane in f64: it is a pure function of the rest mesh, the
+/// neighbourhood and the parameters. Holds the mesh-wide inputs (angle-weighted normals and
+/// vertex areas, 32 bytes per vertex).
+#[derive(Debug, Clone)]
+pub struct RestSource<'a> {
+    x: &'a [Vector3<f64>],
+    nb: &'a Neighborhood,
+    params: MembraneParams,
+    normals: Vec<Vector3<f64>>,
+    areas: Vec<f64>,
+}
+
+impl<'a> RestSource<'a> {
+    /// The rest data source of a membrane with rest mesh `mesh`, neighbourhood `nb` (of that
+    /// mesh) and parameters `params`; fails where a vertex has no normal.
+    pub fn new(
+        mesh: &'a TriangleMesh,
+        nb: &'a Neighborhood,
+        params: &MembraneParams,
+    ) -> Result<Self> {
+        Ok(Self {
+            x: mesh.vertices(),
+            nb,
+            params: *params,
+            normals: angle_weighted_normals(mesh)?,
+            areas: vertex_areas(mesh),
+        })
+    }
+
+    /// Number of vertices.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Whether the mesh has no vertices.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+
+    /// The rest data of vertex `i`; fails, naming the vertex, where its neighbourhood does not
+    /// span a plane.
     ///
     /// Shape tensor with the Kirchhoff-Love virtual bond `x_perp = (thickness/2) N_i` (eq. 13-14):
     /// `K_i = sum_j xi_ij xi_ij^T + x_perp x_perp^T`. The tangent plane is `c^perp` with
@@ -77,69 +134,64 @@ impl RestData<f64> {
     /// the normal residuals, `q_j . nc ~ 1/2 xi_j^T H xi_j`, and the energy is `A_i D / 2 |H|_F^2`,
     /// a Kirchhoff plate with bending Poisson ratio 0 (a cylindrical bend of curvature k stores
     /// `D k^2 / 2` per area in any direction). Hourglass: `kappa_t = hourglass * mu * V_i * k_iso`.
-    pub fn new(mesh: &TriangleMesh, nb: &Neighborhood, params: &MembraneParams) -> Result<Self> {
-        let x = mesh.vertices();
-        let normals = angle_weighted_normals(mesh)?;
-        let areas = vertex_areas(mesh);
-        let material = params.material.to_real::<f64>();
+    pub fn vertex(&self, i: usize) -> Result<VertexRest<f64>> {
+        let (x, nb, params) = (self.x, self.nb, &self.params);
         let half = 0.5 * params.thickness;
-        let mu = params.material.shear_modulus();
-        let mut frames = Vec::with_capacity(x.len());
-        let mut bonds = Vec::with_capacity(nb.indices.len());
-        let mut vertices = Vec::with_capacity(x.len());
-        for i in 0..x.len() {
-            let x_perp = normals[i] * half;
-            let mut k = x_perp * x_perp.transpose();
-            let mut sum2 = 0.0;
-            for &j in nb.of(i) {
-                let xi = x[j as usize] - x[i];
-                k += xi * xi.transpose();
-                sum2 += xi.norm_squared();
-            }
-            let k_inv = invert_shape_tensor(i, &k)?;
-            let nc = (k_inv * x_perp).normalize();
-            let t1 = any_orthogonal_unit(&nc);
-            let t2 = nc.cross(&t1);
-            let (d1, d2) = (k_inv * t1, k_inv * t2);
-            let mut beta_gram = nalgebra::Matrix2::zeros();
-            for &j in nb.of(i) {
-                let xi = x[j as usize] - x[i];
-                let beta = nalgebra::Vector2::new(xi.dot(&d1), xi.dot(&d2));
-                beta_gram += beta * beta.transpose();
-                bonds.push(BondRest {
-                    beta: [beta.x, beta.y],
-                    xi: Vector3::new(xi.dot(&t1), xi.dot(&t2), xi.dot(&nc)),
-                    curvature: Vector3::zeros(),
-                });
-            }
-            let first = bonds.len() - nb.of(i).len();
-            let kappa_n = curvature_fit(&mut bonds[first..], params.bending * areas[i]);
-            frames.push(Frame { t1, t2, nc });
-            let volume = params.thickness * areas[i];
-            let k_iso = 2.0 / sum2;
-            vertices.push(VertexConstants {
-                volume,
-                mass: params.density * volume,
-                k_iso,
-                k_bound: beta_gram.symmetric_eigen().eigenvalues.max(),
-                kappa_t: params.hourglass * mu * volume * k_iso,
-                kappa_n,
-                half_thickness: half,
-                material,
+        let x_perp = self.normals[i] * half;
+        let mut k = x_perp * x_perp.transpose();
+        let mut sum2 = 0.0;
+        for &j in nb.of(i) {
+            let xi = x[j as usize] - x[i];
+            k += xi * xi.transpose();
+            sum2 += xi.norm_squared();
+        }
+        let k_inv = invert_shape_tensor(i, &k)?;
+        let nc = (k_inv * x_perp).normalize();
+        let t1 = any_orthogonal_unit(&nc);
+        let t2 = nc.cross(&t1);
+        let (d1, d2) = (k_inv * t1, k_inv * t2);
+        let mut beta_gram = nalgebra::Matrix2::zeros();
+        let mut bonds = Vec::with_capacity(nb.of(i).len());
+        for &j in nb.of(i) {
+            let xi = x[j as usize] - x[i];
+            let beta = nalgebra::Vector2::new(xi.dot(&d1), xi.dot(&d2));
+            beta_gram += beta * beta.transpose();
+            bonds.push(BondRest {
+                beta: [beta.x, beta.y],
+                xi: Vector3::new(xi.dot(&t1), xi.dot(&t2), xi.dot(&nc)),
+                curvature: Vector3::zeros(),
             });
         }
-        Ok(Self {
-            frames,
+        let area = self.areas[i];
+        let kappa_n = curvature_fit(&mut bonds, params.bending * area);
+        let volume = params.thickness * area;
+        let k_iso = 2.0 / sum2;
+        let constants = VertexConstants {
+            volume,
+            mass: params.density * volume,
+            k_iso,
+            k_bound: beta_gram.symmetric_eigen().eigenvalues.max(),
+            kappa_t: params.hourglass * params.material.shear_modulus() * volume * k_iso,
+            kappa_n,
+            half_thickness: half,
+            material: params.material.to_real::<f64>(),
+        };
+        Ok(VertexRest {
+            frame: Frame { t1, t2, nc },
+            constants,
             bonds,
-            vertices,
         })
     }
+}
 
-    /// The same data in another precision.
-    pub fn to_real<T: Real>(&self) -> RestData<T> {
-        let mut out = RestData::empty();
-        out.extend_converted(self, true);
-        out
+impl VertexRest<f64> {
+    /// The kernel's view of this vertex.
+    pub fn stencil(&self) -> Stencil<'_, f64> {
+        Stencil {
+            bonds: &self.bonds,
+            frame: &self.frame,
+            constants: &self.constants,
+        }
     }
 }
 
@@ -164,39 +216,52 @@ impl<T: Real> RestData<T> {
         }
     }
 
-    /// Appends another body's rest data, converted to this precision (its bonds keep their
-    /// own order; with `with_bonds` false the bonds are left out, for a user that keeps them
-    /// elsewhere); no intermediate copy is made.
-    pub fn extend_converted(&mut self, other: &RestData<f64>, with_bonds: bool) {
+    /// Appends the rest data of every vertex of `source`, computed one vertex at a time and
+    /// converted to this precision; with `geometry` false only the per-vertex constants (for a
+    /// user that keeps frames and bonds elsewhere). No copy of the whole body in f64 is made.
+    pub fn extend_from(&mut self, source: &RestSource, geometry: bool) -> Result<()> {
+        for i in 0..source.len() {
+            self.push(&source.vertex(i)?, geometry);
+        }
+        Ok(())
+    }
+
+    /// Appends one vertex's rest data converted to this precision (frame and bonds only with
+    /// `geometry`).
+    pub fn push(&mut self, one: &VertexRest<f64>, geometry: bool) {
         let v = |a: &Vector3<f64>| a.map(T::of);
-        self.frames.extend(other.frames.iter().map(|f| Frame {
-            t1: v(&f.t1),
-            t2: v(&f.t2),
-            nc: v(&f.nc),
-        }));
-        if with_bonds {
-            self.bonds.extend(other.bonds.iter().map(|b| BondRest {
+        if geometry {
+            let f = &one.frame;
+            self.frames.push(Frame {
+                t1: v(&f.t1),
+                t2: v(&f.t2),
+                nc: v(&f.nc),
+            });
+            self.bonds.extend(one.bonds.iter().map(|b| BondRest {
                 beta: b.beta.map(T::of),
                 xi: v(&b.xi),
                 curvature: v(&b.curvature),
             }));
         }
-        self.vertices
-            .extend(other.vertices.iter().map(|c| VertexConstants {
-                volume: T::of(c.volume),
-                mass: T::of(c.mass),
-                k_iso: T::of(c.k_iso),
-                k_bound: T::of(c.k_bound),
-                kappa_t: T::of(c.kappa_t),
-                kappa_n: T::of(c.kappa_n),
-                half_thickness: T::of(c.half_thickness),
-                material: c.material.to_real(),
-            }));
+        let c = &one.constants;
+        self.vertices.push(VertexConstants {
+            volume: T::of(c.volume),
+            mass: T::of(c.mass),
+            k_iso: T::of(c.k_iso),
+            k_bound: T::of(c.k_bound),
+            kappa_t: T::of(c.kappa_t),
+            kappa_n: T::of(c.kappa_n),
+            half_thickness: T::of(c.half_thickness),
+            material: c.material.to_real(),
+        });
     }
 
-    /// Reserves room for `vertices` more vertices and `bonds` more bonds.
-    pub fn reserve(&mut self, vertices: usize, bonds: usize) {
-        self.frames.reserve_exact(vertices);
+    /// Reserves room for `vertices` more vertices and `bonds` more bonds (frames only with
+    /// `geometry`).
+    pub fn reserve(&mut self, vertices: usize, bonds: usize, geometry: bool) {
+        if geometry {
+            self.frames.reserve_exact(vertices);
+        }
         self.bonds.reserve_exact(bonds);
         self.vertices.reserve_exact(vertices);
     }

@@ -68,7 +68,7 @@ fn forces_are_the_exact_negative_gradient_of_the_energy() {
                 let mut m =
                     Membrane::new(mesh.clone(), params(material, bending, hourglass, k)).unwrap();
                 deform(&mut m, &mut noise, 0.01);
-                let forces = m.internal_forces();
+                let forces = m.internal_forces().unwrap();
                 let scale = forces.iter().map(|f| f.norm()).fold(0.0, f64::max);
                 let y0 = m.positions().to_vec();
                 for trial in 0..6 {
@@ -77,7 +77,7 @@ fn forces_are_the_exact_negative_gradient_of_the_energy() {
                     let at = |s: f64, m: &mut Membrane| {
                         m.set_positions(y0.iter().zip(&dir).map(|(y, d)| y + d * s).collect())
                             .unwrap();
-                        m.energy_terms().total()
+                        m.energy_terms().unwrap().total()
                     };
                     let fd = (at(eps, &mut m) - at(-eps, &mut m)) / (2.0 * eps);
                     let analytic: f64 =
@@ -114,17 +114,18 @@ fn rigid_motion_is_free_and_forces_balance() {
         m.set_positions(moved).unwrap();
         let f_max = m
             .internal_forces()
+            .unwrap()
             .iter()
             .map(|f| f.norm())
             .fold(0.0, f64::max);
         assert!(
-            m.energy_terms().total().abs() < 1e-12,
+            m.energy_terms().unwrap().total().abs() < 1e-12,
             "{:?}",
-            m.energy_terms()
+            m.energy_terms().unwrap()
         );
         assert!(f_max < 1e-9, "rigid motion force {f_max}");
         deform(&mut m, &mut noise, 0.02);
-        let f = m.internal_forces();
+        let f = m.internal_forces().unwrap();
         let scale = f.iter().map(|f| f.norm()).sum::<f64>();
         let total: Vector3<f64> = f.iter().sum();
         let torque: Vector3<f64> = f.iter().zip(m.positions()).map(|(f, y)| y.cross(f)).sum();
@@ -155,13 +156,14 @@ fn affine_stretch_reproduces_the_continuum_stress() {
             .map(|x| Vector3::new(l1 * x.x, l2 * x.y, 0.0))
             .collect();
         m.set_positions(y).unwrap();
-        for s in m.stretches() {
+        for s in m.stretches().unwrap() {
             assert!((s[0] - l1).abs() < 1e-12 && (s[1] - l2).abs() < 1e-12 && s[2] == 1.0);
         }
-        let e = m.energy_terms();
+        let e = m.energy_terms().unwrap();
         assert!(e.bending.abs() < 1e-20 && e.hourglass.abs() < 1e-20);
         let reaction: f64 = m
             .internal_forces()
+            .unwrap()
             .iter()
             .zip(m.mesh().vertices())
             .filter(|(_, x)| (x.x - a).abs() < 1e-12)

@@ -156,23 +156,12 @@ impl PyMembrane {
     /// (N,) lumped vertex masses (kg).
     #[getter]
     fn masses<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        to_numpy_1d(
-            py,
-            self.lock().rest().vertices.iter().map(|c| c.mass).collect(),
-        )
+        to_numpy_1d(py, self.lock().masses())
     }
     /// (N,) lumped vertex volumes (m^3).
     #[getter]
     fn volumes<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        to_numpy_1d(
-            py,
-            self.lock()
-                .rest()
-                .vertices
-                .iter()
-                .map(|c| c.volume)
-                .collect(),
-        )
+        to_numpy_1d(py, self.lock().volumes())
     }
     #[getter]
     fn thickness(&self) -> f64 {
@@ -250,12 +239,12 @@ impl PyMembrane {
     /// Stretching + bending + hourglass energy (J) at the current positions.
     fn elastic_energy(&self, py: Python<'_>) -> PyResult<f64> {
         let inner = self.inner.clone();
-        py.detach(move || Ok(synced(&inner)?.energy_terms().total()))
+        py.detach(move || Ok(synced(&inner)?.energy_terms().py()?.total()))
     }
     /// {'stretch': J, 'bending': J, 'hourglass': J} at the current positions.
     fn energy_terms<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let inner = self.inner.clone();
-        let e = py.detach(move || synced(&inner).map(|m| m.energy_terms()))?;
+        let e = py.detach(move || synced(&inner)?.energy_terms().py())?;
         let d = PyDict::new(py);
         d.set_item("stretch", e.stretch)?;
         d.set_item("bending", e.bending)?;
@@ -265,12 +254,12 @@ impl PyMembrane {
     /// (N, 3) internal forces (N): minus the gradient of `elastic_energy`.
     fn internal_forces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let inner = self.inner.clone();
-        let f = py.detach(move || synced(&inner).map(|m| m.internal_forces()))?;
+        let f = py.detach(move || synced(&inner)?.internal_forces().py())?;
         to_numpy(py, f.into_iter())
     }
     /// (N, 3) principal stretches per vertex (two in-plane, descending, then the normal one).
     fn stretches<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let s = self.state()?.stretches();
+        let s = self.state()?.stretches().py()?;
         to_numpy(py, s.into_iter().map(nalgebra::Vector3::from))
     }
     /// Kinetic energy (J).

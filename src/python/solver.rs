@@ -81,7 +81,7 @@ impl PySolver {
     #[new]
     #[pyo3(signature = (*, dt, gravity = None, tol = 1e-4, max_iters = 100, threads = None,
                         step_length = true, precision = None, preconditioner = "tangent",
-                        acceleration = None, chebyshev_rho = Acceleration::DEFAULT_RHO,
+                        acceleration = "auto", chebyshev_rho = Acceleration::DEFAULT_RHO,
                         chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false,
                         method = "sissm", inner_iters = 1, backend = "cpu", contact = None))]
     #[allow(clippy::too_many_arguments)]
@@ -118,6 +118,7 @@ impl PySolver {
             )));
         }
         let acceleration = match acceleration {
+            Some("auto") => Acceleration::Auto,
             None | Some("none") => Acceleration::None,
             Some("chebyshev") => Acceleration::Chebyshev {
                 rho: chebyshev_rho,
@@ -129,7 +130,7 @@ impl PySolver {
             },
             Some(other) => {
                 return Err(PyValueError::new_err(format!(
-                    "acceleration must be None or 'chebyshev', got {other:?}"
+                    "acceleration must be 'auto', None or 'chebyshev', got {other:?}"
                 )))
             }
         };
@@ -240,30 +241,17 @@ impl PySolver {
         translation: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let index = self.collider_index(index)?;
-        let rows = match rotation {
-            None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-            Some(r) => {
-                let m = vec3s(r, "rotation", Some(3))?;
-                [0, 1, 2].map(|k| [m[k].x, m[k].y, m[k].z])
-            }
-        };
-        let translation = translation
-            .map(|t| vec3(t, "translation"))
-            .transpose()?
-            .unwrap_or([0.0; 3]);
-        let pose = Pose::new(rows, translation).py()?;
+        let pose = pose_arg(rotation, translation)?;
         match &mut self.core {
             Precision::F64(s) => s.set_collider_pose(index, pose).py(),
             Precision::F32(s) => s.set_collider_pose(index, pose).py(),
-            Precision::Gpu32(_) | Precision::Gpu64(_) => Err(PyValueError::new_err(
-                "the GPU backend does not move colliders by pose; use backend='cpu'",
-            )),
+            Precision::Gpu32(_) | Precision::Gpu64(_) => Err(no_gpu_poses()),
         }
     }
 
     /// The current pose of collider `index`: (rotation (3, 3), translation (3,) in m), such that
     /// a point `b` of the geometry as given is now at `rotation @ b + translation`.
-    fn collider_pose(&self, index: i64) -> PyResult<(Vec<Vec<f64>>, Vec<f64>)> {
+    fn collider_pose(&self, index: i64) -> PyResult<PoseRows> {
         let index = self.collider_index(index)?;
         let pose = match &self.core {
             Precision::F64(s) => s.collider_pose(index).py()?,
@@ -275,10 +263,54 @@ impl PySolver {
                 MovingCollider::new(s.colliders()[index].clone()).pose(s.clock().time)
             }
         };
-        let rows = (0..3)
-            .map(|r| (0..3).map(|c| pose.rotation[(r, c)]).collect())
-            .collect();
-        Ok((rows, pose.translation.as_slice().to_vec()))
+        Ok(pose_rows(&pose))
+    }
+
+    /// What the motion of collider `index` depends on besides its velocity and the clock, for
+    /// saving a simulation: `(base, target)`, the pose at time 0 its velocity carries on from and
+    /// the pose set for the end of the next step (None when none is pending), each as
+    /// `(rotation, translation)`.
+    fn collider_motion(&self, index: i64) -> PyResult<(PoseRows, Option<PoseRows>)> {
+        let index = self.collider_index(index)?;
+        let (base, target) = match &self.core {
+            Precision::F64(s) => s.collider_motion(index).py()?,
+            Precision::F32(s) => s.collider_motion(index).py()?,
+            Precision::Gpu32(_) | Precision::Gpu64(_) => (Pose::IDENTITY, None),
+        };
+        Ok((pose_rows(&base), target.as_ref().map(pose_rows)))
+    }
+
+    /// Restores a motion read with `collider_motion` (both parts of the target, or neither).
+    #[pyo3(signature = (index, *, base_rotation, base_translation, target_rotation = None,
+                        target_translation = None))]
+    fn set_collider_motion(
+        &mut self,
+        index: i64,
+        base_rotation: &Bound<'_, PyAny>,
+        base_translation: &Bound<'_, PyAny>,
+        target_rotation: Option<&Bound<'_, PyAny>>,
+        target_translation: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let index = self.collider_index(index)?;
+        let base = pose_arg(Some(base_rotation), Some(base_translation))?;
+        let target = match (target_rotation, target_translation) {
+            (None, None) => None,
+            (Some(r), Some(t)) => Some(pose_arg(Some(r), Some(t))?),
+            _ => return Err(PyValueError::new_err(
+                "set_collider_motion: give both target_rotation and target_translation, or neither",
+            )),
+        };
+        match &mut self.core {
+            Precision::F64(s) => s.set_collider_motion(index, base, target).py(),
+            Precision::F32(s) => s.set_collider_motion(index, base, target).py(),
+            Precision::Gpu32(_) | Precision::Gpu64(_) => {
+                if base == Pose::IDENTITY && target.is_none() {
+                    Ok(())
+                } else {
+                    Err(no_gpu_poses())
+                }
+            }
+        }
     }
 
     /// Advances every body by one time step and returns its statistics. Raises
@@ -347,6 +379,7 @@ impl PySolver {
     #[getter]
     fn acceleration(&self) -> Option<&'static str> {
         match with_solver!(&self.core, s => s.params().acceleration) {
+            Acceleration::Auto => Some("auto"),
             Acceleration::None => None,
             Acceleration::Chebyshev { .. } => Some("chebyshev"),
         }
@@ -546,4 +579,37 @@ impl PyStepStats {
             self.inner.timings.total
         )
     }
+}
+
+/// A pose as Python sees it: rotation rows (3 x 3) and translation (m).
+type PoseRows = (Vec<Vec<f64>>, Vec<f64>);
+
+fn pose_rows(pose: &Pose) -> PoseRows {
+    let rows = (0..3)
+        .map(|r| (0..3).map(|c| pose.rotation[(r, c)]).collect())
+        .collect();
+    (rows, pose.translation.as_slice().to_vec())
+}
+
+/// A pose from optional Python arguments (default: identity, no translation), checked.
+fn pose_arg(
+    rotation: Option<&Bound<'_, PyAny>>,
+    translation: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Pose> {
+    let rows = match rotation {
+        None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        Some(r) => {
+            let m = vec3s(r, "rotation", Some(3))?;
+            [0, 1, 2].map(|k| [m[k].x, m[k].y, m[k].z])
+        }
+    };
+    let translation = translation
+        .map(|t| vec3(t, "translation"))
+        .transpose()?
+        .unwrap_or([0.0; 3]);
+    Pose::new(rows, translation).py()
+}
+
+fn no_gpu_poses() -> PyErr {
+    PyValueError::new_err("the GPU backend does not move colliders by pose; use backend='cpu'")
 }

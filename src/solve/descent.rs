@@ -1,45 +1,113 @@
-//! The baseline of the paper's Fig. 13: Jacobi-preconditioned gradient descent with a
-//! backtracking line search on the total variational energy (Wang and Yang 2016, "Descent
-//! methods for elastic body simulation on the GPU"), optionally Chebyshev-accelerated.
+//! The baseline of the paper's Fig. 13: Jacobi-preconditioned gradient descent on the
+//! variational energy with an adaptive step length (Wang and Yang 2016, "Descent methods for
+//! elastic body simulation on the GPU"), optionally Chebyshev-accelerated. Their paper is not
+//! in `/work/shared/papers`; this follows its abstract (Jacobi preconditioning, Chebyshev
+//! acceleration, no dot products) and Lu et al. 2023's account of its line search (section 1:
+//! the Armijo condition with `lambda = 0`, values of `alpha` reused across iterations).
 //!
-//! It minimises the same energy as SISSM with the same per-vertex preconditioner `D`; the
-//! difference is the step: one global step length `alpha`, accepted only when the energy does
-//! not rise (halved otherwise, kept across iterations), instead of SISSM's per-vertex step
-//! length. Every trial costs a kernel evaluation and an energy reduction.
+//! Implicit Euler minimises `E(y) = sum_k m_k |y_k - y*_k|^2 / (2 h^2) + U(y)` (J). Scaled by
+//! `h^2`, its gradient is `-r` with `r_k = m_k (y*_k - y_k) + h^2 f_k(y)` (kg m) and its Hessian
+//! is `M + h^2 d^2U/dy^2`. One iteration moves every free vertex by
+//!
+//! `y_k <- y_k + alpha P_k^-1 r_k`, `P_k = diag(m_k + h^2 max(H_kk,aa, 0))` (kg),
+//!
+//! with `H_kk` the exact diagonal 3x3 block of the elastic Hessian at `y`
+//! ([`crate::membrane::vertex_hessian_blocks`], N/m) and `a` the three axes: the Jacobi
+//! preconditioner, i.e. the diagonal entries of the Hessian of `h^2 E`. A diagonal entry of the
+//! elastic Hessian is negative only where the energy is non-convex along that axis (a
+//! compressed or buckling neighbourhood); it is floored at zero, so `P_k >= m_k I > 0` and the
+//! move is a descent direction of `E` wherever `r != 0`. (SISSM's `D` of
+//! [`super::jacobi::LocalSystem`] bounds the energy's curvature, the coupling to the
+//! neighbours included; this diagonal does not, so a unit step can overshoot, and the line
+//! search is what keeps the iteration stable.)
+//!
+//! Step length (dot-product free: a trial is accepted when the energy does not rise, Armijo
+//! with `lambda = 0`): `alpha` starts at 1 each time step and is kept across
+//! iterations; when a trial raises `E` (beyond round-off) it is rejected, `alpha` halves, the
+//! Chebyshev sequence restarts ([`LineSearch::restarted`]) and the trial is redone from the same
+//! iterate without extrapolation. `alpha` never grows back within the step. Every trial costs a
+//! kernel evaluation and an energy reduction, and every accepted iterate a Hessian diagonal.
 
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use crate::membrane::Preconditioner;
+use crate::error::Result;
+use crate::membrane::{
+    hessian_diagonal_block, internal_force, vertex_hessian_blocks, Membrane, Preconditioner,
+    RestData,
+};
 use crate::real::Real;
 
 use super::evaluate::{evaluate, total_energy};
 use super::jacobi::{free_residual, keep_out, LocalSystem, MoveOptions, Update};
 use super::system::System;
 
-/// Halvings of the step length tried before a (tiny) step is taken regardless.
-const MAX_HALVINGS: usize = 12;
+/// Halvings of the step length tried before the iterate is kept unchanged (`2^-40`: far below
+/// any step that can still lower an f64 energy).
+const MAX_HALVINGS: usize = 40;
 
-/// Relative energy change treated as round-off: near the minimum the energy cannot resolve
-/// smaller decreases, and insisting on them would halve the step to nothing.
+/// Relative energy change treated as round-off (at least): near the minimum the energy cannot
+/// resolve smaller decreases, and insisting on them would halve the step to nothing. Scaled up
+/// to 16 epsilons of the working precision (f32 energies are summed from f32 vertex terms).
 const ENERGY_ROUND_OFF: f64 = 1e-12;
 
 /// State of the line search within a time step.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct LineSearch {
-    /// Current global step length (starts at 1 each time step).
+    /// Current step length (starts at 1 each time step, only halves).
     pub alpha: f64,
     /// Variational energy of the current iterate (J).
     pub energy: f64,
+    /// Set when the last iteration rejected a trial: the caller restarts Chebyshev.
+    pub restarted: bool,
 }
 
-/// One descent iteration from the responses evaluated at `y`: direction `d_k = D_k^-1 r_k`,
-/// trial `y + alpha d` (kept out of colliders, Chebyshev-extrapolated on the first try),
-/// accepted when `E` does not increase (beyond round-off), else `alpha` halves; a step
-/// accepted at once doubles `alpha` again (up to 1). Leaves the accepted trial in
-/// `y_next`, the responses evaluated there, and its energy in `search`.
+impl LineSearch {
+    /// The search at the start of a time step, from the energy of the initial iterate (J).
+    pub fn new(energy: f64) -> Self {
+        Self {
+            alpha: 1.0,
+            energy,
+            restarted: false,
+        }
+    }
+}
+
+/// Working set of the descent method, built only when `method = descent`: the rest data in
+/// f64 with its bonds (the Hessian is differenced in f64 whatever the solver's precision), the
+/// iterate in f64, and the per-vertex Hessian blocks.
+pub(super) struct DescentState {
+    rest: RestData<f64>,
+    y: Vec<Vector3<f64>>,
+    bond_blocks: Vec<Matrix3<f64>>,
+    self_blocks: Vec<Matrix3<f64>>,
+}
+
+impl DescentState {
+    /// Concatenates the bodies' rest data (in the vertex and bond order of [`System::build`]).
+    pub fn new(bodies: &[&mut Membrane]) -> Result<Self> {
+        let mut rest = RestData::empty();
+        for body in bodies {
+            rest.extend_from(&body.rest_source()?, true)?;
+        }
+        let (n, bonds) = (rest.vertices.len(), rest.bonds.len());
+        Ok(Self {
+            rest,
+            y: vec![Vector3::zeros(); n],
+            bond_blocks: vec![Matrix3::zeros(); bonds],
+            self_blocks: vec![Matrix3::zeros(); n],
+        })
+    }
+}
+
+/// One descent iteration from the responses evaluated at `y`: direction `d_k = P_k^-1 r_k`,
+/// trial `y + alpha d` (kept out of colliders, Chebyshev-extrapolated unless restarted),
+/// accepted when `E` does not rise beyond round-off, else `alpha` halves and the trial is
+/// redone without extrapolation. Leaves the accepted trial in `y_next` (or `y` itself when no
+/// step length lowers the energy), the responses evaluated there, and its energy in `search`.
 pub(super) fn descent_iteration<T: Real>(
     sys: &mut System<T>,
+    state: &mut DescentState,
     h: T,
     mode: Preconditioner,
     options: &MoveOptions<'_, T>,
@@ -47,6 +115,16 @@ pub(super) fn descent_iteration<T: Real>(
 ) -> Update {
     let h2 = h * h;
     let n = sys.y.len();
+    for (wide, y) in state.y.iter_mut().zip(&sys.y) {
+        *wide = y.map(|c| c.to_f64());
+    }
+    vertex_hessian_blocks(
+        &sys.nb,
+        &state.rest,
+        &state.y,
+        &mut state.bond_blocks,
+        &mut state.self_blocks,
+    );
     if sys.locals.len() != n {
         let zero = LocalSystem::new(
             T::one(),
@@ -60,7 +138,7 @@ pub(super) fn descent_iteration<T: Real>(
     }
     let mut locals = std::mem::take(&mut sys.locals);
     let mut direction = std::mem::take(&mut sys.delta);
-    let sys_ref = &*sys;
+    let (sys_ref, state_ref) = (&*sys, &*state);
     let residual = locals
         .par_iter_mut()
         .zip(direction.par_iter_mut())
@@ -70,15 +148,18 @@ pub(super) fn descent_iteration<T: Real>(
                 *d = Vector3::zeros();
                 return 0.0;
             }
-            *local = LocalSystem::of(sys_ref, k, h2);
+            *local = jacobi_system(sys_ref, state_ref, k, h2);
             *d = local.solve();
             free_residual(sys_ref, k, local, options)
         })
         .reduce(|| 0.0, f64::max);
 
+    let round_off = ENERGY_ROUND_OFF.max(16.0 * T::default_epsilon().to_f64());
     let mut omega = options.omega;
+    search.restarted = false;
     let mut update = Update::NONE;
-    for halving in 0..=MAX_HALVINGS {
+    let mut settled = false;
+    for _ in 0..=MAX_HALVINGS {
         let alpha = T::of(search.alpha);
         let (y, y_prev, y_start, pinned, rest) =
             (&sys.y, &sys.y_prev, &sys.y_start, &sys.pinned, &sys.rest);
@@ -109,25 +190,46 @@ pub(super) fn descent_iteration<T: Real>(
             })
             .reduce(|| Update::NONE, Update::merge);
         if update.first_bad.is_some() {
+            settled = true;
             break;
         }
         std::mem::swap(&mut sys.y, &mut sys.y_next);
         evaluate(sys, mode);
         let energy = total_energy(sys, h);
         std::mem::swap(&mut sys.y, &mut sys.y_next);
-        if energy <= search.energy + ENERGY_ROUND_OFF * search.energy.abs()
-            || halving == MAX_HALVINGS
-        {
+        if energy <= search.energy + round_off * search.energy.abs() {
             search.energy = energy;
-            if halving == 0 {
-                search.alpha = (search.alpha * 2.0).min(1.0);
-            }
+            settled = true;
             break;
         }
         search.alpha *= 0.5;
+        search.restarted = true;
         omega = None;
+    }
+    if !settled {
+        // No step length lowers the energy: the iterate is a minimum to round-off. Stay.
+        sys.y_next.copy_from_slice(&sys.y);
+        evaluate(sys, mode);
+        update = Update::NONE;
     }
     sys.locals = locals;
     sys.delta = direction;
     Update { residual, ..update }
+}
+
+/// Vertex `k`'s Jacobi system `P_k d = r_k` (see the module docs), with the residual and
+/// force of the last evaluation.
+#[inline]
+fn jacobi_system<T: Real>(
+    sys: &System<T>,
+    state: &DescentState,
+    k: usize,
+    h2: T,
+) -> LocalSystem<T> {
+    let mass = sys.rest.vertices[k].mass;
+    let force_h2 = internal_force(k, &sys.nb, &sys.bond_grad) * h2;
+    let residual = (sys.y_star[k] - sys.y[k]) * mass + force_h2;
+    let block = hessian_diagonal_block(k, &sys.nb, &state.bond_blocks, &state.self_blocks);
+    let stiffness = Matrix3::from_diagonal(&block.diagonal().map(|x| T::of(x.max(0.0)))) * h2;
+    LocalSystem::new(mass, stiffness, residual, force_h2, T::zero())
 }

@@ -33,7 +33,7 @@ use crate::membrane::{Membrane, Preconditioner};
 use crate::real::Real;
 
 use super::contact_step::ContactState;
-use super::descent::{descent_iteration, LineSearch};
+use super::descent::{descent_iteration, DescentState, LineSearch};
 use super::evaluate::{evaluate, inertial_energy, total_energy};
 use super::jacobi::{jacobi_update, MoveOptions, Update};
 use super::system::System;
@@ -47,6 +47,8 @@ pub struct Solver<T: Real> {
     system: Option<System<T>>,
     /// Contact topology of the current body list (built on the first step with contact).
     contact: Option<ContactState<T>>,
+    /// The descent method's working set (built on the first descent step).
+    descent: Option<DescentState>,
     clock: Clock,
 }
 
@@ -74,6 +76,7 @@ impl<T: Real> Solver<T> {
             pool,
             system: None,
             contact: None,
+            descent: None,
             clock: Clock::default(),
         })
     }
@@ -119,6 +122,23 @@ impl<T: Real> Solver<T> {
         Ok(())
     }
 
+    /// The base pose and pending target of collider `index` (see [`MovingCollider::motion`]).
+    pub fn collider_motion(&self, index: usize) -> Result<(Pose, Option<Pose>)> {
+        Ok(self.moving_collider(index)?.motion())
+    }
+
+    /// Restores the motion of collider `index` read with [`Self::collider_motion`].
+    pub fn set_collider_motion(
+        &mut self,
+        index: usize,
+        base: Pose,
+        target: Option<Pose>,
+    ) -> Result<()> {
+        self.moving_collider(index)?;
+        self.colliders[index].set_motion(base, target);
+        Ok(())
+    }
+
     fn moving_collider(&self, index: usize) -> Result<&MovingCollider> {
         self.colliders.get(index).ok_or_else(|| {
             invalid!(
@@ -155,8 +175,12 @@ impl<T: Real> Solver<T> {
         let started = Instant::now();
         let params = self.params;
         if !self.system.as_ref().is_some_and(|s| s.matches(bodies)) {
-            self.system = Some(System::build(bodies, true));
+            self.system = Some(System::build(bodies, true)?);
             self.contact = None;
+            self.descent = None;
+        }
+        if params.method == Method::Descent && self.descent.is_none() {
+            self.descent = Some(DescentState::new(bodies)?);
         }
         let step_end = self.clock.time + params.dt;
         let colliders: Vec<ColliderModel<T>> = self
@@ -195,15 +219,19 @@ impl<T: Real> Solver<T> {
             }),
             ..StepStats::default()
         };
-        let accelerated = params.acceleration != Acceleration::None;
+        let acceleration = params.effective_acceleration();
+        let accelerated = acceleration != Acceleration::None;
         if accelerated && sys.y_prev.len() != sys.y.len() {
             sys.y_prev = sys.y.clone();
         }
-        let mut search = LineSearch { alpha: 1.0, energy };
+        let mut search = LineSearch::new(energy);
         let mut omega = 1.0;
+        // Iteration at which the Chebyshev sequence (re)started: 0, or after a descent trial
+        // was rejected.
+        let mut chebyshev_origin = 0;
         for iteration in 0..params.max_iters {
             let t = Instant::now();
-            let extrapolation = params.acceleration.omega(iteration, omega);
+            let extrapolation = acceleration.omega(iteration - chebyshev_origin, omega);
             omega = extrapolation.unwrap_or(1.0);
             let contact_reaction = self
                 .contact
@@ -239,7 +267,20 @@ impl<T: Real> Solver<T> {
                     if params.record_energy {
                         stats.energies.push(search.energy);
                     }
-                    descent_iteration(sys, h, params.preconditioner, &options, &mut search)
+                    let state = self.descent.as_mut().expect("built above");
+                    let update = descent_iteration(
+                        sys,
+                        state,
+                        h,
+                        params.preconditioner,
+                        &options,
+                        &mut search,
+                    );
+                    if search.restarted {
+                        chebyshev_origin = iteration + 1;
+                        omega = 1.0;
+                    }
+                    update
                 }
             };
             timings.global += millis(t);

@@ -5,6 +5,7 @@ use std::ops::Range;
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::error::Result;
 use crate::membrane::{Membrane, PackedRest, RestData, VertexResponse};
 use crate::mesh::Neighborhood;
 use crate::real::Real;
@@ -18,9 +19,10 @@ pub(crate) struct System<T: Real> {
     /// Vertex range of each body.
     pub ranges: Vec<Range<usize>>,
     pub nb: Neighborhood,
+    /// Per-vertex constants, and (without `packed`) frames and bonds.
     pub rest: RestData<T>,
-    /// The bonds' rest data in SIMD packs for the host kernel, when built for it (then
-    /// `rest.bonds` is empty).
+    /// The rest data in SIMD packs for the host kernel, when built for it (then `rest.frames`
+    /// and `rest.bonds` are empty).
     pub packed: Option<PackedRest<T::Pack>>,
     /// Positions at the start of the step, y_t.
     pub y_start: Vec<Vector3<T>>,
@@ -46,11 +48,13 @@ pub(crate) struct System<T: Real> {
 }
 
 impl<T: Real> System<T> {
-    /// Concatenates the bodies' rest data (state is loaded by [`System::load`]).
+    /// Concatenates the bodies' rest data, computed here a vertex (or a pack) at a time
+    /// (state is loaded by [`System::load`]).
     ///
-    /// With `packed`, the bonds go into SIMD packs for the host kernel (the CPU solver) and
-    /// `rest.bonds` stays empty; without, into `rest.bonds` (for upload to a GPU).
-    pub fn build(bodies: &[&mut Membrane], packed: bool) -> Self {
+    /// With `packed`, frames and bonds go into SIMD packs for the host kernel (the CPU solver)
+    /// and `rest` keeps only the per-vertex constants; without, everything goes into `rest`
+    /// (for upload to a GPU).
+    pub fn build(bodies: &[&mut Membrane], packed: bool) -> Result<Self> {
         let mut ids = Vec::with_capacity(bodies.len());
         let mut ranges = Vec::with_capacity(bodies.len());
         let vertices: usize = bodies.iter().map(|b| b.num_vertices()).sum();
@@ -62,7 +66,7 @@ impl<T: Real> System<T> {
         };
         nb.offsets.push(0);
         let mut rest = RestData::empty();
-        rest.reserve(vertices, if packed { 0 } else { bonds });
+        rest.reserve(vertices, if packed { 0 } else { bonds }, !packed);
         let mut packs = packed.then(PackedRest::empty);
         let mut start = 0;
         for body in bodies {
@@ -76,9 +80,10 @@ impl<T: Real> System<T> {
             nb.indices
                 .extend(own.indices.iter().map(|j| j + vertex_base));
             nb.reverse.extend(own.reverse.iter().map(|b| b + bond_base));
-            rest.extend_converted(body.rest(), !packed);
-            if let Some(packs) = &mut packs {
-                packs.add_body(own, body.rest());
+            let source = body.rest_source()?;
+            match &mut packs {
+                Some(packs) => packs.add_body(own, &source, &mut |v| rest.push(v, false))?,
+                None => rest.extend_from(&source, true)?,
             }
             start += n;
         }
@@ -89,7 +94,7 @@ impl<T: Real> System<T> {
             hourglass: T::zero(),
             precond: Matrix3::zeros(),
         };
-        Self {
+        Ok(Self {
             ids,
             ranges,
             bond_grad: vec![Vector3::zeros(); nb.indices.len()],
@@ -108,7 +113,7 @@ impl<T: Real> System<T> {
             locals: Vec::new(),
             delta: Vec::new(),
             delta_next: Vec::new(),
-        }
+        })
     }
 
     /// True when the system was built from exactly these bodies.
