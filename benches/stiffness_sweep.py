@@ -231,7 +231,7 @@ def main(argv=None):
     rec = C.Record("stiffness_sweep", args)
     rec.data["sweep"] = {}
     if not args.skip_sweep:
-        for name, kw in (("SISSM", {"acceleration": None}), (f"SISSM+Cheb rho={args.accel_rho:g}",
+        for name, kw in (("SISSM", {}), (f"SISSM+Cheb rho={args.accel_rho:g}",
                                           {"acceleration": "chebyshev", "chebyshev_rho": args.accel_rho})):
             print(f"== sweep: {name}", flush=True)
             rec.data["sweep"][name] = sweep(args, kw)

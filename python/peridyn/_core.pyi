@@ -375,11 +375,9 @@ class Solver:
     precision : "f64" (reference) or "f32" (fast path); None: "f64" on the CPU, "f32" on the GPU.
     preconditioner : "tangent" (curvature bounds of the energy: convergent at any stiffness and
         time step) or "paper" (the P+/lambda split of eq. 24-26: cheaper, can diverge when stiff).
-    acceleration : "auto" (default: "chebyshev" for SISSM without contact, else None), None
-        (plain SISSM iterations) or "chebyshev" (Wang 2015 semi-iterative acceleration: 3-9x
-        fewer iterations to a given error on benches/convergence.py; refused with contact; it
-        stops at a different point within ``tol`` than plain iterations, and in f32 near the
-        precision floor it amplifies round-off more).
+    acceleration : None (plain SISSM iterations) or "chebyshev" (Wang 2015 semi-iterative
+        acceleration: 5-9x fewer iterations to a given error on benches/convergence.py; not
+        with contact; in f32 it amplifies round-off near the precision floor).
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
@@ -411,7 +409,7 @@ class Solver:
         step_length: bool = True,
         precision: Optional[str] = None,
         preconditioner: str = "tangent",
-        acceleration: Optional[str] = "auto",
+        acceleration: Optional[str] = None,
         chebyshev_rho: float = 0.99,
         chebyshev_delay: int = 3,
         record_energy: bool = False,
@@ -467,8 +465,7 @@ class Solver:
     @property
     def preconditioner(self) -> str: ...
     @property
-    def acceleration(self) -> Optional[str]:
-        """As given: "auto", "chebyshev" or None."""
+    def acceleration(self) -> Optional[str]: ...
     @property
     def record_energy(self) -> bool: ...
     @property

@@ -195,7 +195,7 @@ impl<T: GpuReal> GpuSolver<T> {
             .vertices
             .iter()
             .any(|c| c.kappa_t > T::zero() || c.kappa_n > T::zero());
-        let accelerated = self.params.effective_acceleration() != Acceleration::None;
+        let accelerated = self.params.acceleration != Acceleration::None;
         let kernel = 144 * n + if non_affine { 248 } else { 100 } * b;
         let jacobi = (176 + if accelerated { 16 } else { 0 }) * n + 72 * b;
         let rest = (64 + 16 + 32 + if accelerated { 32 } else { 0 }) * n;
@@ -584,7 +584,7 @@ impl<T: GpuReal> State<T> {
             },
             tol: params.tol,
             groups: groups(self.n, REDUCE_GROUP),
-            accelerated: (params.effective_acceleration() != Acceleration::None) as u32,
+            accelerated: (params.acceleration != Acceleration::None) as u32,
         });
         q.write_buffer(&self.buffers.params, 0, bytemuck::bytes_of(&gpu_params));
         q.write_buffer(
@@ -597,7 +597,7 @@ impl<T: GpuReal> State<T> {
             records[RECORD_PREDICTION].lane = 1;
             let mut omega = 1.0;
             for k in 0..params.max_iters {
-                let extrapolation = params.effective_acceleration().omega(k, omega);
+                let extrapolation = params.acceleration.omega(k, omega);
                 omega = extrapolation.unwrap_or(1.0);
                 records[RECORD_FIRST_ITERATION + k] = IterValues {
                     iteration: k as u32,

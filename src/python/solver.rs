@@ -81,7 +81,7 @@ impl PySolver {
     #[new]
     #[pyo3(signature = (*, dt, gravity = None, tol = 1e-4, max_iters = 100, threads = None,
                         step_length = true, precision = None, preconditioner = "tangent",
-                        acceleration = "auto", chebyshev_rho = Acceleration::DEFAULT_RHO,
+                        acceleration = None, chebyshev_rho = Acceleration::DEFAULT_RHO,
                         chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false,
                         method = "sissm", inner_iters = 1, backend = "cpu", contact = None))]
     #[allow(clippy::too_many_arguments)]
@@ -118,7 +118,6 @@ impl PySolver {
             )));
         }
         let acceleration = match acceleration {
-            Some("auto") => Acceleration::Auto,
             None | Some("none") => Acceleration::None,
             Some("chebyshev") => Acceleration::Chebyshev {
                 rho: chebyshev_rho,
@@ -130,7 +129,7 @@ impl PySolver {
             },
             Some(other) => {
                 return Err(PyValueError::new_err(format!(
-                    "acceleration must be 'auto', None or 'chebyshev', got {other:?}"
+                    "acceleration must be None or 'chebyshev', got {other:?}"
                 )))
             }
         };
@@ -379,7 +378,6 @@ impl PySolver {
     #[getter]
     fn acceleration(&self) -> Option<&'static str> {
         match with_solver!(&self.core, s => s.params().acceleration) {
-            Acceleration::Auto => Some("auto"),
             Acceleration::None => None,
             Acceleration::Chebyshev { .. } => Some("chebyshev"),
         }

@@ -48,11 +48,8 @@ pub enum Method {
 /// Acceleration of the global iteration.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum Acceleration {
-    /// What the numbers favour ([`Acceleration::resolve`]): Chebyshev with the default `rho`
-    /// and `delay` for SISSM without membrane contact, plain iterations otherwise.
-    #[default]
-    Auto,
     /// Plain SISSM iterations.
+    #[default]
     None,
     /// Chebyshev semi-iterative acceleration (Wang 2015): from iteration `delay` on,
     /// `y^{k+1} = omega_{k+1} (y_hat^{k+1} - y^{k-1}) + y^{k-1}` with
@@ -67,40 +64,25 @@ impl Acceleration {
     /// moderate cloth of `benches/convergence.py` (25 iterations to eta < 1e-3 against 223
     /// without acceleration).
     ///
-    /// With membrane contact its extrapolation undoes the local step's separation (it is
-    /// refused there). Where the stopping test ends a step, Chebyshev's iterate lies elsewhere
-    /// within the tolerance than the plain one (a hanging strip at rest, tol = 1e-6 m, lies
-    /// 5e-4 m from its exact equilibrium against 3e-4 m for plain SISSM, in 3x fewer
-    /// iterations), and f32 follows f64 less closely (7e-5 m against 8e-6 m).
+    /// Chebyshev is not the solver's default although it wins on iterations to a tight
+    /// tolerance (a stiff 40x40 cloth at h = 1e-3 s and tol = 1e-6 m: 25 iterations per step
+    /// against 117):
+    /// - with a small fixed budget it is worse: a 120x120 cloth (s0 = 1e6 Pa, 10 iterations per
+    ///   step, `benches/peer_newton.py`) ends its steps with an error bound of 7e-4 m in f64
+    ///   (plain: 9e-5 m), and in f32 it sags 9 mm instead of the 21 mm of f64 (plain f32: 21 mm);
+    /// - with membrane contact its extrapolation undoes the local step's separation (refused);
+    /// - at a tolerance it stops elsewhere than plain iterations (a hanging strip at rest,
+    ///   tol = 1e-6 m: 5e-4 m from its exact equilibrium against 3e-4 m), and f32 follows f64
+    ///   less closely (7e-5 m against 8e-6 m).
     pub const DEFAULT_RHO: f64 = 0.99;
     /// Default number of plain iterations before extrapolating.
     pub const DEFAULT_DELAY: usize = 3;
 
-    /// The acceleration [`Acceleration::Auto`] stands for, given the method and whether
-    /// membrane contact is on; any other choice is returned as it is.
-    ///
-    /// Chebyshev cuts the iterations to a tolerance 3-5x (`benches/convergence.py`: 36 instead
-    /// of more than 300 to eta 1e-4 on the moderate cloth; a stiff 40x40 cloth at h = 1e-3 and
-    /// tol = 1e-6 m needs 25 iterations per step instead of 117), so it is the default where it
-    /// applies. With contact its extrapolation would undo the local step's separation, and the
-    /// descent baseline restarts it on its own line search, so `Auto` is plain there. At the
-    /// default tolerance most steps converge within `delay` iterations, before it acts.
-    pub fn resolve(self, method: Method, contact: bool) -> Self {
-        match self {
-            Self::Auto if method == Method::Sissm && !contact => Self::Chebyshev {
-                rho: Self::DEFAULT_RHO,
-                delay: Self::DEFAULT_DELAY,
-            },
-            Self::Auto => Self::None,
-            chosen => chosen,
-        }
-    }
-
     /// The extrapolation weight of iteration `k` (0-based) given the previous one; `None`
-    /// means a plain iteration. `Auto` must be [resolved](Acceleration::resolve) first.
+    /// means a plain iteration.
     pub fn omega(&self, k: usize, previous: f64) -> Option<f64> {
         match *self {
-            Self::None | Self::Auto => None,
+            Self::None => None,
             Self::Chebyshev { rho, delay } => {
                 let r2 = rho * rho;
                 match k.cmp(&delay) {
@@ -122,7 +104,7 @@ impl Default for SolverParams {
             max_iters: 100,
             step_length: true,
             preconditioner: Preconditioner::Tangent,
-            acceleration: Acceleration::Auto,
+            acceleration: Acceleration::None,
             method: Method::Sissm,
             inner_iters: 1,
             record_energy: false,
@@ -132,12 +114,6 @@ impl Default for SolverParams {
 }
 
 impl SolverParams {
-    /// The acceleration the iteration runs with ([`Acceleration::resolve`]).
-    pub fn effective_acceleration(&self) -> Acceleration {
-        self.acceleration
-            .resolve(self.method, self.contact.is_some())
-    }
-
     /// Checks every parameter, naming the first bad one.
     pub fn validate(&self) -> Result<()> {
         check_param("dt", self.dt, |v| v > 0.0, "a finite time step > 0 s")?;
@@ -155,7 +131,7 @@ impl SolverParams {
         }
         if let Some(contact) = &self.contact {
             contact.validate()?;
-            if let Acceleration::Chebyshev { .. } = self.acceleration {
+            if self.acceleration != Acceleration::None {
                 return Err(invalid!(
                     "chebyshev acceleration cannot be combined with contact: its extrapolation \
                      moves vertices across the separation the contact local step just restored; \
@@ -173,41 +149,5 @@ impl SolverParams {
             return Err(invalid!("max_iters must be >= 1, got {}", self.max_iters));
         }
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::contact::ContactParams;
-
-    /// `Auto` is Chebyshev for SISSM without contact and plain otherwise; an explicit choice
-    /// stays, and only an explicit Chebyshev is refused with contact.
-    #[test]
-    fn auto_acceleration_resolves_by_method_and_contact() {
-        let chebyshev = Acceleration::Chebyshev {
-            rho: Acceleration::DEFAULT_RHO,
-            delay: Acceleration::DEFAULT_DELAY,
-        };
-        let auto = Acceleration::Auto;
-        assert_eq!(auto.resolve(Method::Sissm, false), chebyshev);
-        assert_eq!(auto.resolve(Method::Sissm, true), Acceleration::None);
-        assert_eq!(auto.resolve(Method::Descent, false), Acceleration::None);
-        assert_eq!(
-            Acceleration::None.resolve(Method::Sissm, false),
-            Acceleration::None
-        );
-        let with_contact = SolverParams {
-            contact: Some(ContactParams::default()),
-            ..SolverParams::default()
-        };
-        assert!(with_contact.validate().is_ok());
-        assert_eq!(with_contact.effective_acceleration(), Acceleration::None);
-        let refused = SolverParams {
-            acceleration: chebyshev,
-            ..with_contact
-        };
-        assert!(refused.validate().is_err());
-        assert_eq!(SolverParams::default().effective_acceleration(), chebyshev);
     }
 }

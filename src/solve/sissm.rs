@@ -219,8 +219,7 @@ impl<T: Real> Solver<T> {
             }),
             ..StepStats::default()
         };
-        let acceleration = params.effective_acceleration();
-        let accelerated = acceleration != Acceleration::None;
+        let accelerated = params.acceleration != Acceleration::None;
         if accelerated && sys.y_prev.len() != sys.y.len() {
             sys.y_prev = sys.y.clone();
         }
@@ -231,7 +230,9 @@ impl<T: Real> Solver<T> {
         let mut chebyshev_origin = 0;
         for iteration in 0..params.max_iters {
             let t = Instant::now();
-            let extrapolation = acceleration.omega(iteration - chebyshev_origin, omega);
+            let extrapolation = params
+                .acceleration
+                .omega(iteration - chebyshev_origin, omega);
             omega = extrapolation.unwrap_or(1.0);
             let contact_reaction = self
                 .contact
