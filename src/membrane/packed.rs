@@ -1,8 +1,11 @@
 //! The kernel pass over every vertex, with the rest data regrouped for SIMD.
 //!
-//! Each body's vertices are cut into packs of `L` consecutive vertices (`L` =
-//! [`SimdValue::LANES`] of the precision's [`Real::Pack`]); lane `l` of a pack is its `l`-th
-//! vertex, and a body's last pack, when short, repeats its last vertex in the spare lanes
+//! Each body's vertices are cut into windows of [`WINDOW_PACKS`] `x L` consecutive vertices
+//! (`L` = [`SimdValue::LANES`] of the precision's [`Real::Pack`]); within a window the vertices
+//! are ordered by their number of bonds (stably) and cut into packs of `L`, one vertex per
+//! lane, so that a pack's lanes have about as many bonds as it has slots (on a grid with
+//! alternating diagonals, vertices of 4 and 8 bonds alternate: consecutive packs would all pad
+//! to 8 slots). A window's last pack, when short, repeats its last vertex in the spare lanes
 //! (computed and discarded). The pack's bonds are stored in slots: slot `k` holds every lane's
 //! `k`-th bond (in CSR order), as one [`BondRest`] of packs, and the neighbour each lane's bond
 //! points to. A lane with fewer bonds than the pack has slots points its extra slots at itself
@@ -22,13 +25,22 @@ use crate::real::{Lanes, Real};
 use super::kernel::{bond_vectors, vertex_kernel, Preconditioner, VertexResponse};
 use super::{BondRest, Frame, RestData, RestSource, Stencil, VertexConstants, VertexRest};
 
+/// Packs per window of vertices (see the module documentation): wide enough to find lanes of
+/// equal bond counts, narrow enough to keep a pack's vertices close in memory.
+const WINDOW_PACKS: usize = 8;
+
 /// Rest data of whole packs of vertices (see the module documentation): everything the kernel
-/// needs, built a pack at a time from the rest data source, with no scalar copy kept.
+/// needs, built a window at a time from the rest data source, with no scalar copy kept.
 #[derive(Debug, Clone)]
 pub struct PackedRest<S: Lanes> {
-    /// First vertex of each pack, then the vertex count: pack `p` is vertices
-    /// `starts[p]..starts[p + 1]` (at most `L`).
-    starts: Vec<u32>,
+    /// First vertex of each window, then the vertex count.
+    windows: Vec<u32>,
+    /// First pack of each window, then the pack count.
+    window_packs: Vec<u32>,
+    /// Per pack, the vertex of each of its `L` lanes.
+    lanes: Vec<u32>,
+    /// Per pack, how many of its lanes are distinct vertices (the rest repeat the last).
+    filled: Vec<u8>,
     /// Slots of pack `p`: `slot_offsets[p]..slot_offsets[p + 1]`.
     slot_offsets: Vec<u32>,
     /// Per slot, `L` neighbour indices (lane-major within the slot).
@@ -42,7 +54,10 @@ impl<S: Lanes> PackedRest<S> {
     /// No packs.
     pub fn empty() -> Self {
         Self {
-            starts: vec![0],
+            windows: vec![0],
+            window_packs: vec![0],
+            lanes: Vec::new(),
+            filled: Vec::new(),
             slot_offsets: vec![0],
             neighbors: Vec::new(),
             bonds: Vec::new(),
@@ -53,7 +68,7 @@ impl<S: Lanes> PackedRest<S> {
 
     /// Appends the packs of one body, given by its own neighbourhood `nb` and its rest data
     /// `source` (in f64, converted here), whose vertices follow the ones already packed. The
-    /// rest data are computed a pack at a time, never for the whole body at once; `each` sees
+    /// rest data are computed a window at a time, never for the whole body at once; `each` sees
     /// every vertex's, in order (for a user that keeps per-vertex data of its own).
     pub fn add_body(
         &mut self,
@@ -63,80 +78,85 @@ impl<S: Lanes> PackedRest<S> {
     ) -> Result<()> {
         let lanes = S::LANES;
         let n = source.len();
-        let base = *self.starts.last().expect("starts holds the vertex count") as usize;
-        self.starts.pop();
-        self.starts
-            .extend((0..n).step_by(lanes).map(|v| (base + v) as u32));
-        self.starts.push((base + n) as u32);
+        let base = self.windows.pop().expect("windows holds the vertex count") as usize;
+        let window = WINDOW_PACKS * lanes;
+        let packs = (0..n)
+            .step_by(window)
+            .map(|w| (n - w).min(window).div_ceil(lanes))
+            .sum::<usize>();
+        self.slot_offsets.reserve_exact(packs);
+        self.frames.reserve_exact(packs);
+        self.constants.reserve_exact(packs);
+        self.lanes.reserve_exact(packs * lanes);
+        self.filled.reserve_exact(packs);
         let of = |x: f64| <S::Scalar as Real>::of(x);
-        // Lane `l` of the body's pack starting at vertex `v` computes vertex `v + l`, or the
-        // body's last vertex in the spare lanes of a short pack.
-        let lane_vertex = |v: usize, l: usize| (v + l).min(n - 1);
-        let slots_of = |v: usize| {
-            (0..lanes)
-                .map(|l| nb.of(lane_vertex(v, l)).len())
-                .max()
-                .unwrap_or(0)
-        };
-        let all_slots: usize = (0..n).step_by(lanes).map(slots_of).sum();
-        self.slot_offsets.reserve_exact(n.div_ceil(lanes));
-        self.neighbors.reserve_exact(all_slots * lanes);
-        self.bonds.reserve_exact(all_slots);
-        self.frames.reserve_exact(n.div_ceil(lanes));
-        self.constants.reserve_exact(n.div_ceil(lanes));
-        let mut pack = Vec::with_capacity(lanes);
-        for v in (0..n).step_by(lanes) {
-            pack.clear();
-            for i in v..(v + lanes).min(n) {
-                pack.push(source.vertex(i)?);
-                each(&pack[i - v]);
+        let mut rests = Vec::with_capacity(window);
+        let mut order = Vec::with_capacity(window);
+        for w in (0..n).step_by(window) {
+            let end = (w + window).min(n);
+            self.windows.push((base + w) as u32);
+            rests.clear();
+            for i in w..end {
+                rests.push(source.vertex(i)?);
+                each(&rests[i - w]);
             }
-            let vertex = |l: usize| lane_vertex(v, l);
-            let rest = |l: usize| &pack[vertex(l) - v];
-            for k in 0..slots_of(v) {
-                for l in 0..lanes {
-                    let own = nb.of(vertex(l));
-                    let j = own.get(k).map_or(vertex(l), |&j| j as usize);
-                    self.neighbors.push((base + j) as u32);
+            order.clear();
+            order.extend(w..end);
+            order.sort_by_key(|&i| nb.of(i).len());
+            for members in order.chunks(lanes) {
+                // Lane `l` computes vertex `vertex(l)` (the pack's last one in spare lanes).
+                let vertex = |l: usize| members[l.min(members.len() - 1)];
+                let rest = |l: usize| &rests[vertex(l) - w];
+                self.lanes
+                    .extend((0..lanes).map(|l| (base + vertex(l)) as u32));
+                self.filled.push(members.len() as u8);
+                let slots = members.iter().map(|&i| nb.of(i).len()).max().unwrap_or(0);
+                for k in 0..slots {
+                    for l in 0..lanes {
+                        let own = nb.of(vertex(l));
+                        let j = own.get(k).map_or(vertex(l), |&j| j as usize);
+                        self.neighbors.push((base + j) as u32);
+                    }
+                    let part = |f: fn(&BondRest<f64>) -> f64| {
+                        S::gather(|l| of(rest(l).bonds.get(k).map_or(0.0, f)))
+                    };
+                    self.bonds.push(BondRest {
+                        beta: [part(|b| b.beta[0]), part(|b| b.beta[1])],
+                        xi: Vector3::new(part(|b| b.xi.x), part(|b| b.xi.y), part(|b| b.xi.z)),
+                        curvature: Vector3::new(
+                            part(|b| b.curvature.x),
+                            part(|b| b.curvature.y),
+                            part(|b| b.curvature.z),
+                        ),
+                    });
                 }
-                let part = |f: fn(&BondRest<f64>) -> f64| {
-                    S::gather(|l| of(rest(l).bonds.get(k).map_or(0.0, f)))
+                self.slot_offsets.push(self.bonds.len() as u32);
+                let frame = |f: fn(&Frame<f64>) -> Vector3<f64>| {
+                    let c = |c: usize| S::gather(|l| of(f(&rest(l).frame)[c]));
+                    Vector3::new(c(0), c(1), c(2))
                 };
-                self.bonds.push(BondRest {
-                    beta: [part(|b| b.beta[0]), part(|b| b.beta[1])],
-                    xi: Vector3::new(part(|b| b.xi.x), part(|b| b.xi.y), part(|b| b.xi.z)),
-                    curvature: Vector3::new(
-                        part(|b| b.curvature.x),
-                        part(|b| b.curvature.y),
-                        part(|b| b.curvature.z),
-                    ),
+                self.frames.push(Frame {
+                    t1: frame(|f| f.t1),
+                    t2: frame(|f| f.t2),
+                    nc: frame(|f| f.nc),
+                });
+                let constant =
+                    |f: fn(&VertexConstants<f64>) -> f64| S::gather(|l| of(f(&rest(l).constants)));
+                self.constants.push(VertexConstants {
+                    volume: constant(|c| c.volume),
+                    mass: constant(|c| c.mass),
+                    k_iso: constant(|c| c.k_iso),
+                    k_bound: constant(|c| c.k_bound),
+                    kappa_t: constant(|c| c.kappa_t),
+                    kappa_n: constant(|c| c.kappa_n),
+                    half_thickness: constant(|c| c.half_thickness),
+                    material: pack_material(|l| rest(l).constants.material.to_real())
+                        .expect("a body has one material"),
                 });
             }
-            self.slot_offsets.push(self.bonds.len() as u32);
-            let frame = |f: fn(&Frame<f64>) -> Vector3<f64>| {
-                let c = |c: usize| S::gather(|l| of(f(&rest(l).frame)[c]));
-                Vector3::new(c(0), c(1), c(2))
-            };
-            self.frames.push(Frame {
-                t1: frame(|f| f.t1),
-                t2: frame(|f| f.t2),
-                nc: frame(|f| f.nc),
-            });
-            let constant =
-                |f: fn(&VertexConstants<f64>) -> f64| S::gather(|l| of(f(&rest(l).constants)));
-            self.constants.push(VertexConstants {
-                volume: constant(|c| c.volume),
-                mass: constant(|c| c.mass),
-                k_iso: constant(|c| c.k_iso),
-                k_bound: constant(|c| c.k_bound),
-                kappa_t: constant(|c| c.kappa_t),
-                kappa_n: constant(|c| c.kappa_n),
-                half_thickness: constant(|c| c.half_thickness),
-                material: pack_material(|l| rest(l).constants.material.to_real())
-                    .expect("a body has one material"),
-            });
+            self.window_packs.push(self.frames.len() as u32);
         }
-        debug_assert_eq!(self.frames.len(), self.starts.len() - 1);
+        self.windows.push((base + n) as u32);
         Ok(())
     }
 
@@ -211,16 +231,18 @@ pub fn evaluate_vertices<T: Real>(
     let slots = p.max_slots();
     for_each_block(
         &nb.offsets,
-        &p.starts,
+        &p.windows,
         bond_grad,
         response,
-        &|packs, first, bonds, out| {
+        &|windows, first, bonds, out| {
             let base = nb.offsets[first] as usize;
             let mut edges = Vec::with_capacity(slots);
+            let packs =
+                p.window_packs[windows.start] as usize..p.window_packs[windows.end] as usize;
             for pack in packs {
-                let (start, end) = (p.starts[pack] as usize, p.starts[pack + 1] as usize);
+                let members = &p.lanes[pack * lanes..(pack + 1) * lanes];
                 let slot_range = p.slot_offsets[pack] as usize..p.slot_offsets[pack + 1] as usize;
-                let own = |c: usize| T::Pack::gather(|l| y[(start + l).min(end - 1)][c]);
+                let own = |c: usize| T::Pack::gather(|l| y[members[l] as usize][c]);
                 let yi = Vector3::new(own(0), own(1), own(2));
                 edges.clear();
                 for slot in slot_range.clone() {
@@ -234,7 +256,8 @@ pub fn evaluate_vertices<T: Real>(
                     constants: &p.constants[pack],
                 };
                 let r = vertex_kernel(&stencil, mode, &mut edges);
-                for (l, i) in (start..end).enumerate() {
+                for (l, &i) in members[..p.filled[pack] as usize].iter().enumerate() {
+                    let i = i as usize;
                     let range = nb.bonds(i);
                     for (e, g) in edges
                         .iter()
@@ -371,26 +394,39 @@ mod tests {
         }
     }
 
-    /// Packs are cut at body boundaries: two bodies of 63 vertices give, in f32, packs starting
-    /// every 8 vertices within each body and short ones of 7 at each body's end.
+    /// Packs are cut at body boundaries and group vertices of equal bond counts: two bodies of
+    /// 63 vertices (one window each in f32) give 8 packs each, every vertex in exactly one
+    /// pack's filled lanes, the lanes of a window in ascending bond count, spare lanes repeating
+    /// the last vertex, and no more slots than the pack's largest bond count.
     #[test]
-    fn packs_never_span_two_bodies() {
+    fn packs_stay_in_one_body_and_group_equal_bond_counts() {
         let m = body(Material::stretch_a3(1e3).unwrap());
         let mut packed = PackedRest::<crate::real::F32Pack>::empty();
         let source = m.rest_source().unwrap();
-        packed
-            .add_body(m.neighborhood(), &source, &mut |_| {})
-            .unwrap();
-        packed
-            .add_body(m.neighborhood(), &source, &mut |_| {})
-            .unwrap();
-        let expected: Vec<u32> = (0..63)
-            .step_by(8)
-            .chain((63..126).step_by(8))
-            .chain([126])
-            .collect();
-        assert_eq!(packed.starts, expected);
+        let nb = m.neighborhood();
+        packed.add_body(nb, &source, &mut |_| {}).unwrap();
+        packed.add_body(nb, &source, &mut |_| {}).unwrap();
+        assert_eq!(packed.windows, [0, 63, 126]);
+        assert_eq!(packed.window_packs, [0, 8, 16]);
         assert_eq!(packed.frames.len(), 16);
+        let degree = |v: u32| nb.of(v as usize % 63).len();
+        let mut seen = vec![0; 126];
+        for (p, lanes) in packed.lanes.chunks(8).enumerate() {
+            let filled = &lanes[..packed.filled[p] as usize];
+            let body = filled[0] / 63;
+            assert!(
+                filled.iter().all(|&v| v / 63 == body),
+                "pack {p}: {lanes:?}"
+            );
+            assert!(lanes[filled.len()..]
+                .iter()
+                .all(|&v| v == filled[filled.len() - 1]));
+            assert!(filled.windows(2).all(|w| degree(w[0]) <= degree(w[1])));
+            let slots = packed.slot_offsets[p + 1] - packed.slot_offsets[p];
+            assert_eq!(slots as usize, degree(filled[filled.len() - 1]), "pack {p}");
+            filled.iter().for_each(|&v| seen[v as usize] += 1);
+        }
+        assert!(seen.iter().all(|&c| c == 1));
     }
 
     /// Lanes of different material models do not make a pack.
