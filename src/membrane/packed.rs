@@ -80,18 +80,30 @@ impl<S: Lanes> PackedRest<S> {
         let n = source.len();
         let base = self.windows.pop().expect("windows holds the vertex count") as usize;
         let window = WINDOW_PACKS * lanes;
-        let packs = (0..n)
-            .step_by(window)
-            .map(|w| (n - w).min(window).div_ceil(lanes))
-            .sum::<usize>();
+        // The windows' vertices in pack order: ascending bond count, stably.
+        let ordered = |w: usize, order: &mut Vec<usize>| {
+            order.clear();
+            order.extend(w..(w + window).min(n));
+            order.sort_by_key(|&i| nb.of(i).len());
+        };
+        let mut order = Vec::with_capacity(window);
+        let (mut packs, mut slots) = (0, 0);
+        for w in (0..n).step_by(window) {
+            ordered(w, &mut order);
+            for members in order.chunks(lanes) {
+                packs += 1;
+                slots += nb.of(members[members.len() - 1]).len();
+            }
+        }
         self.slot_offsets.reserve_exact(packs);
+        self.neighbors.reserve_exact(slots * lanes);
+        self.bonds.reserve_exact(slots);
         self.frames.reserve_exact(packs);
         self.constants.reserve_exact(packs);
         self.lanes.reserve_exact(packs * lanes);
         self.filled.reserve_exact(packs);
         let of = |x: f64| <S::Scalar as Real>::of(x);
         let mut rests = Vec::with_capacity(window);
-        let mut order = Vec::with_capacity(window);
         for w in (0..n).step_by(window) {
             let end = (w + window).min(n);
             self.windows.push((base + w) as u32);
@@ -100,9 +112,7 @@ impl<S: Lanes> PackedRest<S> {
                 rests.push(source.vertex(i)?);
                 each(&rests[i - w]);
             }
-            order.clear();
-            order.extend(w..end);
-            order.sort_by_key(|&i| nb.of(i).len());
+            ordered(w, &mut order);
             for members in order.chunks(lanes) {
                 // Lane `l` computes vertex `vertex(l)` (the pack's last one in spare lanes).
                 let vertex = |l: usize| members[l.min(members.len() - 1)];
