@@ -340,7 +340,7 @@ class StepStats:
         the solver records it (``record_energy=True``)."""
     @property
     def timings(self) -> dict:
-        """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel), 'colliders', 'finish', 'total'."""
+        """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish', 'total'."""
     @property
     def contact(self) -> dict:
         """Contact figures (zeros when contact is off): 'candidate_pairs' (triangle pairs of

@@ -194,6 +194,23 @@ mod tests {
     use super::super::distance::tests::Rng;
     use super::*;
 
+    /// Brute force: every triangle pair of `mesh` that may touch, and every primitive pair
+    /// they hold (whatever their distance at `positions`).
+    fn brute_force_pairs(
+        mesh: &ContactMesh,
+        positions: &[Vector3<f64>],
+    ) -> (Vec<(u32, u32)>, Vec<Pair>) {
+        let nt = mesh.triangles.len();
+        let all: Vec<(u32, u32)> = (0..nt)
+            .flat_map(|a| (a + 1..nt).map(move |b| (a, b)))
+            .filter(|&(a, b)| mesh.may_touch(a, b))
+            .map(|(a, b)| (a as u32, b as u32))
+            .collect();
+        let mut every = Vec::new();
+        close_primitive_pairs(mesh.triangles, &all, positions, f64::INFINITY, &mut every);
+        (all, every.into_iter().map(|(p, _)| p).collect())
+    }
+
     /// Checks, at points along the way from `safe` to `target` each moved by up to
     /// `allowance` (m), that every pair of `every` within `reach` (m) is in `live`; returns how
     /// many were within reach.
@@ -259,15 +276,7 @@ mod tests {
             body: &body,
             self_contact: &[true],
         };
-        let nt = triangles.len();
-        let all: Vec<(u32, u32)> = (0..nt)
-            .flat_map(|a| (a + 1..nt).map(move |b| (a, b)))
-            .filter(|&(a, b)| mesh.may_touch(a, b))
-            .map(|(a, b)| (a as u32, b as u32))
-            .collect();
-        let mut every = Vec::new();
-        close_primitive_pairs(&triangles, &all, &safe, f64::INFINITY, &mut every);
-        let every: Vec<Pair> = every.into_iter().map(|(p, _)| p).collect();
+        let (all, every) = brute_force_pairs(&mesh, &safe);
         let (reach, allowance) = (0.02, 0.002);
         let mut cache = PairCache::default();
         let mut live = Vec::new();
@@ -331,12 +340,12 @@ mod tests {
             body: &body,
             self_contact: &[true],
         };
-        let all: Vec<(u32, u32)> = (0..n as u32)
-            .flat_map(|a| (a + 1..n as u32).map(move |b| (a, b)))
-            .collect();
-        let mut every = Vec::new();
-        close_primitive_pairs(&triangles, &all, &safe, f64::INFINITY, &mut every);
-        let every: Vec<Pair> = every.into_iter().map(|(p, _)| p).collect();
+        let (all, every) = brute_force_pairs(&mesh, &safe);
+        assert_eq!(
+            all.len(),
+            n * (n - 1) / 2,
+            "a soup: every triangle pair may touch"
+        );
         let (reach, allowance) = (0.03, 0.005);
         let mut cache = PairCache::default();
         let mut live = Vec::new();

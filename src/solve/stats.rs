@@ -10,7 +10,8 @@ pub struct Timings {
     /// Global steps (vertex kernel and Jacobi update).
     pub global: f64,
     /// Of `global`: the vertex kernel (bond gradients, energies and preconditioner blocks of
-    /// every vertex); the rest of `global` is the per-vertex move.
+    /// every vertex); the rest of `global` is the per-vertex move. CPU SISSM only (0 on the GPU,
+    /// whose kernels are not timed apart, and for the descent baseline).
     pub kernel: f64,
     /// Collider projection (local step).
     pub colliders: f64,
