@@ -149,6 +149,29 @@ def test_a_lifted_plane_and_mesh_box_push_a_resting_cloth_up_by_the_lift():
         assert m.positions[:, 2] - z0 == pytest.approx(0.01, abs=1e-6)
 
 
+def test_collider_pose_and_motion_read_back_as_arrays_in_the_given_row_order():
+    """A pose set for the next step is the collider's pose after it, as a (3, 3) rotation
+    whose rows are the ones given and a (3,) translation; `collider_motion` returns arrays
+    too, with no target pending once the step has taken it."""
+    s = peridyn.Solver(dt=1e-3)
+    s.add(resting_cloth())
+    s.add_collider(peridyn.Plane())
+    c, sn = np.cos(0.3), np.sin(0.3)
+    rotation = [[c, -sn, 0.0], [sn, c, 0.0], [0.0, 0.0, 1.0]]
+    s.set_collider_pose(0, rotation=rotation, translation=(0.1, -0.2, 0.3))
+    (base_r, base_t), target = s.collider_motion(0)
+    assert isinstance(target[0], np.ndarray) and target[0].shape == (3, 3)
+    np.testing.assert_allclose(target[0], rotation, atol=1e-15)
+    np.testing.assert_array_equal(base_t, [0.0, 0.0, 0.0])
+    s.step()
+    r, t = s.collider_pose(0)
+    assert isinstance(r, np.ndarray) and r.shape == (3, 3) and r.dtype == np.float64
+    assert isinstance(t, np.ndarray) and t.shape == (3,)
+    np.testing.assert_allclose(r, rotation, atol=1e-15)
+    np.testing.assert_allclose(t, [0.1, -0.2, 0.3], atol=1e-15)
+    assert s.collider_motion(0)[1] is None
+
+
 def test_a_turning_table_with_friction_carries_the_cloth_around():
     """A box table spun up about z to 1 rad/s over 0.1 s (angular acceleration 10 rad/s^2, so the
     cloth needs at most 2.5 m/s^2 tangentially, well within mu g) and turning on (pose set

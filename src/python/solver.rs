@@ -12,7 +12,7 @@ use crate::gpu::GpuSolver;
 use crate::membrane::{Membrane, Preconditioner};
 use crate::solve::{Acceleration, Clock, Method, Solver, SolverParams, StepStats};
 
-use super::arrays::{to_numpy_1d, vec3, vec3s};
+use super::arrays::{to_numpy, to_numpy_1d, vec3, vec3s};
 use super::collider;
 use super::contact::PyContact;
 use super::errors::{guard, IntoPyResult};
@@ -250,7 +250,7 @@ impl PySolver {
 
     /// The current pose of collider `index`: (rotation (3, 3), translation (3,) in m), such that
     /// a point `b` of the geometry as given is now at `rotation @ b + translation`.
-    fn collider_pose(&self, index: i64) -> PyResult<PoseRows> {
+    fn collider_pose<'py>(&self, py: Python<'py>, index: i64) -> PyResult<PoseArrays<'py>> {
         let index = self.collider_index(index)?;
         let pose = match &self.core {
             Precision::F64(s) => s.collider_pose(index).py()?,
@@ -262,21 +262,26 @@ impl PySolver {
                 MovingCollider::new(s.colliders()[index].clone()).pose(s.clock().time)
             }
         };
-        Ok(pose_rows(&pose))
+        pose_arrays(py, &pose)
     }
 
     /// What the motion of collider `index` depends on besides its velocity and the clock, for
     /// saving a simulation: `(base, target)`, the pose at time 0 its velocity carries on from and
     /// the pose set for the end of the next step (None when none is pending), each as
     /// `(rotation, translation)`.
-    fn collider_motion(&self, index: i64) -> PyResult<(PoseRows, Option<PoseRows>)> {
+    fn collider_motion<'py>(
+        &self,
+        py: Python<'py>,
+        index: i64,
+    ) -> PyResult<(PoseArrays<'py>, Option<PoseArrays<'py>>)> {
         let index = self.collider_index(index)?;
         let (base, target) = match &self.core {
             Precision::F64(s) => s.collider_motion(index).py()?,
             Precision::F32(s) => s.collider_motion(index).py()?,
             Precision::Gpu32(_) | Precision::Gpu64(_) => (Pose::IDENTITY, None),
         };
-        Ok((pose_rows(&base), target.as_ref().map(pose_rows)))
+        let target = target.map(|t| pose_arrays(py, &t)).transpose()?;
+        Ok((pose_arrays(py, &base)?, target))
     }
 
     /// Restores a motion read with `collider_motion` (both parts of the target, or neither).
@@ -580,13 +585,15 @@ impl PyStepStats {
 }
 
 /// A pose as Python sees it: rotation rows (3 x 3) and translation (m).
-type PoseRows = (Vec<Vec<f64>>, Vec<f64>);
+/// A pose as numpy arrays: rotation (3, 3) and translation (3,) in m.
+type PoseArrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>);
 
-fn pose_rows(pose: &Pose) -> PoseRows {
-    let rows = (0..3)
-        .map(|r| (0..3).map(|c| pose.rotation[(r, c)]).collect())
-        .collect();
-    (rows, pose.translation.as_slice().to_vec())
+fn pose_arrays<'py>(py: Python<'py>, pose: &Pose) -> PyResult<PoseArrays<'py>> {
+    let rows = (0..3).map(|r| pose.rotation.row(r).transpose());
+    Ok((
+        to_numpy(py, rows)?,
+        to_numpy_1d(py, pose.translation.as_slice().to_vec()),
+    ))
 }
 
 /// A pose from optional Python arguments (default: identity, no translation), checked.
