@@ -284,6 +284,11 @@ class Contact:
         iteration in units of xi.
     weight : barrier weight mu of eq. 47 (> 0).
     max_iters : descent iterations per local step (>= 1).
+    step : the descent's step rule: "curvature" (default) moves each vertex by its direction
+        divided by 1 + the barrier's curvature there (a Jacobi-preconditioned descent), or
+        "uniform", eq. 53 of the paper: one step length for all vertices from the barrier's
+        steepest slope. Both move no vertex more than eps * xi per iteration; near contact
+        "uniform" creeps and a local step usually ends at max_iters, far from its minimum.
     toi_threshold : times of impact in (toi_threshold, 1) clamp vertices inside the descent.
     ccd_s, ccd_t_c : the additive CCD's s and t_c (paper: 0.1 and 0.95).
     """
@@ -296,6 +301,7 @@ class Contact:
         eps: float = 0.1,
         weight: float = 1.0,
         max_iters: int = 32,
+        step: str = "curvature",
         toi_threshold: float = 0.1,
         ccd_s: float = 0.1,
         ccd_t_c: float = 0.95,
@@ -310,6 +316,8 @@ class Contact:
     def weight(self) -> float: ...
     @property
     def max_iters(self) -> int: ...
+    @property
+    def step(self) -> str: ...
     @property
     def toi_threshold(self) -> float: ...
 

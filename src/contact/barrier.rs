@@ -37,6 +37,18 @@ impl Barrier {
         }
     }
 
+    /// `B''(x) = -2 log(x / d_hat) - 4 (x - d_hat) / x + (x - d_hat)^2 / x^2` for
+    /// `0 < x < d_hat`, else 0 (dimensionless). Positive inside the range (the barrier is
+    /// convex), it grows like `d_hat^2 / x^2` as the gap closes.
+    pub fn second_derivative(&self, x: f64) -> f64 {
+        if x >= self.d_hat {
+            0.0
+        } else {
+            let r = x - self.d_hat;
+            -2.0 * (x / self.d_hat).ln() - 4.0 * r / x + r * r / (x * x)
+        }
+    }
+
     /// The rescaled distance of eq. 51 (m):
     /// `f(d) = (1 + eps) xi` for `d <= xi`,
     /// `(d - xi)^2 / (4 eps xi) + (1 + eps) xi` for `xi < d <= (1 + 2 eps) xi`, and `d` above.
@@ -107,6 +119,25 @@ mod tests {
         assert_eq!(b.value(b.d_hat), 0.0);
         assert!(b.derivative(b.d_hat * (1.0 - 1e-9)).abs() < 1e-12);
         assert!(b.derivative(0.5 * b.d_hat) < 0.0);
+    }
+
+    #[test]
+    fn barrier_second_derivative_matches_finite_differences_of_the_slope() {
+        let b = barrier();
+        let mut previous = f64::INFINITY;
+        for k in 1..200 {
+            let x = b.d_hat * 1.2 * k as f64 / 200.0;
+            let h = 1e-9;
+            let fd = (b.derivative(x + h) - b.derivative(x - h)) / (2.0 * h);
+            let exact = b.second_derivative(x);
+            assert!((fd - exact).abs() < 1e-5 * (1.0 + fd.abs()), "x = {x}");
+            // Convex inside the range, and flattening towards its end.
+            if x < b.d_hat {
+                assert!(exact > 0.0 && exact < previous, "x = {x}");
+            }
+            previous = exact;
+        }
+        assert_eq!(b.second_derivative(b.d_hat), 0.0);
     }
 
     #[test]

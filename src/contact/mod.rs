@@ -16,7 +16,7 @@ mod sdf;
 
 pub use broad_phase::{BroadPhase, ContactMesh};
 pub use collider::{Collider, ColliderModel, Shape, ShapeModel};
-pub use local_step::{project, ContactParams, ContactStats, Workspace};
+pub use local_step::{project, ContactParams, ContactStats, DescentStep, Workspace};
 pub use motion::MovingCollider;
 pub use pose::{rotation_matrix, Pose};
 pub use primitive_pairs::closest_primitive_distance;

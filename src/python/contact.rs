@@ -8,7 +8,9 @@ use rayon::prelude::*;
 
 use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use crate::contact::distance::{edge_edge_closest, point_triangle_closest, Closest};
-use crate::contact::{closest_primitive_distance, BroadPhase, ContactMesh, ContactParams};
+use crate::contact::{
+    closest_primitive_distance, BroadPhase, ContactMesh, ContactParams, DescentStep,
+};
 
 use super::arrays::{self, to_numpy, to_numpy_1d, vec3s};
 use super::errors::IntoPyResult;
@@ -235,7 +237,9 @@ fn edge_edge_ccd_additive<'py>(
 /// `eps * xi`; `d_hat` (m, default 4 xi as in Table 1): barrier range on the gap `f(d) - xi`;
 /// `eps` (default 0.1): minimal separation multiplier of eq. 51, also the largest descent move
 /// per iteration in units of xi; `weight` mu (default 1): barrier weight of eq. 47;
-/// `max_iters` (default 32): descent iterations per local step; `toi_threshold` (default 0.1):
+/// `max_iters` (default 32): descent iterations per local step; `step` ("curvature", default,
+/// or "uniform"): the descent's step rule, per vertex scaled by the barrier's curvature, or
+/// eq. 53's one step for all vertices (see `DescentStep`); `toi_threshold` (default 0.1):
 /// times of impact above it clamp inside the descent; `ccd_s`, `ccd_t_c` (0.1, 0.95): the
 /// additive CCD's parameters.
 #[pyclass(module = "peridyn._core", name = "Contact", frozen)]
@@ -248,7 +252,8 @@ pub struct PyContact {
 impl PyContact {
     #[new]
     #[pyo3(signature = (*, thickness = 1.5e-3, d_hat = None, eps = 0.1, weight = 1.0,
-                        max_iters = 32, toi_threshold = 0.1, ccd_s = 0.1, ccd_t_c = 0.95))]
+                        max_iters = 32, step = "curvature", toi_threshold = 0.1, ccd_s = 0.1,
+                        ccd_t_c = 0.95))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         thickness: f64,
@@ -256,6 +261,7 @@ impl PyContact {
         eps: f64,
         weight: f64,
         max_iters: i64,
+        step: &str,
         toi_threshold: f64,
         ccd_s: f64,
         ccd_t_c: f64,
@@ -263,12 +269,22 @@ impl PyContact {
         let max_iters = usize::try_from(max_iters).map_err(|_| {
             PyValueError::new_err(format!("max_iters must be >= 1, got {max_iters}"))
         })?;
+        let step = match step {
+            "curvature" => DescentStep::Curvature,
+            "uniform" => DescentStep::Uniform,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "contact step must be 'curvature' or 'uniform', got {other:?}"
+                )))
+            }
+        };
         let inner = ContactParams {
             thickness,
             d_hat: d_hat.unwrap_or(4.0 * thickness),
             eps,
             weight,
             max_iters,
+            step,
             toi_threshold,
             ccd: AdditiveCcd {
                 s: ccd_s,
@@ -301,6 +317,14 @@ impl PyContact {
     fn max_iters(&self) -> usize {
         self.inner.max_iters
     }
+    /// The descent's step rule: "curvature" or "uniform".
+    #[getter]
+    fn step(&self) -> &'static str {
+        match self.inner.step {
+            DescentStep::Curvature => "curvature",
+            DescentStep::Uniform => "uniform",
+        }
+    }
     #[getter]
     fn toi_threshold(&self) -> f64 {
         self.inner.toi_threshold
@@ -308,8 +332,15 @@ impl PyContact {
     fn __repr__(&self) -> String {
         let p = &self.inner;
         format!(
-            "Contact(thickness={}, d_hat={}, eps={}, weight={}, max_iters={}, toi_threshold={})",
-            p.thickness, p.d_hat, p.eps, p.weight, p.max_iters, p.toi_threshold
+            "Contact(thickness={}, d_hat={}, eps={}, weight={}, max_iters={}, step={:?}, \
+             toi_threshold={})",
+            p.thickness,
+            p.d_hat,
+            p.eps,
+            p.weight,
+            p.max_iters,
+            self.step(),
+            p.toi_threshold
         )
     }
 }
