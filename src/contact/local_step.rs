@@ -130,11 +130,15 @@ pub const STOP_FRACTION: f64 = 1e-2;
 /// Passes of the final clamp before the remaining colliding vertices fall back to safety.
 pub const CLAMP_PASSES: usize = 16;
 
-/// The descent's first allowance of total move per vertex, as a fraction of the barrier's
-/// reach: the live pairs cover moves up to it, and are refreshed with twice the drift when a
-/// vertex drifts further (a cost trade-off only; five descent moves of `eps xi` at the
-/// defaults).
-const DRIFT_ALLOWANCE: f64 = 0.1;
+/// The first allowance `A_i` of every vertex (see [`super::pair_cache`]), in descent moves of
+/// `eps xi`: the live pairs cover iterates within it of the global step's result, and are
+/// refreshed (the allowance raised to twice the deviation) when a vertex goes further. A cost
+/// trade-off only: two primitives that keep their places relative to each other stay out of
+/// the live list while their distance exceeds the reach by twice the allowance (a flat sheet
+/// of the paper's cloth at 200 x 200 keeps its own diagonal pairs 0.87 mm beyond the reach,
+/// about six moves of `eps xi`), and a vertex the descent moves `k` times brings about
+/// `log2 k` refreshes.
+const FIRST_ALLOWANCE: f64 = 1.0;
 
 /// What one local step did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -186,9 +190,7 @@ impl ContactStats {
 /// once they have grown to the scene's size, a local step allocates nothing.
 #[derive(Default)]
 pub struct Workspace {
-    cache: PairCache,
-    /// The live pairs.
-    pairs: Vec<Pair>,
+    live: LivePairs,
     /// `y^k`, the target of the proximal term.
     target: Vec<Vector3<f64>>,
     /// Per vertex: total distance moved by the descent (m).
@@ -213,8 +215,6 @@ pub struct Workspace {
     floors: Vec<f64>,
     /// Per vertex: `|y_i^k - z_i^{k-1}|` (m), how far the global step took it from safety.
     motion: Vec<f64>,
-    /// Per pair: distance at the safe positions `z^{k-1}` (m).
-    start: Vec<f64>,
     /// Per vertex: the barrier push at the returned positions (see [`Workspace::push`]).
     push: Vec<Vector3<f64>>,
 }
@@ -229,6 +229,88 @@ impl Workspace {
     }
 }
 
+/// The live pairs of a local step and the motion they cover (see [`super::pair_cache`]).
+#[derive(Default)]
+struct LivePairs {
+    cache: PairCache,
+    /// The pairs that may come within the barrier's reach.
+    pairs: Vec<Pair>,
+    /// Per pair: distance at the safe positions `z^{k-1}` (m).
+    start: Vec<f64>,
+    /// Per vertex: the allowance `A_i` (m) the pairs were filtered for.
+    allowance: Vec<f64>,
+    /// Per vertex: `E_i >= |z_i - y_i^k|` (m) at the current iterate `z`: 0 at `z = y^k`, a
+    /// clamp to `z^{k-1} + t (z - z^{k-1})` makes it `(1 - t) |y_i^k - z_i^{k-1}| + t E_i`, a
+    /// descent move adds its length.
+    deviation: Vec<f64>,
+}
+
+impl LivePairs {
+    /// Starts a local step from the safe positions `safe` towards `target` (m): allowance
+    /// `allowance` (m) and no deviation for every vertex, and the pairs for them.
+    fn start(
+        &mut self,
+        safe: &[Vector3<f64>],
+        target: &[Vector3<f64>],
+        allowance: f64,
+        mesh: &ContactMesh,
+        reach: f64,
+        stats: &mut ContactStats,
+    ) {
+        refill(&mut self.allowance, safe.len(), allowance);
+        refill(&mut self.deviation, safe.len(), 0.0);
+        self.refresh(safe, target, mesh, reach, stats);
+    }
+
+    /// Where a vertex's deviation exceeds its allowance (or is NaN), raises the allowance to
+    /// twice the deviation and refreshes the pairs (before anything looks at the positions
+    /// they may not cover). Returns whether it refreshed.
+    fn cover(
+        &mut self,
+        safe: &[Vector3<f64>],
+        target: &[Vector3<f64>],
+        mesh: &ContactMesh,
+        reach: f64,
+        stats: &mut ContactStats,
+    ) -> bool {
+        let short = self
+            .allowance
+            .par_iter_mut()
+            .zip(&self.deviation)
+            .map(|(a, &e)| {
+                let beyond = !(e <= *a);
+                if beyond {
+                    *a = 2.0 * e;
+                }
+                beyond
+            })
+            .reduce(|| false, |x, y| x || y);
+        if short {
+            self.refresh(safe, target, mesh, reach, stats);
+        }
+        short
+    }
+
+    /// Filters the pairs for the allowances (see [`PairCache::live_pairs`]) and writes their
+    /// distances at the safe positions.
+    fn refresh(
+        &mut self,
+        safe: &[Vector3<f64>],
+        target: &[Vector3<f64>],
+        mesh: &ContactMesh,
+        reach: f64,
+        stats: &mut ContactStats,
+    ) {
+        let cache = &mut self.cache;
+        let built = cache.live_pairs(safe, target, &self.allowance, mesh, reach, &mut self.pairs);
+        stats.broad_phase_builds += usize::from(built);
+        stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
+        stats.box_pairs = stats.box_pairs.max(cache.box_pairs());
+        stats.primitive_pairs = stats.primitive_pairs.max(self.pairs.len());
+        start_distances(&self.pairs, safe, &mut self.start);
+    }
+}
+
 /// Sets `v` to `n` copies of `value`, reusing its allocation.
 fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
     v.clear();
@@ -237,6 +319,19 @@ fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
 
 fn millis(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
+}
+
+/// Forgets every pair's time of impact and nearness, and marks every vertex moved, so that the
+/// next CCD queries all `pairs` (a count) afresh.
+fn restart_ccd(
+    pairs: usize,
+    toi: &mut Vec<Option<f64>>,
+    near: &mut Vec<bool>,
+    changed: &mut [bool],
+) {
+    refill(toi, pairs, None);
+    refill(near, pairs, true);
+    changed.iter_mut().for_each(|c| *c = true);
 }
 
 /// Writes into `t` the smallest time of impact per vertex over the pairs that collide (1 where
@@ -273,48 +368,42 @@ pub fn project(
     let n = positions.len();
 
     let t = Instant::now();
-    let mut allowance = DRIFT_ALLOWANCE * reach;
-    let built = work
-        .cache
-        .live_pairs(safe, positions, allowance, mesh, reach, &mut work.pairs);
-    stats.broad_phase_builds += usize::from(built);
-    stats.candidate_pairs = work.cache.candidates();
-    stats.box_pairs = work.cache.box_pairs();
-    stats.primitive_pairs = work.pairs.len();
+    work.target.clear();
+    work.target.extend_from_slice(positions);
+    let first = FIRST_ALLOWANCE * eps * xi;
+    work.live
+        .start(safe, &work.target, first, mesh, reach, &mut stats);
     stats.broad_phase_ms += millis(t);
     refill(&mut work.push, n, Vector3::zeros());
-    if work.pairs.is_empty() {
+    if work.live.pairs.is_empty() {
         return stats;
     }
 
-    let t = Instant::now();
-    work.target.clear();
-    work.target.extend_from_slice(positions);
     let z = positions;
     safe.par_iter()
         .zip(&*z)
         .map(|(s, y)| (y - s).norm())
         .collect_into_vec(&mut work.motion);
-    start_distances(&work.pairs, safe, &mut work.start);
-    stats.broad_phase_ms += millis(t);
     let bound = barrier.derivative_bound();
     refill(&mut work.drift, n, 0.0);
     refill(&mut work.force, n, Vector3::zeros());
     refill(&mut work.alpha, n, 0.0);
     // Vertices moved since the last CCD: a pair none of whose vertices moved keeps its time.
-    refill(&mut work.changed, n, true);
-    refill(&mut work.toi, work.pairs.len(), None);
     // After the first iteration a vertex moves at most `eps xi` per iteration (eq. 53), so
     // only pairs that were within `(1 + 4 eps) xi` can reach `xi`: the others skip the CCD.
-    refill(&mut work.near, work.pairs.len(), true);
+    refill(&mut work.changed, n, true);
+    restart_ccd(
+        work.live.pairs.len(),
+        &mut work.toi,
+        &mut work.near,
+        &mut work.changed,
+    );
     let near_distance = (1.0 + 4.0 * eps) * xi;
     // The largest total descent move of a vertex so far (m).
     let mut max_drift = 0.0;
     let Workspace {
-        cache,
-        pairs,
+        live,
         motion,
-        start,
         target,
         drift,
         force,
@@ -336,9 +425,9 @@ pub fn project(
         let drift_now = max_drift;
         stats.ccd_queries += toi
             .par_iter_mut()
-            .zip(&*pairs)
+            .zip(&live.pairs)
             .zip(&*near)
-            .zip(&*start)
+            .zip(&live.start)
             .map(|(((hit, p), &near), &d0)| {
                 if !near || p.distance_bound(d0, motion, drift_now) > xi {
                     *hit = None;
@@ -349,29 +438,45 @@ pub fn project(
                 0
             })
             .sum::<usize>();
-        vertex_toi(pairs, toi, per_vertex, n);
+        vertex_toi(&live.pairs, toi, per_vertex, n);
         z.par_iter_mut()
             .zip(changed.par_iter_mut())
+            .zip(live.deviation.par_iter_mut())
             .enumerate()
-            .for_each(|(i, (zi, moved))| {
+            .for_each(|(i, ((zi, moved), ei))| {
                 let ti = per_vertex[i];
                 *moved = !fixed[i] && ti < 1.0 && ti > params.toi_threshold;
                 if *moved {
                     *zi = safe[i] + (*zi - safe[i]) * ti;
+                    *ei = (1.0 - ti) * motion[i] + ti * *ei;
                 }
             });
         stats.ccd_ms += millis(t);
+        // The clamps may have taken a vertex beyond its allowance.
+        let t = Instant::now();
+        if live.cover(safe, target, mesh, reach, &mut stats) {
+            restart_ccd(live.pairs.len(), toi, near, changed);
+        }
+        stats.broad_phase_ms += millis(t);
 
         // Lines 19-27: distances, weights and the descent direction of eq. 49.
         let t = Instant::now();
-        closest_within(pairs, start, motion, max_drift, reach, z, closest);
+        closest_within(
+            &live.pairs,
+            &live.start,
+            motion,
+            max_drift,
+            reach,
+            z,
+            closest,
+        );
         // A pair left out by `closest_within` is not near: it is at least `reach` apart,
         // which is beyond `(1 + 4 eps) xi` whenever `d_hat >= 4 eps xi` (the defaults), so the
         // full evaluation would not call it near either.
         for (c, near) in closest.iter().zip(near.iter_mut()) {
             *near = c.separation.norm() < near_distance;
         }
-        barrier_push(pairs, closest, &barrier, mu, force, alpha);
+        barrier_push(&live.pairs, closest, &barrier, mu, force, alpha);
         let (alpha_0, farthest) = (0..n)
             .into_par_iter()
             .filter(|&i| !fixed[i])
@@ -384,8 +489,9 @@ pub fn project(
             .par_iter_mut()
             .zip(drift.par_iter_mut())
             .zip(changed.par_iter_mut())
+            .zip(live.deviation.par_iter_mut())
             .enumerate()
-            .map(|(i, ((zi, di), ci))| {
+            .map(|(i, (((zi, di), ci), ei))| {
                 if fixed[i] {
                     return (0.0, 0.0);
                 }
@@ -395,43 +501,31 @@ pub fn project(
                 let step = (*zi - before).norm();
                 *ci |= step > 0.0;
                 *di += step;
+                *ei += step;
                 (step, *di)
             })
             .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
         stats.iterations += 1;
         stats.descent_ms += millis(t);
 
-        // A vertex drifted beyond the live pairs' allowance: they may miss a pair now (NaN
-        // counts as beyond). Refresh them and start the CCD afresh on the new list.
-        if max_drift > allowance || max_drift.is_nan() {
-            let t = Instant::now();
-            allowance = 2.0 * max_drift;
-            let built = cache.live_pairs(safe, target, allowance, mesh, reach, pairs);
-            stats.broad_phase_builds += usize::from(built);
-            stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
-            stats.box_pairs = stats.box_pairs.max(cache.box_pairs());
-            stats.primitive_pairs = stats.primitive_pairs.max(pairs.len());
-            start_distances(pairs, safe, start);
-            refill(toi, pairs.len(), None);
-            refill(near, pairs.len(), true);
-            refill(changed, n, true);
-            stats.broad_phase_ms += millis(t);
+        // A vertex moved beyond its allowance: the live pairs may miss a pair now (NaN counts
+        // as beyond). Refresh them and start the CCD afresh on the new list.
+        let t = Instant::now();
+        if live.cover(safe, target, mesh, reach, &mut stats) {
+            restart_ccd(live.pairs.len(), toi, near, changed);
         }
+        stats.broad_phase_ms += millis(t);
         if moved < STOP_FRACTION * eps * xi {
             break;
         }
     }
 
-    let t = Instant::now();
-    let (clamped, queries) = guarantee(safe, z, fixed, params, max_drift, work);
-    stats.clamped = clamped;
-    stats.ccd_queries += queries;
-    stats.ccd_ms += millis(t);
+    guarantee(safe, z, fixed, mesh, params, max_drift, work, &mut stats);
 
     let t = Instant::now();
     closest_within(
-        &work.pairs,
-        &work.start,
+        &work.live.pairs,
+        &work.live.start,
         &work.motion,
         max_drift,
         reach,
@@ -444,7 +538,7 @@ pub fn project(
         .filter(|c| c.separation.norm() < reach)
         .count();
     barrier_push(
-        &work.pairs,
+        &work.live.pairs,
         &work.closest,
         &barrier,
         mu,
@@ -524,50 +618,57 @@ fn start_distances(pairs: &[Pair], safe: &[Vector3<f64>], start: &mut Vec<f64>) 
         .collect_into_vec(start);
 }
 
-/// The final clamp (see the module doc) over the pairs in `work`, with `max_drift` the
-/// descent's largest total move of a vertex (m): returns the number of vertices it moved and
-/// the CCD queries it made.
+/// The final clamp (see the module doc) over the live pairs in `work`, with `max_drift` the
+/// descent's largest total move of a vertex (m): adds to `stats` the vertices it moved, the
+/// CCD queries it made and its time (a refresh of the live pairs after a clamp counting as
+/// broad phase).
 fn guarantee(
     safe: &[Vector3<f64>],
     z: &mut [Vector3<f64>],
     fixed: &[bool],
+    mesh: &ContactMesh,
     params: &ContactParams,
     max_drift: f64,
     work: &mut Workspace,
-) -> (usize, usize) {
-    let floor = params.eps * params.thickness;
+    stats: &mut ContactStats,
+) {
+    let t = Instant::now();
+    let (floor, reach) = (params.eps * params.thickness, params.barrier().reach());
     let Workspace {
-        pairs,
+        live,
+        target,
         motion,
-        start,
         floors,
         toi,
         vertex_toi: per_vertex,
         clamped,
         ..
     } = work;
-    // Each pair's separation floor, from its distance at the safe positions; pairs already
-    // touching there cannot be helped and are skipped, and so are pairs whose distance bound
-    // stays above the floor (the clamps below only bring vertices closer to safety, so the
-    // bound holds on every path `z^{k-1} -> z` the passes test).
-    pairs
-        .par_iter()
-        .zip(&*start)
-        .map(|(p, &d0)| {
-            let min = floor.min(0.9 * d0);
-            if p.distance_bound(d0, motion, max_drift) > min {
-                0.0
-            } else {
-                min
-            }
-        })
-        .collect_into_vec(floors);
     refill(clamped, z.len(), false);
-    let queried = floors.iter().filter(|&&min| min > 0.0).count();
-    let mut queries = 0;
+    let mut stale = true;
+    let mut refreshing = 0.0;
     for pass in 0..=CLAMP_PASSES {
-        queries += queried;
-        pairs
+        if stale {
+            // Each pair's separation floor, from its distance at the safe positions; pairs
+            // already touching there cannot be helped and are skipped, and so are pairs whose
+            // distance bound stays above the floor (the clamps below only bring vertices
+            // closer to safety, so the bound holds on every path `z^{k-1} -> z` the passes
+            // test).
+            live.pairs
+                .par_iter()
+                .zip(&live.start)
+                .map(|(p, &d0)| {
+                    let min = floor.min(0.9 * d0);
+                    if p.distance_bound(d0, motion, max_drift) > min {
+                        0.0
+                    } else {
+                        min
+                    }
+                })
+                .collect_into_vec(floors);
+        }
+        stats.ccd_queries += floors.iter().filter(|&&min| min > 0.0).count();
+        live.pairs
             .par_iter()
             .zip(&*floors)
             .map(|(p, &min)| {
@@ -581,7 +682,7 @@ fn guarantee(
         if toi.iter().all(Option::is_none) {
             break;
         }
-        vertex_toi(pairs, toi, per_vertex, z.len());
+        vertex_toi(&live.pairs, toi, per_vertex, z.len());
         for (i, zi) in z.iter_mut().enumerate() {
             let ti = per_vertex[i];
             if fixed[i] || ti >= 1.0 {
@@ -589,10 +690,18 @@ fn guarantee(
             }
             let keep = if pass < CLAMP_PASSES { ti } else { 0.0 };
             *zi = safe[i] + (*zi - safe[i]) * keep;
+            live.deviation[i] = (1.0 - keep) * motion[i] + keep * live.deviation[i];
             clamped[i] = true;
         }
+        // The clamps may have taken a vertex beyond its allowance: the next pass and the
+        // final evaluation look at the clamped positions.
+        let r = Instant::now();
+        stale = live.cover(safe, target, mesh, reach, stats);
+        refreshing += millis(r);
     }
-    (clamped.iter().filter(|&&m| m).count(), queries)
+    stats.clamped = clamped.iter().filter(|&&m| m).count();
+    stats.broad_phase_ms += refreshing;
+    stats.ccd_ms += millis(t) - refreshing;
 }
 
 #[cfg(test)]
