@@ -224,13 +224,13 @@ fn largest(values: &[f64]) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::distance::tests::Rng;
     use super::*;
 
     /// Brute force: every triangle pair of `mesh` that may touch, and every primitive pair
     /// they hold (whatever their distance at `positions`).
-    fn brute_force_pairs(
+    pub(in crate::contact) fn brute_force_pairs(
         mesh: &ContactMesh,
         positions: &[Vector3<f64>],
     ) -> (Vec<(u32, u32)>, Vec<Pair>) {
