@@ -132,7 +132,7 @@ pub const CLAMP_PASSES: usize = 16;
 
 /// The first allowance `A_i` of every vertex (see [`super::pair_cache`]), in descent moves of
 /// `eps xi`: the live pairs cover iterates within it of the global step's result, and are
-/// refreshed (the allowance raised to twice the deviation) when a vertex goes further. A cost
+/// refreshed (the allowance raised by the deviation) when a vertex goes further. A cost
 /// trade-off only: two primitives that keep their places relative to each other stay out of
 /// the live list while their distance exceeds the reach by twice the allowance (a flat sheet
 /// of the paper's cloth at 200 x 200 keeps its own diagonal pairs 0.87 mm beyond the reach,
@@ -265,8 +265,8 @@ impl LivePairs {
     /// Where a vertex's deviation `E_i` exceeds its allowance `A_i` (or is NaN), raises the
     /// allowance to `A_i + E_i` (room for the deviation and as much drift again as the old
     /// allowance gave: it doubles under a steady drift, and a clamp's jump is not doubled) and
-    /// refreshes the pairs (before anything looks at the positions
-    /// they may not cover). Returns whether it refreshed.
+    /// refreshes the pairs (before anything looks at the positions they may not cover).
+    /// Returns whether it refreshed.
     fn cover(
         &mut self,
         safe: &[Vector3<f64>],
