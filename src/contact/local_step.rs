@@ -280,7 +280,7 @@ impl LivePairs {
             .par_iter_mut()
             .zip(&self.deviation)
             .map(|(a, &e)| {
-                let beyond = !(e <= *a);
+                let beyond = e.is_nan() || e > *a;
                 if beyond {
                     *a += e;
                 }
@@ -522,7 +522,7 @@ pub fn project(
         }
     }
 
-    guarantee(safe, z, fixed, mesh, params, max_drift, work, &mut stats);
+    guarantee(safe, z, fixed, mesh, params, work, &mut stats);
 
     let t = Instant::now();
     closest_within(
@@ -620,8 +620,8 @@ fn start_distances(pairs: &[Pair], safe: &[Vector3<f64>], start: &mut Vec<f64>) 
         .collect_into_vec(start);
 }
 
-/// The final clamp (see the module doc) over the live pairs in `work`, with `max_drift` the
-/// descent's largest total move of a vertex (m): adds to `stats` the vertices it moved, the
+/// The final clamp (see the module doc) over the live pairs in `work`: adds to `stats` the
+/// vertices it moved, the
 /// CCD queries it made and its time (a refresh of the live pairs after a clamp counting as
 /// broad phase).
 fn guarantee(
@@ -630,11 +630,12 @@ fn guarantee(
     fixed: &[bool],
     mesh: &ContactMesh,
     params: &ContactParams,
-    max_drift: f64,
     work: &mut Workspace,
     stats: &mut ContactStats,
 ) {
     let t = Instant::now();
+    // The descent's largest total move of a vertex (m).
+    let max_drift = work.drift.iter().copied().fold(0.0, f64::max);
     let (floor, reach) = (params.eps * params.thickness, params.barrier().reach());
     let Workspace {
         live,

@@ -40,15 +40,15 @@ impl Pair {
     }
 
     /// A lower bound of the pair's distance (m) wherever each vertex `i` is displaced from
-    /// where the distance was `distance` (m) by `u_i = (1 - tau) shift[i][0] + tau shift[i][1]
-    /// + e_i`, with one `tau` in `[0, 1]` for all vertices and `|e_i| <= extra[i]` (m): the
-    /// bound `distance - max_{a in A, b in B} max_k |shift[a][k] - shift[b][k]| - max_A extra -
-    /// max_B extra` (A, B the two primitives). Why: a point of A minus a point of B, with
-    /// barycentric weights `alpha` and `beta`, moves by `sum_{a, b} alpha_a beta_b (u_a - u_b)`,
-    /// at most the largest `|u_a - u_b|`; the `tau` part of `u_a - u_b` is affine in `tau`, so
-    /// its length is largest at `tau = 0` or 1, and the rest is at most `extra[a] +
-    /// extra[b]`. A common motion (`shift` equal on all four vertices) costs nothing. NaN if an
-    /// input is NaN (callers keep the pair then).
+    /// where the distance was `distance` (m) by `u_i = (1 - tau) shift[i][0] + tau shift[i][1] +
+    /// e_i`, with one `tau` in `[0, 1]` for all vertices and `|e_i| <= extra[i]` (m): the bound
+    /// `distance - max_{a in A, b in B} max_k |shift[a][k] - shift[b][k]| - max_A extra - max_B
+    /// extra` (A, B the two primitives). Why: a point of A minus a point of B, with barycentric
+    /// weights `alpha` and `beta`, moves by `sum_{a, b} alpha_a beta_b (u_a - u_b)`, at most the
+    /// largest `|u_a - u_b|`; the `tau` part of `u_a - u_b` is affine in `tau`, so its length is
+    /// largest at `tau = 0` or 1, and the rest is at most `extra[a] + extra[b]`. A common motion
+    /// (`shift` equal on all four vertices) costs nothing. NaN if an input is NaN (callers keep
+    /// the pair then).
     pub fn relative_distance_bound(
         &self,
         distance: f64,
@@ -59,9 +59,8 @@ impl Pair {
         let mut apart_squared = 0.0;
         for &i in a {
             for &j in b {
-                for k in 0..2 {
-                    let d = (shift[i as usize][k] - shift[j as usize][k]).norm_squared();
-                    apart_squared = nan_max(apart_squared, d);
+                for (p, q) in shift[i as usize].iter().zip(&shift[j as usize]) {
+                    apart_squared = nan_max(apart_squared, (p - q).norm_squared());
                 }
             }
         }
