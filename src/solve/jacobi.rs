@@ -233,7 +233,7 @@ fn finish_move<T: Real>(
     // Chebyshev extrapolates the unconstrained iteration only: a vertex a collider holds keeps
     // its projected position, else the extrapolation would push it along the contact past
     // what its friction cone allows (a resting cloth would creep).
-    if let (Some(w), true) = (options.omega, *next == free_move) {
+    if let Some(w) = options.omega.filter(|_| *next == free_move) {
         *next = (*next - sys.y_prev[k]) * w + sys.y_prev[k];
     }
     Update {
