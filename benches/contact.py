@@ -61,7 +61,8 @@ def child(layers: int, n: int, steps: int, warmup: int, iters: int, tol: float, 
             "predict_finish": t["predict"] + t["finish"],
             "broad_phase": c["broad_phase_ms"], "ccd": c["ccd_ms"], "descent": c["descent_ms"],
             "iterations": st.iterations, "local_iterations": c["local_iterations"],
-            "candidate_pairs": c["candidate_pairs"], "active_pairs": c["active_pairs"],
+            "candidate_pairs": c["candidate_pairs"], "box_pairs": c["box_pairs"],
+            "active_pairs": c["active_pairs"],
             "primitive_pairs": c["primitive_pairs"], "ccd_queries": c["ccd_queries"],
             "broad_phase_builds": c["broad_phase_builds"],
             "clamped": c["clamped"], "error_estimate": st.error_estimate,
@@ -143,7 +144,8 @@ def run_case(args, layers: int, n: int, steps: int):
           f"(global {m['global']:.1f}, broad {m['broad_phase']:.1f}, CCD {m['ccd']:.1f}, "
           f"descent {m['descent']:.1f}, colliders {m['colliders']:.1f}), "
           f"{m['iterations']:.0f} it, {m['local_iterations']:.0f} local it, "
-          f"{m['candidate_pairs']:.0f} candidates, {m['primitive_pairs']:.0f} live primitive "
+          f"{m['candidate_pairs']:.0f} candidates ({m['box_pairs']:.0f} boxes), "
+          f"{m['primitive_pairs']:.0f} live primitive "
           f"pairs, {m['ccd_queries']:.0f} CCD queries, {m['broad_phase_builds']:.0f} builds, "
           f"{m['active_pairs']:.0f} active, "
           f"peak {case['peak_bytes_per_vertex']:.0f} B/v, load {case['loadavg_1']:.1f}",

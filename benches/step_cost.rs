@@ -1,8 +1,10 @@
 //! Cost of one time step of the CPU solver on a pinned, hanging cloth, by precision.
 //!
-//! `cargo bench --bench step_cost -- [n] [iterations] [steps]` prints a JSON record: median
-//! milliseconds per step and per phase for an n x n cloth (default 120, 14.4K vertices) with
-//! exactly `iterations` global iterations per step (tol = 0), no contact.
+//! `cargo bench --bench step_cost -- [n] [iterations] [steps] [threads]` prints a JSON record:
+//! median milliseconds per step and per phase for an n x n cloth (default 120, 14.4K vertices)
+//! with exactly `iterations` global iterations per step (tol = 0), no contact, on `threads`
+//! workers (default: one per core). With one thread the whole step runs on the pool's single
+//! worker, which suits instruction counting (`valgrind --tool=callgrind`).
 
 use std::time::Instant;
 
@@ -32,7 +34,7 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-fn run<T: Real>(n: usize, iterations: usize, steps: usize) -> String {
+fn run<T: Real>(n: usize, iterations: usize, steps: usize, threads: Option<usize>) -> String {
     let mut body = cloth(n);
     let params = SolverParams {
         dt: 1e-3,
@@ -40,7 +42,7 @@ fn run<T: Real>(n: usize, iterations: usize, steps: usize) -> String {
         max_iters: iterations,
         ..SolverParams::default()
     };
-    let mut solver = Solver::<T>::new(params, None).unwrap();
+    let mut solver = Solver::<T>::new(params, threads).unwrap();
     solver.step(&mut [&mut body]).unwrap();
     let mut all: Vec<StepStats> = Vec::new();
     let start = Instant::now();
@@ -73,9 +75,10 @@ fn main() {
     let n = args.first().copied().unwrap_or(120);
     let iterations = args.get(1).copied().unwrap_or(10);
     let steps = args.get(2).copied().unwrap_or(30);
+    let threads = args.get(3).copied();
     println!(
         "[{},\n {}]",
-        run::<f32>(n, iterations, steps),
-        run::<f64>(n, iterations, steps)
+        run::<f32>(n, iterations, steps, threads),
+        run::<f64>(n, iterations, steps, threads)
     );
 }

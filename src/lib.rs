@@ -13,6 +13,7 @@ pub mod mesh;
 pub mod parallel;
 pub mod real;
 pub mod solve;
+pub mod symmetric;
 #[cfg(test)]
 mod test_rng;
 

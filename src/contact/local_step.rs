@@ -156,11 +156,15 @@ pub const STOP_FRACTION: f64 = 1e-2;
 /// Passes of the final clamp before the remaining colliding vertices fall back to safety.
 pub const CLAMP_PASSES: usize = 16;
 
-/// The descent's first allowance of total move per vertex, as a fraction of the barrier's
-/// reach: the live pairs cover moves up to it, and are refreshed with twice the drift when a
-/// vertex drifts further (a cost trade-off only; five descent moves of `eps xi` at the
-/// defaults).
-const DRIFT_ALLOWANCE: f64 = 0.1;
+/// The first allowance `A_i` of every vertex (see [`super::pair_cache`]), in descent moves of
+/// `eps xi`: the live pairs cover iterates within it of the global step's result, and are
+/// refreshed (the allowance raised by the deviation) when a vertex goes further. A cost
+/// trade-off only: two primitives that keep their places relative to each other stay out of
+/// the live list while their distance exceeds the reach by twice the allowance (a flat sheet
+/// of the paper's cloth at 200 x 200 keeps its own diagonal pairs 0.87 mm beyond the reach,
+/// about six moves of `eps xi`), and a vertex the descent moves `k` times brings about
+/// `log2 k` refreshes.
+const FIRST_ALLOWANCE: f64 = 1.0;
 
 /// What one local step did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -212,9 +216,7 @@ impl ContactStats {
 /// once they have grown to the scene's size, a local step allocates nothing.
 #[derive(Default)]
 pub struct Workspace {
-    cache: PairCache,
-    /// The live pairs.
-    pairs: Vec<Pair>,
+    live: LivePairs,
     /// `y^k`, the target of the proximal term.
     target: Vec<Vector3<f64>>,
     /// Per vertex: total distance moved by the descent (m).
@@ -241,8 +243,6 @@ pub struct Workspace {
     floors: Vec<f64>,
     /// Per vertex: `|y_i^k - z_i^{k-1}|` (m), how far the global step took it from safety.
     motion: Vec<f64>,
-    /// Per pair: distance at the safe positions `z^{k-1}` (m).
-    start: Vec<f64>,
     /// Per vertex: the barrier push at the returned positions (see [`Workspace::push`]).
     push: Vec<Vector3<f64>>,
 }
@@ -257,6 +257,90 @@ impl Workspace {
     }
 }
 
+/// The live pairs of a local step and the motion they cover (see [`super::pair_cache`]).
+#[derive(Default)]
+struct LivePairs {
+    cache: PairCache,
+    /// The pairs that may come within the barrier's reach.
+    pairs: Vec<Pair>,
+    /// Per pair: distance at the safe positions `z^{k-1}` (m).
+    start: Vec<f64>,
+    /// Per vertex: the allowance `A_i` (m) the pairs were filtered for.
+    allowance: Vec<f64>,
+    /// Per vertex: `E_i >= |z_i - y_i^k|` (m) at the current iterate `z`: 0 at `z = y^k`, a
+    /// clamp to `z^{k-1} + t (z - z^{k-1})` makes it `(1 - t) |y_i^k - z_i^{k-1}| + t E_i`, a
+    /// descent move adds its length.
+    deviation: Vec<f64>,
+}
+
+impl LivePairs {
+    /// Starts a local step from the safe positions `safe` towards `target` (m): allowance
+    /// `allowance` (m) and no deviation for every vertex, and the pairs for them.
+    fn start(
+        &mut self,
+        safe: &[Vector3<f64>],
+        target: &[Vector3<f64>],
+        allowance: f64,
+        mesh: &ContactMesh,
+        reach: f64,
+        stats: &mut ContactStats,
+    ) {
+        refill(&mut self.allowance, safe.len(), allowance);
+        refill(&mut self.deviation, safe.len(), 0.0);
+        self.refresh(safe, target, mesh, reach, stats);
+    }
+
+    /// Where a vertex's deviation `E_i` exceeds its allowance `A_i` (or is NaN), raises the
+    /// allowance to `A_i + E_i` (room for the deviation and as much drift again as the old
+    /// allowance gave: it doubles under a steady drift, and a clamp's jump is not doubled) and
+    /// refreshes the pairs (before anything looks at the positions they may not cover).
+    /// Returns whether it refreshed.
+    fn cover(
+        &mut self,
+        safe: &[Vector3<f64>],
+        target: &[Vector3<f64>],
+        mesh: &ContactMesh,
+        reach: f64,
+        stats: &mut ContactStats,
+    ) -> bool {
+        let short = self
+            .allowance
+            .par_iter_mut()
+            .zip(&self.deviation)
+            .map(|(a, &e)| {
+                let beyond = e.is_nan() || e > *a;
+                if beyond {
+                    *a += e;
+                }
+                beyond
+            })
+            .reduce(|| false, |x, y| x || y);
+        if short {
+            self.refresh(safe, target, mesh, reach, stats);
+        }
+        short
+    }
+
+    /// Filters the pairs for the allowances (see [`PairCache::live_pairs`]) and writes their
+    /// distances at the safe positions.
+    fn refresh(
+        &mut self,
+        safe: &[Vector3<f64>],
+        target: &[Vector3<f64>],
+        mesh: &ContactMesh,
+        reach: f64,
+        stats: &mut ContactStats,
+    ) {
+        let cache = &mut self.cache;
+        let built = cache.live_pairs(safe, target, &self.allowance, mesh, reach, &mut self.pairs);
+        stats.broad_phase_builds += usize::from(built);
+        stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
+        stats.box_pairs = stats.box_pairs.max(cache.box_pairs());
+        stats.primitive_pairs = stats.primitive_pairs.max(self.pairs.len());
+        start_distances(&self.pairs, safe, &mut self.start);
+    }
+}
+
 /// Sets `v` to `n` copies of `value`, reusing its allocation.
 fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
     v.clear();
@@ -265,6 +349,19 @@ fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
 
 fn millis(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
+}
+
+/// Forgets every pair's time of impact and nearness, and marks every vertex moved, so that the
+/// next CCD queries all `pairs` (a count) afresh.
+fn restart_ccd(
+    pairs: usize,
+    toi: &mut Vec<Option<f64>>,
+    near: &mut Vec<bool>,
+    changed: &mut [bool],
+) {
+    refill(toi, pairs, None);
+    refill(near, pairs, true);
+    changed.iter_mut().for_each(|c| *c = true);
 }
 
 /// Writes into `t` the smallest time of impact per vertex over the pairs that collide (1 where
@@ -301,49 +398,43 @@ pub fn project(
     let n = positions.len();
 
     let t = Instant::now();
-    let mut allowance = DRIFT_ALLOWANCE * reach;
-    let built = work
-        .cache
-        .live_pairs(safe, positions, allowance, mesh, reach, &mut work.pairs);
-    stats.broad_phase_builds += usize::from(built);
-    stats.candidate_pairs = work.cache.candidates();
-    stats.box_pairs = work.cache.box_pairs();
-    stats.primitive_pairs = work.pairs.len();
+    work.target.clear();
+    work.target.extend_from_slice(positions);
+    let first = FIRST_ALLOWANCE * eps * xi;
+    work.live
+        .start(safe, &work.target, first, mesh, reach, &mut stats);
     stats.broad_phase_ms += millis(t);
     refill(&mut work.push, n, Vector3::zeros());
-    if work.pairs.is_empty() {
+    if work.live.pairs.is_empty() {
         return stats;
     }
 
-    let t = Instant::now();
-    work.target.clear();
-    work.target.extend_from_slice(positions);
     let z = positions;
     safe.par_iter()
         .zip(&*z)
         .map(|(s, y)| (y - s).norm())
         .collect_into_vec(&mut work.motion);
-    start_distances(&work.pairs, safe, &mut work.start);
-    stats.broad_phase_ms += millis(t);
     let bound = barrier.derivative_bound();
     refill(&mut work.drift, n, 0.0);
     refill(&mut work.force, n, Vector3::zeros());
     refill(&mut work.alpha, n, 0.0);
     refill(&mut work.curvature, n, 0.0);
     // Vertices moved since the last CCD: a pair none of whose vertices moved keeps its time.
-    refill(&mut work.changed, n, true);
-    refill(&mut work.toi, work.pairs.len(), None);
     // After the first iteration a vertex moves at most `eps xi` per iteration (eq. 53), so
     // only pairs that were within `(1 + 4 eps) xi` can reach `xi`: the others skip the CCD.
-    refill(&mut work.near, work.pairs.len(), true);
+    refill(&mut work.changed, n, true);
+    restart_ccd(
+        work.live.pairs.len(),
+        &mut work.toi,
+        &mut work.near,
+        &mut work.changed,
+    );
     let near_distance = (1.0 + 4.0 * eps) * xi;
     // The largest total descent move of a vertex so far (m).
     let mut max_drift = 0.0;
     let Workspace {
-        cache,
-        pairs,
+        live,
         motion,
-        start,
         target,
         drift,
         force,
@@ -366,9 +457,9 @@ pub fn project(
         let drift_now = max_drift;
         stats.ccd_queries += toi
             .par_iter_mut()
-            .zip(&*pairs)
+            .zip(&live.pairs)
             .zip(&*near)
-            .zip(&*start)
+            .zip(&live.start)
             .map(|(((hit, p), &near), &d0)| {
                 if !near || p.distance_bound(d0, motion, drift_now) > xi {
                     *hit = None;
@@ -379,29 +470,45 @@ pub fn project(
                 0
             })
             .sum::<usize>();
-        vertex_toi(pairs, toi, per_vertex, n);
+        vertex_toi(&live.pairs, toi, per_vertex, n);
         z.par_iter_mut()
             .zip(changed.par_iter_mut())
+            .zip(live.deviation.par_iter_mut())
             .enumerate()
-            .for_each(|(i, (zi, moved))| {
+            .for_each(|(i, ((zi, moved), ei))| {
                 let ti = per_vertex[i];
                 *moved = !fixed[i] && ti < 1.0 && ti > params.toi_threshold;
                 if *moved {
                     *zi = safe[i] + (*zi - safe[i]) * ti;
+                    *ei = (1.0 - ti) * motion[i] + ti * *ei;
                 }
             });
         stats.ccd_ms += millis(t);
+        // The clamps may have taken a vertex beyond its allowance.
+        let t = Instant::now();
+        if live.cover(safe, target, mesh, reach, &mut stats) {
+            restart_ccd(live.pairs.len(), toi, near, changed);
+        }
+        stats.broad_phase_ms += millis(t);
 
         // Lines 19-27: distances, weights and the descent direction of eq. 49.
         let t = Instant::now();
-        closest_within(pairs, start, motion, max_drift, reach, z, closest);
+        closest_within(
+            &live.pairs,
+            &live.start,
+            motion,
+            max_drift,
+            reach,
+            z,
+            closest,
+        );
         // A pair left out by `closest_within` is not near: it is at least `reach` apart,
         // which is beyond `(1 + 4 eps) xi` whenever `d_hat >= 4 eps xi` (the defaults), so the
         // full evaluation would not call it near either.
         for (c, near) in closest.iter().zip(near.iter_mut()) {
             *near = c.separation.norm() < near_distance;
         }
-        barrier_push(pairs, closest, &barrier, mu, force, alpha, curvature);
+        barrier_push(&live.pairs, closest, &barrier, mu, force, alpha, curvature);
         let lambda = match params.step {
             DescentStep::Uniform => {
                 let (alpha_0, farthest) = (0..n)
@@ -420,8 +527,9 @@ pub fn project(
             .par_iter_mut()
             .zip(drift.par_iter_mut())
             .zip(changed.par_iter_mut())
+            .zip(live.deviation.par_iter_mut())
             .enumerate()
-            .map(|(i, ((zi, di), ci))| {
+            .map(|(i, (((zi, di), ci), ei))| {
                 if fixed[i] {
                     return (0.0, 0.0);
                 }
@@ -438,43 +546,31 @@ pub fn project(
                 let step = (*zi - before).norm();
                 *ci |= step > 0.0;
                 *di += step;
+                *ei += step;
                 (step, *di)
             })
             .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
         stats.iterations += 1;
         stats.descent_ms += millis(t);
 
-        // A vertex drifted beyond the live pairs' allowance: they may miss a pair now (NaN
-        // counts as beyond). Refresh them and start the CCD afresh on the new list.
-        if max_drift > allowance || max_drift.is_nan() {
-            let t = Instant::now();
-            allowance = 2.0 * max_drift;
-            let built = cache.live_pairs(safe, target, allowance, mesh, reach, pairs);
-            stats.broad_phase_builds += usize::from(built);
-            stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
-            stats.box_pairs = stats.box_pairs.max(cache.box_pairs());
-            stats.primitive_pairs = stats.primitive_pairs.max(pairs.len());
-            start_distances(pairs, safe, start);
-            refill(toi, pairs.len(), None);
-            refill(near, pairs.len(), true);
-            refill(changed, n, true);
-            stats.broad_phase_ms += millis(t);
+        // A vertex moved beyond its allowance: the live pairs may miss a pair now (NaN counts
+        // as beyond). Refresh them and start the CCD afresh on the new list.
+        let t = Instant::now();
+        if live.cover(safe, target, mesh, reach, &mut stats) {
+            restart_ccd(live.pairs.len(), toi, near, changed);
         }
+        stats.broad_phase_ms += millis(t);
         if moved < STOP_FRACTION * eps * xi {
             break;
         }
     }
 
-    let t = Instant::now();
-    let (clamped, queries) = guarantee(safe, z, fixed, params, max_drift, work);
-    stats.clamped = clamped;
-    stats.ccd_queries += queries;
-    stats.ccd_ms += millis(t);
+    guarantee(safe, z, fixed, mesh, params, work, &mut stats);
 
     let t = Instant::now();
     closest_within(
-        &work.pairs,
-        &work.start,
+        &work.live.pairs,
+        &work.live.start,
         &work.motion,
         max_drift,
         reach,
@@ -487,7 +583,7 @@ pub fn project(
         .filter(|c| c.separation.norm() < reach)
         .count();
     barrier_push(
-        &work.pairs,
+        &work.live.pairs,
         &work.closest,
         &barrier,
         mu,
@@ -577,50 +673,58 @@ fn start_distances(pairs: &[Pair], safe: &[Vector3<f64>], start: &mut Vec<f64>) 
         .collect_into_vec(start);
 }
 
-/// The final clamp (see the module doc) over the pairs in `work`, with `max_drift` the
-/// descent's largest total move of a vertex (m): returns the number of vertices it moved and
-/// the CCD queries it made.
+/// The final clamp (see the module doc) over the live pairs in `work`: adds to `stats` the
+/// vertices it moved, the
+/// CCD queries it made and its time (a refresh of the live pairs after a clamp counting as
+/// broad phase).
 fn guarantee(
     safe: &[Vector3<f64>],
     z: &mut [Vector3<f64>],
     fixed: &[bool],
+    mesh: &ContactMesh,
     params: &ContactParams,
-    max_drift: f64,
     work: &mut Workspace,
-) -> (usize, usize) {
-    let floor = params.eps * params.thickness;
+    stats: &mut ContactStats,
+) {
+    let t = Instant::now();
+    // The descent's largest total move of a vertex (m).
+    let max_drift = work.drift.iter().copied().fold(0.0, f64::max);
+    let (floor, reach) = (params.eps * params.thickness, params.barrier().reach());
     let Workspace {
-        pairs,
+        live,
+        target,
         motion,
-        start,
         floors,
         toi,
         vertex_toi: per_vertex,
         clamped,
         ..
     } = work;
-    // Each pair's separation floor, from its distance at the safe positions; pairs already
-    // touching there cannot be helped and are skipped, and so are pairs whose distance bound
-    // stays above the floor (the clamps below only bring vertices closer to safety, so the
-    // bound holds on every path `z^{k-1} -> z` the passes test).
-    pairs
-        .par_iter()
-        .zip(&*start)
-        .map(|(p, &d0)| {
-            let min = floor.min(0.9 * d0);
-            if p.distance_bound(d0, motion, max_drift) > min {
-                0.0
-            } else {
-                min
-            }
-        })
-        .collect_into_vec(floors);
     refill(clamped, z.len(), false);
-    let queried = floors.iter().filter(|&&min| min > 0.0).count();
-    let mut queries = 0;
+    let mut stale = true;
+    let mut refreshing = 0.0;
     for pass in 0..=CLAMP_PASSES {
-        queries += queried;
-        pairs
+        if stale {
+            // Each pair's separation floor, from its distance at the safe positions; pairs
+            // already touching there cannot be helped and are skipped, and so are pairs whose
+            // distance bound stays above the floor (the clamps below only bring vertices
+            // closer to safety, so the bound holds on every path `z^{k-1} -> z` the passes
+            // test).
+            live.pairs
+                .par_iter()
+                .zip(&live.start)
+                .map(|(p, &d0)| {
+                    let min = floor.min(0.9 * d0);
+                    if p.distance_bound(d0, motion, max_drift) > min {
+                        0.0
+                    } else {
+                        min
+                    }
+                })
+                .collect_into_vec(floors);
+        }
+        stats.ccd_queries += floors.iter().filter(|&&min| min > 0.0).count();
+        live.pairs
             .par_iter()
             .zip(&*floors)
             .map(|(p, &min)| {
@@ -634,7 +738,7 @@ fn guarantee(
         if toi.iter().all(Option::is_none) {
             break;
         }
-        vertex_toi(pairs, toi, per_vertex, z.len());
+        vertex_toi(&live.pairs, toi, per_vertex, z.len());
         for (i, zi) in z.iter_mut().enumerate() {
             let ti = per_vertex[i];
             if fixed[i] || ti >= 1.0 {
@@ -642,10 +746,18 @@ fn guarantee(
             }
             let keep = if pass < CLAMP_PASSES { ti } else { 0.0 };
             *zi = safe[i] + (*zi - safe[i]) * keep;
+            live.deviation[i] = (1.0 - keep) * motion[i] + keep * live.deviation[i];
             clamped[i] = true;
         }
+        // The clamps may have taken a vertex beyond its allowance: the next pass and the
+        // final evaluation look at the clamped positions.
+        let r = Instant::now();
+        stale = live.cover(safe, target, mesh, reach, stats);
+        refreshing += millis(r);
     }
-    (clamped.iter().filter(|&&m| m).count(), queries)
+    stats.clamped = clamped.iter().filter(|&&m| m).count();
+    stats.broad_phase_ms += refreshing;
+    stats.ccd_ms += millis(t) - refreshing;
 }
 
 #[cfg(test)]
@@ -786,28 +898,127 @@ mod tests {
         (below, [z[3].z, z[4].z, z[5].z], stats.iterations)
     }
 
-    /// The curvature step reaches the minimum of eq. 47 within its stopping test in a few
-    /// iterations; eq. 53's uniform step creeps (the barrier's steepest slope is about 180
-    /// times the proximal term's here) and at the default cap is still far from it.
+    /// The curvature step reaches the minimum of eq. 47 within its stopping test: 13
+    /// iterations, about 10 of them the approach at `eps xi` per iteration, and 0.7 % of
+    /// `eps xi` from the minimum. Eq. 53's uniform step creeps, its steepest slope bound being
+    /// about 180 times the proximal term's here: at the default cap it is still nearly 5 `eps xi`
+    /// short, and without a cap its moves fall below the stopping test's `1 % eps xi` while it
+    /// is still more than `eps xi` short (1.1 here).
     #[test]
     fn the_curvature_step_reaches_the_minimum_that_the_uniform_step_creeps_towards() {
         let eps_xi = 0.1 * 2e-3;
         let (root, heights, iterations) = pressed_triangle(DescentStep::Curvature, 32);
         for h in heights {
-            assert!((h - root).abs() < 0.05 * eps_xi, "{h} vs {root}");
+            assert!((h - root).abs() < 0.02 * eps_xi, "{h} vs {root}");
         }
-        assert!(iterations < 12, "{iterations} iterations");
+        assert!(iterations < 20, "{iterations} iterations");
         let (root, heights, iterations) = pressed_triangle(DescentStep::Uniform, 32);
         assert_eq!(iterations, 32);
         for h in heights {
+            assert!(root - h > 4.0 * eps_xi, "{h} vs {root}");
+        }
+        let cap = 100_000;
+        let (root, heights, iterations) = pressed_triangle(DescentStep::Uniform, cap);
+        assert!(iterations < cap, "{iterations} iterations");
+        for h in heights {
             assert!(root - h > eps_xi, "{h} vs {root}");
         }
-        // Given enough iterations the uniform step gets there too: the same minimum.
-        let (root, heights, iterations) = pressed_triangle(DescentStep::Uniform, 100_000);
-        for h in heights {
-            assert!((h - root).abs() < 0.05 * eps_xi, "{h} vs {root}");
+    }
+
+    /// Three slightly wavy 9 x 9 grids (1 cm spacing) falling about 5 cm in one local step,
+    /// with `xi = 1 mm` and a reach of 3 mm: the lowest sheet 50 mm, the other two 53 mm,
+    /// through the lowest (1.5 mm below them at the start), which half of their width
+    /// overlaps; the top one 5 mm above the middle one (beyond the reach). The CCD clamps the
+    /// overlap's vertices each by its own factor, holding the middle sheet back by centimetres
+    /// through the top one that fell on: its pairs with the middle sheet become live only
+    /// after the clamps. At the result no two primitives are closer than `eps xi`, and the
+    /// barrier push equals the one summed over every primitive pair (brute force): the live
+    /// pairs held every pair within the barrier's reach.
+    #[test]
+    fn sheets_falling_through_each_other_keep_every_pair_within_reach_live() {
+        let n = 9u32;
+        let mut safe = Vec::new();
+        let mut target = Vec::new();
+        let sheets = [
+            (0.0, 0.0, 0.05),
+            (0.045, 0.0015, 0.053),
+            (0.045, 0.0065, 0.053),
+        ];
+        for (shift, height, fall) in sheets {
+            for j in 0..n {
+                for i in 0..n {
+                    let (u, v) = (f64::from(i) * 0.01, f64::from(j) * 0.01);
+                    let wave = 0.0002 * (40.0 * u).sin() * (30.0 * v).cos();
+                    let p = Vector3::new(u + shift, v, height + wave);
+                    safe.push(p);
+                    target.push(p - Vector3::new(0.0, 0.0, fall));
+                }
+            }
         }
-        assert!(iterations > 100, "{iterations} iterations");
+        let mut triangles = Vec::new();
+        let mut body = Vec::new();
+        for sheet in 0..3 {
+            for j in 0..n - 1 {
+                for i in 0..n - 1 {
+                    let v = sheet * n * n + j * n + i;
+                    triangles.push([v, v + 1, v + n + 1]);
+                    triangles.push([v, v + n + 1, v + n]);
+                    body.extend([sheet, sheet]);
+                }
+            }
+        }
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[true, true, true],
+        };
+        let params = ContactParams {
+            thickness: 1e-3,
+            d_hat: 2e-3,
+            // Few descent moves: their drift alone would not bring the pairs in.
+            max_iters: 2,
+            ..ContactParams::default()
+        };
+        let barrier = params.barrier();
+        let mut z = target.clone();
+        let mut work = Workspace::default();
+        let fixed = vec![false; safe.len()];
+        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {}, &mut work);
+        assert!(stats.active_pairs > 0, "{stats:?}");
+        // Held back by clamps: some vertices by far more than the descent's moves of at most
+        // `eps xi` each could take them, others hardly at all.
+        let held: Vec<f64> = z.iter().zip(&target).map(|(a, b)| (a - b).norm()).collect();
+        let most = held.iter().copied().fold(0.0, f64::max);
+        let least = held.iter().copied().fold(f64::INFINITY, f64::min);
+        let descent = params.max_iters as f64 * params.eps * params.thickness;
+        assert!(
+            most > 2.0 * descent && least < 0.1 * descent,
+            "{most} {least}"
+        );
+        let (_, every) = super::super::pair_cache::tests::brute_force_pairs(&mesh, &safe);
+        let closest: Vec<_> = every.iter().map(|p| p.closest(&z)).collect();
+        let nearest = closest
+            .iter()
+            .map(|c| c.separation.norm())
+            .fold(f64::INFINITY, f64::min);
+        assert!(nearest >= params.eps * params.thickness, "{nearest}");
+        let mut push = vec![Vector3::zeros(); z.len()];
+        let (mut alpha, mut curvature) = (vec![0.0; z.len()], vec![0.0; z.len()]);
+        barrier_push(
+            &every,
+            &closest,
+            &barrier,
+            params.weight,
+            &mut push,
+            &mut alpha,
+            &mut curvature,
+        );
+        for (i, (a, b)) in work.push().iter().zip(&push).enumerate() {
+            assert!(
+                (a - b).norm() <= 1e-12 * (1.0 + b.norm()),
+                "vertex {i}: {a} vs {b}"
+            );
+        }
     }
 
     #[test]

@@ -7,29 +7,39 @@
 //! triangle pair (sharing no vertex) whose boxes around `r`, inflated by `R + reach / 2`,
 //! overlap and one of whose 15 primitive pairs is closer than `reach + 2 R` at `r`. The second
 //! test matters on fine meshes: there the padding exceeds the triangle size, and a box
-//! overlaps those of dozens of triangles of the same sheet that are much farther apart. A local step then bounds, per vertex, how far from `r` it can get:
-//! `b_i = |s_i - r_i| + |y_i - s_i| + D`, with `s` the safe positions, `y` the global step's
-//! result and `D` a bound on the descent's total move of any vertex (m). Why `b_i` bounds
-//! `|x_i - r_i|` at every position `x` the local step looks at: `|x_i - r_i| <= |s_i - r_i| +
-//! |x_i - s_i|`, and `|z_i - s_i| <= |y_i - s_i| + drift_i` holds for the iterate `z`: it holds
-//! at `z = y`, a clamp `z <- s + t (z - s)` with `t` in `[0, 1]` only shrinks `|z_i - s_i|`, and
-//! a descent move (collider projection included) adds at most its length, which the drift
-//! counts; the points `s + t (z - s)` the CCD visits are closer to `s` still.
+//! overlaps those of dozens of triangles of the same sheet that are much farther apart.
+//!
+//! **What a local step looks at.** With `s` the safe positions and `y` the global step's result
+//! (m), the local step (see [`super::local_step`]) evaluates pairs at its iterates `z` and runs
+//! the CCD on the straight paths `s + tau (z - s)`, `tau` in `[0, 1]`. It tracks per vertex a
+//! bound `E_i >= |z_i - y_i|` (m) through every place an iterate moves: `E_i = 0` at `z = y`;
+//! a clamp `z_i <- s_i + t (z_i - s_i)` (`t` in `[0, 1]`, in the descent and in the final
+//! pass) gives `|z_i - y_i| <= (1 - t) |y_i - s_i| + t E_i`, the new `E_i`; a descent move
+//! (collider projection included) adds its length. Every such position `x` is then
+//! `x_i = r_i + (1 - tau) w_i + tau g_i + e_i` with `w_i = s_i - r_i`, `g_i = y_i - r_i`,
+//! `|e_i| <= E_i` and one `tau` for all vertices (the iterates: `tau = 1`). Each live list is
+//! filtered for per-vertex allowances `A_i` (m) and the local step refreshes it (with larger
+//! allowances) before it looks at a position where some `E_i > A_i`.
 //!
 //! Two consequences, both conservative:
-//! - **Reuse**: while `max_i b_i <= R`, every point of a triangle stays within `R` of where it
-//!   was at `r` (its points are convex combinations of its vertices), so a primitive pair
-//!   within `reach` at `x` was closer than `reach + 2 R` at `r`: its triangle pairs had
-//!   overlapping inflated boxes and a primitive pair (itself) that close, so they were
-//!   candidates, and it was kept. The stored pairs are a superset of the ones a fresh broad
-//!   phase would find.
-//! - **Skip**: a point of a primitive moves at most the largest `b_i` of its vertices, so at
-//!   every such `x` the pair's distance is at least `d_r - max_A b - max_B b` (A, B the two
-//!   primitives). Where that is `>= reach` the pair feels no barrier (it acts only below
-//!   `reach`), and it cannot come within the CCD's separations (`xi` and at most `eps xi`, both
-//!   below `reach`), so it contributes nothing and is left out of the live list. (The additive
+//! - **Reuse**: `|x_i - r_i| <= b_i + A_i` with `b_i = |s_i - r_i| + |y_i - s_i|`. While
+//!   `max_i (b_i + A_i) <= R`, every point of a triangle stays within `R` of where it was at
+//!   `r` (its points are convex combinations of its vertices), so a primitive pair within
+//!   `reach` at `x` was closer than `reach + 2 R` at `r`: its triangle pairs had overlapping
+//!   inflated boxes and a primitive pair (itself) that close, so they were candidates, and it
+//!   was kept. The stored pairs are a superset of the ones a fresh broad phase would find.
+//! - **Skip**: the pair's distance at every such `x` is at least
+//!   `d_r - max_{a in A, b in B} max(|w_a - w_b|, |g_a - g_b|) - max_A A - max_B A` (A, B the
+//!   two primitives; [`Pair::relative_distance_bound`]): only the primitives' motion relative
+//!   to each other counts, so a sheet falling as a whole keeps its own pairs out of the list.
+//!   Where that is `>= reach` the pair feels no barrier (it acts only below `reach`), and it
+//!   cannot come within the CCD's separations (`xi` and at most `eps xi`, both below
+//!   `reach`), so it contributes nothing and is left out of the live list. (The additive
 //!   CCD, which stops at a fraction of the initial gap, could report an early time for such a
-//!   pair that never comes near: the skip removes that spurious clamp, nothing else.)
+//!   pair that never comes near: the skip removes that spurious clamp, nothing else.) The
+//!   absolute bound `d_r - max_A b - max_B b - max_A A - max_B A` is never larger
+//!   (`max(|w_a - w_b|, |g_a - g_b|) <= b_a + b_b`), so a pair it keeps at or above `reach` is
+//!   skipped without the relative test.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -56,8 +66,12 @@ pub(super) struct PairCache {
     candidates: Vec<(u32, u32)>,
     /// The primitive pairs of the build, each with its distance at `reference` (m).
     pairs: Vec<(Pair, f64)>,
-    /// Per vertex: `b_i - D` (m), the bound without the descent's allowance.
+    /// Per vertex: `b_i = |s_i - r_i| + |y_i - s_i|` (m), its motion from `reference` without
+    /// the allowance.
     bound: Vec<f64>,
+    /// Per vertex: `[w_i, g_i] = [s_i - r_i, y_i - r_i]` (m), its displacements from
+    /// `reference` at the two ends of the global step's path.
+    shift: Vec<[Vector3<f64>; 2]>,
 }
 
 impl PairCache {
@@ -72,34 +86,47 @@ impl PairCache {
         self.box_pairs
     }
 
-    /// Writes into `live` the pairs that may come within `reach` (m) while the descent moves no
-    /// vertex more than `allowance` (m) in total, from the safe positions `safe` and the global
-    /// step's result `target` (see the module doc); rebuilds the lists first when they may miss
-    /// a pair. Returns whether it rebuilt.
+    /// Writes into `live` the pairs that may come within `reach` (m) at the positions the
+    /// local step looks at while each vertex `i` stays within `allowance[i]` (m) of the path
+    /// from the safe positions `safe` to the global step's result `target` (the `E_i <= A_i` of
+    /// the module doc); rebuilds the lists first when they may miss a pair. Returns whether it
+    /// rebuilt.
     pub fn live_pairs(
         &mut self,
         safe: &[Vector3<f64>],
         target: &[Vector3<f64>],
-        allowance: f64,
+        allowance: &[f64],
         mesh: &ContactMesh,
         reach: f64,
         live: &mut Vec<Pair>,
     ) -> bool {
         let rebuild = !self.fits(mesh, safe.len()) || {
             self.bound_motion(safe, target);
-            let needed = largest(&self.bound) + allowance;
-            needed > self.skin || needed.is_nan()
+            let needed = self
+                .bound
+                .par_iter()
+                .zip(allowance)
+                .map(|(b, a)| b + a)
+                .map(|v| if v.is_nan() { f64::INFINITY } else { v })
+                .reduce(|| 0.0, f64::max);
+            needed > self.skin
         };
         if rebuild {
             self.build(safe, target, allowance, mesh, reach);
         }
-        let bound = &self.bound;
+        let (bound, shift) = (&self.bound, &self.shift);
         live.clear();
         live.par_extend(
             self.pairs
                 .par_iter()
                 .filter(|(pair, d)| {
-                    let lower = pair.distance_bound(*d, bound, allowance);
+                    // The absolute bound first: it is cheaper, and never above the relative one.
+                    let spread = pair.spread(allowance);
+                    let absolute = d - pair.spread(bound) - spread;
+                    if absolute >= reach {
+                        return false;
+                    }
+                    let lower = pair.relative_distance_bound(*d, shift, allowance);
                     lower < reach || lower.is_nan()
                 })
                 .map(|(pair, _)| *pair),
@@ -115,7 +142,8 @@ impl PairCache {
             && self.self_contact == mesh.self_contact
     }
 
-    /// Writes `|s_i - r_i| + |y_i - s_i|` into `bound` (NaN counts as infinitely far).
+    /// Writes `b_i = |s_i - r_i| + |y_i - s_i|` into `bound` (NaN counts as infinitely far)
+    /// and `[s_i - r_i, y_i - r_i]` into `shift`.
     fn bound_motion(&mut self, safe: &[Vector3<f64>], target: &[Vector3<f64>]) {
         let reference = &self.reference;
         safe.par_iter()
@@ -130,11 +158,17 @@ impl PairCache {
                 }
             })
             .collect_into_vec(&mut self.bound);
+        safe.par_iter()
+            .zip(target)
+            .zip(reference)
+            .map(|((s, y), r)| [s - r, y - r])
+            .collect_into_vec(&mut self.shift);
     }
 
-    /// Builds the lists at `r = safe`. The skin `R = 2 max_i |y_i - s_i| + D + reach / 4` is a
-    /// cost trade-off only (any `R >= max_i b_i` is correct): room for about one more global
-    /// step's move, and a quarter reach of slow drift, before the next build; a larger skin is
+    /// Builds the lists at `r = safe`. The skin `R = 2 max_i |y_i - s_i| + max_i A_i + reach /
+    /// 4` is a cost trade-off only (any `R >= max_i (b_i + A_i)` is correct): room for about
+    /// one more global step's move, and a quarter reach of slow drift, before the next build; a
+    /// larger skin is
     /// reused longer but keeps more pairs (all those within `reach + 2 R` on a sheet: their
     /// number grows with the square of `(reach + 2 R) / l`, `l` the edge length), each
     /// filtered at every local step.
@@ -142,7 +176,7 @@ impl PairCache {
         &mut self,
         safe: &[Vector3<f64>],
         target: &[Vector3<f64>],
-        allowance: f64,
+        allowance: &[f64],
         mesh: &ContactMesh,
         reach: f64,
     ) {
@@ -155,7 +189,7 @@ impl PairCache {
         self.reference.clear();
         self.reference.extend_from_slice(safe);
         self.bound_motion(safe, target);
-        self.skin = 2.0 * largest(&self.bound) + allowance + 0.25 * reach;
+        self.skin = 2.0 * largest(&self.bound) + largest(allowance) + 0.25 * reach;
         let reference = &self.reference;
         let limit = reach + 2.0 * self.skin;
         // NaN distances (NaN positions) are kept.
@@ -190,13 +224,13 @@ fn largest(values: &[f64]) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::distance::tests::Rng;
     use super::*;
 
     /// Brute force: every triangle pair of `mesh` that may touch, and every primitive pair
     /// they hold (whatever their distance at `positions`).
-    fn brute_force_pairs(
+    pub(in crate::contact) fn brute_force_pairs(
         mesh: &ContactMesh,
         positions: &[Vector3<f64>],
     ) -> (Vec<(u32, u32)>, Vec<Pair>) {
@@ -211,55 +245,67 @@ mod tests {
         (all, every.into_iter().map(|(p, _)| p).collect())
     }
 
-    /// Checks, at points along the way from `safe` to `target` each moved by up to
-    /// `allowance` (m), that every pair of `every` within `reach` (m) is in `live`; returns how
-    /// many were within reach.
-    #[allow(clippy::too_many_arguments)]
-    fn assert_live_hold_every_pair_within_reach(
-        every: &[Pair],
-        live: &[Pair],
-        safe: &[Vector3<f64>],
-        target: &[Vector3<f64>],
-        allowance: f64,
-        reach: f64,
-        rng: &mut Rng,
-        step: usize,
-    ) -> usize {
-        let mut within = 0;
-        for t in [0.0, 0.3, 0.7, 1.0] {
-            let x: Vec<_> = safe
-                .iter()
-                .zip(target)
-                .map(|(s, y)| s + (y - s) * t + rng.vector() * (allowance / 3f64.sqrt()))
-                .collect();
-            for p in every {
-                if p.closest(&x).separation.norm() < reach {
-                    within += 1;
-                    assert!(live.binary_search(p).is_ok(), "step {step}: missed {p:?}");
-                }
-            }
-        }
-        within
+    /// One local step's moves: the safe positions, the global step's result, per vertex the
+    /// clamp factor `t_i` in `[0, 1]` (1: not clamped) and the allowance `A_i` (m), at least
+    /// `(1 - t_i) |y_i - s_i|`.
+    struct Moves<'a> {
+        safe: &'a [Vector3<f64>],
+        target: &'a [Vector3<f64>],
+        clamp: &'a [f64],
+        allowance: &'a [f64],
     }
 
-    /// A rolled-up grid (a spiral of one and a half turns, its layers a little more than the
-    /// barrier's reach apart, jittered) moving over several local steps: the live pairs hold
-    /// every primitive pair of non-adjacent triangles that a brute-force search finds within
-    /// `reach` along the way; each build's candidates are exactly the triangle pairs with a
-    /// primitive pair closer than `reach + 2 R` (brute force), at the first build fewer than
-    /// three quarters of the box pairs, and its stored primitive pairs are all closer than that.
-    #[test]
-    fn crumpled_grid_keeps_every_pair_a_brute_force_search_finds() {
-        let mut rng = Rng::new(19);
-        let n = 14u32;
-        let gap = 0.03;
-        let mut safe = Vec::new();
+    impl Moves<'_> {
+        /// Checks that every pair of `every` within `reach` (m) is in `live`, at points along
+        /// the paths `s + tau (z - s)` (the ends included) to iterates `z_i = s_i + t_i (y_i -
+        /// s_i) + e_i`, with `|e_i|` up to what the allowance leaves, `A_i - (1 - t_i) |y_i -
+        /// s_i|` (so `|z_i - y_i| <= A_i`, as the local step keeps it); returns how many were
+        /// within reach.
+        fn assert_live_hold_every_pair_within_reach(
+            &self,
+            every: &[Pair],
+            live: &[Pair],
+            reach: f64,
+            rng: &mut Rng,
+            step: usize,
+        ) -> usize {
+            let mut within = 0;
+            let z: Vec<_> = (0..self.safe.len())
+                .map(|i| {
+                    let (s, y, t) = (self.safe[i], self.target[i], self.clamp[i]);
+                    let slack = self.allowance[i] - (1.0 - t) * (y - s).norm();
+                    assert!(slack >= 0.0, "vertex {i}: the allowance misses the clamp");
+                    s + (y - s) * t + rng.vector() * (slack / 3f64.sqrt())
+                })
+                .collect();
+            for tau in [0.0, 0.3, 0.7, 1.0] {
+                let x: Vec<_> = self
+                    .safe
+                    .iter()
+                    .zip(&z)
+                    .map(|(s, z)| s + (z - s) * tau)
+                    .collect();
+                for p in every {
+                    if p.closest(&x).separation.norm() < reach {
+                        within += 1;
+                        assert!(live.binary_search(p).is_ok(), "step {step}: missed {p:?}");
+                    }
+                }
+            }
+            within
+        }
+    }
+
+    /// A rolled-up grid of `n x n` vertices (a spiral of one and a half turns, its layers
+    /// `gap` (m) apart, jittered by up to 3 mm) and its triangles.
+    fn spiral(n: u32, gap: f64, rng: &mut Rng) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+        let mut x = Vec::new();
         for j in 0..n {
             for i in 0..n {
                 let theta = 3.0 * std::f64::consts::PI * f64::from(i) / f64::from(n - 1);
                 let r = 0.1 + gap * theta / (2.0 * std::f64::consts::PI);
                 let (u, v) = (r * theta.cos(), r * theta.sin());
-                safe.push(Vector3::new(u, f64::from(j) * 0.04, v) + rng.vector() * 0.003);
+                x.push(Vector3::new(u, f64::from(j) * 0.04, v) + rng.vector() * 0.003);
             }
         }
         let mut triangles = Vec::new();
@@ -270,6 +316,19 @@ mod tests {
                 triangles.push([v, v + n + 1, v + n]);
             }
         }
+        (x, triangles)
+    }
+
+    /// The rolled-up grid (layers a little more than the barrier's reach apart) moving over
+    /// several local steps: the live pairs hold every primitive pair of non-adjacent triangles
+    /// that a brute-force search finds within `reach` along the way; each build's candidates
+    /// are exactly the triangle pairs with a primitive pair closer than `reach + 2 R` (brute
+    /// force), at the first build fewer than three quarters of the box pairs, and its stored
+    /// primitive pairs are all closer than that.
+    #[test]
+    fn crumpled_grid_keeps_every_pair_a_brute_force_search_finds() {
+        let mut rng = Rng::new(19);
+        let (mut safe, triangles) = spiral(14, 0.03, &mut rng);
         let body = vec![0; triangles.len()];
         let mesh = ContactMesh {
             triangles: &triangles,
@@ -277,14 +336,15 @@ mod tests {
             self_contact: &[true],
         };
         let (all, every) = brute_force_pairs(&mesh, &safe);
-        let (reach, allowance) = (0.02, 0.002);
+        let (reach, allowance) = (0.02, vec![0.002; safe.len()]);
+        let clamp = vec![1.0; safe.len()];
         let mut cache = PairCache::default();
         let mut live = Vec::new();
         let mut builds = Vec::new();
         let mut within = 0;
         for (k, size) in [0.002, 0.004, 0.015, 0.002, 0.004].into_iter().enumerate() {
             let target: Vec<_> = safe.iter().map(|p| p + rng.vector() * size).collect();
-            let built = cache.live_pairs(&safe, &target, allowance, &mesh, reach, &mut live);
+            let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
             builds.push(built);
             if built {
                 let limit = reach + 2.0 * cache.skin;
@@ -309,13 +369,96 @@ mod tests {
                 );
                 assert!(cache.pairs.iter().all(|&(_, d)| d < limit));
             }
-            within += assert_live_hold_every_pair_within_reach(
-                &every, &live, &safe, &target, allowance, reach, &mut rng, k,
-            );
+            let moves = Moves {
+                safe: &safe,
+                target: &target,
+                clamp: &clamp,
+                allowance: &allowance,
+            };
+            within +=
+                moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
             safe = target;
         }
         assert!(within > 100, "the scene has pairs within reach: {within}");
         assert_eq!(builds, [true, false, true, false, false]);
+    }
+
+    /// The rolled-up grid falling fast (5 reaches per local step, each vertex jittered by up
+    /// to 3 mm on top), first freely, then with every other vertex clamped back towards its
+    /// safe position by its own factor: the live pairs hold every pair a brute-force search
+    /// finds within `reach` on the local step's paths. Falling freely, the motion relative to
+    /// each other is small, and fewer than a tenth of the cached pairs are live (the absolute
+    /// motion of 0.1 m would keep every one of them); clamped, vertices lag behind their
+    /// neighbours by up to 0.1 m, and more than three times as many pairs are live.
+    #[test]
+    fn a_falling_grid_keeps_few_pairs_live_unless_clamped() {
+        let mut rng = Rng::new(23);
+        let (mut safe, triangles) = spiral(12, 0.03, &mut rng);
+        let body = vec![0; triangles.len()];
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[true],
+        };
+        let (_, every) = brute_force_pairs(&mesh, &safe);
+        let (reach, drift) = (0.02, 0.001);
+        let fall = Vector3::new(0.0, 0.0, -0.1);
+        let mut cache = PairCache::default();
+        let mut live = Vec::new();
+        let mut within = [0, 0];
+        // The most live pairs of a free fall.
+        let mut free = 0;
+        for k in 0..6 {
+            let clamped = k >= 3;
+            let target: Vec<_> = safe
+                .iter()
+                .map(|p| p + fall + rng.vector() * 0.003)
+                .collect();
+            let clamp: Vec<f64> = (0..safe.len())
+                .map(|i| {
+                    if clamped && i % 2 == 0 {
+                        rng.uniform().abs()
+                    } else {
+                        1.0
+                    }
+                })
+                .collect();
+            let allowance: Vec<f64> = (0..safe.len())
+                .map(|i| (1.0 - clamp[i]) * (target[i] - safe[i]).norm() + drift)
+                .collect();
+            cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+            let cached = cache.pairs.len();
+            if clamped {
+                assert!(
+                    live.len() > 3 * free,
+                    "step {k}: {} of {cached}",
+                    live.len()
+                );
+            } else {
+                assert!(
+                    live.len() < cached / 10,
+                    "step {k}: {} of {cached}",
+                    live.len()
+                );
+                free = free.max(live.len());
+            }
+            let moves = Moves {
+                safe: &safe,
+                target: &target,
+                clamp: &clamp,
+                allowance: &allowance,
+            };
+            within[usize::from(clamped)] +=
+                moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
+            // The next local step starts where this one ended (unclamped: the whole fall).
+            safe = (0..safe.len())
+                .map(|i| safe[i] + (target[i] - safe[i]) * clamp[i])
+                .collect();
+        }
+        assert!(
+            within[0] > 100 && within[1] > within[0],
+            "the scene has pairs within reach: {within:?}"
+        );
     }
 
     /// Over a sequence of local steps (small moves that reuse the build, a large one that
@@ -346,14 +489,15 @@ mod tests {
             n * (n - 1) / 2,
             "a soup: every triangle pair may touch"
         );
-        let (reach, allowance) = (0.03, 0.005);
+        let (reach, allowance) = (0.03, vec![0.005; safe.len()]);
+        let clamp = vec![1.0; safe.len()];
         let mut cache = PairCache::default();
         let mut live = Vec::new();
         let mut builds = Vec::new();
         let mut within = 0;
         for (k, size) in [0.01, 0.005, 0.005, 0.3, 0.01].into_iter().enumerate() {
             let target: Vec<_> = safe.iter().map(|p| p + rng.vector() * size).collect();
-            builds.push(cache.live_pairs(&safe, &target, allowance, &mesh, reach, &mut live));
+            builds.push(cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live));
             if k < 3 {
                 // Before the large move: the bounds are small, so few pairs are live.
                 assert!(
@@ -362,9 +506,14 @@ mod tests {
                     live.len()
                 );
             }
-            within += assert_live_hold_every_pair_within_reach(
-                &every, &live, &safe, &target, allowance, reach, &mut rng, k,
-            );
+            let moves = Moves {
+                safe: &safe,
+                target: &target,
+                clamp: &clamp,
+                allowance: &allowance,
+            };
+            within +=
+                moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
             safe = target;
         }
         assert!(within > 100, "the scene has pairs within reach: {within}");
@@ -374,7 +523,7 @@ mod tests {
             self_contact: &[false],
             ..mesh
         };
-        assert!(cache.live_pairs(&safe, &safe, allowance, &mesh, reach, &mut live));
+        assert!(cache.live_pairs(&safe, &safe, &allowance, &mesh, reach, &mut live));
         assert!(live.is_empty() && cache.candidates() == 0);
     }
 }

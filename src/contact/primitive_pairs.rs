@@ -29,14 +29,47 @@ impl Pair {
     /// farthest of them, and the distance shrinks at most by the two primitives' moves. NaN
     /// if an input is NaN (callers keep the pair then).
     pub fn distance_bound(&self, distance: f64, moved: &[f64], extra: f64) -> f64 {
-        let (a, b) = self.v.split_at(if self.edge_edge { 2 } else { 1 });
-        let farthest = |vertices: &[u32]| {
-            vertices
-                .iter()
-                .map(|&v| moved[v as usize])
-                .fold(0.0, |m: f64, x| if x.is_nan() || x > m { x } else { m })
-        };
-        distance - farthest(a) - farthest(b) - 2.0 * extra
+        distance - self.spread(moved) - 2.0 * extra
+    }
+
+    /// `max_A values + max_B values` over the two primitives' vertices (each max at least 0),
+    /// NaN if one of the values is.
+    pub fn spread(&self, values: &[f64]) -> f64 {
+        let (a, b) = self.sides();
+        farthest(a, values) + farthest(b, values)
+    }
+
+    /// A lower bound of the pair's distance (m) wherever each vertex `i` is displaced from
+    /// where the distance was `distance` (m) by `u_i = (1 - tau) shift[i][0] + tau shift[i][1] +
+    /// e_i`, with one `tau` in `[0, 1]` for all vertices and `|e_i| <= extra[i]` (m): the bound
+    /// `distance - max_{a in A, b in B} max_k |shift[a][k] - shift[b][k]| - max_A extra - max_B
+    /// extra` (A, B the two primitives). Why: a point of A minus a point of B, with barycentric
+    /// weights `alpha` and `beta`, moves by `sum_{a, b} alpha_a beta_b (u_a - u_b)`, at most the
+    /// largest `|u_a - u_b|`; the `tau` part of `u_a - u_b` is affine in `tau`, so its length is
+    /// largest at `tau = 0` or 1, and the rest is at most `extra[a] + extra[b]`. A common motion
+    /// (`shift` equal on all four vertices) costs nothing. NaN if an input is NaN (callers keep
+    /// the pair then).
+    pub fn relative_distance_bound(
+        &self,
+        distance: f64,
+        shift: &[[Vector3<f64>; 2]],
+        extra: &[f64],
+    ) -> f64 {
+        let (a, b) = self.sides();
+        let mut apart_squared = 0.0;
+        for &i in a {
+            for &j in b {
+                for (p, q) in shift[i as usize].iter().zip(&shift[j as usize]) {
+                    apart_squared = nan_max(apart_squared, (p - q).norm_squared());
+                }
+            }
+        }
+        distance - apart_squared.sqrt() - self.spread(extra)
+    }
+
+    /// The vertices of the two primitives.
+    fn sides(&self) -> (&[u32], &[u32]) {
+        self.v.split_at(if self.edge_edge { 2 } else { 1 })
     }
 
     /// Closest points at the positions `x` (m).
@@ -65,6 +98,23 @@ impl Pair {
             point_triangle_ccd(&a, &b, min, ccd)
         }
     }
+}
+
+/// The larger of `m` and `x`, NaN if `x` is.
+fn nan_max(m: f64, x: f64) -> f64 {
+    if x.is_nan() || x > m {
+        x
+    } else {
+        m
+    }
+}
+
+/// The largest of `values` over `vertices` (at least 0), NaN if one is NaN.
+fn farthest(vertices: &[u32], values: &[f64]) -> f64 {
+    vertices
+        .iter()
+        .map(|&v| values[v as usize])
+        .fold(0.0, nan_max)
 }
 
 /// The 6 point-triangle and 9 edge-edge pairs of the triangles `ti` and `tj` (eq. 48), each
@@ -229,6 +279,73 @@ mod tests {
         };
         assert!(pair
             .distance_bound(1.0, &[0.0, f64::NAN, 0.0, 0.0], 0.0)
+            .is_nan());
+    }
+
+    /// Moving the vertices along `(1 - tau) shift_0 + tau shift_1` (one `tau` for all, the
+    /// ends included) plus a move of at most `extra` each never brings a pair closer than
+    /// [`Pair::relative_distance_bound`]; the bound is often positive despite a common shift
+    /// beyond the pair's size (which takes the absolute bound of the same moves far below it),
+    /// and a NaN shift gives NaN.
+    #[test]
+    fn the_relative_distance_bound_holds_under_bounded_relative_moves() {
+        let mut rng = Rng::new(13);
+        let mut informative = 0;
+        for k in 0..3000 {
+            let pair = Pair {
+                edge_edge: k % 2 == 0,
+                v: [0, 1, 2, 3],
+            };
+            let x: Vec<_> = (0..4).map(|_| rng.vector()).collect();
+            // A common motion longer than 1.2 (beyond the pair's size) and relative parts:
+            let common = [
+                Vector3::new(3.0, 0.0, 0.0) + rng.vector(),
+                Vector3::new(0.0, -3.0, 0.0) + rng.vector(),
+            ];
+            // One end's relative part larger than the other's, so that a bound that missed
+            // either end would fail.
+            let relative = if k % 4 < 2 { [0.3, 0.01] } else { [0.01, 0.3] };
+            let shift: Vec<[Vector3<f64>; 2]> = (0..4)
+                .map(|_| {
+                    [
+                        common[0] + rng.vector() * relative[0],
+                        common[1] + rng.vector() * relative[1],
+                    ]
+                })
+                .collect();
+            let extra: Vec<f64> = (0..4).map(|_| 0.05 * (rng.uniform() + 1.0)).collect();
+            let d = pair.closest(&x).separation.norm();
+            let bound = pair.relative_distance_bound(d, &shift, &extra);
+            for tau in [0.0, 1.0, rng.uniform().abs()] {
+                let y: Vec<_> = (0..4)
+                    .map(|i| {
+                        let dir = rng.vector();
+                        let e = dir * (extra[i] * rng.uniform().abs().sqrt() / dir.norm());
+                        x[i] + shift[i][0] * (1.0 - tau) + shift[i][1] * tau + e
+                    })
+                    .collect();
+                let moved = pair.closest(&y).separation.norm();
+                assert!(moved >= bound - 1e-12, "case {k}, tau {tau}");
+            }
+            informative += usize::from(bound > 0.0);
+            let absolute: Vec<f64> = (0..4)
+                .map(|i| shift[i][0].norm().max(shift[i][1].norm()) + extra[i])
+                .collect();
+            assert!(
+                bound - pair.distance_bound(d, &absolute, 0.0) > 1.0,
+                "case {k}"
+            );
+        }
+        // The bound is not vacuous: often above 0.
+        assert!(informative > 1000, "{informative}");
+        let pair = Pair {
+            edge_edge: true,
+            v: [0, 1, 2, 3],
+        };
+        let mut shift = vec![[Vector3::zeros(); 2]; 4];
+        shift[3][1].y = f64::NAN;
+        assert!(pair
+            .relative_distance_bound(1.0, &shift, &[0.0; 4])
             .is_nan());
     }
 }

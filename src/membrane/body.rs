@@ -11,6 +11,7 @@ use crate::material::Material;
 use crate::mesh::{Neighborhood, TriangleMesh};
 
 use crate::parallel::for_each_vertex;
+use crate::symmetric::SymmetricMatrix3;
 
 use super::kernel::{bond_vectors, vertex_kernel, Deformation, Preconditioner, VertexResponse};
 use super::rest::lumped_volumes;
@@ -357,7 +358,7 @@ impl Membrane {
             stretch: 0.0,
             bending: 0.0,
             hourglass: 0.0,
-            precond: Default::default(),
+            precond: SymmetricMatrix3::zeros(),
         };
         let mut out = vec![Ok(zero); y.len()];
         for_each_vertex(&nb.offsets, bond_grad, &mut out, &|i, grads| {
@@ -426,9 +427,10 @@ pub fn internal_force<T: crate::real::Real>(
     nb: &Neighborhood,
     bond_grad: &[Vector3<T>],
 ) -> Vector3<T> {
+    let bonds = nb.bonds(k);
     let mut f = Vector3::zeros();
-    for b in nb.bonds(k) {
-        f += bond_grad[b] - bond_grad[nb.reverse[b] as usize];
+    for (g, &reverse) in bond_grad[bonds.clone()].iter().zip(&nb.reverse[bonds]) {
+        f += g - bond_grad[reverse as usize];
     }
     f
 }

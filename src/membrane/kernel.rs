@@ -43,9 +43,10 @@
 //! + kappa_n n n^T` with `kappa_n = lambda_max(sum_j c_j c_j^T)` bounding the bending term: the Hessian of the quadratic model `1/2 sum_j e_j^T C_i e_j` whose bond
 //! Laplacian SISSM inverts approximately; see [`Preconditioner`] for the stretching weights.
 
-use nalgebra::{Matrix3, SimdBool, Vector3};
+use nalgebra::{SimdBool, Vector3};
 
 use crate::real::{Lanes, Real};
+use crate::symmetric::SymmetricMatrix3;
 
 use super::{Stencil, VertexConstants};
 
@@ -59,7 +60,7 @@ pub struct VertexResponse<S> {
     /// Hourglass energy (J).
     pub hourglass: S,
     /// Preconditioner block `C_i` (N/m), symmetric positive semi-definite.
-    pub precond: Matrix3<S>,
+    pub precond: SymmetricMatrix3<S>,
 }
 
 impl<S: Lanes> VertexResponse<S> {
@@ -68,15 +69,66 @@ impl<S: Lanes> VertexResponse<S> {
     pub fn energy(&self) -> S {
         self.stretch + self.bending + self.hourglass
     }
+}
+
+/// The part of a vertex's response that the solver keeps: what the move of every vertex in
+/// its neighbourhood gathers (`C_i` and the total energy `E_i`; the split by term is only
+/// reported, by [`super::Membrane::energy_terms`]). Eight scalars in one aligned array
+/// (`C_00, C_11, C_22, C_01, C_02, C_12, E_i`, then a zero), so that a move sums its
+/// neighbours' records with a few wide additions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(32))]
+pub struct GatheredResponse<S> {
+    values: [S; 8],
+}
+
+impl<S: Lanes> GatheredResponse<S> {
+    #[inline(always)]
+    pub fn new(precond: SymmetricMatrix3<S>, energy: S) -> Self {
+        let ([d0, d1, d2], [u0, u1, u2]) = (precond.diagonal, precond.upper);
+        Self {
+            values: [d0, d1, d2, u0, u1, u2, energy, S::zero()],
+        }
+    }
+
+    /// Preconditioner block `C_i` (N/m).
+    #[inline(always)]
+    pub fn precond(&self) -> SymmetricMatrix3<S> {
+        let [d0, d1, d2, u0, u1, u2, ..] = self.values;
+        SymmetricMatrix3 {
+            diagonal: [d0, d1, d2],
+            upper: [u0, u1, u2],
+        }
+    }
+
+    /// `E_i` (J).
+    #[inline(always)]
+    pub fn energy(&self) -> S {
+        self.values[6]
+    }
 
     /// The response of lane `l` of a pack.
-    #[inline]
-    pub fn lane(&self, l: usize) -> VertexResponse<S::Scalar> {
-        VertexResponse {
-            stretch: self.stretch.extract(l),
-            bending: self.bending.extract(l),
-            hourglass: self.hourglass.extract(l),
-            precond: self.precond.map(|x| x.extract(l)),
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> GatheredResponse<S::Scalar> {
+        GatheredResponse {
+            values: self.values.map(|x| x.extract(l)),
+        }
+    }
+}
+
+impl<S: Lanes> From<&VertexResponse<S>> for GatheredResponse<S> {
+    #[inline(always)]
+    fn from(r: &VertexResponse<S>) -> Self {
+        Self::new(r.precond, r.energy())
+    }
+}
+
+impl<S: Lanes> std::ops::AddAssign for GatheredResponse<S> {
+    /// Entry-wise (the padding stays zero).
+    #[inline(always)]
+    fn add_assign(&mut self, rhs: Self) {
+        for (a, b) in self.values.iter_mut().zip(rhs.values) {
+            *a += b;
         }
     }
 }
@@ -275,8 +327,9 @@ pub fn vertex_kernel<S: Lanes>(
             *io = g1 * b.beta[0] + g2 * b.beta[1];
         }
     }
-    let precond =
-        u1 * u1.transpose() * w[0] + u2 * u2.transpose() * w[1] + n * n.transpose() * w[2];
+    let precond = SymmetricMatrix3::outer(&u1, w[0])
+        + SymmetricMatrix3::outer(&u2, w[1])
+        + SymmetricMatrix3::outer(&n, w[2]);
     VertexResponse {
         stretch: stretch_energy,
         bending,

@@ -22,7 +22,7 @@ use crate::mesh::Neighborhood;
 use crate::parallel::{for_each_block, for_each_vertex};
 use crate::real::{Lanes, Real};
 
-use super::kernel::{bond_vectors, vertex_kernel, Preconditioner, VertexResponse};
+use super::kernel::{bond_vectors, vertex_kernel, GatheredResponse, Preconditioner};
 use super::{BondRest, Frame, RestData, RestSource, Stencil, VertexConstants, VertexRest};
 
 /// Packs per window of vertices (see the module documentation): wide enough to find lanes of
@@ -213,7 +213,7 @@ fn pack_material<S: Lanes>(
 }
 
 /// The kernel at every vertex of `y`: per-bond gradients `dE_i/d(y_j - y_i)` into `bond_grad`
-/// (CSR order of `nb`) and per-vertex responses into `response`. With `packed` (the same rest
+/// (CSR order of `nb`) and per-vertex responses (their gathered part) into `response`. With `packed` (the same rest
 /// data regrouped; `rest.bonds` is then not read) whole packs of vertices run at once; the
 /// results are the same bit for bit, and for any number of threads.
 pub fn evaluate_vertices<T: Real>(
@@ -223,7 +223,7 @@ pub fn evaluate_vertices<T: Real>(
     y: &[Vector3<T>],
     mode: Preconditioner,
     bond_grad: &mut [Vector3<T>],
-    response: &mut [VertexResponse<T>],
+    response: &mut [GatheredResponse<T>],
 ) {
     let Some(p) = packed else {
         for_each_vertex(
@@ -232,7 +232,7 @@ pub fn evaluate_vertices<T: Real>(
             response,
             &|i, grads: &mut [Vector3<T>]| {
                 bond_vectors(i, y, nb.of(i), grads);
-                vertex_kernel(&rest.stencil(nb, i), mode, grads)
+                GatheredResponse::from(&vertex_kernel(&rest.stencil(nb, i), mode, grads))
             },
         );
         return;
@@ -265,7 +265,7 @@ pub fn evaluate_vertices<T: Real>(
                     frame: &p.frames[pack],
                     constants: &p.constants[pack],
                 };
-                let r = vertex_kernel(&stencil, mode, &mut edges);
+                let r = GatheredResponse::from(&vertex_kernel(&stencil, mode, &mut edges));
                 for (l, &i) in members[..p.filled[pack] as usize].iter().enumerate() {
                     let i = i as usize;
                     let range = nb.bonds(i);
@@ -284,12 +284,13 @@ pub fn evaluate_vertices<T: Real>(
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::{Matrix3, Vector3};
+    use nalgebra::Vector3;
 
     use super::*;
     use crate::material::Material;
     use crate::membrane::{Membrane, MembraneParams};
     use crate::mesh::{Neighborhood, TriangleMesh};
+    use crate::symmetric::SymmetricMatrix3;
     use crate::test_rng::Rng;
 
     /// A 9 x 7 grid (63 vertices, so the last pack is short; corner, edge and interior vertices
@@ -326,13 +327,8 @@ mod tests {
         m
     }
 
-    fn zero<T: Real>() -> VertexResponse<T> {
-        VertexResponse {
-            stretch: T::zero(),
-            bending: T::zero(),
-            hourglass: T::zero(),
-            precond: Matrix3::zeros(),
-        }
+    fn zero<T: Real>() -> GatheredResponse<T> {
+        GatheredResponse::new(SymmetricMatrix3::zeros(), T::zero())
     }
 
     /// The bodies concatenated (as the solver does) and evaluated in packs, against each body
@@ -379,7 +375,7 @@ mod tests {
         );
         for (i, (a, b)) in out.iter().zip(&simd_out).enumerate() {
             assert!(
-                a.energy().is_finite() && a.precond.iter().all(|x| x.is_finite()),
+                a.energy().is_finite() && a.precond().to_matrix().iter().all(|x| x.is_finite()),
                 "{} {i} {a:?}",
                 T::NAME
             );

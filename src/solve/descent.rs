@@ -37,6 +37,7 @@ use crate::membrane::{
     RestData,
 };
 use crate::real::Real;
+use crate::symmetric::SymmetricMatrix3;
 
 use super::evaluate::{evaluate, total_energy};
 use super::jacobi::{free_residual, keep_out, LocalSystem, MoveOptions, Update};
@@ -128,7 +129,7 @@ pub(super) fn descent_iteration<T: Real>(
     if sys.locals.len() != n {
         let zero = LocalSystem::new(
             T::one(),
-            Matrix3::zeros(),
+            SymmetricMatrix3::zeros(),
             Vector3::zeros(),
             Vector3::zeros(),
             T::zero(),
@@ -230,6 +231,7 @@ fn jacobi_system<T: Real>(
     let force_h2 = internal_force(k, &sys.nb, &sys.bond_grad) * h2;
     let residual = (sys.y_star[k] - sys.y[k]) * mass + force_h2;
     let block = hessian_diagonal_block(k, &sys.nb, &state.bond_blocks, &state.self_blocks);
-    let stiffness = Matrix3::from_diagonal(&block.diagonal().map(|x| T::of(x.max(0.0)))) * h2;
+    let stiffness =
+        SymmetricMatrix3::from_diagonal(&block.diagonal().map(|x| T::of(x.max(0.0)))) * h2;
     LocalSystem::new(mass, stiffness, residual, force_h2, T::zero())
 }

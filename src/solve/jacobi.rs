@@ -2,12 +2,13 @@
 //! (Fig. 6), the step length of eq. 31-33, colliders in the system metric, and Chebyshev
 //! extrapolation.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::contact::ColliderModel;
-use crate::membrane::internal_force;
+use crate::membrane::{internal_force, GatheredResponse};
 use crate::real::Real;
+use crate::symmetric::SymmetricMatrix3;
 
 use super::system::System;
 
@@ -24,7 +25,7 @@ pub(super) struct Update {
 
 impl Update {
     pub fn of<T: Real>(vertex: usize, before: &Vector3<T>, after: &Vector3<T>) -> Self {
-        let finite = after.iter().all(|c| c.is_finite());
+        let finite = after.x.is_finite() & after.y.is_finite() & after.z.is_finite();
         let moved = (after - before).norm().to_f64();
         Self {
             moved: if finite { moved } else { 0.0 },
@@ -76,8 +77,9 @@ pub(crate) struct LocalSystem<T: Real> {
     pub mass: T,
     pub residual: Vector3<T>,
     /// `D` (kg).
-    pub system: Matrix3<T>,
-    pub inverse: Matrix3<T>,
+    pub system: SymmetricMatrix3<T>,
+    /// `D^-1` (1/kg), or `I / m` where `D` is singular (see [`LocalSystem::new`]).
+    pub inverse: SymmetricMatrix3<T>,
     /// `h^2 f`.
     pub force_h2: Vector3<T>,
     /// `h^2` times the elastic energy of the vertices whose neighbourhood holds `k`.
@@ -93,28 +95,38 @@ impl<T: Real> LocalSystem<T> {
         let residual = (sys.y_star[k] - sys.y[k]) * mass + force_h2;
         let neighbors = sys.nb.of(k);
         let response = &sys.response;
-        let mut stiffness = response[k].precond * T::of(neighbors.len() as f64);
-        let mut energy = response[k].energy();
+        let own = &response[k];
+        // `n_k C_k + sum_j C_j` and `E_k + sum_j E_j`, one record at a time.
+        let mut sum =
+            GatheredResponse::new(own.precond() * T::of(neighbors.len() as f64), own.energy());
         for &j in neighbors {
-            stiffness += response[j as usize].precond;
-            energy += response[j as usize].energy();
+            sum += response[j as usize];
         }
-        Self::new(mass, stiffness * h2, residual, force_h2, energy * h2)
+        Self::new(
+            mass,
+            sum.precond() * h2,
+            residual,
+            force_h2,
+            sum.energy() * h2,
+        )
     }
 
-    /// `D = m I + stiffness` and its inverse.
+    /// `D = m I + stiffness` and its inverse. `D` is symmetric positive definite for a mass
+    /// `m > 0` and a positive semi-definite `stiffness` (kg); should round-off or a non-finite
+    /// stiffness still make it exactly singular, the inverse falls back to `I / m`, the
+    /// explicit move `r / m` (a non-finite result is then caught as divergence).
     #[inline]
     pub fn new(
         mass: T,
-        stiffness: Matrix3<T>,
+        stiffness: SymmetricMatrix3<T>,
         residual: Vector3<T>,
         force_h2: Vector3<T>,
         energy_h2: T,
     ) -> Self {
-        let system = Matrix3::from_diagonal_element(mass) + stiffness;
+        let system = stiffness.plus_identity(mass);
         let inverse = system
             .try_inverse()
-            .unwrap_or_else(|| Matrix3::from_diagonal_element(T::one() / mass));
+            .unwrap_or_else(|| SymmetricMatrix3::from_diagonal(&Vector3::repeat(T::one() / mass)));
         Self {
             mass,
             residual,
@@ -128,7 +140,7 @@ impl<T: Real> LocalSystem<T> {
     /// One Jacobi solve, `D^-1 r`.
     #[inline]
     pub fn solve(&self) -> Vector3<T> {
-        self.inverse * self.residual
+        self.inverse.mul_vector(&self.residual)
     }
 
     /// The step length of eq. 31-33 for the move `delta`: `alpha = E / (h^2 f . delta)` where
@@ -221,7 +233,7 @@ fn finish_move<T: Real>(
     // Chebyshev extrapolates the unconstrained iteration only: a vertex a collider holds keeps
     // its projected position, else the extrapolation would push it along the contact past
     // what its friction cone allows (a resting cloth would creep).
-    if let (Some(w), true) = (options.omega, *next == free_move) {
+    if let Some(w) = options.omega.filter(|_| *next == free_move) {
         *next = (*next - sys.y_prev[k]) * w + sys.y_prev[k];
     }
     Update {
@@ -241,7 +253,7 @@ fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
     if locals.len() != n {
         let zero = LocalSystem::new(
             T::one(),
-            Matrix3::zeros(),
+            SymmetricMatrix3::zeros(),
             Vector3::zeros(),
             Vector3::zeros(),
             T::zero(),
@@ -274,10 +286,14 @@ fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
             let mut weighted = Vector3::zeros();
             for &j in nb.of(k) {
                 sum += delta[j as usize];
-                weighted += response[j as usize].precond * delta[j as usize];
+                weighted += response[j as usize]
+                    .precond()
+                    .mul_vector(&delta[j as usize]);
             }
-            let coupling = (response[k].precond * sum + weighted) * h2;
-            *out = locals[k].inverse * (locals[k].residual + coupling);
+            let coupling = (response[k].precond().mul_vector(&sum) + weighted) * h2;
+            *out = locals[k]
+                .inverse
+                .mul_vector(&(locals[k].residual + coupling));
         });
         std::mem::swap(&mut delta, &mut scratch);
     }
@@ -304,7 +320,7 @@ fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
 pub(super) fn keep_out<T: Real>(
     mut y: Vector3<T>,
     start: &Vector3<T>,
-    inverse: &Matrix3<T>,
+    inverse: &SymmetricMatrix3<T>,
     margin: T,
     colliders: &[ColliderModel<T>],
 ) -> Vector3<T> {
@@ -314,7 +330,7 @@ pub(super) fn keep_out<T: Real>(
             continue;
         }
         let n = c.normal(&y);
-        let along = inverse * n;
+        let along = inverse.mul_vector(&n);
         let reach = n.dot(&along);
         if reach <= T::zero() {
             continue;
@@ -324,7 +340,7 @@ pub(super) fn keep_out<T: Real>(
         if c.friction > T::zero() {
             let slip = (y - start) - c.displacement(&y);
             let slip_t = slip - n * n.dot(&slip);
-            let compliance = slip_t.dot(&(inverse * slip_t));
+            let compliance = slip_t.dot(&inverse.mul_vector(&slip_t));
             if compliance > T::zero() {
                 let needed = slip_t.norm_squared() * slip_t.norm() / compliance;
                 let budget = c.friction * reaction;
@@ -366,7 +382,7 @@ pub(super) fn free_residual<T: Real>(
 ) -> f64 {
     let mut residual = local.residual;
     if let Some(reaction) = options.contact_reaction.get(k) {
-        residual += local.system * reaction;
+        residual += local.system.mul_vector(reaction);
     }
     let free = without_contact_reaction(
         residual,
@@ -436,7 +452,7 @@ mod tests {
                 let r = Vector3::new((x - 2.0) * (x - 2.0) - x, 0.0, 0.0);
                 let local = LocalSystem::new(
                     1.0,
-                    Matrix3::from_diagonal_element(a),
+                    SymmetricMatrix3::from_diagonal(&Vector3::repeat(a)),
                     r,
                     Vector3::zeros(),
                     0.0,
@@ -467,7 +483,8 @@ mod tests {
     fn step_length_stops_the_linearised_energy_at_zero() {
         let f = Vector3::new(2.0f64, 0.0, 0.0);
         let r = Vector3::new(4.0, 0.0, 0.0);
-        let local = |force, energy| LocalSystem::new(1.0, Matrix3::zeros(), r, force, energy);
+        let local =
+            |force, energy| LocalSystem::new(1.0, SymmetricMatrix3::zeros(), r, force, energy);
         assert_eq!(local(f, 100.0).step_length(&r), 1.0);
         let limited = r * local(f, 2.0).step_length(&r);
         assert!((2.0 - f.dot(&limited)).abs() < 1e-15);

@@ -3,12 +3,13 @@
 
 use std::ops::Range;
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
 use crate::error::Result;
-use crate::membrane::{Membrane, PackedRest, RestData, VertexResponse};
+use crate::membrane::{GatheredResponse, Membrane, PackedRest, RestData};
 use crate::mesh::Neighborhood;
 use crate::real::Real;
+use crate::symmetric::SymmetricMatrix3;
 
 use super::jacobi::LocalSystem;
 
@@ -37,7 +38,7 @@ pub(crate) struct System<T: Real> {
     pub pinned: Vec<bool>,
     /// Scratch of the global step: per-bond gradients and per-vertex responses.
     pub bond_grad: Vec<Vector3<T>>,
-    pub response: Vec<VertexResponse<T>>,
+    pub response: Vec<GatheredResponse<T>>,
     /// Partial sums of the energy reductions (reused).
     pub energy_chunks: Vec<f64>,
     /// Per-vertex linear systems and moves, kept only when inner sweeps or the descent method
@@ -88,12 +89,7 @@ impl<T: Real> System<T> {
             start += n;
         }
         let zeros = vec![Vector3::zeros(); start];
-        let zero_response = VertexResponse {
-            stretch: T::zero(),
-            bending: T::zero(),
-            hourglass: T::zero(),
-            precond: Matrix3::zeros(),
-        };
+        let zero_response = GatheredResponse::new(SymmetricMatrix3::zeros(), T::zero());
         Ok(Self {
             ids,
             ranges,

@@ -1,0 +1,212 @@
+//! Symmetric 3x3 matrices stored as their six distinct entries: the SISSM preconditioner
+//! blocks `C_i` and the per-vertex systems `D_k = m_k I + h^2 (n_k C_k + sum_j C_j)` (N/m, kg).
+//!
+//! Every operation performs, entry for entry, the IEEE operations nalgebra performs on the
+//! full `Matrix3` of an exactly symmetric matrix, in the same order, so the results are the
+//! same bit for bit (up to the sign of a zero); only the redundant lower triangle is neither
+//! stored nor computed.
+
+use std::ops::{Add, AddAssign, Mul};
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::real::{Lanes, Real};
+
+/// A symmetric 3x3 matrix `A` (of scalars, or of SIMD packs: one matrix per lane).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SymmetricMatrix3<S> {
+    /// `(A_00, A_11, A_22)`.
+    pub diagonal: [S; 3],
+    /// `(A_01, A_02, A_12)`.
+    pub upper: [S; 3],
+}
+
+impl<S: Lanes> SymmetricMatrix3<S> {
+    pub fn zeros() -> Self {
+        Self {
+            diagonal: [S::zero(); 3],
+            upper: [S::zero(); 3],
+        }
+    }
+
+    /// `diag(d)`.
+    #[inline]
+    pub fn from_diagonal(d: &Vector3<S>) -> Self {
+        Self {
+            diagonal: [d.x, d.y, d.z],
+            upper: [S::zero(); 3],
+        }
+    }
+
+    /// `w u u^T`, entry `(u_a u_b) w`.
+    #[inline(always)]
+    pub fn outer(u: &Vector3<S>, w: S) -> Self {
+        Self {
+            diagonal: [u.x * u.x * w, u.y * u.y * w, u.z * u.z * w],
+            upper: [u.x * u.y * w, u.x * u.z * w, u.y * u.z * w],
+        }
+    }
+
+    /// `a I + A`.
+    #[inline(always)]
+    pub fn plus_identity(&self, a: S) -> Self {
+        let [d0, d1, d2] = self.diagonal;
+        Self {
+            diagonal: [a + d0, a + d1, a + d2],
+            upper: self.upper,
+        }
+    }
+
+    /// `A v`, each entry summed over the columns in order (as nalgebra's product).
+    #[inline(always)]
+    pub fn mul_vector(&self, v: &Vector3<S>) -> Vector3<S> {
+        let [a00, a11, a22] = self.diagonal;
+        let [a01, a02, a12] = self.upper;
+        Vector3::new(
+            a00 * v.x + a01 * v.y + a02 * v.z,
+            a01 * v.x + a11 * v.y + a12 * v.z,
+            a02 * v.x + a12 * v.y + a22 * v.z,
+        )
+    }
+
+    /// The full matrix.
+    pub fn to_matrix(&self) -> Matrix3<S> {
+        let [a00, a11, a22] = self.diagonal;
+        let [a01, a02, a12] = self.upper;
+        Matrix3::new(a00, a01, a02, a01, a11, a12, a02, a12, a22)
+    }
+}
+
+impl<T: Real> SymmetricMatrix3<T> {
+    /// `A^-1 = adj(A) / det A` by cofactors, or `None` when `det A` is exactly zero (the
+    /// caller chooses the fallback). Bit for bit nalgebra's `Matrix3::try_inverse` of the full
+    /// matrix, which is exactly symmetric for an exactly symmetric `A`: its lower-triangle
+    /// cofactors are the negated (or equal) differences of the same products.
+    #[inline(always)]
+    pub fn try_inverse(&self) -> Option<Self> {
+        let [a00, a11, a22] = self.diagonal;
+        let [a01, a02, a12] = self.upper;
+        let c00 = a11 * a22 - a12 * a12;
+        let c01 = a01 * a22 - a02 * a12;
+        let c02 = a01 * a12 - a02 * a11;
+        let det = a00 * c00 - a01 * c01 + a02 * c02;
+        if det == T::zero() {
+            return None;
+        }
+        Some(Self {
+            diagonal: [
+                c00 / det,
+                (a00 * a22 - a02 * a02) / det,
+                (a00 * a11 - a01 * a01) / det,
+            ],
+            upper: [
+                (a02 * a12 - a22 * a01) / det,
+                c02 / det,
+                (a02 * a01 - a12 * a00) / det,
+            ],
+        })
+    }
+}
+
+impl<S: Lanes> Add for SymmetricMatrix3<S> {
+    type Output = Self;
+
+    #[inline(always)]
+    fn add(mut self, rhs: Self) -> Self {
+        self += rhs;
+        self
+    }
+}
+
+impl<S: Lanes> AddAssign for SymmetricMatrix3<S> {
+    #[inline(always)]
+    fn add_assign(&mut self, rhs: Self) {
+        for k in 0..3 {
+            self.diagonal[k] += rhs.diagonal[k];
+            self.upper[k] += rhs.upper[k];
+        }
+    }
+}
+
+impl<S: Lanes> Mul<S> for SymmetricMatrix3<S> {
+    type Output = Self;
+
+    /// Entry-wise `A_ab s`.
+    #[inline(always)]
+    fn mul(self, s: S) -> Self {
+        Self {
+            diagonal: self.diagonal.map(|x| x * s),
+            upper: self.upper.map(|x| x * s),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_rng::Rng;
+
+    /// Random symmetric positive definite `B B^T + floor I`, as both representations.
+    fn spd(rng: &mut Rng, floor: f64) -> (SymmetricMatrix3<f64>, Matrix3<f64>) {
+        let b = Matrix3::from_columns(&[rng.vector(), rng.vector(), rng.vector()]);
+        let mut a = SymmetricMatrix3::from_diagonal(&Vector3::repeat(floor));
+        for c in b.column_iter() {
+            a += SymmetricMatrix3::outer(&c.into_owned(), 1.0);
+        }
+        (a, a.to_matrix())
+    }
+
+    /// The inverse, the product and the sums equal nalgebra's on the full matrix bit for bit,
+    /// in f64 and f32, for well conditioned and nearly singular matrices (rank 2 plus 1e-12).
+    #[test]
+    fn operations_match_nalgebra_bit_for_bit() {
+        let mut rng = Rng::new(17);
+        for trial in 0..2000 {
+            let floor = if trial % 2 == 0 { 0.1 } else { 1e-12 };
+            let (a, full) = spd(&mut rng, floor);
+            let (b, full_b) = spd(&mut rng, 0.5);
+            let v = rng.vector();
+            let s = rng.uniform();
+            let inv = a.try_inverse().expect("positive definite");
+            assert_eq!(inv.to_matrix(), full.try_inverse().unwrap(), "{full}");
+            assert_eq!(a.mul_vector(&v), full * v);
+            assert_eq!((a + b * s).to_matrix(), full + full_b * s);
+            assert_eq!(
+                a.plus_identity(s).to_matrix(),
+                full + Matrix3::identity() * s
+            );
+            let a32 = SymmetricMatrix3 {
+                diagonal: a.diagonal.map(|x| x as f32),
+                upper: a.upper.map(|x| x as f32),
+            };
+            let full32 = full.map(|x| x as f32);
+            match (a32.try_inverse(), full32.try_inverse()) {
+                (Some(i), Some(f)) => assert_eq!(i.to_matrix(), f),
+                (None, None) => {}
+                other => panic!("f32 invertibility differs: {other:?}"),
+            }
+            assert_eq!(
+                a32.mul_vector(&v.map(|x| x as f32)),
+                full32 * v.map(|x| x as f32)
+            );
+        }
+    }
+
+    /// `A A^-1 = I` to round-off relative to the condition number, and an exactly singular
+    /// matrix (rank 2) has no inverse.
+    #[test]
+    fn inverse_inverts_and_singular_matrices_have_none() {
+        let mut rng = Rng::new(3);
+        for _ in 0..200 {
+            let (a, full) = spd(&mut rng, 0.1);
+            let inv = a.try_inverse().unwrap().to_matrix();
+            let cond = full.norm() * inv.norm();
+            assert!((full * inv - Matrix3::identity()).norm() < 1e-14 * cond);
+        }
+        let u = Vector3::new(1.0, 2.0, 4.0);
+        let w = Vector3::new(0.5, -1.0, 0.25);
+        let rank2 = SymmetricMatrix3::outer(&u, 2.0) + SymmetricMatrix3::outer(&w, 3.0);
+        assert_eq!(rank2.try_inverse(), None);
+        assert_eq!(SymmetricMatrix3::<f32>::zeros().try_inverse(), None);
+    }
+}
