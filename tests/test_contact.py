@@ -30,6 +30,10 @@ def test_contact_parameters_are_validated_and_reported():
                 dict(toi_threshold=1.0), dict(thickness=float("nan"))):
         with pytest.raises(ValueError):
             peridyn.Contact(**bad)
+    assert c.step == "curvature" and peridyn.Contact(step="uniform").step == "uniform"
+    assert "step='uniform'" in repr(peridyn.Contact(step="uniform"))
+    with pytest.raises(ValueError, match=r"step.*'curvature' or 'uniform'.*newton"):
+        peridyn.Contact(step="newton")
     solver = peridyn.Solver(dt=1e-3, contact=c)
     assert solver.contact.thickness == 1.5e-3
     assert peridyn.Solver(dt=1e-3).contact is None

@@ -332,7 +332,7 @@ impl PyContact {
     fn __repr__(&self) -> String {
         let p = &self.inner;
         format!(
-            "Contact(thickness={}, d_hat={}, eps={}, weight={}, max_iters={}, step={:?}, \
+            "Contact(thickness={}, d_hat={}, eps={}, weight={}, max_iters={}, step='{}', \
              toi_threshold={})",
             p.thickness,
             p.d_hat,
