@@ -359,7 +359,8 @@ class StepStats:
         (primitive pairs within the barrier's reach at the end), 'local_iterations' (descent
         iterations, summed), 'clamped' (vertices the final CCD clamp moved, summed),
         'ccd_queries' (primitive pair CCD queries, summed), 'broad_phase_builds' (summed; the
-        other local steps reused the last build), 'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
+        other local steps reused the last build), 'live_refreshes' (filterings of the cached
+        pairs into the live list, summed), 'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
     @property
     def time(self) -> float:
         """Simulation time after the step (s)."""

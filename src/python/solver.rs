@@ -543,7 +543,8 @@ impl PyStepStats {
     /// (primitive pairs within the barrier's reach at the end), `local_iterations` (descent
     /// iterations, summed), `clamped` (vertices the final CCD clamp moved, summed),
     /// `ccd_queries` (primitive pair CCD queries, summed), `broad_phase_builds` (summed; the
-    /// other local steps reused the last build), and milliseconds `broad_phase_ms`, `ccd_ms`,
+    /// other local steps reused the last build), `live_refreshes` (filterings of the cached
+    /// pairs into the live list, summed), and milliseconds `broad_phase_ms`, `ccd_ms`,
     /// `descent_ms`.
     #[getter]
     fn contact<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -557,6 +558,7 @@ impl PyStepStats {
         d.set_item("clamped", c.clamped)?;
         d.set_item("ccd_queries", c.ccd_queries)?;
         d.set_item("broad_phase_builds", c.broad_phase_builds)?;
+        d.set_item("live_refreshes", c.live_refreshes)?;
         d.set_item("broad_phase_ms", c.broad_phase_ms)?;
         d.set_item("ccd_ms", c.ccd_ms)?;
         d.set_item("descent_ms", c.descent_ms)?;
