@@ -57,12 +57,12 @@ pub enum DescentStep {
     Uniform,
     /// Per vertex, `z_i += g_i / (1 + k_i)`, cut to length `eps xi`, with
     /// `k_i = mu sum_c B''(x_c) f'(d_c) |alpha_c^i| sum_j |alpha_c^j|` (dimensionless): the
-    /// barrier's curvature along the pair normals, summed by rows (Gershgorin) so that the
-    /// diagonal matrix of `1 + k_i` bounds from above the Hessian of eq. 47 with the barrier
-    /// taken along the normals (their difference is positive semi-definite), with `x_c` the
-    /// rescaled gap and `f'` the rescale's slope. A Jacobi-preconditioned descent: vertices away from contact go
-    /// straight to their target (up to `eps xi` per iteration), vertices in contact take a
-    /// step of about the distance to the barrier's balance point.
+    /// barrier's curvature along the pair normals (`x_c` the rescaled gap, `f'` the rescale's
+    /// slope), summed by rows (Gershgorin) so that the diagonal matrix of `1 + k_i` bounds
+    /// from above the Hessian of eq. 47 with the barrier taken along the normals (their
+    /// difference is positive semi-definite). A Jacobi-preconditioned descent: vertices away
+    /// from contact go straight to their target (up to `eps xi` per iteration), vertices in
+    /// contact take a step of about the distance to the barrier's balance point.
     Curvature,
 }
 
@@ -444,9 +444,10 @@ pub fn project(
     refill(&mut work.alpha, n, 0.0);
     refill(&mut work.curvature, n, 0.0);
     // Vertices moved since the last CCD: a pair none of whose vertices moved keeps its time.
-    // After the first iteration a vertex moves at most `eps xi` per iteration (eq. 53), so
-    // only pairs that were within `(1 + 4 eps) xi` can reach `xi`: the others skip the CCD.
-    refill(&mut work.changed, n, true);
+    // After the first iteration a vertex moves at most `eps xi` per iteration (either step
+    // rule), so only pairs that were within `(1 + 4 eps) xi` can reach `xi`: the others skip
+    // the CCD. (`changed` is only sized here: `restart_ccd` marks every vertex.)
+    work.changed.resize(n, true);
     restart_ccd(
         work.live.pairs.len(),
         &mut work.toi,
@@ -698,9 +699,8 @@ fn start_distances(pairs: &[Pair], safe: &[Vector3<f64>], start: &mut Vec<f64>) 
 }
 
 /// The final clamp (see the module doc) over the live pairs in `work`: adds to `stats` the
-/// vertices it moved, the
-/// CCD queries it made and its time (a refresh of the live pairs after a clamp counting as
-/// broad phase).
+/// vertices it moved, the CCD queries it made and its time (a refresh of the live pairs after
+/// a clamp counting as broad phase).
 fn guarantee(
     safe: &[Vector3<f64>],
     z: &mut [Vector3<f64>],
