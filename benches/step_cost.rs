@@ -1,9 +1,9 @@
 //! Cost of one time step of the CPU solver on a pinned, hanging cloth, by precision.
 //!
-//! `cargo bench --bench step_cost -- [n] [iterations] [steps] [threads]` prints a JSON record:
-//! median milliseconds per step and per phase for an n x n cloth (default 120, 14.4K vertices)
-//! with exactly `iterations` global iterations per step (tol = 0), no contact, on `threads`
-//! workers (default: one per core). With one thread the whole step runs on the pool's single
+//! `cargo bench --bench step_cost -- [n] [iterations] [steps] [threads] [f32|f64]` prints a
+//! JSON record: median milliseconds per step and per phase for an n x n cloth (default 120,
+//! 14.4K vertices) with exactly `iterations` global iterations per step (tol = 0), no contact,
+//! on `threads` workers (default: one per core), in both precisions or the one named. With one thread the whole step runs on the pool's single
 //! worker, which suits instruction counting (`valgrind --tool=callgrind`).
 
 use std::time::Instant;
@@ -68,17 +68,22 @@ fn run<T: Real>(n: usize, iterations: usize, steps: usize, threads: Option<usize
 }
 
 fn main() {
-    let args: Vec<usize> = std::env::args()
-        .skip(1)
-        .filter_map(|a| a.parse().ok())
-        .collect();
+    let words: Vec<String> = std::env::args().skip(1).collect();
+    let args: Vec<usize> = words.iter().filter_map(|a| a.parse().ok()).collect();
+    let wanted = |name: &str| {
+        let named = words.iter().any(|w| w == "f32" || w == "f64");
+        !named || words.iter().any(|w| w == name)
+    };
     let n = args.first().copied().unwrap_or(120);
     let iterations = args.get(1).copied().unwrap_or(10);
     let steps = args.get(2).copied().unwrap_or(30);
     let threads = args.get(3).copied();
-    println!(
-        "[{},\n {}]",
-        run::<f32>(n, iterations, steps, threads),
-        run::<f64>(n, iterations, steps, threads)
-    );
+    let mut records = Vec::new();
+    if wanted(f32::NAME) {
+        records.push(run::<f32>(n, iterations, steps, threads));
+    }
+    if wanted(f64::NAME) {
+        records.push(run::<f64>(n, iterations, steps, threads));
+    }
+    println!("[{}]", records.join(",\n "));
 }

@@ -7,6 +7,7 @@
 pub mod contact;
 pub mod error;
 pub mod gpu;
+pub mod isa;
 pub mod material;
 pub mod membrane;
 pub mod mesh;

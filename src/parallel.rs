@@ -1,7 +1,7 @@
 //! Deterministic data parallelism over vertices.
 
 /// Vertices handled by one task; large enough to amortise scheduling, small enough to balance.
-const GRAIN: usize = 512;
+pub const GRAIN: usize = 512;
 
 /// Calls `f(i, bonds_of_i)` for every vertex `i` in parallel and stores its result in `out[i]`.
 ///

@@ -169,7 +169,7 @@ impl<S: Lanes> Deformation<S> {
 
     /// Computes the deformation of a vertex from its deformed bond vectors `edges[j] = y_j - y_i`
     /// (in the order of the stencil's bonds).
-    #[inline]
+    #[inline(always)]
     pub fn of(edges: &[Vector3<S>], stencil: &Stencil<'_, S>) -> Self {
         let (mut a1, mut a2) = (Vector3::zeros(), Vector3::zeros());
         for (e, b) in edges.iter().zip(stencil.bonds) {
@@ -217,7 +217,7 @@ fn fallback_normal<S: Lanes>(u1: &Vector3<S>, nc: &Vector3<S>) -> Vector3<S> {
 
 /// Unit eigenvector `(cos, sin)` of the larger eigenvalue of the symmetric 2x2 matrix
 /// `[[p, r], [r, s]]`, from whichever of its two closed forms does not cancel.
-#[inline]
+#[inline(always)]
 fn leading_eigenvector<S: Lanes>(p: S, r: S, s: S) -> [S; 2] {
     let half_gap = (p - s) * S::lit(0.5);
     let root = (half_gap * half_gap + r * r).simd_sqrt();
@@ -254,7 +254,7 @@ pub fn bond_vectors<T: Real>(
 /// Written over [`Lanes`]: with a SIMD pack, every lane is one vertex (a vertex with fewer
 /// bonds than the pack's slots has zero rest data and zero bond vectors in the extra slots,
 /// which contribute exactly nothing).
-#[inline]
+#[inline(always)]
 pub fn vertex_kernel<S: Lanes>(
     stencil: &Stencil<'_, S>,
     mode: Preconditioner,
@@ -354,7 +354,7 @@ pub enum Preconditioner {
 }
 
 /// Per-direction stiffness `(w_u1, w_u2, w_n)` (N/m) of the stretching part of `C_i`.
-#[inline]
+#[inline(always)]
 fn stretch_stiffness<S: Lanes>(
     mode: Preconditioner,
     stretches: [S; 3],

@@ -17,6 +17,7 @@
 use nalgebra::{SimdValue, Vector3};
 
 use crate::error::Result;
+use crate::isa;
 use crate::material::MaterialModel;
 use crate::mesh::Neighborhood;
 use crate::parallel::{for_each_block, for_each_vertex};
@@ -237,7 +238,6 @@ pub fn evaluate_vertices<T: Real>(
         );
         return;
     };
-    let lanes = T::Pack::LANES;
     let slots = p.max_slots();
     for_each_block(
         &nb.offsets,
@@ -245,41 +245,64 @@ pub fn evaluate_vertices<T: Real>(
         bond_grad,
         response,
         &|windows, first, bonds, out| {
-            let base = nb.offsets[first] as usize;
-            let mut edges = Vec::with_capacity(slots);
-            let packs =
-                p.window_packs[windows.start] as usize..p.window_packs[windows.end] as usize;
-            for pack in packs {
-                let members = &p.lanes[pack * lanes..(pack + 1) * lanes];
-                let slot_range = p.slot_offsets[pack] as usize..p.slot_offsets[pack + 1] as usize;
-                let own = |c: usize| T::Pack::gather(|l| y[members[l] as usize][c]);
-                let yi = Vector3::new(own(0), own(1), own(2));
-                edges.clear();
-                for slot in slot_range.clone() {
-                    let j = &p.neighbors[slot * lanes..(slot + 1) * lanes];
-                    let at = |c: usize| T::Pack::gather(|l| y[j[l] as usize][c]);
-                    edges.push(Vector3::new(at(0), at(1), at(2)) - yi);
-                }
-                let stencil = Stencil {
-                    bonds: &p.bonds[slot_range],
-                    frame: &p.frames[pack],
-                    constants: &p.constants[pack],
-                };
-                let r = GatheredResponse::from(&vertex_kernel(&stencil, mode, &mut edges));
-                for (l, &i) in members[..p.filled[pack] as usize].iter().enumerate() {
-                    let i = i as usize;
-                    let range = nb.bonds(i);
-                    for (e, g) in edges
-                        .iter()
-                        .zip(&mut bonds[range.start - base..range.end - base])
-                    {
-                        *g = Vector3::new(e.x.extract(l), e.y.extract(l), e.z.extract(l));
-                    }
-                    out[i - first] = r.lane(l);
-                }
-            }
+            isa::run(
+                #[inline(always)]
+                || evaluate_packs(nb, p, slots, y, mode, windows, first, bonds, out),
+            )
         },
     );
+}
+
+/// The kernel on the packs of the windows `windows` of `p` (see [`evaluate_vertices`]), whose
+/// first vertex is `first`: their bonds' gradients into `bonds` and their responses into `out`
+/// (the run's parts of the whole arrays). `slots`: the most slots of any pack. Inlined into each
+/// copy [`isa::run`] chooses from.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn evaluate_packs<T: Real>(
+    nb: &Neighborhood,
+    p: &PackedRest<T::Pack>,
+    slots: usize,
+    y: &[Vector3<T>],
+    mode: Preconditioner,
+    windows: std::ops::Range<usize>,
+    first: usize,
+    bonds: &mut [Vector3<T>],
+    out: &mut [GatheredResponse<T>],
+) {
+    let lanes = T::Pack::LANES;
+    let base = nb.offsets[first] as usize;
+    let mut edges = Vec::with_capacity(slots);
+    let packs = p.window_packs[windows.start] as usize..p.window_packs[windows.end] as usize;
+    for pack in packs {
+        let members = &p.lanes[pack * lanes..(pack + 1) * lanes];
+        let slot_range = p.slot_offsets[pack] as usize..p.slot_offsets[pack + 1] as usize;
+        let own = |c: usize| T::Pack::gather(|l| y[members[l] as usize][c]);
+        let yi = Vector3::new(own(0), own(1), own(2));
+        edges.clear();
+        for slot in slot_range.clone() {
+            let j = &p.neighbors[slot * lanes..(slot + 1) * lanes];
+            let at = |c: usize| T::Pack::gather(|l| y[j[l] as usize][c]);
+            edges.push(Vector3::new(at(0), at(1), at(2)) - yi);
+        }
+        let stencil = Stencil {
+            bonds: &p.bonds[slot_range],
+            frame: &p.frames[pack],
+            constants: &p.constants[pack],
+        };
+        let r = GatheredResponse::from(&vertex_kernel(&stencil, mode, &mut edges));
+        for (l, &i) in members[..p.filled[pack] as usize].iter().enumerate() {
+            let i = i as usize;
+            let range = nb.bonds(i);
+            for (e, g) in edges
+                .iter()
+                .zip(&mut bonds[range.start - base..range.end - base])
+            {
+                *g = Vector3::new(e.x.extract(l), e.y.extract(l), e.z.extract(l));
+            }
+            out[i - first] = r.lane(l);
+        }
+    }
 }
 
 #[cfg(test)]

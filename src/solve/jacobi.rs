@@ -6,7 +6,9 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::contact::ColliderModel;
+use crate::isa;
 use crate::membrane::{internal_force, GatheredResponse};
+use crate::parallel::GRAIN;
 use crate::real::Real;
 use crate::symmetric::SymmetricMatrix3;
 
@@ -88,7 +90,7 @@ pub(crate) struct LocalSystem<T: Real> {
 
 impl<T: Real> LocalSystem<T> {
     /// Assembles vertex `k`'s system from the responses of the last evaluation.
-    #[inline]
+    #[inline(always)]
     pub fn of(sys: &System<T>, k: usize, h2: T) -> Self {
         let mass = sys.rest.vertices[k].mass;
         let force_h2 = internal_force(k, &sys.nb, &sys.bond_grad) * h2;
@@ -180,33 +182,50 @@ pub(super) fn jacobi_update<T: Real>(
     let mut y_next = std::mem::take(&mut sys.y_next);
     let sys_ref = &*sys;
     let update = y_next
-        .par_iter_mut()
+        .par_chunks_mut(GRAIN)
         .enumerate()
-        .map(|(k, next)| {
-            if sys_ref.pinned[k] {
-                *next = sys_ref.y[k];
-                return Update::NONE;
-            }
-            let local = if inner {
-                sys_ref.locals[k]
-            } else {
-                LocalSystem::of(sys_ref, k, h2)
-            };
-            let delta = if inner {
-                sys_ref.delta[k]
-            } else {
-                local.solve()
-            };
-            finish_move(sys_ref, k, &local, delta, options, next)
+        .map(|(c, next)| {
+            isa::run(
+                #[inline(always)]
+                || move_vertices(sys_ref, c * GRAIN, next, h2, options),
+            )
         })
         .reduce(|| Update::NONE, Update::merge);
     sys.y_next = y_next;
     update
 }
 
+/// The moves of the vertices `first..first + next.len()` into `next` (see [`jacobi_update`]),
+/// merged. Inlined into each copy [`isa::run`] chooses from.
+#[inline(always)]
+fn move_vertices<T: Real>(
+    sys: &System<T>,
+    first: usize,
+    next: &mut [Vector3<T>],
+    h2: T,
+    options: &MoveOptions<'_, T>,
+) -> Update {
+    let inner = options.inner_iters > 1;
+    let mut update = Update::NONE;
+    for (k, next) in (first..).zip(next) {
+        if sys.pinned[k] {
+            *next = sys.y[k];
+            continue;
+        }
+        let (local, delta) = if inner {
+            (sys.locals[k], sys.delta[k])
+        } else {
+            let local = LocalSystem::of(sys, k, h2);
+            (local, local.solve())
+        };
+        update = Update::merge(update, finish_move(sys, k, &local, delta, options, next));
+    }
+    update
+}
+
 /// Scales `delta` by the step length, keeps it out of colliders in the system metric,
 /// extrapolates (Chebyshev) and reports the vertex's move and residual.
-#[inline]
+#[inline(always)]
 fn finish_move<T: Real>(
     sys: &System<T>,
     k: usize,
