@@ -94,7 +94,7 @@ impl Lanes for F32Pack {
 
     #[inline(always)]
     fn gather(lane: impl FnMut(usize) -> f32) -> Self {
-        Self(std::array::from_fn::<f32, 8, _>(lane).into())
+        Self(array_from_fn::<f32, 8>(lane).into())
     }
 }
 
@@ -103,6 +103,17 @@ impl Lanes for F64Pack {
 
     #[inline(always)]
     fn gather(lane: impl FnMut(usize) -> f64) -> Self {
-        Self(std::array::from_fn::<f64, 4, _>(lane).into())
+        Self(array_from_fn::<f64, 4>(lane).into())
     }
+}
+
+/// `[f(0), f(1), ..., f(N - 1)]`, as `std::array::from_fn` but always inlined: the standard one
+/// can stay out of line in the kernel's loops, a call per gathered pack.
+#[inline(always)]
+pub fn array_from_fn<T: Copy + Default, const N: usize>(mut f: impl FnMut(usize) -> T) -> [T; N] {
+    let mut out = [T::default(); N];
+    for (i, x) in out.iter_mut().enumerate() {
+        *x = f(i);
+    }
+    out
 }

@@ -45,7 +45,7 @@
 
 use nalgebra::{SimdBool, Vector3};
 
-use crate::real::{Lanes, Real};
+use crate::real::{array_from_fn, Lanes, Real};
 use crate::symmetric::SymmetricMatrix3;
 
 use super::{Stencil, VertexConstants};
@@ -111,7 +111,7 @@ impl<S: Lanes> GatheredResponse<S> {
     #[inline(always)]
     pub fn lane(&self, l: usize) -> GatheredResponse<S::Scalar> {
         GatheredResponse {
-            values: self.values.map(|x| x.extract(l)),
+            values: array_from_fn(|k| self.values[k].extract(l)),
         }
     }
 }
