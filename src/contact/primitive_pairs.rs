@@ -100,8 +100,8 @@ impl Pair {
     }
 }
 
-/// The larger of `m` and `x`, NaN if `x` is.
-fn nan_max(m: f64, x: f64) -> f64 {
+/// The larger of `m` and `x`, NaN if either is.
+pub(super) fn nan_max(m: f64, x: f64) -> f64 {
     if x.is_nan() || x > m {
         x
     } else {
@@ -165,23 +165,25 @@ pub fn closest_primitive_distance(x: &[Vector3<f64>], ti: &[u32; 3], tj: &[u32; 
         )
 }
 
-/// Writes into `found` the primitive pairs of the candidate triangle pairs that are closer
-/// than `limit` (m) at the positions `x` (m), each with that distance (NaN distances count as
-/// close), sorted by pair and deduplicated (reusing its allocation). Each distance is computed
-/// once, and only the close pairs are sorted.
+/// Writes into `found` the primitive pairs of the candidate triangle pairs `(i, j)` that are
+/// closer than `limit(i, j)` (m) at the positions `x` (m), each with that distance (NaN
+/// distances count as close), sorted by pair and deduplicated (reusing its allocation); a
+/// primitive pair several candidates hold is kept if one of them keeps it. Each distance is
+/// computed once per candidate, and only the close pairs are sorted.
 pub(super) fn close_primitive_pairs(
     triangles: &[[u32; 3]],
     candidates: &[(u32, u32)],
     x: &[Vector3<f64>],
-    limit: f64,
+    limit: impl Fn(u32, u32) -> f64 + Sync,
     found: &mut Vec<(Pair, f64)>,
 ) {
     found.clear();
     found.par_extend(candidates.par_iter().flat_map_iter(|&(i, j)| {
+        let limit = limit(i, j);
         expand(&triangles[i as usize], &triangles[j as usize])
             .into_iter()
             .map(|p| (p, p.closest(x).separation.norm()))
-            .filter(|&(_, d)| d < limit || d.is_nan())
+            .filter(move |&(_, d)| d < limit || d.is_nan())
     }));
     found.par_sort_unstable_by(|a, b| a.0.cmp(&b.0));
     found.dedup_by(|a, b| a.0 == b.0);
