@@ -30,8 +30,8 @@
 //!   c_B^w + tau c_B^g`. Then `|x_i - r_i - c_B(tau)| <= dev_i = max(|w_i - c_B^w|, |g_i -
 //!   c_B^g|) + A_i` (the first part is affine in `tau`), and `|c_A(tau) - c_B(tau)| <= T_AB =
 //!   max(|c_A^w - c_B^w|, |c_A^g - c_B^g|)`. A point of a triangle is a convex combination of
-//!   its vertices, so a primitive pair within `reach` at `x` was closer than `reach + max_A dev
-//!   + max_B dev + T_AB` at `r` (`T_BB = 0`). While `max_{i in B} dev_i <= R_B` for every body
+//!   its vertices, so a primitive pair within `reach` at `x` was closer than
+//!   `reach + max_A dev + max_B dev + T_AB` at `r` (`T_BB = 0`). While `max_{i in B} dev_i <= R_B` for every body
 //!   and `T_AB <= S` for every two, that is below the pair's limit `L`: its triangle pairs had
 //!   overlapping inflated boxes and a primitive pair (itself) that close, so they were
 //!   candidates, and it was kept. The stored pairs are a superset of the ones a fresh broad
