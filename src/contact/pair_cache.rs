@@ -586,7 +586,7 @@ pub(super) mod tests {
         let mut within = [0, 0];
         let falling = run(Vector3::new(0.0, 0.0, -0.1), &mut within);
         let resting = run(Vector3::zeros(), &mut [0, 0]);
-        assert_eq!(falling[0].0, true);
+        assert!(falling[0].0);
         let close = |a: usize, b: usize| a.abs_diff(b) * 100 <= b;
         for (k, (f, r)) in falling.iter().zip(&resting).enumerate().take(3) {
             assert_eq!(f.0, r.0, "step {k}: built {f:?} at rest {r:?}");
