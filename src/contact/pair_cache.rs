@@ -45,9 +45,11 @@
 //!   `reach`), so it contributes nothing and is left out of the live list. (The additive
 //!   CCD, which stops at a fraction of the initial gap, could report an early time for such a
 //!   pair that never comes near: the skip removes that spurious clamp, nothing else.) The
-//!   absolute bound `d_r - max_A b - max_B b - max_A A - max_B A` is never larger
-//!   (`max(|w_a - w_b|, |g_a - g_b|) <= b_a + b_b`), so a pair it keeps at or above `reach` is
-//!   skipped without the relative test.
+//!   reuse argument gives a second, cheaper bound, `d_r - max_A dev - max_B dev - T_AB`; a
+//!   pair is skipped when either bound is at least `reach`. The stored pairs are sorted by
+//!   `d_r`, so those beyond `reach + 2 max_i dev_i + max T` (where the cheaper bound skips
+//!   every one) are not looked at: a local step costs what the pairs near the reach cost, not
+//!   what the whole cache holds.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -78,11 +80,17 @@ pub(super) struct PairCache {
     /// Those of them with a primitive pair within the build's limit at `reference`: the
     /// candidates.
     candidates: Vec<(u32, u32)>,
-    /// The primitive pairs of the build, each with its distance at `reference` (m).
+    /// The primitive pairs of the build, each with its distance at `reference` (m), by
+    /// increasing distance (NaN first), then by pair.
     pairs: Vec<(Pair, f64)>,
-    /// Per vertex: `b_i = |s_i - r_i| + |y_i - s_i|` (m), its motion from `reference` without
-    /// the allowance.
-    bound: Vec<f64>,
+    /// Per vertex: `dev_i = max(|w_i - c_B^w|, |g_i - c_B^g|) + A_i` (m), how far it may
+    /// stray from its body's common motion (NaN counts as infinitely far).
+    deviation: Vec<f64>,
+    /// `max_{A, B} T_AB` (m), how far the common motions of two bodies may have moved
+    /// relative to each other.
+    apart: f64,
+    /// `max_i dev_i` (m).
+    farthest: f64,
     /// Per vertex: `[w_i, g_i] = [s_i - r_i, y_i - r_i]` (m), its displacements from
     /// `reference` at the two ends of the global step's path.
     shift: Vec<[Vector3<f64>; 2]>,
@@ -118,22 +126,32 @@ impl PairCache {
         live: &mut Vec<Pair>,
     ) -> bool {
         let rebuild = !self.fits(mesh, safe.len()) || {
-            self.bound_motion(safe, target);
+            self.measure_motion(safe, target);
             !self.covers(allowance)
         };
         if rebuild {
             self.build(safe, target, allowance, mesh, reach);
+            self.covers(allowance);
         }
-        let (bound, shift) = (&self.bound, &self.shift);
+        // Only pairs closer than `reach + 2 max dev + max T` at `r` can pass the first test.
+        let horizon = reach + 2.0 * self.farthest + self.apart;
+        let horizon = if horizon.is_nan() {
+            f64::INFINITY
+        } else {
+            horizon
+        };
+        let near = self.pairs.partition_point(|&(_, d)| !(d >= horizon));
+        let (deviation, apart, shift) = (&self.deviation, self.apart, &self.shift);
+        let vertex_body = &self.vertex_body;
         live.clear();
         live.par_extend(
-            self.pairs
+            self.pairs[..near]
                 .par_iter()
                 .filter(|(pair, d)| {
-                    // The absolute bound first: it is cheaper, and never above the relative one.
-                    let spread = pair.spread(allowance);
-                    let absolute = d - pair.spread(bound) - spread;
-                    if absolute >= reach {
+                    // The bound from the bodies' common motions first: it is cheaper.
+                    let across = vertex_body[pair.v[0] as usize] != vertex_body[pair.v[3] as usize];
+                    let common = d - pair.spread(deviation) - if across { apart } else { 0.0 };
+                    if common >= reach {
                         return false;
                     }
                     let lower = pair.relative_distance_bound(*d, shift, allowance);
@@ -141,6 +159,7 @@ impl PairCache {
                 })
                 .map(|(pair, _)| *pair),
         );
+        live.par_sort_unstable();
         rebuild
     }
 
@@ -153,18 +172,35 @@ impl PairCache {
     }
 
     /// Whether the build still holds every pair the local step may look at (the reuse test of
-    /// the module doc): per body `B`, `max_i (max(|w_i - c_B^w|, |g_i - c_B^g|) + A_i) <=
-    /// R_B`, and per pair of bodies `max(|c_A^w - c_B^w|, |c_A^g - c_B^g|) <= S`. False if a
-    /// figure is NaN.
-    fn covers(&self, allowance: &[f64]) -> bool {
+    /// the module doc): per body `B`, `max_{i in B} dev_i <= R_B`, and per pair of bodies
+    /// `T_AB <= S`; writes `dev_i`, `max_{A, B} T_AB` and `max_i dev_i`. False if a figure
+    /// is NaN.
+    fn covers(&mut self, allowance: &[f64]) -> bool {
         let common = self.common_motion();
-        let strayed = self.per_body(0.0, nan_max, |i, b| {
-            let [w, g] = &self.shift[i];
-            let [cw, cg] = common[b].unwrap_or_default();
-            (w - cw).norm().max((g - cg).norm()) + allowance[i]
-        });
-        strayed.iter().zip(&self.skin).all(|(d, r)| d <= r)
-            && largest_apart(&common) <= self.cross_skin
+        let (shift, vertex_body) = (&self.shift, &self.vertex_body);
+        allowance
+            .par_iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let b = vertex_body[i];
+                if b == NO_BODY {
+                    return 0.0;
+                }
+                let [w, g] = &shift[i];
+                let [cw, cg] = common[b as usize].unwrap_or_default();
+                let dev = (w - cw).norm().max((g - cg).norm()) + a;
+                if dev.is_nan() {
+                    f64::INFINITY
+                } else {
+                    dev
+                }
+            })
+            .collect_into_vec(&mut self.deviation);
+        let deviation = &self.deviation;
+        let strayed = self.per_body(0.0, f64::max, |i, _| deviation[i]);
+        self.farthest = strayed.iter().copied().fold(0.0, f64::max);
+        self.apart = largest_apart(&common);
+        strayed.iter().zip(&self.skin).all(|(d, r)| d <= r) && self.apart <= self.cross_skin
     }
 
     /// Per body `B`, `[c_B^w, c_B^g]`: the mean of `[w_i, g_i]` over its vertices (m), the
@@ -211,22 +247,9 @@ impl PairCache {
             )
     }
 
-    /// Writes `b_i = |s_i - r_i| + |y_i - s_i|` into `bound` (NaN counts as infinitely far)
-    /// and `[s_i - r_i, y_i - r_i]` into `shift`.
-    fn bound_motion(&mut self, safe: &[Vector3<f64>], target: &[Vector3<f64>]) {
+    /// Writes `[s_i - r_i, y_i - r_i]` into `shift`.
+    fn measure_motion(&mut self, safe: &[Vector3<f64>], target: &[Vector3<f64>]) {
         let reference = &self.reference;
-        safe.par_iter()
-            .zip(target)
-            .zip(reference)
-            .map(|((s, y), r)| {
-                let b = (s - r).norm() + (y - s).norm();
-                if b.is_nan() {
-                    f64::INFINITY
-                } else {
-                    b
-                }
-            })
-            .collect_into_vec(&mut self.bound);
         safe.par_iter()
             .zip(target)
             .zip(reference)
@@ -264,7 +287,7 @@ impl PairCache {
         }
         self.reference.clear();
         self.reference.extend_from_slice(safe);
-        self.bound_motion(safe, target);
+        self.measure_motion(safe, target);
         let bodies = mesh.self_contact.len();
         self.skin.clear();
         self.skin.resize(bodies, 0.0);
@@ -330,6 +353,9 @@ impl PairCache {
             limit,
             &mut self.pairs,
         );
+        let key = |d: f64| if d.is_nan() { f64::NEG_INFINITY } else { d };
+        self.pairs
+            .par_sort_unstable_by(|a, b| key(a.1).total_cmp(&key(b.1)).then(a.0.cmp(&b.0)));
         self.candidates = candidates;
     }
 }
