@@ -140,7 +140,8 @@ impl PairCache {
         } else {
             horizon
         };
-        let near = self.pairs.partition_point(|&(_, d)| !(d >= horizon));
+        // NaN distances sort first and count as near.
+        let near = self.pairs.partition_point(|&(_, d)| d < horizon || d.is_nan());
         let (deviation, apart, shift) = (&self.deviation, self.apart, &self.shift);
         let vertex_body = &self.vertex_body;
         live.clear();
