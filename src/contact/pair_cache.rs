@@ -55,7 +55,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::broad_phase::{BroadPhase, ContactMesh};
-use super::primitive_pairs::{close_primitive_pairs, closest_primitive_distance, nan_max, Pair};
+use super::primitive_pairs::{close_primitive_pairs, nan_max, Pair};
 
 /// The primitive pairs of the last build and their distances at its reference positions.
 #[derive(Default)]
@@ -141,7 +141,9 @@ impl PairCache {
             horizon
         };
         // NaN distances sort first and count as near.
-        let near = self.pairs.partition_point(|&(_, d)| d < horizon || d.is_nan());
+        let near = self
+            .pairs
+            .partition_point(|&(_, d)| d < horizon || d.is_nan());
         let (deviation, apart, shift) = (&self.deviation, self.apart, &self.shift);
         let vertex_body = &self.vertex_body;
         live.clear();
@@ -338,26 +340,9 @@ impl PairCache {
                 mesh.body[b as usize],
             )
         };
-        let candidates: Vec<(u32, u32)> = boxes
-            .into_par_iter()
-            .filter(|&(a, b)| {
-                let (ta, tb) = (&mesh.triangles[a as usize], &mesh.triangles[b as usize]);
-                let d = closest_primitive_distance(reference, ta, tb);
-                d < limit(a, b) || d.is_nan()
-            })
-            .collect();
         // A primitive pair beyond the limit cannot come within `reach` before the next build.
-        close_primitive_pairs(
-            mesh.triangles,
-            &candidates,
-            reference,
-            limit,
-            &mut self.pairs,
-        );
-        let key = |d: f64| if d.is_nan() { f64::NEG_INFINITY } else { d };
-        self.pairs
-            .par_sort_unstable_by(|a, b| key(a.1).total_cmp(&key(b.1)).then(a.0.cmp(&b.0)));
-        self.candidates = candidates;
+        self.candidates =
+            close_primitive_pairs(mesh.triangles, &boxes, reference, limit, &mut self.pairs);
     }
 }
 
@@ -387,6 +372,7 @@ fn largest_apart(common: &[Option<[Vector3<f64>; 2]>]) -> f64 {
 #[cfg(test)]
 pub(super) mod tests {
     use super::super::distance::tests::Rng;
+    use super::super::primitive_pairs::closest_primitive_distance;
     use super::*;
 
     /// Brute force: every triangle pair of `mesh` that may touch, and every primitive pair
