@@ -91,6 +91,13 @@ pub(super) struct PairCache {
     apart: f64,
     /// `max_i dev_i` (m).
     farthest: f64,
+    /// The cached pairs by vertex: those of vertex `v` are `by_vertex[by_vertex_start[v]..
+    /// by_vertex_start[v + 1]]` (indices into `pairs`).
+    by_vertex: Vec<u32>,
+    by_vertex_start: Vec<u32>,
+    /// Per cached pair: whether it is in the live list; false from `flagged` on.
+    is_live: Vec<bool>,
+    flagged: usize,
     /// Per vertex: `[w_i, g_i] = [s_i - r_i, y_i - r_i]` (m), its displacements from
     /// `reference` at the two ends of the global step's path.
     shift: Vec<[Vector3<f64>; 2]>,
@@ -144,26 +151,78 @@ impl PairCache {
         let near = self
             .pairs
             .partition_point(|&(_, d)| d < horizon || d.is_nan());
-        let (deviation, apart, shift) = (&self.deviation, self.apart, &self.shift);
-        let vertex_body = &self.vertex_body;
+        self.is_live[..self.flagged].fill(false);
+        let this = &*self;
+        let found: Vec<u32> = (0..near as u32)
+            .into_par_iter()
+            .filter(|&k| this.may_come_within(k as usize, allowance, reach))
+            .collect();
+        self.flagged = found.last().map_or(0, |&k| k as usize + 1);
         live.clear();
-        live.par_extend(
-            self.pairs[..near]
-                .par_iter()
-                .filter(|(pair, d)| {
-                    // The bound from the bodies' common motions first: it is cheaper.
-                    let across = vertex_body[pair.v[0] as usize] != vertex_body[pair.v[3] as usize];
-                    let common = d - pair.spread(deviation) - if across { apart } else { 0.0 };
-                    if common >= reach {
-                        return false;
-                    }
-                    let lower = pair.relative_distance_bound(*d, shift, allowance);
-                    lower < reach || lower.is_nan()
-                })
-                .map(|(pair, _)| *pair),
-        );
-        live.par_sort_unstable();
+        self.mark_live(&found, live);
         rebuild
+    }
+
+    /// After [`PairCache::live_pairs`] with the same safe and target positions and mesh, the
+    /// allowances of the vertices `grown` have grown and the others are as they were: adds to
+    /// `live` the pairs that may now come within `reach` (only pairs with a grown vertex can,
+    /// as the bounds of the others are unchanged and allowances only grow) and returns true;
+    /// returns false, leaving `live` alone, when the build no longer covers the allowances
+    /// (then [`PairCache::live_pairs`] must rebuild).
+    pub fn extend_live(
+        &mut self,
+        allowance: &[f64],
+        grown: &[u32],
+        reach: f64,
+        live: &mut Vec<Pair>,
+    ) -> bool {
+        if !self.covers(allowance) {
+            return false;
+        }
+        let this = &*self;
+        let mut found: Vec<u32> = grown
+            .par_iter()
+            .flat_map_iter(|&v| {
+                let (from, to) = (
+                    this.by_vertex_start[v as usize] as usize,
+                    this.by_vertex_start[v as usize + 1] as usize,
+                );
+                this.by_vertex[from..to].iter().copied().filter(|&k| {
+                    !this.is_live[k as usize] && this.may_come_within(k as usize, allowance, reach)
+                })
+            })
+            .collect();
+        found.par_sort_unstable();
+        found.dedup();
+        if let Some(&last) = found.last() {
+            self.flagged = self.flagged.max(last as usize + 1);
+        }
+        self.mark_live(&found, live);
+        true
+    }
+
+    /// Marks the cached pairs `found` live and adds them to `live`, which stays sorted.
+    fn mark_live(&mut self, found: &[u32], live: &mut Vec<Pair>) {
+        for &k in found {
+            self.is_live[k as usize] = true;
+            live.push(self.pairs[k as usize].0);
+        }
+        live.par_sort_unstable();
+    }
+
+    /// Whether the cached pair `k` may come within `reach` (m) for the allowances `allowance`
+    /// (m): neither lower bound of the module doc ("Skip") reaches `reach`.
+    fn may_come_within(&self, k: usize, allowance: &[f64], reach: f64) -> bool {
+        let (pair, d) = &self.pairs[k];
+        // The bound from the bodies' common motions first: it is cheaper.
+        let v = &self.vertex_body;
+        let across = v[pair.v[0] as usize] != v[pair.v[3] as usize];
+        let common = d - pair.spread(&self.deviation) - if across { self.apart } else { 0.0 };
+        if common >= reach {
+            return false;
+        }
+        let lower = pair.relative_distance_bound(*d, &self.shift, allowance);
+        lower < reach || lower.is_nan()
     }
 
     /// Whether the lists were built for this mesh and vertex count.
@@ -260,6 +319,31 @@ impl PairCache {
             .collect_into_vec(&mut self.shift);
     }
 
+    /// Fills `by_vertex` and `by_vertex_start` from `pairs` (a counting sort; the four
+    /// vertices of a pair are distinct, as its primitives share none).
+    fn index_by_vertex(&mut self) {
+        let n = self.reference.len();
+        self.by_vertex_start.clear();
+        self.by_vertex_start.resize(n + 1, 0);
+        for (pair, _) in &self.pairs {
+            for &v in &pair.v {
+                self.by_vertex_start[v as usize + 1] += 1;
+            }
+        }
+        for v in 0..n {
+            self.by_vertex_start[v + 1] += self.by_vertex_start[v];
+        }
+        let mut next = self.by_vertex_start.clone();
+        self.by_vertex.clear();
+        self.by_vertex.resize(4 * self.pairs.len(), 0);
+        for (k, (pair, _)) in self.pairs.iter().enumerate() {
+            for &v in &pair.v {
+                self.by_vertex[next[v as usize] as usize] = k as u32;
+                next[v as usize] += 1;
+            }
+        }
+    }
+
     /// Builds the lists at `r = safe`. The skins are a cost trade-off only (any that pass the
     /// reuse test are correct): `R_B = 2 max_i |g_i - c_B^g| + max_i A_i + reach / 4` over the
     /// vertices of `B`, and `S = 2 max_{A, B} |c_A^g - c_B^g| + reach / 4`, room for about one
@@ -343,6 +427,10 @@ impl PairCache {
         // A primitive pair beyond the limit cannot come within `reach` before the next build.
         self.candidates =
             close_primitive_pairs(mesh.triangles, &boxes, reference, limit, &mut self.pairs);
+        self.index_by_vertex();
+        self.is_live.clear();
+        self.is_live.resize(self.pairs.len(), false);
+        self.flagged = 0;
     }
 }
 
@@ -713,6 +801,47 @@ pub(super) mod tests {
             "pairs within reach: {within:?}"
         );
         assert_eq!(builds, [true, false, true, false, true, false, true, false]);
+    }
+
+    /// Growing the allowances of some vertices and extending the live list gives the list a
+    /// full filter gives for the grown allowances, whether the build still covers them (a
+    /// few vertices by a few millimetres) or not (one vertex by 0.3 m: the extension declines
+    /// and a full filter rebuilds, as it does afresh).
+    #[test]
+    fn extending_the_live_pairs_equals_filtering_them_afresh() {
+        let mut rng = Rng::new(41);
+        let (safe, triangles) = spiral(12, 0.03, &mut rng);
+        let body = vec![0; triangles.len()];
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[true],
+        };
+        let reach = 0.02;
+        let target: Vec<_> = safe.iter().map(|p| p + rng.vector() * 0.004).collect();
+        let mut allowance = vec![0.001; safe.len()];
+        let (mut extended, mut afresh) = (PairCache::default(), PairCache::default());
+        let (mut by_extension, mut by_filter) = (Vec::new(), Vec::new());
+        extended.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_extension);
+        afresh.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_filter);
+        let first = by_extension.len();
+        for (round, (every, by)) in [(7, 0.004), (5, 0.004), (1000, 0.3)]
+            .into_iter()
+            .enumerate()
+        {
+            let grown: Vec<u32> = (0..safe.len() as u32).step_by(every).collect();
+            for &v in &grown {
+                allowance[v as usize] += by;
+            }
+            let rebuilt = !extended.extend_live(&allowance, &grown, reach, &mut by_extension)
+                && extended.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_extension);
+            let rebuilt_afresh =
+                afresh.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_filter);
+            assert_eq!(rebuilt, round == 2, "round {round}");
+            assert_eq!(rebuilt_afresh, round == 2, "round {round}");
+            assert_eq!(by_extension, by_filter, "round {round}");
+        }
+        assert!(by_extension.len() > first, "the growth made pairs live");
     }
 
     /// Over a sequence of local steps (small moves that reuse the build, a large one that
