@@ -9,6 +9,7 @@ import pytest
 
 import peridyn
 from contact_checks import assert_apart
+from peridyn.checks import min_separation
 from peridyn.paper_scenes import antependium, cloths_over_ball, shooting_shell
 
 
@@ -70,6 +71,27 @@ def test_shell_shot_into_the_target_is_stopped():
     assert target.positions[:, 2].min() < -0.1
     pinned = target.pinned
     np.testing.assert_allclose(target.positions[pinned], target.rest_positions[pinned])
+
+
+@pytest.mark.parametrize("build, kwargs", [
+    (cloths_over_ball, dict(layers=3, n=30, size=0.5)),
+    (antependium, dict(n=40)),
+    (shooting_shell, dict(subdivisions=3, n=40, distance=0.2)),  # coarse: closer than 0.6 edges
+])
+def test_the_barrier_leaves_every_mesh_at_rest_alone(build, kwargs):
+    """No two non-adjacent primitives of a body at rest are within the barrier's reach, so the
+    first step starts with no active contact (the barrier would otherwise push a mesh's own
+    triangles apart in its plane)."""
+    scene = build(**kwargs, threads=1)
+    contact = scene.solver.contact
+    reach = contact.thickness + contact.d_hat
+    for name, body in scene.bodies.items():
+        gap = min_separation(body.positions, body.triangles, 2.0 * reach)
+        assert gap > reach, f"{name}: primitives {gap} m apart, the barrier reaches {reach} m"
+    scene.solver.dt = 1e-6
+    for body in scene.bodies.values():
+        body.velocities = np.zeros_like(body.velocities)
+    assert scene.solver.step().contact["active_pairs"] == 0
 
 
 @pytest.mark.parametrize("build, kwargs", [

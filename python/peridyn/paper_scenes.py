@@ -12,11 +12,13 @@ Two conventions are ours, not the paper's:
 * Bending. Table 1 gives the bending stiffness as a multiple ``kb`` of ``s0``; here it is that
   multiple of the rigidity of a plate of Young's modulus ``2 s0`` (the in-plane modulus of
   ``StretchA3``), ``bending = kb * E t^3 / 12`` with ``E = 2 s0`` (N*m).
-* Barrier range. The barrier must not act between neighbouring primitives of one flat mesh at
-  rest, or it would push a membrane's own triangles apart in its plane. Non-adjacent
-  primitives of a mesh are at least about ``0.6 l`` apart (``l`` its shortest edge; 0.71 on a
-  square grid), so ``d_hat`` is ``4 xi`` (the paper's choice) capped at ``0.6 l - xi``. A
-  mesh too fine for its thickness (cap below ``xi / 2``) raises ``ValueError``.
+* Barrier range. The barrier must not act between neighbouring primitives of one mesh at
+  rest, or it would push a membrane's own triangles apart in its plane. The builders measure
+  ``g``, the smallest distance between non-adjacent primitives of each mesh at rest (0.71
+  edges on a square grid, less on a coarse icosphere), and cap ``d_hat = 4 xi`` (the paper's
+  choice) so that the barrier reaches at most ``0.85 g`` (``xi + d_hat <= 0.85 g``: room
+  for 15 % in-plane compression). A mesh too fine for its thickness (cap below ``xi / 2``)
+  raises ``ValueError``.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from . import _core
+from .checks import min_separation
 from .materials import plate_bending_stiffness
 from .mesh import grid
 from .scenes import Scene
@@ -37,8 +40,9 @@ __all__ = ["antependium", "cloths_over_ball", "shooting_shell"]
 #: Areal mass of the cloths: 1 mm at 300 kg/m^3 (0.3 kg/m^2, a heavy cotton).
 THICKNESS = 1e-3
 DENSITY = 300.0
-#: Non-adjacent primitives of a mesh are at least this many shortest edges apart.
-NEIGHBOUR_GAP = 0.6
+#: The barrier reaches at most this fraction of the smallest distance between non-adjacent
+#: primitives of a mesh at rest.
+REST_GAP_FRACTION = 0.85
 
 
 def _bending(kb: float, s0: float) -> float:
@@ -46,21 +50,25 @@ def _bending(kb: float, s0: float) -> float:
     return kb * plate_bending_stiffness(2.0 * s0, 0.0, THICKNESS)
 
 
-def _shortest_edge(V: np.ndarray, F: np.ndarray) -> float:
+def _rest_gap(V: np.ndarray, F: np.ndarray) -> float:
+    """The smallest distance (m) between non-adjacent primitives of the mesh ``(V, F)``
+    (looked for within its longest edge: two triangles sharing no vertex are closer than that
+    wherever the mesh is regular)."""
     edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    return float(np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1).min())
+    longest = float(np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1).max())
+    return min_separation(V, F, longest)
 
 
 def _contact(scene: str, xi: float, meshes: Sequence[tuple]) -> _core.Contact:
-    """Contact of thickness ``xi`` (m) with ``d_hat = min(4 xi, 0.6 l - xi)`` (see the module
-    doc), ``l`` the shortest edge of ``meshes``."""
-    shortest = min(_shortest_edge(V, F) for V, F in meshes)
-    d_hat = min(4.0 * xi, NEIGHBOUR_GAP * shortest - xi)
+    """Contact of thickness ``xi`` (m) with ``d_hat = min(4 xi, 0.85 g - xi)`` (see the module
+    doc), ``g`` the smallest rest gap of ``meshes``."""
+    gap = min(_rest_gap(np.asarray(V, dtype=np.float64), np.asarray(F)) for V, F in meshes)
+    d_hat = min(4.0 * xi, REST_GAP_FRACTION * gap - xi)
     if d_hat < 0.5 * xi:
         raise ValueError(
-            f"{scene}: the mesh is too fine for the contact thickness {xi:g} m: its shortest "
-            f"edge {shortest:g} m leaves a barrier range of {d_hat:g} m < xi / 2; use fewer "
-            "vertices or a thinner contact"
+            f"{scene}: the mesh is too fine for the contact thickness {xi:g} m: non-adjacent "
+            f"primitives {gap:g} m apart at rest leave a barrier range of {d_hat:g} m < xi / 2; "
+            "use fewer vertices or a thinner contact"
         )
     return _core.Contact(thickness=xi, d_hat=d_hat)
 

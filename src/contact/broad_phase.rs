@@ -9,8 +9,9 @@
 //! boxes' intersection.
 //!
 //! A triangle's box covers its vertices at the start and at the end of the motion (so
-//! continuous collision detection sees every pair that can meet) inflated by half the contact
-//! reach on each side (so two boxes overlap whenever the triangles come within the reach).
+//! continuous collision detection sees every pair that can meet) inflated on each side by its
+//! body's padding (so two boxes overlap whenever the triangles come within the sum of their
+//! paddings; half the contact reach each when all bodies are padded alike).
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -78,19 +79,21 @@ pub struct BroadPhase {
 }
 
 impl BroadPhase {
-    /// Triangle pairs `(a, b)`, `a < b`, whose boxes over the motion `start -> end`, inflated
-    /// by `reach / 2` (m), overlap and that [`ContactMesh::may_touch`] allows; sorted.
+    /// Triangle pairs `(a, b)`, `a < b`, whose boxes over the motion `start -> end`, each
+    /// inflated by `padding[body]` (m) of its body, overlap and that [`ContactMesh::may_touch`]
+    /// allows; sorted.
     pub fn candidate_pairs(
         &mut self,
         start: &[Vector3<f64>],
         end: &[Vector3<f64>],
         mesh: &ContactMesh,
-        reach: f64,
+        padding: &[f64],
     ) -> &[(u32, u32)] {
         self.pairs.clear();
         mesh.triangles
             .par_iter()
-            .map(|t| {
+            .zip(mesh.body)
+            .map(|(t, &body)| {
                 let mut lo = Vector3::repeat(f64::INFINITY);
                 let mut hi = Vector3::repeat(f64::NEG_INFINITY);
                 for &v in t {
@@ -99,7 +102,7 @@ impl BroadPhase {
                         hi = hi.sup(p);
                     }
                 }
-                let pad = Vector3::repeat(0.5 * reach);
+                let pad = Vector3::repeat(padding[body as usize]);
                 Aabb {
                     lo: lo - pad,
                     hi: hi + pad,
@@ -220,11 +223,15 @@ mod tests {
                 body: &body,
                 self_contact: &self_contact,
             };
-            let reach = 0.1;
-            let found = grid.candidate_pairs(&points, &end, &mesh, reach).to_vec();
+            // Bodies padded differently: 0.05 and 0.02 m.
+            let padding = [0.05, 0.02];
+            let found = grid
+                .candidate_pairs(&points, &end, &mesh, &padding)
+                .to_vec();
             let boxes: Vec<Aabb> = tris
                 .iter()
-                .map(|t| {
+                .zip(&body)
+                .map(|(t, &b)| {
                     let all: Vec<Vector3<f64>> = t
                         .iter()
                         .flat_map(|&v| [points[v as usize], end[v as usize]])
@@ -235,7 +242,7 @@ mod tests {
                     let hi = all
                         .iter()
                         .fold(Vector3::repeat(f64::NEG_INFINITY), |a, p| a.sup(p));
-                    let pad = Vector3::repeat(0.5 * reach);
+                    let pad = Vector3::repeat(padding[b as usize]);
                     Aabb {
                         lo: lo - pad,
                         hi: hi + pad,
@@ -255,7 +262,7 @@ mod tests {
             // A far-flung vertex makes its triangles' boxes huge: same pairs as brute force.
             let mut far = points.clone();
             far[tris[0][0] as usize] = Vector3::new(1e6, 0.0, 0.0);
-            let found = grid.candidate_pairs(&far, &far, &mesh, reach);
+            let found = grid.candidate_pairs(&far, &far, &mesh, &padding);
             assert!(found.iter().any(|&(a, _)| a == 0));
             assert!(found.windows(2).all(|w| w[0] < w[1]), "no duplicates");
         }

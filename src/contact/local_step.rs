@@ -316,8 +316,8 @@ impl LivePairs {
     /// Where a vertex's deviation `E_i` exceeds its allowance `A_i` (or is NaN), raises the
     /// allowance to `A_i + E_i` (room for the deviation and as much drift again as the old
     /// allowance gave: it doubles under a steady drift, and a clamp's jump is not doubled) and
-    /// refreshes the pairs (before anything looks at the positions they may not cover).
-    /// Returns whether it refreshed.
+    /// refreshes the pairs (before anything looks at the positions they may not cover): adds
+    /// those of the grown vertices ([`PairCache::extend_live`]). Returns whether it refreshed.
     fn cover(
         &mut self,
         safe: &[Vector3<f64>],
@@ -326,22 +326,27 @@ impl LivePairs {
         reach: f64,
         stats: &mut ContactStats,
     ) -> bool {
-        let short = self
+        let grown: Vec<u32> = self
             .allowance
             .par_iter_mut()
             .zip(&self.deviation)
-            .map(|(a, &e)| {
+            .enumerate()
+            .filter_map(|(i, (a, &e))| {
                 let beyond = e.is_nan() || e > *a;
                 if beyond {
                     *a += e;
                 }
-                beyond
+                beyond.then_some(i as u32)
             })
-            .reduce(|| false, |x, y| x || y);
-        if short {
-            self.refresh(safe, target, mesh, reach, stats);
+            .collect();
+        if grown.is_empty() {
+            return false;
         }
-        short
+        let (cache, live) = (&mut self.cache, &mut self.pairs);
+        let built = !cache.extend_live(&self.allowance, &grown, reach, live)
+            && cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
+        self.refreshed(built, safe, stats);
+        true
     }
 
     /// Filters the pairs for the allowances (see [`PairCache::live_pairs`]) and writes their
@@ -354,8 +359,16 @@ impl LivePairs {
         reach: f64,
         stats: &mut ContactStats,
     ) {
-        let cache = &mut self.cache;
-        let built = cache.live_pairs(safe, target, &self.allowance, mesh, reach, &mut self.pairs);
+        let built =
+            self.cache
+                .live_pairs(safe, target, &self.allowance, mesh, reach, &mut self.pairs);
+        self.refreshed(built, safe, stats);
+    }
+
+    /// Counts a refresh of the live pairs (`built`: with a new build) in `stats` and writes
+    /// their distances at the safe positions.
+    fn refreshed(&mut self, built: bool, safe: &[Vector3<f64>], stats: &mut ContactStats) {
+        let cache = &self.cache;
         stats.broad_phase_builds += usize::from(built);
         stats.live_refreshes += 1;
         stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());

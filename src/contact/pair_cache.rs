@@ -2,12 +2,14 @@
 //! a Verlet neighbour list: the broad phase and the expansion into primitive pairs run only
 //! when some vertex may have left the region the lists were built for.
 //!
-//! A build at reference positions `r` (m) with skin `R` (m) keeps, with its distance `d_r` at
-//! `r`, every primitive pair closer than `reach + 2 R` at `r` that belongs to a candidate: a
-//! triangle pair (sharing no vertex) whose boxes around `r`, inflated by `R + reach / 2`,
-//! overlap and one of whose 15 primitive pairs is closer than `reach + 2 R` at `r`. The second
-//! test matters on fine meshes: there the padding exceeds the triangle size, and a box
-//! overlaps those of dozens of triangles of the same sheet that are much farther apart.
+//! A build at reference positions `r` (m) with a skin `R_B` (m) per body `B` and a skin `S`
+//! (m) across bodies keeps, with its distance `d_r` at `r`, every primitive pair closer than
+//! its limit `L = reach + R_A + R_B` (plus `S` when `A != B`; A, B the primitives' bodies) at
+//! `r` that belongs to a candidate: a triangle pair (sharing no vertex) whose boxes around
+//! `r`, each inflated by `R + reach / 2` of its body (plus `S / 2` across bodies), overlap and
+//! one of whose 15 primitive pairs is closer than `L` at `r`. The second test matters on fine
+//! meshes: there the padding exceeds the triangle size, and a box overlaps those of dozens of
+//! triangles of the same sheet that are much farther apart.
 //!
 //! **What a local step looks at.** With `s` the safe positions and `y` the global step's result
 //! (m), the local step (see [`super::local_step`]) evaluates pairs at its iterates `z` and runs
@@ -22,12 +24,18 @@
 //! allowances) before it looks at a position where some `E_i > A_i`.
 //!
 //! Two consequences, both conservative:
-//! - **Reuse**: `|x_i - r_i| <= b_i + A_i` with `b_i = |s_i - r_i| + |y_i - s_i|`. While
-//!   `max_i (b_i + A_i) <= R`, every point of a triangle stays within `R` of where it was at
-//!   `r` (its points are convex combinations of its vertices), so a primitive pair within
-//!   `reach` at `x` was closer than `reach + 2 R` at `r`: its triangle pairs had overlapping
-//!   inflated boxes and a primitive pair (itself) that close, so they were candidates, and it
-//!   was kept. The stored pairs are a superset of the ones a fresh broad phase would find.
+//! - **Reuse**: the skins are measured from each body's common motion, so that a body moving
+//!   as a whole keeps its build. Take any per-body translations `c_B^w`, `c_B^g` (the build
+//!   uses the means of `w_i` and `g_i` over the body's vertices) and `c_B(tau) = (1 - tau)
+//!   c_B^w + tau c_B^g`. Then `|x_i - r_i - c_B(tau)| <= dev_i = max(|w_i - c_B^w|, |g_i -
+//!   c_B^g|) + A_i` (the first part is affine in `tau`), and `|c_A(tau) - c_B(tau)| <= T_AB =
+//!   max(|c_A^w - c_B^w|, |c_A^g - c_B^g|)`. A point of a triangle is a convex combination of
+//!   its vertices, so a primitive pair within `reach` at `x` was closer than
+//!   `reach + max_A dev + max_B dev + T_AB` at `r` (`T_BB = 0`). While `max_{i in B} dev_i <= R_B` for every body
+//!   and `T_AB <= S` for every two, that is below the pair's limit `L`: its triangle pairs had
+//!   overlapping inflated boxes and a primitive pair (itself) that close, so they were
+//!   candidates, and it was kept. The stored pairs are a superset of the ones a fresh broad
+//!   phase would find.
 //! - **Skip**: the pair's distance at every such `x` is at least
 //!   `d_r - max_{a in A, b in B} max(|w_a - w_b|, |g_a - g_b|) - max_A A - max_B A` (A, B the
 //!   two primitives; [`Pair::relative_distance_bound`]): only the primitives' motion relative
@@ -37,15 +45,17 @@
 //!   `reach`), so it contributes nothing and is left out of the live list. (The additive
 //!   CCD, which stops at a fraction of the initial gap, could report an early time for such a
 //!   pair that never comes near: the skip removes that spurious clamp, nothing else.) The
-//!   absolute bound `d_r - max_A b - max_B b - max_A A - max_B A` is never larger
-//!   (`max(|w_a - w_b|, |g_a - g_b|) <= b_a + b_b`), so a pair it keeps at or above `reach` is
-//!   skipped without the relative test.
+//!   reuse argument gives a second, cheaper bound, `d_r - max_A dev - max_B dev - T_AB`; a
+//!   pair is skipped when either bound is at least `reach`. The stored pairs are sorted by
+//!   `d_r`, so those beyond `reach + 2 max_i dev_i + max T` (where the cheaper bound skips
+//!   every one) are not looked at: a local step costs what the pairs near the reach cost, not
+//!   what the whole cache holds.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::broad_phase::{BroadPhase, ContactMesh};
-use super::primitive_pairs::{close_primitive_pairs, closest_primitive_distance, Pair};
+use super::primitive_pairs::{close_primitive_pairs, nan_max, Pair};
 
 /// The primitive pairs of the last build and their distances at its reference positions.
 #[derive(Default)]
@@ -55,24 +65,46 @@ pub(super) struct PairCache {
     triangles: Vec<[u32; 3]>,
     body: Vec<u32>,
     self_contact: Vec<bool>,
+    /// The body of every vertex of a triangle ([`NO_BODY`] for the others).
+    vertex_body: Vec<u32>,
     /// `r`: positions of the last build (m); empty before the first.
     reference: Vec<Vector3<f64>>,
-    /// `R`: how far a vertex may move from `reference` before the lists must be rebuilt (m).
-    skin: f64,
+    /// `R_B` per body: how far a vertex may stray from its body's common motion since the
+    /// build before the lists must be rebuilt (m).
+    skin: Vec<f64>,
+    /// `S`: how far the common motions of two bodies may move relative to each other since
+    /// the build before the lists must be rebuilt (m).
+    cross_skin: f64,
     /// Triangle pairs of the last build whose inflated boxes overlap.
     box_pairs: usize,
-    /// Those of them with a primitive pair closer than `reach + 2 R` at `reference`: the
+    /// Those of them with a primitive pair within the build's limit at `reference`: the
     /// candidates.
     candidates: Vec<(u32, u32)>,
-    /// The primitive pairs of the build, each with its distance at `reference` (m).
+    /// The primitive pairs of the build, each with its distance at `reference` (m), by
+    /// increasing distance (NaN first), then by pair.
     pairs: Vec<(Pair, f64)>,
-    /// Per vertex: `b_i = |s_i - r_i| + |y_i - s_i|` (m), its motion from `reference` without
-    /// the allowance.
-    bound: Vec<f64>,
+    /// Per vertex: `dev_i = max(|w_i - c_B^w|, |g_i - c_B^g|) + A_i` (m), how far it may
+    /// stray from its body's common motion (NaN counts as infinitely far).
+    deviation: Vec<f64>,
+    /// `max_{A, B} T_AB` (m), how far the common motions of two bodies may have moved
+    /// relative to each other.
+    apart: f64,
+    /// `max_i dev_i` (m).
+    farthest: f64,
+    /// The cached pairs by vertex: those of vertex `v` are `by_vertex[by_vertex_start[v]..
+    /// by_vertex_start[v + 1]]` (indices into `pairs`).
+    by_vertex: Vec<u32>,
+    by_vertex_start: Vec<u32>,
+    /// Per cached pair: whether it is in the live list; false from `flagged` on.
+    is_live: Vec<bool>,
+    flagged: usize,
     /// Per vertex: `[w_i, g_i] = [s_i - r_i, y_i - r_i]` (m), its displacements from
     /// `reference` at the two ends of the global step's path.
     shift: Vec<[Vector3<f64>; 2]>,
 }
+
+/// The body of a vertex that belongs to no triangle.
+const NO_BODY: u32 = u32::MAX;
 
 impl PairCache {
     /// Candidate triangle pairs of the last build (see the module doc).
@@ -101,37 +133,96 @@ impl PairCache {
         live: &mut Vec<Pair>,
     ) -> bool {
         let rebuild = !self.fits(mesh, safe.len()) || {
-            self.bound_motion(safe, target);
-            let needed = self
-                .bound
-                .par_iter()
-                .zip(allowance)
-                .map(|(b, a)| b + a)
-                .map(|v| if v.is_nan() { f64::INFINITY } else { v })
-                .reduce(|| 0.0, f64::max);
-            needed > self.skin
+            self.measure_motion(safe, target);
+            !self.covers(allowance)
         };
         if rebuild {
             self.build(safe, target, allowance, mesh, reach);
+            self.covers(allowance);
         }
-        let (bound, shift) = (&self.bound, &self.shift);
+        // Only pairs closer than `reach + 2 max dev + max T` at `r` can pass the first test.
+        let horizon = reach + 2.0 * self.farthest + self.apart;
+        let horizon = if horizon.is_nan() {
+            f64::INFINITY
+        } else {
+            horizon
+        };
+        // NaN distances sort first and count as near.
+        let near = self
+            .pairs
+            .partition_point(|&(_, d)| d < horizon || d.is_nan());
+        self.is_live[..self.flagged].fill(false);
+        let this = &*self;
+        let found: Vec<u32> = (0..near as u32)
+            .into_par_iter()
+            .filter(|&k| this.may_come_within(k as usize, allowance, reach))
+            .collect();
+        self.flagged = found.last().map_or(0, |&k| k as usize + 1);
         live.clear();
-        live.par_extend(
-            self.pairs
-                .par_iter()
-                .filter(|(pair, d)| {
-                    // The absolute bound first: it is cheaper, and never above the relative one.
-                    let spread = pair.spread(allowance);
-                    let absolute = d - pair.spread(bound) - spread;
-                    if absolute >= reach {
-                        return false;
-                    }
-                    let lower = pair.relative_distance_bound(*d, shift, allowance);
-                    lower < reach || lower.is_nan()
-                })
-                .map(|(pair, _)| *pair),
-        );
+        self.mark_live(&found, live);
         rebuild
+    }
+
+    /// After [`PairCache::live_pairs`] with the same safe and target positions and mesh, the
+    /// allowances of the vertices `grown` have grown and the others are as they were: adds to
+    /// `live` the pairs that may now come within `reach` (only pairs with a grown vertex can,
+    /// as the bounds of the others are unchanged and allowances only grow) and returns true;
+    /// returns false, leaving `live` alone, when the build no longer covers the allowances
+    /// (then [`PairCache::live_pairs`] must rebuild).
+    pub fn extend_live(
+        &mut self,
+        allowance: &[f64],
+        grown: &[u32],
+        reach: f64,
+        live: &mut Vec<Pair>,
+    ) -> bool {
+        if !self.covers(allowance) {
+            return false;
+        }
+        let this = &*self;
+        let mut found: Vec<u32> = grown
+            .par_iter()
+            .flat_map_iter(|&v| {
+                let (from, to) = (
+                    this.by_vertex_start[v as usize] as usize,
+                    this.by_vertex_start[v as usize + 1] as usize,
+                );
+                this.by_vertex[from..to].iter().copied().filter(|&k| {
+                    !this.is_live[k as usize] && this.may_come_within(k as usize, allowance, reach)
+                })
+            })
+            .collect();
+        found.par_sort_unstable();
+        found.dedup();
+        if let Some(&last) = found.last() {
+            self.flagged = self.flagged.max(last as usize + 1);
+        }
+        self.mark_live(&found, live);
+        true
+    }
+
+    /// Marks the cached pairs `found` live and adds them to `live`, which stays sorted.
+    fn mark_live(&mut self, found: &[u32], live: &mut Vec<Pair>) {
+        for &k in found {
+            self.is_live[k as usize] = true;
+            live.push(self.pairs[k as usize].0);
+        }
+        live.par_sort_unstable();
+    }
+
+    /// Whether the cached pair `k` may come within `reach` (m) for the allowances `allowance`
+    /// (m): neither lower bound of the module doc ("Skip") reaches `reach`.
+    fn may_come_within(&self, k: usize, allowance: &[f64], reach: f64) -> bool {
+        let (pair, d) = &self.pairs[k];
+        // The bound from the bodies' common motions first: it is cheaper.
+        let v = &self.vertex_body;
+        let across = v[pair.v[0] as usize] != v[pair.v[3] as usize];
+        let common = d - pair.spread(&self.deviation) - if across { self.apart } else { 0.0 };
+        if common >= reach {
+            return false;
+        }
+        let lower = pair.relative_distance_bound(*d, &self.shift, allowance);
+        lower < reach || lower.is_nan()
     }
 
     /// Whether the lists were built for this mesh and vertex count.
@@ -142,22 +233,85 @@ impl PairCache {
             && self.self_contact == mesh.self_contact
     }
 
-    /// Writes `b_i = |s_i - r_i| + |y_i - s_i|` into `bound` (NaN counts as infinitely far)
-    /// and `[s_i - r_i, y_i - r_i]` into `shift`.
-    fn bound_motion(&mut self, safe: &[Vector3<f64>], target: &[Vector3<f64>]) {
-        let reference = &self.reference;
-        safe.par_iter()
-            .zip(target)
-            .zip(reference)
-            .map(|((s, y), r)| {
-                let b = (s - r).norm() + (y - s).norm();
-                if b.is_nan() {
+    /// Whether the build still holds every pair the local step may look at (the reuse test of
+    /// the module doc): per body `B`, `max_{i in B} dev_i <= R_B`, and per pair of bodies
+    /// `T_AB <= S`; writes `dev_i`, `max_{A, B} T_AB` and `max_i dev_i`. False if a figure
+    /// is NaN.
+    fn covers(&mut self, allowance: &[f64]) -> bool {
+        let common = self.common_motion();
+        let (shift, vertex_body) = (&self.shift, &self.vertex_body);
+        allowance
+            .par_iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let b = vertex_body[i];
+                if b == NO_BODY {
+                    return 0.0;
+                }
+                let [w, g] = &shift[i];
+                let [cw, cg] = common[b as usize].unwrap_or_default();
+                let dev = (w - cw).norm().max((g - cg).norm()) + a;
+                if dev.is_nan() {
                     f64::INFINITY
                 } else {
-                    b
+                    dev
                 }
             })
-            .collect_into_vec(&mut self.bound);
+            .collect_into_vec(&mut self.deviation);
+        let deviation = &self.deviation;
+        let strayed = self.per_body(0.0, f64::max, |i, _| deviation[i]);
+        self.farthest = strayed.iter().copied().fold(0.0, f64::max);
+        self.apart = largest_apart(&common);
+        strayed.iter().zip(&self.skin).all(|(d, r)| d <= r) && self.apart <= self.cross_skin
+    }
+
+    /// Per body `B`, `[c_B^w, c_B^g]`: the mean of `[w_i, g_i]` over its vertices (m), the
+    /// common motion the skins are measured from (any choice is correct; the mean keeps the
+    /// vertices' deviations small); `None` for a body without triangles.
+    fn common_motion(&self) -> Vec<Option<[Vector3<f64>; 2]>> {
+        let zero = ([Vector3::zeros(); 2], 0usize);
+        self.per_body(
+            zero,
+            |(a, m), (b, n)| ([a[0] + b[0], a[1] + b[1]], m + n),
+            |i, _| (self.shift[i], 1),
+        )
+        .into_iter()
+        .map(|([w, g], n)| (n > 0).then(|| [w / n as f64, g / n as f64]))
+        .collect()
+    }
+
+    /// Per body, `combine` over `value(i, body)` of its vertices, `empty` for a body without
+    /// vertices.
+    fn per_body<V: Clone + Send + Sync>(
+        &self,
+        empty: V,
+        combine: impl Fn(V, V) -> V + Sync,
+        value: impl Fn(usize, usize) -> V + Sync,
+    ) -> Vec<V> {
+        let bodies = self.skin.len();
+        let vertex_body = &self.vertex_body;
+        (0..vertex_body.len())
+            .into_par_iter()
+            .fold(
+                || vec![empty.clone(); bodies],
+                |mut acc, i| {
+                    let b = vertex_body[i];
+                    if b != NO_BODY {
+                        let b = b as usize;
+                        acc[b] = combine(acc[b].clone(), value(i, b));
+                    }
+                    acc
+                },
+            )
+            .reduce(
+                || vec![empty.clone(); bodies],
+                |a, b| a.into_iter().zip(b).map(|(a, b)| combine(a, b)).collect(),
+            )
+    }
+
+    /// Writes `[s_i - r_i, y_i - r_i]` into `shift`.
+    fn measure_motion(&mut self, safe: &[Vector3<f64>], target: &[Vector3<f64>]) {
+        let reference = &self.reference;
         safe.par_iter()
             .zip(target)
             .zip(reference)
@@ -165,12 +319,37 @@ impl PairCache {
             .collect_into_vec(&mut self.shift);
     }
 
-    /// Builds the lists at `r = safe`. The skin `R = 2 max_i |y_i - s_i| + max_i A_i + reach /
-    /// 4` is a cost trade-off only (any `R >= max_i (b_i + A_i)` is correct): room for about
-    /// one more global step's move, and a quarter reach of slow drift, before the next build; a
-    /// larger skin is
-    /// reused longer but keeps more pairs (all those within `reach + 2 R` on a sheet: their
-    /// number grows with the square of `(reach + 2 R) / l`, `l` the edge length), each
+    /// Fills `by_vertex` and `by_vertex_start` from `pairs` (a counting sort; the four
+    /// vertices of a pair are distinct, as its primitives share none).
+    fn index_by_vertex(&mut self) {
+        let n = self.reference.len();
+        self.by_vertex_start.clear();
+        self.by_vertex_start.resize(n + 1, 0);
+        for (pair, _) in &self.pairs {
+            for &v in &pair.v {
+                self.by_vertex_start[v as usize + 1] += 1;
+            }
+        }
+        for v in 0..n {
+            self.by_vertex_start[v + 1] += self.by_vertex_start[v];
+        }
+        let mut next = self.by_vertex_start.clone();
+        self.by_vertex.clear();
+        self.by_vertex.resize(4 * self.pairs.len(), 0);
+        for (k, (pair, _)) in self.pairs.iter().enumerate() {
+            for &v in &pair.v {
+                self.by_vertex[next[v as usize] as usize] = k as u32;
+                next[v as usize] += 1;
+            }
+        }
+    }
+
+    /// Builds the lists at `r = safe`. The skins are a cost trade-off only (any that pass the
+    /// reuse test are correct): `R_B = 2 max_i |g_i - c_B^g| + max_i A_i + reach / 4` over the
+    /// vertices of `B`, and `S = 2 max_{A, B} |c_A^g - c_B^g| + reach / 4`, room for about one
+    /// more global step's move and a quarter reach of slow drift before the next build. A
+    /// larger skin is reused longer but keeps more pairs (all those within the limit on a
+    /// sheet: their number grows with the square of `limit / l`, `l` the edge length), each
     /// filtered at every local step.
     fn build(
         &mut self,
@@ -186,46 +365,102 @@ impl PairCache {
         self.body.extend_from_slice(mesh.body);
         self.self_contact.clear();
         self.self_contact.extend_from_slice(mesh.self_contact);
+        self.vertex_body.clear();
+        self.vertex_body.resize(safe.len(), NO_BODY);
+        for (t, &b) in mesh.triangles.iter().zip(mesh.body) {
+            for &v in t {
+                self.vertex_body[v as usize] = b;
+            }
+        }
         self.reference.clear();
         self.reference.extend_from_slice(safe);
-        self.bound_motion(safe, target);
-        self.skin = 2.0 * largest(&self.bound) + largest(allowance) + 0.25 * reach;
-        let reference = &self.reference;
-        let limit = reach + 2.0 * self.skin;
-        // NaN distances (NaN positions) are kept.
-        let boxes = self
-            .broad_phase
-            .candidate_pairs(reference, reference, mesh, limit);
-        self.box_pairs = boxes.len();
-        self.candidates.clear();
-        self.candidates
-            .par_extend(boxes.par_iter().copied().filter(|&(a, b)| {
-                let (ta, tb) = (&mesh.triangles[a as usize], &mesh.triangles[b as usize]);
-                let d = closest_primitive_distance(reference, ta, tb);
-                d < limit || d.is_nan()
-            }));
-        // A primitive pair `reach + 2 R` apart cannot come within `reach` before the next build.
-        close_primitive_pairs(
-            mesh.triangles,
-            &self.candidates,
-            reference,
-            limit,
-            &mut self.pairs,
+        self.measure_motion(safe, target);
+        let bodies = mesh.self_contact.len();
+        self.skin.clear();
+        self.skin.resize(bodies, 0.0);
+        let common = self.common_motion();
+        let strayed = self.per_body(
+            [0.0; 2],
+            |a, b| [nan_max(a[0], b[0]), nan_max(a[1], b[1])],
+            |i, b| {
+                let [_, cg] = common[b].unwrap_or_default();
+                [(self.shift[i][1] - cg).norm(), allowance[i]]
+            },
         );
+        let finite = |v: f64| if v.is_nan() { f64::INFINITY } else { v };
+        for (skin, [deviation, allowance]) in self.skin.iter_mut().zip(strayed) {
+            *skin = finite(2.0 * deviation + allowance + 0.25 * reach);
+        }
+        self.cross_skin = finite(2.0 * largest_apart(&common) + 0.25 * reach);
+
+        // NaN distances (NaN positions) are kept.
+        let reference = &self.reference;
+        let padding: Vec<f64> = self.skin.iter().map(|r| r + 0.5 * reach).collect();
+        let mut boxes = self
+            .broad_phase
+            .candidate_pairs(reference, reference, mesh, &padding)
+            .to_vec();
+        if bodies > 1 {
+            // Pairs across bodies need the larger boxes of `S`: a second search for them alone.
+            boxes.retain(|&(a, b)| mesh.body[a as usize] == mesh.body[b as usize]);
+            let padding: Vec<f64> = padding.iter().map(|p| p + 0.5 * self.cross_skin).collect();
+            let apart = ContactMesh {
+                self_contact: &vec![false; bodies],
+                ..*mesh
+            };
+            boxes.extend_from_slice(
+                self.broad_phase
+                    .candidate_pairs(reference, reference, &apart, &padding),
+            );
+        }
+        self.box_pairs = boxes.len();
+        let (skin, cross_skin) = (&self.skin, self.cross_skin);
+        let limit = |a: u32, b: u32| {
+            kept_below(
+                skin,
+                cross_skin,
+                reach,
+                mesh.body[a as usize],
+                mesh.body[b as usize],
+            )
+        };
+        // A primitive pair beyond the limit cannot come within `reach` before the next build.
+        self.candidates =
+            close_primitive_pairs(mesh.triangles, &boxes, reference, limit, &mut self.pairs);
+        self.index_by_vertex();
+        self.is_live.clear();
+        self.is_live.resize(self.pairs.len(), false);
+        self.flagged = 0;
     }
 }
 
-/// The largest entry, infinite if any is NaN or infinite.
-fn largest(values: &[f64]) -> f64 {
-    values
-        .par_iter()
-        .map(|&v| if v.is_nan() { f64::INFINITY } else { v })
-        .reduce(|| 0.0, f64::max)
+/// The distance (m) below which a build with skins `skin` and `cross_skin` keeps the primitive
+/// pairs of a triangle of body `a` and one of body `b`: `reach + R_a + R_b`, plus `S` between
+/// two bodies.
+fn kept_below(skin: &[f64], cross_skin: f64, reach: f64, a: u32, b: u32) -> f64 {
+    let cross = if a == b { 0.0 } else { cross_skin };
+    reach + skin[a as usize] + skin[b as usize] + cross
+}
+
+/// `max_{A, B} max(|c_A^w - c_B^w|, |c_A^g - c_B^g|)` over pairs of bodies with triangles (0
+/// for fewer than two), NaN if a motion is.
+fn largest_apart(common: &[Option<[Vector3<f64>; 2]>]) -> f64 {
+    let common: Vec<_> = common.iter().flatten().collect();
+    let mut apart = 0.0;
+    for (k, a) in common.iter().enumerate() {
+        for b in &common[k + 1..] {
+            for (p, q) in a.iter().zip(*b) {
+                apart = nan_max(apart, (p - q).norm());
+            }
+        }
+    }
+    apart
 }
 
 #[cfg(test)]
 pub(super) mod tests {
     use super::super::distance::tests::Rng;
+    use super::super::primitive_pairs::closest_primitive_distance;
     use super::*;
 
     /// Brute force: every triangle pair of `mesh` that may touch, and every primitive pair
@@ -241,7 +476,13 @@ pub(super) mod tests {
             .map(|(a, b)| (a as u32, b as u32))
             .collect();
         let mut every = Vec::new();
-        close_primitive_pairs(mesh.triangles, &all, positions, f64::INFINITY, &mut every);
+        close_primitive_pairs(
+            mesh.triangles,
+            &all,
+            positions,
+            |_, _| f64::INFINITY,
+            &mut every,
+        );
         (all, every.into_iter().map(|(p, _)| p).collect())
     }
 
@@ -347,7 +588,7 @@ pub(super) mod tests {
             let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
             builds.push(built);
             if built {
-                let limit = reach + 2.0 * cache.skin;
+                let limit = reach + 2.0 * cache.skin[0];
                 let r = &cache.reference;
                 let near: Vec<_> = all
                     .iter()
@@ -385,62 +626,162 @@ pub(super) mod tests {
 
     /// The rolled-up grid falling fast (5 reaches per local step, each vertex jittered by up
     /// to 3 mm on top), first freely, then with every other vertex clamped back towards its
-    /// safe position by its own factor: the live pairs hold every pair a brute-force search
-    /// finds within `reach` on the local step's paths. Falling freely, the motion relative to
-    /// each other is small, and fewer than a tenth of the cached pairs are live (the absolute
-    /// motion of 0.1 m would keep every one of them); clamped, vertices lag behind their
-    /// neighbours by up to 0.1 m, and more than three times as many pairs are live.
+    /// safe position by its own factor, beside the same moves without the fall: the live
+    /// pairs hold every pair a brute-force search finds within `reach` on the local step's
+    /// paths. Falling freely, the common motion costs nothing: the build is kept as long as at
+    /// rest (the absolute motion of 0.1 m per step would force one every step), and it caches
+    /// and keeps live as many pairs as at rest. Clamped, vertices lag behind their neighbours
+    /// by up to 0.1 m, and more than three times as many pairs are live.
     #[test]
     fn a_falling_grid_keeps_few_pairs_live_unless_clamped() {
-        let mut rng = Rng::new(23);
-        let (mut safe, triangles) = spiral(12, 0.03, &mut rng);
-        let body = vec![0; triangles.len()];
+        /// Per local step: whether it built, the cached and the live pairs.
+        fn run(fall: Vector3<f64>, within: &mut [usize; 2]) -> Vec<(bool, usize, usize)> {
+            let mut rng = Rng::new(23);
+            let (mut safe, triangles) = spiral(12, 0.03, &mut rng);
+            let body = vec![0; triangles.len()];
+            let mesh = ContactMesh {
+                triangles: &triangles,
+                body: &body,
+                self_contact: &[true],
+            };
+            let (_, every) = brute_force_pairs(&mesh, &safe);
+            let (reach, drift) = (0.02, 0.001);
+            let mut cache = PairCache::default();
+            let mut live = Vec::new();
+            let mut steps = Vec::new();
+            for k in 0..6 {
+                let clamped = k >= 3;
+                let target: Vec<_> = safe
+                    .iter()
+                    .map(|p| p + fall + rng.vector() * 0.003)
+                    .collect();
+                let clamp: Vec<f64> = (0..safe.len())
+                    .map(|i| {
+                        if clamped && i % 2 == 0 {
+                            rng.uniform().abs()
+                        } else {
+                            1.0
+                        }
+                    })
+                    .collect();
+                let allowance: Vec<f64> = (0..safe.len())
+                    .map(|i| (1.0 - clamp[i]) * (target[i] - safe[i]).norm() + drift)
+                    .collect();
+                let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+                steps.push((built, cache.pairs.len(), live.len()));
+                let moves = Moves {
+                    safe: &safe,
+                    target: &target,
+                    clamp: &clamp,
+                    allowance: &allowance,
+                };
+                within[usize::from(clamped)] += moves
+                    .assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
+                // The next local step starts where this one ended (unclamped: the whole move).
+                safe = (0..safe.len())
+                    .map(|i| safe[i] + (target[i] - safe[i]) * clamp[i])
+                    .collect();
+            }
+            steps
+        }
+        let mut within = [0, 0];
+        let falling = run(Vector3::new(0.0, 0.0, -0.1), &mut within);
+        let resting = run(Vector3::zeros(), &mut [0, 0]);
+        assert!(falling[0].0);
+        let close = |a: usize, b: usize| a.abs_diff(b) * 100 <= b;
+        for (k, (f, r)) in falling.iter().zip(&resting).enumerate().take(3) {
+            assert_eq!(f.0, r.0, "step {k}: built {f:?} at rest {r:?}");
+            assert!(
+                close(f.1, r.1) && close(f.2, r.2),
+                "step {k}: {f:?} at rest {r:?}"
+            );
+        }
+        assert_eq!(falling[1..3].iter().filter(|f| f.0).count(), 0);
+        let free = falling[..3].iter().map(|f| f.2).max().unwrap();
+        for (k, f) in falling.iter().enumerate().skip(3) {
+            assert!(
+                f.2 > 3 * free,
+                "step {k}: {f:?}, free fall at most {free} live"
+            );
+        }
+        assert!(
+            within[0] > 100 && within[1] > within[0],
+            "the scene has pairs within reach: {within:?}"
+        );
+    }
+
+    /// Two rolled-up grids (two bodies) flying into each other (8 reaches per local step
+    /// relative to each other, each vertex jittered by up to 3 mm): the live pairs hold every
+    /// pair a brute-force search finds within `reach`, across the bodies included; the
+    /// approach renews the build every other step (the cross skin holds about two steps of it),
+    /// and each build keeps no more pairs within a body than the same grid alone at rest.
+    #[test]
+    fn two_bodies_flying_into_each_other_keep_every_pair_across() {
+        let mut rng = Rng::new(31);
+        let (one, triangles_one) = spiral(10, 0.03, &mut rng);
+        let (other, _) = spiral(10, 0.03, &mut rng);
+        let n = one.len() as u32;
+        let offset = Vector3::new(0.45, 0.0, 0.0);
+        let mut safe: Vec<_> = one
+            .iter()
+            .copied()
+            .chain(other.iter().map(|p| p + offset))
+            .collect();
+        let triangles: Vec<[u32; 3]> = triangles_one
+            .iter()
+            .copied()
+            .chain(triangles_one.iter().map(|t| t.map(|v| v + n)))
+            .collect();
+        let body: Vec<u32> = (0..triangles.len())
+            .map(|t| u32::from(t >= triangles_one.len()))
+            .collect();
         let mesh = ContactMesh {
             triangles: &triangles,
             body: &body,
-            self_contact: &[true],
+            self_contact: &[true, true],
         };
         let (_, every) = brute_force_pairs(&mesh, &safe);
-        let (reach, drift) = (0.02, 0.001);
-        let fall = Vector3::new(0.0, 0.0, -0.1);
+        let across = |p: &Pair| (p.v[0] < n) != (p.v[3] < n);
+        let (reach, allowance) = (0.02, vec![0.001; safe.len()]);
+        let clamp = vec![1.0; safe.len()];
+        // One grid alone, resting with the same jitter: its cached pairs.
+        let alone = {
+            let mesh = ContactMesh {
+                triangles: &triangles_one,
+                body: &body[..triangles_one.len()],
+                self_contact: &[true],
+            };
+            let jittered: Vec<_> = one.iter().map(|p| p + rng.vector() * 0.003).collect();
+            let mut cache = PairCache::default();
+            cache.live_pairs(
+                &one,
+                &jittered,
+                &allowance[..one.len()],
+                &mesh,
+                reach,
+                &mut Vec::new(),
+            );
+            cache.pairs.len()
+        };
         let mut cache = PairCache::default();
         let mut live = Vec::new();
+        let mut builds = Vec::new();
         let mut within = [0, 0];
-        // The most live pairs of a free fall.
-        let mut free = 0;
-        for k in 0..6 {
-            let clamped = k >= 3;
-            let target: Vec<_> = safe
-                .iter()
-                .map(|p| p + fall + rng.vector() * 0.003)
-                .collect();
-            let clamp: Vec<f64> = (0..safe.len())
+        for k in 0..8 {
+            let target: Vec<_> = (0..safe.len())
                 .map(|i| {
-                    if clamped && i % 2 == 0 {
-                        rng.uniform().abs()
-                    } else {
-                        1.0
-                    }
+                    let towards = if i < n as usize { 0.08 } else { -0.08 };
+                    safe[i] + Vector3::new(towards, 0.0, 0.0) + rng.vector() * 0.003
                 })
                 .collect();
-            let allowance: Vec<f64> = (0..safe.len())
-                .map(|i| (1.0 - clamp[i]) * (target[i] - safe[i]).norm() + drift)
-                .collect();
-            cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
-            let cached = cache.pairs.len();
-            if clamped {
+            let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+            builds.push(built);
+            if built {
+                let own = cache.pairs.iter().filter(|(p, _)| !across(p)).count();
                 assert!(
-                    live.len() > 3 * free,
-                    "step {k}: {} of {cached}",
-                    live.len()
+                    own <= 2 * alone + alone / 10,
+                    "step {k}: {own} pairs within the bodies, {alone} alone"
                 );
-            } else {
-                assert!(
-                    live.len() < cached / 10,
-                    "step {k}: {} of {cached}",
-                    live.len()
-                );
-                free = free.max(live.len());
             }
             let moves = Moves {
                 safe: &safe,
@@ -448,17 +789,59 @@ pub(super) mod tests {
                 clamp: &clamp,
                 allowance: &allowance,
             };
-            within[usize::from(clamped)] +=
-                moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
-            // The next local step starts where this one ended (unclamped: the whole fall).
-            safe = (0..safe.len())
-                .map(|i| safe[i] + (target[i] - safe[i]) * clamp[i])
-                .collect();
+            let (own, apart): (Vec<Pair>, Vec<Pair>) = every.iter().partition(|p| !across(p));
+            within[0] +=
+                moves.assert_live_hold_every_pair_within_reach(&own, &live, reach, &mut rng, k);
+            within[1] +=
+                moves.assert_live_hold_every_pair_within_reach(&apart, &live, reach, &mut rng, k);
+            safe = target;
         }
         assert!(
-            within[0] > 100 && within[1] > within[0],
-            "the scene has pairs within reach: {within:?}"
+            within[0] > 100 && within[1] > 100,
+            "pairs within reach: {within:?}"
         );
+        assert_eq!(builds, [true, false, true, false, true, false, true, false]);
+    }
+
+    /// Growing the allowances of some vertices and extending the live list gives the list a
+    /// full filter gives for the grown allowances, whether the build still covers them (a
+    /// few vertices by a few millimetres) or not (one vertex by 0.3 m: the extension declines
+    /// and a full filter rebuilds, as it does afresh).
+    #[test]
+    fn extending_the_live_pairs_equals_filtering_them_afresh() {
+        let mut rng = Rng::new(41);
+        let (safe, triangles) = spiral(12, 0.03, &mut rng);
+        let body = vec![0; triangles.len()];
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[true],
+        };
+        let reach = 0.02;
+        let target: Vec<_> = safe.iter().map(|p| p + rng.vector() * 0.004).collect();
+        let mut allowance = vec![0.001; safe.len()];
+        let (mut extended, mut afresh) = (PairCache::default(), PairCache::default());
+        let (mut by_extension, mut by_filter) = (Vec::new(), Vec::new());
+        extended.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_extension);
+        afresh.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_filter);
+        let first = by_extension.len();
+        for (round, (every, by)) in [(7, 0.004), (5, 0.004), (1000, 0.3)]
+            .into_iter()
+            .enumerate()
+        {
+            let grown: Vec<u32> = (0..safe.len() as u32).step_by(every).collect();
+            for &v in &grown {
+                allowance[v as usize] += by;
+            }
+            let rebuilt = !extended.extend_live(&allowance, &grown, reach, &mut by_extension)
+                && extended.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_extension);
+            let rebuilt_afresh =
+                afresh.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_filter);
+            assert_eq!(rebuilt, round == 2, "round {round}");
+            assert_eq!(rebuilt_afresh, round == 2, "round {round}");
+            assert_eq!(by_extension, by_filter, "round {round}");
+        }
+        assert!(by_extension.len() > first, "the growth made pairs live");
     }
 
     /// Over a sequence of local steps (small moves that reuse the build, a large one that

@@ -100,8 +100,8 @@ impl Pair {
     }
 }
 
-/// The larger of `m` and `x`, NaN if `x` is.
-fn nan_max(m: f64, x: f64) -> f64 {
+/// The larger of `m` and `x`, NaN if either is.
+pub(super) fn nan_max(m: f64, x: f64) -> f64 {
     if x.is_nan() || x > m {
         x
     } else {
@@ -165,26 +165,54 @@ pub fn closest_primitive_distance(x: &[Vector3<f64>], ti: &[u32; 3], tj: &[u32; 
         )
 }
 
-/// Writes into `found` the primitive pairs of the candidate triangle pairs that are closer
-/// than `limit` (m) at the positions `x` (m), each with that distance (NaN distances count as
-/// close), sorted by pair and deduplicated (reusing its allocation). Each distance is computed
-/// once, and only the close pairs are sorted.
+/// Triangle pairs and the primitive pairs they hold, with their distances (m).
+type CandidatesAndPairs = (Vec<(u32, u32)>, Vec<(Pair, f64)>);
+
+/// Writes into `found` the primitive pairs of the triangle pairs `(i, j)` of `boxes` that are
+/// closer than `limit(i, j)` (m) at the positions `x` (m), each with that distance (NaN
+/// distances count as close), deduplicated and sorted by distance (NaN first), then by pair
+/// (reusing its allocation); returns the triangle pairs that hold one of them (the
+/// candidates), in the order of `boxes`. Each distance is computed once per triangle pair.
 pub(super) fn close_primitive_pairs(
     triangles: &[[u32; 3]],
-    candidates: &[(u32, u32)],
+    boxes: &[(u32, u32)],
     x: &[Vector3<f64>],
-    limit: f64,
+    limit: impl Fn(u32, u32) -> f64 + Sync,
     found: &mut Vec<(Pair, f64)>,
-) {
-    found.clear();
-    found.par_extend(candidates.par_iter().flat_map_iter(|&(i, j)| {
-        expand(&triangles[i as usize], &triangles[j as usize])
-            .into_iter()
-            .map(|p| (p, p.closest(x).separation.norm()))
-            .filter(|&(_, d)| d < limit || d.is_nan())
-    }));
-    found.par_sort_unstable_by(|a, b| a.0.cmp(&b.0));
-    found.dedup_by(|a, b| a.0 == b.0);
+) -> Vec<(u32, u32)> {
+    let (candidates, mut close) = boxes
+        .par_iter()
+        .fold(
+            || (Vec::new(), Vec::new()),
+            |(mut candidates, mut close): CandidatesAndPairs, &(i, j)| {
+                let limit = limit(i, j);
+                let before = close.len();
+                close.extend(
+                    expand(&triangles[i as usize], &triangles[j as usize])
+                        .into_iter()
+                        .map(|p| (p, p.closest(x).separation.norm()))
+                        .filter(|&(_, d)| d < limit || d.is_nan()),
+                );
+                if close.len() > before {
+                    candidates.push((i, j));
+                }
+                (candidates, close)
+            },
+        )
+        .reduce(
+            || (Vec::new(), Vec::new()),
+            |(mut c, mut p), (c2, p2)| {
+                c.extend(c2);
+                p.extend(p2);
+                (c, p)
+            },
+        );
+    // Copies of one pair have one distance (computed alike), so they end up side by side.
+    let key = |d: f64| if d.is_nan() { f64::NEG_INFINITY } else { d };
+    close.par_sort_unstable_by(|a, b| key(a.1).total_cmp(&key(b.1)).then(a.0.cmp(&b.0)));
+    close.dedup_by(|a, b| a.0 == b.0);
+    *found = close;
+    candidates
 }
 
 #[cfg(test)]
