@@ -10,8 +10,8 @@
 //!
 //! A triangle's box covers its vertices at the start and at the end of the motion (so
 //! continuous collision detection sees every pair that can meet) inflated on each side by its
-//! body's padding (so two boxes overlap whenever the triangles come within the sum of their
-//! paddings; half the contact reach each when all bodies are padded alike).
+//! own padding (so two boxes overlap whenever the triangles come within the sum of their
+//! paddings; half the contact reach each when all are padded alike).
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -80,7 +80,7 @@ pub struct BroadPhase {
 
 impl BroadPhase {
     /// Triangle pairs `(a, b)`, `a < b`, whose boxes over the motion `start -> end`, each
-    /// inflated by `padding[body]` (m) of its body, overlap and that [`ContactMesh::may_touch`]
+    /// inflated by its `padding[triangle]` (m), overlap and that [`ContactMesh::may_touch`]
     /// allows; sorted.
     pub fn candidate_pairs(
         &mut self,
@@ -92,8 +92,8 @@ impl BroadPhase {
         self.pairs.clear();
         mesh.triangles
             .par_iter()
-            .zip(mesh.body)
-            .map(|(t, &body)| {
+            .zip(padding)
+            .map(|(t, &padding)| {
                 let mut lo = Vector3::repeat(f64::INFINITY);
                 let mut hi = Vector3::repeat(f64::NEG_INFINITY);
                 for &v in t {
@@ -102,7 +102,7 @@ impl BroadPhase {
                         hi = hi.sup(p);
                     }
                 }
-                let pad = Vector3::repeat(padding[body as usize]);
+                let pad = Vector3::repeat(padding);
                 Aabb {
                     lo: lo - pad,
                     hi: hi + pad,
@@ -223,8 +223,8 @@ mod tests {
                 body: &body,
                 self_contact: &self_contact,
             };
-            // Bodies padded differently: 0.05 and 0.02 m.
-            let padding = [0.05, 0.02];
+            // Triangles padded differently: 0.05 and 0.02 m by body.
+            let padding: Vec<f64> = body.iter().map(|&b| [0.05, 0.02][b as usize]).collect();
             let found = grid
                 .candidate_pairs(&points, &end, &mesh, &padding)
                 .to_vec();
@@ -242,7 +242,7 @@ mod tests {
                     let hi = all
                         .iter()
                         .fold(Vector3::repeat(f64::NEG_INFINITY), |a, p| a.sup(p));
-                    let pad = Vector3::repeat(padding[b as usize]);
+                    let pad = Vector3::repeat([0.05, 0.02][b as usize]);
                     Aabb {
                         lo: lo - pad,
                         hi: hi + pad,

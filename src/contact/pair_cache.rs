@@ -2,14 +2,14 @@
 //! a Verlet neighbour list: the broad phase and the expansion into primitive pairs run only
 //! when some vertex may have left the region the lists were built for.
 //!
-//! A build at reference positions `r` (m) with a skin `R_B` (m) per body `B` and a skin `S`
-//! (m) across bodies keeps, with its distance `d_r` at `r`, every primitive pair closer than
-//! its limit `L = reach + R_A + R_B` (plus `S` when `A != B`; A, B the primitives' bodies) at
-//! `r` that belongs to a candidate: a triangle pair (sharing no vertex) whose boxes around
-//! `r`, each inflated by `R + reach / 2` of its body (plus `S / 2` across bodies), overlap and
-//! one of whose 15 primitive pairs is closer than `L` at `r`. The second test matters on fine
-//! meshes: there the padding exceeds the triangle size, and a box overlaps those of dozens of
-//! triangles of the same sheet that are much farther apart.
+//! A build at reference positions `r` (m) with a skin `R_i` (m) per vertex and a skin `S` (m)
+//! across bodies keeps, with its distance `d_r` at `r`, every primitive pair closer than its
+//! limit `L = reach + max_P R + max_Q R` (plus `S` when the primitives P and Q belong to two
+//! bodies) at `r` that belongs to a candidate: a triangle pair (sharing no vertex) whose boxes
+//! around `r`, each inflated by the largest `R` of its vertices plus `reach / 2` (plus `S / 2`
+//! across bodies), overlap and one of whose 15 primitive pairs is within its limit. The
+//! second test matters on fine meshes: there the padding exceeds the triangle size, and a box
+//! overlaps those of dozens of triangles of the same sheet that are much farther apart.
 //!
 //! **What a local step looks at.** With `s` the safe positions and `y` the global step's result
 //! (m), the local step (see [`super::local_step`]) evaluates pairs at its iterates `z` and runs
@@ -31,11 +31,11 @@
 //!   c_B^g|) + A_i` (the first part is affine in `tau`), and `|c_A(tau) - c_B(tau)| <= T_AB =
 //!   max(|c_A^w - c_B^w|, |c_A^g - c_B^g|)`. A point of a triangle is a convex combination of
 //!   its vertices, so a primitive pair within `reach` at `x` was closer than
-//!   `reach + max_A dev + max_B dev + T_AB` at `r` (`T_BB = 0`). While `max_{i in B} dev_i <= R_B` for every body
-//!   and `T_AB <= S` for every two, that is below the pair's limit `L`: its triangle pairs had
-//!   overlapping inflated boxes and a primitive pair (itself) that close, so they were
-//!   candidates, and it was kept. The stored pairs are a superset of the ones a fresh broad
-//!   phase would find.
+//!   `reach + max_P dev + max_Q dev + T_AB` at `r` (`T_BB = 0`). While `dev_i <= R_i` for every
+//!   vertex and `T_AB <= S` for every two bodies, that is below the pair's limit `L`: its
+//!   triangles' inflated boxes overlapped (a box holds its triangle's points), so they were a
+//!   candidate, and the pair was kept. The stored pairs are a superset of the ones a fresh
+//!   broad phase would find.
 //! - **Skip**: the pair's distance at every such `x` is at least
 //!   `d_r - max_{a in A, b in B} max(|w_a - w_b|, |g_a - g_b|) - max_A A - max_B A` (A, B the
 //!   two primitives; [`Pair::relative_distance_bound`]): only the primitives' motion relative
@@ -69,8 +69,10 @@ pub(super) struct PairCache {
     vertex_body: Vec<u32>,
     /// `r`: positions of the last build (m); empty before the first.
     reference: Vec<Vector3<f64>>,
-    /// `R_B` per body: how far a vertex may stray from its body's common motion since the
-    /// build before the lists must be rebuilt (m).
+    /// Bodies of the mesh the lists were built for.
+    bodies: usize,
+    /// `R_i` per vertex: how far it may stray from its body's common motion since the build
+    /// before the lists must be rebuilt (m).
     skin: Vec<f64>,
     /// `S`: how far the common motions of two bodies may move relative to each other since
     /// the build before the lists must be rebuilt (m).
@@ -234,9 +236,8 @@ impl PairCache {
     }
 
     /// Whether the build still holds every pair the local step may look at (the reuse test of
-    /// the module doc): per body `B`, `max_{i in B} dev_i <= R_B`, and per pair of bodies
-    /// `T_AB <= S`; writes `dev_i`, `max_{A, B} T_AB` and `max_i dev_i`. False if a figure
-    /// is NaN.
+    /// the module doc): per vertex `dev_i <= R_i`, and per pair of bodies `T_AB <= S`; writes
+    /// `dev_i`, `max_{A, B} T_AB` and `max_i dev_i`. False if a figure is NaN.
     fn covers(&mut self, allowance: &[f64]) -> bool {
         let common = self.common_motion();
         let (shift, vertex_body) = (&self.shift, &self.vertex_body);
@@ -258,11 +259,15 @@ impl PairCache {
                 }
             })
             .collect_into_vec(&mut self.deviation);
-        let deviation = &self.deviation;
-        let strayed = self.per_body(0.0, f64::max, |i, _| deviation[i]);
-        self.farthest = strayed.iter().copied().fold(0.0, f64::max);
+        let (deviation, skin) = (&self.deviation, &self.skin);
+        let (farthest, within) = deviation
+            .par_iter()
+            .zip(skin)
+            .map(|(&d, &r)| (d, d <= r))
+            .reduce(|| (0.0, true), |a, b| (a.0.max(b.0), a.1 && b.1));
+        self.farthest = farthest;
         self.apart = largest_apart(&common);
-        strayed.iter().zip(&self.skin).all(|(d, r)| d <= r) && self.apart <= self.cross_skin
+        within && self.apart <= self.cross_skin
     }
 
     /// Per body `B`, `[c_B^w, c_B^g]`: the mean of `[w_i, g_i]` over its vertices (m), the
@@ -288,7 +293,7 @@ impl PairCache {
         combine: impl Fn(V, V) -> V + Sync,
         value: impl Fn(usize, usize) -> V + Sync,
     ) -> Vec<V> {
-        let bodies = self.skin.len();
+        let bodies = self.bodies;
         let vertex_body = &self.vertex_body;
         (0..vertex_body.len())
             .into_par_iter()
@@ -345,12 +350,14 @@ impl PairCache {
     }
 
     /// Builds the lists at `r = safe`. The skins are a cost trade-off only (any that pass the
-    /// reuse test are correct): `R_B = 2 max_i |g_i - c_B^g| + max_i A_i + reach / 4` over the
-    /// vertices of `B`, and `S = 2 max_{A, B} |c_A^g - c_B^g| + reach / 4`, room for about one
-    /// more global step's move and a quarter reach of slow drift before the next build. A
-    /// larger skin is reused longer but keeps more pairs (all those within the limit on a
-    /// sheet: their number grows with the square of `limit / l`, `l` the edge length), each
-    /// filtered at every local step.
+    /// reuse test are correct): per vertex `R_i = q_i + reach / 4` with `q_i` the largest
+    /// `2 |g_j - c_B^g| + A_j` within [`SKIN_RINGS`] triangle rings of `i`, and `S = 2
+    /// max_{A, B} |c_A^g - c_B^g| + reach / 4`: room for about one more global step's move
+    /// (for the vertex and the ones around it, so that motion spreading through a sheet does
+    /// not force a build at once) and a quarter reach of slow drift. A vertex at rest keeps a
+    /// small skin beside a moving part of its body. A larger skin is reused longer but keeps
+    /// more pairs (all those within the limit on a sheet: their number grows with the square
+    /// of `limit / l`, `l` the edge length), each filtered at every local step.
     fn build(
         &mut self,
         safe: &[Vector3<f64>],
@@ -376,26 +383,31 @@ impl PairCache {
         self.reference.extend_from_slice(safe);
         self.measure_motion(safe, target);
         let bodies = mesh.self_contact.len();
-        self.skin.clear();
-        self.skin.resize(bodies, 0.0);
+        self.bodies = bodies;
         let common = self.common_motion();
-        let strayed = self.per_body(
-            [0.0; 2],
-            |a, b| [nan_max(a[0], b[0]), nan_max(a[1], b[1])],
-            |i, b| {
-                let [_, cg] = common[b].unwrap_or_default();
-                [(self.shift[i][1] - cg).norm(), allowance[i]]
-            },
-        );
         let finite = |v: f64| if v.is_nan() { f64::INFINITY } else { v };
-        for (skin, [deviation, allowance]) in self.skin.iter_mut().zip(strayed) {
-            *skin = finite(2.0 * deviation + allowance + 0.25 * reach);
-        }
+        let (shift, vertex_body) = (&self.shift, &self.vertex_body);
+        (0..safe.len())
+            .into_par_iter()
+            .map(|i| match vertex_body[i] {
+                NO_BODY => 0.0,
+                b => {
+                    let [_, cg] = common[b as usize].unwrap_or_default();
+                    finite(2.0 * (shift[i][1] - cg).norm() + allowance[i])
+                }
+            })
+            .collect_into_vec(&mut self.skin);
+        spread_over_rings(&mut self.skin, mesh.triangles, SKIN_RINGS);
+        self.skin.iter_mut().for_each(|r| *r += 0.25 * reach);
         self.cross_skin = finite(2.0 * largest_apart(&common) + 0.25 * reach);
 
         // NaN distances (NaN positions) are kept.
-        let reference = &self.reference;
-        let padding: Vec<f64> = self.skin.iter().map(|r| r + 0.5 * reach).collect();
+        let (reference, skin) = (&self.reference, &self.skin);
+        let padding: Vec<f64> = mesh
+            .triangles
+            .par_iter()
+            .map(|t| t.iter().map(|&v| skin[v as usize]).fold(0.0, f64::max) + 0.5 * reach)
+            .collect();
         let mut boxes = self
             .broad_phase
             .candidate_pairs(reference, reference, mesh, &padding)
@@ -414,15 +426,11 @@ impl PairCache {
             );
         }
         self.box_pairs = boxes.len();
-        let (skin, cross_skin) = (&self.skin, self.cross_skin);
-        let limit = |a: u32, b: u32| {
-            kept_below(
-                skin,
-                cross_skin,
-                reach,
-                mesh.body[a as usize],
-                mesh.body[b as usize],
-            )
+        let (cross_skin, vertex_body) = (self.cross_skin, &self.vertex_body);
+        // `reach + max_P R + max_Q R`, plus `S` between two bodies.
+        let limit = |p: &Pair| {
+            let across = vertex_body[p.v[0] as usize] != vertex_body[p.v[3] as usize];
+            reach + p.spread(skin) + if across { cross_skin } else { 0.0 }
         };
         // A primitive pair beyond the limit cannot come within `reach` before the next build.
         self.candidates =
@@ -434,12 +442,23 @@ impl PairCache {
     }
 }
 
-/// The distance (m) below which a build with skins `skin` and `cross_skin` keeps the primitive
-/// pairs of a triangle of body `a` and one of body `b`: `reach + R_a + R_b`, plus `S` between
-/// two bodies.
-fn kept_below(skin: &[f64], cross_skin: f64, reach: f64, a: u32, b: u32) -> f64 {
-    let cross = if a == b { 0.0 } else { cross_skin };
-    reach + skin[a as usize] + skin[b as usize] + cross
+/// Triangle rings over which a build spreads each vertex's skin (see [`PairCache::build`]).
+const SKIN_RINGS: usize = 2;
+
+/// Replaces each value by the largest within `rings` triangle rings of its vertex (NaN counts
+/// as the largest).
+fn spread_over_rings(values: &mut [f64], triangles: &[[u32; 3]], rings: usize) {
+    for _ in 0..rings {
+        let largest: Vec<f64> = triangles
+            .par_iter()
+            .map(|t| t.iter().map(|&v| values[v as usize]).fold(0.0, nan_max))
+            .collect();
+        for (t, m) in triangles.iter().zip(largest) {
+            for &v in t {
+                values[v as usize] = nan_max(values[v as usize], m);
+            }
+        }
+    }
 }
 
 /// `max_{A, B} max(|c_A^w - c_B^w|, |c_A^g - c_B^g|)` over pairs of bodies with triangles (0
@@ -460,7 +479,6 @@ fn largest_apart(common: &[Option<[Vector3<f64>; 2]>]) -> f64 {
 #[cfg(test)]
 pub(super) mod tests {
     use super::super::distance::tests::Rng;
-    use super::super::primitive_pairs::closest_primitive_distance;
     use super::*;
 
     /// Brute force: every triangle pair of `mesh` that may touch, and every primitive pair
@@ -480,7 +498,7 @@ pub(super) mod tests {
             mesh.triangles,
             &all,
             positions,
-            |_, _| f64::INFINITY,
+            |_| f64::INFINITY,
             &mut every,
         );
         (all, every.into_iter().map(|(p, _)| p).collect())
@@ -588,17 +606,21 @@ pub(super) mod tests {
             let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
             builds.push(built);
             if built {
-                let limit = reach + 2.0 * cache.skin[0];
-                let r = &cache.reference;
+                let (r, skin) = (&cache.reference, &cache.skin);
+                let limit = |p: &Pair| reach + p.spread(skin);
                 let near: Vec<_> = all
                     .iter()
                     .copied()
-                    .filter(|&(a, b)| {
-                        closest_primitive_distance(
+                    .filter(|&pair| {
+                        let mut expanded = Vec::new();
+                        close_primitive_pairs(
+                            &triangles,
+                            &[pair],
                             r,
-                            &triangles[a as usize],
-                            &triangles[b as usize],
-                        ) < limit
+                            |_| f64::INFINITY,
+                            &mut expanded,
+                        );
+                        expanded.iter().any(|(p, d)| *d < limit(p))
                     })
                     .collect();
                 assert_eq!(cache.candidates, near, "step {k}");
@@ -608,7 +630,7 @@ pub(super) mod tests {
                     cache.candidates(),
                     cache.box_pairs()
                 );
-                assert!(cache.pairs.iter().all(|&(_, d)| d < limit));
+                assert!(cache.pairs.iter().all(|(p, d)| *d < limit(p)));
             }
             let moves = Moves {
                 safe: &safe,
@@ -801,6 +823,63 @@ pub(super) mod tests {
             "pairs within reach: {within:?}"
         );
         assert_eq!(builds, [true, false, true, false, true, false, true, false]);
+    }
+
+    /// One edge of the rolled-up grid swinging fast (up to 0.05 m per local step, the rest
+    /// jittered by up to 3 mm): the live pairs hold every pair within reach (brute force),
+    /// the moving vertices and those within `SKIN_RINGS` rings of them (a ring is a column of
+    /// the grid) get skins for the motion, and the vertices farther away keep the small skins
+    /// of their own jitter (and of the common motion's share of the swing).
+    #[test]
+    fn a_swinging_edge_leaves_the_rest_of_the_sheet_a_small_skin() {
+        let mut rng = Rng::new(43);
+        let n = 12;
+        let (mut safe, triangles) = spiral(n, 0.03, &mut rng);
+        let body = vec![0; triangles.len()];
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[true],
+        };
+        let (_, every) = brute_force_pairs(&mesh, &safe);
+        let (reach, allowance) = (0.02, vec![0.001; safe.len()]);
+        let clamp = vec![1.0; safe.len()];
+        // Column `i` of the grid: the edge i = 0 swings, columns 0..=3 are within 3 rings.
+        let column = |v: usize| v % n as usize;
+        let (mut cache, mut live, mut within) = (PairCache::default(), Vec::new(), 0);
+        for k in 0..4 {
+            let target: Vec<_> = (0..safe.len())
+                .map(|v| {
+                    let swing = if column(v) == 0 { 0.05 } else { 0.0 };
+                    safe[v] + Vector3::new(0.0, 0.0, swing) + rng.vector() * 0.003
+                })
+                .collect();
+            if cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live) {
+                // The common motion (the mean) carries a twelfth of the swing.
+                let common = (0..safe.len())
+                    .map(|v| target[v] - safe[v])
+                    .sum::<Vector3<f64>>()
+                    / safe.len() as f64;
+                let jitter = 2.0 * (common.norm() + 0.003 * 3f64.sqrt()) + 0.001 + 0.25 * reach;
+                for (v, &r) in cache.skin.iter().enumerate() {
+                    if column(v) <= SKIN_RINGS {
+                        assert!(r > 0.08, "step {k}: vertex {v} swings or is near, skin {r}");
+                    } else if column(v) > SKIN_RINGS + 1 {
+                        assert!(r < jitter, "step {k}: vertex {v} at rest, skin {r}");
+                    }
+                }
+            }
+            let moves = Moves {
+                safe: &safe,
+                target: &target,
+                clamp: &clamp,
+                allowance: &allowance,
+            };
+            within +=
+                moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
+            safe = target;
+        }
+        assert!(within > 100, "the scene has pairs within reach: {within}");
     }
 
     /// Growing the allowances of some vertices and extending the live list gives the list a

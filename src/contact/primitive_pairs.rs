@@ -168,8 +168,8 @@ pub fn closest_primitive_distance(x: &[Vector3<f64>], ti: &[u32; 3], tj: &[u32; 
 /// Triangle pairs and the primitive pairs they hold, with their distances (m).
 type CandidatesAndPairs = (Vec<(u32, u32)>, Vec<(Pair, f64)>);
 
-/// Writes into `found` the primitive pairs of the triangle pairs `(i, j)` of `boxes` that are
-/// closer than `limit(i, j)` (m) at the positions `x` (m), each with that distance (NaN
+/// Writes into `found` the primitive pairs `p` of the triangle pairs of `boxes` that are
+/// closer than `limit(p)` (m) at the positions `x` (m), each with that distance (NaN
 /// distances count as close), deduplicated and sorted by distance (NaN first), then by pair
 /// (reusing its allocation); returns the triangle pairs that hold one of them (the
 /// candidates), in the order of `boxes`. Each distance is computed once per triangle pair.
@@ -177,7 +177,7 @@ pub(super) fn close_primitive_pairs(
     triangles: &[[u32; 3]],
     boxes: &[(u32, u32)],
     x: &[Vector3<f64>],
-    limit: impl Fn(u32, u32) -> f64 + Sync,
+    limit: impl Fn(&Pair) -> f64 + Sync,
     found: &mut Vec<(Pair, f64)>,
 ) -> Vec<(u32, u32)> {
     let (candidates, mut close) = boxes
@@ -185,13 +185,12 @@ pub(super) fn close_primitive_pairs(
         .fold(
             || (Vec::new(), Vec::new()),
             |(mut candidates, mut close): CandidatesAndPairs, &(i, j)| {
-                let limit = limit(i, j);
                 let before = close.len();
                 close.extend(
                     expand(&triangles[i as usize], &triangles[j as usize])
                         .into_iter()
                         .map(|p| (p, p.closest(x).separation.norm()))
-                        .filter(|&(_, d)| d < limit || d.is_nan()),
+                        .filter(|(p, d)| *d < limit(p) || d.is_nan()),
                 );
                 if close.len() > before {
                     candidates.push((i, j));

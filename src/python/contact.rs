@@ -124,7 +124,8 @@ fn near_triangle_pairs<'py>(
             self_contact: &[true],
         };
         let mut grid = BroadPhase::default();
-        let pairs = grid.candidate_pairs(&x, &x, &mesh, &[0.5 * reach]).to_vec();
+        let padding = vec![0.5 * reach; tris.len()];
+        let pairs = grid.candidate_pairs(&x, &x, &mesh, &padding).to_vec();
         let distances = pairs
             .par_iter()
             .map(|&(a, b)| closest_primitive_distance(&x, &tris[a as usize], &tris[b as usize]))
