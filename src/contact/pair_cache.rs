@@ -514,7 +514,21 @@ pub(super) mod tests {
         allowance: &'a [f64],
     }
 
-    impl Moves<'_> {
+    impl<'a> Moves<'a> {
+        fn new(
+            safe: &'a [Vector3<f64>],
+            target: &'a [Vector3<f64>],
+            clamp: &'a [f64],
+            allowance: &'a [f64],
+        ) -> Self {
+            Moves {
+                safe,
+                target,
+                clamp,
+                allowance,
+            }
+        }
+
         /// Checks that every pair of `every` within `reach` (m) is in `live`, at points along
         /// the paths `s + tau (z - s)` (the ends included) to iterates `z_i = s_i + t_i (y_i -
         /// s_i) + e_i`, with `|e_i|` up to what the allowance leaves, `A_i - (1 - t_i) |y_i -
@@ -578,6 +592,33 @@ pub(super) mod tests {
         (x, triangles)
     }
 
+    /// The rolled-up grid of [`spiral`] as one body with self-contact.
+    struct Rolled {
+        positions: Vec<Vector3<f64>>,
+        triangles: Vec<[u32; 3]>,
+        body: Vec<u32>,
+    }
+
+    impl Rolled {
+        fn new(n: u32, gap: f64, rng: &mut Rng) -> Self {
+            let (positions, triangles) = spiral(n, gap, rng);
+            let body = vec![0; triangles.len()];
+            Rolled {
+                positions,
+                triangles,
+                body,
+            }
+        }
+
+        fn mesh(&self) -> ContactMesh<'_> {
+            ContactMesh {
+                triangles: &self.triangles,
+                body: &self.body,
+                self_contact: &[true],
+            }
+        }
+    }
+
     /// The rolled-up grid (layers a little more than the barrier's reach apart) moving over
     /// several local steps: the live pairs hold every primitive pair of non-adjacent triangles
     /// that a brute-force search finds within `reach` along the way; each build's candidates
@@ -587,13 +628,9 @@ pub(super) mod tests {
     #[test]
     fn crumpled_grid_keeps_every_pair_a_brute_force_search_finds() {
         let mut rng = Rng::new(19);
-        let (mut safe, triangles) = spiral(14, 0.03, &mut rng);
-        let body = vec![0; triangles.len()];
-        let mesh = ContactMesh {
-            triangles: &triangles,
-            body: &body,
-            self_contact: &[true],
-        };
+        let rolled = Rolled::new(14, 0.03, &mut rng);
+        let (mesh, triangles) = (rolled.mesh(), &rolled.triangles);
+        let mut safe = rolled.positions.clone();
         let (all, every) = brute_force_pairs(&mesh, &safe);
         let (reach, allowance) = (0.02, vec![0.002; safe.len()]);
         let clamp = vec![1.0; safe.len()];
@@ -632,12 +669,7 @@ pub(super) mod tests {
                 );
                 assert!(cache.pairs.iter().all(|(p, d)| *d < limit(p)));
             }
-            let moves = Moves {
-                safe: &safe,
-                target: &target,
-                clamp: &clamp,
-                allowance: &allowance,
-            };
+            let moves = Moves::new(&safe, &target, &clamp, &allowance);
             within +=
                 moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
             safe = target;
@@ -659,13 +691,9 @@ pub(super) mod tests {
         /// Per local step: whether it built, the cached and the live pairs.
         fn run(fall: Vector3<f64>, within: &mut [usize; 2]) -> Vec<(bool, usize, usize)> {
             let mut rng = Rng::new(23);
-            let (mut safe, triangles) = spiral(12, 0.03, &mut rng);
-            let body = vec![0; triangles.len()];
-            let mesh = ContactMesh {
-                triangles: &triangles,
-                body: &body,
-                self_contact: &[true],
-            };
+            let rolled = Rolled::new(12, 0.03, &mut rng);
+            let mesh = rolled.mesh();
+            let mut safe = rolled.positions.clone();
             let (_, every) = brute_force_pairs(&mesh, &safe);
             let (reach, drift) = (0.02, 0.001);
             let mut cache = PairCache::default();
@@ -691,12 +719,7 @@ pub(super) mod tests {
                     .collect();
                 let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
                 steps.push((built, cache.pairs.len(), live.len()));
-                let moves = Moves {
-                    safe: &safe,
-                    target: &target,
-                    clamp: &clamp,
-                    allowance: &allowance,
-                };
+                let moves = Moves::new(&safe, &target, &clamp, &allowance);
                 within[usize::from(clamped)] += moves
                     .assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
                 // The next local step starts where this one ended (unclamped: the whole move).
@@ -805,12 +828,7 @@ pub(super) mod tests {
                     "step {k}: {own} pairs within the bodies, {alone} alone"
                 );
             }
-            let moves = Moves {
-                safe: &safe,
-                target: &target,
-                clamp: &clamp,
-                allowance: &allowance,
-            };
+            let moves = Moves::new(&safe, &target, &clamp, &allowance);
             let (own, apart): (Vec<Pair>, Vec<Pair>) = every.iter().partition(|p| !across(p));
             within[0] +=
                 moves.assert_live_hold_every_pair_within_reach(&own, &live, reach, &mut rng, k);
@@ -834,13 +852,9 @@ pub(super) mod tests {
     fn a_swinging_edge_leaves_the_rest_of_the_sheet_a_small_skin() {
         let mut rng = Rng::new(43);
         let n = 12;
-        let (mut safe, triangles) = spiral(n, 0.03, &mut rng);
-        let body = vec![0; triangles.len()];
-        let mesh = ContactMesh {
-            triangles: &triangles,
-            body: &body,
-            self_contact: &[true],
-        };
+        let rolled = Rolled::new(n, 0.03, &mut rng);
+        let mesh = rolled.mesh();
+        let mut safe = rolled.positions.clone();
         let (_, every) = brute_force_pairs(&mesh, &safe);
         let (reach, allowance) = (0.02, vec![0.001; safe.len()]);
         let clamp = vec![1.0; safe.len()];
@@ -869,12 +883,7 @@ pub(super) mod tests {
                     }
                 }
             }
-            let moves = Moves {
-                safe: &safe,
-                target: &target,
-                clamp: &clamp,
-                allowance: &allowance,
-            };
+            let moves = Moves::new(&safe, &target, &clamp, &allowance);
             within +=
                 moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
             safe = target;
@@ -889,13 +898,9 @@ pub(super) mod tests {
     #[test]
     fn extending_the_live_pairs_equals_filtering_them_afresh() {
         let mut rng = Rng::new(41);
-        let (safe, triangles) = spiral(12, 0.03, &mut rng);
-        let body = vec![0; triangles.len()];
-        let mesh = ContactMesh {
-            triangles: &triangles,
-            body: &body,
-            self_contact: &[true],
-        };
+        let rolled = Rolled::new(12, 0.03, &mut rng);
+        let (mesh, triangles) = (rolled.mesh(), &rolled.triangles);
+        let safe = rolled.positions.clone();
         let reach = 0.02;
         let target: Vec<_> = safe.iter().map(|p| p + rng.vector() * 0.004).collect();
         let mut allowance = vec![0.001; safe.len()];
@@ -968,12 +973,7 @@ pub(super) mod tests {
                     live.len()
                 );
             }
-            let moves = Moves {
-                safe: &safe,
-                target: &target,
-                clamp: &clamp,
-                allowance: &allowance,
-            };
+            let moves = Moves::new(&safe, &target, &clamp, &allowance);
             within +=
                 moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
             safe = target;
