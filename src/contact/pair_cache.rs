@@ -651,7 +651,7 @@ pub(super) mod tests {
                     .filter(|&pair| {
                         let mut expanded = Vec::new();
                         close_primitive_pairs(
-                            &triangles,
+                            triangles,
                             &[pair],
                             r,
                             |_| f64::INFINITY,
@@ -899,7 +899,7 @@ pub(super) mod tests {
     fn extending_the_live_pairs_equals_filtering_them_afresh() {
         let mut rng = Rng::new(41);
         let rolled = Rolled::new(12, 0.03, &mut rng);
-        let (mesh, triangles) = (rolled.mesh(), &rolled.triangles);
+        let mesh = rolled.mesh();
         let safe = rolled.positions.clone();
         let reach = 0.02;
         let target: Vec<_> = safe.iter().map(|p| p + rng.vector() * 0.004).collect();
