@@ -310,7 +310,10 @@ impl LivePairs {
             refill(&mut self.allowance, safe.len(), allowance);
         }
         refill(&mut self.deviation, safe.len(), 0.0);
-        self.refresh(safe, target, mesh, reach, stats);
+        // The pairs for these allowances (see [`PairCache::live_pairs`]).
+        let (cache, live) = (&mut self.cache, &mut self.pairs);
+        let built = cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
+        self.refreshed(built, safe, stats);
     }
 
     /// Where a vertex's deviation `E_i` exceeds its allowance `A_i` (or is NaN), raises the
@@ -347,22 +350,6 @@ impl LivePairs {
             && cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
         self.refreshed(built, safe, stats);
         true
-    }
-
-    /// Filters the pairs for the allowances (see [`PairCache::live_pairs`]) and writes their
-    /// distances at the safe positions.
-    fn refresh(
-        &mut self,
-        safe: &[Vector3<f64>],
-        target: &[Vector3<f64>],
-        mesh: &ContactMesh,
-        reach: f64,
-        stats: &mut ContactStats,
-    ) {
-        let built =
-            self.cache
-                .live_pairs(safe, target, &self.allowance, mesh, reach, &mut self.pairs);
-        self.refreshed(built, safe, stats);
     }
 
     /// Counts a refresh of the live pairs (`built`: with a new build) in `stats` and writes
