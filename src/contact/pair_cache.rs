@@ -103,6 +103,9 @@ pub(super) struct PairCache {
     /// Per vertex: `[w_i, g_i] = [s_i - r_i, y_i - r_i]` (m), its displacements from
     /// `reference` at the two ends of the global step's path.
     shift: Vec<[Vector3<f64>; 2]>,
+    /// Per body: the common motion `[c_B^w, c_B^g]` of `shift` (see
+    /// [`PairCache::common_motion`]).
+    common: Vec<Option<[Vector3<f64>; 2]>>,
 }
 
 /// The body of a vertex that belongs to no triangle.
@@ -239,8 +242,7 @@ impl PairCache {
     /// the module doc): per vertex `dev_i <= R_i`, and per pair of bodies `T_AB <= S`; writes
     /// `dev_i`, `max_{A, B} T_AB` and `max_i dev_i`. False if a figure is NaN.
     fn covers(&mut self, allowance: &[f64]) -> bool {
-        let common = self.common_motion();
-        let (shift, vertex_body) = (&self.shift, &self.vertex_body);
+        let (shift, vertex_body, common) = (&self.shift, &self.vertex_body, &self.common);
         allowance
             .par_iter()
             .enumerate()
@@ -266,7 +268,7 @@ impl PairCache {
             .map(|(&d, &r)| (d, d <= r))
             .reduce(|| (0.0, true), |a, b| (a.0.max(b.0), a.1 && b.1));
         self.farthest = farthest;
-        self.apart = largest_apart(&common);
+        self.apart = largest_apart(common);
         within && self.apart <= self.cross_skin
     }
 
@@ -314,7 +316,8 @@ impl PairCache {
             )
     }
 
-    /// Writes `[s_i - r_i, y_i - r_i]` into `shift`.
+    /// Writes `[s_i - r_i, y_i - r_i]` into `shift` and the bodies' common motions into
+    /// `common`.
     fn measure_motion(&mut self, safe: &[Vector3<f64>], target: &[Vector3<f64>]) {
         let reference = &self.reference;
         safe.par_iter()
@@ -322,6 +325,7 @@ impl PairCache {
             .zip(reference)
             .map(|((s, y), r)| [s - r, y - r])
             .collect_into_vec(&mut self.shift);
+        self.common = self.common_motion();
     }
 
     /// Fills `by_vertex` and `by_vertex_start` from `pairs` (a counting sort; the four
@@ -381,10 +385,10 @@ impl PairCache {
         }
         self.reference.clear();
         self.reference.extend_from_slice(safe);
-        self.measure_motion(safe, target);
         let bodies = mesh.self_contact.len();
         self.bodies = bodies;
-        let common = self.common_motion();
+        self.measure_motion(safe, target);
+        let common = &self.common;
         let finite = |v: f64| if v.is_nan() { f64::INFINITY } else { v };
         let (shift, vertex_body) = (&self.shift, &self.vertex_body);
         (0..safe.len())
@@ -399,7 +403,7 @@ impl PairCache {
             .collect_into_vec(&mut self.skin);
         spread_over_rings(&mut self.skin, mesh.triangles, SKIN_RINGS);
         self.skin.iter_mut().for_each(|r| *r += 0.25 * reach);
-        self.cross_skin = finite(2.0 * largest_apart(&common) + 0.25 * reach);
+        self.cross_skin = finite(2.0 * largest_apart(common) + 0.25 * reach);
 
         // NaN distances (NaN positions) are kept.
         let (reference, skin) = (&self.reference, &self.skin);
