@@ -276,44 +276,31 @@ impl PairCache {
     /// common motion the skins are measured from (any choice is correct; the mean keeps the
     /// vertices' deviations small); `None` for a body without triangles.
     fn common_motion(&self) -> Vec<Option<[Vector3<f64>; 2]>> {
-        let zero = ([Vector3::zeros(); 2], 0usize);
-        self.per_body(
-            zero,
-            |(a, m), (b, n)| ([a[0] + b[0], a[1] + b[1]], m + n),
-            |i, _| (self.shift[i], 1),
-        )
-        .into_iter()
-        .map(|([w, g], n)| (n > 0).then(|| [w / n as f64, g / n as f64]))
-        .collect()
-    }
-
-    /// Per body, `combine` over `value(i, body)` of its vertices, `empty` for a body without
-    /// vertices.
-    fn per_body<V: Clone + Send + Sync>(
-        &self,
-        empty: V,
-        combine: impl Fn(V, V) -> V + Sync,
-        value: impl Fn(usize, usize) -> V + Sync,
-    ) -> Vec<V> {
-        let bodies = self.bodies;
-        let vertex_body = &self.vertex_body;
+        /// Per body: the sums of `w_i` and `g_i` over its vertices, and their number.
+        type Sums = Vec<([Vector3<f64>; 2], usize)>;
+        let (bodies, vertex_body, shift) = (self.bodies, &self.vertex_body, &self.shift);
+        let empty = || vec![([Vector3::zeros(); 2], 0); bodies];
         (0..vertex_body.len())
             .into_par_iter()
-            .fold(
-                || vec![empty.clone(); bodies],
-                |mut acc, i| {
-                    let b = vertex_body[i];
-                    if b != NO_BODY {
-                        let b = b as usize;
-                        acc[b] = combine(acc[b].clone(), value(i, b));
-                    }
-                    acc
-                },
-            )
-            .reduce(
-                || vec![empty.clone(); bodies],
-                |a, b| a.into_iter().zip(b).map(|(a, b)| combine(a, b)).collect(),
-            )
+            .fold(empty, |mut sums: Sums, i| {
+                if let Some((sum, n)) = sums.get_mut(vertex_body[i] as usize) {
+                    sum[0] += shift[i][0];
+                    sum[1] += shift[i][1];
+                    *n += 1;
+                }
+                sums
+            })
+            .reduce(empty, |mut a, b| {
+                for ((sum, n), (other, m)) in a.iter_mut().zip(b) {
+                    sum[0] += other[0];
+                    sum[1] += other[1];
+                    *n += m;
+                }
+                a
+            })
+            .into_iter()
+            .map(|([w, g], n)| (n > 0).then(|| [w / n as f64, g / n as f64]))
+            .collect()
     }
 
     /// Writes `[s_i - r_i, y_i - r_i]` into `shift` and the bodies' common motions into
