@@ -275,6 +275,8 @@ struct LivePairs {
     /// clamp to `z^{k-1} + t (z - z^{k-1})` makes it `(1 - t) |y_i^k - z_i^{k-1}| + t E_i`, a
     /// descent move adds its length.
     deviation: Vec<f64>,
+    /// The vertices whose allowance the last [`LivePairs::cover`] raised.
+    grown: Vec<u32>,
 }
 
 impl LivePairs {
@@ -329,24 +331,25 @@ impl LivePairs {
         reach: f64,
         stats: &mut ContactStats,
     ) -> bool {
-        let grown: Vec<u32> = self
-            .allowance
-            .par_iter_mut()
-            .zip(&self.deviation)
-            .enumerate()
-            .filter_map(|(i, (a, &e))| {
-                let beyond = e.is_nan() || e > *a;
-                if beyond {
-                    *a += e;
-                }
-                beyond.then_some(i as u32)
-            })
-            .collect();
-        if grown.is_empty() {
+        self.grown.clear();
+        self.grown.par_extend(
+            self.allowance
+                .par_iter_mut()
+                .zip(&self.deviation)
+                .enumerate()
+                .filter_map(|(i, (a, &e))| {
+                    let beyond = e.is_nan() || e > *a;
+                    if beyond {
+                        *a += e;
+                    }
+                    beyond.then_some(i as u32)
+                }),
+        );
+        if self.grown.is_empty() {
             return false;
         }
         let (cache, live) = (&mut self.cache, &mut self.pairs);
-        let built = !cache.extend_live(&self.allowance, &grown, reach, live)
+        let built = !cache.extend_live(&self.allowance, &self.grown, reach, live)
             && cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
         self.refreshed(built, safe, stats);
         true
