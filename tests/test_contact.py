@@ -207,25 +207,35 @@ def test_a_cloth_resting_on_another_converges():
     assert upper.positions[:, 2].min() > lower.positions[:, 2].max() + XI
 
 
-@pytest.mark.parametrize("step", ["curvature", "uniform"])
-def test_a_cloth_sliding_and_falling_onto_another_is_not_declared_converged(step):
+def test_a_cloth_sliding_and_falling_onto_another_is_declared_converged_only_when_it_is():
     # The upper cloth, stretched by 10 % in its plane, falls onto the lower one and contracts
-    # over it. In free flight the measure is the plain residual (the same as without contact);
-    # sliding over the lower cloth within the barrier's reach its in-plane imbalance is not a
-    # contact reaction, so a few iterations per step cannot meet a tight tolerance while it
-    # slides. (At the edge of the barrier's reach the barrier is weak and a step can be
-    # solved: the curvature step, which resolves the barrier, catches the cloth there, about
-    # 0.9 d_hat above the lower one, and declares 3 of its 14 sliding steps converged; the
-    # uniform step lets it fall to about xi before it bounces, 2 of 16.)
-    solver, lower, upper = stack(1e-6, 4, stretch=1.1, height=0.01, step=step)
-    control, _, _ = stack(1e-6, 4, stretch=1.1, height=0.01, contact=False)
+    # over it. In free flight the measure is the plain residual (the same as without contact).
+    # Sliding over the lower cloth its in-plane imbalance is not a contact reaction: a step may
+    # be declared converged only where it is within tol of the step solved to 1e-8 from the
+    # same start (a reference stepped from a copy of the state before every step; the
+    # reference itself stops at the local step's floor, about 1e-7 m here). Most sliding steps
+    # are (the curvature step lets the cloth slide freely along the contact). Not for the
+    # "uniform" step: its local step's result depends on its iteration cap, so a reference
+    # run longer is not the same problem solved better.
+    step = "curvature"
+    tol = 1e-6
+    solver, lower, upper = stack(tol, 4, stretch=1.1, height=0.01, step=step)
+    control, _, _ = stack(tol, 4, stretch=1.1, height=0.01, contact=False)
+    reference, ref_lower, ref_upper = stack(1e-8, 400, stretch=1.1, height=0.01, step=step)
     free, sliding = [], []
     for _ in range(30):
+        for body, ref in ((lower, ref_lower), (upper, ref_upper)):
+            ref.positions, ref.velocities = body.positions, body.velocities
+        reference.step()
         stats, plain = solver.step(), control.step()
         speed = np.linalg.norm(upper.velocities[:, :2], axis=1).max()
         if stats.contact["active_pairs"] == 0 and not sliding:
             free.append((stats.error_estimate, plain.error_estimate))
-        elif stats.contact["active_pairs"] > 0 and speed > 0.5:
-            sliding.append(stats.converged)
+        elif stats.contact["active_pairs"] > 0 and speed > 0.3:
+            error = max(np.abs(body.positions - ref.positions).max()
+                        for body, ref in ((lower, ref_lower), (upper, ref_upper)))
+            sliding.append((stats.converged, error))
     assert len(free) >= 5 and all(a == b for a, b in free)
-    assert len(sliding) >= 10 and sum(sliding) <= len(sliding) // 4, sliding
+    assert len(sliding) >= 10, sliding
+    assert all(error < tol for converged, error in sliding if converged), sliding
+    assert sum(converged for converged, _ in sliding) > len(sliding) // 2, sliding

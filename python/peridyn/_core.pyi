@@ -285,12 +285,18 @@ class Contact:
     weight : barrier weight mu of eq. 47 (> 0).
     max_iters : descent iterations per local step (>= 1).
     step : the descent's step rule: "curvature" (default) moves each vertex by its direction
-        divided by 1 + the barrier's curvature there (a Jacobi-preconditioned descent), or
+        times (I + K)^-1, K the barrier's curvature along the contact normals there (a
+        block-Jacobi-preconditioned descent: stiff along the normals, free along the contact), or
         "uniform", eq. 53 of the paper: one step length for all vertices from the barrier's
         steepest slope. Both move no vertex more than eps * xi per iteration; near contact
         "uniform" creeps and a local step usually ends at max_iters, far from its minimum.
     toi_threshold : times of impact in (toi_threshold, 1) clamp vertices inside the descent.
     ccd_s, ccd_t_c : the additive CCD's s and t_c (paper: 0.1 and 0.95).
+    warm_start : start each local step's descent from the global step's result plus the move
+        the last local step made (where the barrier pushed), instead of the global step's result
+        alone (the paper): the local steps of a time step continue one another's descent. Same
+        guarantees; on the 3-layer drop about half the descent iterations, and steps whose
+        contacts persist converge instead of stalling at the local step's stopping test.
     """
 
     def __init__(
@@ -305,6 +311,7 @@ class Contact:
         toi_threshold: float = 0.1,
         ccd_s: float = 0.1,
         ccd_t_c: float = 0.95,
+        warm_start: bool = True,
     ) -> None: ...
     @property
     def thickness(self) -> float: ...
@@ -320,6 +327,8 @@ class Contact:
     def step(self) -> str: ...
     @property
     def toi_threshold(self) -> float: ...
+    @property
+    def warm_start(self) -> bool: ...
 
 class StepStats:
     """What one time step did."""

@@ -21,7 +21,8 @@
 //! 4. a step that keeps every move below `eps xi` ([`DescentStep`]): either eq. 53's
 //!    `lambda = min(1, eps xi / (mu alpha_0 ceil|B'| + D))` for every vertex, with `alpha_0` the
 //!    largest `sum_c alpha_c^i` and `D` the largest `|y_i^k - z_i|` of this iteration, or (the
-//!    default) a step per vertex scaled by the barrier's curvature there; stop when the
+//!    default) a step per vertex scaled by the barrier's curvature along the contact normals
+//!    there; stop when the
 //!    largest move is below [`STOP_FRACTION`] `eps xi` or after `max_iters` iterations.
 //!
 //! A final guarantee pass (not in the paper, which leaves vertices with a small time of impact
@@ -43,6 +44,7 @@ use super::distance::Closest;
 use super::pair_cache::PairCache;
 use super::primitive_pairs::Pair;
 use crate::error::{check_param, invalid, Result};
+use crate::symmetric::SymmetricMatrix3;
 
 /// How far the descent of the local step moves each vertex along its direction `g_i` of eq. 49.
 /// Both keep every move below `eps xi`, so the CCD and the guarantee pass see the same kind of
@@ -55,14 +57,19 @@ pub enum DescentStep {
     /// vertex creeps: a local step then ends at its iteration cap far from the minimum, and
     /// what it returns depends on the cap.
     Uniform,
-    /// Per vertex, `z_i += g_i / (1 + k_i)`, cut to length `eps xi`, with
-    /// `k_i = mu sum_c B''(x_c) f'(d_c) |alpha_c^i| sum_j |alpha_c^j|` (dimensionless): the
-    /// barrier's curvature along the pair normals (`x_c` the rescaled gap, `f'` the rescale's
-    /// slope), summed by rows (Gershgorin) so that the diagonal matrix of `1 + k_i` bounds
-    /// from above the Hessian of eq. 47 with the barrier taken along the normals (their
-    /// difference is positive semi-definite). A Jacobi-preconditioned descent: vertices away
-    /// from contact go straight to their target (up to `eps xi` per iteration), vertices in
-    /// contact take a step of about the distance to the barrier's balance point.
+    /// Per vertex, `z_i += (I + K_i)^-1 g_i`, cut to length `eps xi`, with
+    /// `K_i = mu sum_c B''(x_c) f'(d_c) |alpha_c^i| (sum_j |alpha_c^j|) n_c n_c^T`
+    /// (dimensionless, 3 x 3): the barrier's curvature along each pair's normal `n_c` (`x_c`
+    /// the rescaled gap, `f'` the rescale's slope), with the pair's weights summed by rows (a
+    /// block Gershgorin bound: `(sum_j alpha_j n . u_j)^2 <= sum_j |alpha_j| sum_j |alpha_j|
+    /// (n . u_j)^2` by Cauchy-Schwarz), so that the block-diagonal matrix of the `I + K_i`
+    /// bounds from above the Hessian of eq. 47 with the barrier taken along the normals
+    /// (their difference is positive semi-definite). A block-Jacobi-preconditioned descent:
+    /// vertices away from contact go straight to their target (up to `eps xi` per iteration),
+    /// vertices in contact take a step of about the distance to the barrier's balance point
+    /// along the normals and move freely along the contact (a scalar `1 + trace K_i` would slow
+    /// their sliding as much as their approach, and a sheet resting on another would hardly
+    /// slide at all).
     Curvature,
 }
 
@@ -89,6 +96,13 @@ pub struct ContactParams {
     pub toi_threshold: f64,
     /// The additive CCD (`s = 0.1`, `t_c = 0.95` as in the paper).
     pub ccd: AdditiveCcd,
+    /// Start the descent from `y_i^k + p_i` instead of the paper's `y_i^k` (Algorithm 2,
+    /// line 2), `p_i` the barrier push the last local step left vertex `i` with (see
+    /// [`Workspace::push`]), at most as long as that step's own move `|z_i - y_i^k|`. Where the
+    /// contacts persist the descent then starts near its minimum and the local steps of a
+    /// time step continue one another's descent instead of repeating it, so the global
+    /// iteration's fixed point has a local step solved as well as it is iterated.
+    pub warm_start: bool,
 }
 
 impl Default for ContactParams {
@@ -103,6 +117,7 @@ impl Default for ContactParams {
             step: DescentStep::Curvature,
             toi_threshold: 0.1,
             ccd: AdditiveCcd::default(),
+            warm_start: true,
         }
     }
 }
@@ -229,8 +244,8 @@ pub struct Workspace {
     force: Vec<Vector3<f64>>,
     /// Per vertex: `sum_c |alpha_c^i|` of eq. 53.
     alpha: Vec<f64>,
-    /// Per vertex: the barrier curvature `k_i` of [`DescentStep::Curvature`].
-    curvature: Vec<f64>,
+    /// Per vertex: the barrier curvature `K_i` of [`DescentStep::Curvature`].
+    curvature: Vec<SymmetricMatrix3<f64>>,
     /// Per vertex: moved since the last CCD.
     changed: Vec<bool>,
     /// Per vertex: smallest time of impact.
@@ -249,6 +264,8 @@ pub struct Workspace {
     motion: Vec<f64>,
     /// Per vertex: the barrier push at the returned positions (see [`Workspace::push`]).
     push: Vec<Vector3<f64>>,
+    /// Per vertex: the warm start of the next local step ([`ContactParams::warm_start`]), m.
+    warm: Vec<Vector3<f64>>,
 }
 
 impl Workspace {
@@ -433,6 +450,7 @@ pub fn project(
     stats.broad_phase_ms += millis(t);
     refill(&mut work.push, n, Vector3::zeros());
     if work.live.pairs.is_empty() {
+        work.warm.clear();
         return stats;
     }
 
@@ -445,12 +463,35 @@ pub fn project(
     refill(&mut work.drift, n, 0.0);
     refill(&mut work.force, n, Vector3::zeros());
     refill(&mut work.alpha, n, 0.0);
-    refill(&mut work.curvature, n, 0.0);
+    refill(&mut work.curvature, n, SymmetricMatrix3::zeros());
     // Vertices moved since the last CCD: a pair none of whose vertices moved keeps its time.
     // After the first iteration a vertex moves at most `eps xi` per iteration (either step
     // rule), so only pairs that were within `(1 + 4 eps) xi` can reach `xi`: the others skip
     // the CCD. (`changed` is only sized here: `restart_ccd` marks every vertex.)
     work.changed.resize(n, true);
+    if params.warm_start && work.warm.len() == n {
+        // Line 2 with the warm start: a move like a descent move, so it counts as drift and
+        // deviation (and may refresh the live pairs) before the first CCD sees the path.
+        work.drift
+            .par_iter_mut()
+            .zip(&mut work.live.deviation[..])
+            .zip(&mut z[..])
+            .zip(&work.warm)
+            .enumerate()
+            .for_each(|(i, (((di, ei), zi), offset))| {
+                if fixed[i] || *offset == Vector3::zeros() {
+                    return;
+                }
+                let before = *zi;
+                *zi += offset;
+                keep_out(i, zi);
+                *di = (*zi - before).norm();
+                *ei = *di;
+            });
+        let t = Instant::now();
+        work.live.cover(safe, &work.target, mesh, reach, &mut stats);
+        stats.broad_phase_ms += millis(t);
+    }
     restart_ccd(
         work.live.pairs.len(),
         &mut work.toi,
@@ -459,7 +500,7 @@ pub fn project(
     );
     let near_distance = (1.0 + 4.0 * eps) * xi;
     // The largest total descent move of a vertex so far (m).
-    let mut max_drift = 0.0;
+    let mut max_drift = work.drift.iter().copied().fold(0.0, f64::max);
     let Workspace {
         live,
         motion,
@@ -566,7 +607,12 @@ pub fn project(
                 *zi += match lambda {
                     Some(lambda) => direction * lambda,
                     None => {
-                        let step = direction / (1.0 + curvature[i]);
+                        // `I + K_i` is positive definite unless `K_i` is not finite; then
+                        // the vertex stays (a NaN position is caught by the global step).
+                        let step = curvature[i]
+                            .plus_identity(1.0)
+                            .try_inverse()
+                            .map_or(Vector3::zeros(), |inverse| inverse.mul_vector(&direction));
                         step * (longest / step.norm()).min(1.0)
                     }
                 };
@@ -619,13 +665,30 @@ pub fn project(
         &mut work.alpha,
         &mut work.curvature,
     );
+    // The next warm start: this step's own move where the barrier pushes and no clamp of
+    // the guarantee pass moved the vertex.
+    work.warm.clear();
+    work.warm.par_extend(
+        work.push
+            .par_iter()
+            .zip(&work.clamped)
+            .zip(&*z)
+            .zip(&work.target)
+            .map(|(((p, &clamped), zi), yi)| {
+                if clamped || *p == Vector3::zeros() {
+                    Vector3::zeros()
+                } else {
+                    zi - yi
+                }
+            }),
+    );
     stats.descent_ms += millis(t);
     stats
 }
 
 /// Writes into `push` the barrier part of the descent direction of eq. 49,
 /// `p_i = -mu sum_c B'(f(d_c) - xi) alpha_c^i n_c` (m), into `alpha` the sums
-/// `sum_c |alpha_c^i|` of eq. 53, and into `curvature` the `k_i` of
+/// `sum_c |alpha_c^i|` of eq. 53, and into `curvature` the `K_i` of
 /// [`DescentStep::Curvature`], over the pairs within the barrier's reach.
 fn barrier_push(
     pairs: &[Pair],
@@ -634,12 +697,14 @@ fn barrier_push(
     mu: f64,
     push: &mut [Vector3<f64>],
     alpha: &mut [f64],
-    curvature: &mut [f64],
+    curvature: &mut [SymmetricMatrix3<f64>],
 ) {
     let reach = barrier.reach();
     push.iter_mut().for_each(|f| *f = Vector3::zeros());
     alpha.iter_mut().for_each(|a| *a = 0.0);
-    curvature.iter_mut().for_each(|k| *k = 0.0);
+    curvature
+        .iter_mut()
+        .for_each(|k| *k = SymmetricMatrix3::zeros());
     for (pair, c) in pairs.iter().zip(closest) {
         let d = c.separation.norm();
         if d >= reach || d == 0.0 {
@@ -655,7 +720,7 @@ fn barrier_push(
         for (&v, &w) in pair.v.iter().zip(&c.weights) {
             push[v as usize] += normal * (slope * w);
             alpha[v as usize] += w.abs();
-            curvature[v as usize] += stiffness * w.abs();
+            curvature[v as usize] += SymmetricMatrix3::outer(&normal, stiffness * w.abs());
         }
     }
 }
@@ -848,13 +913,15 @@ mod tests {
         assert_eq!(z, target);
     }
 
-    /// A workspace that served a bigger scene before gives the same result as a fresh one.
+    /// A workspace that served a bigger scene before gives the same result as a fresh one
+    /// (without the warm start, which carries the last local step's moves on by design).
     #[test]
     fn a_reused_workspace_gives_the_fresh_result() {
         let (safe, target, triangles) = crossing();
         let params = ContactParams {
             thickness: 2e-3,
             d_hat: 4e-3,
+            warm_start: false,
             ..ContactParams::default()
         };
         let solve = |work: &mut Workspace, scale: f64| {
@@ -885,31 +952,31 @@ mod tests {
     /// A small triangle held by its target `y` inside the barrier over a large fixed one, with
     /// no pair but its three vertices' point-triangle pairs in reach: eq. 47 then separates
     /// per vertex, and its minimum solves `z - y = -mu B'(z - xi)` (heights above the lower
-    /// triangle, m). Returns the root, found by bisection, and the local step's result and
-    /// iterations for `step`.
-    fn pressed_triangle(step: DescentStep, max_iters: usize) -> (f64, [f64; 3], usize) {
-        let params = ContactParams {
-            thickness: 2e-3,
-            d_hat: 4e-3,
-            max_iters,
-            step,
-            ..ContactParams::default()
-        };
+    /// triangle, m). The target is `xi + depth d_hat` high and `slide` (m) along `x` from the
+    /// safe positions; the barrier pushes along `z` only, so the minimum keeps the target's `x`
+    /// and `y`. Returns the root, found by bisection, and the local step's result, target and
+    /// iterations for `params` (from [`pressing`]), run with `work`.
+    fn pressed_triangle(
+        params: &ContactParams,
+        depth: f64,
+        slide: f64,
+        work: &mut Workspace,
+    ) -> (f64, [Vector3<f64>; 3], [Vector3<f64>; 3], usize) {
         let (xi, d_hat) = (params.thickness, params.d_hat);
         let v = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
         let lower = [v(-1., -1., 0.), v(2., -1., 0.), v(-1., 2., 0.)];
         let upper = |h: f64| [v(0.1, 0.1, h), v(0.12, 0.1, h), v(0.1, 0.12, h)];
-        let (start, pressed) = (xi + 0.95 * d_hat, xi + 0.3 * d_hat);
+        let (start, pressed) = (xi + 0.95 * d_hat, xi + depth * d_hat);
         let safe: Vec<_> = lower.iter().chain(&upper(start)).copied().collect();
-        let mut z: Vec<_> = lower.iter().chain(&upper(pressed)).copied().collect();
+        let target = upper(pressed).map(|p| p + v(slide, 0.0, 0.0));
+        let mut z: Vec<_> = lower.iter().chain(&target).copied().collect();
         let fixed = [true, true, true, false, false, false];
         let mesh = ContactMesh {
             triangles: &[[0, 1, 2], [3, 4, 5]],
             body: &[0, 1],
             self_contact: &[false, false],
         };
-        let mut work = Workspace::default();
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {}, &mut work);
+        let stats = project(&safe, &mut z, &fixed, &mesh, params, &|_, _| {}, work);
         assert_eq!(stats.active_pairs, 3);
         let barrier = params.barrier();
         let (mut below, mut above) = (pressed, xi + d_hat);
@@ -922,7 +989,18 @@ mod tests {
                 below = mid;
             }
         }
-        (below, [z[3].z, z[4].z, z[5].z], stats.iterations)
+        (below, [z[3], z[4], z[5]], target, stats.iterations)
+    }
+
+    /// The parameters of [`pressed_triangle`]: `xi = 2 mm`, `d_hat = 4 mm`.
+    fn pressing(step: DescentStep, max_iters: usize) -> ContactParams {
+        ContactParams {
+            thickness: 2e-3,
+            d_hat: 4e-3,
+            max_iters,
+            step,
+            ..ContactParams::default()
+        }
     }
 
     /// The curvature step reaches the minimum of eq. 47 within its stopping test: 13
@@ -934,21 +1012,86 @@ mod tests {
     #[test]
     fn the_curvature_step_reaches_the_minimum_that_the_uniform_step_creeps_towards() {
         let eps_xi = 0.1 * 2e-3;
-        let (root, heights, iterations) = pressed_triangle(DescentStep::Curvature, 32);
-        for h in heights {
-            assert!((h - root).abs() < 0.02 * eps_xi, "{h} vs {root}");
+        let (root, z, _, iterations) = pressed_triangle(
+            &pressing(DescentStep::Curvature, 32),
+            0.3,
+            0.0,
+            &mut Workspace::default(),
+        );
+        for p in z {
+            assert!((p.z - root).abs() < 0.02 * eps_xi, "{} vs {root}", p.z);
         }
         assert!(iterations < 20, "{iterations} iterations");
-        let (root, heights, iterations) = pressed_triangle(DescentStep::Uniform, 32);
+        let (root, z, _, iterations) = pressed_triangle(
+            &pressing(DescentStep::Uniform, 32),
+            0.3,
+            0.0,
+            &mut Workspace::default(),
+        );
         assert_eq!(iterations, 32);
-        for h in heights {
-            assert!(root - h > 4.0 * eps_xi, "{h} vs {root}");
+        for p in z {
+            assert!(root - p.z > 4.0 * eps_xi, "{} vs {root}", p.z);
         }
         let cap = 100_000;
-        let (root, heights, iterations) = pressed_triangle(DescentStep::Uniform, cap);
+        let (root, z, _, iterations) = pressed_triangle(
+            &pressing(DescentStep::Uniform, cap),
+            0.3,
+            0.0,
+            &mut Workspace::default(),
+        );
         assert!(iterations < cap, "{iterations} iterations");
-        for h in heights {
-            assert!(root - h > eps_xi, "{h} vs {root}");
+        for p in z {
+            assert!(root - p.z > eps_xi, "{} vs {root}", p.z);
+        }
+    }
+
+    /// Pulled `10 eps xi` sideways to a target below `xi`, the triangle is clamped by the CCD
+    /// about a quarter of the way short, in the barrier, and the descent has to slide it the
+    /// rest along the contact while pushing it up: it reaches the target's place and the
+    /// barrier's balance height within 20 iterations. The barrier is stiff only along its
+    /// normal: a step scaled by the curvature's trace, the same in every direction, slides by
+    /// a small fraction of the lag per iteration and ends the local step more than `eps xi`
+    /// short.
+    #[test]
+    fn the_curvature_step_slides_freely_along_the_contact() {
+        let eps_xi = 0.1 * 2e-3;
+        let slide = 10.0 * eps_xi;
+        let (root, z, target, iterations) = pressed_triangle(
+            &pressing(DescentStep::Curvature, 32),
+            -0.25,
+            slide,
+            &mut Workspace::default(),
+        );
+        for (p, t) in z.iter().zip(&target) {
+            assert!((p.z - root).abs() < 0.02 * eps_xi, "{} vs {root}", p.z);
+            assert!((p.xy() - t.xy()).norm() < 0.02 * eps_xi, "{p} vs {t}");
+        }
+        assert!(iterations < 20, "{iterations} iterations");
+    }
+
+    /// A local step repeated on the same positions starts from where the last one ended: it
+    /// stops after one move below the stopping test and returns the same positions (within
+    /// it). Cold, it repeats the whole approach.
+    #[test]
+    fn a_warm_start_continues_the_last_local_step() {
+        let eps_xi = 0.1 * 2e-3;
+        for warm_start in [true, false] {
+            let params = ContactParams {
+                warm_start,
+                ..pressing(DescentStep::Curvature, 32)
+            };
+            let mut work = Workspace::default();
+            let (_, first, _, cold) = pressed_triangle(&params, 0.3, 0.0, &mut work);
+            let (_, again, _, iterations) = pressed_triangle(&params, 0.3, 0.0, &mut work);
+            for (a, b) in first.iter().zip(&again) {
+                assert!((a - b).norm() < 0.02 * eps_xi, "{a} vs {b}");
+            }
+            assert!(cold > 5, "{cold} iterations");
+            if warm_start {
+                assert_eq!(iterations, 1);
+            } else {
+                assert_eq!(iterations, cold);
+            }
         }
     }
 
@@ -1030,7 +1173,8 @@ mod tests {
             .fold(f64::INFINITY, f64::min);
         assert!(nearest >= params.eps * params.thickness, "{nearest}");
         let mut push = vec![Vector3::zeros(); z.len()];
-        let (mut alpha, mut curvature) = (vec![0.0; z.len()], vec![0.0; z.len()]);
+        let mut alpha = vec![0.0; z.len()];
+        let mut curvature = vec![SymmetricMatrix3::zeros(); z.len()];
         barrier_push(
             &every,
             &closest,

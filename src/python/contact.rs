@@ -242,7 +242,9 @@ fn edge_edge_ccd_additive<'py>(
 /// or "uniform"): the descent's step rule, per vertex scaled by the barrier's curvature, or
 /// eq. 53's one step for all vertices (see `DescentStep`); `toi_threshold` (default 0.1):
 /// times of impact above it clamp inside the descent; `ccd_s`, `ccd_t_c` (0.1, 0.95): the
-/// additive CCD's parameters.
+/// additive CCD's parameters; `warm_start` (default True): start each local step's descent
+/// from the push the last one ended with instead of the global step's result (Algorithm 2,
+/// line 2), see `ContactParams::warm_start`.
 #[pyclass(module = "peridyn._core", name = "Contact", frozen)]
 #[derive(Clone)]
 pub struct PyContact {
@@ -254,7 +256,7 @@ impl PyContact {
     #[new]
     #[pyo3(signature = (*, thickness = 1.5e-3, d_hat = None, eps = 0.1, weight = 1.0,
                         max_iters = 32, step = "curvature", toi_threshold = 0.1, ccd_s = 0.1,
-                        ccd_t_c = 0.95))]
+                        ccd_t_c = 0.95, warm_start = true))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         thickness: f64,
@@ -266,6 +268,7 @@ impl PyContact {
         toi_threshold: f64,
         ccd_s: f64,
         ccd_t_c: f64,
+        warm_start: bool,
     ) -> PyResult<Self> {
         let max_iters = usize::try_from(max_iters).map_err(|_| {
             PyValueError::new_err(format!("max_iters must be >= 1, got {max_iters}"))
@@ -292,6 +295,7 @@ impl PyContact {
                 t_c: ccd_t_c,
                 ..AdditiveCcd::default()
             },
+            warm_start,
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -330,18 +334,24 @@ impl PyContact {
     fn toi_threshold(&self) -> f64 {
         self.inner.toi_threshold
     }
+    /// Whether local steps start from the last one's push (see the class doc).
+    #[getter]
+    fn warm_start(&self) -> bool {
+        self.inner.warm_start
+    }
     fn __repr__(&self) -> String {
         let p = &self.inner;
         format!(
             "Contact(thickness={}, d_hat={}, eps={}, weight={}, max_iters={}, step='{}', \
-             toi_threshold={})",
+             toi_threshold={}, warm_start={})",
             p.thickness,
             p.d_hat,
             p.eps,
             p.weight,
             p.max_iters,
             self.step(),
-            p.toi_threshold
+            p.toi_threshold,
+            if p.warm_start { "True" } else { "False" }
         )
     }
 }
