@@ -55,7 +55,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::broad_phase::{BroadPhase, ContactMesh};
-use super::primitive_pairs::{close_primitive_pairs, nan_max, Pair};
+use super::primitive_pairs::{close_primitive_pairs, nan_max, Owners, Pair};
 
 /// The primitive pairs of the last build and their distances at its reference positions.
 #[derive(Default)]
@@ -79,9 +79,11 @@ pub(super) struct PairCache {
     cross_skin: f64,
     /// Triangle pairs of the last build whose inflated boxes overlap.
     box_pairs: usize,
-    /// Those of them with a primitive pair within the build's limit at `reference`: the
-    /// candidates.
+    /// Those of them that own (see [`Owners`]) a primitive pair within the build's limit at
+    /// `reference`: the candidates.
     candidates: Vec<(u32, u32)>,
+    /// The triangles of each vertex, for [`Owners`].
+    owners: Owners,
     /// The primitive pairs of the build, each with its distance at `reference` (m), by
     /// increasing distance (NaN first), then by pair.
     pairs: Vec<(Pair, f64)>,
@@ -424,8 +426,15 @@ impl PairCache {
             reach + p.spread(skin) + if across { cross_skin } else { 0.0 }
         };
         // A primitive pair beyond the limit cannot come within `reach` before the next build.
-        self.candidates =
-            close_primitive_pairs(mesh.triangles, &boxes, reference, limit, &mut self.pairs);
+        self.owners.index(mesh, safe.len());
+        self.candidates = close_primitive_pairs(
+            mesh,
+            Some(&self.owners),
+            &boxes,
+            reference,
+            limit,
+            &mut self.pairs,
+        );
         self.index_by_vertex();
         self.is_live.clear();
         self.is_live.resize(self.pairs.len(), false);
@@ -485,13 +494,7 @@ pub(super) mod tests {
             .map(|(a, b)| (a as u32, b as u32))
             .collect();
         let mut every = Vec::new();
-        close_primitive_pairs(
-            mesh.triangles,
-            &all,
-            positions,
-            |_| f64::INFINITY,
-            &mut every,
-        );
+        close_primitive_pairs(mesh, None, &all, positions, |_| f64::INFINITY, &mut every);
         (all, every.into_iter().map(|(p, _)| p).collect())
     }
 
@@ -610,17 +613,55 @@ pub(super) mod tests {
         }
     }
 
+    /// A non-manifold mesh: the rolled-up grid with a fin on some of its edges (a third
+    /// triangle on an edge two triangles already share, its tip 4 mm off the grid). A build
+    /// stores exactly the primitive pairs closer than their limit (brute force over all
+    /// primitive pairs), as on a manifold mesh: the owners of pairs on such edges are looked up
+    /// among all their triangles.
+    #[test]
+    fn a_build_on_non_manifold_edges_stores_every_close_pair() {
+        let mut rng = Rng::new(23);
+        let mut rolled = Rolled::new(10, 0.03, &mut rng);
+        let fins: Vec<[u32; 3]> = rolled.triangles.iter().step_by(7).copied().collect();
+        for [a, b, c] in fins {
+            let tip = rolled.positions[c as usize] + Vector3::new(0.0, 0.0, 0.004);
+            rolled.triangles.push([a, b, rolled.positions.len() as u32]);
+            rolled.positions.push(tip);
+            rolled.body.push(0);
+        }
+        let mesh = rolled.mesh();
+        let safe = rolled.positions.clone();
+        let (_, every) = brute_force_pairs(&mesh, &safe);
+        let (reach, allowance) = (0.02, vec![0.002; safe.len()]);
+        let mut cache = PairCache::default();
+        let mut live = Vec::new();
+        assert!(cache.live_pairs(&safe, &safe, &allowance, &mesh, reach, &mut live));
+        let limit = |p: &Pair| reach + p.spread(&cache.skin);
+        let mut stored: Vec<Pair> = cache.pairs.iter().map(|(p, _)| *p).collect();
+        stored.sort_unstable();
+        let mut close: Vec<Pair> = every
+            .iter()
+            .copied()
+            .filter(|p| p.closest(&safe).separation.norm() < limit(p))
+            .collect();
+        close.sort_unstable();
+        assert!(close.len() > 100, "{} close pairs", close.len());
+        assert_eq!(stored, close);
+    }
+
     /// The rolled-up grid (layers a little more than the barrier's reach apart) moving over
     /// several local steps: the live pairs hold every primitive pair of non-adjacent triangles
     /// that a brute-force search finds within `reach` along the way; each build's candidates
-    /// are exactly the triangle pairs with a primitive pair closer than `reach + 2 R` (brute
-    /// force), at the first build fewer than three quarters of the box pairs, and its stored
-    /// primitive pairs are all closer than that.
+    /// are exactly the triangle pairs that own (see [`Owners`]) a primitive pair closer than
+    /// its limit `reach + max_P R + max_Q R` (brute force), at the first build fewer than three
+    /// quarters of the box pairs, and its stored primitive pairs are exactly those closer than
+    /// their limit (brute force over all primitive pairs): expanding only the owned pairs loses
+    /// none.
     #[test]
     fn crumpled_grid_keeps_every_pair_a_brute_force_search_finds() {
         let mut rng = Rng::new(19);
         let rolled = Rolled::new(14, 0.03, &mut rng);
-        let (mesh, triangles) = (rolled.mesh(), &rolled.triangles);
+        let mesh = rolled.mesh();
         let mut safe = rolled.positions.clone();
         let (all, every) = brute_force_pairs(&mesh, &safe);
         let (reach, allowance) = (0.02, vec![0.002; safe.len()]);
@@ -640,15 +681,16 @@ pub(super) mod tests {
                     .iter()
                     .copied()
                     .filter(|&pair| {
-                        let mut expanded = Vec::new();
+                        let mut owned = Vec::new();
                         close_primitive_pairs(
-                            triangles,
+                            &mesh,
+                            Some(&cache.owners),
                             &[pair],
                             r,
-                            |_| f64::INFINITY,
-                            &mut expanded,
+                            limit,
+                            &mut owned,
                         );
-                        expanded.iter().any(|(p, d)| *d < limit(p))
+                        !owned.is_empty()
                     })
                     .collect();
                 assert_eq!(cache.candidates, near, "step {k}");
@@ -659,6 +701,15 @@ pub(super) mod tests {
                     cache.box_pairs()
                 );
                 assert!(cache.pairs.iter().all(|(p, d)| *d < limit(p)));
+                let mut stored: Vec<Pair> = cache.pairs.iter().map(|(p, _)| *p).collect();
+                stored.sort_unstable();
+                let mut close: Vec<Pair> = every
+                    .iter()
+                    .copied()
+                    .filter(|p| p.closest(r).separation.norm() < limit(p))
+                    .collect();
+                close.sort_unstable();
+                assert_eq!(stored, close, "step {k}");
             }
             let moves = Moves::new(&safe, &target, &clamp, &allowance);
             within +=

@@ -1,10 +1,11 @@
 //! Primitive pairs of the local step: a candidate triangle pair expands into 6 point-triangle
-//! and 9 edge-edge pairs (Lu et al. 2023, eq. 48), deduplicated over all candidates (an edge or
-//! a vertex belongs to several triangles).
+//! and 9 edge-edge pairs (Lu et al. 2023, eq. 48); an edge or a vertex belongs to several
+//! triangles, so a build expands each pair in one triangle pair only (see [`Owners`]).
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::broad_phase::ContactMesh;
 use super::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use super::distance::{edge_edge_closest, point_triangle_closest, Closest};
 
@@ -168,27 +169,191 @@ pub fn closest_primitive_distance(x: &[Vector3<f64>], ti: &[u32; 3], tj: &[u32; 
 /// Triangle pairs and the primitive pairs they hold, with their distances (m).
 type CandidatesAndPairs = (Vec<(u32, u32)>, Vec<(Pair, f64)>);
 
-/// Writes into `found` the primitive pairs `p` of the triangle pairs of `boxes` that are
-/// closer than `limit(p)` (m) at the positions `x` (m), each with that distance (NaN
-/// distances count as close), deduplicated and sorted by distance (NaN first), then by pair
-/// (reusing its allocation); returns the triangle pairs that hold one of them (the
-/// candidates), in the order of `boxes`. Each distance is computed once per triangle pair.
+/// Which triangle pair expands each primitive pair, so that a build computes each once (a
+/// vertex belongs to about six triangles and an edge to two, so the 15 pairs of every
+/// triangle pair repeat each about four times over the triangle pairs of a sheet).
+///
+/// The owner of a point-triangle pair `(v, F)` is `F` with the lowest-numbered triangle of
+/// `v` that may touch `F`; of an edge-edge pair, the lowest `(min, max)` of the pairs of
+/// triangles of its two edges that may touch. Every triangle holding a primitive has a box
+/// holding it, so where the boxes of every triangle pair that may touch overlap whenever two
+/// of their primitives come within those primitives' limit (as a padding of each triangle by
+/// the largest of its vertices' shares of the limit provides), the owner's boxes overlap
+/// whenever the pair is within its limit: expanding only the pairs a triangle pair owns then
+/// finds every close pair once. (A triangle pair yields a pair only to a lower pair of
+/// triangles it finds holding the two primitives and allowed to touch, so the lowest of all
+/// always keeps it.)
+#[derive(Default)]
+pub(super) struct Owners {
+    /// The triangles of vertex `v` are `incident[start[v]..start[v + 1]]`, increasing.
+    start: Vec<u32>,
+    incident: Vec<u32>,
+    /// Per triangle and edge `k` (from corner `k` to corner `k + 1`): the other triangle
+    /// holding the edge, [`NONE`] or [`MANY`].
+    across: Vec<[u32; 3]>,
+}
+
+/// No other triangle holds the edge.
+const NONE: u32 = u32::MAX;
+/// Several other triangles hold the edge (a non-manifold edge): look them up.
+const MANY: u32 = u32::MAX - 1;
+
+impl Owners {
+    /// Indexes the triangles of every vertex and edge of `mesh` (`vertices` vertices).
+    pub fn index(&mut self, mesh: &ContactMesh, vertices: usize) {
+        self.start.clear();
+        self.start.resize(vertices + 1, 0);
+        for t in mesh.triangles {
+            for &v in t {
+                self.start[v as usize + 1] += 1;
+            }
+        }
+        for v in 0..vertices {
+            self.start[v + 1] += self.start[v];
+        }
+        let mut next = self.start.clone();
+        self.incident.clear();
+        self.incident.resize(3 * mesh.triangles.len(), 0);
+        for (k, t) in mesh.triangles.iter().enumerate() {
+            for &v in t {
+                self.incident[next[v as usize] as usize] = k as u32;
+                next[v as usize] += 1;
+            }
+        }
+        let this = &*self;
+        let across: Vec<[u32; 3]> = mesh
+            .triangles
+            .par_iter()
+            .enumerate()
+            .map(|(k, t)| {
+                [0, 1, 2].map(|e| {
+                    let mut others = this
+                        .of_edge(t[e], t[(e + 1) % 3])
+                        .filter(|&o| o as usize != k);
+                    match (others.next(), others.next()) {
+                        (None, _) => NONE,
+                        (Some(o), None) => o,
+                        _ => MANY,
+                    }
+                })
+            })
+            .collect();
+        self.across = across;
+    }
+
+    fn of(&self, v: u32) -> &[u32] {
+        &self.incident[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
+    }
+
+    /// The triangles holding the edge `[a, b]`, increasing.
+    fn of_edge(&self, a: u32, b: u32) -> impl Iterator<Item = u32> + Clone + '_ {
+        let other = self.of(b);
+        self.of(a)
+            .iter()
+            .copied()
+            .filter(move |t| other.contains(t))
+    }
+
+    /// Whether `point`, a triangle of vertex `v` that may touch `face`, is the lowest-numbered
+    /// such triangle.
+    fn first_touching(&self, mesh: &ContactMesh, v: u32, point: u32, face: u32) -> bool {
+        for &t in self.of(v) {
+            if t == point {
+                return true;
+            }
+            if mesh.may_touch(t as usize, face as usize) {
+                return false;
+            }
+        }
+        false
+    }
+
+    /// The triangles holding edge `k` of triangle `t`: `t` first.
+    fn holders<'a>(
+        &'a self,
+        mesh: &ContactMesh,
+        t: u32,
+        k: usize,
+    ) -> impl Iterator<Item = u32> + Clone + 'a {
+        let across = self.across[t as usize][k];
+        let tri = mesh.triangles[t as usize];
+        let many = (across == MANY).then(|| {
+            self.of_edge(tri[k], tri[(k + 1) % 3])
+                .filter(move |&o| o != t)
+        });
+        std::iter::once(t)
+            .chain((across != NONE && across != MANY).then_some(across))
+            .chain(many.into_iter().flatten())
+    }
+
+    /// Whether the pair `(a, b)` (`a < b`, triangles that may touch) owns the edge-edge pair
+    /// of edge `ka` of `a` and edge `kb` of `b`: no other pair of triangles holding the two
+    /// edges that may touch comes before it in `(min, max)` order (only those that would are
+    /// tested).
+    fn owns_edges(&self, mesh: &ContactMesh, (a, ka): (u32, usize), (b, kb): (u32, usize)) -> bool {
+        let earlier = |ta: u32, tb: u32| {
+            (ta.min(tb), ta.max(tb)) < (a, b) && mesh.may_touch(ta as usize, tb as usize)
+        };
+        let (oa, ob) = (self.across[a as usize][ka], self.across[b as usize][kb]);
+        if oa == MANY || ob == MANY {
+            return !self
+                .holders(mesh, a, ka)
+                .flat_map(|ta| self.holders(mesh, b, kb).map(move |tb| (ta, tb)))
+                .any(|(ta, tb)| earlier(ta, tb));
+        }
+        let (with_a, with_b) = (oa != NONE, ob != NONE);
+        !((with_a && earlier(oa, b))
+            || (with_b && earlier(a, ob))
+            || (with_a && with_b && earlier(oa, ob)))
+    }
+
+    /// Which of the 15 pairs [`expand`] gives for the triangle pair `(i, j)` (`i < j`, triangles
+    /// that may touch) it owns, in [`expand`]'s order.
+    fn owned(&self, mesh: &ContactMesh, i: u32, j: u32) -> [bool; PER_TRIANGLE_PAIR] {
+        let mut out = [false; PER_TRIANGLE_PAIR];
+        let mut slots = out.iter_mut();
+        for (point, face) in [(i, j), (j, i)] {
+            for &v in &mesh.triangles[point as usize] {
+                *slots.next().expect("15 slots") = self.first_touching(mesh, v, point, face);
+            }
+        }
+        for ki in 0..3 {
+            for kj in 0..3 {
+                *slots.next().expect("15 slots") = self.owns_edges(mesh, (i, ki), (j, kj));
+            }
+        }
+        out
+    }
+}
+
+/// Writes into `found` the primitive pairs `p` of the triangle pairs `(i, j)` (`i < j`) of
+/// `boxes` that are closer than `limit(p)` (m) at the positions `x` (m), each with that
+/// distance (NaN distances count as close), deduplicated and sorted by distance (NaN first),
+/// then by pair (reusing its allocation); returns the triangle pairs that hold one of them
+/// (the candidates), in the order of `boxes`. With `owners`, a triangle pair expands only the
+/// pairs it owns (see [`Owners`]): each distance is computed once, and a close pair is found
+/// only if the boxes of its owner are in `boxes`.
 pub(super) fn close_primitive_pairs(
-    triangles: &[[u32; 3]],
+    mesh: &ContactMesh,
+    owners: Option<&Owners>,
     boxes: &[(u32, u32)],
     x: &[Vector3<f64>],
     limit: impl Fn(&Pair) -> f64 + Sync,
     found: &mut Vec<(Pair, f64)>,
 ) -> Vec<(u32, u32)> {
+    let triangles = mesh.triangles;
     let (candidates, mut close) = boxes
         .par_iter()
         .fold(
             || (Vec::new(), Vec::new()),
             |(mut candidates, mut close): CandidatesAndPairs, &(i, j)| {
                 let before = close.len();
+                let owned = owners.map_or([true; PER_TRIANGLE_PAIR], |o| o.owned(mesh, i, j));
                 close.extend(
                     expand(&triangles[i as usize], &triangles[j as usize])
                         .into_iter()
+                        .zip(owned)
+                        .filter_map(|(p, owned)| owned.then_some(p))
                         .map(|p| (p, p.closest(x).separation.norm()))
                         .filter(|(p, d)| *d < limit(p) || d.is_nan()),
                 );
