@@ -22,8 +22,10 @@
 //!    `lambda = min(1, eps xi / (mu alpha_0 ceil|B'| + D))` for every vertex, with `alpha_0` the
 //!    largest `sum_c alpha_c^i` and `D` the largest `|y_i^k - z_i|` of this iteration, or (the
 //!    default) a step per vertex scaled by the barrier's curvature along the contact normals
-//!    there; stop when the
-//!    largest move is below [`STOP_FRACTION`] `eps xi` or after `max_iters` iterations.
+//!    there; stop when the largest move is below [`STOP_FRACTION`] `eps xi` or after
+//!    `max_iters` iterations. By default the descent starts from the global step's result
+//!    plus the last local step's move ([`ContactParams::warm_start`]), not from the result
+//!    alone.
 //!
 //! A final guarantee pass (not in the paper, which leaves vertices with a small time of impact
 //! unclamped): additive CCD from `z^{k-1}` to `z` once more, with the pair's separation floor
@@ -96,12 +98,14 @@ pub struct ContactParams {
     pub toi_threshold: f64,
     /// The additive CCD (`s = 0.1`, `t_c = 0.95` as in the paper).
     pub ccd: AdditiveCcd,
-    /// Start the descent from `y_i^k + p_i` instead of the paper's `y_i^k` (Algorithm 2,
-    /// line 2), `p_i` the barrier push the last local step left vertex `i` with (see
-    /// [`Workspace::push`]), at most as long as that step's own move `|z_i - y_i^k|`. Where the
-    /// contacts persist the descent then starts near its minimum and the local steps of a
-    /// time step continue one another's descent instead of repeating it, so the global
-    /// iteration's fixed point has a local step solved as well as it is iterated.
+    /// Start the descent from `y_i^k + (z_i - y_i^k)_last` instead of the paper's `y_i^k`
+    /// (Algorithm 2, line 2): the move the last local step (of the same vertex count) made at
+    /// vertex `i`, where the barrier pushed it there and the final clamp did not move it
+    /// (elsewhere no offset). Where the contacts persist the descent then starts near its
+    /// minimum, and the local steps of a time step continue one another's descent instead of
+    /// repeating it: at the global iteration's fixed point the local step is solved as well
+    /// as the iteration is, not only to its stopping test. The offset is a move like a descent
+    /// move (drift, deviation, CCD from the safe positions), so every guarantee holds.
     pub warm_start: bool,
 }
 

@@ -243,8 +243,8 @@ fn edge_edge_ccd_additive<'py>(
 /// eq. 53's one step for all vertices (see `DescentStep`); `toi_threshold` (default 0.1):
 /// times of impact above it clamp inside the descent; `ccd_s`, `ccd_t_c` (0.1, 0.95): the
 /// additive CCD's parameters; `warm_start` (default True): start each local step's descent
-/// from the push the last one ended with instead of the global step's result (Algorithm 2,
-/// line 2), see `ContactParams::warm_start`.
+/// from the global step's result plus the move the last local step made where the barrier
+/// pushed, instead of the result alone (Algorithm 2, line 2), see `ContactParams::warm_start`.
 #[pyclass(module = "peridyn._core", name = "Contact", frozen)]
 #[derive(Clone)]
 pub struct PyContact {
