@@ -56,6 +56,7 @@ use rayon::prelude::*;
 
 use super::broad_phase::{BroadPhase, ContactMesh};
 use super::primitive_pairs::{close_primitive_pairs, nan_max, Owners, Pair};
+use super::vertex_index::index_by_vertex;
 
 /// The primitive pairs of the last build and their distances at its reference positions.
 #[derive(Default)]
@@ -317,31 +318,6 @@ impl PairCache {
         self.common = self.common_motion();
     }
 
-    /// Fills `by_vertex` and `by_vertex_start` from `pairs` (a counting sort; the four
-    /// vertices of a pair are distinct, as its primitives share none).
-    fn index_by_vertex(&mut self) {
-        let n = self.reference.len();
-        self.by_vertex_start.clear();
-        self.by_vertex_start.resize(n + 1, 0);
-        for (pair, _) in &self.pairs {
-            for &v in &pair.v {
-                self.by_vertex_start[v as usize + 1] += 1;
-            }
-        }
-        for v in 0..n {
-            self.by_vertex_start[v + 1] += self.by_vertex_start[v];
-        }
-        let mut next = self.by_vertex_start.clone();
-        self.by_vertex.clear();
-        self.by_vertex.resize(4 * self.pairs.len(), 0);
-        for (k, (pair, _)) in self.pairs.iter().enumerate() {
-            for &v in &pair.v {
-                self.by_vertex[next[v as usize] as usize] = k as u32;
-                next[v as usize] += 1;
-            }
-        }
-    }
-
     /// Builds the lists at `r = safe`. The skins are a cost trade-off only (any that pass the
     /// reuse test are correct): per vertex `R_i = q_i + reach / 4` with `q_i` the largest
     /// `M |g_j - c_B^g| + A_j` within [`SKIN_RINGS`] triangle rings of `i`, and `S = M
@@ -438,7 +414,14 @@ impl PairCache {
             limit,
             &mut self.pairs,
         );
-        self.index_by_vertex();
+        // The pairs of each vertex (the four vertices of a pair are distinct: its primitives
+        // share none).
+        index_by_vertex(
+            self.pairs.iter().map(|(pair, _)| pair.v),
+            safe.len(),
+            &mut self.by_vertex_start,
+            &mut self.by_vertex,
+        );
         self.is_live.clear();
         self.is_live.resize(self.pairs.len(), false);
         self.flagged = 0;

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use super::broad_phase::ContactMesh;
 use super::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use super::distance::{edge_edge_closest, point_triangle_closest, Closest};
+use super::vertex_index::index_by_vertex;
 
 /// A primitive pair: point-triangle `[p, t0, t1, t2]` or edge-edge `[a0, a1, b0, b1]`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -201,25 +202,12 @@ const MANY: u32 = u32::MAX - 1;
 impl Owners {
     /// Indexes the triangles of every vertex and edge of `mesh` (`vertices` vertices).
     pub fn index(&mut self, mesh: &ContactMesh, vertices: usize) {
-        self.start.clear();
-        self.start.resize(vertices + 1, 0);
-        for t in mesh.triangles {
-            for &v in t {
-                self.start[v as usize + 1] += 1;
-            }
-        }
-        for v in 0..vertices {
-            self.start[v + 1] += self.start[v];
-        }
-        let mut next = self.start.clone();
-        self.incident.clear();
-        self.incident.resize(3 * mesh.triangles.len(), 0);
-        for (k, t) in mesh.triangles.iter().enumerate() {
-            for &v in t {
-                self.incident[next[v as usize] as usize] = k as u32;
-                next[v as usize] += 1;
-            }
-        }
+        index_by_vertex(
+            mesh.triangles.iter().copied(),
+            vertices,
+            &mut self.start,
+            &mut self.incident,
+        );
         let this = &*self;
         let across: Vec<[u32; 3]> = mesh
             .triangles
