@@ -612,11 +612,16 @@ pub fn project(
                     Some(lambda) => direction * lambda,
                     None => {
                         // `I + K_i` is positive definite unless `K_i` is not finite; then
-                        // the vertex stays (a NaN position is caught by the global step).
-                        let step = curvature[i]
-                            .plus_identity(1.0)
-                            .try_inverse()
-                            .map_or(Vector3::zeros(), |inverse| inverse.mul_vector(&direction));
+                        // the vertex stays (a NaN position is caught by the global step). Away
+                        // from contact `K_i = 0`: no inverse needed.
+                        let k = &curvature[i];
+                        let step = if *k == SymmetricMatrix3::zeros() {
+                            direction
+                        } else {
+                            k.plus_identity(1.0)
+                                .try_inverse()
+                                .map_or(Vector3::zeros(), |inverse| inverse.mul_vector(&direction))
+                        };
                         step * (longest / step.norm()).min(1.0)
                     }
                 };
