@@ -677,20 +677,22 @@ pub fn project(
     // The next warm start: this step's own move where the barrier pushes and no clamp of
     // the guarantee pass moved the vertex.
     work.warm.clear();
-    work.warm.par_extend(
-        work.push
-            .par_iter()
-            .zip(&work.clamped)
-            .zip(&*z)
-            .zip(&work.target)
-            .map(|(((p, &clamped), zi), yi)| {
-                if clamped || *p == Vector3::zeros() {
-                    Vector3::zeros()
-                } else {
-                    zi - yi
-                }
-            }),
-    );
+    if params.warm_start {
+        work.warm.par_extend(
+            work.push
+                .par_iter()
+                .zip(&work.clamped)
+                .zip(&*z)
+                .zip(&work.target)
+                .map(|(((p, &clamped), zi), yi)| {
+                    if clamped || *p == Vector3::zeros() {
+                        Vector3::zeros()
+                    } else {
+                        zi - yi
+                    }
+                }),
+        );
+    }
     stats.descent_ms += millis(t);
     stats
 }

@@ -9,7 +9,9 @@
 //! around `r`, each inflated by the largest `R` of its vertices plus `reach / 2` (plus `S / 2`
 //! across bodies), overlap and one of whose 15 primitive pairs is within its limit. The
 //! second test matters on fine meshes: there the padding exceeds the triangle size, and a box
-//! overlaps those of dozens of triangles of the same sheet that are much farther apart.
+//! overlaps those of dozens of triangles of the same sheet that are much farther apart. Each
+//! primitive pair is expanded in one such triangle pair only, its owner (see
+//! [`Owners`]); the candidates counted are the triangle pairs that own a kept pair.
 //!
 //! **What a local step looks at.** With `s` the safe positions and `y` the global step's result
 //! (m), the local step (see [`super::local_step`]) evaluates pairs at its iterates `z` and runs

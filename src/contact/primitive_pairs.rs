@@ -208,9 +208,9 @@ impl Owners {
             &mut self.start,
             &mut self.incident,
         );
+        let mut across = std::mem::take(&mut self.across);
         let this = &*self;
-        let across: Vec<[u32; 3]> = mesh
-            .triangles
+        mesh.triangles
             .par_iter()
             .enumerate()
             .map(|(k, t)| {
@@ -225,7 +225,7 @@ impl Owners {
                     }
                 })
             })
-            .collect();
+            .collect_into_vec(&mut across);
         self.across = across;
     }
 
