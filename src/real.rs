@@ -16,6 +16,10 @@ pub trait Real: RealField + Copy + Send + Sync + Default + std::fmt::Debug + 'st
     const NAME: &'static str;
     /// The SIMD pack of this scalar that the vertex kernel runs on.
     type Pack: Lanes<Scalar = Self>;
+    /// `sum[k] += add[k]` for the eight entries of a gathered record, as wide additions (the
+    /// per-vertex move sums eight-entry records of its neighbours; left to itself, the compiler
+    /// adds them one entry at a time).
+    fn add_eight(sum: &mut [Self; 8], add: &[Self; 8]);
 }
 
 impl Real for f64 {
@@ -30,6 +34,13 @@ impl Real for f64 {
     }
     const NAME: &'static str = "f64";
     type Pack = F64Pack;
+    #[inline(always)]
+    fn add_eight(sum: &mut [Self; 8], add: &[Self; 8]) {
+        for (s, a) in sum.chunks_exact_mut(4).zip(add.chunks_exact(4)) {
+            let half = |x: &[f64]| F64Pack::from([x[0], x[1], x[2], x[3]]);
+            s.copy_from_slice(&(half(s) + half(a)).0.to_array());
+        }
+    }
 }
 
 impl Real for f32 {
@@ -44,6 +55,10 @@ impl Real for f32 {
     }
     const NAME: &'static str = "f32";
     type Pack = F32Pack;
+    #[inline(always)]
+    fn add_eight(sum: &mut [Self; 8], add: &[Self; 8]) {
+        *sum = (F32Pack::from(*sum) + F32Pack::from(*add)).0.to_array();
+    }
 }
 
 /// A pack of [`Lanes::LANES`] scalars computed on in lock step: a scalar [`Real`] itself (one

@@ -76,7 +76,7 @@ impl<S: Lanes> VertexResponse<S> {
 /// reported, by [`super::Membrane::energy_terms`]). Eight scalars in one aligned array
 /// (`C_00, C_11, C_22, C_01, C_02, C_12, E_i`, then a zero), so that a move sums its
 /// neighbours' records with a few wide additions.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[repr(C, align(32))]
 pub struct GatheredResponse<S> {
     values: [S; 8],
@@ -123,13 +123,11 @@ impl<S: Lanes> From<&VertexResponse<S>> for GatheredResponse<S> {
     }
 }
 
-impl<S: Lanes> std::ops::AddAssign for GatheredResponse<S> {
+impl<T: Real> std::ops::AddAssign for GatheredResponse<T> {
     /// Entry-wise (the padding stays zero).
     #[inline(always)]
     fn add_assign(&mut self, rhs: Self) {
-        for (a, b) in self.values.iter_mut().zip(rhs.values) {
-            *a += b;
-        }
+        T::add_eight(&mut self.values, &rhs.values);
     }
 }
 

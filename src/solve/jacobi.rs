@@ -2,14 +2,14 @@
 //! (Fig. 6), the step length of eq. 31-33, colliders in the system metric, and Chebyshev
 //! extrapolation.
 
-use nalgebra::Vector3;
+use nalgebra::{SimdValue, Vector3};
 use rayon::prelude::*;
 
 use crate::contact::ColliderModel;
 use crate::isa;
 use crate::membrane::{internal_force, GatheredResponse};
 use crate::parallel::GRAIN;
-use crate::real::Real;
+use crate::real::{Lanes, Real};
 use crate::symmetric::SymmetricMatrix3;
 
 use super::system::System;
@@ -28,7 +28,8 @@ pub(super) struct Update {
 impl Update {
     pub fn of<T: Real>(vertex: usize, before: &Vector3<T>, after: &Vector3<T>) -> Self {
         let finite = after.x.is_finite() & after.y.is_finite() & after.z.is_finite();
-        let moved = (after - before).norm().to_f64();
+        // The square root in f64, as the per-chunk maxima of the move take it.
+        let moved = (after - before).norm_squared().to_f64().sqrt();
         Self {
             moved: if finite { moved } else { 0.0 },
             residual: 0.0,
@@ -73,43 +74,89 @@ pub(super) struct MoveOptions<'a, T: Real> {
 }
 
 /// The linear system of vertex `k` at the current iterate: `D delta = r` with
-/// `D = m I + h^2 (n_k C_k + sum_j C_j)` and `r = m (y* - y) + h^2 f`.
+/// `D = m I + h^2 (n_k C_k + sum_j C_j)` and `r = m (y* - y) + h^2 f`; of one vertex (`S` a
+/// [`Real`]) or of a SIMD pack of vertices, one per lane (`S` a [`Real::Pack`], every lane
+/// bit-identical to the scalar system of its vertex).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct LocalSystem<T: Real> {
-    pub mass: T,
-    pub residual: Vector3<T>,
+pub(crate) struct LocalSystem<S: Lanes> {
+    pub mass: S,
+    pub residual: Vector3<S>,
     /// `D` (kg).
-    pub system: SymmetricMatrix3<T>,
+    pub system: SymmetricMatrix3<S>,
     /// `D^-1` (1/kg), or `I / m` where `D` is singular (see [`LocalSystem::new`]).
-    pub inverse: SymmetricMatrix3<T>,
+    pub inverse: SymmetricMatrix3<S>,
     /// `h^2 f`.
-    pub force_h2: Vector3<T>,
+    pub force_h2: Vector3<S>,
     /// `h^2` times the elastic energy of the vertices whose neighbourhood holds `k`.
-    pub energy_h2: T,
+    pub energy_h2: S,
+}
+
+/// What vertex `k`'s system is assembled from, read from the responses of the last evaluation.
+#[derive(Clone, Copy, Default)]
+struct Gathered<T: Real> {
+    mass: T,
+    /// `y*_k - y_k` (m).
+    to_prediction: Vector3<T>,
+    /// `h^2 f_k` (N s^2), the bond gradients of `k` and of its neighbours towards it.
+    force_h2: Vector3<T>,
+    /// `n_k C_k + sum_j C_j` (N/m) and `E_k + sum_j E_j` (J).
+    responses: GatheredResponse<T>,
+}
+
+impl<T: Real> Gathered<T> {
+    #[inline(always)]
+    fn of(sys: &System<T>, k: usize, h2: T) -> Self {
+        let neighbors = sys.nb.of(k);
+        let response = &sys.response;
+        let own = &response[k];
+        // One record at a time.
+        let mut responses =
+            GatheredResponse::new(own.precond() * T::of(neighbors.len() as f64), own.energy());
+        for &j in neighbors {
+            responses += response[j as usize];
+        }
+        Self {
+            mass: sys.rest.vertices[k].mass,
+            to_prediction: sys.y_star[k] - sys.y[k],
+            force_h2: internal_force(k, &sys.nb, &sys.bond_grad) * h2,
+            responses,
+        }
+    }
 }
 
 impl<T: Real> LocalSystem<T> {
     /// Assembles vertex `k`'s system from the responses of the last evaluation.
     #[inline(always)]
     pub fn of(sys: &System<T>, k: usize, h2: T) -> Self {
-        let mass = sys.rest.vertices[k].mass;
-        let force_h2 = internal_force(k, &sys.nb, &sys.bond_grad) * h2;
-        let residual = (sys.y_star[k] - sys.y[k]) * mass + force_h2;
-        let neighbors = sys.nb.of(k);
-        let response = &sys.response;
-        let own = &response[k];
-        // `n_k C_k + sum_j C_j` and `E_k + sum_j E_j`, one record at a time.
-        let mut sum =
-            GatheredResponse::new(own.precond() * T::of(neighbors.len() as f64), own.energy());
-        for &j in neighbors {
-            sum += response[j as usize];
-        }
+        let g = Gathered::of(sys, k, h2);
+        Self::assemble(
+            g.mass,
+            g.to_prediction,
+            g.force_h2,
+            g.responses.precond(),
+            g.responses.energy(),
+            h2,
+        )
+    }
+}
+
+impl<S: Lanes> LocalSystem<S> {
+    /// `D = m I + h^2 C`, `r = m (y* - y) + h^2 f` from the gathered sums `C` (N/m) and `E` (J).
+    #[inline(always)]
+    fn assemble(
+        mass: S,
+        to_prediction: Vector3<S>,
+        force_h2: Vector3<S>,
+        precond: SymmetricMatrix3<S>,
+        energy: S,
+        h2: S,
+    ) -> Self {
         Self::new(
             mass,
-            sum.precond() * h2,
-            residual,
+            precond * h2,
+            to_prediction * mass + force_h2,
             force_h2,
-            sum.energy() * h2,
+            energy * h2,
         )
     }
 
@@ -117,18 +164,16 @@ impl<T: Real> LocalSystem<T> {
     /// `m > 0` and a positive semi-definite `stiffness` (kg); should round-off or a non-finite
     /// stiffness still make it exactly singular, the inverse falls back to `I / m`, the
     /// explicit move `r / m` (a non-finite result is then caught as divergence).
-    #[inline]
+    #[inline(always)]
     pub fn new(
-        mass: T,
-        stiffness: SymmetricMatrix3<T>,
-        residual: Vector3<T>,
-        force_h2: Vector3<T>,
-        energy_h2: T,
+        mass: S,
+        stiffness: SymmetricMatrix3<S>,
+        residual: Vector3<S>,
+        force_h2: Vector3<S>,
+        energy_h2: S,
     ) -> Self {
         let system = stiffness.plus_identity(mass);
-        let inverse = system
-            .try_inverse()
-            .unwrap_or_else(|| SymmetricMatrix3::from_diagonal(&Vector3::repeat(T::one() / mass)));
+        let inverse = system.inverse_or(S::one() / mass);
         Self {
             mass,
             residual,
@@ -140,8 +185,8 @@ impl<T: Real> LocalSystem<T> {
     }
 
     /// One Jacobi solve, `D^-1 r`.
-    #[inline]
-    pub fn solve(&self) -> Vector3<T> {
+    #[inline(always)]
+    pub fn solve(&self) -> Vector3<S> {
         self.inverse.mul_vector(&self.residual)
     }
 
@@ -151,16 +196,20 @@ impl<T: Real> LocalSystem<T> {
     /// `h^2 f . delta > STEP_LENGTH_SIGNIFICANCE m |delta|^2`: below it the release is either
     /// harmless or round-off (a vertex at rest has `E` and `f` at round-off level, and cutting
     /// there would freeze it).
-    #[inline]
-    pub fn step_length(&self, delta: &Vector3<T>) -> T {
+    #[inline(always)]
+    pub fn step_length(&self, delta: &Vector3<S>) -> S {
         let descent = self.force_h2.dot(delta);
         let significant =
-            descent > T::of(STEP_LENGTH_SIGNIFICANCE) * self.mass * delta.norm_squared();
-        if descent > self.energy_h2 && significant {
-            self.energy_h2.max(T::zero()) / descent
-        } else {
-            T::one()
-        }
+            descent.simd_gt(S::lit(STEP_LENGTH_SIGNIFICANCE) * self.mass * delta.norm_squared());
+        let cut = descent.simd_gt(self.energy_h2) & significant;
+        (self.energy_h2.simd_max(S::zero()) / descent).select(cut, S::one())
+    }
+
+    /// The residual per unit mass, `r / m` (m): the convergence measure of a vertex touching
+    /// neither a collider nor another membrane (see [`free_residual`]).
+    #[inline(always)]
+    fn residual_per_mass(&self) -> Vector3<S> {
+        self.residual * (S::one() / self.mass)
     }
 }
 
@@ -179,6 +228,8 @@ pub(super) fn jacobi_update<T: Real>(
     if inner {
         inner_sweeps(sys, h2, options.inner_iters);
     }
+    // A move that needs nothing but its vertex's own system runs a SIMD pack at a time.
+    let packed = !inner && options.colliders.is_empty() && options.contact_reaction.is_empty();
     let mut y_next = std::mem::take(&mut sys.y_next);
     let sys_ref = &*sys;
     let update = y_next
@@ -187,7 +238,13 @@ pub(super) fn jacobi_update<T: Real>(
         .map(|(c, next)| {
             isa::run(
                 #[inline(always)]
-                || move_vertices(sys_ref, c * GRAIN, next, h2, options),
+                || {
+                    if packed {
+                        move_packs(sys_ref, c * GRAIN, next, h2, options)
+                    } else {
+                        move_vertices(sys_ref, c * GRAIN, next, h2, options)
+                    }
+                },
             )
         })
         .reduce(|| Update::NONE, Update::merge);
@@ -195,8 +252,127 @@ pub(super) fn jacobi_update<T: Real>(
     update
 }
 
+/// Most lanes of a [`Real::Pack`].
+const MAX_LANES: usize = 8;
+
+/// The pack whose lane `l` is `entry(&gathered[l])`.
+#[inline(always)]
+fn lanes_of<T: Real>(gathered: &[Gathered<T>], entry: impl Fn(&Gathered<T>) -> T) -> T::Pack {
+    T::Pack::gather(|l| entry(&gathered[l]))
+}
+
+/// The pack whose lane `l` is `v(k + l)`.
+#[inline(always)]
+fn vector_lanes<T: Real>(v: &[Vector3<T>], k: usize) -> Vector3<T::Pack> {
+    let at = |c: usize| T::Pack::gather(|l| v[k + l][c]);
+    Vector3::new(at(0), at(1), at(2))
+}
+
+/// [`move_vertices`] for moves without colliders, membrane contact or inner sweeps, a SIMD pack
+/// of consecutive vertices at a time: each lane gathers its vertex's sums, the system, its
+/// solve, the step length, the move and its measures run in the pack's lanes (bit-identical to
+/// [`move_vertices`], see [`Lanes`]), and the lanes are written back one by one. The chunk's
+/// last vertices, short of a whole pack, go through [`move_vertices`].
+#[inline(always)]
+fn move_packs<T: Real>(
+    sys: &System<T>,
+    first: usize,
+    next: &mut [Vector3<T>],
+    h2: T,
+    options: &MoveOptions<'_, T>,
+) -> Update {
+    let lanes = T::Pack::LANES;
+    assert!(lanes <= MAX_LANES, "a pack has at most {MAX_LANES} lanes");
+    let whole = next.len() / lanes * lanes;
+    let (packs, tail) = next.split_at_mut(whole);
+    let mut gathered = [Gathered::<T>::default(); MAX_LANES];
+    let gathered = &mut gathered[..lanes];
+    let mut update = Update::NONE;
+    let (mut moved_sq, mut residual_sq) = (T::zero(), T::zero());
+    for (p, out) in packs.chunks_exact_mut(lanes).enumerate() {
+        let base = first + p * lanes;
+        for (l, g) in gathered.iter_mut().enumerate() {
+            *g = Gathered::of(sys, base + l, h2);
+        }
+        let vector = |v: fn(&Gathered<T>) -> Vector3<T>| {
+            Vector3::new(
+                lanes_of(gathered, |g| v(g).x),
+                lanes_of(gathered, |g| v(g).y),
+                lanes_of(gathered, |g| v(g).z),
+            )
+        };
+        let precond = |e: usize| {
+            lanes_of(gathered, |g| {
+                let c = g.responses.precond();
+                if e < 3 {
+                    c.diagonal[e]
+                } else {
+                    c.upper[e - 3]
+                }
+            })
+        };
+        let local = LocalSystem::assemble(
+            lanes_of(gathered, |g| g.mass),
+            vector(|g| g.to_prediction),
+            vector(|g| g.force_h2),
+            SymmetricMatrix3 {
+                diagonal: [precond(0), precond(1), precond(2)],
+                upper: [precond(3), precond(4), precond(5)],
+            },
+            lanes_of(gathered, |g| g.responses.energy()),
+            T::Pack::splat(h2),
+        );
+        let delta = local.solve();
+        let alpha = if options.step_length {
+            local.step_length(&delta)
+        } else {
+            T::Pack::lit(1.0)
+        };
+        let y = vector_lanes(&sys.y, base);
+        let mut moved_to = y + delta * alpha;
+        if let Some(w) = options.omega {
+            let previous = vector_lanes(&sys.y_prev, base);
+            moved_to = (moved_to - previous) * T::Pack::splat(w) + previous;
+        }
+        let move_sq = (moved_to - y).norm_squared();
+        let free_sq = local.residual_per_mass().norm_squared();
+        for (l, out) in out.iter_mut().enumerate() {
+            let k = base + l;
+            if sys.pinned[k] {
+                *out = sys.y[k];
+                continue;
+            }
+            *out = Vector3::new(
+                moved_to.x.extract(l),
+                moved_to.y.extract(l),
+                moved_to.z.extract(l),
+            );
+            let lane_sq = move_sq.extract(l);
+            if lane_sq.is_finite() {
+                moved_sq = moved_sq.max(lane_sq);
+            } else {
+                update = Update::merge(update, Update::of(k, &sys.y[k], out));
+            }
+            residual_sq = residual_sq.max(free_sq.extract(l));
+        }
+    }
+    let measured = Update {
+        moved: moved_sq.to_f64().sqrt(),
+        residual: residual_sq.to_f64().sqrt(),
+        first_bad: None,
+    };
+    let tail = move_vertices(sys, first + whole, tail, h2, options);
+    Update::merge(Update::merge(update, measured), tail)
+}
+
 /// The moves of the vertices `first..first + next.len()` into `next` (see [`jacobi_update`]),
 /// merged. Inlined into each copy [`isa::run`] chooses from.
+///
+/// The chunk keeps the largest squared move and squared residual in the working precision and
+/// takes their square roots in f64 once at its end (`sqrt` is monotonic, so that is the largest
+/// norm), rather than a square root and a conversion per vertex. A move whose square is not
+/// finite (a non-finite position, or beyond about 1e19 m in f32) goes through [`Update::of`],
+/// which names the vertex if its position is non-finite.
 #[inline(always)]
 fn move_vertices<T: Real>(
     sys: &System<T>,
@@ -207,6 +383,7 @@ fn move_vertices<T: Real>(
 ) -> Update {
     let inner = options.inner_iters > 1;
     let mut update = Update::NONE;
+    let (mut moved_sq, mut residual_sq) = (T::zero(), T::zero());
     for (k, next) in (first..).zip(next) {
         if sys.pinned[k] {
             *next = sys.y[k];
@@ -218,13 +395,27 @@ fn move_vertices<T: Real>(
             let local = LocalSystem::of(sys, k, h2);
             (local, local.solve())
         };
-        update = Update::merge(update, finish_move(sys, k, &local, delta, options, next));
+        finish_move(sys, k, &local, delta, options, next);
+        let move_sq = (*next - sys.y[k]).norm_squared();
+        if move_sq.is_finite() {
+            moved_sq = moved_sq.max(move_sq);
+        } else {
+            update = Update::merge(update, Update::of(k, &sys.y[k], next));
+        }
+        residual_sq = residual_sq.max(free_residual(sys, k, &local, options).norm_squared());
     }
-    update
+    Update::merge(
+        update,
+        Update {
+            moved: moved_sq.to_f64().sqrt(),
+            residual: residual_sq.to_f64().sqrt(),
+            first_bad: None,
+        },
+    )
 }
 
-/// Scales `delta` by the step length, keeps it out of colliders in the system metric,
-/// extrapolates (Chebyshev) and reports the vertex's move and residual.
+/// Scales `delta` by the step length, keeps it out of colliders in the system metric and
+/// extrapolates (Chebyshev), into `next`.
 #[inline(always)]
 fn finish_move<T: Real>(
     sys: &System<T>,
@@ -233,15 +424,14 @@ fn finish_move<T: Real>(
     delta: Vector3<T>,
     options: &MoveOptions<'_, T>,
     next: &mut Vector3<T>,
-) -> Update {
+) {
     let alpha = if options.step_length {
         local.step_length(&delta)
     } else {
         T::one()
     };
     let margin = sys.rest.vertices[k].half_thickness;
-    let y = sys.y[k];
-    let free_move = y + delta * alpha;
+    let free_move = sys.y[k] + delta * alpha;
     *next = keep_out(
         free_move,
         &sys.y_start[k],
@@ -254,10 +444,6 @@ fn finish_move<T: Real>(
     // what its friction cone allows (a resting cloth would creep).
     if let Some(w) = options.omega.filter(|_| *next == free_move) {
         *next = (*next - sys.y_prev[k]) * w + sys.y_prev[k];
-    }
-    Update {
-        residual: free_residual(sys, k, local, options),
-        ..Update::of(k, &y, next)
     }
 }
 
@@ -375,8 +561,8 @@ pub(super) fn keep_out<T: Real>(
     y
 }
 
-/// The convergence measure of vertex `k`, `|r_free| / m` (m): its residual `r` at the current
-/// iterate `y` without the reactions of the contacts it is in.
+/// The convergence measure of vertex `k`, `r_free / m` (m; its norm is compared with `tol`): its
+/// residual `r` at the current iterate `y` without the reactions of the contacts it is in.
 ///
 /// Membrane contact: the global step sends `y` to `y^k = y + D^-1 r`, and the local step
 /// (Algorithm 2) moves that to `z`. At a fixed point `z = y`, so `r = -D (z - y^k)`: the local
@@ -398,7 +584,7 @@ pub(super) fn free_residual<T: Real>(
     k: usize,
     local: &LocalSystem<T>,
     options: &MoveOptions<'_, T>,
-) -> f64 {
+) -> Vector3<T> {
     let mut residual = local.residual;
     if let Some(reaction) = options.contact_reaction.get(k) {
         residual += local.system.mul_vector(reaction);
@@ -410,7 +596,7 @@ pub(super) fn free_residual<T: Real>(
         sys.rest.vertices[k].half_thickness,
         options.colliders,
     );
-    (free.norm() / local.mass).to_f64()
+    free * (T::one() / local.mass)
 }
 
 /// The residual without the part the colliders the vertex touches balance at the solution:
