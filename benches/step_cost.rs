@@ -4,7 +4,9 @@
 //! JSON record: median milliseconds per step and per phase for an n x n cloth (default 120,
 //! 14.4K vertices) with exactly `iterations` global iterations per step (tol = 0), no contact,
 //! on `threads` workers (default: one per core), in both precisions or the one named. With one thread the whole step runs on the pool's single
-//! worker, which suits instruction counting (`valgrind --tool=callgrind`).
+//! worker, which suits instruction counting (`valgrind --tool=callgrind`; valgrind does not decode
+//! AVX-512, so build for it with `RUSTFLAGS="-C target-cpu=x86-64-v3"` on a CPU that has it,
+//! since this tree builds for the native CPU by default, see `.cargo/config.toml`).
 
 use std::time::Instant;
 

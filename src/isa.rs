@@ -1,8 +1,10 @@
 //! The instruction set the hot loops run in, chosen once at run time.
 //!
-//! The library is built for baseline x86-64 (SSE2), so that a wheel runs on any x86-64 CPU.
-//! The per-iteration loops (the vertex kernel over every pack, the per-vertex move) are
-//! compiled a second time inside a function with AVX2 enabled, and [`run`] calls that copy when
+//! A wheel for other machines is built for baseline x86-64 (SSE2), so that it runs on any
+//! x86-64 CPU; a build from this source tree targets the building CPU instead (see
+//! `.cargo/config.toml`), and then the two copies below are the same code. The per-iteration
+//! loops (the vertex kernel over every pack, the per-vertex move) are compiled a second time
+//! inside a function with AVX2 enabled, and [`run`] calls that copy when
 //! the CPU has AVX2. `wide` fixes the representation of a pack at compile time, so in that copy
 //! an eight-lane `f32` pack is still two 128-bit halves; what changes is the encoding (VEX
 //! three-operand forms, fewer register copies). The numbers do not change: the two copies are
