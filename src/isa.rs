@@ -8,11 +8,13 @@
 //! the CPU has AVX2. `wide` fixes the representation of a pack at compile time, so in that copy
 //! an eight-lane `f32` pack is still two 128-bit halves; what changes is the encoding (VEX
 //! three-operand forms, fewer register copies). The numbers do not change: the two copies are
-//! the same source, and no fused multiply-add is enabled (LLVM does not contract `a * b + c`
-//! without being told, so every lane still performs the scalar kernel's IEEE operations).
+//! the same source, and no fused multiply-add is ever formed (even where the target has FMA,
+//! LLVM does not contract `a * b + c` without being told, so every lane still performs the
+//! scalar kernel's IEEE operations).
 //!
 //! `PERIDYN_SIMD=portable` in the environment (read once, at the first use) keeps the portable
-//! copy on any CPU.
+//! copy on any CPU (the baseline build's SSE2 code in a wheel; in a native build, the same
+//! code as the AVX2 copy).
 
 use std::sync::atomic::{AtomicU8, Ordering};
 

@@ -70,6 +70,16 @@ impl<S: Lanes> SymmetricMatrix3<S> {
         )
     }
 
+    /// Entry `e` of `(a00, a11, a22, a01, a02, a12)`.
+    #[inline(always)]
+    pub fn entry(&self, e: usize) -> S {
+        if e < 3 {
+            self.diagonal[e]
+        } else {
+            self.upper[e - 3]
+        }
+    }
+
     /// The full matrix.
     pub fn to_matrix(&self) -> Matrix3<S> {
         let [a00, a11, a22] = self.diagonal;
@@ -241,44 +251,50 @@ mod tests {
         assert_eq!(SymmetricMatrix3::<f32>::zeros().try_inverse(), None);
     }
 
-    /// A pack inverts lane by lane exactly as the scalar inverse does, and a singular lane (and
-    /// only that lane) takes the fallback.
+    /// A pack inverts lane by lane exactly as the scalar inverse does (f32 and f64 packs); the
+    /// lanes that are singular (rank 2) or whose determinant's reciprocal overflows (and only
+    /// those) take the fallback, and a NaN lane stays NaN.
     #[test]
     fn pack_inverse_is_the_scalar_inverse_in_every_lane() {
-        use crate::real::{F64Pack, Lanes};
-        use nalgebra::SimdValue;
-        let mut rng = Rng::new(5);
-        let mut lanes: Vec<SymmetricMatrix3<f64>> = (0..3).map(|_| spd(&mut rng, 0.1).0).collect();
-        lanes.push(SymmetricMatrix3::outer(&Vector3::new(1.0, 2.0, 4.0), 2.0));
-        let entry = |m: &SymmetricMatrix3<f64>, e: usize| {
-            if e < 3 {
-                m.diagonal[e]
-            } else {
-                m.upper[e - 3]
-            }
-        };
-        let pack = SymmetricMatrix3 {
-            diagonal: [0, 1, 2].map(|e| F64Pack::gather(|l| entry(&lanes[l], e))),
-            upper: [3, 4, 5].map(|e| F64Pack::gather(|l| entry(&lanes[l], e))),
-        };
-        let inverse = pack.inverse_or(F64Pack::splat(0.25));
-        for (l, lane) in lanes.iter().enumerate() {
-            let expected = lane
-                .try_inverse()
-                .unwrap_or_else(|| SymmetricMatrix3::from_diagonal(&Vector3::repeat(0.25)));
-            for e in 0..6 {
-                let got = if e < 3 {
-                    inverse.diagonal[e].extract(l)
-                } else {
-                    inverse.upper[e - 3].extract(l)
-                };
-                assert_eq!(
-                    got.to_bits(),
-                    entry(&expected, e).to_bits(),
-                    "lane {l}, entry {e}"
-                );
+        use crate::real::{F32Pack, F64Pack, Lanes};
+        fn check<P: Lanes>(lanes: &[SymmetricMatrix3<f64>]) {
+            let of = |m: &SymmetricMatrix3<f64>| SymmetricMatrix3 {
+                diagonal: m.diagonal.map(<P::Scalar as Real>::of),
+                upper: m.upper.map(<P::Scalar as Real>::of),
+            };
+            let scalars: Vec<_> = lanes.iter().map(of).collect();
+            let pack = SymmetricMatrix3 {
+                diagonal: [0, 1, 2].map(|e| P::gather(|l| scalars[l].entry(e))),
+                upper: [3, 4, 5].map(|e| P::gather(|l| scalars[l].entry(e))),
+            };
+            let fallback = <P::Scalar as Real>::of(0.25);
+            let inverse = pack.inverse_or(P::splat(fallback));
+            for (l, lane) in scalars.iter().enumerate() {
+                let expected = lane
+                    .try_inverse()
+                    .unwrap_or_else(|| SymmetricMatrix3::from_diagonal(&Vector3::repeat(fallback)));
+                for e in 0..6 {
+                    let (got, want) = (inverse.entry(e).extract(l), expected.entry(e));
+                    assert!(
+                        got == want || (got != got && want != want),
+                        "{}: lane {l}, entry {e}: {got:?} against {want:?}",
+                        <P::Scalar as Real>::NAME
+                    );
+                }
             }
         }
-        assert_eq!(lanes[3].try_inverse(), None);
+        let mut rng = Rng::new(5);
+        let mut spd = || spd(&mut rng, 0.1).0;
+        let singular = SymmetricMatrix3::outer(&Vector3::new(1.0, 2.0, 4.0), 2.0);
+        let nan = SymmetricMatrix3::from_diagonal(&Vector3::new(1.0, f64::NAN, 1.0));
+        // det 1e-45: a subnormal f32 whose reciprocal overflows (in f64 it inverts).
+        let tiny = SymmetricMatrix3::from_diagonal(&Vector3::repeat(1e-15));
+        assert_eq!(singular.try_inverse(), None);
+        assert_eq!(
+            SymmetricMatrix3::from_diagonal(&Vector3::repeat(1e-15f32)).try_inverse(),
+            None
+        );
+        check::<F64Pack>(&[spd(), singular, nan, tiny]);
+        check::<F32Pack>(&[spd(), singular, spd(), nan, tiny, spd(), spd(), singular]);
     }
 }

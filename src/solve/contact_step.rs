@@ -122,7 +122,7 @@ impl<T: Real> ContactState<T> {
                 *next = zi.map(T::of);
                 // The safe positions are the ones the solver holds (rounded in f32).
                 *zi = next.map(|c| c.to_f64());
-                (*next - y[i]).norm().to_f64()
+                (*next - y[i]).norm_squared().to_f64().sqrt()
             })
             .reduce(|| 0.0, f64::max);
         self.next = std::mem::replace(&mut self.safe, z);

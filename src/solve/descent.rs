@@ -151,7 +151,10 @@ pub(super) fn descent_iteration<T: Real>(
             }
             *local = jacobi_system(sys_ref, state_ref, k, h2);
             *d = local.solve();
-            free_residual(sys_ref, k, local, options).norm().to_f64()
+            free_residual(sys_ref, k, local, options)
+                .norm_squared()
+                .to_f64()
+                .sqrt()
         })
         .reduce(|| 0.0, f64::max);
 
