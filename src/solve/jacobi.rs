@@ -638,10 +638,10 @@ const SLIP: f64 = 1e-6;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::Material;
-    use crate::membrane::{Membrane, MembraneParams, Preconditioner};
+    use crate::membrane::{Membrane, Preconditioner};
     use crate::mesh::TriangleMesh;
     use crate::solve::evaluate::evaluate;
+    use crate::solve::tests::stiff_params;
 
     /// [`move_packs`] and [`move_vertices`] on the same state give the same positions and the
     /// same `Update` (largest move and residual, first non-finite vertex) bit for bit, in both
@@ -652,16 +652,8 @@ mod tests {
     #[test]
     fn packed_and_per_vertex_moves_agree_bit_for_bit() {
         fn check<T: Real>() {
-            let params = MembraneParams {
-                thickness: 1e-3,
-                density: 300.0,
-                material: Material::neo_hookean(4.8e7, 1.2e7).unwrap(),
-                bending: 1e-5,
-                hourglass: 0.1,
-                neighbors: 1,
-            };
             let mesh = TriangleMesh::grid(13, 11, 0.5, 0.4).unwrap();
-            let mut body = Membrane::new(mesh, params).unwrap();
+            let mut body = Membrane::new(mesh, stiff_params()).unwrap();
             let rest: Vec<Vector3<T>> = body.positions().iter().map(|p| p.map(T::of)).collect();
             // Isolated vertices pulled out of the sheet (in a pack and in the tail).
             let bumped = body

@@ -12,17 +12,21 @@ use crate::real::Real;
 
 use super::{Acceleration, Solver, SolverParams};
 
-/// A pinnable square cloth of 0.5 m with the paper's stiff neo-Hookean material (Fig. 13).
-fn stiff_cloth(n: usize) -> Membrane {
-    let params = MembraneParams {
+/// The paper's stiff neo-Hookean cloth material (Fig. 13), 1 mm thick.
+pub(super) fn stiff_params() -> MembraneParams {
+    MembraneParams {
         thickness: 1e-3,
         density: 300.0,
         material: Material::neo_hookean(4.8e7, 1.2e7).unwrap(),
         bending: 1e-5,
         hourglass: 0.1,
         neighbors: 1,
-    };
-    Membrane::new(TriangleMesh::grid(n, n, 0.5, 0.5).unwrap(), params).unwrap()
+    }
+}
+
+/// A pinnable square cloth of 0.5 m with the paper's stiff neo-Hookean material (Fig. 13).
+fn stiff_cloth(n: usize) -> Membrane {
+    Membrane::new(TriangleMesh::grid(n, n, 0.5, 0.5).unwrap(), stiff_params()).unwrap()
 }
 
 fn cloth(n: usize) -> Membrane {
