@@ -217,6 +217,24 @@ impl<S: Lanes> LocalSystem<S> {
         (self.energy_h2.simd_max(S::zero()) / descent).select(cut, S::one())
     }
 
+    /// The system of lane `l`.
+    #[inline(always)]
+    fn lane(&self, l: usize) -> LocalSystem<S::Scalar> {
+        let vector = |v: &Vector3<S>| Vector3::new(v.x.extract(l), v.y.extract(l), v.z.extract(l));
+        let matrix = |m: &SymmetricMatrix3<S>| SymmetricMatrix3 {
+            diagonal: m.diagonal.map(|x| x.extract(l)),
+            upper: m.upper.map(|x| x.extract(l)),
+        };
+        LocalSystem {
+            mass: self.mass.extract(l),
+            residual: vector(&self.residual),
+            system: matrix(&self.system),
+            inverse: matrix(&self.inverse),
+            force_h2: vector(&self.force_h2),
+            energy_h2: self.energy_h2.extract(l),
+        }
+    }
+
     /// The residual per unit mass, `r / m` (m): the convergence measure of a vertex touching
     /// neither a collider nor another membrane (see [`free_residual`]).
     #[inline(always)]
@@ -240,8 +258,8 @@ pub(super) fn jacobi_update<T: Real>(
     if inner {
         inner_sweeps(sys, h2, options.inner_iters);
     }
-    // A move that needs nothing but its vertex's own system runs a SIMD pack at a time.
-    let packed = !inner && options.colliders.is_empty() && options.contact_reaction.is_empty();
+    // Without inner sweeps the systems are assembled and solved a SIMD pack at a time.
+    let packed = !inner;
     let mut y_next = std::mem::take(&mut sys.y_next);
     let sys_ref = &*sys;
     let update = y_next
@@ -264,6 +282,68 @@ pub(super) fn jacobi_update<T: Real>(
     update
 }
 
+/// A chunk's running measures: the largest squared move and squared free residual in the
+/// working precision (square roots in f64 once, at the end: `sqrt` is monotonic, so that is the
+/// largest norm), and the first non-finite vertex. A move whose square is not finite (a
+/// non-finite position, or beyond about 1e19 m in f32) goes through [`Update::of`], which names
+/// the vertex if its position is non-finite.
+struct Measures<T: Real> {
+    moved_sq: T,
+    residual_sq: T,
+    update: Update,
+}
+
+impl<T: Real> Measures<T> {
+    fn new() -> Self {
+        Self {
+            moved_sq: T::zero(),
+            residual_sq: T::zero(),
+            update: Update::NONE,
+        }
+    }
+
+    /// Vertex `k` moved from `y` to `next` with the squared free residual `free_sq` (m^2).
+    #[inline(always)]
+    fn add(&mut self, k: usize, y: &Vector3<T>, next: &Vector3<T>, move_sq: T, free_sq: T) {
+        if move_sq.is_finite() {
+            self.moved_sq = self.moved_sq.max(move_sq);
+        } else {
+            self.update = Update::merge(self.update, Update::of(k, y, next));
+        }
+        self.residual_sq = self.residual_sq.max(free_sq);
+    }
+
+    fn update(self) -> Update {
+        Update::merge(
+            self.update,
+            Update::from_squares(self.moved_sq, self.residual_sq),
+        )
+    }
+}
+
+/// Finishes vertex `k`'s move from its system and step (see [`finish_move`]) into `next` and
+/// adds it to the measures.
+#[inline(always)]
+fn finish_vertex<T: Real>(
+    sys: &System<T>,
+    k: usize,
+    local: &LocalSystem<T>,
+    delta: Vector3<T>,
+    options: &MoveOptions<'_, T>,
+    next: &mut Vector3<T>,
+    measures: &mut Measures<T>,
+) {
+    finish_move(sys, k, local, delta, options, next);
+    let free_sq = free_residual(sys, k, local, options).norm_squared();
+    measures.add(
+        k,
+        &sys.y[k],
+        next,
+        (*next - sys.y[k]).norm_squared(),
+        free_sq,
+    );
+}
+
 /// Most lanes of a [`Real::Pack`].
 const MAX_LANES: usize = 8;
 
@@ -280,11 +360,13 @@ fn vector_lanes<T: Real>(v: &[Vector3<T>], k: usize) -> Vector3<T::Pack> {
     Vector3::new(at(0), at(1), at(2))
 }
 
-/// [`move_vertices`] for moves without colliders, membrane contact or inner sweeps, a SIMD pack
-/// of consecutive vertices at a time: each lane gathers its vertex's sums, the system, its
-/// solve, the step length, the move and its measures run in the pack's lanes (bit-identical to
-/// [`move_vertices`], see [`Lanes`]), and the lanes are written back one by one. The chunk's
-/// last vertices, short of a whole pack, go through [`move_vertices`].
+/// [`move_vertices`] without inner sweeps, a SIMD pack of consecutive vertices at a time: each
+/// lane gathers its vertex's sums, and the system, its inverse and its solve run in the pack's
+/// lanes (bit-identical to [`move_vertices`], see [`Lanes`]). Without colliders or membrane
+/// contact the step length, the move and its measures run in the lanes too; with them, each lane
+/// finishes from its lane of the system as [`move_vertices`] does (keeping out of colliders,
+/// friction, contact reactions in the residual). The chunk's last vertices, short of a whole
+/// pack, go through [`move_vertices`].
 #[inline(always)]
 fn move_packs<T: Real>(
     sys: &System<T>,
@@ -299,8 +381,10 @@ fn move_packs<T: Real>(
     let (packs, tail) = next.split_at_mut(whole);
     let mut gathered = [Gathered::<T>::default(); MAX_LANES];
     let gathered = &mut gathered[..lanes];
-    let mut update = Update::NONE;
-    let (mut moved_sq, mut residual_sq) = (T::zero(), T::zero());
+    // Without colliders or membrane contact the whole move runs in the lanes; with them, each
+    // lane finishes as [`move_vertices`] does, from its lane of the system.
+    let plain = options.colliders.is_empty() && options.contact_reaction.is_empty();
+    let mut measures = Measures::new();
     for (p, out) in packs.chunks_exact_mut(lanes).enumerate() {
         let base = first + p * lanes;
         for (l, g) in gathered.iter_mut().enumerate() {
@@ -326,6 +410,19 @@ fn move_packs<T: Real>(
             T::Pack::splat(h2),
         );
         let delta = local.solve();
+        if !plain {
+            for (l, out) in out.iter_mut().enumerate() {
+                let k = base + l;
+                if sys.pinned[k] {
+                    *out = sys.y[k];
+                    continue;
+                }
+                let delta =
+                    Vector3::new(delta.x.extract(l), delta.y.extract(l), delta.z.extract(l));
+                finish_vertex(sys, k, &local.lane(l), delta, options, out, &mut measures);
+            }
+            continue;
+        }
         let alpha = if options.step_length {
             local.step_length(&delta)
         } else {
@@ -350,30 +447,15 @@ fn move_packs<T: Real>(
                 moved_to.y.extract(l),
                 moved_to.z.extract(l),
             );
-            let lane_sq = move_sq.extract(l);
-            if lane_sq.is_finite() {
-                moved_sq = moved_sq.max(lane_sq);
-            } else {
-                update = Update::merge(update, Update::of(k, &sys.y[k], out));
-            }
-            residual_sq = residual_sq.max(free_sq.extract(l));
+            measures.add(k, &sys.y[k], out, move_sq.extract(l), free_sq.extract(l));
         }
     }
     let tail = move_vertices(sys, first + whole, tail, h2, options);
-    Update::merge(
-        Update::merge(update, Update::from_squares(moved_sq, residual_sq)),
-        tail,
-    )
+    Update::merge(measures.update(), tail)
 }
 
 /// The moves of the vertices `first..first + next.len()` into `next` (see [`jacobi_update`]),
-/// merged. Inlined into each copy [`isa::run`] chooses from.
-///
-/// The chunk keeps the largest squared move and squared residual in the working precision and
-/// takes their square roots in f64 once at its end (`sqrt` is monotonic, so that is the largest
-/// norm), rather than a square root and a conversion per vertex. A move whose square is not
-/// finite (a non-finite position, or beyond about 1e19 m in f32) goes through [`Update::of`],
-/// which names the vertex if its position is non-finite.
+/// merged (see [`Measures`]). Inlined into each copy [`isa::run`] chooses from.
 #[inline(always)]
 fn move_vertices<T: Real>(
     sys: &System<T>,
@@ -383,8 +465,7 @@ fn move_vertices<T: Real>(
     options: &MoveOptions<'_, T>,
 ) -> Update {
     let inner = options.inner_iters > 1;
-    let mut update = Update::NONE;
-    let (mut moved_sq, mut residual_sq) = (T::zero(), T::zero());
+    let mut measures = Measures::new();
     for (k, next) in (first..).zip(next) {
         if sys.pinned[k] {
             *next = sys.y[k];
@@ -396,16 +477,9 @@ fn move_vertices<T: Real>(
             let local = LocalSystem::of(sys, k, h2);
             (local, local.solve())
         };
-        finish_move(sys, k, &local, delta, options, next);
-        let move_sq = (*next - sys.y[k]).norm_squared();
-        if move_sq.is_finite() {
-            moved_sq = moved_sq.max(move_sq);
-        } else {
-            update = Update::merge(update, Update::of(k, &sys.y[k], next));
-        }
-        residual_sq = residual_sq.max(free_residual(sys, k, &local, options).norm_squared());
+        finish_vertex(sys, k, &local, delta, options, next, &mut measures);
     }
-    Update::merge(update, Update::from_squares(moved_sq, residual_sq))
+    measures.update()
 }
 
 /// Scales `delta` by the step length, keeps it out of colliders in the system metric and
@@ -638,6 +712,7 @@ const SLIP: f64 = 1e-6;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::{Collider, MovingCollider, Shape};
     use crate::membrane::{Membrane, Preconditioner};
     use crate::mesh::TriangleMesh;
     use crate::solve::evaluate::evaluate;
@@ -645,7 +720,8 @@ mod tests {
 
     /// [`move_packs`] and [`move_vertices`] on the same state give the same positions and the
     /// same `Update` (largest move and residual, first non-finite vertex) bit for bit, in both
-    /// precisions, plain and extrapolated: a stiff sheet with vertices pulled out of it and
+    /// precisions, plain and extrapolated, without and with a collider (with friction) and
+    /// membrane contact reactions: a stiff sheet with vertices pulled out of it and
     /// targets far past rest (the step length cuts their moves), 143 vertices (a tail of 7 in
     /// f32, 3 in f64), pinned vertices inside a pack and in the tail, and one vertex whose target
     /// is NaN.
@@ -691,13 +767,30 @@ mod tests {
                 })
                 .count();
             assert!(cut >= 4, "the step length cuts the bumps' moves: {cut} cut");
-            for omega in [None, Some(T::of(1.3))] {
+            // A plane with friction through the sheet (every vertex with z < 2 mm is inside
+            // it), and small contact reactions on every vertex.
+            let plane = Shape::plane([0.0, 0.0, 0.002], [0.0, 0.3, 1.0]).unwrap();
+            let plane = MovingCollider::new(Collider::new(plane, 0.4, [0.0; 3]).unwrap());
+            let colliders = [plane.during_step::<T>(0.0, 1e-3)];
+            let reaction: Vec<Vector3<T>> = (0..n)
+                .map(|k| Vector3::new(0.0, 0.0, 1e-6 * (k % 5) as f64).map(T::of))
+                .collect();
+            let cases = [
+                (&colliders[..0], &reaction[..0]),
+                (&colliders[..], &reaction[..0]),
+                (&colliders[..0], &reaction[..]),
+                (&colliders[..], &reaction[..]),
+            ];
+            for (omega, (colliders, contact_reaction)) in [None, Some(T::of(1.3))]
+                .into_iter()
+                .flat_map(|w| cases.map(|c| (w, c)))
+            {
                 let options = MoveOptions {
                     step_length: true,
                     inner_iters: 1,
                     omega,
-                    colliders: &[],
-                    contact_reaction: &[],
+                    colliders,
+                    contact_reaction,
                 };
                 let mut packed = vec![Vector3::zeros(); n];
                 let mut per_vertex = vec![Vector3::zeros(); n];

@@ -94,8 +94,8 @@ fn one_and_two_threads_agree_bit_for_bit() {
     assert_eq!(run(1), run(2));
 }
 
-/// The move without colliders runs a SIMD pack of vertices at a time; with a collider, one
-/// vertex at a time. A plane far below the cloth changes nothing, so both must give the same
+/// Without colliders the whole move runs in SIMD lanes; with a collider each lane finishes as
+/// the per-vertex move does. A plane far below the cloth changes nothing, so both must give the same
 /// positions, velocities and convergence measures bit for bit: in both precisions, for a stiff
 /// and a soft material started stretched and crumpled (the step length cuts moves), plain and
 /// Chebyshev-accelerated, with a pinned row and a vertex count that leaves a chunk a tail
