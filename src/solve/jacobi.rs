@@ -321,29 +321,6 @@ impl<T: Real> Measures<T> {
     }
 }
 
-/// Finishes vertex `k`'s move from its system and step (see [`finish_move`]) into `next` and
-/// adds it to the measures.
-#[inline(always)]
-fn finish_vertex<T: Real>(
-    sys: &System<T>,
-    k: usize,
-    local: &LocalSystem<T>,
-    delta: Vector3<T>,
-    options: &MoveOptions<'_, T>,
-    next: &mut Vector3<T>,
-    measures: &mut Measures<T>,
-) {
-    finish_move(sys, k, local, delta, options, next);
-    let free_sq = free_residual(sys, k, local, options).norm_squared();
-    measures.add(
-        k,
-        &sys.y[k],
-        next,
-        (*next - sys.y[k]).norm_squared(),
-        free_sq,
-    );
-}
-
 /// Most lanes of a [`Real::Pack`].
 const MAX_LANES: usize = 8;
 
@@ -482,16 +459,18 @@ fn move_vertices<T: Real>(
     measures.update()
 }
 
-/// Scales `delta` by the step length, keeps it out of colliders in the system metric and
-/// extrapolates (Chebyshev), into `next`.
+/// Finishes vertex `k`'s move from its system and step: scales `delta` by the step length,
+/// keeps it out of colliders in the system metric and extrapolates (Chebyshev), into `next`,
+/// and adds the move and its free residual to the measures.
 #[inline(always)]
-fn finish_move<T: Real>(
+fn finish_vertex<T: Real>(
     sys: &System<T>,
     k: usize,
     local: &LocalSystem<T>,
     delta: Vector3<T>,
     options: &MoveOptions<'_, T>,
     next: &mut Vector3<T>,
+    measures: &mut Measures<T>,
 ) {
     let alpha = if options.step_length {
         local.step_length(&delta)
@@ -513,6 +492,14 @@ fn finish_move<T: Real>(
     if let Some(w) = options.omega.filter(|_| *next == free_move) {
         *next = (*next - sys.y_prev[k]) * w + sys.y_prev[k];
     }
+    let free_sq = free_residual(sys, k, local, options).norm_squared();
+    measures.add(
+        k,
+        &sys.y[k],
+        next,
+        (*next - sys.y[k]).norm_squared(),
+        free_sq,
+    );
 }
 
 /// `inner` Jacobi sweeps on the linear system of eq. 25, `(M + h^2 L) delta = r` with `L` the

@@ -101,7 +101,7 @@ fn one_and_two_threads_agree_bit_for_bit() {
 /// Chebyshev-accelerated, with a pinned row and a vertex count that leaves a chunk a tail
 /// shorter than a pack.
 #[test]
-fn the_packed_move_is_the_per_vertex_move_bit_for_bit() {
+fn a_far_collider_changes_no_bit_of_the_move() {
     fn run<T: Real>(
         body: fn(usize) -> Membrane,
         acceleration: Acceleration,
