@@ -13,6 +13,7 @@ mod pair_cache;
 mod pose;
 mod primitive_pairs;
 mod sdf;
+mod sweep;
 mod vertex_index;
 
 pub use broad_phase::{BroadPhase, ContactMesh};

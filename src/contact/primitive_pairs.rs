@@ -70,7 +70,7 @@ impl Pair {
     }
 
     /// The vertices of the two primitives.
-    fn sides(&self) -> (&[u32], &[u32]) {
+    pub fn sides(&self) -> (&[u32], &[u32]) {
         self.v.split_at(if self.edge_edge { 2 } else { 1 })
     }
 
