@@ -274,8 +274,8 @@ impl PairCache {
             .chain((swept..near).into_par_iter().map(|k| k as u32))
             .collect();
         let sweep = &self.sweep;
-        if (again.len().saturating_sub(sweep.live)) as f64
-            > REFILTER_SHARE * (sweep.near - sweep.live.min(sweep.near)) as f64
+        if again.len().saturating_sub(sweep.live) as f64
+            > REFILTER_SHARE * (sweep.near - sweep.live) as f64
         {
             return None;
         }
