@@ -46,9 +46,10 @@ pub(super) const NO_BODY: u32 = u32::MAX;
 pub(super) struct Sweep {
     /// Whether a sweep of the current build is recorded and may still be used.
     pub valid: bool,
-    /// `s^0` and `y^0` (m).
+    /// `s^0` (m).
     safe: Vec<Vector3<f64>>,
-    target: Vec<Vector3<f64>>,
+    /// Per vertex: `y^0 - s^0`, the sweep's path (m).
+    step: Vec<Vector3<f64>>,
     /// Per vertex: the allowance at the sweep (m).
     allowance: Vec<f64>,
     /// The sweep looked at the cached pairs `..near` and found `live` of them live.
@@ -78,8 +79,10 @@ impl Sweep {
     ) {
         self.safe.clear();
         self.safe.extend_from_slice(safe);
-        self.target.clear();
-        self.target.extend_from_slice(target);
+        safe.par_iter()
+            .zip(target)
+            .map(|(s, y)| y - s)
+            .collect_into_vec(&mut self.step);
         self.allowance.clear();
         self.allowance.extend_from_slice(allowance);
         self.near = near;
@@ -90,12 +93,7 @@ impl Sweep {
     /// Measures the path from `safe` to `target` (m): writes [`Sweep::ends`],
     /// [`Sweep::safe_now`] and [`Sweep::path`].
     pub fn measure(&mut self, safe: &[Vector3<f64>], target: &[Vector3<f64>]) {
-        let origin = &self.safe;
-        safe.par_iter()
-            .zip(target)
-            .zip(origin)
-            .map(|((s, y), o)| [s - o, y - o])
-            .collect_into_vec(&mut self.ends);
+        displacements(safe, target, &self.safe, &mut self.ends);
         safe.par_iter()
             .zip(target)
             .map(|(s, y)| [Vector3::zeros(), y - s])
@@ -116,7 +114,7 @@ impl Sweep {
             if sigma == 0 {
                 Vector3::zeros()
             } else {
-                self.target[i] - self.safe[i]
+                self.step[i]
             }
         };
         let mut fall: f64 = 0.0;
@@ -167,8 +165,7 @@ impl Sweep {
                         let (i, j) = (i as usize, j as usize);
                         let mut apart = self.ends[i][tau] - self.ends[j][tau];
                         if sigma == 1 {
-                            apart -=
-                                (self.target[i] - self.safe[i]) - (self.target[j] - self.safe[j]);
+                            apart -= self.step[i] - self.step[j];
                         }
                         largest = nan_max(largest, apart.norm_squared());
                     }
@@ -182,6 +179,21 @@ impl Sweep {
         }
         fall.sqrt() + pair.spread(allowance) - pair.spread(&self.allowance)
     }
+}
+
+/// Writes into `ends` the displacements `[s_i - o_i, y_i - o_i]` (m) of the safe positions
+/// `safe` and targets `target` from the origins `origin`.
+pub(super) fn displacements(
+    safe: &[Vector3<f64>],
+    target: &[Vector3<f64>],
+    origin: &[Vector3<f64>],
+    ends: &mut Vec<[Vector3<f64>; 2]>,
+) {
+    safe.par_iter()
+        .zip(target)
+        .zip(origin)
+        .map(|((s, y), o)| [s - o, y - o])
+        .collect_into_vec(ends);
 }
 
 /// Per body of `bodies`: the mean of `value(i)` over its vertices (`vertex_body`), `None`
@@ -255,9 +267,9 @@ mod tests {
     use super::*;
 
     /// Random sweeps and later paths over two bodies: no pair's relative distance bound falls
-    /// by more than its own [`Sweep::pair_fall`], which is at most [`Sweep::fall`]; a common motion of each body costs only the bodies' motion
-    /// relative to each other, and a path that starts where the sweep's ended costs only its
-    /// own move.
+    /// by more than its own [`Sweep::pair_fall`], which is at most [`Sweep::fall`]; a common
+    /// motion of each body costs only the bodies' motion relative to each other, and a path
+    /// that starts where the sweep's ended costs only its own move.
     #[test]
     fn no_bound_falls_by_more_than_the_fall() {
         let mut rng = Rng::new(5);
