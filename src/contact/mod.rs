@@ -10,6 +10,7 @@ pub mod distance;
 pub mod local_step;
 mod motion;
 mod pair_cache;
+mod patches;
 mod pose;
 mod primitive_pairs;
 mod sdf;

@@ -63,9 +63,10 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::broad_phase::{BroadPhase, ContactMesh};
+use super::patches::Patches;
 use super::primitive_pairs::{close_primitive_pairs, nan_max, Owners, Pair};
 use super::sweep::{
-    body_means, displacements, largest_apart, round_down, CommonMotion, Sweep, NO_BODY,
+    body_means, displacements, largest_apart, round_down, CommonMotion, Sweep, SweptPair, NO_BODY,
 };
 use super::vertex_index::index_by_vertex;
 
@@ -122,6 +123,8 @@ pub(super) struct PairCache {
     common: CommonMotion,
     /// The last full filter of the cached pairs into the live list.
     sweep: Sweep,
+    /// The mesh's vertices in patches, for [`Sweep::patch_fall`].
+    patches: Patches,
 }
 
 impl PairCache {
@@ -172,7 +175,11 @@ impl PairCache {
         self.is_live[..self.flagged].fill(false);
         let fall = if self.sweep.valid {
             self.sweep.measure(safe, target);
-            self.sweep.fall(&self.vertex_body, self.bodies, allowance)
+            let fall = self.sweep.fall(&self.vertex_body, self.bodies, allowance);
+            if fall.is_some() {
+                self.sweep.measure_patches(&self.patches, allowance);
+            }
+            fall
         } else {
             None
         };
@@ -235,19 +242,25 @@ impl PairCache {
         allowance: &[f64],
         reach: f64,
     ) -> Vec<u32> {
-        let mut slack = std::mem::take(&mut self.sweep.slack);
+        let mut swept = std::mem::take(&mut self.sweep.swept);
         self.sweep.record(safe, target, allowance, near);
         let this = &*self;
         (0..near)
             .into_par_iter()
-            .map(|k| round_down(this.fresh_bound(k, allowance) - reach))
-            .collect_into_vec(&mut slack);
-        self.sweep.slack = slack;
+            .map(|k| {
+                let (a, b) = this.pairs[k].0.sides();
+                SweptPair {
+                    slack: round_down(this.fresh_bound(k, allowance) - reach),
+                    patches: [a, b].map(|side| this.patches.of_side(side) as u32),
+                }
+            })
+            .collect_into_vec(&mut swept);
+        self.sweep.swept = swept;
         let (this, sweep) = (&*self, &self.sweep);
         let found: Vec<u32> = (0..near as u32)
             .into_par_iter()
             .filter(|&k| {
-                below(f64::from(sweep.slack[k as usize]), 0.0)
+                below(f64::from(sweep.swept[k as usize].slack), 0.0)
                     && this.common_bound(k as usize) < reach
             })
             .collect();
@@ -257,20 +270,23 @@ impl PairCache {
 
     /// Filters the cached pairs `..near` for the allowances `allowance` (m) looking again only
     /// at those whose bound may have fallen below `reach` (m) since the sweep, by at most
-    /// `fall` (m) for every pair and by at most [`Sweep::pair_fall`] for each (see
-    /// [`super::sweep`]), and at those beyond the sweep's: the pairs that may
+    /// `fall` (m) for every pair and by at most [`Sweep::patch_fall`] and
+    /// [`Sweep::pair_fall`] for each (see [`super::sweep`]; the cheaper test first), and at
+    /// those beyond the sweep's: the pairs that may
     /// come within `reach`, increasing, or `None` (and nothing done) when, beyond as many as
     /// the sweep found live, more than [`REFILTER_SHARE`] of the others would be looked at
     /// again: the sweep's positions are then far enough behind that every filter until the
     /// next sweep would look at that many, and a sweep afresh costs a few of them.
     fn refilter(&self, near: usize, fall: f64, allowance: &[f64], reach: f64) -> Option<Vec<u32>> {
         let swept = self.sweep.near.min(near);
-        let again: Vec<u32> = self.sweep.slack[..swept]
+        let again: Vec<u32> = self.sweep.swept[..swept]
             .par_iter()
             .enumerate()
-            .filter(|&(k, &s)| {
-                let s = f64::from(s);
-                below(s, fall) && below(s, self.sweep.pair_fall(&self.pairs[k].0, allowance))
+            .filter(|&(k, swept)| {
+                let s = f64::from(swept.slack);
+                below(s, fall)
+                    && below(s, self.sweep.patch_fall(swept.patches))
+                    && below(s, self.sweep.pair_fall(&self.pairs[k].0, allowance))
             })
             .map(|(k, _)| k as u32)
             .chain((swept..near).into_par_iter().map(|k| k as u32))
@@ -403,6 +419,9 @@ impl PairCache {
         mesh: &ContactMesh,
         reach: f64,
     ) {
+        if self.patches.vertices() != safe.len() || self.triangles != mesh.triangles {
+            self.patches = Patches::new(mesh.triangles, safe.len());
+        }
         self.triangles.clear();
         self.triangles.extend_from_slice(mesh.triangles);
         self.body.clear();
@@ -617,7 +636,11 @@ pub(super) mod tests {
 
     /// A rolled-up grid of `n x n` vertices (a spiral of one and a half turns, its layers
     /// `gap` (m) apart, jittered by up to 3 mm) and its triangles.
-    fn spiral(n: u32, gap: f64, rng: &mut Rng) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+    pub(in crate::contact) fn spiral(
+        n: u32,
+        gap: f64,
+        rng: &mut Rng,
+    ) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
         let mut x = Vec::new();
         for j in 0..n {
             for i in 0..n {
@@ -1072,7 +1095,7 @@ pub(super) mod tests {
                         *a += 0.0005;
                     }
                 }
-                let before = cache.sweep.valid.then(|| cache.sweep.slack.clone());
+                let before = cache.sweep.valid.then(|| cache.sweep.swept.clone());
                 let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
                 let moves = Moves::new(&safe, &target, &clamp, &allowance);
                 within += moves.assert_live_hold_every_pair_within_reach(
@@ -1087,7 +1110,7 @@ pub(super) mod tests {
                     afresh.len()
                 );
                 calls += 1;
-                if !built && before.as_ref() == Some(&cache.sweep.slack) {
+                if !built && before.as_ref() == Some(&cache.sweep.swept) {
                     refilters += 1;
                 } else {
                     sweeps += 1;

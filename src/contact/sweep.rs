@@ -24,6 +24,14 @@
 //! the pair's own allowance growth) costs a few vector differences and usually keeps it out;
 //! the rest are looked at as a sweep would, from their distance at `s`.
 //!
+//! Between the two, a bound per pair of patches ([`super::patches`], [`Sweep::patch_fall`])
+//! costs two lookups: with `P` and `Q` the patches whose halos hold the sides A and B, and
+//! `m`, `rho` the patches' centres and radii of `delta` for each `tau` and `sigma`, the pair's
+//! fall is at most `max_tau min_sigma (rho_P + |m_P - m_Q| + rho_Q) + g_P + g_Q`, with `g`
+//! the largest allowance growth over a halo. Where a body bends or folds as a whole, every
+//! vertex strays from the body's mean by millimetres and `F` keeps few pairs out; the
+//! patches, a few centimetres across, stray much less from their own centres.
+//!
 //! The choice of `sigma` matters: the local step after a sweep starts where the sweep's path
 //! ended (`s ~ y^0`), which the old end `sigma = 1` sees as no move at all. Only the common
 //! part of a move is free otherwise: a body falling as a whole keeps `F` small, a skirt
@@ -32,6 +40,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::patches::Patches;
 use super::primitive_pairs::{nan_max, Pair};
 
 /// Per body: the mean `[c_B^w, c_B^g]` of its vertices' displacements (m), `None` for a body
@@ -55,8 +64,8 @@ pub(super) struct Sweep {
     /// The sweep looked at the cached pairs `..near` and found `live` of them live.
     pub near: usize,
     pub live: usize,
-    /// Per cached pair `..near`: `b^0 - reach` rounded down to `f32` (m), NaN where `b^0` is.
-    pub slack: Vec<f32>,
+    /// Per cached pair `..near`: what the sweep saw of it.
+    pub swept: Vec<SweptPair>,
     /// Per vertex: the ends `[u(0), u(1)]` of the last [`Sweep::measure`] (m).
     pub ends: Vec<[Vector3<f64>; 2]>,
     /// The safe positions `s` of the last [`Sweep::measure`] (m).
@@ -64,6 +73,29 @@ pub(super) struct Sweep {
     /// Per vertex: `[0, y - s]`, the ends of the last measured path displaced from its start
     /// (m): with the distances at `s`, the relative distance bound of a fresh sweep.
     pub path: Vec<[Vector3<f64>; 2]>,
+    /// Per patch: the motion of the last [`Sweep::measure_patches`].
+    patch_motion: Vec<PatchMotion>,
+}
+
+/// What a sweep keeps of a near pair: the filters after it read only this, in order, until a
+/// bound says they must look at the pair itself.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct SweptPair {
+    /// `b^0 - reach` rounded down to `f32` (m), NaN where `b^0` is.
+    pub slack: f32,
+    /// The patches whose halos hold its two sides ([`Patches::of_side`]).
+    pub patches: [u32; 2],
+}
+
+/// How the vertices of a patch's halo moved since the sweep (see [`Sweep::measure_patches`]).
+#[derive(Clone, Copy, Default)]
+struct PatchMotion {
+    /// `[tau][sigma]`: the centre `m` (m) and radius `rho` (m) of `delta = u(tau) -
+    /// u^0(sigma)` over the halo.
+    centre: [[Vector3<f64>; 2]; 2],
+    radius: [[f64; 2]; 2],
+    /// `g`: the largest allowance growth `(A_i - A^0_i)^+` over the halo (m).
+    growth: f64,
 }
 
 impl Sweep {
@@ -110,18 +142,11 @@ impl Sweep {
         if !self.valid || self.ends.len() != self.safe.len() {
             return None;
         }
-        let then = |i: usize, sigma: usize| {
-            if sigma == 0 {
-                Vector3::zeros()
-            } else {
-                self.step[i]
-            }
-        };
         let mut fall: f64 = 0.0;
         for tau in 0..2 {
             let mut least = f64::INFINITY;
             for sigma in 0..2 {
-                let delta = |i: usize| self.ends[i][tau] - then(i, sigma);
+                let delta = |i: usize| self.delta(i, tau, sigma);
                 let mean = body_means(vertex_body, bodies, delta);
                 let strayed = (0..vertex_body.len())
                     .into_par_iter()
@@ -149,6 +174,65 @@ impl Sweep {
 }
 
 impl Sweep {
+    /// `delta_i = u_i(tau) - u^0_i(sigma)` (m) for the ends last measured.
+    fn delta(&self, i: usize, tau: usize, sigma: usize) -> Vector3<f64> {
+        let end = self.ends[i][tau];
+        if sigma == 0 {
+            end
+        } else {
+            end - self.step[i]
+        }
+    }
+
+    /// Measures every patch of `patches` (of the sweep's mesh) for the ends last measured and
+    /// the allowances `allowance` (m), for [`Sweep::patch_fall`].
+    pub fn measure_patches(&mut self, patches: &Patches, allowance: &[f64]) {
+        let mut patch_motion = std::mem::take(&mut self.patch_motion);
+        let this = &*self;
+        (0..patches.count())
+            .into_par_iter()
+            .map(|p| {
+                let mut motion = PatchMotion::default();
+                for tau in 0..2 {
+                    for sigma in 0..2 {
+                        let (m, rho) = patches.centre_and_radius(p, |i| this.delta(i, tau, sigma));
+                        motion.centre[tau][sigma] = m;
+                        motion.radius[tau][sigma] = rho;
+                    }
+                }
+                motion.growth = patches.halo(p).iter().fold(0.0, |g, &i| {
+                    let i = i as usize;
+                    nan_max(g, nan_max(0.0, allowance[i] - this.allowance[i]))
+                });
+                motion
+            })
+            .collect_into_vec(&mut patch_motion);
+        self.patch_motion = patch_motion;
+    }
+
+    /// A bound (m) on [`Sweep::pair_fall`] from the patches `[P, Q]` of the pair's sides
+    /// (module doc), as measured by the last [`Sweep::measure_patches`]: two lookups where the
+    /// pair's own fall takes its vertices' ends. NaN where an input is.
+    pub fn patch_fall(&self, [p, q]: [u32; 2]) -> f64 {
+        let p = &self.patch_motion[p as usize];
+        let q = &self.patch_motion[q as usize];
+        let mut fall: f64 = 0.0;
+        for tau in 0..2 {
+            let mut least = f64::INFINITY;
+            for sigma in 0..2 {
+                let apart = p.radius[tau][sigma]
+                    + (p.centre[tau][sigma] - q.centre[tau][sigma]).norm()
+                    + q.radius[tau][sigma];
+                if apart.is_nan() {
+                    return f64::NAN;
+                }
+                least = least.min(apart);
+            }
+            fall = fall.max(least);
+        }
+        fall + p.growth + q.growth
+    }
+
     /// The fall of one pair's bound since the sweep (m): `f = max_tau min_sigma max_{a in A,
     /// b in B} |delta_a - delta_b| + spread(A) - spread(A^0)` (module doc; `spread` the sum of
     /// the two primitives' largest allowances), at most [`Sweep::fall`] and usually much less:
@@ -264,6 +348,7 @@ pub(super) fn round_down(x: f64) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::super::distance::tests::Rng;
+    use super::super::pair_cache::tests::spiral;
     use super::*;
 
     /// Random sweeps and later paths over two bodies: no pair's relative distance bound falls
@@ -365,6 +450,68 @@ mod tests {
         let own = sweep.pair_fall(&pair, &allowance);
         assert!((own - fall).abs() < 1e-12, "{own} against {fall}");
         assert!((fall - (2.0 * s + 2.0 * grow)).abs() < 1e-12, "{fall}");
+    }
+
+    /// A rolled sheet bends (each vertex moved by a smooth field, plus jitter) and its
+    /// allowances grow, or stays put while only they grow: for random vertex-triangle and edge-edge pairs of its mesh, the
+    /// pair's own fall is at most [`Sweep::patch_fall`], which is at most [`Sweep::fall`]
+    /// and, for most pairs of nearby triangles, less than a quarter of it.
+    #[test]
+    fn the_patch_fall_bounds_each_pair_fall() {
+        let mut rng = Rng::new(12);
+        let (safe0, triangles) = spiral(60, 0.01, &mut rng);
+        let n = safe0.len();
+        let patches = Patches::new(&triangles, n);
+        let bend = |x: &Vector3<f64>, k: f64| Vector3::new(k * x.y * x.y, k * x.x * x.y, -k * x.x);
+        let vertex_body = vec![0; n];
+        let mut tighter = 0;
+        for round in 0..25 {
+            // The last rounds: no motion at all, only the allowances grow.
+            let curl = if round < 20 {
+                0.05 * f64::from(round + 1)
+            } else {
+                0.0
+            };
+            let target0: Vec<_> = safe0.iter().map(|s| s + bend(s, curl)).collect();
+            let a0: Vec<f64> = (0..n).map(|_| rng.vector().x.abs() * 1e-4).collect();
+            let mut sweep = Sweep::default();
+            sweep.record(&safe0, &target0, &a0, 0);
+            let jitter = if round % 2 == 0 && curl > 0.0 {
+                1e-4
+            } else {
+                0.0
+            };
+            let (safe, target): (Vec<_>, Vec<_>) = (0..n)
+                .map(|i| {
+                    let s = target0[i] + rng.vector() * jitter;
+                    (s, s + bend(&s, -0.5 * curl) + rng.vector() * jitter)
+                })
+                .unzip();
+            let grow = if curl > 0.0 { 1e-4 } else { 1e-3 };
+            let a1: Vec<f64> = a0.iter().map(|a| a + rng.vector().x.abs() * grow).collect();
+            sweep.measure(&safe, &target);
+            sweep.measure_patches(&patches, &a1);
+            let fall = sweep.fall(&vertex_body, 1, &a1).expect("finite");
+            for _ in 0..200 {
+                // Two triangles a few triangles apart in the grid (the pairs a build keeps).
+                let k = (rng.vector().x.abs() * 1e6) as usize % (triangles.len() - 20);
+                let (s, t) = (triangles[k], triangles[k + 4 + k % 16]);
+                let edge_edge = rng.vector().x > 0.0;
+                let v = if edge_edge {
+                    [s[0], s[1], t[1], t[2]]
+                } else {
+                    [s[2], t[0], t[1], t[2]]
+                };
+                let pair = Pair { edge_edge, v };
+                let (a, b) = pair.sides();
+                let own = sweep.pair_fall(&pair, &a1);
+                let bound = sweep.patch_fall([a, b].map(|side| patches.of_side(side) as u32));
+                assert!(own <= bound + 1e-12, "{own} against its patches' {bound}");
+                assert!(bound <= fall + 1e-12, "{bound} against {fall}");
+                tighter += usize::from(curl > 0.0 && bound < 0.25 * fall);
+            }
+        }
+        assert!(tighter > 3000, "{tighter} of 4000 pairs");
     }
 
     #[test]
