@@ -7,6 +7,7 @@ pub mod broad_phase;
 pub mod ccd;
 mod collider;
 pub mod distance;
+mod distance_order;
 pub mod local_step;
 mod motion;
 mod pair_cache;

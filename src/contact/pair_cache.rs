@@ -48,8 +48,8 @@
 //!   CCD, which stops at a fraction of the initial gap, could report an early time for such a
 //!   pair that never comes near: the skip removes that spurious clamp, nothing else.) The
 //!   reuse argument gives a second, cheaper bound, `d_r - max_A dev - max_B dev - T_AB`; a
-//!   pair is skipped when either bound is at least `reach`. The stored pairs are sorted by
-//!   `d_r`, so those beyond `reach + 2 max_i dev_i + max T` (where the cheaper bound skips
+//!   pair is skipped when either bound is at least `reach`. The stored pairs are grouped by
+//!   `d_r` ([`DistanceOrder`]), so those beyond `reach + 2 max_i dev_i + max T` (where the cheaper bound skips
 //!   every one) are not looked at: a local step costs what the pairs near the reach cost, not
 //!   what the whole cache holds.
 //! - **Sweeps**: a filter applies the first bound with `s`, the safe positions of its own
@@ -63,6 +63,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::broad_phase::{BroadPhase, ContactMesh};
+use super::distance_order::DistanceOrder;
 use super::patches::Patches;
 use super::primitive_pairs::{close_primitive_pairs, nan_max, Owners, Pair};
 use super::sweep::{
@@ -97,9 +98,11 @@ pub(super) struct PairCache {
     candidates: Vec<(u32, u32)>,
     /// The triangles of each vertex, for [`Owners`].
     owners: Owners,
-    /// The primitive pairs of the build, each with its distance at `reference` (m), by
-    /// increasing distance (NaN first), then by pair.
+    /// The primitive pairs of the build, each with its distance at `reference` (m), in
+    /// buckets of increasing distance (NaN first).
     pairs: Vec<(Pair, f64)>,
+    /// Where the distance buckets of `pairs` end.
+    order: DistanceOrder,
     /// Per vertex: `dev_i = max(|w_i - c_B^w|, |g_i - c_B^g|) + A_i` (m), how far it may
     /// stray from its body's common motion (NaN counts as infinitely far).
     deviation: Vec<f64>,
@@ -168,10 +171,8 @@ impl PairCache {
         } else {
             horizon
         };
-        // NaN distances sort first and count as near.
-        let near = self
-            .pairs
-            .partition_point(|&(_, d)| d < horizon || d.is_nan());
+        // NaN distances come first and count as near.
+        let near = self.order.within(horizon);
         self.is_live[..self.flagged].fill(false);
         let fall = if self.sweep.valid {
             self.sweep.measure(safe, target);
@@ -498,6 +499,7 @@ impl PairCache {
             limit,
             &mut self.pairs,
         );
+        self.order.arrange(&mut self.pairs, |&(_, d)| d);
         // The pairs of each vertex (the four vertices of a pair are distinct: its primitives
         // share none).
         index_by_vertex(
@@ -566,7 +568,10 @@ pub(super) mod tests {
             .collect();
         let mut every = Vec::new();
         close_primitive_pairs(mesh, None, &all, positions, |_| f64::INFINITY, &mut every);
-        (all, every.into_iter().map(|(p, _)| p).collect())
+        let mut every: Vec<Pair> = every.into_iter().map(|(p, _)| p).collect();
+        every.sort_unstable();
+        every.dedup();
+        (all, every)
     }
 
     /// One local step's moves: the safe positions, the global step's result, per vertex the

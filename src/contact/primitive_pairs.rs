@@ -316,11 +316,11 @@ impl Owners {
 
 /// Writes into `found` the primitive pairs `p` of the triangle pairs `(i, j)` (`i < j`) of
 /// `boxes` that are closer than `limit(p)` (m) at the positions `x` (m), each with that
-/// distance (NaN distances count as close), deduplicated and sorted by distance (NaN first),
-/// then by pair (reusing its allocation); returns the triangle pairs that hold one of them
-/// (the candidates), in the order of `boxes`. With `owners`, a triangle pair expands only the
-/// pairs it owns (see [`Owners`]): each distance is computed once, and a close pair is found
-/// only if the boxes of its owner are in `boxes`.
+/// distance (NaN distances count as close), in the order of `boxes`; returns the triangle
+/// pairs that hold one of them (the candidates), in the same order. With `owners`, a triangle
+/// pair expands only the pairs it owns (see [`Owners`]): each close pair is found once (and
+/// only if the boxes of its owner are in `boxes`); without, a pair shared by several
+/// triangle pairs is found once for each.
 pub(super) fn close_primitive_pairs(
     mesh: &ContactMesh,
     owners: Option<&Owners>,
@@ -330,7 +330,7 @@ pub(super) fn close_primitive_pairs(
     found: &mut Vec<(Pair, f64)>,
 ) -> Vec<(u32, u32)> {
     let triangles = mesh.triangles;
-    let (candidates, mut close) = boxes
+    let (candidates, close) = boxes
         .par_iter()
         .fold(
             || (Vec::new(), Vec::new()),
@@ -359,10 +359,6 @@ pub(super) fn close_primitive_pairs(
                 (c, p)
             },
         );
-    // Copies of one pair have one distance (computed alike), so they end up side by side.
-    let key = |d: f64| if d.is_nan() { f64::NEG_INFINITY } else { d };
-    close.par_sort_unstable_by(|a, b| key(a.1).total_cmp(&key(b.1)).then(a.0.cmp(&b.0)));
-    close.dedup_by(|a, b| a.0 == b.0);
     *found = close;
     candidates
 }

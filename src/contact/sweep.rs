@@ -101,7 +101,7 @@ struct PatchMotion {
 impl Sweep {
     /// Starts a sweep at the safe positions `safe`, targets `target` and allowances
     /// `allowance` (m) over the cached pairs `..near`, and measures its path; the caller then
-    /// writes [`Sweep::slack`].
+    /// writes [`Sweep::swept`].
     pub fn record(
         &mut self,
         safe: &[Vector3<f64>],
