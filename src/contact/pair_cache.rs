@@ -49,9 +49,9 @@
 //!   pair that never comes near: the skip removes that spurious clamp, nothing else.) The
 //!   reuse argument gives a second, cheaper bound, `d_r - max_A dev - max_B dev - T_AB`; a
 //!   pair is skipped when either bound is at least `reach`. The stored pairs are grouped by
-//!   `d_r` ([`DistanceOrder`]), so those beyond `reach + 2 max_i dev_i + max T` (where the cheaper bound skips
-//!   every one) are not looked at: a local step costs what the pairs near the reach cost, not
-//!   what the whole cache holds.
+//!   `d_r` ([`DistanceOrder`]), so those beyond `reach + 2 max_i dev_i + max T` (where the
+//!   cheaper bound skips every one) are not looked at: a local step costs what the pairs near
+//!   the reach cost, not what the whole cache holds.
 //! - **Sweeps**: a filter applies the first bound with `s`, the safe positions of its own
 //!   local step, for `r` (each pair's distance at `s`, the moves along this local step's
 //!   path only): the live list then holds little more than the pairs near the reach, where a
@@ -273,11 +273,11 @@ impl PairCache {
     /// at those whose bound may have fallen below `reach` (m) since the sweep, by at most
     /// `fall` (m) for every pair and by at most [`Sweep::patch_fall`] and
     /// [`Sweep::pair_fall`] for each (see [`super::sweep`]; the cheaper test first), and at
-    /// those beyond the sweep's: the pairs that may
-    /// come within `reach`, increasing, or `None` (and nothing done) when, beyond as many as
-    /// the sweep found live, more than [`REFILTER_SHARE`] of the others would be looked at
-    /// again: the sweep's positions are then far enough behind that every filter until the
-    /// next sweep would look at that many, and a sweep afresh costs a few of them.
+    /// those beyond the sweep's: the pairs that may come within `reach`, increasing, or `None`
+    /// (and nothing done) when, beyond as many as the sweep found live, more than
+    /// [`REFILTER_SHARE`] of the others would be looked at again: the sweep's positions are
+    /// then far enough behind that every filter until the next sweep would look at that many,
+    /// and a sweep afresh costs a few of them.
     fn refilter(&self, near: usize, fall: f64, allowance: &[f64], reach: f64) -> Option<Vec<u32>> {
         let swept = self.sweep.near.min(near);
         let again: Vec<u32> = self.sweep.swept[..swept]

@@ -246,11 +246,8 @@ impl Sweep {
                 let mut largest = 0.0;
                 for &i in a {
                     for &j in b {
-                        let (i, j) = (i as usize, j as usize);
-                        let mut apart = self.ends[i][tau] - self.ends[j][tau];
-                        if sigma == 1 {
-                            apart -= self.step[i] - self.step[j];
-                        }
+                        let apart =
+                            self.delta(i as usize, tau, sigma) - self.delta(j as usize, tau, sigma);
                         largest = nan_max(largest, apart.norm_squared());
                     }
                 }
@@ -453,9 +450,10 @@ mod tests {
     }
 
     /// A rolled sheet bends (each vertex moved by a smooth field, plus jitter) and its
-    /// allowances grow, or stays put while only they grow: for random vertex-triangle and edge-edge pairs of its mesh, the
-    /// pair's own fall is at most [`Sweep::patch_fall`], which is at most [`Sweep::fall`]
-    /// and, for most pairs of nearby triangles, less than a quarter of it.
+    /// allowances grow, or stays put while only they grow: for random vertex-triangle and
+    /// edge-edge pairs of its mesh, the pair's own fall is at most [`Sweep::patch_fall`],
+    /// which is at most [`Sweep::fall`] and, for most pairs of nearby triangles, less than a
+    /// quarter of it.
     #[test]
     fn the_patch_fall_bounds_each_pair_fall() {
         let mut rng = Rng::new(12);
