@@ -18,9 +18,6 @@ pub(super) const BUCKETS: usize = 1 + 32 * 128;
 /// The bucket key (the top 16 bits of an `f32`) of 2^-24, the first past the NaN bucket.
 const LOWEST_KEY: u32 = (127 - 24) << 7;
 
-/// Items per chunk of the parallel count.
-const CHUNK: usize = 1 << 16;
-
 /// Where the buckets of the last [`DistanceOrder::arrange`] end.
 #[derive(Default)]
 pub(super) struct DistanceOrder {
@@ -29,16 +26,18 @@ pub(super) struct DistanceOrder {
 }
 
 impl DistanceOrder {
-    /// Reorders `items` by the bucket of `distance(item)` (m), keeping their order within a
-    /// bucket, and records where the buckets end.
+    /// Writes into `items` the items of `chunks` (in order) by the bucket of
+    /// `distance(item)` (m), keeping their order within a bucket (reusing its allocation),
+    /// and records where the buckets end.
     pub fn arrange<T: Copy + Send + Sync>(
         &mut self,
-        items: &mut Vec<T>,
+        chunks: &[Vec<T>],
         distance: impl Fn(&T) -> f64 + Sync,
+        items: &mut Vec<T>,
     ) {
         let bucket = |item: &T| bucket(distance(item));
-        let count = items
-            .par_chunks(CHUNK)
+        let count = chunks
+            .par_iter()
             .map(|chunk| {
                 let mut count = vec![0u32; BUCKETS];
                 chunk.iter().for_each(|item| count[bucket(item)] += 1);
@@ -59,16 +58,16 @@ impl DistanceOrder {
             end += c;
             self.end.push(end);
         }
-        let Some(&first) = items.first() else {
+        items.clear();
+        let Some(&first) = chunks.iter().flatten().next() else {
             return;
         };
-        let mut arranged = vec![first; items.len()];
-        for item in items.iter() {
+        items.resize(end as usize, first);
+        for item in chunks.iter().flatten() {
             let b = bucket(item);
-            arranged[next[b]] = *item;
+            items[next[b]] = *item;
             next[b] += 1;
         }
-        *items = arranged;
     }
 
     /// How many of the leading items hold every item closer than `horizon` (m) or NaN
@@ -115,8 +114,13 @@ mod tests {
             })
             .collect();
         let before = items.clone();
+        // Uneven chunks, one of them empty.
+        let chunks: Vec<Vec<(u32, f64)>> = [0, 7, 7, 5000, 123_456, n as usize]
+            .windows(2)
+            .map(|w| items[w[0]..w[1]].to_vec())
+            .collect();
         let mut order = DistanceOrder::default();
-        order.arrange(&mut items, |&(_, d)| d);
+        order.arrange(&chunks, |&(_, d)| d, &mut items);
         let mut ids: Vec<u32> = items.iter().map(|&(k, _)| k).collect();
         ids.sort_unstable();
         assert!(ids.iter().copied().eq(0..n));
@@ -144,8 +148,8 @@ mod tests {
         let nan = before.iter().filter(|(_, d)| d.is_nan()).count();
         assert!(items[..nan].iter().all(|(_, d)| d.is_nan()));
 
-        let mut empty: Vec<(u32, f64)> = Vec::new();
-        order.arrange(&mut empty, |&(_, d)| d);
+        order.arrange(&[Vec::new()], |&(_, d): &(u32, f64)| d, &mut items);
+        assert!(items.is_empty());
         assert_eq!(order.within(1.0), 0);
     }
 }

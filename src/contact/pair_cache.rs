@@ -491,15 +491,17 @@ impl PairCache {
         };
         // A primitive pair beyond the limit cannot come within `reach` before the next build.
         self.owners.index(mesh, safe.len());
+        let mut chunks = Vec::new();
         self.candidates = close_primitive_pairs(
             mesh,
             Some(&self.owners),
             &boxes,
             reference,
             limit,
-            &mut self.pairs,
+            &mut chunks,
         );
-        self.order.arrange(&mut self.pairs, |&(_, d)| d);
+        self.order.arrange(&chunks, |&(_, d)| d, &mut self.pairs);
+        drop(chunks);
         // The pairs of each vertex (the four vertices of a pair are distinct: its primitives
         // share none).
         index_by_vertex(
@@ -568,7 +570,7 @@ pub(super) mod tests {
             .collect();
         let mut every = Vec::new();
         close_primitive_pairs(mesh, None, &all, positions, |_| f64::INFINITY, &mut every);
-        let mut every: Vec<Pair> = every.into_iter().map(|(p, _)| p).collect();
+        let mut every: Vec<Pair> = every.into_iter().flatten().map(|(p, _)| p).collect();
         every.sort_unstable();
         every.dedup();
         (all, every)
@@ -762,7 +764,7 @@ pub(super) mod tests {
                     .copied()
                     .filter(|&pair| {
                         let mut owned = Vec::new();
-                        close_primitive_pairs(
+                        let candidates = close_primitive_pairs(
                             &mesh,
                             Some(&cache.owners),
                             &[pair],
@@ -770,7 +772,7 @@ pub(super) mod tests {
                             limit,
                             &mut owned,
                         );
-                        !owned.is_empty()
+                        !candidates.is_empty()
                     })
                     .collect();
                 assert_eq!(cache.candidates, near, "step {k}");

@@ -314,27 +314,31 @@ impl Owners {
     }
 }
 
+/// Triangle pairs of `boxes` per chunk of [`close_primitive_pairs`].
+const BOXES_PER_CHUNK: usize = 4096;
+
 /// Writes into `found` the primitive pairs `p` of the triangle pairs `(i, j)` (`i < j`) of
 /// `boxes` that are closer than `limit(p)` (m) at the positions `x` (m), each with that
-/// distance (NaN distances count as close), in the order of `boxes`; returns the triangle
-/// pairs that hold one of them (the candidates), in the same order. With `owners`, a triangle
-/// pair expands only the pairs it owns (see [`Owners`]): each close pair is found once (and
-/// only if the boxes of its owner are in `boxes`); without, a pair shared by several
-/// triangle pairs is found once for each.
+/// distance (NaN distances count as close), in the order of `boxes`, in chunks (one per
+/// [`BOXES_PER_CHUNK`] triangle pairs: concatenating them is left to the caller, who orders
+/// them anyway); returns the triangle pairs that hold one of them (the candidates), in the
+/// same order. With `owners`, a triangle pair expands only the pairs it owns (see
+/// [`Owners`]): each close pair is found once (and only if the boxes of its owner are in
+/// `boxes`); without, a pair shared by several triangle pairs is found once for each.
 pub(super) fn close_primitive_pairs(
     mesh: &ContactMesh,
     owners: Option<&Owners>,
     boxes: &[(u32, u32)],
     x: &[Vector3<f64>],
     limit: impl Fn(&Pair) -> f64 + Sync,
-    found: &mut Vec<(Pair, f64)>,
+    found: &mut Vec<Vec<(Pair, f64)>>,
 ) -> Vec<(u32, u32)> {
     let triangles = mesh.triangles;
-    let (candidates, close) = boxes
-        .par_iter()
-        .fold(
-            || (Vec::new(), Vec::new()),
-            |(mut candidates, mut close): CandidatesAndPairs, &(i, j)| {
+    let chunks: Vec<CandidatesAndPairs> = boxes
+        .par_chunks(BOXES_PER_CHUNK)
+        .map(|chunk| {
+            let (mut candidates, mut close) = (Vec::new(), Vec::new());
+            for &(i, j) in chunk {
                 let before = close.len();
                 let owned = owners.map_or([true; PER_TRIANGLE_PAIR], |o| o.owned(mesh, i, j));
                 close.extend(
@@ -348,18 +352,16 @@ pub(super) fn close_primitive_pairs(
                 if close.len() > before {
                     candidates.push((i, j));
                 }
-                (candidates, close)
-            },
-        )
-        .reduce(
-            || (Vec::new(), Vec::new()),
-            |(mut c, mut p), (c2, p2)| {
-                c.extend(c2);
-                p.extend(p2);
-                (c, p)
-            },
-        );
-    *found = close;
+            }
+            (candidates, close)
+        })
+        .collect();
+    let mut candidates = Vec::with_capacity(chunks.iter().map(|(c, _)| c.len()).sum());
+    found.clear();
+    for (c, close) in chunks {
+        candidates.extend_from_slice(&c);
+        found.push(close);
+    }
     candidates
 }
 
