@@ -24,13 +24,16 @@
 //! the pair's own allowance growth) costs a few vector differences and usually keeps it out;
 //! the rest are looked at as a sweep would, from their distance at `s`.
 //!
-//! Between the two, a bound per pair of patches ([`super::patches`], [`Sweep::patch_fall`])
-//! costs two lookups: with `P` and `Q` the patches whose halos hold the sides A and B, and
+//! A third bound, per pair of patches ([`super::patches`], [`Sweep::patch_fall`]), costs two
+//! lookups: with `P` and `Q` the patches whose halos hold the sides A and B, and
 //! `m`, `rho` the patches' centres and radii of `delta` for each `tau` and `sigma`, the pair's
 //! fall is at most `max_tau min_sigma (rho_P + |m_P - m_Q| + rho_Q) + g_P + g_Q`, with `g`
 //! the largest allowance growth over a halo. Where a body bends or folds as a whole, every
 //! vertex strays from the body's mean by millimetres and `F` keeps few pairs out; the
-//! patches, a few centimetres across, stray much less from their own centres.
+//! patches, a few centimetres across, stray much less from their own centres. None of the
+//! three bounds dominates another (a halo's radius may reach twice the largest stray from
+//! the body's mean, and `F` chooses `sigma` once for all pairs), so a filter takes the
+//! cheapest first and looks at a pair only when all three let it through.
 //!
 //! The choice of `sigma` matters: the local step after a sweep starts where the sweep's path
 //! ended (`s ~ y^0`), which the old end `sigma = 1` sees as no move at all. Only the common
@@ -452,8 +455,8 @@ mod tests {
     /// A rolled sheet bends (each vertex moved by a smooth field, plus jitter) and its
     /// allowances grow, or stays put while only they grow: for random vertex-triangle and
     /// edge-edge pairs of its mesh, the pair's own fall is at most [`Sweep::patch_fall`],
-    /// which is at most [`Sweep::fall`] and, for most pairs of nearby triangles, less than a
-    /// quarter of it.
+    /// which for most pairs of nearby triangles is less than a quarter of [`Sweep::fall`] (no
+    /// bound dominates the other in general: the module doc).
     #[test]
     fn the_patch_fall_bounds_each_pair_fall() {
         let mut rng = Rng::new(12);
@@ -505,7 +508,6 @@ mod tests {
                 let own = sweep.pair_fall(&pair, &a1);
                 let bound = sweep.patch_fall([a, b].map(|side| patches.of_side(side) as u32));
                 assert!(own <= bound + 1e-12, "{own} against its patches' {bound}");
-                assert!(bound <= fall + 1e-12, "{bound} against {fall}");
                 tighter += usize::from(curl > 0.0 && bound < 0.25 * fall);
             }
         }
