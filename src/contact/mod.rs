@@ -14,6 +14,7 @@ mod pair_cache;
 mod patches;
 mod pose;
 mod primitive_pairs;
+mod regions;
 mod sdf;
 mod sweep;
 mod vertex_index;

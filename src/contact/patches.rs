@@ -15,7 +15,7 @@
 use nalgebra::Vector3;
 
 use super::primitive_pairs::nan_max;
-use super::vertex_index::index_by_vertex;
+use super::vertex_index::{index_by_vertex, index_incidences};
 
 /// The most vertices in a patch: smaller patches give tighter radii, larger ones fewer
 /// patches to measure at every filter (a cost trade-off only; any partition is correct).
@@ -35,8 +35,15 @@ pub(super) struct Patches {
 }
 
 impl Patches {
-    /// Partitions the vertices of `triangles` (of `vertices` vertices) into patches.
+    /// Partitions the vertices of `triangles` (of `vertices` vertices) into patches of at most
+    /// [`PATCH_SIZE`] vertices.
     pub fn new(triangles: &[[u32; 3]], vertices: usize) -> Self {
+        Self::with_size(triangles, vertices, PATCH_SIZE)
+    }
+
+    /// Partitions the vertices of `triangles` (of `vertices` vertices) into patches of at most
+    /// `size` vertices.
+    pub fn with_size(triangles: &[[u32; 3]], vertices: usize, size: usize) -> Self {
         let (mut start, mut incident) = (Vec::new(), Vec::new());
         index_by_vertex(
             triangles.iter().copied(),
@@ -47,7 +54,7 @@ impl Patches {
         let around = |v: usize| &incident[start[v] as usize..start[v + 1] as usize];
         let mut of_vertex = vec![NO_PATCH; vertices];
         let mut patches = 0u32;
-        let mut queue = Vec::with_capacity(PATCH_SIZE);
+        let mut queue = Vec::with_capacity(size);
         for seed in 0..vertices {
             if of_vertex[seed] != NO_PATCH || around(seed).is_empty() {
                 continue;
@@ -61,7 +68,7 @@ impl Patches {
                 next += 1;
                 for &t in around(v) {
                     for &w in &triangles[t as usize] {
-                        if queue.len() == PATCH_SIZE {
+                        if queue.len() == size {
                             break 'grow;
                         }
                         if of_vertex[w as usize] == NO_PATCH {
@@ -117,6 +124,23 @@ impl Patches {
     /// The halo of patch `p`.
     pub fn halo(&self, p: usize) -> &[u32] {
         &self.halo[self.halo_start[p] as usize..self.halo_start[p + 1] as usize]
+    }
+
+    /// The patch of vertex `v`, `None` for a vertex of no triangle.
+    pub fn of_vertex(&self, v: usize) -> Option<usize> {
+        let p = self.of_vertex[v];
+        (p != NO_PATCH).then_some(p as usize)
+    }
+
+    /// Per vertex, the patches whose halos hold it, as compressed rows: those of vertex `v`
+    /// are `entries[start[v]..start[v + 1]]`, increasing.
+    pub fn halos_by_vertex(&self, start: &mut Vec<u32>, entries: &mut Vec<u32>) {
+        index_incidences(
+            (0..self.count()).flat_map(|p| self.halo(p).iter().map(move |&v| (p as u32, v))),
+            self.vertices(),
+            start,
+            entries,
+        );
     }
 
     /// The centre `m_P` and radius `rho_P` (module doc) of `delta` over the halo of patch `p`;

@@ -1,5 +1,5 @@
-//! Per-vertex indices of lists of vertices (triangles, primitive pairs): for each vertex, the
-//! lists it belongs to, in increasing order, as compressed rows.
+//! Per-vertex indices of lists of vertices (triangles, primitive pairs, patch halos): for each
+//! vertex, the lists it belongs to, in increasing order, as compressed rows.
 
 /// Fills `start` and `entries` so that the items holding vertex `v` (of `vertices`) are
 /// `entries[start[v]..start[v + 1]]`, in increasing order: a counting sort of `items` (each
@@ -10,14 +10,31 @@ pub(super) fn index_by_vertex<const K: usize>(
     start: &mut Vec<u32>,
     entries: &mut Vec<u32>,
 ) {
+    index_incidences(
+        items
+            .enumerate()
+            .flat_map(|(k, item)| item.map(|v| (k as u32, v))),
+        vertices,
+        start,
+        entries,
+    );
+}
+
+/// Fills `start` and `entries` so that the items `k` of the incidences `(k, v)` with vertex
+/// `v` (of `vertices`) are `entries[start[v]..start[v + 1]]`, in the order of `incidences`
+/// (increasing when the items come in increasing order, each incidence once).
+pub(super) fn index_incidences(
+    incidences: impl Iterator<Item = (u32, u32)> + Clone,
+    vertices: usize,
+    start: &mut Vec<u32>,
+    entries: &mut Vec<u32>,
+) {
     start.clear();
     start.resize(vertices + 1, 0);
     let mut count = 0;
-    for item in items.clone() {
-        for v in item {
-            start[v as usize + 1] += 1;
-        }
-        count += K;
+    for (_, v) in incidences.clone() {
+        start[v as usize + 1] += 1;
+        count += 1;
     }
     for v in 0..vertices {
         start[v + 1] += start[v];
@@ -25,10 +42,8 @@ pub(super) fn index_by_vertex<const K: usize>(
     let mut next = start.clone();
     entries.clear();
     entries.resize(count, 0);
-    for (k, item) in items.enumerate() {
-        for v in item {
-            entries[next[v as usize] as usize] = k as u32;
-            next[v as usize] += 1;
-        }
+    for (k, v) in incidences {
+        entries[next[v as usize] as usize] = k;
+        next[v as usize] += 1;
     }
 }

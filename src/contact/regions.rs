@@ -1,0 +1,265 @@
+//! The reference motions that the pair cache measures its skins from (see
+//! [`super::pair_cache`], "Reuse"): one per *region*, a connected group of a few hundred
+//! vertices of one body ([`Patches`] with [`region_size`] vertices), instead of one per body.
+//!
+//! The reuse argument holds for any vertex groups `G` with any common motions `c_G(tau)`
+//! affine in `tau`: with the displacements `u_i(tau)` of vertex `i` from the build's positions
+//! `r`, every point of a primitive pair's sides moves relative to the other side by at most
+//! `max_{a, b} |u_a - u_b| <= max_a dev_a + max_b dev_b + |c_P - c_Q|`, where `P` and `Q` are the
+//! regions whose halos hold the two sides ([`Patches::of_side`]) and `dev_i` bounds `|u_i -
+//! c_G|` for every region `G` whose halo holds `i`. Measured from its region's mean, a skirt
+//! swinging down as a whole deviates little, where from its body's mean (the whole cloth, its
+//! middle at rest on the ball) it deviates by the swing: on three 200 x 200 cloths draping
+//! over the ball the body-mean skins kept 40M candidate triangle pairs and 15 GB.
+//!
+//! What the regions cost instead is a skin per pair of regions, `S_PQ` (m), that
+//! `T_PQ = max_{tau} |c_P(tau) - c_Q(tau)|` must stay below until the next build, for *every*
+//! pair of regions, also those far apart whose relative motion is large. A build sets
+//! `S_PQ = max(K_PQ, gap_PQ - reach - R_P - R_Q)`: `K_PQ` room for the regions' relative
+//! motion, `gap_PQ` the distance between the boxes of their halos at `r` and `R_P` the largest
+//! vertex skin over the halo of `P`. A primitive pair of the regions `P`, `Q` is then kept
+//! when it is closer than `reach + R_A + R_B + S_PQ` (`R_A`, `R_B` the largest skins of its
+//! two sides); where the second term of `S_PQ` is the larger (the regions are *far*), that
+//! limit is at most `gap_PQ`, below the distance of any such pair, so far regions keep no
+//! pair and their skins cost nothing but the check `T_PQ <= S_PQ`, made for all `n^2` region
+//! pairs at every filter (about a thousand regions at most, see [`region_size`]).
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use super::patches::Patches;
+use super::primitive_pairs::nan_max;
+
+/// The fewest vertices per region (more on large meshes, see [`region_size`]): smaller
+/// regions follow the motion more closely (smaller skins, fewer cached pairs), more regions
+/// cost more region pairs to check (a cost trade-off only; any partition is correct).
+pub(super) const REGION_SIZE: usize = 64;
+
+/// About the most regions a mesh is cut into (see [`region_size`]).
+const MOST_REGIONS: usize = 1024;
+
+/// The most vertices per region for a mesh of `vertices` vertices: [`REGION_SIZE`], or more
+/// where that would give more than about [`MOST_REGIONS`] regions.
+pub(super) fn region_size(vertices: usize) -> usize {
+    REGION_SIZE.max(vertices.div_ceil(MOST_REGIONS))
+}
+
+/// A mesh's regions, their motions since a build, and the skins of their pairs.
+#[derive(Default)]
+pub(super) struct Regions {
+    /// The partition, with halos.
+    patches: Patches,
+    /// Per vertex, the regions whose halos hold it (compressed rows).
+    halos_start: Vec<u32>,
+    halos: Vec<u32>,
+    /// Per region: the mean `[c^w, c^g]` of the vertex displacements over its halo (m).
+    motion: Vec<[Vector3<f64>; 2]>,
+    /// `T_PQ` per region pair, row-major (m): `max(|c_P^w - c_Q^w|, |c_P^g - c_Q^g|)`,
+    /// infinite where NaN.
+    apart: Vec<f64>,
+    /// `S_PQ` per region pair, row-major (m): how far `T_PQ` may grow before a build.
+    skin: Vec<f64>,
+    /// Per region pair: whether its regions are near (`S_PQ = K_PQ`; they may hold cached
+    /// pairs).
+    near: Vec<bool>,
+}
+
+impl Regions {
+    /// Cuts the mesh of `triangles` (of `vertices` vertices) into regions.
+    pub fn new(triangles: &[[u32; 3]], vertices: usize) -> Self {
+        let patches = Patches::with_size(triangles, vertices, region_size(vertices));
+        let (mut halos_start, mut halos) = (Vec::new(), Vec::new());
+        patches.halos_by_vertex(&mut halos_start, &mut halos);
+        Regions {
+            patches,
+            halos_start,
+            halos,
+            ..Default::default()
+        }
+    }
+
+    /// The number of regions.
+    pub fn count(&self) -> usize {
+        self.patches.count()
+    }
+
+    /// The regions whose halos hold vertex `v`.
+    pub fn holding(&self, v: usize) -> &[u32] {
+        &self.halos[self.halos_start[v] as usize..self.halos_start[v + 1] as usize]
+    }
+
+    /// Measures each region's common motion, the mean of the displacements `shift`
+    /// (`[w_i, g_i]` per vertex, m) over its halo, and `T_PQ` for every region pair.
+    pub fn measure(&mut self, shift: &[[Vector3<f64>; 2]]) {
+        let patches = &self.patches;
+        (0..patches.count())
+            .into_par_iter()
+            .map(|p| {
+                let halo = patches.halo(p);
+                let sum = halo.iter().fold([Vector3::zeros(); 2], |[w, g], &v| {
+                    let [dw, dg] = shift[v as usize];
+                    [w + dw, g + dg]
+                });
+                sum.map(|s| s / halo.len() as f64)
+            })
+            .collect_into_vec(&mut self.motion);
+        let (motion, n) = (&self.motion, self.count());
+        self.apart.resize(n * n, 0.0);
+        self.apart
+            .par_chunks_mut(n.max(1))
+            .enumerate()
+            .for_each(|(p, row)| {
+                for (q, t) in row.iter_mut().enumerate() {
+                    let [pw, pg] = motion[p];
+                    let [qw, qg] = motion[q];
+                    *t = infinite_if_nan((pw - qw).norm().max((pg - qg).norm()));
+                }
+            });
+    }
+
+    /// `max_G max(|w_i - c_G^w|, |g_i - c_G^g|)` over the regions `G` whose halos hold vertex
+    /// `i`, with `[w_i, g_i]` = `shift` (m; 0 for a vertex of no triangle, NaN if a figure is).
+    pub fn deviation(&self, i: usize, [w, g]: &[Vector3<f64>; 2]) -> f64 {
+        self.holding(i).iter().fold(0.0, |d, &p| {
+            let [cw, cg] = &self.motion[p as usize];
+            nan_max(d, (w - cw).norm().max((g - cg).norm()))
+        })
+    }
+
+    /// `max_G |g - c_G^g|` over the regions `G` whose halos hold vertex `i` (m): its motion
+    /// to the target relative to its regions.
+    pub fn target_deviation(&self, i: usize, g: &Vector3<f64>) -> f64 {
+        self.holding(i).iter().fold(0.0, |d, &p| {
+            nan_max(d, (g - self.motion[p as usize][1]).norm())
+        })
+    }
+
+    /// Sets the skins `S_PQ` of a build at `reference` (m) from the vertex skins `skin` (m)
+    /// and the motions last measured (module doc): `K_PQ = moves |c_P^g - c_Q^g| + reach / 4`
+    /// for two regions (0 for a region with itself), none (infinite) for two regions of one
+    /// body without self-contact (`vertex_body`, `self_contact`). Returns per region the
+    /// largest `S` over the regions near it (m), which pads its triangles' boxes.
+    pub fn set_skins(
+        &mut self,
+        reference: &[Vector3<f64>],
+        skin: &[f64],
+        vertex_body: &[u32],
+        self_contact: &[bool],
+        moves: f64,
+        reach: f64,
+    ) -> Vec<f64> {
+        let patches = &self.patches;
+        let n = patches.count();
+        // Per region: the box of its halo at `reference`, the largest skin over it, its body.
+        let halos: Vec<(Vector3<f64>, Vector3<f64>, f64, u32)> = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                let halo = patches.halo(p);
+                let (mut lo, mut hi) = (
+                    Vector3::repeat(f64::INFINITY),
+                    -Vector3::repeat(f64::INFINITY),
+                );
+                let mut largest: f64 = 0.0;
+                for &v in halo {
+                    lo = lo.inf(&reference[v as usize]);
+                    hi = hi.sup(&reference[v as usize]);
+                    largest = nan_max(largest, skin[v as usize]);
+                }
+                (lo, hi, largest, vertex_body[halo[0] as usize])
+            })
+            .collect();
+        let motion = &self.motion;
+        let rows: Vec<(Vec<f64>, Vec<bool>)> = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                let (plo, phi, pr, pb) = halos[p];
+                (0..n)
+                    .map(|q| {
+                        let (qlo, qhi, qr, qb) = halos[q];
+                        if p == q {
+                            return (0.0, true);
+                        }
+                        if pb == qb && !self_contact[pb as usize] {
+                            return (f64::INFINITY, false);
+                        }
+                        let room = infinite_if_nan(
+                            moves * (motion[p][1] - motion[q][1]).norm() + 0.25 * reach,
+                        );
+                        let gap = (qlo - phi).sup(&(plo - qhi)).sup(&Vector3::zeros()).norm();
+                        let far = gap - reach - pr - qr;
+                        if far > room {
+                            (far, false)
+                        } else {
+                            (room, true)
+                        }
+                    })
+                    .unzip()
+            })
+            .collect();
+        self.skin.clear();
+        self.near.clear();
+        for (skin, near) in rows {
+            self.skin.extend(skin);
+            self.near.extend(near);
+        }
+        (0..n)
+            .map(|p| {
+                let row = p * n..(p + 1) * n;
+                self.skin[row.clone()]
+                    .iter()
+                    .zip(&self.near[row])
+                    .filter(|(_, &near)| near)
+                    .fold(0.0, |m: f64, (&s, _)| m.max(s))
+            })
+            .collect()
+    }
+
+    /// Whether every region pair's `T_PQ` is within its skin `S_PQ` (false where NaN).
+    pub fn hold(&self) -> bool {
+        self.apart.len() == self.skin.len()
+            && self.apart.par_iter().zip(&self.skin).all(|(t, s)| t <= s)
+    }
+
+    /// `max T_PQ` over the near region pairs (m): every cached pair's regions are near.
+    pub fn largest_near_apart(&self) -> f64 {
+        self.apart
+            .par_iter()
+            .zip(&self.near)
+            .filter(|(_, &near)| near)
+            .map(|(&t, _)| t)
+            .reduce(|| 0.0, nan_max)
+    }
+
+    /// The region of the halo holding the side `side` (the vertices of a vertex, edge or
+    /// triangle of the mesh).
+    pub fn of_side(&self, side: &[u32]) -> usize {
+        self.patches.of_side(side)
+    }
+
+    /// `T_PQ` (m) of the regions `p`, `q`.
+    pub fn apart(&self, p: usize, q: usize) -> f64 {
+        self.apart[p * self.count() + q]
+    }
+
+    /// `S_PQ` (m) of the regions `p`, `q`.
+    pub fn skin(&self, p: usize, q: usize) -> f64 {
+        self.skin[p * self.count() + q]
+    }
+
+    /// The largest of `per_region` over the regions of the vertices `vertices`.
+    pub fn largest_of(&self, vertices: &[u32], per_region: &[f64]) -> f64 {
+        vertices
+            .iter()
+            .filter_map(|&v| self.patches.of_vertex(v as usize))
+            .fold(0.0, |m, p| nan_max(m, per_region[p]))
+    }
+}
+
+/// `x`, or infinity where it is NaN (a NaN motion counts as infinitely far).
+fn infinite_if_nan(x: f64) -> f64 {
+    if x.is_nan() {
+        f64::INFINITY
+    } else {
+        x
+    }
+}
