@@ -167,6 +167,7 @@ impl PairCache {
             self.build(safe, target, allowance, mesh, reach);
             self.covers(allowance);
         }
+        self.apart = self.regions.largest_near_motion();
         // Only pairs closer than `reach + 2 max dev + max T` at `r` can pass the first test.
         let horizon = reach + 2.0 * self.farthest + self.apart;
         let horizon = if horizon.is_nan() {
@@ -265,7 +266,7 @@ impl PairCache {
             .into_par_iter()
             .filter(|&k| {
                 below(f64::from(sweep.swept[k as usize].slack), 0.0)
-                    && this.common_bound(k as usize) < reach
+                    && below(this.common_bound(k as usize), reach)
             })
             .collect();
         self.sweep.live = found.len();
@@ -319,10 +320,10 @@ impl PairCache {
     }
 
     /// Whether the cached pair `k` may come within `reach` (m) for the allowances `allowance`
-    /// (m) on the path the sweep last measured: neither the bound from the bodies' common
-    /// motions nor the fresh bound reaches `reach`.
+    /// (m) on the path the sweep last measured: neither the bound from its regions' common
+    /// motions nor the fresh bound reaches `reach` (NaN counts as below).
     fn may_come_within(&self, k: usize, allowance: &[f64], reach: f64) -> bool {
-        self.common_bound(k) < reach && below(self.fresh_bound(k, allowance), reach)
+        below(self.common_bound(k), reach) && below(self.fresh_bound(k, allowance), reach)
     }
 
     /// The cached pair `k`'s relative distance bound (m) on the path the sweep last measured,
@@ -341,7 +342,8 @@ impl PairCache {
         let (pair, d) = &self.pairs[k];
         let (a, b) = pair.sides();
         let regions = &self.regions;
-        d - pair.spread(&self.deviation) - regions.apart(regions.of_side(a), regions.of_side(b))
+        d - pair.spread(&self.deviation)
+            - regions.relative_motion(regions.of_side(a), regions.of_side(b))
     }
 
     /// Whether the lists were built for this mesh and vertex count.
@@ -355,7 +357,7 @@ impl PairCache {
     /// Whether the build still holds every pair the local step may look at, as far as the
     /// vertices go (the reuse test of the module doc; the region pairs' part,
     /// [`Regions::hold`], depends only on the motion): per vertex `dev_i <= R_i`; writes
-    /// `dev_i`, `max_i dev_i` and the largest `T_PQ` of near regions. False if a figure is NaN.
+    /// `dev_i` and `max_i dev_i`. False if a figure is NaN.
     fn covers(&mut self, allowance: &[f64]) -> bool {
         let (shift, vertex_body, regions) = (&self.shift, &self.vertex_body, &self.regions);
         allowance
@@ -380,7 +382,6 @@ impl PairCache {
             .map(|(&d, &r)| (d, d <= r))
             .reduce(|| (0.0, true), |a, b| (a.0.max(b.0), a.1 && b.1));
         self.farthest = farthest;
-        self.apart = self.regions.largest_near_apart();
         within
     }
 
@@ -470,9 +471,25 @@ impl PairCache {
             .collect();
         let boxes = self
             .broad_phase
-            .candidate_pairs(reference, reference, mesh, &padding)
-            .to_vec();
+            .candidate_pairs(reference, reference, mesh, &padding);
         self.box_pairs = boxes.len();
+        // The padding takes the largest skin of the regions near a triangle's; the limits of
+        // a triangle pair's primitive pairs are at most `reach + (max R + max R) + max S_PQ`
+        // over its own vertices' regions (`S` is symmetric and a primitive pair's regions are
+        // those of a vertex of either triangle; the sums are in the order of [`limit`], so
+        // rounding keeps the bound above every limit): where its triangles' boxes are farther
+        // apart, none of them is kept, and their 15 distances are not worth computing.
+        let triangles = mesh.triangles;
+        let boxes: Vec<(u32, u32)> = boxes
+            .par_iter()
+            .copied()
+            .filter(|&(i, j)| {
+                let (a, b) = (&triangles[i as usize], &triangles[j as usize]);
+                let largest = |t: &[u32; 3]| t.iter().map(|&v| skin[v as usize]).fold(0.0, nan_max);
+                let bound = reach + (largest(a) + largest(b)) + regions.largest_skin_between(a, b);
+                below(box_distance(reference, a, b), bound)
+            })
+            .collect();
         let limit = |p: &Pair| limit(skin, regions, reach, p);
         // A primitive pair beyond the limit cannot come within `reach` before the next build.
         self.owners.index(mesh, safe.len());
@@ -508,6 +525,23 @@ impl PairCache {
 fn limit(skin: &[f64], regions: &Regions, reach: f64, p: &Pair) -> f64 {
     let (a, b) = p.sides();
     reach + p.spread(skin) + regions.skin(regions.of_side(a), regions.of_side(b))
+}
+
+/// The distance (m) between the bounding boxes of the triangles `a` and `b` at `x` (m), NaN
+/// where a position is: at most the distance between any of their points.
+fn box_distance(x: &[Vector3<f64>], a: &[u32; 3], b: &[u32; 3]) -> f64 {
+    if a.iter()
+        .chain(b)
+        .any(|&v| x[v as usize].iter().any(|c| c.is_nan()))
+    {
+        return f64::NAN;
+    }
+    let bounds = |t: &[u32; 3]| {
+        let p = t.map(|v| x[v as usize]);
+        (p[0].inf(&p[1]).inf(&p[2]), p[0].sup(&p[1]).sup(&p[2]))
+    };
+    let ((alo, ahi), (blo, bhi)) = (bounds(a), bounds(b));
+    (blo - ahi).sup(&(alo - bhi)).sup(&Vector3::zeros()).norm()
 }
 
 /// Whether `x < limit`, NaN counting as below (a NaN bound keeps its pair).

@@ -1,6 +1,7 @@
 //! The reference motions that the pair cache measures its skins from (see
-//! [`super::pair_cache`], "Reuse"): one per *region*, a connected group of a few hundred
-//! vertices of one body ([`Patches`] with [`region_size`] vertices), instead of one per body.
+//! [`super::pair_cache`], "Reuse"): one per *region*, a connected group of at most
+//! [`region_size`] vertices of one body (64 on meshes of up to 64K vertices; [`Patches`]),
+//! instead of one per body.
 //!
 //! The reuse argument holds for any vertex groups `G` with any common motions `c_G(tau)`
 //! affine in `tau`: with the displacements `u_i(tau)` of vertex `i` from the build's positions
@@ -22,7 +23,9 @@
 //! two sides); where the second term of `S_PQ` is the larger (the regions are *far*), that
 //! limit is at most `gap_PQ`, below the distance of any such pair, so far regions keep no
 //! pair and their skins cost nothing but the check `T_PQ <= S_PQ`, made for all `n^2` region
-//! pairs at every filter (about a thousand regions at most, see [`region_size`]).
+//! pairs at every filter (one to two thousand regions at most, see [`region_size`]; patches
+//! are not always full). `S_PQ` is symmetric to the last bit: a primitive pair's limit reads
+//! it with its sides' regions in the pair's order, the box padding in either.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -30,9 +33,10 @@ use rayon::prelude::*;
 use super::patches::Patches;
 use super::primitive_pairs::nan_max;
 
-/// The fewest vertices per region (more on large meshes, see [`region_size`]): smaller
-/// regions follow the motion more closely (smaller skins, fewer cached pairs), more regions
-/// cost more region pairs to check (a cost trade-off only; any partition is correct).
+/// The most vertices per region on meshes of up to 64K vertices (more on larger ones, see
+/// [`region_size`]): smaller regions follow the motion more closely (smaller skins, fewer
+/// cached pairs), more regions cost more region pairs to check (a cost trade-off only; any
+/// partition is correct).
 pub(super) const REGION_SIZE: usize = 64;
 
 /// About the most regions a mesh is cut into (see [`region_size`]).
@@ -56,12 +60,12 @@ pub(super) struct Regions {
     motion: Vec<[Vector3<f64>; 2]>,
     /// `T_PQ` per region pair, row-major (m): `max(|c_P^w - c_Q^w|, |c_P^g - c_Q^g|)`,
     /// infinite where NaN.
-    apart: Vec<f64>,
+    relative_motion: Vec<f64>,
     /// `S_PQ` per region pair, row-major (m): how far `T_PQ` may grow before a build.
     skin: Vec<f64>,
     /// Per region pair: whether its regions are near (`S_PQ = K_PQ`; they may hold cached
     /// pairs).
-    near: Vec<bool>,
+    may_hold: Vec<bool>,
 }
 
 impl Regions {
@@ -104,8 +108,8 @@ impl Regions {
             })
             .collect_into_vec(&mut self.motion);
         let (motion, n) = (&self.motion, self.count());
-        self.apart.resize(n * n, 0.0);
-        self.apart
+        self.relative_motion.resize(n * n, 0.0);
+        self.relative_motion
             .par_chunks_mut(n.max(1))
             .enumerate()
             .for_each(|(p, row)| {
@@ -161,9 +165,17 @@ impl Regions {
                 );
                 let mut largest: f64 = 0.0;
                 for &v in halo {
-                    lo = lo.inf(&reference[v as usize]);
-                    hi = hi.sup(&reference[v as usize]);
                     largest = nan_max(largest, skin[v as usize]);
+                }
+                for &v in halo {
+                    let x = &reference[v as usize];
+                    if !x.iter().all(|c| c.is_finite()) {
+                        // No box: the region counts as near every other (a NaN gap).
+                        (lo, hi) = (Vector3::repeat(f64::NAN), Vector3::repeat(f64::NAN));
+                        break;
+                    }
+                    lo = lo.inf(x);
+                    hi = hi.sup(x);
                 }
                 (lo, hi, largest, vertex_body[halo[0] as usize])
             })
@@ -186,7 +198,8 @@ impl Regions {
                             moves * (motion[p][1] - motion[q][1]).norm() + 0.25 * reach,
                         );
                         let gap = (qlo - phi).sup(&(plo - qhi)).sup(&Vector3::zeros()).norm();
-                        let far = gap - reach - pr - qr;
+                        // A NaN gap counts as near; `pr + qr` first keeps `S` symmetric.
+                        let far = gap - reach - (pr + qr);
                         if far > room {
                             (far, false)
                         } else {
@@ -197,18 +210,21 @@ impl Regions {
             })
             .collect();
         self.skin.clear();
-        self.near.clear();
-        for (skin, near) in rows {
+        self.may_hold.clear();
+        for (skin, may_hold) in rows {
             self.skin.extend(skin);
-            self.near.extend(near);
+            self.may_hold.extend(may_hold);
         }
+        // An infinite `S_PQ` comes from a NaN motion, whose halo's vertices have infinite
+        // skins: the boxes of the triangles that own the pairs of that region are infinite
+        // already, and the other region's need not be.
         (0..n)
             .map(|p| {
                 let row = p * n..(p + 1) * n;
                 self.skin[row.clone()]
                     .iter()
-                    .zip(&self.near[row])
-                    .filter(|(_, &near)| near)
+                    .zip(&self.may_hold[row])
+                    .filter(|(s, &may_hold)| may_hold && s.is_finite())
                     .fold(0.0, |m: f64, (&s, _)| m.max(s))
             })
             .collect()
@@ -216,16 +232,20 @@ impl Regions {
 
     /// Whether every region pair's `T_PQ` is within its skin `S_PQ` (false where NaN).
     pub fn hold(&self) -> bool {
-        self.apart.len() == self.skin.len()
-            && self.apart.par_iter().zip(&self.skin).all(|(t, s)| t <= s)
+        self.relative_motion.len() == self.skin.len()
+            && self
+                .relative_motion
+                .par_iter()
+                .zip(&self.skin)
+                .all(|(t, s)| t <= s)
     }
 
     /// `max T_PQ` over the near region pairs (m): every cached pair's regions are near.
-    pub fn largest_near_apart(&self) -> f64 {
-        self.apart
+    pub fn largest_near_motion(&self) -> f64 {
+        self.relative_motion
             .par_iter()
-            .zip(&self.near)
-            .filter(|(_, &near)| near)
+            .zip(&self.may_hold)
+            .filter(|(_, &may_hold)| may_hold)
             .map(|(&t, _)| t)
             .reduce(|| 0.0, nan_max)
     }
@@ -237,13 +257,23 @@ impl Regions {
     }
 
     /// `T_PQ` (m) of the regions `p`, `q`.
-    pub fn apart(&self, p: usize, q: usize) -> f64 {
-        self.apart[p * self.count() + q]
+    pub fn relative_motion(&self, p: usize, q: usize) -> f64 {
+        self.relative_motion[p * self.count() + q]
     }
 
     /// `S_PQ` (m) of the regions `p`, `q`.
     pub fn skin(&self, p: usize, q: usize) -> f64 {
         self.skin[p * self.count() + q]
+    }
+
+    /// The largest `S_PQ` (m) over the regions `P` of the vertices of `a` and `Q` of those of
+    /// `b`: at least that of any primitive pair of a side of `a` and one of `b`.
+    pub fn largest_skin_between(&self, a: &[u32; 3], b: &[u32; 3]) -> f64 {
+        let region = |v: u32| self.patches.of_vertex(v as usize);
+        a.iter()
+            .filter_map(|&u| region(u))
+            .flat_map(|p| b.iter().filter_map(move |&v| region(v).map(|q| (p, q))))
+            .fold(0.0, |m, (p, q)| nan_max(m, self.skin(p, q)))
     }
 
     /// The largest of `per_region` over the regions of the vertices `vertices`.

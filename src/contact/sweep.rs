@@ -48,7 +48,7 @@ use super::primitive_pairs::{nan_max, Pair};
 
 /// Per body: the mean `[c_B^w, c_B^g]` of its vertices' displacements (m), `None` for a body
 /// without triangles.
-pub(super) type CommonMotion = Vec<Option<[Vector3<f64>; 2]>>;
+type CommonMotion = Vec<Option<[Vector3<f64>; 2]>>;
 
 /// The body of a vertex that belongs to no triangle.
 pub(super) const NO_BODY: u32 = u32::MAX;
@@ -283,7 +283,7 @@ pub(super) fn displacements(
 /// Per body of `bodies`: the mean of `value(i)` over its vertices (`vertex_body`), `None`
 /// for a body without vertices. The sums run over fixed chunks in a fixed order, so the
 /// result does not depend on the thread count or scheduling.
-pub(super) fn body_means(
+fn body_means(
     vertex_body: &[u32],
     bodies: usize,
     value: impl Fn(usize) -> Vector3<f64> + Sync,
@@ -318,7 +318,7 @@ pub(super) fn body_means(
 
 /// `max_{A, B} max(|c_A^w - c_B^w|, |c_A^g - c_B^g|)` over pairs of bodies with triangles (0
 /// for fewer than two), NaN if a motion is.
-pub(super) fn largest_apart(common: &CommonMotion) -> f64 {
+fn largest_apart(common: &CommonMotion) -> f64 {
     let common: Vec<_> = common.iter().flatten().collect();
     let mut apart = 0.0;
     for (k, a) in common.iter().enumerate() {
