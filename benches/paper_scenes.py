@@ -13,6 +13,12 @@ how many vertices touch a collider (within ``2 xi`` of its surface).
 The JSON (and a PNG of the smallest distance and ms per step against the step) is rewritten
 at every check, so a run stopped early (``--time-limit``, or killed) keeps what it measured.
 
+A full-size run can take longer than one sitting: with ``--state PATH`` the solver's state
+(``peridyn.save_state``) is written to PATH at every check, and a later run with the same
+arguments and ``--state PATH`` continues from it, appending to the JSON of ``--out`` (one entry
+per sitting in its ``segments``: command, commit, machine, steps and wall time). The pair
+cache is not saved: a resumed run builds it afresh at its first step.
+
 Full size, one layer over the ball (40K vertices):
     python benches/paper_scenes.py --scene cloths_over_ball --layers 1 --steps 400 --check-every 20
 Quick check (a minute):
@@ -22,6 +28,7 @@ Quick check (a minute):
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -114,6 +121,8 @@ def main(argv=None):
     p.add_argument("--time-limit", type=float, default=None,
                    help="stop after this many wall seconds (the JSON keeps what ran)")
     p.add_argument("--out", default=None)
+    p.add_argument("--state", default=None,
+                   help="save the state here at every check, and resume from it if it exists")
     args = p.parse_args(argv)
     if args.n is None:
         args.n = 120 if args.scene == "shooting_shell" else 200
@@ -130,15 +139,34 @@ def main(argv=None):
     name = args.scene + (f"_{args.layers}x{args.n}" if args.scene == "cloths_over_ball"
                          else f"_{args.n}")
     out = Path(args.out) if args.out else C.RESULTS / f"paper_scenes_{name}.json"
+    state = Path(args.state) if args.state else None
+    first = 1
+    segments = []
+    if state is not None and state.exists():
+        import peridyn
+
+        earlier = json.loads(out.read_text())
+        if earlier["vertices"] != nv or earlier["scene"] != scene.description:
+            p.error(f"--state {state}: {out} is of another scene")
+        peridyn.load_state(state, solver)
+        first = solver.steps_taken + 1
+        segments = earlier.get("segments") or [{
+            key: earlier.get(key) for key in ("command", "machine_start", "machine_end",
+                                              "wall_seconds")}]
+        rec.data.update({key: earlier[key] for key in ("steps", "checks")})
+        rec.data["steps"] = [r for r in rec.data["steps"] if r["step"] < first]
+        rec.data["checks"] = [c for c in rec.data["checks"] if c["step"] < first]
+        print(f"resumed from {state} at step {first - 1}", flush=True)
+    else:
+        rec.data.update({"steps": [], "checks": [check(scene, 0)]})
+        print(f"{scene.description}: {nv} vertices; step 0: {rec.data['checks'][0]}", flush=True)
     rec.data.update({
         "scene": scene.description, "vertices": nv, "dt": solver.dt,
         "contact": {"thickness": contact.thickness, "d_hat": contact.d_hat, "eps": contact.eps},
-        "steps": [], "checks": [check(scene, 0)],
     })
-    print(f"{scene.description}: {nv} vertices; step 0: {rec.data['checks'][0]}", flush=True)
     start = time.perf_counter()
     stopped = None
-    for k in range(1, args.steps + 1):
+    for k in range(first, args.steps + 1):
         st = solver.step()
         x = np.concatenate([b.positions for b in bodies])
         near = np.zeros(len(x), bool)
@@ -163,6 +191,12 @@ def main(argv=None):
                   f"{c['min_distance_m'] * 1e3:.3f} mm, deepest in a collider "
                   f"{c['deepest_inside_collider_m'] * 1e3:.3f} mm", flush=True)
             ms = [r["ms"] for r in rec.data["steps"]]
+            peak = (C.vm_kib("VmHWM") - hwm0) * 1024.0 / nv
+            rec.data["segments"] = segments + [{
+                "command": rec.data["command"], "machine_start": rec.data["machine_start"],
+                "first_step": first, "last_step": k, "peak_bytes_per_vertex": peak,
+                "wall_seconds": time.perf_counter() - rec.t0,
+            }]
             rec.data["summary"] = {
                 "steps_run": k, "simulated_s": st.time,
                 "ms_per_step_median": float(np.median(ms)),
@@ -170,10 +204,17 @@ def main(argv=None):
                 "min_distance_m": min(c["min_distance_m"] for c in rec.data["checks"]),
                 "deepest_inside_collider_m": max(c["deepest_inside_collider_m"]
                                                  for c in rec.data["checks"]),
-                "peak_bytes_per_vertex": (C.vm_kib("VmHWM") - hwm0) * 1024.0 / nv,
+                "peak_bytes_per_vertex": max(s.get("peak_bytes_per_vertex") or 0.0
+                                             for s in rec.data["segments"]),
                 "stopped_early": over and k < args.steps,
             }
             rec.write(str(out))
+            if state is not None:
+                import peridyn
+
+                partial = state.with_name(state.name + ".partial.npz")
+                peridyn.save_state(partial, solver)
+                partial.replace(state)
             plot(rec.data, out.with_suffix(".png"))
         if over:
             stopped = k
