@@ -116,7 +116,7 @@ impl Regions {
                 for (q, t) in row.iter_mut().enumerate() {
                     let [pw, pg] = motion[p];
                     let [qw, qg] = motion[q];
-                    *t = infinite_if_nan((pw - qw).norm().max((pg - qg).norm()));
+                    *t = infinite_if_nan(nan_max((pw - qw).norm(), (pg - qg).norm()));
                 }
             });
     }
@@ -126,7 +126,7 @@ impl Regions {
     pub fn deviation(&self, i: usize, [w, g]: &[Vector3<f64>; 2]) -> f64 {
         self.holding(i).iter().fold(0.0, |d, &p| {
             let [cw, cg] = &self.motion[p as usize];
-            nan_max(d, (w - cw).norm().max((g - cg).norm()))
+            nan_max(d, nan_max((w - cw).norm(), (g - cg).norm()))
         })
     }
 
@@ -291,5 +291,107 @@ fn infinite_if_nan(x: f64) -> f64 {
         f64::INFINITY
     } else {
         x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::distance::tests::Rng;
+    use super::super::pair_cache::tests::spiral;
+    use super::*;
+
+    /// On two rolled-up grids (two bodies, 0.3 m apart) moving apart with jitter: every
+    /// vertex's deviation bounds its distance from the common motion of every region whose
+    /// halo holds it, `T` and `S` are symmetric to the bit, a far pair's skin leaves its
+    /// regions' halo boxes at least `reach + R_P + R_Q` apart, near pairs exist across the
+    /// bodies only when their room exceeds that slack, and a NaN motion breaks `hold`.
+    #[test]
+    fn skins_bound_the_motion_and_far_regions_stay_apart() {
+        let mut rng = Rng::new(17);
+        let (one, triangles) = spiral(12, 0.03, &mut rng);
+        let n = one.len() as u32;
+        let offset = Vector3::new(0.6, 0.0, 0.0);
+        let reference: Vec<_> = one
+            .iter()
+            .copied()
+            .chain(one.iter().map(|p| p + offset))
+            .collect();
+        let both: Vec<[u32; 3]> = triangles
+            .iter()
+            .copied()
+            .chain(triangles.iter().map(|t| t.map(|v| v + n)))
+            .collect();
+        let vertex_body: Vec<u32> = (0..2 * n).map(|v| u32::from(v >= n)).collect();
+        let mut regions = Regions::new(&both, reference.len());
+        assert!(regions.count() >= 4, "{} regions", regions.count());
+        let shift: Vec<[Vector3<f64>; 2]> = (0..reference.len())
+            .map(|v| {
+                let away = if v < n as usize { -0.01 } else { 0.01 };
+                [
+                    rng.vector() * 0.002,
+                    Vector3::new(away, 0.0, 0.0) + rng.vector() * 0.002,
+                ]
+            })
+            .collect();
+        regions.measure(&shift);
+        for (v, s) in shift.iter().enumerate() {
+            let dev = regions.deviation(v, s);
+            for &p in regions.holding(v) {
+                let [cw, cg] = regions.motion[p as usize];
+                assert!((s[0] - cw).norm() <= dev && (s[1] - cg).norm() <= dev);
+                assert!((s[1] - cg).norm() <= regions.target_deviation(v, &s[1]));
+            }
+        }
+        let skin: Vec<f64> = (0..reference.len())
+            .map(|_| 0.01 + 0.01 * rng.uniform().abs())
+            .collect();
+        let reach = 0.02;
+        let padding = regions.set_skins(&reference, &skin, &vertex_body, &[true, true], 4.0, reach);
+        let count = regions.count();
+        let halo_box = |p: usize| {
+            let halo = regions.patches.halo(p);
+            let lo = halo.iter().fold(Vector3::repeat(f64::INFINITY), |m, &v| {
+                m.inf(&reference[v as usize])
+            });
+            let hi = halo
+                .iter()
+                .fold(Vector3::repeat(f64::NEG_INFINITY), |m, &v| {
+                    m.sup(&reference[v as usize])
+                });
+            let largest = halo.iter().fold(0.0, |m: f64, &v| m.max(skin[v as usize]));
+            (lo, hi, largest)
+        };
+        let (mut far, mut near_across) = (0, 0);
+        for p in 0..count {
+            for q in 0..count {
+                assert_eq!(regions.skin(p, q).to_bits(), regions.skin(q, p).to_bits());
+                assert_eq!(
+                    regions.relative_motion(p, q).to_bits(),
+                    regions.relative_motion(q, p).to_bits()
+                );
+                let (plo, phi, pr) = halo_box(p);
+                let (qlo, qhi, qr) = halo_box(q);
+                let gap = (qlo - phi).sup(&(plo - qhi)).sup(&Vector3::zeros()).norm();
+                let pq = p * count + q;
+                if regions.may_hold[pq] {
+                    assert!(regions.skin(p, q) <= padding[p] && regions.skin(p, q) <= padding[q]);
+                    let across = regions.patches.halo(p)[0] < n && regions.patches.halo(q)[0] >= n;
+                    near_across += usize::from(across);
+                } else {
+                    far += 1;
+                    assert!(regions.skin(p, q) + reach + pr + qr <= gap + 1e-12);
+                }
+            }
+        }
+        assert!(far > 0, "no far region pair");
+        assert_eq!(
+            near_across, 0,
+            "the bodies are 0.3 m apart and move 1 cm per step"
+        );
+        assert!(regions.hold());
+        let mut wild = shift.clone();
+        wild[0][1].x = f64::NAN;
+        regions.measure(&wild);
+        assert!(!regions.hold());
     }
 }
