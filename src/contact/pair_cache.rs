@@ -103,9 +103,9 @@ pub(super) struct PairCache {
     candidates: Vec<(u32, u32)>,
     /// The triangles of each vertex, for [`Owners`].
     owners: Owners,
-    /// The primitive pairs of the build, each with its distance at `reference` (m), in
-    /// buckets of increasing distance (NaN first).
-    pairs: Vec<(Pair, f64)>,
+    /// The primitive pairs of the build, each with its distance at `reference` (m) rounded
+    /// down to `f32`, in buckets of increasing distance (NaN first).
+    pairs: Vec<(Pair, f32)>,
     /// Where the distance buckets of `pairs` end.
     order: DistanceOrder,
     /// Per vertex: `dev_i = max_G max(|w_i - c_G^w|, |g_i - c_G^g|) + A_i` (m) over the
@@ -342,7 +342,8 @@ impl PairCache {
         let (pair, d) = &self.pairs[k];
         let (a, b) = pair.sides();
         let regions = &self.regions;
-        d - pair.spread(&self.deviation)
+        f64::from(*d)
+            - pair.spread(&self.deviation)
             - regions.relative_motion(regions.of_side(a), regions.of_side(b))
     }
 
@@ -505,7 +506,8 @@ impl PairCache {
             limit,
             &mut chunks,
         );
-        self.order.arrange(&chunks, |&(_, d)| d, &mut self.pairs);
+        self.order
+            .arrange(&chunks, |&(_, d)| f64::from(d), &mut self.pairs);
         drop(chunks);
         // The pairs of each vertex (the four vertices of a pair are distinct: its primitives
         // share none).
@@ -826,7 +828,7 @@ pub(super) mod tests {
                     cache.candidates(),
                     cache.box_pairs()
                 );
-                assert!(cache.pairs.iter().all(|(p, d)| *d < limit(p)));
+                assert!(cache.pairs.iter().all(|(p, d)| f64::from(*d) < limit(p)));
                 let mut stored: Vec<Pair> = cache.pairs.iter().map(|(p, _)| *p).collect();
                 stored.sort_unstable();
                 let mut close: Vec<Pair> = every

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use super::broad_phase::ContactMesh;
 use super::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use super::distance::{edge_edge_closest, point_triangle_closest, Closest};
+use super::sweep::round_down;
 use super::vertex_index::index_by_vertex;
 
 /// A primitive pair: point-triangle `[p, t0, t1, t2]` or edge-edge `[a0, a1, b0, b1]`.
@@ -167,8 +168,9 @@ pub fn closest_primitive_distance(x: &[Vector3<f64>], ti: &[u32; 3], tj: &[u32; 
         )
 }
 
-/// Triangle pairs and the primitive pairs they hold, with their distances (m).
-type CandidatesAndPairs = (Vec<(u32, u32)>, Vec<(Pair, f64)>);
+/// Triangle pairs and the primitive pairs they hold, with their distances (m) rounded down to
+/// `f32`.
+type CandidatesAndPairs = (Vec<(u32, u32)>, Vec<(Pair, f32)>);
 
 /// Which triangle pair expands each primitive pair, so that a build computes each once (a
 /// vertex belongs to about six triangles and an edge to two, so the 15 pairs of every
@@ -319,7 +321,8 @@ const BOXES_PER_CHUNK: usize = 4096;
 
 /// Writes into `found` the primitive pairs `p` of the triangle pairs `(i, j)` (`i < j`) of
 /// `boxes` that are closer than `limit(p)` (m) at the positions `x` (m), each with that
-/// distance (NaN distances count as close), in the order of `boxes`, in chunks (one per
+/// distance rounded down to `f32` (a lower bound in 4 bytes instead of 8; NaN distances count
+/// as close and stay NaN), in the order of `boxes`, in chunks (one per
 /// [`BOXES_PER_CHUNK`] triangle pairs: concatenating them is left to the caller, who orders
 /// them anyway); returns the triangle pairs that hold one of them (the candidates), in the
 /// same order. With `owners`, a triangle pair expands only the pairs it owns (see
@@ -331,7 +334,7 @@ pub(super) fn close_primitive_pairs(
     boxes: &[(u32, u32)],
     x: &[Vector3<f64>],
     limit: impl Fn(&Pair) -> f64 + Sync,
-    found: &mut Vec<Vec<(Pair, f64)>>,
+    found: &mut Vec<Vec<(Pair, f32)>>,
 ) -> Vec<(u32, u32)> {
     let triangles = mesh.triangles;
     let chunks: Vec<CandidatesAndPairs> = boxes
@@ -347,7 +350,8 @@ pub(super) fn close_primitive_pairs(
                         .zip(owned)
                         .filter_map(|(p, owned)| owned.then_some(p))
                         .map(|p| (p, p.closest(x).separation.norm()))
-                        .filter(|(p, d)| *d < limit(p) || d.is_nan()),
+                        .filter(|(p, d)| *d < limit(p) || d.is_nan())
+                        .map(|(p, d)| (p, round_down(d))),
                 );
                 if close.len() > before {
                     candidates.push((i, j));
