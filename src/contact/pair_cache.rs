@@ -72,7 +72,7 @@ use super::broad_phase::{BroadPhase, ContactMesh};
 use super::distance_order::DistanceOrder;
 use super::patches::Patches;
 use super::primitive_pairs::{close_primitive_pairs, nan_max, Owners, Pair};
-use super::regions::Regions;
+use super::regions::{box_gap, Regions};
 use super::sweep::{displacements, round_down, Sweep, SweptPair, NO_BODY};
 use super::vertex_index::index_by_vertex;
 
@@ -545,8 +545,7 @@ fn box_distance(x: &[Vector3<f64>], a: &[u32; 3], b: &[u32; 3]) -> f64 {
         let p = t.map(|v| x[v as usize]);
         (p[0].inf(&p[1]).inf(&p[2]), p[0].sup(&p[1]).sup(&p[2]))
     };
-    let ((alo, ahi), (blo, bhi)) = (bounds(a), bounds(b));
-    (blo - ahi).sup(&(alo - bhi)).sup(&Vector3::zeros()).norm()
+    box_gap(bounds(a), bounds(b))
 }
 
 /// Whether `x < limit`, NaN counting as below (a NaN bound keeps its pair).
@@ -675,7 +674,10 @@ pub(super) mod tests {
 
     /// The triangles of two copies of a mesh of `n` vertices and triangles `triangles` (the
     /// second's vertices numbered after the first's), and the body of each (0 and 1).
-    fn two_copies(triangles: &[[u32; 3]], n: u32) -> (Vec<[u32; 3]>, Vec<u32>) {
+    pub(in crate::contact) fn two_copies(
+        triangles: &[[u32; 3]],
+        n: u32,
+    ) -> (Vec<[u32; 3]>, Vec<u32>) {
         let both: Vec<[u32; 3]> = triangles
             .iter()
             .copied()

@@ -197,7 +197,7 @@ impl Regions {
                         let room = infinite_if_nan(
                             moves * (motion[p][1] - motion[q][1]).norm() + 0.25 * reach,
                         );
-                        let gap = (qlo - phi).sup(&(plo - qhi)).sup(&Vector3::zeros()).norm();
+                        let gap = box_gap((plo, phi), (qlo, qhi));
                         // A NaN gap counts as near; `pr + qr` first keeps `S` symmetric.
                         let far = gap - reach - (pr + qr);
                         if far > room {
@@ -285,6 +285,13 @@ impl Regions {
     }
 }
 
+/// The distance (m) between the boxes `(lo, hi)` `a` and `b` (0 where they overlap, NaN
+/// where a corner is NaN): at most the distance between any of their points.
+pub(super) fn box_gap(a: (Vector3<f64>, Vector3<f64>), b: (Vector3<f64>, Vector3<f64>)) -> f64 {
+    let ((alo, ahi), (blo, bhi)) = (a, b);
+    (blo - ahi).sup(&(alo - bhi)).sup(&Vector3::zeros()).norm()
+}
+
 /// `x`, or infinity where it is NaN (a NaN motion counts as infinitely far).
 fn infinite_if_nan(x: f64) -> f64 {
     if x.is_nan() {
@@ -297,7 +304,7 @@ fn infinite_if_nan(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::super::distance::tests::Rng;
-    use super::super::pair_cache::tests::spiral;
+    use super::super::pair_cache::tests::{spiral, two_copies};
     use super::*;
 
     /// On two rolled-up grids (two bodies, 0.3 m apart) moving apart with jitter: every
@@ -316,11 +323,7 @@ mod tests {
             .copied()
             .chain(one.iter().map(|p| p + offset))
             .collect();
-        let both: Vec<[u32; 3]> = triangles
-            .iter()
-            .copied()
-            .chain(triangles.iter().map(|t| t.map(|v| v + n)))
-            .collect();
+        let (both, _) = two_copies(&triangles, n);
         let vertex_body: Vec<u32> = (0..2 * n).map(|v| u32::from(v >= n)).collect();
         let mut regions = Regions::new(&both, reference.len());
         assert!(regions.count() >= 4, "{} regions", regions.count());
@@ -371,7 +374,7 @@ mod tests {
                 );
                 let (plo, phi, pr) = halo_box(p);
                 let (qlo, qhi, qr) = halo_box(q);
-                let gap = (qlo - phi).sup(&(plo - qhi)).sup(&Vector3::zeros()).norm();
+                let gap = box_gap((plo, phi), (qlo, qhi));
                 let pq = p * count + q;
                 if regions.may_hold[pq] {
                     assert!(regions.skin(p, q) <= padding[p] && regions.skin(p, q) <= padding[q]);
