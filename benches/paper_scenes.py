@@ -47,6 +47,8 @@ def build(args):
     from peridyn import paper_scenes
 
     common = dict(tol=args.tol, max_iters=args.max_iters, threads=args.threads)
+    if args.kb is not None:
+        common["bending" if args.scene == "antependium" else "kb"] = args.kb
     if args.scene == "cloths_over_ball":
         return paper_scenes.cloths_over_ball(layers=args.layers, n=args.n, **common)
     if args.scene == "antependium":
@@ -113,6 +115,9 @@ def main(argv=None):
     p.add_argument("--layers", type=int, default=1, help="cloths_over_ball: 1, 3 or 6")
     p.add_argument("--n", type=int, default=None,
                    help="vertices per side (default: the paper's 200; shell: target 120)")
+    p.add_argument("--kb", type=float, default=None,
+                   help="bending factor kb (default: the scene's; the paper's antependium: "
+                        "0, 0.003, 0.03, 0.3)")
     p.add_argument("--steps", type=int, default=400)
     p.add_argument("--check-every", type=int, default=20)
     p.add_argument("--tol", type=float, default=1e-4)
@@ -137,7 +142,7 @@ def main(argv=None):
     colliders = list(scene.colliders.values())
     nv = sum(b.num_vertices for b in bodies)
     name = args.scene + (f"_{args.layers}x{args.n}" if args.scene == "cloths_over_ball"
-                         else f"_{args.n}")
+                         else f"_{args.n}") + ("" if args.kb is None else f"_kb{args.kb:g}")
     out = Path(args.out) if args.out else C.RESULTS / f"paper_scenes_{name}.json"
     state = Path(args.state) if args.state else None
     first = 1

@@ -344,7 +344,7 @@ impl LivePairs {
         // The pairs for these allowances (see [`PairCache::live_pairs`]).
         let (cache, live) = (&mut self.cache, &mut self.pairs);
         let built = cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
-        self.refreshed(built, safe, stats);
+        self.refreshed(built, 0, safe, stats);
     }
 
     /// Where a vertex's deviation `E_i` exceeds its allowance `A_i` (or is NaN), raises the
@@ -378,22 +378,30 @@ impl LivePairs {
             return false;
         }
         let (cache, live) = (&mut self.cache, &mut self.pairs);
-        let built = !cache.extend_live(&self.allowance, &self.grown, reach, live)
-            && cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
-        self.refreshed(built, safe, stats);
+        let kept = live.len();
+        let extended = cache.extend_live(&self.allowance, &self.grown, reach, live);
+        let built = !extended && cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
+        self.refreshed(built, if extended { kept } else { 0 }, safe, stats);
         true
     }
 
     /// Counts a refresh of the live pairs (`built`: with a new build) in `stats` and writes
-    /// their distances at the safe positions.
-    fn refreshed(&mut self, built: bool, safe: &[Vector3<f64>], stats: &mut ContactStats) {
+    /// the distances at the safe positions of the pairs from `new` on (those before it were
+    /// live before the refresh, at the same safe positions: an extension keeps them in place).
+    fn refreshed(
+        &mut self,
+        built: bool,
+        new: usize,
+        safe: &[Vector3<f64>],
+        stats: &mut ContactStats,
+    ) {
         let cache = &self.cache;
         stats.broad_phase_builds += usize::from(built);
         stats.live_refreshes += 1;
         stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
         stats.box_pairs = stats.box_pairs.max(cache.box_pairs());
         stats.primitive_pairs = stats.primitive_pairs.max(self.pairs.len());
-        start_distances(&self.pairs, safe, &mut self.start);
+        start_distances(&self.pairs, new, safe, &mut self.start);
     }
 }
 
@@ -777,12 +785,15 @@ const FAR: Closest = Closest {
     separation: Vector3::new(f64::INFINITY, 0.0, 0.0),
 };
 
-/// Writes into `start` each pair's distance at the safe positions (m).
-fn start_distances(pairs: &[Pair], safe: &[Vector3<f64>], start: &mut Vec<f64>) {
-    pairs
-        .par_iter()
-        .map(|p| p.closest(safe).separation.norm())
-        .collect_into_vec(start);
+/// Writes into `start` each pair's distance at the safe positions (m), keeping the first
+/// `kept` as they are.
+fn start_distances(pairs: &[Pair], kept: usize, safe: &[Vector3<f64>], start: &mut Vec<f64>) {
+    start.truncate(kept);
+    start.par_extend(
+        pairs[kept..]
+            .par_iter()
+            .map(|p| p.closest(safe).separation.norm()),
+    );
 }
 
 /// The final clamp (see the module doc) over the live pairs in `work`: adds to `stats` the

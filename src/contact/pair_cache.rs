@@ -148,8 +148,8 @@ impl PairCache {
     /// Writes into `live` the pairs that may come within `reach` (m) at the positions the
     /// local step looks at while each vertex `i` stays within `allowance[i]` (m) of the path
     /// from the safe positions `safe` to the global step's result `target` (the `E_i <= A_i` of
-    /// the module doc); rebuilds the lists first when they may miss a pair. Returns whether it
-    /// rebuilt.
+    /// the module doc), in the cache's order; rebuilds the lists first when they may miss a
+    /// pair. Returns whether it rebuilt.
     pub fn live_pairs(
         &mut self,
         safe: &[Vector3<f64>],
@@ -199,8 +199,8 @@ impl PairCache {
     }
 
     /// After [`PairCache::live_pairs`] with the same safe and target positions and mesh, the
-    /// allowances of the vertices `grown` have grown and the others are as they were: adds to
-    /// `live` the pairs that may now come within `reach` (only pairs with a grown vertex can,
+    /// allowances of the vertices `grown` have grown and the others are as they were: appends
+    /// to `live` the pairs that may now come within `reach` (only pairs with a grown vertex can,
     /// as the bounds of the others are unchanged and allowances only grow) and returns true;
     /// returns false, leaving `live` alone, when the build no longer covers the allowances
     /// (then [`PairCache::live_pairs`] must rebuild).
@@ -310,13 +310,13 @@ impl PairCache {
         )
     }
 
-    /// Marks the cached pairs `found` live and adds them to `live`, which stays sorted.
+    /// Marks the cached pairs `found` live and appends them to `live` (in the order of
+    /// `found`: the pairs already live keep their places).
     fn mark_live(&mut self, found: &[u32], live: &mut Vec<Pair>) {
         for &k in found {
             self.is_live[k as usize] = true;
             live.push(self.pairs[k as usize].0);
         }
-        live.par_sort_unstable();
     }
 
     /// Whether the cached pair `k` may come within `reach` (m) for the allowances `allowance`
@@ -646,6 +646,8 @@ pub(super) mod tests {
             step: usize,
         ) -> usize {
             let mut within = 0;
+            let mut live = live.to_vec();
+            live.sort_unstable();
             let z: Vec<_> = (0..self.safe.len())
                 .map(|i| {
                     let (s, y, t) = (self.safe[i], self.target[i], self.clamp[i]);
@@ -823,7 +825,9 @@ pub(super) mod tests {
                         !candidates.is_empty()
                     })
                     .collect();
-                assert_eq!(cache.candidates, near, "step {k}");
+                let mut candidates = cache.candidates.clone();
+                candidates.sort_unstable();
+                assert_eq!(candidates, near, "step {k}");
                 assert!(
                     k > 0 || 4 * cache.candidates() < 3 * cache.box_pairs(),
                     "step {k}: {} candidates of {} box pairs",
@@ -1187,7 +1191,12 @@ pub(super) mod tests {
                 afresh.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_filter);
             assert_eq!(rebuilt, round == 2, "round {round}");
             assert_eq!(rebuilt_afresh, round == 2, "round {round}");
-            assert_eq!(by_extension, by_filter, "round {round}");
+            let sorted = |pairs: &[Pair]| {
+                let mut pairs = pairs.to_vec();
+                pairs.sort_unstable();
+                pairs
+            };
+            assert_eq!(sorted(&by_extension), sorted(&by_filter), "round {round}");
         }
         assert!(by_extension.len() > first, "the growth made pairs live");
     }

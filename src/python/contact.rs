@@ -125,7 +125,8 @@ fn near_triangle_pairs<'py>(
         };
         let mut grid = BroadPhase::default();
         let padding = vec![0.5 * reach; tris.len()];
-        let pairs = grid.candidate_pairs(&x, &x, &mesh, &padding).to_vec();
+        let mut pairs = grid.candidate_pairs(&x, &x, &mesh, &padding).to_vec();
+        pairs.par_sort_unstable();
         let distances = pairs
             .par_iter()
             .map(|&(a, b)| closest_primitive_distance(&x, &tris[a as usize], &tris[b as usize]))
