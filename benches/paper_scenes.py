@@ -39,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _common as C  # noqa: E402
 
 CONTACT_FIGURES = ("candidate_pairs", "box_pairs", "primitive_pairs", "active_pairs",
-                   "ccd_queries", "broad_phase_builds", "live_refreshes", "clamped", "local_iterations",
+                   "ccd_queries", "broad_phase_builds", "cache_repairs", "live_refreshes", "clamped", "local_iterations",
                    "broad_phase_ms", "ccd_ms", "descent_ms")
 
 

@@ -368,7 +368,9 @@ class StepStats:
         (primitive pairs within the barrier's reach at the end), 'local_iterations' (descent
         iterations, summed), 'clamped' (vertices the final CCD clamp moved, summed),
         'ccd_queries' (primitive pair CCD queries, summed), 'broad_phase_builds' (summed; the
-        other local steps reused the last build), 'live_refreshes' (filterings of the cached
+        other local steps reused the last build), 'cache_repairs' (summed; repairs of the last
+        build for a few vertices that strayed beyond their skins, each instead of a build),
+        'live_refreshes' (filterings of the cached
         pairs into the live list, summed), 'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
     @property
     def time(self) -> float:

@@ -76,6 +76,13 @@ pub struct BroadPhase {
     /// The pairs found in each group of cells.
     found: Vec<Vec<(u32, u32)>>,
     pairs: Vec<(u32, u32)>,
+    /// The grid's cell size (m).
+    cell: f64,
+}
+
+/// The cell of the grid with cells of size `cell` (m) holding the point `p` (m).
+fn cell_of(p: &Vector3<f64>, cell: f64) -> Cell {
+    [0, 1, 2].map(|k| (p[k] / cell).floor() as i64)
 }
 
 impl BroadPhase {
@@ -92,6 +99,8 @@ impl BroadPhase {
         padding: &[f64],
     ) -> &[(u32, u32)] {
         self.pairs.clear();
+        self.entries.clear();
+        self.oversized.clear();
         mesh.triangles
             .par_iter()
             .zip(padding)
@@ -118,11 +127,8 @@ impl BroadPhase {
         let mean_extent =
             boxes.iter().map(|b| (b.hi - b.lo).max()).sum::<f64>() / boxes.len() as f64;
         let cell = 2.0 * mean_extent.max(f64::MIN_POSITIVE);
-        let cell_of =
-            |p: &Vector3<f64>| -> Cell { [0, 1, 2].map(|k| (p[k] / cell).floor() as i64) };
-
-        self.entries.clear();
-        self.oversized.clear();
+        self.cell = cell;
+        let cell_of = |p: &Vector3<f64>| cell_of(p, cell);
         for (t, b) in boxes.iter().enumerate() {
             let (lo, hi) = (cell_of(&b.lo), cell_of(&b.hi));
             let span = (0..3).map(|k| (hi[k] - lo[k]).saturating_add(1) as f64);
@@ -193,6 +199,49 @@ impl BroadPhase {
             }));
         }
         &self.pairs
+    }
+
+    /// Appends to `out` the triangles whose boxes of the last
+    /// [`BroadPhase::candidate_pairs`] (inflated by their padding) overlap the box `lo..hi`
+    /// (m), each once, increasing.
+    pub fn overlapping(&self, lo: Vector3<f64>, hi: Vector3<f64>, out: &mut Vec<u32>) {
+        let query = Aabb { lo, hi };
+        let start = out.len();
+        let (first, last) = (cell_of(&lo, self.cell), cell_of(&hi, self.cell));
+        let span = (0..3).map(|k| (last[k] - first[k]).saturating_add(1) as f64);
+        // No grid (fewer than two boxes, or all oversized) or a query too large for it.
+        if self.entries.is_empty() || span.product::<f64>() > MAX_CELLS_PER_BOX {
+            out.extend(
+                (0..self.boxes.len() as u32).filter(|&t| self.boxes[t as usize].overlaps(&query)),
+            );
+            return;
+        }
+        let entries = &self.entries;
+        for i in first[0]..=last[0] {
+            for j in first[1]..=last[1] {
+                for k in first[2]..=last[2] {
+                    let key = [i, j, k];
+                    let from = entries.partition_point(|e| e.0 < key);
+                    out.extend(
+                        entries[from..]
+                            .iter()
+                            .take_while(|e| e.0 == key)
+                            .map(|&(_, t)| t)
+                            .filter(|&t| self.boxes[t as usize].overlaps(&query)),
+                    );
+                }
+            }
+        }
+        out.extend(
+            self.oversized
+                .iter()
+                .filter(|&&t| self.boxes[t].overlaps(&query))
+                .map(|&t| t as u32),
+        );
+        let mut found = out.split_off(start);
+        found.sort_unstable();
+        found.dedup();
+        out.extend(found);
     }
 }
 
@@ -268,6 +317,53 @@ mod tests {
             found.sort_unstable();
             assert!(found.iter().any(|&(a, _)| a == 0));
             assert!(found.windows(2).all(|w| w[0] < w[1]), "no duplicates");
+        }
+    }
+
+    /// A box query finds exactly the triangles whose inflated boxes a brute-force test finds
+    /// overlapping it: small and large queries, queries too large for the grid, a grid with
+    /// oversized boxes and one of a single triangle.
+    #[test]
+    fn overlapping_matches_brute_force() {
+        let mut rng = Rng::new(8);
+        let n = 400;
+        let mut points: Vec<Vector3<f64>> = (0..3 * n).map(|_| rng.vector()).collect();
+        points[7] = Vector3::new(1e3, 1e3, 1e3);
+        let triangles: Vec<[u32; 3]> = (0..n as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect();
+        let body = vec![0; n];
+        let padding: Vec<f64> = (0..n).map(|t| 0.01 * (t % 5) as f64).collect();
+        for count in [n, 1] {
+            let mesh = ContactMesh {
+                triangles: &triangles[..count],
+                body: &body[..count],
+                self_contact: &[true],
+            };
+            let mut grid = BroadPhase::default();
+            grid.candidate_pairs(&points, &points, &mesh, &padding[..count]);
+            let mut found = Vec::new();
+            for k in 0..200 {
+                let centre = rng.vector() * 1.2;
+                let half = Vector3::repeat(match k % 4 {
+                    0 => 0.001,
+                    1 => 0.05,
+                    2 => 0.3,
+                    _ => 40.0,
+                });
+                let query = Aabb {
+                    lo: centre - half,
+                    hi: centre + half,
+                };
+                found.clear();
+                found.push(u32::MAX);
+                grid.overlapping(query.lo, query.hi, &mut found);
+                let brute: Vec<u32> = (0..count as u32)
+                    .filter(|&t| grid.boxes[t as usize].overlaps(&query))
+                    .collect();
+                assert_eq!(found[0], u32::MAX, "what was in `out` stays");
+                assert_eq!(found[1..], brute, "query {k}");
+            }
         }
     }
 }

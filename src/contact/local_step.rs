@@ -43,7 +43,7 @@ use super::barrier::Barrier;
 use super::broad_phase::ContactMesh;
 use super::ccd::AdditiveCcd;
 use super::distance::Closest;
-use super::pair_cache::PairCache;
+use super::pair_cache::{PairCache, Renewal};
 use super::primitive_pairs::Pair;
 use crate::error::{check_param, invalid, Result};
 use crate::symmetric::SymmetricMatrix3;
@@ -207,6 +207,9 @@ pub struct ContactStats {
     pub ccd_queries: usize,
     /// Broad phase builds (the others reused the last build's pairs).
     pub broad_phase_builds: usize,
+    /// Repairs of the last build for a few vertices that strayed beyond their skins (see
+    /// [`super::pair_cache`]), each instead of a build.
+    pub cache_repairs: usize,
     /// Filterings of the cached pairs into the live list (one per local step, and one more
     /// each time a vertex outgrows its allowance).
     pub live_refreshes: usize,
@@ -233,6 +236,7 @@ impl ContactStats {
         self.primitive_pairs = self.primitive_pairs.max(other.primitive_pairs);
         self.ccd_queries += other.ccd_queries;
         self.broad_phase_builds += other.broad_phase_builds;
+        self.cache_repairs += other.cache_repairs;
         self.live_refreshes += other.live_refreshes;
         self.active_pairs = other.active_pairs;
         self.iterations += other.iterations;
@@ -343,8 +347,8 @@ impl LivePairs {
         refill(&mut self.deviation, safe.len(), 0.0);
         // The pairs for these allowances (see [`PairCache::live_pairs`]).
         let (cache, live) = (&mut self.cache, &mut self.pairs);
-        let built = cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
-        self.refreshed(built, 0, safe, stats);
+        let renewal = cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
+        self.refreshed(renewal, 0, safe, stats);
     }
 
     /// Where a vertex's deviation `E_i` exceeds its allowance `A_i` (or is NaN), raises the
@@ -379,24 +383,29 @@ impl LivePairs {
         }
         let (cache, live) = (&mut self.cache, &mut self.pairs);
         let kept = live.len();
-        let extended = cache.extend_live(&self.allowance, &self.grown, reach, live);
-        let built = !extended && cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
-        self.refreshed(built, if extended { kept } else { 0 }, safe, stats);
+        if cache.extend_live(&self.allowance, &self.grown, reach, live) {
+            self.refreshed(Renewal::Kept, kept, safe, stats);
+        } else {
+            let renewal = cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
+            self.refreshed(renewal, 0, safe, stats);
+        }
         true
     }
 
-    /// Counts a refresh of the live pairs (`built`: with a new build) in `stats` and writes
-    /// the distances at the safe positions of the pairs from `new` on (those before it were
-    /// live before the refresh, at the same safe positions: an extension keeps them in place).
+    /// Counts a refresh of the live pairs (and what it did to the cached pairs) in `stats`
+    /// and writes the distances at the safe positions of the pairs from `new` on (those
+    /// before it were live before the refresh, at the same safe positions: an extension keeps
+    /// them in place).
     fn refreshed(
         &mut self,
-        built: bool,
+        renewal: Renewal,
         new: usize,
         safe: &[Vector3<f64>],
         stats: &mut ContactStats,
     ) {
         let cache = &self.cache;
-        stats.broad_phase_builds += usize::from(built);
+        stats.broad_phase_builds += usize::from(renewal == Renewal::Built);
+        stats.cache_repairs += usize::from(renewal == Renewal::Repaired);
         stats.live_refreshes += 1;
         stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
         stats.box_pairs = stats.box_pairs.max(cache.box_pairs());

@@ -43,6 +43,13 @@
 //!   holds its triangle's points), so they were a candidate, and the pair was kept (regions
 //!   too far apart for `L` to reach them keep no pair, see [`super::regions`]). The stored
 //!   pairs are a superset of the ones a fresh broad phase would find.
+//! - **Repair**: where every region pair still holds but a few vertices strayed beyond
+//!   their skins (a vertex at rest in a region falling past it, say), the build is repaired
+//!   instead of made afresh ([`PairCache::repair`]): their skins are raised, and the pairs
+//!   that the raised limits reach are added, found by a search around those vertices'
+//!   triangles only. On the paper's six layers over the ball (steps 138-146 from a saved
+//!   state) each of the four builds after the first was forced by one to three of the 240K
+//!   vertices, by at most 0.21 mm.
 //! - **Skip**: the pair's distance at every such `x` is at least
 //!   `d_r - max_{a in A, b in B} max(|w_a - w_b|, |g_a - g_b|) - max_A A - max_B A` (A, B the
 //!   two primitives; [`Pair::relative_distance_bound`]): only the primitives' motion relative
@@ -131,6 +138,22 @@ pub(super) struct PairCache {
     sweep: Sweep,
     /// The mesh's vertices in patches, for [`Sweep::patch_fall`].
     patches: Patches,
+    /// Per region: the largest skin `S_PQ` over the regions near it at the last build (m).
+    near_skin: Vec<f64>,
+    /// The vertices whose skins repairs have raised since the last build, increasing.
+    raised: Vec<u32>,
+}
+
+/// What [`PairCache::live_pairs`] did to the cached pairs before it filtered them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Renewal {
+    /// Kept them as they were.
+    Kept,
+    /// Raised the skins of a few vertices and added the pairs that then came within the
+    /// limit ([`PairCache::repair`]).
+    Repaired,
+    /// Built them afresh.
+    Built,
 }
 
 impl PairCache {
@@ -148,8 +171,8 @@ impl PairCache {
     /// Writes into `live` the pairs that may come within `reach` (m) at the positions the
     /// local step looks at while each vertex `i` stays within `allowance[i]` (m) of the path
     /// from the safe positions `safe` to the global step's result `target` (the `E_i <= A_i` of
-    /// the module doc), in the cache's order; rebuilds the lists first when they may miss a
-    /// pair. Returns whether it rebuilt.
+    /// the module doc), in the cache's order; first repairs the lists ([`PairCache::repair`])
+    /// or builds them afresh when they may miss a pair. Returns which it did.
     pub fn live_pairs(
         &mut self,
         safe: &[Vector3<f64>],
@@ -158,15 +181,22 @@ impl PairCache {
         mesh: &ContactMesh,
         reach: f64,
         live: &mut Vec<Pair>,
-    ) -> bool {
-        let rebuild = !self.fits(mesh, safe.len()) || {
+    ) -> Renewal {
+        let fits = self.fits(mesh, safe.len());
+        if fits {
             self.measure_motion(safe, target);
-            !(self.regions.hold() && self.covers(allowance))
-        };
-        if rebuild {
+        }
+        let holds = fits && self.regions.hold();
+        let renewal = if holds && self.covers(allowance) {
+            Renewal::Kept
+        } else if holds && self.repair(mesh, reach) && self.regions.hold() && self.covers(allowance)
+        {
+            Renewal::Repaired
+        } else {
             self.build(safe, target, allowance, mesh, reach);
             self.covers(allowance);
-        }
+            Renewal::Built
+        };
         self.apart = self.regions.largest_near_motion();
         // Only pairs closer than `reach + 2 max dev + max T` at `r` can pass the first test.
         let horizon = reach + 2.0 * self.farthest + self.apart;
@@ -195,7 +225,7 @@ impl PairCache {
         self.flagged = found.last().map_or(0, |&k| k as usize + 1);
         live.clear();
         self.mark_live(&found, live);
-        rebuild
+        renewal
     }
 
     /// After [`PairCache::live_pairs`] with the same safe and target positions and mesh, the
@@ -451,7 +481,7 @@ impl PairCache {
             .collect_into_vec(&mut self.skin);
         spread_over_rings(&mut self.skin, mesh.triangles, SKIN_RINGS);
         self.skin.iter_mut().for_each(|r| *r += 0.25 * reach);
-        let near_skin = self.regions.set_skins(
+        self.near_skin = self.regions.set_skins(
             &self.reference,
             &self.skin,
             &self.vertex_body,
@@ -459,20 +489,15 @@ impl PairCache {
             SKIN_MOVES,
             reach,
         );
+        self.raised.clear();
 
-        // NaN distances (NaN positions) are kept. A triangle's box is padded by its largest
-        // vertex skin, half the reach and half the largest region pair skin of its vertices'
-        // regions (a primitive pair's regions are those of its sides' first vertices).
-        let (reference, skin, regions) = (&self.reference, &self.skin, &self.regions);
+        // NaN distances (NaN positions) are kept.
         let padding: Vec<f64> = mesh
             .triangles
             .par_iter()
-            .map(|t| {
-                t.iter().map(|&v| skin[v as usize]).fold(0.0, f64::max)
-                    + 0.5 * reach
-                    + 0.5 * regions.largest_of(t, &near_skin)
-            })
+            .map(|t| self.padding(t, reach))
             .collect();
+        let (reference, skin, regions) = (&self.reference, &self.skin, &self.regions);
         let boxes = self
             .broad_phase
             .candidate_pairs(reference, reference, mesh, &padding);
@@ -494,7 +519,6 @@ impl PairCache {
                 below(box_distance(reference, a, b), bound)
             })
             .collect();
-        let limit = |p: &Pair| limit(skin, regions, reach, p);
         // A primitive pair beyond the limit cannot come within `reach` before the next build.
         self.owners.index(mesh, safe.len());
         let mut chunks = Vec::new();
@@ -503,17 +527,156 @@ impl PairCache {
             Some(&self.owners),
             &boxes,
             reference,
-            limit,
+            |p, d| within_limit(skin, regions, reach, p, d),
             &mut chunks,
         );
         self.order
             .arrange(&chunks, |&(_, d)| f64::from(d), &mut self.pairs);
         drop(chunks);
-        // The pairs of each vertex (the four vertices of a pair are distinct: its primitives
-        // share none).
+        self.index_pairs();
+    }
+
+    /// Repairs the build where the motion still fits every region pair's skin but a few
+    /// vertices strayed beyond their own (`dev_i > R_i`, as [`PairCache::covers`] last
+    /// measured): raises their skins to `R_i = 2 dev_i + reach / 4` (room for as much stray
+    /// again, and a quarter reach) or less, so that every far region pair keeps half its
+    /// slack ([`Regions::most_raised_skin`]), lowers the far region pairs' skins to match
+    /// ([`Regions::raise`]) and adds the primitive pairs that the raised limits now reach.
+    /// Such a pair has a side with a raised vertex, so its owner ([`Owners`]) is a pair of a
+    /// triangle of that vertex with another whose box overlaps: the build's box for a
+    /// triangle without a raised vertex, and among the triangles of raised vertices (of this
+    /// repair and the ones before it since the build) the boxes with their raised padding.
+    /// It keeps the pairs within their new limit and not within their old one (the cache
+    /// holds those already). Returns false where the build must be made afresh instead: a NaN
+    /// or infinite stray, one beyond the skin the far region pairs leave room for, or more
+    /// raised vertices since the build than [`MOST_RAISED`] allows (then the skins may have
+    /// changed and only a build puts them right).
+    fn repair(&mut self, mesh: &ContactMesh, reach: f64) -> bool {
+        let strayed: Vec<u32> = (0..self.skin.len() as u32)
+            .filter(|&i| self.deviation[i as usize] > self.skin[i as usize])
+            .collect();
+        if strayed.is_empty()
+            || strayed
+                .iter()
+                .any(|&i| !self.deviation[i as usize].is_finite())
+            || (self.raised.len() + strayed.len()) as f64 > MOST_RAISED * self.skin.len() as f64
+        {
+            return false;
+        }
+        let raised_skins: Vec<f64> = strayed
+            .iter()
+            .map(|&i| {
+                let wanted = 2.0 * self.deviation[i as usize] + 0.25 * reach;
+                wanted.min(self.regions.most_raised_skin(i as usize))
+            })
+            .collect();
+        if strayed
+            .iter()
+            .zip(&raised_skins)
+            .any(|(&i, r)| r.is_nan() || self.deviation[i as usize] > *r)
+        {
+            return false;
+        }
+        let before = self.skin.clone();
+        for (&i, &r) in strayed.iter().zip(&raised_skins) {
+            self.skin[i as usize] = r;
+        }
+        self.regions.raise(&self.skin, &strayed, reach);
+        self.raised.extend_from_slice(&strayed);
+        self.raised.sort_unstable();
+        self.raised.dedup();
+        let triangles_of = |vertices: &[u32]| {
+            let mut of: Vec<u32> = vertices
+                .iter()
+                .flat_map(|&v| self.owners.of(v).iter().copied())
+                .collect();
+            of.sort_unstable();
+            of.dedup();
+            of
+        };
+        let (fresh, raised) = (triangles_of(&strayed), triangles_of(&self.raised));
+        let reference = &self.reference;
+        let inflated = |t: &[u32; 3]| {
+            let pad = Vector3::repeat(self.padding(t, reach));
+            let p = t.map(|v| reference[v as usize]);
+            (
+                p[0].inf(&p[1]).inf(&p[2]) - pad,
+                p[0].sup(&p[1]).sup(&p[2]) + pad,
+            )
+        };
+        let triangles = mesh.triangles;
+        let mut boxes: Vec<(u32, u32)> = fresh
+            .par_iter()
+            .flat_map_iter(|&t| {
+                let (lo, hi) = inflated(&triangles[t as usize]);
+                let mut near = Vec::new();
+                self.broad_phase.overlapping(lo, hi, &mut near);
+                near.into_iter()
+                    .filter(move |&u| mesh.may_touch(t as usize, u as usize))
+                    .map(move |u| (t.min(u), t.max(u)))
+            })
+            .collect();
+        let raised_triangles: Vec<[u32; 3]> =
+            raised.iter().map(|&t| triangles[t as usize]).collect();
+        let raised_body: Vec<u32> = raised.iter().map(|&t| mesh.body[t as usize]).collect();
+        let raised_padding: Vec<f64> = raised_triangles
+            .iter()
+            .map(|t| self.padding(t, reach))
+            .collect();
+        let among_raised = ContactMesh {
+            triangles: &raised_triangles,
+            body: &raised_body,
+            self_contact: mesh.self_contact,
+        };
+        boxes.extend(
+            BroadPhase::default()
+                .candidate_pairs(reference, reference, &among_raised, &raised_padding)
+                .iter()
+                .map(|&(a, b)| (raised[a as usize], raised[b as usize]))
+                .map(|(a, b)| (a.min(b), a.max(b))),
+        );
+        boxes.par_sort_unstable();
+        boxes.dedup();
+        let mut chunks = Vec::new();
+        let (skin, regions) = (&self.skin, &self.regions);
+        close_primitive_pairs(
+            mesh,
+            Some(&self.owners),
+            &boxes,
+            reference,
+            |p, d| {
+                within_limit(skin, regions, reach, p, d)
+                    && !within_limit(&before, regions, reach, p, d)
+            },
+            &mut chunks,
+        );
+        if chunks.iter().any(|c| !c.is_empty()) {
+            chunks.insert(0, std::mem::take(&mut self.pairs));
+            self.order
+                .arrange(&chunks, |&(_, d)| f64::from(d), &mut self.pairs);
+            drop(chunks);
+            self.index_pairs();
+        }
+        true
+    }
+
+    /// The padding (m) of the triangle `t`'s box at the reference positions: its largest
+    /// vertex skin, half the reach and half the largest region pair skin of its vertices'
+    /// regions (a primitive pair's regions are those of its sides' first vertices), so that
+    /// the boxes of two triangles overlap wherever two of their primitives are within their
+    /// limit.
+    fn padding(&self, t: &[u32; 3], reach: f64) -> f64 {
+        t.iter().map(|&v| self.skin[v as usize]).fold(0.0, f64::max)
+            + 0.5 * reach
+            + 0.5 * self.regions.largest_of(t, &self.near_skin)
+    }
+
+    /// Indexes the cached pairs by vertex (the four vertices of a pair are distinct: its
+    /// primitives share none) and marks none of them live, none swept.
+    fn index_pairs(&mut self) {
         index_by_vertex(
             self.pairs.iter().map(|(pair, _)| pair.v),
-            safe.len(),
+            self.reference.len(),
             &mut self.by_vertex_start,
             &mut self.by_vertex,
         );
@@ -524,12 +687,24 @@ impl PairCache {
     }
 }
 
+/// The most vertices, as a share of all, that a build may have raised skins for by
+/// [`PairCache::repair`] before it is built afresh instead (a cost trade-off only: a repair
+/// costs what the raised vertices' triangles cost plus a pass over the cached pairs, a build
+/// what the whole mesh costs, and every raised skin keeps more pairs until the next build).
+const MOST_RAISED: f64 = 1.0 / 64.0;
+
 /// The limit of a build (m) for the primitive pair `p`: `reach + max_A R + max_B R + S_PQ`,
 /// with the vertex skins `skin` (m) over its sides `A`, `B` and the skin `S_PQ` (m) of their
 /// regions `P`, `Q` (see [`super::regions`]).
 fn limit(skin: &[f64], regions: &Regions, reach: f64, p: &Pair) -> f64 {
     let (a, b) = p.sides();
     reach + p.spread(skin) + regions.skin(regions.of_side(a), regions.of_side(b))
+}
+
+/// Whether a build with the skins `skin` and `regions` keeps the primitive pair `p` at the
+/// distance `d` (m): closer than its [`limit`], or NaN.
+fn within_limit(skin: &[f64], regions: &Regions, reach: f64, p: &Pair, d: f64) -> bool {
+    d < limit(skin, regions, reach, p) || d.is_nan()
 }
 
 /// The distance (m) between the bounding boxes of the triangles `a` and `b` at `x` (m), NaN
@@ -600,7 +775,7 @@ pub(super) mod tests {
             .map(|(a, b)| (a as u32, b as u32))
             .collect();
         let mut every = Vec::new();
-        close_primitive_pairs(mesh, None, &all, positions, |_| f64::INFINITY, &mut every);
+        close_primitive_pairs(mesh, None, &all, positions, |_, _| true, &mut every);
         let mut every: Vec<Pair> = every.into_iter().flatten().map(|(p, _)| p).collect();
         every.sort_unstable();
         every.dedup();
@@ -672,6 +847,54 @@ pub(super) mod tests {
             }
             within
         }
+    }
+
+    impl PairCache {
+        /// Checks that the stored pairs are exactly those of `every` closer than their limit
+        /// at the reference positions (brute force), each with its distance there rounded
+        /// down.
+        fn assert_stores_exactly_the_pairs_within_their_limit(
+            &self,
+            every: &[Pair],
+            reach: f64,
+            step: usize,
+        ) {
+            let r = &self.reference;
+            let limit = |p: &Pair| limit(&self.skin, &self.regions, reach, p);
+            for (p, d) in &self.pairs {
+                assert!(
+                    f64::from(*d) <= p.closest(r).separation.norm(),
+                    "step {step}"
+                );
+                assert!(f64::from(*d) < limit(p), "step {step}");
+            }
+            let mut stored: Vec<Pair> = self.pairs.iter().map(|(p, _)| *p).collect();
+            stored.sort_unstable();
+            let mut close: Vec<Pair> = every
+                .iter()
+                .copied()
+                .filter(|p| p.closest(r).separation.norm() < limit(p))
+                .collect();
+            close.sort_unstable();
+            assert_eq!(stored, close, "step {step}");
+        }
+    }
+
+    /// Two flat square sheets of `side x side` vertices 2 cm apart, in planes `x = 0` and
+    /// `x = apart` (m): their positions, triangles and the body of each (0 and 1).
+    fn two_sheets(side: u32, apart: f64) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>, Vec<u32>) {
+        let sheet = |x: f64| {
+            (0..side * side).map(move |v| {
+                Vector3::new(x, 0.02 * f64::from(v / side), 0.02 * f64::from(v % side))
+            })
+        };
+        let positions = sheet(0.0).chain(sheet(apart)).collect();
+        let quads = (0..side - 1).flat_map(|j| (0..side - 1).map(move |i| j * side + i));
+        let one: Vec<[u32; 3]> = quads
+            .flat_map(|v| [[v, v + 1, v + side], [v + 1, v + side + 1, v + side]])
+            .collect();
+        let (triangles, body) = two_copies(&one, side * side);
+        (positions, triangles, body)
     }
 
     /// The triangles of two copies of a mesh of `n` vertices and triangles `triangles` (the
@@ -767,7 +990,10 @@ pub(super) mod tests {
         let (reach, allowance) = (0.02, vec![0.002; safe.len()]);
         let mut cache = PairCache::default();
         let mut live = Vec::new();
-        assert!(cache.live_pairs(&safe, &safe, &allowance, &mesh, reach, &mut live));
+        assert_eq!(
+            cache.live_pairs(&safe, &safe, &allowance, &mesh, reach, &mut live),
+            Renewal::Built
+        );
         let limit = |p: &Pair| limit(&cache.skin, &cache.regions, reach, p);
         let mut stored: Vec<Pair> = cache.pairs.iter().map(|(p, _)| *p).collect();
         stored.sort_unstable();
@@ -804,11 +1030,12 @@ pub(super) mod tests {
         let mut within = 0;
         for (k, size) in [0.002, 0.004, 0.015, 0.002, 0.004].into_iter().enumerate() {
             let target: Vec<_> = safe.iter().map(|p| p + rng.vector() * size).collect();
-            let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
-            builds.push(built);
-            if built {
+            let renewal = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+            builds.push(renewal);
+            if renewal == Renewal::Built {
                 let r = &cache.reference;
-                let limit = |p: &Pair| limit(&cache.skin, &cache.regions, reach, p);
+                let keep =
+                    |p: &Pair, d: f64| within_limit(&cache.skin, &cache.regions, reach, p, d);
                 let near: Vec<_> = all
                     .iter()
                     .copied()
@@ -819,7 +1046,7 @@ pub(super) mod tests {
                             Some(&cache.owners),
                             &[pair],
                             r,
-                            limit,
+                            keep,
                             &mut owned,
                         );
                         !candidates.is_empty()
@@ -834,16 +1061,7 @@ pub(super) mod tests {
                     cache.candidates(),
                     cache.box_pairs()
                 );
-                assert!(cache.pairs.iter().all(|(p, d)| f64::from(*d) < limit(p)));
-                let mut stored: Vec<Pair> = cache.pairs.iter().map(|(p, _)| *p).collect();
-                stored.sort_unstable();
-                let mut close: Vec<Pair> = every
-                    .iter()
-                    .copied()
-                    .filter(|p| p.closest(r).separation.norm() < limit(p))
-                    .collect();
-                close.sort_unstable();
-                assert_eq!(stored, close, "step {k}");
+                cache.assert_stores_exactly_the_pairs_within_their_limit(&every, reach, k);
             }
             let moves = Moves::new(&safe, &target, &clamp, &allowance);
             within +=
@@ -851,7 +1069,8 @@ pub(super) mod tests {
             safe = target;
         }
         assert!(within > 100, "the scene has pairs within reach: {within}");
-        assert_eq!(builds, [true, false, true, false, false]);
+        use Renewal::{Built, Kept};
+        assert_eq!(builds, [Built, Kept, Built, Kept, Kept]);
     }
 
     /// The rolled-up grid falling fast (5 reaches per local step, each vertex jittered by up
@@ -893,7 +1112,8 @@ pub(super) mod tests {
                 let allowance: Vec<f64> = (0..safe.len())
                     .map(|i| (1.0 - clamp[i]) * (target[i] - safe[i]).norm() + drift)
                     .collect();
-                let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+                let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live)
+                    != Renewal::Kept;
                 steps.push((built, cache.pairs.len(), live.len()));
                 let moves = Moves::new(&safe, &target, &clamp, &allowance);
                 within[usize::from(clamped)] += moves
@@ -990,7 +1210,8 @@ pub(super) mod tests {
                     safe[i] + Vector3::new(towards, 0.0, 0.0) + rng.vector() * 0.003
                 })
                 .collect();
-            let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+            let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live)
+                != Renewal::Kept;
             builds.push(built);
             if built {
                 let own = cache.pairs.iter().filter(|(p, _)| !across(p)).count();
@@ -1033,18 +1254,8 @@ pub(super) mod tests {
     fn a_body_setting_off_renews_the_build_before_it_comes_near() {
         let mut rng = Rng::new(37);
         let side = 12u32;
-        let sheet = |x: f64| -> Vec<Vector3<f64>> {
-            (0..side * side)
-                .map(|v| Vector3::new(x, 0.02 * f64::from(v / side), 0.02 * f64::from(v % side)))
-                .collect()
-        };
         let n = side * side;
-        let mut safe: Vec<_> = sheet(0.0).into_iter().chain(sheet(0.2)).collect();
-        let quads = (0..side - 1).flat_map(|j| (0..side - 1).map(move |i| j * side + i));
-        let triangles_one: Vec<[u32; 3]> = quads
-            .flat_map(|v| [[v, v + 1, v + side], [v + 1, v + side + 1, v + side]])
-            .collect();
-        let (triangles, body) = two_copies(&triangles_one, n);
+        let (mut safe, triangles, body) = two_sheets(side, 0.2);
         let mesh = ContactMesh {
             triangles: &triangles,
             body: &body,
@@ -1068,7 +1279,8 @@ pub(super) mod tests {
                     safe[i] + Vector3::new(towards, 0.0, 0.0) + rng.vector() * 0.0005
                 })
                 .collect();
-            let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+            let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live)
+                != Renewal::Kept;
             builds.push(built);
             if k == 0 {
                 let kept = cache.pairs.iter();
@@ -1088,6 +1300,62 @@ pub(super) mod tests {
         assert!(
             builds[0] && builds[1..=first_within].contains(&true),
             "builds {builds:?}, pairs within reach {within:?}"
+        );
+    }
+
+    /// Two flat sheets 6 cm apart, at rest but for a jitter of up to 0.3 mm, while two
+    /// vertices of one set off towards the other, faster at every local step (allowances of
+    /// 2 mm): they stray beyond their skins while their regions' motions still fit, and the
+    /// build is repaired rather than built afresh; after every repair (and build) the stored
+    /// pairs are exactly those within their raised limits (brute force), and the live pairs
+    /// hold every pair a brute-force search finds within `reach` all the way into contact.
+    #[test]
+    fn a_few_strays_repair_the_build_and_miss_no_pair() {
+        let mut rng = Rng::new(41);
+        let side = 12u32;
+        let n = side * side;
+        let (mut safe, triangles, body) = two_sheets(side, 0.06);
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[true, true],
+        };
+        let (_, every) = brute_force_pairs(&mesh, &safe);
+        let strays = [n + 5 * side + 5, n + 7 * side + 6];
+        let (reach, allowance) = (0.01, vec![0.002; safe.len()]);
+        let clamp = vec![1.0; safe.len()];
+        let (mut cache, mut live, mut renewals, mut within) =
+            (PairCache::default(), Vec::new(), Vec::new(), 0);
+        for k in 0..14 {
+            let target: Vec<_> = (0..safe.len())
+                .map(|i| {
+                    let towards = if strays.contains(&(i as u32)) && k >= 1 {
+                        -0.0008 * k as f64
+                    } else {
+                        0.0
+                    };
+                    safe[i] + Vector3::new(towards, 0.0, 0.0) + rng.vector() * 0.0003
+                })
+                .collect();
+            let renewal = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+            renewals.push(renewal);
+            if renewal != Renewal::Kept {
+                cache.assert_stores_exactly_the_pairs_within_their_limit(&every, reach, k);
+            }
+            let moves = Moves::new(&safe, &target, &clamp, &allowance);
+            within +=
+                moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
+            safe = target;
+        }
+        assert!(within > 100, "the scene has pairs within reach: {within}");
+        let (x0, x1) = (safe[strays[0] as usize].x, safe[strays[1] as usize].x);
+        assert!(
+            x0 < 0.01 && x1 < 0.01,
+            "the strays reached the other sheet: {x0}, {x1}"
+        );
+        assert!(
+            renewals.iter().filter(|&&r| r == Renewal::Repaired).count() >= 2,
+            "{renewals:?}"
         );
     }
 
@@ -1116,7 +1384,9 @@ pub(super) mod tests {
                     safe[v] + Vector3::new(0.0, 0.0, swing) + rng.vector() * 0.003
                 })
                 .collect();
-            if cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live) {
+            if cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live)
+                == Renewal::Built
+            {
                 // A vertex at rest strays from the mean of a region at rest by at most twice
                 // the jitter; one whose regions' halos hold a swinging vertex (within the
                 // rings its skin spreads over) strays by their share of the swing.
@@ -1186,9 +1456,11 @@ pub(super) mod tests {
                 allowance[v as usize] += by;
             }
             let rebuilt = !extended.extend_live(&allowance, &grown, reach, &mut by_extension)
-                && extended.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_extension);
+                && extended.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_extension)
+                    != Renewal::Kept;
             let rebuilt_afresh =
-                afresh.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_filter);
+                afresh.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_filter)
+                    != Renewal::Kept;
             assert_eq!(rebuilt, round == 2, "round {round}");
             assert_eq!(rebuilt_afresh, round == 2, "round {round}");
             let sorted = |pairs: &[Pair]| {
@@ -1242,7 +1514,8 @@ pub(super) mod tests {
                     }
                 }
                 let before = cache.sweep.valid.then(|| cache.sweep.swept.clone());
-                let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+                let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live)
+                    != Renewal::Kept;
                 let moves = Moves::new(&safe, &target, &clamp, &allowance);
                 within += moves.assert_live_hold_every_pair_within_reach(
                     &every, &live, reach, &mut rng, calls,
@@ -1320,13 +1593,17 @@ pub(super) mod tests {
             safe = target;
         }
         assert!(within > 100, "the scene has pairs within reach: {within}");
-        assert_eq!(builds, [true, false, false, true, false]);
+        use Renewal::{Built, Kept};
+        assert_eq!(builds, [Built, Kept, Kept, Built, Kept]);
         // Another mesh (self-contact off) forces a build and finds nothing.
         let mesh = ContactMesh {
             self_contact: &[false],
             ..mesh
         };
-        assert!(cache.live_pairs(&safe, &safe, &allowance, &mesh, reach, &mut live));
+        assert_eq!(
+            cache.live_pairs(&safe, &safe, &allowance, &mesh, reach, &mut live),
+            Renewal::Built
+        );
         assert!(live.is_empty() && cache.candidates() == 0);
     }
 }

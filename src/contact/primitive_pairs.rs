@@ -231,7 +231,8 @@ impl Owners {
         self.across = across;
     }
 
-    fn of(&self, v: u32) -> &[u32] {
+    /// The triangles of vertex `v`, increasing.
+    pub fn of(&self, v: u32) -> &[u32] {
         &self.incident[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
     }
 
@@ -320,9 +321,9 @@ impl Owners {
 const BOXES_PER_CHUNK: usize = 4096;
 
 /// Writes into `found` the primitive pairs `p` of the triangle pairs `(i, j)` (`i < j`) of
-/// `boxes` that are closer than `limit(p)` (m) at the positions `x` (m), each with that
-/// distance rounded down to `f32` (a lower bound in 4 bytes instead of 8; NaN distances count
-/// as close and stay NaN), in the order of `boxes`, in chunks (one per
+/// `boxes` whose distance `d` (m, NaN where a position is) at the positions `x` (m) passes
+/// `keep(p, d)`, each with that distance rounded down to `f32` (a lower bound in 4 bytes
+/// instead of 8; NaN stays NaN), in the order of `boxes`, in chunks (one per
 /// [`BOXES_PER_CHUNK`] triangle pairs: concatenating them is left to the caller, who orders
 /// them anyway); returns the triangle pairs that hold one of them (the candidates), in the
 /// same order. With `owners`, a triangle pair expands only the pairs it owns (see
@@ -333,7 +334,7 @@ pub(super) fn close_primitive_pairs(
     owners: Option<&Owners>,
     boxes: &[(u32, u32)],
     x: &[Vector3<f64>],
-    limit: impl Fn(&Pair) -> f64 + Sync,
+    keep: impl Fn(&Pair, f64) -> bool + Sync,
     found: &mut Vec<Vec<(Pair, f32)>>,
 ) -> Vec<(u32, u32)> {
     let triangles = mesh.triangles;
@@ -350,7 +351,7 @@ pub(super) fn close_primitive_pairs(
                         .zip(owned)
                         .filter_map(|(p, owned)| owned.then_some(p))
                         .map(|p| (p, p.closest(x).separation.norm()))
-                        .filter(|(p, d)| *d < limit(p) || d.is_nan())
+                        .filter(|(p, d)| keep(p, *d))
                         .map(|(p, d)| (p, round_down(d))),
                 );
                 if close.len() > before {

@@ -66,6 +66,10 @@ pub(super) struct Regions {
     /// Per region pair: whether its regions are near (`S_PQ = K_PQ`; they may hold cached
     /// pairs).
     may_hold: Vec<bool>,
+    /// Per region, at the last build: the box `(lo, hi)` of its halo (m; NaN where a position
+    /// is) and `R_P`, the largest vertex skin over its halo (m).
+    halo_box: Vec<(Vector3<f64>, Vector3<f64>)>,
+    halo_skin: Vec<f64>,
 }
 
 impl Regions {
@@ -180,6 +184,8 @@ impl Regions {
                 (lo, hi, largest, vertex_body[halo[0] as usize])
             })
             .collect();
+        self.halo_box = halos.iter().map(|&(lo, hi, _, _)| (lo, hi)).collect();
+        self.halo_skin = halos.iter().map(|&(_, _, r, _)| r).collect();
         let motion = &self.motion;
         let rows: Vec<(Vec<f64>, Vec<bool>)> = (0..n)
             .into_par_iter()
@@ -228,6 +234,58 @@ impl Regions {
                     .fold(0.0, |m: f64, (&s, _)| m.max(s))
             })
             .collect()
+    }
+
+    /// After the vertex skins `skin` (m) of the vertices `raised` grew (a repair of the build,
+    /// see [`super::pair_cache`]): recomputes `R_P` for the regions whose halos hold one and
+    /// lowers the skins of their far pairs to `S_PQ = gap_PQ - reach - (R_P + R_Q)`, so that
+    /// a far pair's limit stays within the gap and its regions still keep no pair. (A near
+    /// pair's skin `K_PQ` does not depend on `R`; [`Regions::hold`] then tells whether the
+    /// motion still fits the lowered skins.)
+    pub fn raise(&mut self, skin: &[f64], raised: &[u32], reach: f64) {
+        let mut touched: Vec<usize> = raised
+            .iter()
+            .flat_map(|&v| self.holding(v as usize).iter().map(|&p| p as usize))
+            .collect();
+        touched.sort_unstable();
+        touched.dedup();
+        for &p in &touched {
+            self.halo_skin[p] = self
+                .patches
+                .halo(p)
+                .iter()
+                .fold(0.0, |m, &v| nan_max(m, skin[v as usize]));
+        }
+        let n = self.count();
+        for &p in &touched {
+            for q in 0..n {
+                // Near pairs keep `K_PQ`; an infinite skin is a pair of one body without
+                // self-contact, which keeps no pair whatever the motion.
+                if self.may_hold[p * n + q] || self.skin[p * n + q] == f64::INFINITY {
+                    continue;
+                }
+                let far = box_gap(self.halo_box[p], self.halo_box[q])
+                    - reach
+                    - (self.halo_skin[p] + self.halo_skin[q]);
+                self.skin[p * n + q] = far;
+                self.skin[q * n + p] = far;
+            }
+        }
+    }
+
+    /// The largest skin (m) a repair may raise vertex `v`'s to and leave every far pair of
+    /// the regions holding it half its slack `S_PQ - T_PQ` (see [`Regions::raise`]): the
+    /// least `R_P + (S_PQ - T_PQ) / 2` over those regions `P` and the regions `Q` far from
+    /// them (infinite where there is none; NaN where a motion is).
+    pub fn most_raised_skin(&self, v: usize) -> f64 {
+        let n = self.count();
+        self.holding(v)
+            .iter()
+            .map(|&p| p as usize)
+            .flat_map(|p| (0..n).map(move |q| (p, p * n + q)))
+            .filter(|&(_, k)| !self.may_hold[k] && self.skin[k] != f64::INFINITY)
+            .map(|(p, k)| self.halo_skin[p] + 0.5 * (self.skin[k] - self.relative_motion[k]))
+            .fold(f64::INFINITY, |m, x| if x.is_nan() { x } else { m.min(x) })
     }
 
     /// Whether every region pair's `T_PQ` is within its skin `S_PQ` (false where NaN).

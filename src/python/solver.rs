@@ -543,7 +543,9 @@ impl PyStepStats {
     /// (primitive pairs within the barrier's reach at the end), `local_iterations` (descent
     /// iterations, summed), `clamped` (vertices the final CCD clamp moved, summed),
     /// `ccd_queries` (primitive pair CCD queries, summed), `broad_phase_builds` (summed; the
-    /// other local steps reused the last build), `live_refreshes` (filterings of the cached
+    /// other local steps reused the last build), `cache_repairs` (summed; repairs of the last
+    /// build for a few vertices that strayed beyond their skins, each instead of a build),
+    /// `live_refreshes` (filterings of the cached
     /// pairs into the live list, summed), and milliseconds `broad_phase_ms`, `ccd_ms`,
     /// `descent_ms`.
     #[getter]
@@ -558,6 +560,7 @@ impl PyStepStats {
         d.set_item("clamped", c.clamped)?;
         d.set_item("ccd_queries", c.ccd_queries)?;
         d.set_item("broad_phase_builds", c.broad_phase_builds)?;
+        d.set_item("cache_repairs", c.cache_repairs)?;
         d.set_item("live_refreshes", c.live_refreshes)?;
         d.set_item("broad_phase_ms", c.broad_phase_ms)?;
         d.set_item("ccd_ms", c.ccd_ms)?;
