@@ -7,8 +7,8 @@ triangles intersect (exact test, ipctk), the smallest distance between non-adjac
 (looked for up to ``4 xi``; the local step keeps it above ``eps xi``), and how deep the deepest
 vertex is inside a collider. Per step it records ms (the solver's own timing), iterations,
 the contact figures (candidate and box triangle pairs, live and active primitive pairs, CCD
-queries, broad-phase builds, clamped vertices, ms by phase), the lowest and highest vertex and
-how many vertices touch a collider (within ``2 xi`` of its surface).
+queries, broad-phase builds and repairs, clamped vertices, ms by phase), the lowest and
+highest vertex and how many vertices touch a collider (within ``2 xi`` of its surface).
 
 The JSON (and a PNG of the smallest distance and ms per step against the step) is rewritten
 at every check, so a run stopped early (``--time-limit``, or killed) keeps what it measured.
@@ -39,8 +39,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _common as C  # noqa: E402
 
 CONTACT_FIGURES = ("candidate_pairs", "box_pairs", "primitive_pairs", "active_pairs",
-                   "ccd_queries", "broad_phase_builds", "cache_repairs", "live_refreshes", "clamped", "local_iterations",
-                   "broad_phase_ms", "ccd_ms", "descent_ms")
+                   "ccd_queries", "broad_phase_builds", "cache_repairs", "live_refreshes",
+                   "clamped", "local_iterations", "broad_phase_ms", "ccd_ms", "descent_ms")
 
 
 def build(args):
