@@ -49,7 +49,10 @@
 //!   that the raised limits reach are added, found by a search around those vertices'
 //!   triangles only. On the paper's six layers over the ball (steps 138-146 from a saved
 //!   state) each of the four builds after the first was forced by one to three of the 240K
-//!   vertices, by at most 0.21 mm.
+//!   vertices, by at most 0.21 mm. There a repair so far defers the build by a step only:
+//!   then some region pairs outgrow their skins (by at most 0.26 mm), which only a build
+//!   puts right (steps 138-145, two alternating runs: 231 and 234 s with repairs, 241 and
+//!   215 s without).
 //! - **Skip**: the pair's distance at every such `x` is at least
 //!   `d_r - max_{a in A, b in B} max(|w_a - w_b|, |g_a - g_b|) - max_A A - max_B A` (A, B the
 //!   two primitives; [`Pair::relative_distance_bound`]): only the primitives' motion relative
