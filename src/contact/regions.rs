@@ -285,7 +285,13 @@ impl Regions {
             .flat_map(|p| (0..n).map(move |q| (p, p * n + q)))
             .filter(|&(_, k)| !self.may_hold[k] && self.skin[k] != f64::INFINITY)
             .map(|(p, k)| self.halo_skin[p] + 0.5 * (self.skin[k] - self.relative_motion[k]))
-            .fold(f64::INFINITY, |m, x| if x.is_nan() { x } else { m.min(x) })
+            .fold(f64::INFINITY, |m, x| {
+                if m.is_nan() || x.is_nan() {
+                    f64::NAN
+                } else {
+                    m.min(x)
+                }
+            })
     }
 
     /// Whether every region pair's `T_PQ` is within its skin `S_PQ` (false where NaN).
@@ -369,7 +375,9 @@ mod tests {
     /// vertex's deviation bounds its distance from the common motion of every region whose
     /// halo holds it, `T` and `S` are symmetric to the bit, a far pair's skin leaves its
     /// regions' halo boxes at least `reach + R_P + R_Q` apart, near pairs exist across the
-    /// bodies only when their room exceeds that slack, and a NaN motion breaks `hold`.
+    /// bodies only when their room exceeds that slack, and a NaN motion breaks `hold`; a
+    /// repair's raised skin keeps the far pairs far ([`Regions::most_raised_skin`],
+    /// [`Regions::raise`]).
     #[test]
     fn skins_bound_the_motion_and_far_regions_stay_apart() {
         let mut rng = Rng::new(17);
@@ -409,7 +417,7 @@ mod tests {
         let reach = 0.02;
         let padding = regions.set_skins(&reference, &skin, &vertex_body, &[true, true], 4.0, reach);
         let count = regions.count();
-        let halo_box = |p: usize| {
+        let halo_box = |regions: &Regions, p: usize| {
             let halo = regions.patches.halo(p);
             let lo = halo.iter().fold(Vector3::repeat(f64::INFINITY), |m, &v| {
                 m.inf(&reference[v as usize])
@@ -430,8 +438,8 @@ mod tests {
                     regions.relative_motion(p, q).to_bits(),
                     regions.relative_motion(q, p).to_bits()
                 );
-                let (plo, phi, pr) = halo_box(p);
-                let (qlo, qhi, qr) = halo_box(q);
+                let (plo, phi, pr) = halo_box(&regions, p);
+                let (qlo, qhi, qr) = halo_box(&regions, q);
                 let gap = box_gap((plo, phi), (qlo, qhi));
                 let pq = p * count + q;
                 if regions.may_hold[pq] {
@@ -450,9 +458,53 @@ mod tests {
             "the bodies are 0.3 m apart and move 1 cm per step"
         );
         assert!(regions.hold());
+
+        // A repair raises a vertex's skin as far as its regions' far pairs allow: then every
+        // far pair of theirs still leaves its halos `reach + R_P + R_Q + S` apart, keeps half
+        // its slack over `T`, stays symmetric, and no skin grew.
+        let v = 5;
+        let most = regions.most_raised_skin(v);
+        assert!(
+            most.is_finite() && most > skin[v],
+            "{most} over {}",
+            skin[v]
+        );
+        let before = regions.skin.clone();
+        let mut raised = skin.clone();
+        raised[v] = most;
+        regions.raise(&raised, &[v as u32], reach);
+        let mut lowered = 0;
+        for p in 0..count {
+            for q in 0..count {
+                let pq = p * count + q;
+                assert_eq!(regions.skin(p, q).to_bits(), regions.skin(q, p).to_bits());
+                assert!(regions.skin[pq] <= before[pq]);
+                lowered += usize::from(regions.skin[pq] < before[pq]);
+                if !regions.may_hold[pq] && regions.skin[pq].is_finite() {
+                    let (plo, phi, _) = halo_box(&regions, p);
+                    let (qlo, qhi, _) = halo_box(&regions, q);
+                    let largest = |p: usize| {
+                        let halo = regions.patches.halo(p);
+                        halo.iter()
+                            .fold(0.0, |m: f64, &v| m.max(raised[v as usize]))
+                    };
+                    let (pr, qr) = (largest(p), largest(q));
+                    let gap = box_gap((plo, phi), (qlo, qhi));
+                    assert!(regions.skin(p, q) + reach + pr + qr <= gap + 1e-12);
+                    let slack = before[pq] - regions.relative_motion(p, q);
+                    assert!(
+                        regions.skin(p, q) - regions.relative_motion(p, q) >= 0.5 * slack - 1e-12
+                    );
+                }
+            }
+        }
+        assert!(lowered > 0, "raising the skin lowered no far pair's");
+        assert!(regions.hold());
+
         let mut wild = shift.clone();
         wild[0][1].x = f64::NAN;
         regions.measure(&wild);
         assert!(!regions.hold());
+        assert!(regions.most_raised_skin(0).is_nan() || regions.most_raised_skin(0) < skin[0]);
     }
 }
