@@ -599,19 +599,12 @@ impl PairCache {
         };
         let (fresh, raised) = (triangles_of(&strayed), triangles_of(&self.raised));
         let reference = &self.reference;
-        let inflated = |t: &[u32; 3]| {
-            let pad = Vector3::repeat(self.padding(t, reach));
-            let p = t.map(|v| reference[v as usize]);
-            (
-                p[0].inf(&p[1]).inf(&p[2]) - pad,
-                p[0].sup(&p[1]).sup(&p[2]) + pad,
-            )
-        };
         let triangles = mesh.triangles;
         let mut boxes: Vec<(u32, u32)> = fresh
             .par_iter()
             .flat_map_iter(|&t| {
-                let (lo, hi) = inflated(&triangles[t as usize]);
+                let t3 = &triangles[t as usize];
+                let (lo, hi) = triangle_box(reference, t3, self.padding(t3, reach));
                 let mut near = Vec::new();
                 self.broad_phase.overlapping(lo, hi, &mut near);
                 near.into_iter()
@@ -719,11 +712,17 @@ fn box_distance(x: &[Vector3<f64>], a: &[u32; 3], b: &[u32; 3]) -> f64 {
     {
         return f64::NAN;
     }
-    let bounds = |t: &[u32; 3]| {
-        let p = t.map(|v| x[v as usize]);
-        (p[0].inf(&p[1]).inf(&p[2]), p[0].sup(&p[1]).sup(&p[2]))
-    };
-    box_gap(bounds(a), bounds(b))
+    box_gap(triangle_box(x, a, 0.0), triangle_box(x, b, 0.0))
+}
+
+/// The box `(lo, hi)` of the triangle `t` at `x` (m), inflated by `pad` (m) on every side.
+fn triangle_box(x: &[Vector3<f64>], t: &[u32; 3], pad: f64) -> (Vector3<f64>, Vector3<f64>) {
+    let p = t.map(|v| x[v as usize]);
+    let pad = Vector3::repeat(pad);
+    (
+        p[0].inf(&p[1]).inf(&p[2]) - pad,
+        p[0].sup(&p[1]).sup(&p[2]) + pad,
+    )
 }
 
 /// Whether `x < limit`, NaN counting as below (a NaN bound keeps its pair).

@@ -205,7 +205,7 @@ impl Regions {
                         );
                         let gap = box_gap((plo, phi), (qlo, qhi));
                         // A NaN gap counts as near; `pr + qr` first keeps `S` symmetric.
-                        let far = gap - reach - (pr + qr);
+                        let far = far_skin(gap, reach, pr, qr);
                         if far > room {
                             (far, false)
                         } else {
@@ -264,9 +264,12 @@ impl Regions {
                 if self.may_hold[p * n + q] || self.skin[p * n + q] == f64::INFINITY {
                     continue;
                 }
-                let far = box_gap(self.halo_box[p], self.halo_box[q])
-                    - reach
-                    - (self.halo_skin[p] + self.halo_skin[q]);
+                let far = far_skin(
+                    box_gap(self.halo_box[p], self.halo_box[q]),
+                    reach,
+                    self.halo_skin[p],
+                    self.halo_skin[q],
+                );
                 self.skin[p * n + q] = far;
                 self.skin[q * n + p] = far;
             }
@@ -354,6 +357,13 @@ impl Regions {
 pub(super) fn box_gap(a: (Vector3<f64>, Vector3<f64>), b: (Vector3<f64>, Vector3<f64>)) -> f64 {
     let ((alo, ahi), (blo, bhi)) = (a, b);
     (blo - ahi).sup(&(alo - bhi)).sup(&Vector3::zeros()).norm()
+}
+
+/// The skin `S_PQ = gap - reach - (R_P + R_Q)` (m) of two far regions whose halo boxes are
+/// `gap` (m) apart, with the largest vertex skins `pr`, `qr` (m) over their halos: a pair's
+/// limit then stays within the gap. (`pr + qr` first keeps it symmetric to the bit.)
+fn far_skin(gap: f64, reach: f64, pr: f64, qr: f64) -> f64 {
+    gap - reach - (pr + qr)
 }
 
 /// `x`, or infinity where it is NaN (a NaN motion counts as infinitely far).
