@@ -292,6 +292,8 @@ pub struct Workspace {
     last_move: Vec<Vector3<f64>>,
     /// Per vertex: the factor on its descent moves, halved at each reversal (see [`project`]).
     damping: Vec<f64>,
+    /// Per pair within the barrier's reach: its terms (scratch of [`barrier_push`]).
+    terms: Vec<PairTerms>,
 }
 
 impl Workspace {
@@ -540,8 +542,6 @@ pub fn project(
         &mut work.changed,
     );
     let near_distance = (1.0 + 4.0 * eps) * xi;
-    // The largest total descent move of a vertex so far (m).
-    let mut max_drift = work.drift.iter().copied().fold(0.0, f64::max);
     let Workspace {
         live,
         motion,
@@ -557,6 +557,7 @@ pub fn project(
         closest,
         last_move,
         damping,
+        terms,
         ..
     } = work;
     for _ in 0..params.max_iters {
@@ -566,7 +567,7 @@ pub fn project(
         // Every vertex of the path from `z^{k-1}` to `z^m` is within `motion_i + drift_i` of
         // `z^{k-1}` (see `pair_cache`): a pair whose distance bound over such moves exceeds
         // `xi` cannot reach `xi` on it, so its CCD is skipped.
-        let drift_now = max_drift;
+        let drift_now = &*drift;
         stats.ccd_queries += toi
             .par_iter_mut()
             .zip(&live.pairs)
@@ -605,22 +606,23 @@ pub fn project(
 
         // Lines 19-27: distances, weights and the descent direction of eq. 49.
         let t = Instant::now();
-        closest_within(
-            &live.pairs,
-            &live.start,
-            motion,
-            max_drift,
-            reach,
-            z,
-            closest,
-        );
+        closest_within(&live.pairs, &live.start, motion, drift, reach, z, closest);
         // A pair left out by `closest_within` is not near: it is at least `reach` apart,
         // which is beyond `(1 + 4 eps) xi` whenever `d_hat >= 4 eps xi` (the defaults), so the
         // full evaluation would not call it near either.
         for (c, near) in closest.iter().zip(near.iter_mut()) {
             *near = c.separation.norm() < near_distance;
         }
-        barrier_push(&live.pairs, closest, &barrier, mu, force, alpha, curvature);
+        barrier_push(
+            &live.pairs,
+            closest,
+            &barrier,
+            mu,
+            terms,
+            force,
+            alpha,
+            curvature,
+        );
         let lambda = match params.step {
             DescentStep::Uniform => {
                 let (alpha_0, farthest) = (0..n)
@@ -634,8 +636,7 @@ pub fn project(
             DescentStep::Curvature => None,
         };
         let longest = eps * xi;
-        let moved;
-        (moved, max_drift) = z
+        let moved = z
             .par_iter_mut()
             .zip(drift.par_iter_mut())
             .zip(changed.par_iter_mut())
@@ -645,7 +646,7 @@ pub fn project(
             .enumerate()
             .map(|(i, (((((zi, di), ci), ei), last), damp))| {
                 if fixed[i] {
-                    return (0.0, 0.0);
+                    return 0.0;
                 }
                 let before = *zi;
                 let direction = force[i] + target[i] - *zi;
@@ -678,9 +679,9 @@ pub fn project(
                 *ci |= step > 0.0;
                 *di += step;
                 *ei += step;
-                (step, *di)
+                step
             })
-            .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
+            .reduce(|| 0.0, f64::max);
         stats.iterations += 1;
         stats.descent_ms += millis(t);
 
@@ -703,7 +704,7 @@ pub fn project(
         &work.live.pairs,
         &work.live.start,
         &work.motion,
-        max_drift,
+        &work.drift,
         reach,
         z,
         &mut work.closest,
@@ -718,6 +719,7 @@ pub fn project(
         &work.closest,
         &barrier,
         mu,
+        &mut work.terms,
         &mut work.push,
         &mut work.alpha,
         &mut work.curvature,
@@ -748,51 +750,74 @@ pub fn project(
 /// Writes into `push` the barrier part of the descent direction of eq. 49,
 /// `p_i = -mu sum_c B'(f(d_c) - xi) alpha_c^i n_c` (m), into `alpha` the sums
 /// `sum_c |alpha_c^i|` of eq. 53, and into `curvature` the `K_i` of
-/// [`DescentStep::Curvature`], over the pairs within the barrier's reach.
+/// [`DescentStep::Curvature`], over the pairs within the barrier's reach. The pairs' terms
+/// are evaluated in parallel into `terms` (scratch), then summed per vertex in pair order.
+#[allow(clippy::too_many_arguments)]
 fn barrier_push(
     pairs: &[Pair],
     closest: &[Closest],
     barrier: &Barrier,
     mu: f64,
+    terms: &mut Vec<PairTerms>,
     push: &mut [Vector3<f64>],
     alpha: &mut [f64],
     curvature: &mut [SymmetricMatrix3<f64>],
 ) {
     let reach = barrier.reach();
+    terms.clear();
+    terms.par_extend(closest.par_iter().enumerate().filter_map(|(k, c)| {
+        let d = c.separation.norm();
+        if d >= reach || d == 0.0 {
+            return None;
+        }
+        let gap = barrier.gap(d);
+        // The slope's rate of change with d; the row sum `sum_j |alpha_c^j|` makes `k_i` a
+        // Gershgorin bound of the pair's Hessian `B'' f' (alpha n)(alpha n)^T`.
+        let rows: f64 = c.weights.iter().map(|w| w.abs()).sum();
+        Some(PairTerms {
+            pair: k as u32,
+            normal: c.separation / d,
+            slope: -mu * barrier.derivative(gap),
+            stiffness: mu * barrier.second_derivative(gap) * barrier.rescale_derivative(d) * rows,
+        })
+    }));
     push.iter_mut().for_each(|f| *f = Vector3::zeros());
     alpha.iter_mut().for_each(|a| *a = 0.0);
     curvature
         .iter_mut()
         .for_each(|k| *k = SymmetricMatrix3::zeros());
-    for (pair, c) in pairs.iter().zip(closest) {
-        let d = c.separation.norm();
-        if d >= reach || d == 0.0 {
-            continue;
-        }
-        let gap = barrier.gap(d);
-        let slope = -mu * barrier.derivative(gap);
-        // The slope's rate of change with d; the row sum `sum_j |alpha_c^j|` makes `k_i` a
-        // Gershgorin bound of the pair's Hessian `B'' f' (alpha n)(alpha n)^T`.
-        let rows: f64 = c.weights.iter().map(|w| w.abs()).sum();
-        let stiffness = mu * barrier.second_derivative(gap) * barrier.rescale_derivative(d) * rows;
-        let normal = c.separation / d;
-        for (&v, &w) in pair.v.iter().zip(&c.weights) {
-            push[v as usize] += normal * (slope * w);
+    for term in terms.iter() {
+        let k = term.pair as usize;
+        for (&v, &w) in pairs[k].v.iter().zip(&closest[k].weights) {
+            push[v as usize] += term.normal * (term.slope * w);
             alpha[v as usize] += w.abs();
-            curvature[v as usize] += SymmetricMatrix3::outer(&normal, stiffness * w.abs());
+            curvature[v as usize] +=
+                SymmetricMatrix3::outer(&term.normal, term.stiffness * w.abs());
         }
     }
 }
 
+/// A pair's barrier terms at its closest points (see [`barrier_push`]).
+struct PairTerms {
+    /// Index of the pair.
+    pair: u32,
+    /// The unit separation `n_c`.
+    normal: Vector3<f64>,
+    /// `-mu B'(f(d_c) - xi)` (m).
+    slope: f64,
+    /// `mu B''(f(d_c) - xi) f'(d_c) sum_j |alpha_c^j|` (dimensionless).
+    stiffness: f64,
+}
+
 /// Writes into `closest` the closest points of every pair at `z`, except for the pairs whose
 /// distance bound (from their distance `start` at the safe positions, the vertices' `motion`
-/// and the descent's largest total move `drift`, all m) is at least `reach`: they feel no
+/// and their total descent moves `drift`, all m) is at least `reach`: they feel no
 /// barrier, so their closest points are not needed, and they get [`FAR`].
 fn closest_within(
     pairs: &[Pair],
     start: &[f64],
     motion: &[f64],
-    drift: f64,
+    drift: &[f64],
     reach: f64,
     z: &[Vector3<f64>],
     closest: &mut Vec<Closest>,
@@ -841,13 +866,12 @@ fn guarantee(
     stats: &mut ContactStats,
 ) {
     let t = Instant::now();
-    // The descent's largest total move of a vertex (m).
-    let max_drift = work.drift.iter().copied().fold(0.0, f64::max);
     let (floor, reach) = (params.eps * params.thickness, params.barrier().reach());
     let Workspace {
         live,
         target,
         motion,
+        drift,
         floors,
         toi,
         vertex_toi: per_vertex,
@@ -869,7 +893,7 @@ fn guarantee(
                 .zip(&live.start)
                 .map(|(p, &d0)| {
                     let min = floor.min(0.9 * d0);
-                    if p.distance_bound(d0, motion, max_drift) > min {
+                    if p.distance_bound(d0, motion, drift) > min {
                         0.0
                     } else {
                         min
@@ -1316,6 +1340,7 @@ mod tests {
             &closest,
             &barrier,
             params.weight,
+            &mut Vec::new(),
             &mut push,
             &mut alpha,
             &mut curvature,

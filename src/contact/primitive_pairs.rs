@@ -27,12 +27,19 @@ impl Pair {
     }
 
     /// A lower bound of the pair's distance (m) wherever each vertex `i` is at most
-    /// `moved[i] + extra` (m) from where the distance was `distance` (m): a point of a
+    /// `moved[i] + extra[i]` (m) from where the distance was `distance` (m): a point of a
     /// primitive is a convex combination of its vertices, so it moves at most as far as the
     /// farthest of them, and the distance shrinks at most by the two primitives' moves. NaN
     /// if an input is NaN (callers keep the pair then).
-    pub fn distance_bound(&self, distance: f64, moved: &[f64], extra: f64) -> f64 {
-        distance - self.spread(moved) - 2.0 * extra
+    pub fn distance_bound(&self, distance: f64, moved: &[f64], extra: &[f64]) -> f64 {
+        let farthest = |vertices: &[u32]| {
+            vertices
+                .iter()
+                .map(|&v| moved[v as usize] + extra[v as usize])
+                .fold(0.0, nan_max)
+        };
+        let (a, b) = self.sides();
+        distance - farthest(a) - farthest(b)
     }
 
     /// `max_A values + max_B values` over the two primitives' vertices (each max at least 0),
@@ -440,17 +447,17 @@ mod tests {
             };
             let x: Vec<_> = (0..4).map(|_| rng.vector()).collect();
             let moved: Vec<f64> = (0..4).map(|_| 0.2 * (rng.uniform() + 1.0)).collect();
-            let extra = 0.05 * (rng.uniform() + 1.0);
+            let extra: Vec<f64> = (0..4).map(|_| 0.05 * (rng.uniform() + 1.0)).collect();
             let y: Vec<_> = x
                 .iter()
-                .zip(&moved)
-                .map(|(p, &m)| {
+                .zip(moved.iter().zip(&extra))
+                .map(|(p, (&m, &e))| {
                     let dir = rng.vector();
-                    p + dir * ((m + extra) * rng.uniform().abs() / dir.norm())
+                    p + dir * ((m + e) * rng.uniform().abs() / dir.norm())
                 })
                 .collect();
             let d = pair.closest(&x).separation.norm();
-            let bound = pair.distance_bound(d, &moved, extra);
+            let bound = pair.distance_bound(d, &moved, &extra);
             assert!(
                 pair.closest(&y).separation.norm() >= bound - 1e-12,
                 "case {k}"
@@ -461,7 +468,7 @@ mod tests {
             v: [0, 1, 2, 3],
         };
         assert!(pair
-            .distance_bound(1.0, &[0.0, f64::NAN, 0.0, 0.0], 0.0)
+            .distance_bound(1.0, &[0.0, f64::NAN, 0.0, 0.0], &[0.0; 4])
             .is_nan());
     }
 
@@ -515,7 +522,7 @@ mod tests {
                 .map(|i| shift[i][0].norm().max(shift[i][1].norm()) + extra[i])
                 .collect();
             assert!(
-                bound - pair.distance_bound(d, &absolute, 0.0) > 1.0,
+                bound - pair.distance_bound(d, &absolute, &[0.0; 4]) > 1.0,
                 "case {k}"
             );
         }
