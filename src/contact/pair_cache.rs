@@ -73,7 +73,12 @@
 //!   path only): the live list then holds little more than the pairs near the reach, where a
 //!   bound from `r` lets through every pair whose vertices moved apart since the build. Such
 //!   a full filter (a sweep) measures every near pair; the filters after it look again only at
-//!   the pairs whose bound may have fallen below the reach since (see [`super::sweep`]).
+//!   the pairs whose bound may have fallen below the reach since (see [`super::sweep`]). A
+//!   filter sweeps afresh once the filters since the last sweep have cost as much as a sweep
+//!   (ski rental): as a sweep's positions fall behind, its filters cost more and more, and on
+//!   the three layers of 200 x 200 the first global iterations of each step move the
+//!   layers' parts millimetres apart, so that each of the 20 filters of a step looked again
+//!   at 2M of 25M near pairs (480 ms each) when only a sweep's share rule decided.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -211,7 +216,8 @@ impl PairCache {
         // NaN distances come first and count as near.
         let near = self.order.within(horizon);
         self.is_live[..self.flagged].fill(false);
-        let fall = if self.sweep.valid {
+        // Ski rental: refilter until the refilters since the sweep have cost a sweep.
+        let fall = if self.sweep.valid && self.sweep.rent <= near as f64 {
             self.sweep.measure(safe, target);
             let fall = self.sweep.fall(&self.vertex_body, self.bodies, allowance);
             if fall.is_some() {
@@ -302,7 +308,6 @@ impl PairCache {
                     && below(this.common_bound(k as usize), reach)
             })
             .collect();
-        self.sweep.live = found.len();
         found
     }
 
@@ -311,34 +316,65 @@ impl PairCache {
     /// `fall` (m) for every pair and by at most [`Sweep::patch_fall`] and
     /// [`Sweep::pair_fall`] for each (see [`super::sweep`]; the cheaper test first), and at
     /// those beyond the sweep's: the pairs that may come within `reach`, increasing, or `None`
-    /// (and nothing done) when, beyond as many as the sweep found live, more than
+    /// (and nothing done) when, beyond the pairs within reach at the sweep, more than
     /// [`REFILTER_SHARE`] of the others would be looked at again: the sweep's positions are
     /// then far enough behind that every filter until the next sweep would look at that many,
-    /// and a sweep afresh costs a few of them.
-    fn refilter(&self, near: usize, fall: f64, allowance: &[f64], reach: f64) -> Option<Vec<u32>> {
+    /// and a sweep afresh costs a few of them. Adds the filter's work beyond what it costs
+    /// right after the sweep (a look at each pair within reach there) to the sweep's rent.
+    fn refilter(
+        &mut self,
+        near: usize,
+        fall: f64,
+        allowance: &[f64],
+        reach: f64,
+    ) -> Option<Vec<u32>> {
         let swept = self.sweep.near.min(near);
-        let again: Vec<u32> = self.sweep.swept[..swept]
+        // The pairs to look at again. Counted: the pairs within reach at the sweep (no test
+        // can leave them out), and those that took a patch test and a pair test.
+        let (mut again, tests) = self.sweep.swept[..swept]
             .par_iter()
             .enumerate()
-            .filter(|&(k, swept)| {
-                let s = f64::from(swept.slack);
-                below(s, fall)
-                    && below(s, self.sweep.patch_fall(swept.patches))
-                    && below(s, self.sweep.pair_fall(&self.pairs[k].0, allowance))
-            })
-            .map(|(k, _)| k as u32)
-            .chain((swept..near).into_par_iter().map(|k| k as u32))
-            .collect();
-        let sweep = &self.sweep;
-        if again.len().saturating_sub(sweep.live) as f64
-            > REFILTER_SHARE * (sweep.near - sweep.live) as f64
-        {
+            .fold(
+                || (Vec::new(), [0_usize; 3]),
+                |(mut again, mut tests), (k, swept)| {
+                    let s = f64::from(swept.slack);
+                    if s < 0.0 {
+                        tests[0] += 1;
+                        again.push(k as u32);
+                    } else if below(s, fall) {
+                        tests[1] += 1;
+                        if below(s, self.sweep.patch_fall(swept.patches)) {
+                            tests[2] += 1;
+                            if below(s, self.sweep.pair_fall(&self.pairs[k].0, allowance)) {
+                                again.push(k as u32);
+                            }
+                        }
+                    }
+                    (again, tests)
+                },
+            )
+            .reduce(
+                || (Vec::new(), [0; 3]),
+                |(mut again, tests), (more, more_tests)| {
+                    again.extend(more);
+                    (again, [0, 1, 2].map(|t| tests[t] + more_tests[t]))
+                },
+            );
+        again.extend(swept as u32..near as u32);
+        let [within, patch_tests, pair_tests] = tests;
+        let sweep = &mut self.sweep;
+        let beyond = again.len() - within;
+        if beyond as f64 > REFILTER_SHARE * (sweep.near - within) as f64 {
             return None;
         }
+        sweep.rent += PATCH_TEST_COST * patch_tests as f64
+            + PAIR_TEST_COST * pair_tests as f64
+            + beyond as f64;
+        let this = &*self;
         Some(
             again
                 .into_par_iter()
-                .filter(|&k| self.may_come_within(k as usize, allowance, reach))
+                .filter(|&k| this.may_come_within(k as usize, allowance, reach))
                 .collect(),
         )
     }
@@ -735,6 +771,14 @@ fn below(x: f64, limit: f64) -> bool {
 /// at 200 x 200, 13M near pairs, the first filter of a time step looked at 23 % of them again,
 /// 400 ms, and so did the eight after it, against a sweep of 1 s and then 12 ms each).
 const REFILTER_SHARE: f64 = 1.0 / 16.0;
+
+/// The costs of a refilter's patch and pair tests ([`Sweep::patch_fall`],
+/// [`Sweep::pair_fall`]) in fresh bounds (a sweep costs one per near pair), for its rent (a
+/// cost trade-off only): measured with `perf` on the three layers of 200 x 200 over the ball
+/// (steps 510-512, where the refilters made 20M patch tests, 3M pair tests and 2M fresh
+/// bounds each, 480 ms, and did so 20 times per step).
+const PATCH_TEST_COST: f64 = 0.055;
+const PAIR_TEST_COST: f64 = 0.55;
 
 /// Triangle rings over which a build spreads each vertex's skin (see [`PairCache::build`]).
 const SKIN_RINGS: usize = 2;

@@ -64,9 +64,12 @@ pub(super) struct Sweep {
     step: Vec<Vector3<f64>>,
     /// Per vertex: the allowance at the sweep (m).
     allowance: Vec<f64>,
-    /// The sweep looked at the cached pairs `..near` and found `live` of them live.
+    /// The sweep looked at the cached pairs `..near`.
     pub near: usize,
-    pub live: usize,
+    /// The work of the filters since the sweep, in fresh bounds (see
+    /// [`super::pair_cache`]'s `refilter`): once it exceeds what a sweep costs, the next
+    /// filter sweeps.
+    pub rent: f64,
     /// Per cached pair `..near`: what the sweep saw of it.
     pub swept: Vec<SweptPair>,
     /// Per vertex: the ends `[u(0), u(1)]` of the last [`Sweep::measure`] (m).
@@ -121,6 +124,7 @@ impl Sweep {
         self.allowance.clear();
         self.allowance.extend_from_slice(allowance);
         self.near = near;
+        self.rent = 0.0;
         self.valid = true;
         self.measure(safe, target);
     }
