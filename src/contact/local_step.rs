@@ -1255,6 +1255,95 @@ mod tests {
         }
     }
 
+    /// At the result `z` of a local step from `safe`, no two primitives are closer than
+    /// `eps xi`, and the barrier push the local step left in `work` equals the one summed over
+    /// every primitive pair (brute force): the live pairs held every pair within the barrier's
+    /// reach, and the descent saw them. Returns the smallest distance between two primitives.
+    fn assert_push_from_every_pair(
+        mesh: &ContactMesh,
+        safe: &[Vector3<f64>],
+        z: &[Vector3<f64>],
+        params: &ContactParams,
+        work: &Workspace,
+    ) -> f64 {
+        let (_, every) = super::super::pair_cache::tests::brute_force_pairs(mesh, safe);
+        let closest: Vec<_> = every.iter().map(|p| p.closest(z)).collect();
+        let nearest = closest
+            .iter()
+            .map(|c| c.separation.norm())
+            .fold(f64::INFINITY, f64::min);
+        assert!(nearest >= params.eps * params.thickness, "{nearest}");
+        let mut push = vec![Vector3::zeros(); z.len()];
+        let mut alpha = vec![0.0; z.len()];
+        let mut curvature = vec![SymmetricMatrix3::zeros(); z.len()];
+        barrier_push(
+            &every,
+            &closest,
+            &params.barrier(),
+            params.weight,
+            &mut Vec::new(),
+            &mut push,
+            &mut alpha,
+            &mut curvature,
+        );
+        for (i, (a, b)) in work.push().iter().zip(&push).enumerate() {
+            assert!(
+                (a - b).norm() <= 1e-12 * (1.0 + b.norm()),
+                "vertex {i}: {a} vs {b}"
+            );
+        }
+        nearest
+    }
+
+    /// Three parallel triangles, `xi = d_hat = 1 mm`: the lowest fixed at height 0, the middle
+    /// one at rest just beyond the barrier's reach above it (0.2 mm beyond), the top one
+    /// pressed from beyond the reach above the middle one to `0.1 d_hat` into its barrier. The
+    /// middle triangle has no motion of its own: only the descent's moves (its drift), pushed
+    /// by the top one, bring it within the lowest one's reach, which then holds it up. The
+    /// push at the result is the brute-force one, the lowest triangle's barrier included.
+    #[test]
+    fn a_sheet_pushed_by_the_descent_alone_feels_the_sheet_below() {
+        let params = ContactParams {
+            thickness: 1e-3,
+            d_hat: 1e-3,
+            ..ContactParams::default()
+        };
+        let reach = params.barrier().reach();
+        let v = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
+        let lowest = [v(-1., -1., 0.), v(2., -1., 0.), v(-1., 2., 0.)];
+        let small = |h: f64| [v(0.1, 0.1, h), v(0.12, 0.1, h), v(0.1, 0.12, h)];
+        let middle = reach + 2e-4;
+        let top = small(middle + reach + 5e-4);
+        let pressed = small(middle + params.thickness + 0.1 * params.d_hat);
+        let safe: Vec<_> = lowest
+            .iter()
+            .chain(&small(middle))
+            .chain(&top)
+            .copied()
+            .collect();
+        let target: Vec<_> = lowest
+            .iter()
+            .chain(&small(middle))
+            .chain(&pressed)
+            .copied()
+            .collect();
+        let mesh = ContactMesh {
+            triangles: &[[0, 1, 2], [3, 4, 5], [6, 7, 8]],
+            body: &[0, 1, 2],
+            self_contact: &[false; 3],
+        };
+        let fixed = [true, true, true, false, false, false, false, false, false];
+        let mut z = target.clone();
+        let mut work = Workspace::default();
+        project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {}, &mut work);
+        assert_push_from_every_pair(&mesh, &safe, &z, &params, &work);
+        let lowered = z[3..6].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+        assert!(
+            lowered < reach - 1e-4,
+            "middle triangle at {lowered}, reach {reach}"
+        );
+    }
+
     /// Three slightly wavy 9 x 9 grids (1 cm spacing) falling about 5 cm in one local step,
     /// with `xi = 1 mm` and a reach of 3 mm: the lowest sheet 50 mm, the other two 53 mm,
     /// through the lowest (1.5 mm below them at the start), which half of their width
@@ -1309,7 +1398,6 @@ mod tests {
             max_iters: 2,
             ..ContactParams::default()
         };
-        let barrier = params.barrier();
         let mut z = target.clone();
         let mut work = Workspace::default();
         let fixed = vec![false; safe.len()];
@@ -1325,32 +1413,7 @@ mod tests {
             most > 2.0 * descent && least < 0.1 * descent,
             "{most} {least}"
         );
-        let (_, every) = super::super::pair_cache::tests::brute_force_pairs(&mesh, &safe);
-        let closest: Vec<_> = every.iter().map(|p| p.closest(&z)).collect();
-        let nearest = closest
-            .iter()
-            .map(|c| c.separation.norm())
-            .fold(f64::INFINITY, f64::min);
-        assert!(nearest >= params.eps * params.thickness, "{nearest}");
-        let mut push = vec![Vector3::zeros(); z.len()];
-        let mut alpha = vec![0.0; z.len()];
-        let mut curvature = vec![SymmetricMatrix3::zeros(); z.len()];
-        barrier_push(
-            &every,
-            &closest,
-            &barrier,
-            params.weight,
-            &mut Vec::new(),
-            &mut push,
-            &mut alpha,
-            &mut curvature,
-        );
-        for (i, (a, b)) in work.push().iter().zip(&push).enumerate() {
-            assert!(
-                (a - b).norm() <= 1e-12 * (1.0 + b.norm()),
-                "vertex {i}: {a} vs {b}"
-            );
-        }
+        assert_push_from_every_pair(&mesh, &safe, &z, &params, &work);
         // The same local step again starts from the allowances the first one needed: it
         // refreshes the live list less often, and keeps every pair `eps xi` apart. (Its
         // positions differ a little: a refresh restarts the CCD, whose additive steps can
@@ -1371,11 +1434,7 @@ mod tests {
             stats.live_refreshes,
             second.live_refreshes
         );
-        let nearest = every
-            .iter()
-            .map(|p| p.closest(&again).separation.norm())
-            .fold(f64::INFINITY, f64::min);
-        assert!(nearest >= params.eps * params.thickness, "{nearest}");
+        assert_push_from_every_pair(&mesh, &safe, &again, &params, &work);
     }
 
     #[test]
