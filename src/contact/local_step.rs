@@ -1315,18 +1315,15 @@ mod tests {
         let middle = reach + 2e-4;
         let top = small(middle + reach + 5e-4);
         let pressed = small(middle + params.thickness + 0.1 * params.d_hat);
-        let safe: Vec<_> = lowest
-            .iter()
-            .chain(&small(middle))
-            .chain(&top)
-            .copied()
-            .collect();
-        let target: Vec<_> = lowest
-            .iter()
-            .chain(&small(middle))
-            .chain(&pressed)
-            .copied()
-            .collect();
+        let stack = |upper: [Vector3<f64>; 3]| -> Vec<_> {
+            lowest
+                .iter()
+                .chain(&small(middle))
+                .chain(&upper)
+                .copied()
+                .collect()
+        };
+        let (safe, target) = (stack(top), stack(pressed));
         let mesh = ContactMesh {
             triangles: &[[0, 1, 2], [3, 4, 5], [6, 7, 8]],
             body: &[0, 1, 2],
