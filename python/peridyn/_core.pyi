@@ -370,8 +370,8 @@ class StepStats:
         'ccd_queries' (primitive pair CCD queries, summed), 'broad_phase_builds' (summed; the
         other local steps reused the last build), 'cache_repairs' (summed; repairs of the last
         build for a few vertices that strayed beyond their skins, each instead of a build),
-        'live_refreshes' (filterings of the cached
-        pairs into the live list, summed), 'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
+        'live_refreshes' (filterings of the cached pairs into the live list, summed),
+        'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
     @property
     def time(self) -> float:
         """Simulation time after the step (s)."""

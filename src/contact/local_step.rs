@@ -29,9 +29,9 @@
 //!    the closest points of nearly parallel edges jump along them as the edges move (stacked
 //!    cloth layers are full of such pairs), and so does the push on their vertices: without
 //!    the halving a few of them go back and forth for good, and every local step ran to its
-//!    cap (640 local iterations in a step of the three layers over the ball, 104 with it). By default the descent starts from the global step's result
-//!    plus the last local step's move ([`ContactParams::warm_start`]), not from the result
-//!    alone.
+//!    cap (640 local iterations in a step of the three layers over the ball, 103 with it).
+//!    By default the descent starts from the global step's result plus the last local step's
+//!    move ([`ContactParams::warm_start`]), not from the result alone.
 //!
 //! A final guarantee pass (not in the paper, which leaves vertices with a small time of impact
 //! unclamped): additive CCD from `z^{k-1}` to `z` once more, with the pair's separation floor
@@ -1106,11 +1106,8 @@ mod tests {
             .copied()
             .chain(grid(offset, xi + 0.3 * d_hat).map(|p| p + rng.vector() * 3e-4))
             .collect();
-        let quads = (0..side - 1).flat_map(|j| (0..side - 1).map(move |i| j * side + i));
-        let one: Vec<[u32; 3]> = quads
-            .flat_map(|v| [[v, v + 1, v + side], [v + 1, v + side + 1, v + side]])
-            .collect();
-        let (triangles, body) = super::super::pair_cache::tests::two_copies(&one, side * side);
+        use super::super::pair_cache::tests::{grid_triangles, two_copies};
+        let (triangles, body) = two_copies(&grid_triangles(side), side * side);
         let n = lower.len();
         let fixed: Vec<bool> = (0..2 * n).map(|v| v < n).collect();
         let mesh = ContactMesh {
@@ -1258,14 +1255,14 @@ mod tests {
     /// At the result `z` of a local step from `safe`, no two primitives are closer than
     /// `eps xi`, and the barrier push the local step left in `work` equals the one summed over
     /// every primitive pair (brute force): the live pairs held every pair within the barrier's
-    /// reach, and the descent saw them. Returns the smallest distance between two primitives.
+    /// reach, and the descent saw them.
     fn assert_push_from_every_pair(
         mesh: &ContactMesh,
         safe: &[Vector3<f64>],
         z: &[Vector3<f64>],
         params: &ContactParams,
         work: &Workspace,
-    ) -> f64 {
+    ) {
         let (_, every) = super::super::pair_cache::tests::brute_force_pairs(mesh, safe);
         let closest: Vec<_> = every.iter().map(|p| p.closest(z)).collect();
         let nearest = closest
@@ -1292,7 +1289,6 @@ mod tests {
                 "vertex {i}: {a} vs {b}"
             );
         }
-        nearest
     }
 
     /// Three parallel triangles, `xi = d_hat = 1 mm`: the lowest fixed at height 0, the middle

@@ -926,21 +926,45 @@ pub(super) mod tests {
         }
     }
 
-    /// Two flat square sheets of `side x side` vertices 2 cm apart, in planes `x = 0` and
-    /// `x = apart` (m): their positions, triangles and the body of each (0 and 1).
-    fn two_sheets(side: u32, apart: f64) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>, Vec<u32>) {
-        let sheet = |x: f64| {
-            (0..side * side).map(move |v| {
-                Vector3::new(x, 0.02 * f64::from(v / side), 0.02 * f64::from(v % side))
-            })
-        };
-        let positions = sheet(0.0).chain(sheet(apart)).collect();
+    /// The triangles of a grid of `side x side` vertices (numbered row by row), two per quad.
+    pub(in crate::contact) fn grid_triangles(side: u32) -> Vec<[u32; 3]> {
         let quads = (0..side - 1).flat_map(|j| (0..side - 1).map(move |i| j * side + i));
-        let one: Vec<[u32; 3]> = quads
+        quads
             .flat_map(|v| [[v, v + 1, v + side], [v + 1, v + side + 1, v + side]])
-            .collect();
-        let (triangles, body) = two_copies(&one, side * side);
-        (positions, triangles, body)
+            .collect()
+    }
+
+    /// Two flat square sheets of `side x side` vertices 2 cm apart, in the planes `x = 0` and
+    /// `x = apart` (m), bodies 0 and 1, with self-contact.
+    struct TwoSheets {
+        positions: Vec<Vector3<f64>>,
+        triangles: Vec<[u32; 3]>,
+        body: Vec<u32>,
+    }
+
+    impl TwoSheets {
+        fn new(side: u32, apart: f64) -> Self {
+            let sheet = |x: f64| {
+                (0..side * side).map(move |v| {
+                    Vector3::new(x, 0.02 * f64::from(v / side), 0.02 * f64::from(v % side))
+                })
+            };
+            let positions = sheet(0.0).chain(sheet(apart)).collect();
+            let (triangles, body) = two_copies(&grid_triangles(side), side * side);
+            TwoSheets {
+                positions,
+                triangles,
+                body,
+            }
+        }
+
+        fn mesh(&self) -> ContactMesh<'_> {
+            ContactMesh {
+                triangles: &self.triangles,
+                body: &self.body,
+                self_contact: &[true, true],
+            }
+        }
     }
 
     /// The triangles of two copies of a mesh of `n` vertices and triangles `triangles` (the
@@ -1301,12 +1325,8 @@ pub(super) mod tests {
         let mut rng = Rng::new(37);
         let side = 12u32;
         let n = side * side;
-        let (mut safe, triangles, body) = two_sheets(side, 0.2);
-        let mesh = ContactMesh {
-            triangles: &triangles,
-            body: &body,
-            self_contact: &[true, true],
-        };
+        let sheets = TwoSheets::new(side, 0.2);
+        let (mesh, mut safe) = (sheets.mesh(), sheets.positions.clone());
         let (_, every) = brute_force_pairs(&mesh, &safe);
         let across: Vec<Pair> = every
             .iter()
@@ -1360,12 +1380,8 @@ pub(super) mod tests {
         let mut rng = Rng::new(41);
         let side = 12u32;
         let n = side * side;
-        let (mut safe, triangles, body) = two_sheets(side, 0.06);
-        let mesh = ContactMesh {
-            triangles: &triangles,
-            body: &body,
-            self_contact: &[true, true],
-        };
+        let sheets = TwoSheets::new(side, 0.06);
+        let (mesh, mut safe) = (sheets.mesh(), sheets.positions.clone());
         let (_, every) = brute_force_pairs(&mesh, &safe);
         let strays = [n + 5 * side + 5, n + 7 * side + 6];
         let (reach, allowance) = (0.01, vec![0.002; safe.len()]);
