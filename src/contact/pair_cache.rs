@@ -934,39 +934,6 @@ pub(super) mod tests {
             .collect()
     }
 
-    /// Two flat square sheets of `side x side` vertices 2 cm apart, in the planes `x = 0` and
-    /// `x = apart` (m), bodies 0 and 1, with self-contact.
-    struct TwoSheets {
-        positions: Vec<Vector3<f64>>,
-        triangles: Vec<[u32; 3]>,
-        body: Vec<u32>,
-    }
-
-    impl TwoSheets {
-        fn new(side: u32, apart: f64) -> Self {
-            let sheet = |x: f64| {
-                (0..side * side).map(move |v| {
-                    Vector3::new(x, 0.02 * f64::from(v / side), 0.02 * f64::from(v % side))
-                })
-            };
-            let positions = sheet(0.0).chain(sheet(apart)).collect();
-            let (triangles, body) = two_copies(&grid_triangles(side), side * side);
-            TwoSheets {
-                positions,
-                triangles,
-                body,
-            }
-        }
-
-        fn mesh(&self) -> ContactMesh<'_> {
-            ContactMesh {
-                triangles: &self.triangles,
-                body: &self.body,
-                self_contact: &[true, true],
-            }
-        }
-    }
-
     /// The triangles of two copies of a mesh of `n` vertices and triangles `triangles` (the
     /// second's vertices numbered after the first's), and the body of each (0 and 1).
     pub(in crate::contact) fn two_copies(
@@ -1011,21 +978,43 @@ pub(super) mod tests {
         (x, triangles)
     }
 
-    /// The rolled-up grid of [`spiral`] as one body with self-contact.
-    struct Rolled {
+    /// A test mesh: positions (m), triangles, the body of each triangle and whether each body
+    /// has self-contact.
+    struct TestMesh {
         positions: Vec<Vector3<f64>>,
         triangles: Vec<[u32; 3]>,
         body: Vec<u32>,
+        self_contact: Vec<bool>,
     }
 
-    impl Rolled {
-        fn new(n: u32, gap: f64, rng: &mut Rng) -> Self {
+    impl TestMesh {
+        /// The rolled-up grid of [`spiral`], one body.
+        fn rolled(n: u32, gap: f64, rng: &mut Rng) -> Self {
             let (positions, triangles) = spiral(n, gap, rng);
             let body = vec![0; triangles.len()];
-            Rolled {
+            TestMesh {
                 positions,
                 triangles,
                 body,
+                self_contact: vec![true],
+            }
+        }
+
+        /// Two flat square sheets of `side x side` vertices 2 cm apart, in the planes `x = 0`
+        /// and `x = apart` (m), bodies 0 and 1.
+        fn two_sheets(side: u32, apart: f64) -> Self {
+            let sheet = |x: f64| {
+                (0..side * side).map(move |v| {
+                    Vector3::new(x, 0.02 * f64::from(v / side), 0.02 * f64::from(v % side))
+                })
+            };
+            let positions = sheet(0.0).chain(sheet(apart)).collect();
+            let (triangles, body) = two_copies(&grid_triangles(side), side * side);
+            TestMesh {
+                positions,
+                triangles,
+                body,
+                self_contact: vec![true, true],
             }
         }
 
@@ -1033,7 +1022,7 @@ pub(super) mod tests {
             ContactMesh {
                 triangles: &self.triangles,
                 body: &self.body,
-                self_contact: &[true],
+                self_contact: &self.self_contact,
             }
         }
     }
@@ -1046,7 +1035,7 @@ pub(super) mod tests {
     #[test]
     fn a_build_on_non_manifold_edges_stores_every_close_pair() {
         let mut rng = Rng::new(23);
-        let mut rolled = Rolled::new(10, 0.03, &mut rng);
+        let mut rolled = TestMesh::rolled(10, 0.03, &mut rng);
         let fins: Vec<[u32; 3]> = rolled.triangles.iter().step_by(7).copied().collect();
         for [a, b, c] in fins {
             let tip = rolled.positions[c as usize] + Vector3::new(0.0, 0.0, 0.004);
@@ -1088,7 +1077,7 @@ pub(super) mod tests {
     #[test]
     fn crumpled_grid_keeps_every_pair_a_brute_force_search_finds() {
         let mut rng = Rng::new(19);
-        let rolled = Rolled::new(14, 0.03, &mut rng);
+        let rolled = TestMesh::rolled(14, 0.03, &mut rng);
         let mesh = rolled.mesh();
         let mut safe = rolled.positions.clone();
         let (all, every) = brute_force_pairs(&mesh, &safe);
@@ -1156,7 +1145,7 @@ pub(super) mod tests {
         /// Per local step: whether it built, the cached and the live pairs.
         fn run(fall: Vector3<f64>, within: &mut [usize; 2]) -> Vec<(bool, usize, usize)> {
             let mut rng = Rng::new(23);
-            let rolled = Rolled::new(12, 0.03, &mut rng);
+            let rolled = TestMesh::rolled(12, 0.03, &mut rng);
             let mesh = rolled.mesh();
             let mut safe = rolled.positions.clone();
             let (_, every) = brute_force_pairs(&mesh, &safe);
@@ -1325,7 +1314,7 @@ pub(super) mod tests {
         let mut rng = Rng::new(37);
         let side = 12u32;
         let n = side * side;
-        let sheets = TwoSheets::new(side, 0.2);
+        let sheets = TestMesh::two_sheets(side, 0.2);
         let (mesh, mut safe) = (sheets.mesh(), sheets.positions.clone());
         let (_, every) = brute_force_pairs(&mesh, &safe);
         let across: Vec<Pair> = every
@@ -1380,7 +1369,7 @@ pub(super) mod tests {
         let mut rng = Rng::new(41);
         let side = 12u32;
         let n = side * side;
-        let sheets = TwoSheets::new(side, 0.06);
+        let sheets = TestMesh::two_sheets(side, 0.06);
         let (mesh, mut safe) = (sheets.mesh(), sheets.positions.clone());
         let (_, every) = brute_force_pairs(&mesh, &safe);
         let strays = [n + 5 * side + 5, n + 7 * side + 6];
@@ -1430,7 +1419,7 @@ pub(super) mod tests {
     fn a_swinging_edge_leaves_the_rest_of_the_sheet_a_small_skin() {
         let mut rng = Rng::new(43);
         let n = 24;
-        let rolled = Rolled::new(n, 0.03, &mut rng);
+        let rolled = TestMesh::rolled(n, 0.03, &mut rng);
         let mesh = rolled.mesh();
         let mut safe = rolled.positions.clone();
         let (_, every) = brute_force_pairs(&mesh, &safe);
@@ -1498,7 +1487,7 @@ pub(super) mod tests {
     #[test]
     fn extending_the_live_pairs_equals_filtering_them_afresh() {
         let mut rng = Rng::new(41);
-        let rolled = Rolled::new(12, 0.03, &mut rng);
+        let rolled = TestMesh::rolled(12, 0.03, &mut rng);
         let mesh = rolled.mesh();
         let safe = rolled.positions.clone();
         let reach = 0.02;
@@ -1544,7 +1533,7 @@ pub(super) mod tests {
     #[test]
     fn refiltering_since_the_sweep_holds_every_pair_within_reach() {
         let mut rng = Rng::new(17);
-        let rolled = Rolled::new(11, 0.02, &mut rng);
+        let rolled = TestMesh::rolled(11, 0.02, &mut rng);
         let mesh = rolled.mesh();
         let mut safe = rolled.positions.clone();
         let n = safe.len();
