@@ -9,7 +9,8 @@
 //   y_next = keep_out(y + delta) in the D-metric with friction, then Chebyshev where no
 //            collider acted: y_next = omega (y_next - y_prev) + y_prev
 //
-// and measure.residual = |r without contact reactions| / m (m).
+// and measure.residual = |r + D c| / m (m) with c the colliders' reaction to the whole move
+// y + D^-1 r.
 
 // See jacobi_step in src/solve/sissm.rs.
 const STEP_LENGTH_SIGNIFICANCE: real = 0.1;
@@ -67,44 +68,6 @@ fn keep_out(moved: vec3<real>, start: vec3<real>, inverse: mat3x3<real>, margin:
     return y;
 }
 
-// Relative slip (per metre of position) below which a vertex counts as sticking.
-const SLIP: real = 1e-6;
-
-// The residual without the reactions of the colliders the vertex at y touches
-// (without_contact_reaction in src/solve/jacobi.rs): the push into the collider, and the
-// Coulomb friction friction * |push|, against the slip when the vertex slides (kinetic), as
-// much of the tangential residual as the cone holds when it sticks (static).
-fn without_contact_reaction(residual: vec3<real>, y: vec3<real>, start: vec3<real>, margin: real) -> vec3<real> {
-    var r = residual;
-    let slack = max(1e-6, margin * 1e-3);
-    for (var c = 0u; c < params.n_colliders; c++) {
-        let k = colliders[c];
-        if collider_distance(k, y) > margin + slack {
-            continue;
-        }
-        let n = collider_normal(k, y);
-        let push = dot(r, n);
-        if push >= 0.0 {
-            continue;
-        }
-        r -= n * push;
-        if k.friction > 0.0 {
-            let held = k.friction * (-push);
-            let slip = (y - start) - k.displacement;
-            let slip_t = slip - n * dot(n, slip);
-            let slip_len = length(slip_t);
-            let tangential = r - n * dot(r, n);
-            let t_len = length(tangential);
-            if slip_len > SLIP * (1.0 + length(y)) {
-                r -= (slip_t / slip_len) * held;
-            } else if t_len > 0.0 {
-                r -= tangential * min(held / t_len, 1.0);
-            }
-        }
-    }
-    return r;
-}
-
 @compute @workgroup_size(64)
 fn jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     let k = gid.x;
@@ -136,7 +99,8 @@ fn jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let system = mat3x3<real>(vec3<real>(mass, 0.0, 0.0), vec3<real>(0.0, mass, 0.0), vec3<real>(0.0, 0.0, mass)) + stiffness * h2;
     let inverse = inverse_or(system, mass);
-    var delta = inverse * residual;
+    let whole = inverse * residual;
+    var delta = whole;
     if params.step_length != 0u {
         let energy_h2 = energy * h2;
         let descent = dot(force * h2, delta);
@@ -148,11 +112,17 @@ fn jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     let start = y_start[k].xyz;
     let free_move = yk + delta;
     var next = keep_out(free_move, start, inverse, c.half_thickness);
+    // The colliders' reaction to the whole move counts as balancing the residual
+    // (free_residual in src/solve/jacobi.rs).
+    var reaction = next - free_move;
+    if any(delta != whole) {
+        reaction = keep_out(yk + whole, start, inverse, c.half_thickness) - (yk + whole);
+    }
+    let free = residual + system * reaction;
     if iter.extrapolate != 0u && all(next == free_move) {
         let prev = y_prev[k].xyz;
         next = (next - prev) * iter.omega + prev;
     }
     y_next[k] = vec4<real>(next, 0.0);
-    let free = without_contact_reaction(residual, yk, start, c.half_thickness);
     measure[k].residual = length(free) / mass;
 }

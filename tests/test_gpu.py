@@ -35,7 +35,10 @@ def _probe():
 INFO, WHY = _probe()
 
 
-TOLERANCE = {"f32": 2e-4, "f64": 1e-10}
+# Over 100 steps of draping (about 1400 iterations), CPU and GPU agree to round-off in f64; in
+# f32 a convergence test within round-off of tol can stop one step an iteration earlier on one
+# side (1381 against 1382 iterations), and the cloth's paths then differ by up to 2.1e-4 m.
+TOLERANCE = {"f32": 3e-4, "f64": 1e-10}
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,13 @@ use crate::contact::{project, ColliderModel, ContactMesh, ContactParams, Contact
 use crate::membrane::Membrane;
 use crate::real::Real;
 
+use super::reaction::realised_reaction;
 use super::system::System;
+
+/// How close to a collider's surface (m, beyond the vertex's half thickness) a vertex counts as
+/// resting on it: the local step leaves the vertices it keeps out on the surface, up to
+/// round-off (tens of nanometres in f32).
+const TOUCHING: f64 = 1e-6;
 
 /// Contact topology (built once per body list) and the state of the current time step.
 pub(super) struct ContactState<T: Real> {
@@ -112,13 +118,30 @@ impl<T: Real> ContactState<T> {
             .zip(self.reaction.par_iter_mut())
             .enumerate()
             .map(|(i, ((next, zi), reaction))| {
-                // The local step's move along the barrier's push: the realised contact reaction.
+                // The local step's move as far as the barrier's push and the colliders the
+                // vertex ends on explain it: the realised contact reaction.
+                let local_move = *zi - next.map(|c| c.to_f64());
                 let norm = push[i].norm();
-                if norm > 0.0 {
-                    let normal = push[i] / norm;
-                    let along = normal.dot(&(*zi - next.map(|c| c.to_f64())));
-                    *reaction = (normal * along.max(0.0)).map(T::of);
-                }
+                let push_direction = (norm > 0.0).then(|| push[i] / norm);
+                let at = zi.map(T::of);
+                let touching = rest.vertices[i].half_thickness + T::of(TOUCHING);
+                let rests_on = |c: &&ColliderModel<T>| c.signed_distance(&at) <= touching;
+                *reaction = if colliders.iter().any(|c| rests_on(&c)) {
+                    let directions: Vec<Vector3<f64>> = push_direction
+                        .into_iter()
+                        .chain(
+                            colliders
+                                .iter()
+                                .filter(rests_on)
+                                .map(|c| c.normal(&at).map(|x| x.to_f64())),
+                        )
+                        .collect();
+                    realised_reaction(&local_move, &directions).map(T::of)
+                } else if let Some(u) = push_direction {
+                    realised_reaction(&local_move, &[u]).map(T::of)
+                } else {
+                    Vector3::zeros()
+                };
                 *next = zi.map(T::of);
                 // The safe positions are the ones the solver holds (rounded in f32).
                 *zi = next.map(|c| c.to_f64());

@@ -151,7 +151,16 @@ pub(super) fn descent_iteration<T: Real>(
             }
             *local = jacobi_system(sys_ref, state_ref, k, h2);
             *d = local.solve();
-            free_residual(sys_ref, k, local, options)
+            // The colliders' reaction to the whole Jacobi move (see `free_residual`).
+            let free_move = sys_ref.y[k] + *d;
+            let collider_reaction = keep_out(
+                free_move,
+                &sys_ref.y_start[k],
+                &local.inverse,
+                sys_ref.rest.vertices[k].half_thickness,
+                options.colliders,
+            ) - free_move;
+            free_residual(k, local, &collider_reaction, options)
                 .norm_squared()
                 .to_f64()
                 .sqrt()

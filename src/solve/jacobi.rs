@@ -486,13 +486,26 @@ fn finish_vertex<T: Real>(
         margin,
         options.colliders,
     );
+    // The colliders' reaction to the whole Jacobi move (see `free_residual`).
+    let collider_reaction = if alpha == T::one() {
+        *next - free_move
+    } else {
+        let whole = sys.y[k] + delta;
+        keep_out(
+            whole,
+            &sys.y_start[k],
+            &local.inverse,
+            margin,
+            options.colliders,
+        ) - whole
+    };
     // Chebyshev extrapolates the unconstrained iteration only: a vertex a collider holds keeps
     // its projected position, else the extrapolation would push it along the contact past
     // what its friction cone allows (a resting cloth would creep).
     if let Some(w) = options.omega.filter(|_| *next == free_move) {
         *next = (*next - sys.y_prev[k]) * w + sys.y_prev[k];
     }
-    let free_sq = free_residual(sys, k, local, options).norm_squared();
+    let free_sq = free_residual(k, local, &collider_reaction, options).norm_squared();
     measures.add(
         k,
         &sys.y[k],
@@ -617,84 +630,45 @@ pub(super) fn keep_out<T: Real>(
 }
 
 /// The convergence measure of vertex `k`, `r_free / m` (m; its norm is compared with `tol`): its
-/// residual `r` at the current iterate `y` without the reactions of the contacts it is in.
+/// residual `r` at the current iterate `y` with the reactions of the contacts it is in added.
 ///
 /// Membrane contact: the global step sends `y` to `y^k = y + D^-1 r`, and the local step
 /// (Algorithm 2) moves that to `z`. At a fixed point `z = y`, so `r = -D (z - y^k)`: the local
 /// step's move, weighted by `D`, is the reaction that balances the residual. Only its part
-/// along the barrier's push `p_i` (the contact normals weighted by the closest-point weights)
-/// counts as reaction, `q_i = n_i max(n_i . (z_i - y_i^k), 0)` with `n_i = p_i / |p_i|`, and
-/// what is measured is `r + D q` with the `q` of the local step that produced `y`. So a vertex
-/// out of the barrier's reach (in free flight) keeps its whole residual, and a tangential
-/// imbalance (sliding not yet resolved, or held back by a CCD clamp) stays in the measure;
-/// and the measure vanishes only where the local step's push and the global step's pull
-/// balance, not merely where a pair is close. The first iteration of a step, before any local
-/// step, has no `q` and measures the whole residual (and cannot decide convergence, see
-/// [`super::sissm`]).
+/// that is a non-negative combination of the barrier's push `p_i` and the outward normals of
+/// the colliders the vertex touches counts as reaction (`q`, see
+/// [`super::reaction::realised_reaction`]), with the `q` of the local step that produced
+/// `y`. So a vertex out of the barrier's reach and off the colliders (in free flight) keeps its
+/// whole residual, and a tangential imbalance (sliding not yet resolved, or held back by a CCD
+/// clamp) stays in the measure; and the measure vanishes only where the local step's push and
+/// the global step's pull balance, not merely where a pair is close. The first iteration of a
+/// step, before any local step, has no `q` and measures the whole residual (and cannot decide
+/// convergence, see [`super::sissm`]).
 ///
-/// Colliders: see [`without_contact_reaction`].
+/// Colliders in the global step: their reaction to the whole Jacobi move,
+/// `c = keep_out(y + D^-1 r) - (y + D^-1 r)` (m; [`keep_out`] gives it its normal and Coulomb
+/// friction parts, within the cone by construction), counts the same way. (The whole move,
+/// not the one the step length cuts: where a collider takes all of it, a cut move leaves
+/// `(1 - alpha) r` that no motion of the vertex can release.) What is
+/// measured is `r + D (q + c)`. A vertex resting on a collider has `c` cancel its push into it
+/// and the tangential part friction holds; one the collider stops short of where its residual
+/// would take it (falling onto it, or sliding against kinetic friction) keeps the part of its
+/// move the collider let through. This needs no test of touching or of sticking at `y`: the
+/// local step's push can hold a vertex micrometres off a collider that carries it, and a slip
+/// of micrometres since the step's start has no reliable direction.
 #[inline]
 pub(super) fn free_residual<T: Real>(
-    sys: &System<T>,
     k: usize,
     local: &LocalSystem<T>,
+    collider_reaction: &Vector3<T>,
     options: &MoveOptions<'_, T>,
 ) -> Vector3<T> {
-    let mut residual = local.residual;
-    if let Some(reaction) = options.contact_reaction.get(k) {
-        residual += local.system.mul_vector(reaction);
+    let mut reaction = *collider_reaction;
+    if let Some(contact) = options.contact_reaction.get(k) {
+        reaction += contact;
     }
-    let free = without_contact_reaction(
-        residual,
-        &sys.y[k],
-        &sys.y_start[k],
-        sys.rest.vertices[k].half_thickness,
-        options.colliders,
-    );
-    free * (T::one() / local.mass)
+    (local.residual + local.system.mul_vector(&reaction)) * (T::one() / local.mass)
 }
-
-/// The residual without the part the colliders the vertex touches balance at the solution:
-/// the push into the collider, and the Coulomb friction `friction * |push|`: against the slip
-/// when the vertex slides relative to the collider (kinetic friction is exactly that), as much
-/// of the tangential part as the cone holds when it does not (static friction).
-#[inline]
-fn without_contact_reaction<T: Real>(
-    mut residual: Vector3<T>,
-    y: &Vector3<T>,
-    start: &Vector3<T>,
-    margin: T,
-    colliders: &[ColliderModel<T>],
-) -> Vector3<T> {
-    let slack = T::of(1e-6).max(margin * T::of(1e-3));
-    for c in colliders {
-        if c.signed_distance(y) > margin + slack {
-            continue;
-        }
-        let n = c.normal(y);
-        let push = residual.dot(&n);
-        if push >= T::zero() {
-            continue;
-        }
-        residual -= n * push;
-        if c.friction > T::zero() {
-            let held = c.friction * (-push);
-            let slip = (y - start) - c.displacement(y);
-            let slip_t = slip - n * n.dot(&slip);
-            let sliding = slip_t.norm() > T::of(SLIP) * (T::one() + y.norm());
-            let tangential = residual - n * residual.dot(&n);
-            if sliding {
-                residual -= slip_t.normalize() * held;
-            } else if tangential.norm() > T::zero() {
-                residual -= tangential * (held / tangential.norm()).min(T::one());
-            }
-        }
-    }
-    residual
-}
-
-/// Relative slip (per metre of position) below which a vertex counts as sticking.
-const SLIP: f64 = 1e-6;
 
 #[cfg(test)]
 mod tests {

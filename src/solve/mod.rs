@@ -6,6 +6,7 @@ mod descent;
 mod evaluate;
 mod jacobi;
 mod params;
+mod reaction;
 mod sissm;
 mod stats;
 pub(crate) mod system;
