@@ -239,3 +239,35 @@ def test_a_cloth_sliding_and_falling_onto_another_is_declared_converged_only_whe
     assert len(sliding) >= 10, sliding
     assert all(error < tol for converged, error in sliding if converged), sliding
     assert sum(converged for converged, _ in sliding) > len(sliding) // 2, sliding
+
+
+def test_cloths_on_a_ball_are_declared_converged_and_are():
+    # Two cloths dropped on a ball with friction: the lower one lands on it and the upper one
+    # on the lower, which the barrier then presses against the curved ball, where the push
+    # has a part along the ball's surface and friction holds it. The colliders' and the local
+    # step's reactions there balance the residual: most steps of the landing converge (with
+    # the reactions left in the measure, every step after the lower cloth's landing ran to
+    # max_iters). A converged step is within tol of the same step solved 10 times
+    # tighter from the same state.
+    tol = 1e-5
+
+    def scene(tol):
+        return peridyn.paper_scenes.cloths_over_ball(
+            layers=2, n=12, size=0.4, dt=2e-3, drop=2e-3, tol=tol, max_iters=200, threads=1)
+
+    run, reference = scene(tol), scene(tol / 10)
+    for _ in range(29):
+        run.solver.step()
+    outcomes = []
+    for _ in range(20):
+        for name, body in run.bodies.items():
+            twin = reference.bodies[name]
+            twin.positions, twin.velocities = body.positions, body.velocities
+        reference.solver.step()
+        stats = run.solver.step()
+        assert stats.contact["active_pairs"] > 0
+        error = max(np.abs(body.positions - reference.bodies[name].positions).max()
+                    for name, body in run.bodies.items())
+        outcomes.append((stats.converged, stats.iterations, error))
+    assert sum(converged for converged, _, _ in outcomes) >= 15, outcomes
+    assert all(error < tol for converged, _, error in outcomes if converged), outcomes

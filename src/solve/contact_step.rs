@@ -28,9 +28,10 @@ pub(super) struct ContactState<T: Real> {
     next: Vec<Vector3<f64>>,
     /// The local step's buffers, kept from iteration to iteration and step to step.
     work: Workspace,
-    /// Per vertex, the last local step's move `z_i - y_i^k` projected on the direction of the
-    /// barrier's push at `z_i` (and clamped to the push's side): the contact reaction it
-    /// realised (m; zero away from contact; empty before the first local step of a time step).
+    /// Per vertex, the part of the last local step's move `z_i - y_i^k` that is a non-negative
+    /// mix of the barrier's push at `z_i` and the outward normals of the colliders `z_i` rests
+    /// on ([`realised_reaction`]): the contact reaction it realised (m; zero away from contact;
+    /// empty before the first local step of a time step).
     reaction: Vec<Vector3<T>>,
 }
 
