@@ -35,9 +35,13 @@ def _probe():
 INFO, WHY = _probe()
 
 
-# Over 100 steps of draping (about 1400 iterations), CPU and GPU agree to round-off in f64; in
-# f32 a convergence test within round-off of tol can stop one step an iteration earlier on one
-# side (1381 against 1382 iterations), and the cloth's paths then differ by up to 2.1e-4 m.
+# Over 100 steps of draping (about 1400 iterations), CPU and GPU agree to round-off in f64. In
+# f32 a convergence test within round-off of tol stops a step an iteration earlier on one side
+# now and then, and the paths drift apart from there: with the measure of 63a5d8b, 1.73e-4 m
+# apart after 1379 against 1382 iterations (and up to 3 % apart in iterations in the other
+# cases); with the realised collider reactions of da04c20, 2.08e-4 m after 1381 against 1382
+# (and at most 1 iteration apart elsewhere). The f32 bound is this chaotic drift, not a
+# kernel difference; a per-step comparison from a shared state would test f32 more tightly.
 TOLERANCE = {"f32": 3e-4, "f64": 1e-10}
 
 

@@ -347,8 +347,10 @@ class StepStats:
     @property
     def error_estimate(self) -> float:
         """max_i |r_i| / m_i (m) for the residual r = m (y* - y) + h^2 f at the last evaluated
-        iterate, without the contact reactions (the push of the colliders a vertex touches, and
-        the barrier push the contact local step exerts there): an upper bound on the
+        iterate, without the contact reactions (the colliders' reaction to the vertex's Jacobi
+        move, normal and Coulomb friction within the cone, and the part of the contact local
+        step's move that its barrier push and the normals of the colliders the vertex rests on
+        explain): an upper bound on the
         mass-weighted RMS distance to the exact implicit Euler solution where the energy is
         convex."""
     @property

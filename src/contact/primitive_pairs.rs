@@ -32,21 +32,20 @@ impl Pair {
     /// farthest of them, and the distance shrinks at most by the two primitives' moves. NaN
     /// if an input is NaN (callers keep the pair then).
     pub fn distance_bound(&self, distance: f64, moved: &[f64], extra: &[f64]) -> f64 {
-        let farthest = |vertices: &[u32]| {
-            vertices
-                .iter()
-                .map(|&v| moved[v as usize] + extra[v as usize])
-                .fold(0.0, nan_max)
-        };
-        let (a, b) = self.sides();
-        distance - farthest(a) - farthest(b)
+        distance - self.spread_of(|v| moved[v] + extra[v])
     }
 
     /// `max_A values + max_B values` over the two primitives' vertices (each max at least 0),
     /// NaN if one of the values is.
     pub fn spread(&self, values: &[f64]) -> f64 {
+        self.spread_of(|v| values[v])
+    }
+
+    /// [`Pair::spread`] of the per-vertex values `value(v)`.
+    #[inline]
+    fn spread_of(&self, value: impl Fn(usize) -> f64) -> f64 {
         let (a, b) = self.sides();
-        farthest(a, values) + farthest(b, values)
+        farthest(a, &value) + farthest(b, &value)
     }
 
     /// A lower bound of the pair's distance (m) wherever each vertex `i` is displaced from
@@ -119,11 +118,11 @@ pub(super) fn nan_max(m: f64, x: f64) -> f64 {
     }
 }
 
-/// The largest of `values` over `vertices` (at least 0), NaN if one is NaN.
-fn farthest(vertices: &[u32], values: &[f64]) -> f64 {
+/// The largest `value(v)` over `vertices` (at least 0), NaN if one is NaN.
+fn farthest(vertices: &[u32], value: &impl Fn(usize) -> f64) -> f64 {
     vertices
         .iter()
-        .map(|&v| values[v as usize])
+        .map(|&v| value(v as usize))
         .fold(0.0, nan_max)
 }
 

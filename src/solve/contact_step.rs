@@ -126,22 +126,19 @@ impl<T: Real> ContactState<T> {
                 let push_direction = (norm > 0.0).then(|| push[i] / norm);
                 let at = zi.map(T::of);
                 let touching = rest.vertices[i].half_thickness + T::of(TOUCHING);
-                let rests_on = |c: &&ColliderModel<T>| c.signed_distance(&at) <= touching;
-                *reaction = if colliders.iter().any(|c| rests_on(&c)) {
-                    let directions: Vec<Vector3<f64>> = push_direction
-                        .into_iter()
-                        .chain(
-                            colliders
-                                .iter()
-                                .filter(rests_on)
-                                .map(|c| c.normal(&at).map(|x| x.to_f64())),
-                        )
-                        .collect();
-                    realised_reaction(&local_move, &directions).map(T::of)
-                } else if let Some(u) = push_direction {
-                    realised_reaction(&local_move, &[u]).map(T::of)
-                } else {
-                    Vector3::zeros()
+                // Empty (no allocation) unless the vertex rests on a collider.
+                let mut directions: Vec<Vector3<f64>> = colliders
+                    .iter()
+                    .filter(|c| c.signed_distance(&at) <= touching)
+                    .map(|c| c.normal(&at).map(|x| x.to_f64()))
+                    .collect();
+                *reaction = match (directions.is_empty(), push_direction) {
+                    (true, None) => Vector3::zeros(),
+                    (true, Some(u)) => realised_reaction(&local_move, &[u]).map(T::of),
+                    (false, _) => {
+                        directions.extend(push_direction);
+                        realised_reaction(&local_move, &directions).map(T::of)
+                    }
                 };
                 *next = zi.map(T::of);
                 // The safe positions are the ones the solver holds (rounded in f32).

@@ -40,7 +40,9 @@ use crate::real::Real;
 use crate::symmetric::SymmetricMatrix3;
 
 use super::evaluate::{evaluate, total_energy};
-use super::jacobi::{free_residual, keep_out, LocalSystem, MoveOptions, Update};
+use super::jacobi::{
+    free_residual, keep_out, whole_move_reaction, LocalSystem, MoveOptions, Update,
+};
 use super::system::System;
 
 /// Halvings of the step length tried before the iterate is kept unchanged (`2^-40`: far below
@@ -151,15 +153,7 @@ pub(super) fn descent_iteration<T: Real>(
             }
             *local = jacobi_system(sys_ref, state_ref, k, h2);
             *d = local.solve();
-            // The colliders' reaction to the whole Jacobi move (see `free_residual`).
-            let free_move = sys_ref.y[k] + *d;
-            let collider_reaction = keep_out(
-                free_move,
-                &sys_ref.y_start[k],
-                &local.inverse,
-                sys_ref.rest.vertices[k].half_thickness,
-                options.colliders,
-            ) - free_move;
+            let collider_reaction = whole_move_reaction(sys_ref, k, local, d, options.colliders);
             free_residual(k, local, &collider_reaction, options)
                 .norm_squared()
                 .to_f64()

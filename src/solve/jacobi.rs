@@ -486,18 +486,12 @@ fn finish_vertex<T: Real>(
         margin,
         options.colliders,
     );
-    // The colliders' reaction to the whole Jacobi move (see `free_residual`).
+    // The colliders' reaction to the whole Jacobi move (see `free_residual`): the one just
+    // computed unless the step length cut the move.
     let collider_reaction = if alpha == T::one() {
         *next - free_move
     } else {
-        let whole = sys.y[k] + delta;
-        keep_out(
-            whole,
-            &sys.y_start[k],
-            &local.inverse,
-            margin,
-            options.colliders,
-        ) - whole
+        whole_move_reaction(sys, k, local, &delta, options.colliders)
     };
     // Chebyshev extrapolates the unconstrained iteration only: a vertex a collider holds keeps
     // its projected position, else the extrapolation would push it along the contact past
@@ -668,6 +662,26 @@ pub(super) fn free_residual<T: Real>(
         reaction += contact;
     }
     (local.residual + local.system.mul_vector(&reaction)) * (T::one() / local.mass)
+}
+
+/// The colliders' reaction to vertex `k`'s whole Jacobi move `delta` (m):
+/// `keep_out(y + delta) - (y + delta)`, the `c` of [`free_residual`].
+#[inline]
+pub(super) fn whole_move_reaction<T: Real>(
+    sys: &System<T>,
+    k: usize,
+    local: &LocalSystem<T>,
+    delta: &Vector3<T>,
+    colliders: &[ColliderModel<T>],
+) -> Vector3<T> {
+    let whole = sys.y[k] + delta;
+    keep_out(
+        whole,
+        &sys.y_start[k],
+        &local.inverse,
+        sys.rest.vertices[k].half_thickness,
+        colliders,
+    ) - whole
 }
 
 #[cfg(test)]

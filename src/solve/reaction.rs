@@ -1,7 +1,7 @@
 //! The contact reaction a local step realised at a vertex, for the convergence measure
 //! ([`super::jacobi::free_residual`]).
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 /// The part of a local step's move `moved` (m) that the contacts at the vertex can have
 /// produced: the non-negative combination `sum_j a_j u_j` (`a_j >= 0`) of the unit
@@ -20,27 +20,33 @@ pub(super) fn realised_reaction(moved: &Vector3<f64>, directions: &[Vector3<f64>
     let mut best = Vector3::zeros();
     let mut best_miss = moved.norm_squared();
     for subset in 1..(1u64 << directions.len()) {
-        let chosen: Vec<&Vector3<f64>> = directions
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| subset >> j & 1 == 1)
-            .map(|(_, u)| u)
-            .collect();
-        if chosen.len() > 3 {
+        // At most three directions can be independent in space.
+        if subset.count_ones() > 3 {
             continue;
         }
-        let gram = DMatrix::from_fn(chosen.len(), chosen.len(), |a, b| chosen[a].dot(chosen[b]));
-        let projections = DVector::from_fn(chosen.len(), |a, _| chosen[a].dot(moved));
+        let mut chosen = [Vector3::zeros(); 3];
+        let mut count = 0;
+        for (j, u) in directions.iter().enumerate() {
+            if subset >> j & 1 == 1 {
+                chosen[count] = *u;
+                count += 1;
+            }
+        }
+        // The normal equations of the fit, padded with the identity beyond `count` (whose
+        // coefficients then come out zero).
+        let gram = Matrix3::from_fn(|a, b| match (a < count, b < count) {
+            (true, true) => chosen[a].dot(&chosen[b]),
+            _ => f64::from(u8::from(a == b)),
+        });
+        let projections =
+            Vector3::from_fn(|a, _| if a < count { chosen[a].dot(moved) } else { 0.0 });
         let Some(coefficients) = gram.cholesky().map(|c| c.solve(&projections)) else {
             continue;
         };
         if coefficients.iter().any(|&a| a < 0.0) {
             continue;
         }
-        let fit = chosen
-            .iter()
-            .zip(coefficients.iter())
-            .fold(Vector3::zeros(), |sum, (u, &a)| sum + *u * a);
+        let fit = Matrix3::from_columns(&chosen) * coefficients;
         let miss = (moved - fit).norm_squared();
         if miss < best_miss {
             best = fit;
