@@ -22,6 +22,17 @@ pub struct SymmetricMatrix3<S> {
     pub upper: [S; 3],
 }
 
+impl<S: Copy> SymmetricMatrix3<S> {
+    /// The matrix of `f` of each entry (a change of precision).
+    #[inline]
+    pub fn map<U>(&self, f: impl Fn(S) -> U) -> SymmetricMatrix3<U> {
+        SymmetricMatrix3 {
+            diagonal: self.diagonal.map(&f),
+            upper: self.upper.map(&f),
+        }
+    }
+}
+
 impl<S: Lanes> SymmetricMatrix3<S> {
     pub fn zeros() -> Self {
         Self {

@@ -245,10 +245,13 @@ def test_cloths_on_a_ball_are_declared_converged_and_are():
     # Two cloths dropped on a ball with friction: the lower one lands on it and the upper one
     # on the lower, which the barrier then presses against the curved ball, where the push
     # has a part along the ball's surface and friction holds it. The colliders' and the local
-    # step's reactions there balance the residual: most steps of the landing converge (with
-    # the reactions left in the measure, every step after the lower cloth's landing ran to
-    # max_iters). A converged step is within tol of the same step solved 10 times
-    # tighter from the same state.
+    # step's reactions there balance the residual, and the local step slides the lower cloth
+    # along the ball to its balance: every step of the landing converges (with the reactions
+    # left in the measure, every step after the lower cloth's landing ran to max_iters; with
+    # a normal projection out of the ball after the local step's moves, which are taken in
+    # the barrier's metric, 5 of these 20 steps still did, and 200 iterations did not settle
+    # steps 56-150). A converged step is within tol of the same step solved 10 times tighter
+    # from the same state.
     tol = 1e-5
 
     def scene(tol):
@@ -269,5 +272,5 @@ def test_cloths_on_a_ball_are_declared_converged_and_are():
         error = max(np.abs(body.positions - reference.bodies[name].positions).max()
                     for name, body in run.bodies.items())
         outcomes.append((stats.converged, stats.iterations, error))
-    assert sum(converged for converged, _, _ in outcomes) >= 15, outcomes
+    assert all(converged for converged, _, _ in outcomes), outcomes
     assert all(error < tol for converged, _, error in outcomes if converged), outcomes

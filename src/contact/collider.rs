@@ -10,6 +10,7 @@ use super::pose::{rotation_matrix, Pose};
 use super::sdf::SdfGrid;
 use crate::error::{invalid, Result};
 use crate::real::Real;
+use crate::symmetric::SymmetricMatrix3;
 
 /// The solid shape of a collider (SI units), in its own frame (the pose given at time 0).
 /// Cloning is cheap: a mesh's grid is shared.
@@ -278,12 +279,62 @@ impl<T: Real> ColliderModel<T> {
         self.rotation * self.shape.project(self.local(&x), margin) + self.translation
     }
 
+    /// Moves `x`, when it is less than `margin` outside, back to the collider's surface
+    /// linearised at `x` (offset by `margin`) by the shortest move in the metric `A^-1`, where
+    /// `inverse` is `A` (symmetric positive definite): `x += lambda A n` with
+    /// `lambda = -gap / (n . A n)`, `gap = d(x) - margin` (m) and `n` the outward normal.
+    /// Returns `n` and `lambda` (m per unit of `A`), or `None` where `x` is outside or `A` has
+    /// no positive curvature along `n`. With `A = I` it is the normal projection; with
+    /// `A = D^-1` (1/kg) the reaction is the force impulse `lambda n` (kg m) that stops the
+    /// move of a vertex whose system is `D`. On a curved surface `x` can end a second-order
+    /// amount inside.
+    #[inline]
+    pub fn push_out(
+        &self,
+        x: &mut Vector3<T>,
+        inverse: &SymmetricMatrix3<T>,
+        margin: T,
+    ) -> Option<(Vector3<T>, T)> {
+        let gap = self.signed_distance(x) - margin;
+        if gap >= T::zero() {
+            return None;
+        }
+        let n = self.normal(x);
+        let along = inverse.mul_vector(&n);
+        let reach = n.dot(&along);
+        if reach <= T::zero() {
+            return None;
+        }
+        let lambda = -gap / reach;
+        *x += along * lambda;
+        Some((n, lambda))
+    }
+
     /// How far the collider's material point now at `x` moved during the step (m):
     /// `x - (R_0 R^T (x - t) + t_0)`; the same for every point of a translating collider.
     #[inline]
     pub fn displacement(&self, x: &Vector3<T>) -> Vector3<T> {
         x - (self.back_rotation * x + self.back_translation)
     }
+}
+
+/// `x` moved out of every one of `colliders` to at least `margin` (m) from it: back to each
+/// surface by the shortest move in the metric whose inverse is `inverse`
+/// ([`ColliderModel::push_out`]; `None`: the identity), then onto it wherever the surface's
+/// curvature left `x` inside (for `None`, the normal projection alone).
+pub fn out_of_colliders<T: Real>(
+    colliders: &[ColliderModel<T>],
+    mut x: Vector3<T>,
+    margin: T,
+    inverse: Option<&SymmetricMatrix3<T>>,
+) -> Vector3<T> {
+    for c in colliders {
+        if let Some(a) = inverse {
+            c.push_out(&mut x, a, margin);
+        }
+        x = c.project(x, margin);
+    }
+    x
 }
 
 /// [`Shape`] in the simulation's precision.
@@ -465,6 +516,63 @@ mod tests {
                     assert_eq!(p, x);
                 }
             }
+        }
+    }
+
+    /// Near a shape, [`ColliderModel::push_out`] in the metric `A^-1` (random
+    /// symmetric positive definite `A`) ends on the surface linearised at the start, offset by
+    /// the margin (on a plane: on the surface itself), and no other point of that linearised
+    /// surface is closer to the start in `A^-1`. Points outside the margin stay.
+    #[test]
+    fn pushing_out_in_a_metric_takes_its_shortest_move() {
+        let mut rng = Rng::new(11);
+        let margin = 0.01;
+        for shape in shapes() {
+            let is_plane = matches!(shape, Shape::Plane { .. });
+            let model = super::super::MovingCollider::new(Collider::fixed(shape.clone()))
+                .during_step::<f64>(0.0, 1.0);
+            let mut inside = 0;
+            for _ in 0..300 {
+                // Near the surface, half of them inside.
+                let seed = rng.vector() * 0.8 + Vector3::new(0.0, 0.0, 0.3);
+                let on = seed - model.normal(&seed) * model.signed_distance(&seed);
+                let x = on - model.normal(&on) * (0.05 * rng.uniform());
+                let b = Matrix3::from_fn(|_, _| rng.uniform());
+                let full = b * b.transpose() + Matrix3::identity() * 0.05;
+                let inverse = SymmetricMatrix3 {
+                    diagonal: [full[(0, 0)], full[(1, 1)], full[(2, 2)]],
+                    upper: [full[(0, 1)], full[(0, 2)], full[(1, 2)]],
+                };
+                let gap = model.signed_distance(&x) - margin;
+                let mut moved = x;
+                let out = model.push_out(&mut moved, &inverse, margin);
+                if gap >= 0.0 {
+                    assert!(out.is_none());
+                    assert_eq!(moved, x);
+                    continue;
+                }
+                inside += 1;
+                let (n, lambda) = out.unwrap();
+                assert_eq!(n, model.normal(&x));
+                assert!(lambda > 0.0);
+                assert!((gap + n.dot(&(moved - x))).abs() < 1e-12, "{gap}");
+                if is_plane {
+                    assert!((model.signed_distance(&moved) - margin).abs() < 1e-12);
+                }
+                let metric = full.try_inverse().unwrap();
+                let cost = |w: &Vector3<f64>| (w - x).dot(&(metric * (w - x)));
+                for _ in 0..20 {
+                    let t = rng.vector() * 0.1;
+                    let other = moved + t - n * n.dot(&t);
+                    assert!(
+                        cost(&other) >= cost(&moved) * (1.0 - 1e-12),
+                        "{shape:?}: {} < {}",
+                        cost(&other),
+                        cost(&moved)
+                    );
+                }
+            }
+            assert!(inside > 20, "{inside}");
         }
     }
 

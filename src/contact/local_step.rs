@@ -31,7 +31,11 @@
 //!    the halving a few of them go back and forth for good, and every local step ran to its
 //!    cap (640 local iterations in a step of the three layers over the ball, 103 with it).
 //!    By default the descent starts from the global step's result plus the last local step's
-//!    move ([`ContactParams::warm_start`]), not from the result alone.
+//!    move ([`ContactParams::warm_start`]), not from the result alone. After every move a
+//!    vertex is taken out of the colliders (not in the paper) in the metric of its move, so
+//!    that a membrane pressed onto a collider slides along it to the minimum of eq. 47 on
+//!    its surface; the curvature rule's bound then cuts the move taken, and the halving
+//!    compares moves taken.
 //!
 //! A final guarantee pass (not in the paper, which leaves vertices with a small time of impact
 //! unclamped): additive CCD from `z^{k-1}` to `z` once more, with the pair's separation floor
@@ -462,18 +466,24 @@ fn vertex_toi(pairs: &[Pair], toi: &[Option<f64>], t: &mut Vec<f64>, n: usize) {
     }
 }
 
+/// Keeps vertex `i` at `z_i` out of the colliders: `keep_out(i, z_i, metric)` moves `z_i`
+/// back to their surfaces, by the shortest move in the metric whose inverse is `metric`
+/// (symmetric positive definite; `None`: the identity, a normal projection), and then onto
+/// them wherever the surface's curvature left it inside.
+pub type KeepOut<'a> = dyn Fn(usize, &mut Vector3<f64>, Option<&SymmetricMatrix3<f64>>) + Sync + 'a;
+
 /// Runs the local step: `positions` holds `y^k` on entry and `z` on return; `safe` is
-/// `z^{k-1}`, free of intersections; `fixed` vertices are never moved. `keep_out(i, z_i)`
-/// projects a vertex out of the colliders after every descent move, so the barrier cannot
-/// push a membrane into a collider (the final clamp then only interpolates between positions
-/// outside them). `work` holds the buffers between calls.
+/// `z^{k-1}`, free of intersections; `fixed` vertices are never moved. `keep_out`
+/// ([`KeepOut`]) takes a vertex out of the colliders after every descent move, in the move's
+/// metric, so the barrier cannot push a membrane into a collider (the final clamp then only
+/// interpolates between positions outside them). `work` holds the buffers between calls.
 pub fn project(
     safe: &[Vector3<f64>],
     positions: &mut [Vector3<f64>],
     fixed: &[bool],
     mesh: &ContactMesh,
     params: &ContactParams,
-    keep_out: &(dyn Fn(usize, &mut Vector3<f64>) + Sync),
+    keep_out: &KeepOut,
     work: &mut Workspace,
 ) -> ContactStats {
     let mut stats = ContactStats::default();
@@ -527,7 +537,7 @@ pub fn project(
                 }
                 let before = *zi;
                 *zi += offset;
-                keep_out(i, zi);
+                keep_out(i, zi, None);
                 *di = (*zi - before).norm();
                 *ei = *di;
             });
@@ -650,30 +660,60 @@ pub fn project(
                 }
                 let before = *zi;
                 let direction = force[i] + target[i] - *zi;
-                let proposed = match lambda {
-                    Some(lambda) => direction * lambda,
+                // The proposal, the metric it is taken in (`(I + K_i)^-1` with the curvature
+                // rule where the barrier curves; None: the identity) and the longest move
+                // it may make (the curvature rule's bound, None for eq. 53's step).
+                let (proposed, metric, cap) = match lambda {
+                    Some(lambda) => (direction * lambda, None, None),
                     None => {
                         // `I + K_i` is positive definite unless `K_i` is not finite; then
                         // the vertex stays (a NaN position is caught by the global step). Away
                         // from contact `K_i = 0`: no inverse needed.
                         let k = &curvature[i];
-                        let step = if *k == SymmetricMatrix3::zeros() {
-                            direction
+                        let (step, metric) = if *k == SymmetricMatrix3::zeros() {
+                            (direction, None)
                         } else {
-                            k.plus_identity(1.0)
-                                .try_inverse()
-                                .map_or(Vector3::zeros(), |inverse| inverse.mul_vector(&direction))
+                            match k.plus_identity(1.0).try_inverse() {
+                                Some(inverse) => (inverse.mul_vector(&direction), Some(inverse)),
+                                None => (Vector3::zeros(), None),
+                            }
                         };
-                        step * (longest / step.norm()).min(1.0)
+                        (step, metric, Some(longest))
                     }
                 };
+                // The move by `damp` times the proposal, out of the colliders in the
+                // proposal's metric, then cut to `damp` times the longest move. A normal
+                // projection after a move in `(I + K_i)^-1` would stop where that move
+                // points straight into the collider, with the part `(I + K_i) n` of the
+                // descent direction along the surface unbalanced. The cut comes after the
+                // projection: a proposal mostly into the collider would otherwise be cut to
+                // a crawl along it (and the metric's slide along a surface can be long where
+                // the barrier is stiff and nearly normal to it).
+                let take = |damp: f64| {
+                    let free = before + proposed * damp;
+                    let mut at = free;
+                    keep_out(i, &mut at, metric.as_ref());
+                    if let Some(longest) = cap {
+                        let (slide, limit) = (at - before, longest * damp);
+                        if slide.norm() > limit {
+                            let held = at != free;
+                            at = before + slide * (limit / slide.norm());
+                            if held {
+                                keep_out(i, &mut at, None);
+                            }
+                        }
+                    }
+                    at
+                };
+                *zi = take(*damp);
                 // A move against the last one overshot: halve this vertex's moves for the
-                // rest of the local step (see the module doc).
-                if proposed.dot(last) < 0.0 {
+                // rest of the local step (see the module doc). The moves as taken are
+                // compared: a proposal into a collider that holds the vertex points against
+                // a slide along it.
+                if (*zi - before).dot(last) < 0.0 {
                     *damp *= 0.5;
+                    *zi = take(*damp);
                 }
-                *zi += proposed * *damp;
-                keep_out(i, zi);
                 *last = *zi - before;
                 let step = last.norm();
                 *ci |= step > 0.0;
@@ -978,7 +1018,15 @@ mod tests {
         let mut z = target.clone();
         let fixed = vec![false; 6];
         let mut work = Workspace::default();
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {}, &mut work);
+        let stats = project(
+            &safe,
+            &mut z,
+            &fixed,
+            &mesh,
+            &params,
+            &|_, _, _| {},
+            &mut work,
+        );
         assert_eq!(stats.candidate_pairs, 1);
         assert!(stats.active_pairs > 0 && stats.iterations > 0);
         let lowest_upper = z[3..].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
@@ -994,7 +1042,15 @@ mod tests {
             ..mesh
         };
         let mut z = target.clone();
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {}, &mut work);
+        let stats = project(
+            &safe,
+            &mut z,
+            &fixed,
+            &mesh,
+            &params,
+            &|_, _, _| {},
+            &mut work,
+        );
         assert_eq!(stats.candidate_pairs, 0);
         assert_eq!(z, target);
     }
@@ -1018,7 +1074,15 @@ mod tests {
                 body: &[0, 1],
                 self_contact: &[true, true],
             };
-            let stats = project(&safe, &mut z, &[false; 6], &mesh, &params, &|_, _| {}, work);
+            let stats = project(
+                &safe,
+                &mut z,
+                &[false; 6],
+                &mesh,
+                &params,
+                &|_, _, _| {},
+                work,
+            );
             let counts = (
                 stats.candidate_pairs,
                 stats.active_pairs,
@@ -1062,7 +1126,7 @@ mod tests {
             body: &[0, 1],
             self_contact: &[false, false],
         };
-        let stats = project(&safe, &mut z, &fixed, &mesh, params, &|_, _| {}, work);
+        let stats = project(&safe, &mut z, &fixed, &mesh, params, &|_, _, _| {}, work);
         assert_eq!(stats.active_pairs, 3);
         let barrier = params.barrier();
         let (mut below, mut above) = (pressed, xi + d_hat);
@@ -1117,7 +1181,15 @@ mod tests {
         };
         let mut z = target.clone();
         let mut work = Workspace::default();
-        let stats = project(&safe, &mut z, &fixed, &mesh, params, &|_, _| {}, &mut work);
+        let stats = project(
+            &safe,
+            &mut z,
+            &fixed,
+            &mesh,
+            params,
+            &|_, _, _| {},
+            &mut work,
+        );
         let longest = (n..2 * n)
             .map(|i| {
                 let direction = work.push()[i] + target[i] - z[i];
@@ -1226,6 +1298,70 @@ mod tests {
         assert!(iterations < 20, "{iterations} iterations");
     }
 
+    /// A small triangle resting on a floor (a collider), under a large one tilted by 20
+    /// degrees and fixed within the barrier's reach: the barrier pushes the small one down into
+    /// the floor and along it, towards where the roof rises. The floor takes the push's normal
+    /// part; the rest slides the triangle along the floor, to the minimum of eq. 47 there
+    /// (Karush-Kuhn-Tucker): the descent direction `g_i = p_i + y_i - z_i` has no part along
+    /// the floor and points into it. The curvature step moves in `(I + K_i)^-1` with `K_i`
+    /// stiff along the roof's normal: a normal projection out of the floor after such a
+    /// move stops the slide where the move points straight into the floor, with `g_i`'s
+    /// part along the floor left unbalanced (6 `eps xi` here). Two more ways to fail it: cutting
+    /// the move to `eps xi` before the projection (the proposal is mostly into the floor, so
+    /// what is left along it crawls), and halving the moves whenever the proposal, not the
+    /// move taken, points against the last move (every iteration here).
+    #[test]
+    fn a_triangle_pressed_onto_a_collider_by_a_slanted_roof_slides_to_the_balance() {
+        use super::super::{out_of_colliders, Collider, MovingCollider, Shape};
+        let params = pressing(DescentStep::Curvature, 32);
+        let eps_xi = params.eps * params.thickness;
+        let floor = MovingCollider::new(Collider::fixed(
+            Shape::plane([0.0; 3], [0.0, 0.0, 1.0]).unwrap(),
+        ))
+        .during_step::<f64>(0.0, 1.0);
+        let floors = [floor];
+        let v = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
+        let small = [v(0.1, 0.1, 0.), v(0.102, 0.1, 0.), v(0.1, 0.102, 0.)];
+        let tilt = 20f64.to_radians();
+        let (up, along) = (
+            v(tilt.sin(), 0.0, tilt.cos()),
+            v(tilt.cos(), 0.0, -tilt.sin()),
+        );
+        let centre = v(0.1007, 0.1007, 0.0) + up * (params.thickness + 0.4 * params.d_hat);
+        let roof = [
+            centre - along - Vector3::y(),
+            centre + along * 2.0 - Vector3::y(),
+            centre - along + Vector3::y() * 2.0,
+        ];
+        let safe: Vec<_> = small.iter().chain(&roof).copied().collect();
+        let mut z = safe.clone();
+        let fixed = [false, false, false, true, true, true];
+        let mesh = ContactMesh {
+            triangles: &[[0, 1, 2], [3, 4, 5]],
+            body: &[0, 1],
+            self_contact: &[false, false],
+        };
+        let keep_out = |_: usize, zi: &mut Vector3<f64>, metric: Option<&SymmetricMatrix3<f64>>| {
+            *zi = out_of_colliders(&floors, *zi, 0.0, metric);
+        };
+        let mut work = Workspace::default();
+        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &keep_out, &mut work);
+        assert_eq!(stats.active_pairs, 3);
+        // About 7 moves of `eps xi` along the floor, then the approach (14 here).
+        assert!(stats.iterations < 20, "{} iterations", stats.iterations);
+        for i in 0..3 {
+            let g = work.push()[i] + safe[i] - z[i];
+            assert!(z[i].z.abs() < 1e-12, "vertex {i} off the floor: {}", z[i]);
+            assert!(
+                safe[i].x - z[i].x > eps_xi,
+                "vertex {i} has not slid: {}",
+                z[i]
+            );
+            assert!(g.xy().norm() < 0.02 * eps_xi, "vertex {i}: g = {g}");
+            assert!(g.z < 0.0, "vertex {i}: g = {g}");
+        }
+    }
+
     /// A local step repeated on the same positions starts from where the last one ended: it
     /// stops after one move below the stopping test and returns the same positions (within
     /// it). Cold, it repeats the whole approach.
@@ -1328,7 +1464,15 @@ mod tests {
         let fixed = [true, true, true, false, false, false, false, false, false];
         let mut z = target.clone();
         let mut work = Workspace::default();
-        project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {}, &mut work);
+        project(
+            &safe,
+            &mut z,
+            &fixed,
+            &mesh,
+            &params,
+            &|_, _, _| {},
+            &mut work,
+        );
         assert_push_from_every_pair(&mesh, &safe, &z, &params, &work);
         let lowered = z[3..6].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
         assert!(
@@ -1394,7 +1538,15 @@ mod tests {
         let mut z = target.clone();
         let mut work = Workspace::default();
         let fixed = vec![false; safe.len()];
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &|_, _| {}, &mut work);
+        let stats = project(
+            &safe,
+            &mut z,
+            &fixed,
+            &mesh,
+            &params,
+            &|_, _, _| {},
+            &mut work,
+        );
         assert!(stats.active_pairs > 0, "{stats:?}");
         // Held back by clamps: some vertices by far more than the descent's moves of at most
         // `eps xi` each could take them, others hardly at all.
@@ -1418,7 +1570,7 @@ mod tests {
             &fixed,
             &mesh,
             &params,
-            &|_, _| {},
+            &|_, _, _| {},
             &mut work,
         );
         assert!(
@@ -1451,7 +1603,7 @@ mod tests {
             &[false; 6],
             &mesh,
             &params,
-            &|_, _| {},
+            &|_, _, _| {},
             &mut Workspace::default(),
         );
         assert_eq!(z, safe);

@@ -20,8 +20,8 @@ mod sweep;
 mod vertex_index;
 
 pub use broad_phase::{BroadPhase, ContactMesh};
-pub use collider::{Collider, ColliderModel, Shape, ShapeModel};
-pub use local_step::{project, ContactParams, ContactStats, DescentStep, Workspace};
+pub use collider::{out_of_colliders, Collider, ColliderModel, Shape, ShapeModel};
+pub use local_step::{project, ContactParams, ContactStats, DescentStep, KeepOut, Workspace};
 pub use motion::MovingCollider;
 pub use pose::{rotation_matrix, Pose};
 pub use primitive_pairs::closest_primitive_distance;

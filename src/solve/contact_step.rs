@@ -5,9 +5,12 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::contact::{project, ColliderModel, ContactMesh, ContactParams, ContactStats, Workspace};
+use crate::contact::{
+    out_of_colliders, project, ColliderModel, ContactMesh, ContactParams, ContactStats, Workspace,
+};
 use crate::membrane::Membrane;
 use crate::real::Real;
+use crate::symmetric::SymmetricMatrix3;
 
 use super::reaction::realised_reaction;
 use super::system::System;
@@ -91,13 +94,11 @@ impl<T: Real> ContactState<T> {
             self_contact: &self.self_contact,
         };
         let rest = &sys.rest;
-        let keep_out = |i: usize, zi: &mut Vector3<f64>| {
+        let keep_out = |i: usize, zi: &mut Vector3<f64>, metric: Option<&SymmetricMatrix3<f64>>| {
+            let inverse = metric.map(|a| a.map(T::of));
             let margin = rest.vertices[i].half_thickness;
-            let mut x = zi.map(T::of);
-            for c in colliders {
-                x = c.project(x, margin);
-            }
-            *zi = x.map(|c| c.to_f64());
+            *zi = out_of_colliders(colliders, zi.map(T::of), margin, inverse.as_ref())
+                .map(|c| c.to_f64());
         };
         let stats = project(
             &self.safe,

@@ -31,6 +31,7 @@
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
+use crate::contact::out_of_colliders;
 use crate::error::Result;
 use crate::membrane::{
     hessian_diagonal_block, internal_force, vertex_hessian_blocks, Membrane, Preconditioner,
@@ -190,9 +191,7 @@ pub(super) fn descent_iteration<T: Real>(
                 if let Some(w) = omega {
                     *next = (*next - y_prev[k]) * w + y_prev[k];
                 }
-                for c in options.colliders {
-                    *next = c.project(*next, margin);
-                }
+                *next = out_of_colliders(options.colliders, *next, margin, None);
                 Update::of(k, &y[k], next)
             })
             .reduce(|| Update::NONE, Update::merge);

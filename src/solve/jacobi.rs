@@ -573,7 +573,7 @@ fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
 /// friction.
 ///
 /// Where `y` would end inside a collider (closer than `margin`), it moves along `D^-1 n`
-/// instead of `n`: it solves `min 1/2 d^T D d - r^T d` on the tangent plane of the contact,
+/// instead of `n` ([`ColliderModel::push_out`]): it solves `min 1/2 d^T D d - r^T d` on the tangent plane of the contact,
 /// with the normal reaction `lambda = -gap / (n . D^-1 n)` (N s^2). A Euclidean projection
 /// with an anisotropic `D` would leave a tangential residual `lambda (D n)_t` at its fixed
 /// point: frictionless contact would stick.
@@ -592,18 +592,9 @@ pub(super) fn keep_out<T: Real>(
     colliders: &[ColliderModel<T>],
 ) -> Vector3<T> {
     for c in colliders {
-        let gap = c.signed_distance(&y) - margin;
-        if gap >= T::zero() {
+        let Some((n, reaction)) = c.push_out(&mut y, inverse, margin) else {
             continue;
-        }
-        let n = c.normal(&y);
-        let along = inverse.mul_vector(&n);
-        let reach = n.dot(&along);
-        if reach <= T::zero() {
-            continue;
-        }
-        let reaction = -gap / reach;
-        y += along * reaction;
+        };
         if c.friction > T::zero() {
             let slip = (y - start) - c.displacement(&y);
             let slip_t = slip - n * n.dot(&slip);

@@ -27,7 +27,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::contact::{Collider, ColliderModel, MovingCollider, Pose};
+use crate::contact::{out_of_colliders, Collider, ColliderModel, MovingCollider, Pose};
 use crate::error::{invalid, Error, Result};
 use crate::membrane::{Membrane, Preconditioner};
 use crate::real::Real;
@@ -412,9 +412,7 @@ fn keep_feasible<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>]) {
     let (pinned, rest) = (&sys.pinned, &sys.rest);
     sys.y.par_iter_mut().enumerate().for_each(|(k, y)| {
         if !pinned[k] {
-            for c in colliders {
-                *y = c.project(*y, rest.vertices[k].half_thickness);
-            }
+            *y = out_of_colliders(colliders, *y, rest.vertices[k].half_thickness, None);
         }
     });
 }
@@ -427,10 +425,7 @@ fn project_colliders<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>
         .enumerate()
         .map(|(k, next)| {
             if !pinned[k] {
-                let margin = rest.vertices[k].half_thickness;
-                for c in colliders {
-                    *next = c.project(*next, margin);
-                }
+                *next = out_of_colliders(colliders, *next, rest.vertices[k].half_thickness, None);
             }
             Update::of(k, &y[k], next)
         })
