@@ -2,10 +2,16 @@
 
 The same scene for every solver: a 1 m square cloth of n x n vertices (default 120 x 120,
 14.4K vertices) in z = 0, pinned along the edge y = 1 m, gravity -9.81 m/s^2 along z, h = 1e-3 s,
-10 iterations per step, no contact, no damping. All solvers are built first, then step in turn
-(every solver takes step k before any takes step k + 1, so bursts of load on a shared machine
-hit all alike): ``--warmup`` untimed steps (JIT compilation, first touch), then ``--steps`` timed
-steps; ms per step is the median wall-clock time of one step (``wp.synchronize()`` included for Newton). The sag is the
+10 iterations per step, no contact, no damping. All solvers are built first, then step in turn,
+``--block`` consecutive steps each (every solver takes its block of steps before any takes the
+next block, so drifts of a shared machine's speed hit all alike, while each solver runs as a
+user runs it, step after step; with ``--block 1`` every peridyn step starts with caches that a
+Newton step of hundreds of milliseconds has just filled: 7.16 against 7.05 ms per step for
+peridyn f32 on 2 threads in two runs one after the other at commit 7cd05e7, so the order
+hardly matters here, while this VM's speed drifts by half between runs, for every solver
+alike): ``--warmup`` untimed steps (JIT compilation, first touch), then
+``--steps`` timed steps; ms per step is the median wall-clock time of one step
+(``wp.synchronize()`` included for Newton). The sag is the
 lowest z of the cloth after all the steps (m, negative: below the pinned edge).
 
 Material, made comparable (small-strain, per unit area of the sheet):
@@ -204,6 +210,8 @@ def main(argv=None):
     p.add_argument("--iters", type=int, default=10)
     p.add_argument("--steps", type=int, default=60, help="timed steps per solver")
     p.add_argument("--warmup", type=int, default=5, help="untimed steps first (JIT, first touch)")
+    p.add_argument("--block", type=int, default=10,
+                   help="consecutive steps each solver takes before the next solver's turn")
     p.add_argument("--s0", type=float, default=1e6, help="peridyn A3 s0 (Pa); mu = s0 * thickness")
     p.add_argument("--thickness", type=float, default=1e-3)
     p.add_argument("--density", type=float, default=300.0)
@@ -213,6 +221,8 @@ def main(argv=None):
     p.add_argument("--xpbd-soft-factor", type=float, default=1e-3)
     p.add_argument("--out", default=None)
     args = p.parse_args(argv)
+    if args.block < 1:
+        p.error("--block must be >= 1")
 
     rec = C.Record("peer_newton", args)
     rec.data["scene"] = {"mu_N_per_m": args.s0 * args.thickness,
@@ -246,20 +256,24 @@ def main(argv=None):
                 results.append({"solver": f"newton {kind}", "failed": f"{type(e).__name__}: {e}",
                                 "traceback": traceback.format_exc()[-3000:]})
                 print(f"newton {kind}: FAILED to build: {e}", flush=True)
-    # Side by side: every solver takes step k before any takes step k + 1, so load bursts on the
-    # shared machine spread over all of them. Warm-up steps (JIT, first touch) are not timed.
+    # Side by side: every solver takes its block of steps before any takes the next block, so
+    # drifts of the shared machine's speed spread over all of them. Warm-up steps (JIT, first
+    # touch) are not timed.
     failed = set()
-    for k in range(args.warmup + args.steps):
+    total = args.warmup + args.steps
+    for first in range(0, total, args.block):
         for i, r in enumerate(runners):
-            if i in failed:
-                continue
-            try:
-                r.step(timed=k >= args.warmup)
-            except Exception as e:
-                failed.add(i)
-                results.append({"solver": r.name, "failed": f"{type(e).__name__}: {e} (at step {k})",
-                                "traceback": traceback.format_exc()[-3000:]})
-                print(f"{r.name}: FAILED at step {k}: {e}", flush=True)
+            for k in range(first, min(first + args.block, total)):
+                if i in failed:
+                    break
+                try:
+                    r.step(timed=k >= args.warmup)
+                except Exception as e:
+                    failed.add(i)
+                    results.append({"solver": r.name,
+                                    "failed": f"{type(e).__name__}: {e} (at step {k})",
+                                    "traceback": traceback.format_exc()[-3000:]})
+                    print(f"{r.name}: FAILED at step {k}: {e}", flush=True)
     for i, r in enumerate(runners):
         if i in failed:
             continue
