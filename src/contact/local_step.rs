@@ -203,6 +203,17 @@ const FIRST_ALLOWANCE: f64 = 1.0;
 /// (steps 402-404) is unchanged.
 const CARRIED_DEVIATION: f64 = 2.0;
 
+/// The largest shift of a vertex's safe position or target since the last filter, as a share
+/// of its allowance, with which a local step keeps the live pairs as they are (see
+/// [`LivePairs::start`]): the rest of the allowance is room for its own moves.
+const REUSE_SHIFT: f64 = 0.5;
+
+/// The largest share of the vertices that may shift by more than [`REUSE_SHIFT`] of their
+/// allowance for a local step to keep the live pairs, adding those vertices' pairs: on the three
+/// layers over the ball, a few to a hundred of their 120K vertices stop the reuse of the late
+/// global iterations' local steps otherwise.
+const REUSE_STRAYS: f64 = 0.01;
+
 /// What one local step did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ContactStats {
@@ -318,8 +329,15 @@ struct LivePairs {
     pairs: Vec<Pair>,
     /// Per pair: distance at the safe positions `z^{k-1}` (m).
     start: Vec<f64>,
-    /// Per vertex: the allowance `A_i` (m) the pairs were filtered for.
+    /// Per vertex: the allowance `A_i` (m) the pairs were filtered for, around the path
+    /// between `filtered_safe` and `filtered_target`.
     allowance: Vec<f64>,
+    /// The safe positions and the global step's result (m) the pairs were filtered for.
+    filtered_safe: Vec<Vector3<f64>>,
+    filtered_target: Vec<Vector3<f64>>,
+    /// Per vertex: `max(|s_i - s_i^f|, |y_i - y_i^f|)` (m), how far this local step's safe
+    /// position and target are from those the pairs were filtered for (0 after a filter).
+    shift: Vec<f64>,
     /// Per vertex: `E_i >= |z_i - y_i^k|` (m) at the current iterate `z`: 0 at `z = y^k`, a
     /// clamp to `z^{k-1} + t (z - z^{k-1})` makes it `(1 - t) |y_i^k - z_i^{k-1}| + t E_i`, a
     /// descent move adds its length.
@@ -338,6 +356,19 @@ impl LivePairs {
     /// centimetres would otherwise refresh the list several times in every local step. A cost
     /// trade-off only: the pairs are correct for any allowance, as [`LivePairs::cover`]
     /// checks the deviations against them.
+    ///
+    /// **Reuse.** Where the mesh is the one filtered for, the pairs are kept unless more than
+    /// [`REUSE_STRAYS`] of the vertices have a safe position or target that moved by more
+    /// than [`REUSE_SHIFT`] of their allowance since the last filter (`shift_i`); those few
+    /// get their allowance raised by their shift and their pairs added
+    /// ([`PairCache::extend_live`]), and the distances at `safe` are measured again. A
+    /// position this local step looks at, `(1 - tau) s_i + tau y_i + e_i` with
+    /// `|e_i| <= E_i`, is `(1 - tau) s_i^f + tau y_i^f + e'_i` with
+    /// `e'_i = (1 - tau) (s_i - s_i^f) + tau (y_i - y_i^f) + e_i`, so `|e'_i| <= shift_i + E_i`:
+    /// the pairs cover it while `E_i + shift_i <= A_i`, which [`LivePairs::cover`] checks. The
+    /// late global iterations of a step move the vertices by micrometres, against allowances
+    /// of `eps xi`: their local steps then skip the filter (about 0.3 s of each local step on
+    /// three layers of 200 x 200 on the ball).
     fn start(
         &mut self,
         safe: &[Vector3<f64>],
@@ -347,7 +378,21 @@ impl LivePairs {
         reach: f64,
         stats: &mut ContactStats,
     ) {
-        if self.deviation.len() == safe.len() {
+        let n = safe.len();
+        if self.filtered_safe.len() == n
+            && self.cache.fits(mesh, n)
+            && self.reuse(safe, target, reach)
+        {
+            refill(&mut self.deviation, n, 0.0);
+            start_distances(&self.pairs, 0, safe, &mut self.start);
+            if self.grown.is_empty() {
+                self.count(stats);
+            } else {
+                self.refreshed(Renewal::Kept, self.pairs.len(), safe, stats);
+            }
+            return;
+        }
+        if self.deviation.len() == n {
             self.allowance.clear();
             self.allowance
                 .par_extend(self.deviation.par_iter().map(|&e| {
@@ -358,20 +403,76 @@ impl LivePairs {
                     }
                 }));
         } else {
-            refill(&mut self.allowance, safe.len(), allowance);
+            refill(&mut self.allowance, n, allowance);
         }
-        refill(&mut self.deviation, safe.len(), 0.0);
-        // The pairs for these allowances (see [`PairCache::live_pairs`]).
+        refill(&mut self.deviation, n, 0.0);
+        self.filter(safe, target, mesh, reach, stats);
+    }
+
+    /// The reuse test of [`LivePairs::start`]: measures the shifts and, where few vertices
+    /// stray, raises their allowances and adds their pairs (they are left in `grown`).
+    /// Returns whether the pairs are kept.
+    fn reuse(&mut self, safe: &[Vector3<f64>], target: &[Vector3<f64>], reach: f64) -> bool {
+        self.shift.clear();
+        self.shift.par_extend(
+            safe.par_iter()
+                .zip(target)
+                .zip(self.filtered_safe.par_iter().zip(&self.filtered_target))
+                .map(|((s, y), (sf, yf))| (s - sf).norm().max((y - yf).norm())),
+        );
+        self.grown.clear();
+        self.grown.par_extend(
+            self.shift
+                .par_iter()
+                .zip(&self.allowance)
+                .enumerate()
+                .filter_map(|(i, (&shift, &a))| {
+                    (shift.is_nan() || shift > REUSE_SHIFT * a).then_some(i as u32)
+                }),
+        );
+        if self.grown.len() as f64 > REUSE_STRAYS * safe.len() as f64 {
+            return false;
+        }
+        if self.grown.is_empty() {
+            return true;
+        }
+        for &i in &self.grown {
+            let shift = self.shift[i as usize];
+            if shift.is_nan() {
+                return false;
+            }
+            self.allowance[i as usize] += shift;
+        }
+        self.cache
+            .extend_live(&self.allowance, &self.grown, reach, &mut self.pairs)
+    }
+
+    /// Filters the pairs afresh for the allowances, around the path from `safe` to `target`
+    /// ([`PairCache::live_pairs`]), and measures their distances at `safe`.
+    fn filter(
+        &mut self,
+        safe: &[Vector3<f64>],
+        target: &[Vector3<f64>],
+        mesh: &ContactMesh,
+        reach: f64,
+        stats: &mut ContactStats,
+    ) {
         let (cache, live) = (&mut self.cache, &mut self.pairs);
         let renewal = cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
+        self.filtered_safe.clear();
+        self.filtered_safe.extend_from_slice(safe);
+        self.filtered_target.clear();
+        self.filtered_target.extend_from_slice(target);
+        refill(&mut self.shift, safe.len(), 0.0);
         self.refreshed(renewal, 0, safe, stats);
     }
 
-    /// Where a vertex's deviation `E_i` exceeds its allowance `A_i` (or is NaN), raises the
-    /// allowance to `A_i + E_i` (room for the deviation and as much drift again as the old
-    /// allowance gave: it doubles under a steady drift, and a clamp's jump is not doubled) and
-    /// refreshes the pairs (before anything looks at the positions they may not cover): adds
-    /// those of the grown vertices ([`PairCache::extend_live`]). Returns whether it refreshed.
+    /// Where a vertex's deviation `E_i`, plus its shift since the filter, exceeds its
+    /// allowance `A_i` (or is NaN), raises the allowance to `A_i + E_i + shift_i` (room for
+    /// the deviation and as much drift again as the old allowance gave: it doubles under a
+    /// steady drift, and a clamp's jump is not doubled) and refreshes the pairs (before
+    /// anything looks at the positions they may not cover): adds those of the grown vertices
+    /// ([`PairCache::extend_live`]), or filters afresh. Returns whether it refreshed.
     fn cover(
         &mut self,
         safe: &[Vector3<f64>],
@@ -385,11 +486,12 @@ impl LivePairs {
             self.allowance
                 .par_iter_mut()
                 .zip(&self.deviation)
+                .zip(&self.shift)
                 .enumerate()
-                .filter_map(|(i, (a, &e))| {
-                    let beyond = e.is_nan() || e > *a;
+                .filter_map(|(i, ((a, &e), &shift))| {
+                    let beyond = e.is_nan() || e + shift > *a;
                     if beyond {
-                        *a += e;
+                        *a += e + shift;
                     }
                     beyond.then_some(i as u32)
                 }),
@@ -402,8 +504,7 @@ impl LivePairs {
         if cache.extend_live(&self.allowance, &self.grown, reach, live) {
             self.refreshed(Renewal::Kept, kept, safe, stats);
         } else {
-            let renewal = cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
-            self.refreshed(renewal, 0, safe, stats);
+            self.filter(safe, target, mesh, reach, stats);
         }
         true
     }
@@ -419,14 +520,19 @@ impl LivePairs {
         safe: &[Vector3<f64>],
         stats: &mut ContactStats,
     ) {
-        let cache = &self.cache;
         stats.broad_phase_builds += usize::from(renewal == Renewal::Built);
         stats.cache_repairs += usize::from(renewal == Renewal::Repaired);
         stats.live_refreshes += 1;
+        self.count(stats);
+        start_distances(&self.pairs, new, safe, &mut self.start);
+    }
+
+    /// Counts the cached and live pairs in `stats` (the largest of the step).
+    fn count(&self, stats: &mut ContactStats) {
+        let cache = &self.cache;
         stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
         stats.box_pairs = stats.box_pairs.max(cache.box_pairs());
         stats.primitive_pairs = stats.primitive_pairs.max(self.pairs.len());
-        start_distances(&self.pairs, new, safe, &mut self.start);
     }
 }
 
@@ -982,6 +1088,9 @@ fn guarantee(
 mod tests {
     use super::*;
 
+    /// No colliders to keep out of.
+    const FREE: &KeepOut = &|_, _, _| {};
+
     type Scene = (Vec<Vector3<f64>>, Vec<Vector3<f64>>, Vec<[u32; 3]>);
 
     /// Two parallel triangles, the upper pushed through the lower by the "global step".
@@ -1018,15 +1127,7 @@ mod tests {
         let mut z = target.clone();
         let fixed = vec![false; 6];
         let mut work = Workspace::default();
-        let stats = project(
-            &safe,
-            &mut z,
-            &fixed,
-            &mesh,
-            &params,
-            &|_, _, _| {},
-            &mut work,
-        );
+        let stats = project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
         assert_eq!(stats.candidate_pairs, 1);
         assert!(stats.active_pairs > 0 && stats.iterations > 0);
         let lowest_upper = z[3..].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
@@ -1042,15 +1143,7 @@ mod tests {
             ..mesh
         };
         let mut z = target.clone();
-        let stats = project(
-            &safe,
-            &mut z,
-            &fixed,
-            &mesh,
-            &params,
-            &|_, _, _| {},
-            &mut work,
-        );
+        let stats = project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
         assert_eq!(stats.candidate_pairs, 0);
         assert_eq!(z, target);
     }
@@ -1074,15 +1167,7 @@ mod tests {
                 body: &[0, 1],
                 self_contact: &[true, true],
             };
-            let stats = project(
-                &safe,
-                &mut z,
-                &[false; 6],
-                &mesh,
-                &params,
-                &|_, _, _| {},
-                work,
-            );
+            let stats = project(&safe, &mut z, &[false; 6], &mesh, &params, FREE, work);
             let counts = (
                 stats.candidate_pairs,
                 stats.active_pairs,
@@ -1126,7 +1211,7 @@ mod tests {
             body: &[0, 1],
             self_contact: &[false, false],
         };
-        let stats = project(&safe, &mut z, &fixed, &mesh, params, &|_, _, _| {}, work);
+        let stats = project(&safe, &mut z, &fixed, &mesh, params, FREE, work);
         assert_eq!(stats.active_pairs, 3);
         let barrier = params.barrier();
         let (mut below, mut above) = (pressed, xi + d_hat);
@@ -1181,15 +1266,7 @@ mod tests {
         };
         let mut z = target.clone();
         let mut work = Workspace::default();
-        let stats = project(
-            &safe,
-            &mut z,
-            &fixed,
-            &mesh,
-            params,
-            &|_, _, _| {},
-            &mut work,
-        );
+        let stats = project(&safe, &mut z, &fixed, &mesh, params, FREE, &mut work);
         let longest = (n..2 * n)
             .map(|i| {
                 let direction = work.push()[i] + target[i] - z[i];
@@ -1198,6 +1275,79 @@ mod tests {
             })
             .fold(0.0, f64::max);
         (stats.iterations, longest)
+    }
+
+    /// The local step of a later global iteration: from the last one's result as the safe
+    /// positions (which had moved little since the one before), towards a target moved by up
+    /// to 2 micrometres (a hundredth of the allowance `eps xi`), it keeps the live pairs (no
+    /// filter, no refresh) and ends where a fresh workspace's local step ends (no warm start
+    /// in either), with the push summed over every pair.
+    #[test]
+    fn a_local_step_after_a_small_shift_keeps_the_live_pairs() {
+        let params = ContactParams {
+            warm_start: false,
+            ..pressing(DescentStep::Curvature, 400)
+        };
+        let mut rng = crate::test_rng::Rng::new(3);
+        let (side, spacing) = (6_u32, 0.01);
+        let (xi, d_hat) = (params.thickness, params.d_hat);
+        let grid = |height: f64| {
+            (0..side * side).map(move |v| {
+                let (i, j) = (f64::from(v % side), f64::from(v / side));
+                Vector3::new(spacing * (i + 0.3), spacing * j, height)
+            })
+        };
+        let safe: Vec<_> = grid(0.0).chain(grid(xi + 0.95 * d_hat)).collect();
+        let target: Vec<_> = grid(0.0)
+            .chain(grid(xi + 0.3 * d_hat).map(|p| p + rng.vector() * 3e-4))
+            .collect();
+        use super::super::pair_cache::tests::{grid_triangles, two_copies};
+        let (triangles, body) = two_copies(&grid_triangles(side), side * side);
+        let n = safe.len() / 2;
+        let fixed: Vec<bool> = (0..2 * n).map(|v| v < n).collect();
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[false, false],
+        };
+        // The first local step moves the upper grid millimetres (its second filters afresh).
+        let mut work = Workspace::default();
+        let mut first = safe.clone();
+        for _ in 0..2 {
+            let mut next = target.clone();
+            project(&first, &mut next, &fixed, &mesh, &params, FREE, &mut work);
+            first = next;
+        }
+        let moved: Vec<_> = target
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                if fixed[i] {
+                    *p
+                } else {
+                    p + rng.vector() * 2e-6
+                }
+            })
+            .collect();
+        let mut kept = moved.clone();
+        let stats = project(&first, &mut kept, &fixed, &mesh, &params, FREE, &mut work);
+        assert!(stats.active_pairs > 0);
+        assert_eq!(stats.live_refreshes, 0, "{stats:?}");
+        assert_push_from_every_pair(&mesh, &first, &kept, &params, &work);
+        let mut fresh = moved.clone();
+        let mut afresh = Workspace::default();
+        project(
+            &first,
+            &mut fresh,
+            &fixed,
+            &mesh,
+            &params,
+            FREE,
+            &mut afresh,
+        );
+        for (a, b) in kept.iter().zip(&fresh) {
+            assert!((a - b).norm() < 1e-12, "{a} vs {b}");
+        }
     }
 
     /// Pressed onto a grid of parallel edges (aligned with it, or half a spacing off), a grid
@@ -1464,15 +1614,7 @@ mod tests {
         let fixed = [true, true, true, false, false, false, false, false, false];
         let mut z = target.clone();
         let mut work = Workspace::default();
-        project(
-            &safe,
-            &mut z,
-            &fixed,
-            &mesh,
-            &params,
-            &|_, _, _| {},
-            &mut work,
-        );
+        project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
         assert_push_from_every_pair(&mesh, &safe, &z, &params, &work);
         let lowered = z[3..6].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
         assert!(
@@ -1538,15 +1680,7 @@ mod tests {
         let mut z = target.clone();
         let mut work = Workspace::default();
         let fixed = vec![false; safe.len()];
-        let stats = project(
-            &safe,
-            &mut z,
-            &fixed,
-            &mesh,
-            &params,
-            &|_, _, _| {},
-            &mut work,
-        );
+        let stats = project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
         assert!(stats.active_pairs > 0, "{stats:?}");
         // Held back by clamps: some vertices by far more than the descent's moves of at most
         // `eps xi` each could take them, others hardly at all.
@@ -1564,15 +1698,7 @@ mod tests {
         // positions differ a little: a refresh restarts the CCD, whose additive steps can
         // report a time for pairs it would otherwise have skipped.)
         let mut again = target.clone();
-        let second = project(
-            &safe,
-            &mut again,
-            &fixed,
-            &mesh,
-            &params,
-            &|_, _, _| {},
-            &mut work,
-        );
+        let second = project(&safe, &mut again, &fixed, &mesh, &params, FREE, &mut work);
         assert!(
             second.live_refreshes < stats.live_refreshes,
             "{} then {} refreshes",
@@ -1603,7 +1729,7 @@ mod tests {
             &[false; 6],
             &mesh,
             &params,
-            &|_, _, _| {},
+            FREE,
             &mut Workspace::default(),
         );
         assert_eq!(z, safe);

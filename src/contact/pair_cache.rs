@@ -417,7 +417,7 @@ impl PairCache {
     }
 
     /// Whether the lists were built for this mesh and vertex count.
-    fn fits(&self, mesh: &ContactMesh, vertices: usize) -> bool {
+    pub(super) fn fits(&self, mesh: &ContactMesh, vertices: usize) -> bool {
         self.reference.len() == vertices
             && self.triangles == mesh.triangles
             && self.body == mesh.body
