@@ -531,9 +531,9 @@ mod tests {
             let is_plane = matches!(shape, Shape::Plane { .. });
             let model = super::super::MovingCollider::new(Collider::fixed(shape.clone()))
                 .during_step::<f64>(0.0, 1.0);
-            let mut inside = 0;
+            let (mut inside, mut outside) = (0, 0);
             for _ in 0..300 {
-                // Near the surface, half of them inside.
+                // Near the surface: within the margin (or inside) for u > -0.2, else outside.
                 let seed = rng.vector() * 0.8 + Vector3::new(0.0, 0.0, 0.3);
                 let on = seed - model.normal(&seed) * model.signed_distance(&seed);
                 let x = on - model.normal(&on) * (0.05 * rng.uniform());
@@ -549,6 +549,7 @@ mod tests {
                 if gap >= 0.0 {
                     assert!(out.is_none());
                     assert_eq!(moved, x);
+                    outside += 1;
                     continue;
                 }
                 inside += 1;
@@ -572,7 +573,10 @@ mod tests {
                     );
                 }
             }
-            assert!(inside > 20, "{inside}");
+            assert!(
+                inside > 20 && outside > 20,
+                "{inside} inside, {outside} outside"
+            );
         }
     }
 

@@ -23,9 +23,9 @@
 //!    largest `sum_c alpha_c^i` and `D` the largest `|y_i^k - z_i|` of this iteration, or (the
 //!    default) a step per vertex scaled by the barrier's curvature along the contact normals
 //!    there; stop when the largest move is below [`STOP_FRACTION`] `eps xi` or after
-//!    `max_iters` iterations. A vertex whose proposed move points against its last one has
-//!    overshot, and its moves are halved from then on for the rest of the local step (not in
-//!    the paper). The step rules bound the barrier's curvature along the contact normals, but
+//!    `max_iters` iterations. A vertex whose move points against its last one has overshot,
+//!    and its moves are halved from then on for the rest of the local step (not in the
+//!    paper). The step rules bound the barrier's curvature along the contact normals, but
 //!    the closest points of nearly parallel edges jump along them as the edges move (stacked
 //!    cloth layers are full of such pairs), and so does the push on their vertices: without
 //!    the halving a few of them go back and forth for good, and every local step ran to its
@@ -34,8 +34,9 @@
 //!    move ([`ContactParams::warm_start`]), not from the result alone. After every move a
 //!    vertex is taken out of the colliders (not in the paper) in the metric of its move, so
 //!    that a membrane pressed onto a collider slides along it to the minimum of eq. 47 on
-//!    its surface; the curvature rule's bound then cuts the move taken, and the halving
-//!    compares moves taken.
+//!    its surface (exactly on a plane; on a curved surface up to its curvature over the last
+//!    move, as the surface is linearised where the move ends); the curvature rule's bound then
+//!    cuts the move taken, and the halving compares moves taken.
 //!
 //! A final guarantee pass (not in the paper, which leaves vertices with a small time of impact
 //! unclamped): additive CCD from `z^{k-1}` to `z` once more, with the pair's separation floor
@@ -231,8 +232,9 @@ pub struct ContactStats {
     /// Repairs of the last build for a few vertices that strayed beyond their skins (see
     /// [`super::pair_cache`]), each instead of a build.
     pub cache_repairs: usize,
-    /// Filterings of the cached pairs into the live list (one per local step, and one more
-    /// each time a vertex outgrows its allowance).
+    /// Filterings of the cached pairs into the live list and additions to it (at the start of
+    /// a local step unless the list is kept (`LivePairs::start`), and each time a vertex
+    /// outgrows its allowance).
     pub live_refreshes: usize,
     /// Primitive pairs within the barrier's reach at the end.
     pub active_pairs: usize,
@@ -338,6 +340,8 @@ struct LivePairs {
     /// Per vertex: `max(|s_i - s_i^f|, |y_i - y_i^f|)` (m), how far this local step's safe
     /// position and target are from those the pairs were filtered for (0 after a filter).
     shift: Vec<f64>,
+    /// The barrier's reach (m) the pairs were filtered for.
+    filtered_reach: f64,
     /// Per vertex: `E_i >= |z_i - y_i^k|` (m) at the current iterate `z`: 0 at `z = y^k`, a
     /// clamp to `z^{k-1} + t (z - z^{k-1})` makes it `(1 - t) |y_i^k - z_i^{k-1}| + t E_i`, a
     /// descent move adds its length.
@@ -357,7 +361,8 @@ impl LivePairs {
     /// trade-off only: the pairs are correct for any allowance, as [`LivePairs::cover`]
     /// checks the deviations against them.
     ///
-    /// **Reuse.** Where the mesh is the one filtered for, the pairs are kept unless more than
+    /// **Reuse.** Where the mesh and the barrier's reach are the ones filtered for, the pairs
+    /// are kept unless more than
     /// [`REUSE_STRAYS`] of the vertices have a safe position or target that moved by more
     /// than [`REUSE_SHIFT`] of their allowance since the last filter (`shift_i`); those few
     /// get their allowance raised by their shift and their pairs added
@@ -380,6 +385,7 @@ impl LivePairs {
     ) {
         let n = safe.len();
         if self.filtered_safe.len() == n
+            && self.filtered_reach == reach
             && self.cache.fits(mesh, n)
             && self.reuse(safe, target, reach)
         {
@@ -427,7 +433,8 @@ impl LivePairs {
                 .zip(&self.allowance)
                 .enumerate()
                 .filter_map(|(i, (&shift, &a))| {
-                    (shift.is_nan() || shift > REUSE_SHIFT * a).then_some(i as u32)
+                    let finite = shift.is_finite() && a.is_finite();
+                    (!finite || shift > REUSE_SHIFT * a).then_some(i as u32)
                 }),
         );
         if self.grown.len() as f64 > REUSE_STRAYS * safe.len() as f64 {
@@ -437,11 +444,11 @@ impl LivePairs {
             return true;
         }
         for &i in &self.grown {
-            let shift = self.shift[i as usize];
-            if shift.is_nan() {
+            let (shift, a) = (self.shift[i as usize], &mut self.allowance[i as usize]);
+            if !(shift.is_finite() && a.is_finite()) {
                 return false;
             }
-            self.allowance[i as usize] += shift;
+            *a += shift;
         }
         self.cache
             .extend_live(&self.allowance, &self.grown, reach, &mut self.pairs)
@@ -464,6 +471,7 @@ impl LivePairs {
         self.filtered_target.clear();
         self.filtered_target.extend_from_slice(target);
         refill(&mut self.shift, safe.len(), 0.0);
+        self.filtered_reach = reach;
         self.refreshed(renewal, 0, safe, stats);
     }
 
@@ -481,6 +489,7 @@ impl LivePairs {
         reach: f64,
         stats: &mut ContactStats,
     ) -> bool {
+        debug_assert_eq!(self.shift.len(), self.allowance.len());
         self.grown.clear();
         self.grown.par_extend(
             self.allowance
@@ -624,9 +633,10 @@ pub fn project(
     refill(&mut work.last_move, n, Vector3::zeros());
     refill(&mut work.damping, n, 1.0);
     // Vertices moved since the last CCD: a pair none of whose vertices moved keeps its time.
-    // After the first iteration a vertex moves at most `eps xi` per iteration (either step
-    // rule), so only pairs that were within `(1 + 4 eps) xi` can reach `xi`: the others skip
-    // the CCD. (`changed` is only sized here: `restart_ccd` marks every vertex.)
+    // After the first iteration a vertex moves at most `2 eps xi` per iteration (a step of at
+    // most `eps xi` under either rule, and a projection out of a collider no longer than the
+    // step's depth into it), so only pairs that were within `(1 + 4 eps) xi` can reach `xi`:
+    // the others skip the CCD. (`changed` is only sized here: `restart_ccd` marks every vertex.)
     work.changed.resize(n, true);
     if params.warm_start && work.warm.len() == n {
         // Line 2 with the warm start: a move like a descent move, so it counts as drift and
@@ -802,11 +812,10 @@ pub fn project(
                     if let Some(longest) = cap {
                         let (slide, limit) = (at - before, longest * damp);
                         if slide.norm() > limit {
-                            let held = at != free;
+                            // The cut point can be inside even where `free` was not (a chord
+                            // of a ball).
                             at = before + slide * (limit / slide.norm());
-                            if held {
-                                keep_out(i, &mut at, None);
-                            }
+                            keep_out(i, &mut at, None);
                         }
                     }
                     at
@@ -1277,19 +1286,19 @@ mod tests {
         (stats.iterations, longest)
     }
 
-    /// The local step of a later global iteration: from the last one's result as the safe
-    /// positions (which had moved little since the one before), towards a target moved by up
-    /// to 2 micrometres (a hundredth of the allowance `eps xi`), it keeps the live pairs (no
-    /// filter, no refresh) and ends where a fresh workspace's local step ends (no warm start
-    /// in either), with the push summed over every pair.
-    #[test]
-    fn a_local_step_after_a_small_shift_keeps_the_live_pairs() {
+    /// The local step of a later global iteration on two `side x side` grids pressed together:
+    /// from the last one's result as the safe positions (which had moved little since the
+    /// one before), towards a target moved by up to 2 micrometres (a hundredth of the allowance
+    /// `eps xi`), except for the last `strays` vertices, moved 0.7 times their allowance. It ends
+    /// where a fresh workspace's local step ends (no warm start in either), with the push
+    /// summed over every pair. Returns its figures and whether it filtered the pairs afresh.
+    fn shifted_local_step(side: u32, strays: usize) -> (ContactStats, bool) {
         let params = ContactParams {
             warm_start: false,
             ..pressing(DescentStep::Curvature, 400)
         };
         let mut rng = crate::test_rng::Rng::new(3);
-        let (side, spacing) = (6_u32, 0.01);
+        let spacing = 0.01;
         let (xi, d_hat) = (params.thickness, params.d_hat);
         let grid = |height: f64| {
             (0..side * side).map(move |v| {
@@ -1318,24 +1327,21 @@ mod tests {
             project(&first, &mut next, &fixed, &mesh, &params, FREE, &mut work);
             first = next;
         }
+        let allowance = &work.live.allowance;
         let moved: Vec<_> = target
             .iter()
             .enumerate()
-            .map(|(i, p)| {
-                if fixed[i] {
-                    *p
-                } else {
-                    p + rng.vector() * 2e-6
-                }
+            .map(|(i, p)| match i {
+                _ if fixed[i] => *p,
+                _ if i >= 2 * n - strays => p + Vector3::x() * (0.7 * allowance[i]),
+                _ => p + rng.vector() * 2e-6,
             })
             .collect();
         let mut kept = moved.clone();
         let stats = project(&first, &mut kept, &fixed, &mesh, &params, FREE, &mut work);
         assert!(stats.active_pairs > 0);
-        assert_eq!(stats.live_refreshes, 0, "{stats:?}");
         assert_push_from_every_pair(&mesh, &first, &kept, &params, &work);
         let mut fresh = moved.clone();
-        let mut afresh = Workspace::default();
         project(
             &first,
             &mut fresh,
@@ -1343,11 +1349,28 @@ mod tests {
             &mesh,
             &params,
             FREE,
-            &mut afresh,
+            &mut Workspace::default(),
         );
         for (a, b) in kept.iter().zip(&fresh) {
             assert!((a - b).norm() < 1e-12, "{a} vs {b}");
         }
+        (stats, work.live.filtered_target == moved)
+    }
+
+    /// After a shift of every vertex by a hundredth of its allowance, the local step keeps the
+    /// live pairs: no filter, no refresh. With two vertices of 288 shifted by 0.7 of their
+    /// allowance it raises their allowances and refreshes once (here the raised allowances,
+    /// millimetres from the first local step's approach, outgrow the build's skins, so the
+    /// extension falls back to a build); with four (more than 1 %) it filters afresh at once.
+    /// Every time it ends where a fresh workspace does.
+    #[test]
+    fn a_local_step_after_a_small_shift_keeps_the_live_pairs() {
+        let (stats, filtered) = shifted_local_step(6, 0);
+        assert!(!filtered && stats.live_refreshes == 0, "{stats:?}");
+        let (stats, _) = shifted_local_step(12, 2);
+        assert_eq!(stats.live_refreshes, 1, "{stats:?}");
+        let (stats, filtered) = shifted_local_step(12, 4);
+        assert!(filtered && stats.live_refreshes >= 1, "{stats:?}");
     }
 
     /// Pressed onto a grid of parallel edges (aligned with it, or half a spacing off), a grid

@@ -24,7 +24,10 @@
 //! `x_i = r_i + (1 - tau) w_i + tau g_i + e_i` with `w_i = s_i - r_i`, `g_i = y_i - r_i`,
 //! `|e_i| <= E_i` and one `tau` for all vertices (the iterates: `tau = 1`). Each live list is
 //! filtered for per-vertex allowances `A_i` (m) and the local step refreshes it (with larger
-//! allowances) before it looks at a position where some `E_i > A_i`.
+//! allowances) before it looks at a position where some `E_i > A_i`. (A later local step that
+//! keeps the list, its safe positions and target `s'`, `y'` shifted by at most `shift_i` from
+//! `s`, `y`, writes its positions the same way with `E_i` plus `shift_i`, see
+//! [`super::local_step`].)
 //!
 //! Two consequences, both conservative:
 //! - **Reuse**: the skins are measured from the common motions of *regions*, connected groups
@@ -237,8 +240,10 @@ impl PairCache {
         renewal
     }
 
-    /// After [`PairCache::live_pairs`] with the same safe and target positions and mesh, the
-    /// allowances of the vertices `grown` have grown and the others are as they were: appends
+    /// After [`PairCache::live_pairs`] (the allowances still measured around the path between
+    /// the safe and target positions it was given, with the same mesh, even where later local
+    /// steps have kept its list), the allowances of the vertices `grown` have grown and the
+    /// others are as they were: appends
     /// to `live` the pairs that may now come within `reach` (only pairs with a grown vertex can,
     /// as the bounds of the others are unchanged and allowances only grow) and returns true;
     /// returns false, leaving `live` alone, when the build no longer covers the allowances
