@@ -573,8 +573,9 @@ fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
 /// friction.
 ///
 /// Where `y` would end inside a collider (closer than `margin`), it moves along `D^-1 n`
-/// instead of `n` ([`ColliderModel::push_out`]): it solves `min 1/2 d^T D d - r^T d` on the tangent plane of the contact,
-/// with the normal reaction `lambda = -gap / (n . D^-1 n)` (N s^2). A Euclidean projection
+/// instead of `n` ([`ColliderModel::push_out`]): it solves `min 1/2 d^T D d - r^T d` on the
+/// tangent plane of the contact, with the normal reaction `lambda = -gap / (n . D^-1 n)`
+/// (N s^2). A Euclidean projection
 /// with an anisotropic `D` would leave a tangential residual `lambda (D n)_t` at its fixed
 /// point: frictionless contact would stick.
 ///
