@@ -106,13 +106,92 @@ fn collider_project(k: Collider, x: vec3<real>, margin: real) -> vec3<real> {
     return x;
 }
 
-// Vertex i at x kept outside every collider, in order (pinned vertices stay where they are).
-fn feasible(i: u32, x: vec3<real>) -> vec3<real> {
+// A move that would cross a collider in one go (src/contact/collider/crossing.rs, same steps
+// in the same order): sphere tracing along the straight path from `origin` (outside) to `to`, at
+// most TRACE_STEPS steps each as long as the signed distance, stopping where it falls to
+// TRACE_TOLERANCE of its value at `origin`.
+const TRACE_STEPS: u32 = 64u;
+const TRACE_TOLERANCE: real = 1e-3;
+
+// The end of the move from `origin` to `to` (local points) to take out of the shape: `to`, unless
+// its path reaches the surface at e and `to` is not inside on that side (the normal at `to`
+// within 90 degrees of the normal n at e); then e + (I - n n^T)(to - e) where that is outside,
+// else e.
+fn shape_keep_side(k: Collider, origin: vec3<real>, to: vec3<real>) -> vec3<real> {
+    let start = shape_distance(k, origin);
+    let path = to - origin;
+    let len = length(path);
+    if !(start > 0.0 && len > start) {
+        return to;
+    }
+    let direction = path / len;
+    let close = start * TRACE_TOLERANCE;
+    var along = start;
+    var last = start;
+    var touched = false;
+    var entry = to;
+    for (var s = 0u; s < TRACE_STEPS; s++) {
+        if along >= len {
+            return to;
+        }
+        let x = origin + direction * along;
+        let d = shape_distance(k, x);
+        if d <= close {
+            touched = true;
+            entry = x;
+            break;
+        }
+        // Every shape here is convex: a step that does not bring the path closer ends it.
+        if d >= last {
+            return to;
+        }
+        along += d;
+        last = d;
+    }
+    if !touched {
+        if along >= len {
+            return to;
+        }
+        entry = origin + direction * along;
+    }
+    let n = shape_normal(k, entry);
+    if shape_distance(k, to) < 0.0 && dot(shape_normal(k, to), n) > 0.0 {
+        return to;
+    }
+    let rest = to - entry;
+    let slide = entry + (rest - n * dot(n, rest));
+    if shape_distance(k, slide) >= 0.0 {
+        return slide;
+    }
+    return entry;
+}
+
+// The end of the move from `origin` to `to` (at the end of the step) kept on the side of the
+// collider the move came from.
+fn collider_keep_side(k: Collider, origin: vec3<real>, to: vec3<real>) -> vec3<real> {
+    let local_to = to - k.offset;
+    let end = shape_keep_side(k, origin - k.offset, local_to);
+    if all(end == local_to) {
+        return to;
+    }
+    return end + k.offset;
+}
+
+// Vertex i at x, the end of a move from `origin` (outside the colliders), kept outside every
+// collider, in order, on the side it came from (pinned vertices stay where they are). With
+// `of_step`, `origin` is the position at the start of the step, which each collider's motion
+// carries by its displacement.
+fn feasible(i: u32, origin: vec3<real>, of_step: bool, x: vec3<real>) -> vec3<real> {
     var out = x;
     if pinned[i] == 0u {
         let margin = vertices[i].half_thickness;
         for (var c = 0u; c < params.n_colliders; c++) {
-            out = collider_project(colliders[c], out, margin);
+            let k = colliders[c];
+            var start = origin;
+            if of_step {
+                start += k.displacement;
+            }
+            out = collider_project(k, collider_keep_side(k, start, out), margin);
         }
     }
     return out;
@@ -127,7 +206,7 @@ fn project(@builtin(global_invocation_id) gid: vec3<u32>) {
     if i >= params.n || !live() {
         return;
     }
-    let next = feasible(i, y_next[i].xyz);
+    let next = feasible(i, y[i].xyz, false, y_next[i].xyz);
     y_next[i] = vec4<real>(next, 0.0);
     let ok = finite3(next);
     var moved: real = 0.0;

@@ -28,16 +28,19 @@ fn inverse_or(d: mat3x3<real>, mass: real) -> mat3x3<real> {
     return transpose(mat3x3<real>(c0, c1, c2)) * (1.0 / det);
 }
 
-// Keeps a move out of the colliders in the metric of D, with Coulomb friction (keep_out in
-// src/solve/jacobi.rs). Where y ends closer than `margin` to a collider it moves along D^-1 n
-// by the normal reaction lambda = -gap / (n . D^-1 n) (N s^2). With friction, the slip of the
+// Keeps a move from `origin` (the iterate, outside) to `moved` out of the colliders in the
+// metric of D, with Coulomb friction (keep_out in src/solve/jacobi.rs); a move that would cross
+// a collider ends on the side it came from (collider_keep_side). Where y ends closer than
+// `margin` to a collider it moves along D^-1 n by the normal reaction
+// lambda = -gap / (n . D^-1 n) (N s^2). With friction, the slip of the
 // vertex relative to the collider over the step, s = (y - y_t) - displacement, tangential part
 // s_t, is removed when the reaction that takes, k |s_t| with k = |s_t|^2 / (s_t . D^-1 s_t),
 // is within friction * lambda (sticking), and shortened by friction * lambda / k otherwise.
-fn keep_out(moved: vec3<real>, start: vec3<real>, inverse: mat3x3<real>, margin: real) -> vec3<real> {
+fn keep_out(origin: vec3<real>, moved: vec3<real>, start: vec3<real>, inverse: mat3x3<real>, margin: real) -> vec3<real> {
     var y = moved;
     for (var c = 0u; c < params.n_colliders; c++) {
         let k = colliders[c];
+        y = collider_keep_side(k, origin, y);
         let gap = collider_distance(k, y) - margin;
         if gap >= 0.0 {
             continue;
@@ -111,12 +114,12 @@ fn jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let start = y_start[k].xyz;
     let free_move = yk + delta;
-    var next = keep_out(free_move, start, inverse, c.half_thickness);
+    var next = keep_out(yk, free_move, start, inverse, c.half_thickness);
     // The colliders' reaction to the whole move counts as balancing the residual
     // (free_residual in src/solve/jacobi.rs).
     var reaction = next - free_move;
     if any(delta != whole) {
-        reaction = keep_out(yk + whole, start, inverse, c.half_thickness) - (yk + whole);
+        reaction = keep_out(yk, yk + whole, start, inverse, c.half_thickness) - (yk + whole);
     }
     let free = residual + system * reaction;
     if iter.extrapolate != 0u && all(next == free_move) {

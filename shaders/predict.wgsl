@@ -23,7 +23,7 @@ fn use_previous(@builtin(global_invocation_id) gid: vec3<u32>) {
     if i >= params.n {
         return;
     }
-    y[i] = vec4<real>(feasible(i, select(y_start[i], y_star[i], pinned[i] != 0u).xyz), 0.0);
+    y[i] = vec4<real>(feasible(i, y_start[i].xyz, true, select(y_start[i], y_star[i], pinned[i] != 0u).xyz), 0.0);
 }
 
 // y <- y*, kept out of the colliders.
@@ -33,7 +33,7 @@ fn use_prediction(@builtin(global_invocation_id) gid: vec3<u32>) {
     if i >= params.n {
         return;
     }
-    y[i] = vec4<real>(feasible(i, y_star[i].xyz), 0.0);
+    y[i] = vec4<real>(feasible(i, y_start[i].xyz, true, y_star[i].xyz), 0.0);
 }
 
 // The initial iterate: y_t where its variational energy (history[0].x) is below that of y*
@@ -45,7 +45,7 @@ fn choose_initial(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     if ctrl.history[0].x < ctrl.history[0].y {
-        y[i] = vec4<real>(feasible(i, select(y_start[i], y_star[i], pinned[i] != 0u).xyz), 0.0);
+        y[i] = vec4<real>(feasible(i, y_start[i].xyz, true, select(y_start[i], y_star[i], pinned[i] != 0u).xyz), 0.0);
     }
 }
 

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import peridyn
-from conftest import G, make_grid, membrane
+from conftest import G, make_grid, membrane, plate_scene
 
 REQUIRE = os.environ.get("PERIDYN_REQUIRE_GPU") == "1"
 
@@ -413,6 +413,26 @@ def test_rising_sphere_lifts_the_cloth_as_on_cpu(gpu, precision):
     top = -0.15 + 0.6 * t + 0.1  # the sphere's top, 0.07 m above the pins
     # the vertices nearest the pole (grid spacing 26 mm) sit on the sphere within 2 mm of it
     assert top - 2e-3 < mg.positions[:, 2].max() < top + 2e-3
+
+
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+@pytest.mark.parametrize("speed, lift", [(50.0, 0.0), (0.0, 20.0)], ids=["shot", "lifted"])
+def test_moves_through_a_thin_plate_end_on_its_near_side_as_on_cpu(gpu, precision, speed, lift):
+    """A cloth shot at 50 m/s onto a plate 2 mm thick, or a plate rising at 20 m/s into a
+    hanging cloth (each 0.2-0.5 m per step): on the GPU, as on the CPU (to 1e-12 m in f64, 1e-5
+    m in f32), the cloth ends on the plate's top face after every step, half the thickness
+    (0.5 mm) out of it to 1 um in f64 (10 um in f32)."""
+    gpu_precision(gpu, precision)
+    (sg, mg, plate), (sc, mc, _) = (
+        plate_scene(1e-3, speed=speed, lift=lift, backend=b, precision=precision)
+        for b in ("gpu", "cpu"))
+    slack = {"f32": 1e-5, "f64": 1e-6}[precision]
+    for _ in range(5):
+        sg.step()
+        sc.step()
+        d = plate.signed_distance(mg.positions, time=sg.time)
+        assert 0.5e-3 - slack <= d.min() and d.max() <= 0.5e-3 + slack, (d.min(), d.max())
+        assert np.abs(mg.positions - mc.positions).max() < {"f32": 1e-5, "f64": 1e-12}[precision]
 
 
 def test_state_is_read_back_only_on_demand(gpu):

@@ -179,7 +179,12 @@ class Collider:
     membranes stick while the tangential force stays within ``friction`` times the contact
     force, and slide against it otherwise) and ``velocity`` (m/s, constant; the pose given is
     the one at time 0). A solver can also drive any collider by rigid poses
-    (:meth:`Solver.set_collider_pose`)."""
+    (:meth:`Solver.set_collider_pose`).
+
+    Vertices are kept half their membrane's thickness outside, on the side they came from:
+    a move that would cross a collider within one step (a fast impact on a thin plate, or a
+    plate sweeping through a cloth) stops on the near face and slides along it, whatever the
+    speed and thickness."""
 
     def signed_distance(self, points: ArrayLike, time: float = 0.0) -> np.ndarray:
         """Signed distances (m, positive outside) of (n, 3) points at ``time`` (s)."""

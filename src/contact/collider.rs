@@ -2,6 +2,8 @@
 //! constant velocity and a Coulomb friction coefficient. After each global iteration every
 //! free vertex is kept at least half the membrane thickness outside every collider.
 
+mod crossing;
+
 use std::sync::Arc;
 
 use nalgebra::{Matrix3, Vector3};
@@ -310,6 +312,24 @@ impl<T: Real> ColliderModel<T> {
         Some((n, lambda))
     }
 
+    /// The end of the move from `from` (outside; both at the end pose) to `to` to take out of
+    /// the collider: `to`, or where the move would cross the collider, its slide along the
+    /// near side ([`ShapeModel::crossing_end`]).
+    #[inline]
+    pub fn keep_side(&self, from: &Vector3<T>, to: Vector3<T>) -> Vector3<T> {
+        match self.shape.crossing_end(&self.local(from), &self.local(&to)) {
+            Some(end) => self.rotation * end + self.translation,
+            None => to,
+        }
+    }
+
+    /// Where the collider's material point at `x` at the start of the step is at its end,
+    /// `R R_0^T (x - t_0) + t` (m; the inverse of the map in [`Self::displacement`]).
+    #[inline]
+    pub fn carried(&self, x: &Vector3<T>) -> Vector3<T> {
+        self.back_rotation.tr_mul(&(x - self.back_translation))
+    }
+
     /// How far the collider's material point now at `x` moved during the step (m):
     /// `x - (R_0 R^T (x - t) + t_0)`; the same for every point of a translating collider.
     #[inline]
@@ -318,17 +338,42 @@ impl<T: Real> ColliderModel<T> {
     }
 }
 
-/// `x` moved out of every one of `colliders` to at least `margin` (m) from it: back to each
-/// surface by the shortest move in the metric whose inverse is `inverse`
+/// Where a move that a collider pass checks started (m), outside every collider.
+#[derive(Debug, Clone, Copy)]
+pub enum MoveStart<T: Real> {
+    /// A position during the step, relative to the colliders' end poses (an iterate).
+    Now(Vector3<T>),
+    /// The position at the start of the step, relative to the colliders' start poses: each
+    /// collider checks the move from where its motion carried that point
+    /// ([`ColliderModel::carried`]), so a collider sweeping past a vertex is a move too.
+    OfStep(Vector3<T>),
+}
+
+impl<T: Real> MoveStart<T> {
+    /// The start of the move relative to `collider` at its end pose.
+    #[inline]
+    fn seen_by(&self, collider: &ColliderModel<T>) -> Vector3<T> {
+        match self {
+            Self::Now(x) => *x,
+            Self::OfStep(x) => collider.carried(x),
+        }
+    }
+}
+
+/// `x`, the end of a move from `from`, moved out of every one of `colliders` to at least
+/// `margin` (m) from it: kept on the side the move came from ([`ColliderModel::keep_side`]),
+/// back to each surface by the shortest move in the metric whose inverse is `inverse`
 /// ([`ColliderModel::push_out`]; `None`: the identity), then onto it wherever the surface's
 /// curvature left `x` inside (for `None`, the normal projection alone).
 pub fn out_of_colliders<T: Real>(
     colliders: &[ColliderModel<T>],
+    from: MoveStart<T>,
     mut x: Vector3<T>,
     margin: T,
     inverse: Option<&SymmetricMatrix3<T>>,
 ) -> Vector3<T> {
     for c in colliders {
+        x = c.keep_side(&from.seen_by(c), x);
         if let Some(a) = inverse {
             c.push_out(&mut x, a, margin);
         }

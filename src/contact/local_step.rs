@@ -32,7 +32,8 @@
 //!    cap (640 local iterations in a step of the three layers over the ball, 103 with it).
 //!    By default the descent starts from the global step's result plus the last local step's
 //!    move ([`ContactParams::warm_start`]), not from the result alone. After every move a
-//!    vertex is taken out of the colliders (not in the paper) in the metric of its move, so
+//!    vertex is taken out of the colliders (not in the paper), on the side its move came from
+//!    and in the metric of its move, so
 //!    that a membrane pressed onto a collider slides along it to the minimum of eq. 47 on
 //!    its surface (exactly on a plane; on a curved surface up to its curvature over the last
 //!    move, as the surface is linearised where the move ends); the curvature rule's bound then
@@ -581,17 +582,21 @@ fn vertex_toi(pairs: &[Pair], toi: &[Option<f64>], t: &mut Vec<f64>, n: usize) {
     }
 }
 
-/// Keeps vertex `i` at `z_i` out of the colliders: `keep_out(i, z_i, metric)` moves `z_i`
-/// back to their surfaces, by the shortest move in the metric whose inverse is `metric`
-/// (symmetric positive definite; `None`: the identity, a normal projection), and then onto
-/// them wherever the surface's curvature left it inside.
-pub type KeepOut<'a> = dyn Fn(usize, &mut Vector3<f64>, Option<&SymmetricMatrix3<f64>>) + Sync + 'a;
+/// Keeps vertex `i` out of the colliders after a move from `from` (outside them) to `z_i`:
+/// `keep_out(i, from, z_i, metric)` keeps `z_i` on the side of each collider the move came
+/// from, moves it back to their surfaces by the shortest move in the metric whose inverse is
+/// `metric` (symmetric positive definite; `None`: the identity, a normal projection), and then
+/// onto them wherever the surface's curvature left it inside.
+pub type KeepOut<'a> =
+    dyn Fn(usize, &Vector3<f64>, &mut Vector3<f64>, Option<&SymmetricMatrix3<f64>>) + Sync + 'a;
 
 /// Runs the local step: `positions` holds `y^k` on entry and `z` on return; `safe` is
 /// `z^{k-1}`, free of intersections; `fixed` vertices are never moved. `keep_out`
 /// ([`KeepOut`]) takes a vertex out of the colliders after every descent move, in the move's
-/// metric, so the barrier cannot push a membrane into a collider (the final clamp then only
-/// interpolates between positions outside them). `work` holds the buffers between calls.
+/// metric, so the barrier cannot push a membrane into a collider. (The final clamp moves a
+/// vertex back towards its safe position along a straight line, which can cut into a curved
+/// collider by the sagitta of that chord, `L^2 / 8R` for a chord of length `L` on a ball of
+/// radius `R`.) `work` holds the buffers between calls.
 pub fn project(
     safe: &[Vector3<f64>],
     positions: &mut [Vector3<f64>],
@@ -653,7 +658,7 @@ pub fn project(
                 }
                 let before = *zi;
                 *zi += offset;
-                keep_out(i, zi, None);
+                keep_out(i, &before, zi, None);
                 *di = (*zi - before).norm();
                 *ei = *di;
             });
@@ -808,14 +813,14 @@ pub fn project(
                 let take = |damp: f64| {
                     let free = before + proposed * damp;
                     let mut at = free;
-                    keep_out(i, &mut at, metric.as_ref());
+                    keep_out(i, &before, &mut at, metric.as_ref());
                     if let Some(longest) = cap {
                         let (slide, limit) = (at - before, longest * damp);
                         if slide.norm() > limit {
                             // The cut point can be inside even where `free` was not (a chord
                             // of a ball).
                             at = before + slide * (limit / slide.norm());
-                            keep_out(i, &mut at, None);
+                            keep_out(i, &before, &mut at, None);
                         }
                     }
                     at
@@ -1098,7 +1103,7 @@ mod tests {
     use super::*;
 
     /// No colliders to keep out of.
-    const FREE: &KeepOut = &|_, _, _| {};
+    const FREE: &KeepOut = &|_, _, _, _| {};
 
     type Scene = (Vec<Vector3<f64>>, Vec<Vector3<f64>>, Vec<[u32; 3]>);
 
@@ -1485,7 +1490,7 @@ mod tests {
     /// move taken, points against the last move (every iteration here).
     #[test]
     fn a_triangle_pressed_onto_a_collider_by_a_slanted_roof_slides_to_the_balance() {
-        use super::super::{out_of_colliders, Collider, MovingCollider, Shape};
+        use super::super::{out_of_colliders, Collider, MoveStart, MovingCollider, Shape};
         let params = pressing(DescentStep::Curvature, 32);
         let eps_xi = params.eps * params.thickness;
         let floor = MovingCollider::new(Collider::fixed(
@@ -1514,8 +1519,11 @@ mod tests {
             body: &[0, 1],
             self_contact: &[false, false],
         };
-        let keep_out = |_: usize, zi: &mut Vector3<f64>, metric: Option<&SymmetricMatrix3<f64>>| {
-            *zi = out_of_colliders(&floors, *zi, 0.0, metric);
+        let keep_out = |_: usize,
+                        from: &Vector3<f64>,
+                        zi: &mut Vector3<f64>,
+                        metric: Option<&SymmetricMatrix3<f64>>| {
+            *zi = out_of_colliders(&floors, MoveStart::Now(*from), *zi, 0.0, metric);
         };
         let mut work = Workspace::default();
         let stats = project(&safe, &mut z, &fixed, &mesh, &params, &keep_out, &mut work);

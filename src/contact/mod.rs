@@ -20,7 +20,7 @@ mod sweep;
 mod vertex_index;
 
 pub use broad_phase::{BroadPhase, ContactMesh};
-pub use collider::{out_of_colliders, Collider, ColliderModel, Shape, ShapeModel};
+pub use collider::{out_of_colliders, Collider, ColliderModel, MoveStart, Shape, ShapeModel};
 pub use local_step::{project, ContactParams, ContactStats, DescentStep, KeepOut, Workspace};
 pub use motion::MovingCollider;
 pub use pose::{rotation_matrix, Pose};

@@ -6,7 +6,8 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::contact::{
-    out_of_colliders, project, ColliderModel, ContactMesh, ContactParams, ContactStats, Workspace,
+    out_of_colliders, project, ColliderModel, ContactMesh, ContactParams, ContactStats, MoveStart,
+    Workspace,
 };
 use crate::membrane::Membrane;
 use crate::real::Real;
@@ -94,10 +95,16 @@ impl<T: Real> ContactState<T> {
             self_contact: &self.self_contact,
         };
         let rest = &sys.rest;
-        let keep_out = |i: usize, zi: &mut Vector3<f64>, metric: Option<&SymmetricMatrix3<f64>>| {
+        let keep_out = |i: usize,
+                        from: &Vector3<f64>,
+                        zi: &mut Vector3<f64>,
+                        metric: Option<&SymmetricMatrix3<f64>>| {
             let inverse = metric.map(|a| a.map(T::of));
-            let margin = rest.vertices[i].half_thickness;
-            *zi = out_of_colliders(colliders, zi.map(T::of), margin, inverse.as_ref())
+            let (from, margin) = (
+                MoveStart::Now(from.map(T::of)),
+                rest.vertices[i].half_thickness,
+            );
+            *zi = out_of_colliders(colliders, from, zi.map(T::of), margin, inverse.as_ref())
                 .map(|c| c.to_f64());
         };
         let stats = project(

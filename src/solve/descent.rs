@@ -31,7 +31,7 @@
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use crate::contact::out_of_colliders;
+use crate::contact::{out_of_colliders, MoveStart};
 use crate::error::Result;
 use crate::membrane::{
     hessian_diagonal_block, internal_force, vertex_hessian_blocks, Membrane, Preconditioner,
@@ -182,6 +182,7 @@ pub(super) fn descent_iteration<T: Real>(
                 }
                 let margin = rest.vertices[k].half_thickness;
                 *next = keep_out(
+                    &y[k],
                     y[k] + direction[k] * alpha,
                     &y_start[k],
                     &locals[k].inverse,
@@ -191,7 +192,8 @@ pub(super) fn descent_iteration<T: Real>(
                 if let Some(w) = omega {
                     *next = (*next - y_prev[k]) * w + y_prev[k];
                 }
-                *next = out_of_colliders(options.colliders, *next, margin, None);
+                *next =
+                    out_of_colliders(options.colliders, MoveStart::Now(y[k]), *next, margin, None);
                 Update::of(k, &y[k], next)
             })
             .reduce(|| Update::NONE, Update::merge);

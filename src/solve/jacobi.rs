@@ -480,6 +480,7 @@ fn finish_vertex<T: Real>(
     let margin = sys.rest.vertices[k].half_thickness;
     let free_move = sys.y[k] + delta * alpha;
     *next = keep_out(
+        &sys.y[k],
         free_move,
         &sys.y_start[k],
         &local.inverse,
@@ -569,10 +570,11 @@ fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
     sys.delta_next = scratch;
 }
 
-/// Keeps a move out of the colliders in the metric of its system matrix `D`, with Coulomb
-/// friction.
+/// Keeps a move from `from` (the iterate, outside the colliders) to `y` out of the colliders
+/// in the metric of its system matrix `D`, with Coulomb friction.
 ///
-/// Where `y` would end inside a collider (closer than `margin`), it moves along `D^-1 n`
+/// A move that would cross a collider ends on the side it came from instead
+/// ([`ColliderModel::keep_side`]). Where `y` would end inside a collider (closer than `margin`), it moves along `D^-1 n`
 /// instead of `n` ([`ColliderModel::push_out`]): it solves `min 1/2 d^T D d - r^T d` on the
 /// tangent plane of the contact, with the normal reaction `lambda = -gap / (n . D^-1 n)`
 /// (N s^2). A Euclidean projection
@@ -586,6 +588,7 @@ fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
 /// otherwise (sliding).
 #[inline]
 pub(super) fn keep_out<T: Real>(
+    from: &Vector3<T>,
     mut y: Vector3<T>,
     start: &Vector3<T>,
     inverse: &SymmetricMatrix3<T>,
@@ -593,6 +596,7 @@ pub(super) fn keep_out<T: Real>(
     colliders: &[ColliderModel<T>],
 ) -> Vector3<T> {
     for c in colliders {
+        y = c.keep_side(from, y);
         let Some((n, reaction)) = c.push_out(&mut y, inverse, margin) else {
             continue;
         };
@@ -668,6 +672,7 @@ pub(super) fn whole_move_reaction<T: Real>(
 ) -> Vector3<T> {
     let whole = sys.y[k] + delta;
     keep_out(
+        &sys.y[k],
         whole,
         &sys.y_start[k],
         &local.inverse,

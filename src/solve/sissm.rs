@@ -27,7 +27,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::contact::{out_of_colliders, Collider, ColliderModel, MovingCollider, Pose};
+use crate::contact::{out_of_colliders, Collider, ColliderModel, MoveStart, MovingCollider, Pose};
 use crate::error::{invalid, Error, Result};
 use crate::membrane::{Membrane, Preconditioner};
 use crate::real::Real;
@@ -404,15 +404,17 @@ fn initial_guess<T: Real>(
 }
 
 /// Projects the free vertices of the iterate `y` out of the colliders (a start outside every
-/// collider, so that the residual there measures a feasible state).
+/// collider, so that the residual there measures a feasible state), on the side of each that
+/// the vertex was on at the start of the step (`y_t`, carried by the collider's motion).
 fn keep_feasible<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>]) {
     if colliders.is_empty() {
         return;
     }
-    let (pinned, rest) = (&sys.pinned, &sys.rest);
+    let (pinned, rest, start) = (&sys.pinned, &sys.rest, &sys.y_start);
     sys.y.par_iter_mut().enumerate().for_each(|(k, y)| {
         if !pinned[k] {
-            *y = out_of_colliders(colliders, *y, rest.vertices[k].half_thickness, None);
+            let from = MoveStart::OfStep(start[k]);
+            *y = out_of_colliders(colliders, from, *y, rest.vertices[k].half_thickness, None);
         }
     });
 }
@@ -425,7 +427,8 @@ fn project_colliders<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>
         .enumerate()
         .map(|(k, next)| {
             if !pinned[k] {
-                *next = out_of_colliders(colliders, *next, rest.vertices[k].half_thickness, None);
+                let (from, margin) = (MoveStart::Now(y[k]), rest.vertices[k].half_thickness);
+                *next = out_of_colliders(colliders, from, *next, margin, None);
             }
             Update::of(k, &y[k], next)
         })
