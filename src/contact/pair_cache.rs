@@ -108,6 +108,9 @@ pub(super) struct PairCache {
     reference: Vec<Vector3<f64>>,
     /// Bodies of the mesh the lists were built for.
     bodies: usize,
+    /// The barrier's reach the lists were built for (m): the limits, skins and region skins
+    /// all grow with it, so another reach forces a build.
+    built_reach: f64,
     /// `R_i` per vertex: how far it may stray from its regions' common motions since the
     /// build before the lists must be rebuilt (m).
     skin: Vec<f64>,
@@ -193,7 +196,7 @@ impl PairCache {
         reach: f64,
         live: &mut Vec<Pair>,
     ) -> Renewal {
-        let fits = self.fits(mesh, safe.len());
+        let fits = self.fits(mesh, safe.len()) && self.built_reach == reach;
         if fits {
             self.measure_motion(safe, target);
         }
@@ -513,6 +516,7 @@ impl PairCache {
         self.reference.clear();
         self.reference.extend_from_slice(safe);
         self.bodies = mesh.self_contact.len();
+        self.built_reach = reach;
         self.measure_motion(safe, target);
         let finite = |v: f64| if v.is_nan() { f64::INFINITY } else { v };
         let (shift, vertex_body, regions) = (&self.shift, &self.vertex_body, &self.regions);
@@ -1360,6 +1364,38 @@ pub(super) mod tests {
         assert!(
             builds[0] && builds[1..=first_within].contains(&true),
             "builds {builds:?}, pairs within reach {within:?}"
+        );
+    }
+
+    /// Two sheets 5 cm apart at rest, first with a reach of 2 cm (no pair across is stored),
+    /// then with a reach of 8 cm (as after `Solver.set_params`): the lists are built afresh,
+    /// and every pair across that a brute-force search finds within the new reach is live.
+    #[test]
+    fn a_longer_reach_renews_the_build() {
+        let side = 6u32;
+        let n = side * side;
+        let sheets = TestMesh::two_sheets(side, 0.05);
+        let (mesh, safe) = (sheets.mesh(), sheets.positions.clone());
+        let (_, every) = brute_force_pairs(&mesh, &safe);
+        let across = |p: &Pair| (p.v[0] < n) != (p.v[3] < n);
+        let allowance = vec![1e-3; safe.len()];
+        let (mut cache, mut live) = (PairCache::default(), Vec::new());
+        cache.live_pairs(&safe, &safe, &allowance, &mesh, 0.02, &mut live);
+        assert!(!cache.pairs.iter().any(|(p, _)| across(p)));
+        let renewal = cache.live_pairs(&safe, &safe, &allowance, &mesh, 0.08, &mut live);
+        assert_eq!(renewal, Renewal::Built);
+        let wanted: Vec<Pair> = every
+            .iter()
+            .copied()
+            .filter(|p| across(p) && p.closest(&safe).separation.norm() < 0.08)
+            .collect();
+        let missed = wanted.iter().filter(|p| !live.contains(p)).count();
+        assert!(wanted.len() > 100, "{} pairs across", wanted.len());
+        assert_eq!(
+            missed,
+            0,
+            "{missed} of {} pairs across missed",
+            wanted.len()
         );
     }
 
