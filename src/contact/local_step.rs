@@ -1345,6 +1345,10 @@ mod tests {
         let mut kept = moved.clone();
         let stats = project(&first, &mut kept, &fixed, &mesh, &params, FREE, &mut work);
         assert!(stats.active_pairs > 0);
+        // The CCD's distances at the safe positions are this local step's, kept list or not.
+        for (p, &d) in work.live.pairs.iter().zip(&work.live.start) {
+            assert_eq!(d, p.closest(&first).separation.norm());
+        }
         assert_push_from_every_pair(&mesh, &first, &kept, &params, &work);
         let mut fresh = moved.clone();
         project(
@@ -1376,6 +1380,69 @@ mod tests {
         assert_eq!(stats.live_refreshes, 1, "{stats:?}");
         let (stats, filtered) = shifted_local_step(12, 4);
         assert!(filtered && stats.live_refreshes >= 1, "{stats:?}");
+    }
+
+    /// Two parallel grids `reach + 1.02 A` apart, the upper one's vertices with the allowance
+    /// `A` = 2 mm and the lower one's a thousandth of it: no pair can come within reach, and
+    /// none is live. The upper grid then shifts down by `0.45 A` (the list is kept), and its
+    /// vertices deviate by
+    /// `0.6 A <= A`: together `1.05 A`, so the local step may look at pairs within reach, and
+    /// [`LivePairs::cover`] must refresh the list (the deviation alone is within the
+    /// allowance). Afterwards every pair a brute-force search finds within reach at the
+    /// nearest positions the step may look at is live.
+    #[test]
+    fn a_kept_list_counts_the_shift_since_its_filter_against_the_allowance() {
+        use super::super::pair_cache::tests::{brute_force_pairs, grid_triangles, two_copies};
+        let (side, spacing, reach, a) = (6_u32, 0.01, 0.005, 0.002);
+        let grid = |height: f64| {
+            (0..side * side).map(move |v| {
+                let (i, j) = (f64::from(v % side), f64::from(v / side));
+                Vector3::new(spacing * (i + 0.3), spacing * j, height)
+            })
+        };
+        let gap = reach + 1.02 * a;
+        let safe: Vec<_> = grid(0.0).chain(grid(gap)).collect();
+        let n = safe.len() / 2;
+        let (triangles, body) = two_copies(&grid_triangles(side), side * side);
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[false, false],
+        };
+        let mut stats = ContactStats::default();
+        let mut live = LivePairs::default();
+        live.allowance = (0..2 * n)
+            .map(|i| if i < n { a / 1000.0 } else { a })
+            .collect();
+        live.deviation = vec![0.0; 2 * n];
+        live.filter(&safe, &safe, &mesh, reach, &mut stats);
+        assert!(live.pairs.is_empty(), "{} pairs live", live.pairs.len());
+
+        let shift = 0.45 * a;
+        let shifted: Vec<_> = grid(0.0).chain(grid(gap - shift)).collect();
+        live.start(&shifted, &shifted, a / 1000.0, &mesh, reach, &mut stats);
+        assert_eq!(stats.live_refreshes, 1, "the list is kept: {stats:?}");
+        assert_eq!(live.filtered_safe, safe);
+
+        let deviation = 0.6 * a;
+        for e in &mut live.deviation[n..] {
+            *e = deviation;
+        }
+        assert!(live.cover(&shifted, &shifted, &mesh, reach, &mut stats));
+        let nearest: Vec<_> = grid(0.0).chain(grid(gap - shift - deviation)).collect();
+        let (_, every) = brute_force_pairs(&mesh, &nearest);
+        let within: Vec<_> = every
+            .iter()
+            .filter(|p| p.closest(&nearest).separation.norm() < reach)
+            .collect();
+        assert!(within.len() > 50, "{} pairs within reach", within.len());
+        let missed = within.iter().filter(|p| !live.pairs.contains(p)).count();
+        assert_eq!(
+            missed,
+            0,
+            "{missed} of {} pairs within reach not live",
+            within.len()
+        );
     }
 
     /// Pressed onto a grid of parallel edges (aligned with it, or half a spacing off), a grid
