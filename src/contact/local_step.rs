@@ -1410,11 +1410,13 @@ mod tests {
             self_contact: &[false, false],
         };
         let mut stats = ContactStats::default();
-        let mut live = LivePairs::default();
-        live.allowance = (0..2 * n)
-            .map(|i| if i < n { a / 1000.0 } else { a })
-            .collect();
-        live.deviation = vec![0.0; 2 * n];
+        let mut live = LivePairs {
+            allowance: (0..2 * n)
+                .map(|i| if i < n { a / 1000.0 } else { a })
+                .collect(),
+            deviation: vec![0.0; 2 * n],
+            ..LivePairs::default()
+        };
         live.filter(&safe, &safe, &mesh, reach, &mut stats);
         assert!(live.pairs.is_empty(), "{} pairs live", live.pairs.len());
 
