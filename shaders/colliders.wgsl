@@ -85,11 +85,6 @@ fn shape_normal(k: Collider, x: vec3<real>) -> vec3<real> {
     return any_orthogonal_unit(unit_or_z(k.c - k.a)); // kernel.wgsl
 }
 
-// Signed distance (m) of the collider at the end of the step.
-fn collider_distance(k: Collider, x: vec3<real>) -> real {
-    return shape_distance(k, x - k.offset);
-}
-
 // Unit outward normal of the collider at the end of the step.
 fn collider_normal(k: Collider, x: vec3<real>) -> vec3<real> {
     return shape_normal(k, x - k.offset);
@@ -113,14 +108,18 @@ fn collider_project(k: Collider, x: vec3<real>, margin: real) -> vec3<real> {
 const TRACE_STEPS: u32 = 64u;
 const TRACE_TOLERANCE: real = 1e-3;
 
-// The end of the move from `origin` to `to` (local points) to take out of the shape: `to`, unless
-// its path reaches the surface at e and `to` is not inside on that side (the normal at `to`
-// within 90 degrees of the normal n at e); then e + (I - n n^T)(to - e) where that is outside,
-// else e.
-fn shape_keep_side(k: Collider, origin: vec3<real>, to: vec3<real>) -> vec3<real> {
-    let start = shape_distance(k, origin);
+// The end of the move from `origin` to `to` (local points; `distance` is the signed distance at
+// `to`) to take out of the shape: `to`, at once where `to` is farther from the surface than it
+// moved, or unless its path reaches the surface at e and `to` is not inside on that side (the
+// normal at `to` within 90 degrees of the normal n at e); then e + (I - n n^T)(to - e) where
+// that is outside, else e.
+fn shape_keep_side(k: Collider, origin: vec3<real>, to: vec3<real>, distance: real) -> vec3<real> {
     let path = to - origin;
     let len = length(path);
+    if distance >= len {
+        return to;
+    }
+    let start = shape_distance(k, origin);
     if !(start > 0.0 && len > start) {
         return to;
     }
@@ -155,7 +154,7 @@ fn shape_keep_side(k: Collider, origin: vec3<real>, to: vec3<real>) -> vec3<real
         entry = origin + direction * along;
     }
     let n = shape_normal(k, entry);
-    if shape_distance(k, to) < 0.0 && dot(shape_normal(k, to), n) > 0.0 {
+    if distance < 0.0 && dot(shape_normal(k, to), n) > 0.0 {
         return to;
     }
     let rest = to - entry;
@@ -167,14 +166,15 @@ fn shape_keep_side(k: Collider, origin: vec3<real>, to: vec3<real>) -> vec3<real
 }
 
 // The end of the move from `origin` to `to` (at the end of the step) kept on the side of the
-// collider the move came from.
-fn collider_keep_side(k: Collider, origin: vec3<real>, to: vec3<real>) -> vec3<real> {
+// collider the move came from (xyz), and its signed distance (w).
+fn collider_keep_side(k: Collider, origin: vec3<real>, to: vec3<real>) -> vec4<real> {
     let local_to = to - k.offset;
-    let end = shape_keep_side(k, origin - k.offset, local_to);
+    let distance = shape_distance(k, local_to);
+    let end = shape_keep_side(k, origin - k.offset, local_to, distance);
     if all(end == local_to) {
-        return to;
+        return vec4<real>(to, distance);
     }
-    return end + k.offset;
+    return vec4<real>(end + k.offset, shape_distance(k, end));
 }
 
 // Vertex i at x, the end of a move from `origin` (outside the colliders), kept outside every
@@ -191,7 +191,7 @@ fn feasible(i: u32, origin: vec3<real>, of_step: bool, x: vec3<real>) -> vec3<re
             if of_step {
                 start += k.displacement;
             }
-            out = collider_project(k, collider_keep_side(k, start, out), margin);
+            out = collider_project(k, collider_keep_side(k, start, out).xyz, margin);
         }
     }
     return out;

@@ -40,8 +40,9 @@ fn keep_out(origin: vec3<real>, moved: vec3<real>, start: vec3<real>, inverse: m
     var y = moved;
     for (var c = 0u; c < params.n_colliders; c++) {
         let k = colliders[c];
-        y = collider_keep_side(k, origin, y);
-        let gap = collider_distance(k, y) - margin;
+        let kept = collider_keep_side(k, origin, y);
+        y = kept.xyz;
+        let gap = kept.w - margin;
         if gap >= 0.0 {
             continue;
         }

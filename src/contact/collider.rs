@@ -281,7 +281,8 @@ impl<T: Real> ColliderModel<T> {
         self.rotation * self.shape.project(self.local(&x), margin) + self.translation
     }
 
-    /// Moves `x`, when it is less than `margin` outside, back to the collider's surface
+    /// Moves `x`, when it is less than `margin` outside (`distance`: its signed distance, m),
+    /// back to the collider's surface
     /// linearised at `x` (offset by `margin`) by the shortest move in the metric `A^-1`, where
     /// `inverse` is `A` (symmetric positive definite): `x += lambda A n` with
     /// `lambda = -gap / (n . A n)`, `gap = d(x) - margin` (m) and `n` the outward normal.
@@ -294,10 +295,11 @@ impl<T: Real> ColliderModel<T> {
     pub fn push_out(
         &self,
         x: &mut Vector3<T>,
+        distance: T,
         inverse: &SymmetricMatrix3<T>,
         margin: T,
     ) -> Option<(Vector3<T>, T)> {
-        let gap = self.signed_distance(x) - margin;
+        let gap = distance - margin;
         if gap >= T::zero() {
             return None;
         }
@@ -313,13 +315,24 @@ impl<T: Real> ColliderModel<T> {
     }
 
     /// The end of the move from `from` (outside; both at the end pose) to `to` to take out of
-    /// the collider: `to`, or where the move would cross the collider, its slide along the
-    /// near side ([`ShapeModel::crossing_end`]).
+    /// the collider, and its signed distance (m): `to`, or where the move would cross the
+    /// collider, its slide along the near side ([`ShapeModel::crossing_end`]).
     #[inline]
-    pub fn keep_side(&self, from: &Vector3<T>, to: Vector3<T>) -> Vector3<T> {
-        match self.shape.crossing_end(&self.local(from), &self.local(&to)) {
-            Some(end) => self.rotation * end + self.translation,
-            None => to,
+    pub fn keep_side(&self, from: &Vector3<T>, to: Vector3<T>) -> (Vector3<T>, T) {
+        let local_to = self.local(&to);
+        let distance = self.shape.signed_distance(&local_to);
+        if crossing::surely_outside(distance, &(to - from)) {
+            return (to, distance);
+        }
+        match self
+            .shape
+            .crossing_end(&self.local(from), &local_to, distance)
+        {
+            Some(end) => (
+                self.rotation * end + self.translation,
+                self.shape.signed_distance(&end),
+            ),
+            None => (to, distance),
         }
     }
 
@@ -373,9 +386,13 @@ pub fn out_of_colliders<T: Real>(
     inverse: Option<&SymmetricMatrix3<T>>,
 ) -> Vector3<T> {
     for c in colliders {
-        x = c.keep_side(&from.seen_by(c), x);
+        let (end, distance) = c.keep_side(&from.seen_by(c), x);
+        x = end;
+        if distance >= margin {
+            continue;
+        }
         if let Some(a) = inverse {
-            c.push_out(&mut x, a, margin);
+            c.push_out(&mut x, distance, a, margin);
         }
         x = c.project(x, margin);
     }
@@ -590,7 +607,7 @@ mod tests {
                 };
                 let gap = model.signed_distance(&x) - margin;
                 let mut moved = x;
-                let out = model.push_out(&mut moved, &inverse, margin);
+                let out = model.push_out(&mut moved, model.signed_distance(&x), &inverse, margin);
                 if gap >= 0.0 {
                     assert!(out.is_none());
                     assert_eq!(moved, x);

@@ -596,8 +596,9 @@ pub(super) fn keep_out<T: Real>(
     colliders: &[ColliderModel<T>],
 ) -> Vector3<T> {
     for c in colliders {
-        y = c.keep_side(from, y);
-        let Some((n, reaction)) = c.push_out(&mut y, inverse, margin) else {
+        let (end, distance) = c.keep_side(from, y);
+        y = end;
+        let Some((n, reaction)) = c.push_out(&mut y, distance, inverse, margin) else {
             continue;
         };
         if c.friction > T::zero() {

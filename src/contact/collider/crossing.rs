@@ -19,55 +19,86 @@ const TRACE_STEPS: usize = 64;
 /// value at the start of the path.
 const TRACE_TOLERANCE: f64 = 1e-3;
 
+/// Whether a straight path stays outside because its end is farther from the surface
+/// (`distance`, m) than the path is long (`path`, m): the distance changes by at most the
+/// length moved. The common case, so it avoids a square root. False for a NaN distance.
+#[inline(always)]
+pub(super) fn surely_outside<T: Real>(distance: T, path: &Vector3<T>) -> bool {
+    distance >= T::zero() && distance * distance >= path.norm_squared()
+}
+
 impl<T: Real> ShapeModel<T> {
-    /// The first point where the straight path from `from` to `to` reaches the surface, by
-    /// sphere tracing (each step as long as the signed distance where it starts, which cannot
-    /// overshoot the surface of an exact distance field); `None` where the path stays outside,
-    /// or where `from` is not outside (no side to keep). Every analytic shape is convex, so
-    /// the distance along a line is a convex function: once a step does not bring the path
-    /// closer, the rest of it stays out (a path past a ball, or along a plane).
-    pub fn first_touch(&self, from: &Vector3<T>, to: &Vector3<T>) -> Option<Vector3<T>> {
+    /// The first point where the straight path from `from` to `to` (`distance`: the signed
+    /// distance at `to`, m) reaches the surface, by sphere tracing (each step as long as the
+    /// signed distance where it starts, which cannot overshoot the surface of an exact distance
+    /// field); `None` where the path stays outside, or where `from` is not outside (no side to
+    /// keep). Two bounds end the trace early. The distance changes by at most the length
+    /// moved, so the rest of the path stays outside where it is shorter than the distances at
+    /// its two ends together (a slide along a surface, or a path that comes close and leaves
+    /// again). And every analytic shape is convex, so the distance along a line is a convex
+    /// function: once a step does not bring the path closer, the rest of it stays out.
+    pub fn first_touch(
+        &self,
+        from: &Vector3<T>,
+        to: &Vector3<T>,
+        distance: T,
+    ) -> Option<Vector3<T>> {
         let start = self.signed_distance(from);
-        let path = to - from;
-        let length = path.norm();
-        // NaN-safe: a point not surely outside has no side.
-        if !(start > T::zero() && length > start) {
+        // A point not surely outside (NaN included) has no side.
+        if start.partial_cmp(&T::zero()) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
+        let path = to - from;
+        let length = path.norm();
         let direction = path / length;
+        let beyond = if distance > T::zero() {
+            distance
+        } else {
+            T::zero()
+        };
         let close = start * T::of(TRACE_TOLERANCE);
         let convex = !matches!(self, Self::Mesh(_));
-        let (mut along, mut last) = (start, start);
+        let (mut along, mut last) = (T::zero(), start);
         for _ in 0..TRACE_STEPS {
-            if along >= length {
+            if length - along < last + beyond {
                 return None;
             }
+            along += last;
             let x = from + direction * along;
-            let distance = self.signed_distance(&x);
-            if distance <= close {
+            let here = self.signed_distance(&x);
+            if here <= close {
                 return Some(x);
             }
-            if convex && distance >= last {
+            if convex && here >= last {
                 return None;
             }
-            along += distance;
-            last = distance;
+            last = here;
         }
-        (along < length).then(|| from + direction * along)
+        Some(from + direction * along)
     }
 
-    /// The end of the move from `from` (outside) to `to` to take out of the shape instead of
-    /// `to`, so that the nearest surface is on the side the move came from; `None`: `to`
-    /// itself. That is every `to` whose path stays outside, or that ends inside on the side it
-    /// entered (the normal at `to` within 90 degrees of the normal `n` at the entry point `e`).
+    /// The end of the move from `from` (outside) to `to` (`distance`: its signed distance, m)
+    /// to take out of the shape instead of `to`, so that the nearest surface is on the side
+    /// the move came from; `None`: `to` itself. That is every `to` whose path stays outside
+    /// (at once where `to` is farther from the surface than from `from`: the distance changes
+    /// by at most the length moved), or that ends inside on the side it entered (the normal at
+    /// `to` within 90 degrees of the normal `n` at the entry point `e`).
     /// Any other `to` crossed the solid, or entered and left it: it is replaced by its slide
     /// along the tangent plane at the entry, `e + (I - n n^T)(to - e)`. That plane separates a
     /// convex shape from the free side, so the slide is outside and keeps the move's
     /// tangential part; where it is not outside (a concave mesh), the entry point itself.
-    pub fn crossing_end(&self, from: &Vector3<T>, to: &Vector3<T>) -> Option<Vector3<T>> {
-        let entry = self.first_touch(from, to)?;
+    pub fn crossing_end(
+        &self,
+        from: &Vector3<T>,
+        to: &Vector3<T>,
+        distance: T,
+    ) -> Option<Vector3<T>> {
+        if surely_outside(distance, &(to - from)) {
+            return None;
+        }
+        let entry = self.first_touch(from, to, distance)?;
         let n = self.normal(&entry);
-        if self.signed_distance(to) < T::zero() && self.normal(to).dot(&n) > T::zero() {
+        if distance < T::zero() && self.normal(to).dot(&n) > T::zero() {
             return None;
         }
         let rest = to - entry;
@@ -123,8 +154,8 @@ mod tests {
                 let reach = if rng.uniform() < 0.5 { 0.5 } else { 0.005 };
                 let to =
                     from + rng.vector() * reach * rng.uniform() - normal * 0.03 * rng.uniform();
-                let end = model.crossing_end(&from, &to);
-                let Some(entry) = model.first_touch(&from, &to) else {
+                let end = model.crossing_end(&from, &to, model.signed_distance(&to));
+                let Some(entry) = model.first_touch(&from, &to, model.signed_distance(&to)) else {
                     assert_eq!(end, None, "{name}: a move that stays outside is kept");
                     missed += 1;
                     continue;
@@ -176,8 +207,9 @@ mod tests {
         .unwrap()
         .to_real::<f64>();
         let from = Vector3::new(0.0, 0.0, 0.0025);
+        let to = Vector3::new(0.1, -0.05, -0.2);
         let end = plate
-            .crossing_end(&from, &Vector3::new(0.1, -0.05, -0.2))
+            .crossing_end(&from, &to, plate.signed_distance(&to))
             .unwrap();
         // On the near face to the trace's tolerance (1e-3 of the start's 0.5 mm).
         assert!(
