@@ -278,7 +278,19 @@ impl<T: Real> ColliderModel<T> {
     /// along the normal.
     #[inline]
     pub fn project(&self, x: Vector3<T>, margin: T) -> Vector3<T> {
-        self.rotation * self.shape.project(self.local(&x), margin) + self.translation
+        let local = self.local(&x);
+        let distance = self.shape.signed_distance(&local);
+        self.project_at(x, local, distance, margin)
+    }
+
+    /// [`Self::project`] of `x` (`local`: it in the shape's frame) whose signed distance
+    /// `distance` (m) is known.
+    #[inline]
+    fn project_at(&self, x: Vector3<T>, local: Vector3<T>, distance: T, margin: T) -> Vector3<T> {
+        if distance >= margin {
+            return x;
+        }
+        self.rotation * self.shape.project_at(local, distance, margin) + self.translation
     }
 
     /// Moves `x`, when it is less than `margin` outside (`distance`: its signed distance, m),
@@ -319,10 +331,17 @@ impl<T: Real> ColliderModel<T> {
     /// collider, its slide along the near side ([`ShapeModel::crossing_end`]).
     #[inline]
     pub fn keep_side(&self, from: &Vector3<T>, to: Vector3<T>) -> (Vector3<T>, T) {
+        let (end, _, distance) = self.kept_side(from, to);
+        (end, distance)
+    }
+
+    /// [`Self::keep_side`], with the end in the shape's frame too.
+    #[inline]
+    fn kept_side(&self, from: &Vector3<T>, to: Vector3<T>) -> (Vector3<T>, Vector3<T>, T) {
         let local_to = self.local(&to);
         let distance = self.shape.signed_distance(&local_to);
         if crossing::surely_outside(distance, &(to - from)) {
-            return (to, distance);
+            return (to, local_to, distance);
         }
         match self
             .shape
@@ -330,9 +349,10 @@ impl<T: Real> ColliderModel<T> {
         {
             Some(end) => (
                 self.rotation * end + self.translation,
+                end,
                 self.shape.signed_distance(&end),
             ),
-            None => (to, distance),
+            None => (to, local_to, distance),
         }
     }
 
@@ -386,15 +406,17 @@ pub fn out_of_colliders<T: Real>(
     inverse: Option<&SymmetricMatrix3<T>>,
 ) -> Vector3<T> {
     for c in colliders {
-        let (end, distance) = c.keep_side(&from.seen_by(c), x);
-        x = end;
-        if distance >= margin {
-            continue;
-        }
-        if let Some(a) = inverse {
-            c.push_out(&mut x, distance, a, margin);
-        }
-        x = c.project(x, margin);
+        let (end, local, distance) = c.kept_side(&from.seen_by(c), x);
+        x = match inverse {
+            None => c.project_at(end, local, distance, margin),
+            Some(a) => {
+                let mut pushed = end;
+                match c.push_out(&mut pushed, distance, a, margin) {
+                    Some(_) => c.project(pushed, margin),
+                    None => c.project_at(end, local, distance, margin),
+                }
+            }
+        };
     }
     x
 }
@@ -493,10 +515,17 @@ impl<T: Real> ShapeModel<T> {
     /// gradient to its `margin` level ([`SdfGrid::project`]).
     #[inline]
     pub fn project(&self, x: Vector3<T>, margin: T) -> Vector3<T> {
+        self.project_at(x, self.signed_distance(&x), margin)
+    }
+
+    /// [`Self::project`] of `x` whose signed distance `distance` (m) is known (a mesh's
+    /// projection evaluates its own field).
+    #[inline]
+    pub fn project_at(&self, x: Vector3<T>, distance: T, margin: T) -> Vector3<T> {
         if let Self::Mesh(grid) = self {
             return grid.project(wide(&x), margin.to_f64()).map(T::of);
         }
-        let gap = self.signed_distance(&x) - margin;
+        let gap = distance - margin;
         if gap < T::zero() {
             x - self.normal(&x) * gap
         } else {
