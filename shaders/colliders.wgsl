@@ -101,54 +101,58 @@ fn collider_project(k: Collider, x: vec3<real>, margin: real) -> vec3<real> {
     return x;
 }
 
-// A move that would cross a collider in one go (src/contact/collider/crossing.rs, same steps
-// in the same order): sphere tracing along the straight path from `origin` (outside) to `to`, at
-// most TRACE_STEPS steps each as long as the signed distance, stopping where it falls to
-// TRACE_TOLERANCE of its value at `origin`.
+// A move that would cross a collider in one go (src/contact/collider/crossing.rs, the same
+// decisions in the same order; every shape here is an exact, convex distance): sphere tracing
+// along the straight path from `origin` (outside) to `to`, at most TRACE_STEPS steps each as
+// long as the signed distance, touching where it falls to TRACE_TOLERANCE of its value at
+// `origin`, and ending early where the rest of the path is shorter than the distances at its
+// two ends together, or where a step brings the path no closer.
 const TRACE_STEPS: u32 = 64u;
 const TRACE_TOLERANCE: real = 1e-3;
 
 // The end of the move from `origin` to `to` (local points; `distance` is the signed distance at
-// `to`) to take out of the shape: `to`, at once where `to` is farther from the surface than it
-// moved, or unless its path reaches the surface at e and `to` is not inside on that side (the
-// normal at `to` within 90 degrees of the normal n at e); then e + (I - n n^T)(to - e) where
-// that is outside, else e.
+// `to`) to take out of the shape: `to`, unless its path reaches the surface at e and `to` is not
+// inside on that side (the normal at `to` within 90 degrees of the normal n at e); then
+// e + (I - n n^T)(to - e) where that is outside, else e.
 fn shape_keep_side(k: Collider, origin: vec3<real>, to: vec3<real>, distance: real) -> vec3<real> {
     let path = to - origin;
-    let len = length(path);
-    if distance >= len {
+    if distance >= 0.0 && distance * distance >= dot(path, path) {
         return to;
     }
     let start = shape_distance(k, origin);
-    if !(start > 0.0 && len > start) {
+    if !(start > 0.0) {
+        return to;
+    }
+    let len = length(path);
+    if !(len > 0.0) {
         return to;
     }
     let direction = path / len;
+    let beyond = select(0.0, distance, distance > 0.0);
     let close = start * TRACE_TOLERANCE;
-    var along = start;
+    var along: real = 0.0;
     var last = start;
     var touched = false;
     var entry = to;
     for (var s = 0u; s < TRACE_STEPS; s++) {
-        if along >= len {
+        if len - along < last + beyond {
             return to;
         }
+        along += last;
         let x = origin + direction * along;
-        let d = shape_distance(k, x);
-        if d <= close {
+        let here = shape_distance(k, x);
+        if here <= close {
             touched = true;
             entry = x;
             break;
         }
-        // Every shape here is convex: a step that does not bring the path closer ends it.
-        if d >= last {
+        if here >= last {
             return to;
         }
-        along += d;
-        last = d;
+        last = here;
     }
     if !touched {
-        if along >= len {
+        if len - along < last + beyond {
             return to;
         }
         entry = origin + direction * along;

@@ -153,17 +153,18 @@ def membrane(verts, tris, *, s0=1e4, material=None, thickness=1e-3, density=200.
                             neighbors=neighbors)
 
 
-def plate_scene(half, *, speed=0.0, lift=0.0, contact=False, backend="cpu", precision="f64"):
+def plate_scene(half, *, speed=0.0, slant=0.0, lift=0.0, contact=False, backend="cpu",
+                precision="f64"):
     """A free 8 x 8 cloth (0.2 m, 1 mm thick) 5 cm above a 0.6 m box plate ``2 half`` thick (m),
-    the cloth shot down at ``speed`` (m/s) and the plate moving up at ``lift`` (m/s); dt = 10
-    ms, so a step at 5 m/s or more moves the cloth, or the plate, past the plate's thickness.
-    Returns the solver, the membrane and the plate."""
+    the cloth shot at ``speed`` (m/s) down and ``slant`` (rad) towards +x, and the plate moving
+    up at ``lift`` (m/s); dt = 10 ms, so a step at 5 m/s or more moves the cloth, or the plate,
+    past the plate's thickness. Returns the solver, the membrane and the plate."""
     v, t = make_grid(8, 8, 0.2, 0.2)
     v[:, :2] -= 0.1
     v[:, 2] = 0.05
     m = peridyn.Membrane(v, t, thickness=1e-3, density=300.0,
                          material=peridyn.StretchA3(s0=2e4), bending=1e-6)
-    m.velocities = np.tile([0.0, 0.0, -speed], (len(v), 1))
+    m.velocities = np.tile([speed * np.sin(slant), 0.0, -speed * np.cos(slant)], (len(v), 1))
     extra = {"contact": peridyn.Contact(thickness=1e-3)} if contact else {}
     s = peridyn.Solver(dt=1e-2, tol=1e-4, max_iters=100, backend=backend, precision=precision,
                        **extra)

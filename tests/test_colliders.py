@@ -131,3 +131,18 @@ def test_a_fast_plate_lifts_a_cloth_instead_of_passing_through_it():
         assert d.min() >= 0.5e-3 - 1e-9
         assert d.max() <= 0.5e-3 + 1e-6
         assert (m.positions[:, 2] > 20.0 * s.time).all()
+
+
+def test_a_slanted_fast_cloth_lands_on_a_thin_plate_and_slides_along_it():
+    """Shot at 20 m/s, 20 degrees from the normal, at a plate 2 mm thick (0.2 m per step of 10
+    ms, through the plate): it lands on the top face, half the thickness above it, and keeps
+    the move's part along the face (6.8 cm per step, the slide along the tangent plane where
+    the path meets the plate) to 1 %."""
+    slant = np.radians(20.0)
+    s, m, plate = plate_scene(1e-3, speed=20.0, slant=slant)
+    x0 = m.positions[:, 0].mean()
+    s.step()
+    z = m.positions[:, 2]
+    assert z.min() >= 1e-3 + 0.5e-3 - 1e-9 and z.max() <= 1e-3 + 0.5e-3 + 1e-6
+    slid = m.positions[:, 0].mean() - x0
+    assert slid == pytest.approx(20.0 * np.sin(slant) * 1e-2, rel=0.01)

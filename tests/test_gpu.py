@@ -416,18 +416,22 @@ def test_rising_sphere_lifts_the_cloth_as_on_cpu(gpu, precision):
 
 
 @pytest.mark.parametrize("precision", ["f32", "f64"])
-@pytest.mark.parametrize("speed, lift", [(50.0, 0.0), (0.0, 20.0)], ids=["shot", "lifted"])
-def test_moves_through_a_thin_plate_end_on_its_near_side_as_on_cpu(gpu, precision, speed, lift):
-    """A cloth shot at 50 m/s onto a plate 2 mm thick, or a plate rising at 20 m/s into a
-    hanging cloth (each 0.2-0.5 m per step): on the GPU, as on the CPU (to 1e-12 m in f64, 1e-5
-    m in f32), the cloth ends on the plate's top face after every step, half the thickness
-    (0.5 mm) out of it to 1 um in f64 (10 um in f32)."""
+@pytest.mark.parametrize("speed, slant, lift, steps",
+                         [(50.0, 0.0, 0.0, 5), (20.0, 0.35, 0.0, 2), (0.0, 0.0, 20.0, 5)],
+                         ids=["shot", "slanted", "lifted"])
+def test_moves_through_a_thin_plate_end_on_its_near_side_as_on_cpu(gpu, precision, speed, slant,
+                                                                    lift, steps):
+    """A cloth shot at 50 m/s onto a plate 2 mm thick, or at 20 m/s 20 degrees from its normal
+    (it slides along the plate), or a plate rising at 20 m/s into a hanging cloth (each 0.2-0.5
+    m per step): on the GPU, as on the CPU (to 1e-12 m in f64, 1e-5 m in f32), the cloth ends
+    on the plate's top face after every step, half the thickness (0.5 mm) out of it to 1 um in
+    f64 (10 um in f32)."""
     gpu_precision(gpu, precision)
     (sg, mg, plate), (sc, mc, _) = (
-        plate_scene(1e-3, speed=speed, lift=lift, backend=b, precision=precision)
+        plate_scene(1e-3, speed=speed, slant=slant, lift=lift, backend=b, precision=precision)
         for b in ("gpu", "cpu"))
     slack = {"f32": 1e-5, "f64": 1e-6}[precision]
-    for _ in range(5):
+    for _ in range(steps):
         sg.step()
         sc.step()
         d = plate.signed_distance(mg.positions, time=sg.time)

@@ -340,7 +340,7 @@ impl<T: Real> ColliderModel<T> {
     fn kept_side(&self, from: &Vector3<T>, to: Vector3<T>) -> (Vector3<T>, Vector3<T>, T) {
         let local_to = self.local(&to);
         let distance = self.shape.signed_distance(&local_to);
-        if crossing::surely_outside(distance, &(to - from)) {
+        if self.shape.surely_outside(distance, &(to - from)) {
             return (to, local_to, distance);
         }
         match self

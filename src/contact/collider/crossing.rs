@@ -19,24 +19,41 @@ const TRACE_STEPS: usize = 64;
 /// value at the start of the path.
 const TRACE_TOLERANCE: f64 = 1e-3;
 
-/// Whether a straight path stays outside because its end is farther from the surface
-/// (`distance`, m) than the path is long (`path`, m): the distance changes by at most the
-/// length moved. The common case, so it avoids a square root. False for a NaN distance.
-#[inline(always)]
-pub(super) fn surely_outside<T: Real>(distance: T, path: &Vector3<T>) -> bool {
-    distance >= T::zero() && distance * distance >= path.norm_squared()
-}
+/// How much faster than the length moved a shape's signed distance can change along a path:
+/// 1 for an exact distance (every analytic shape); up to `sqrt 3` for a mesh's grid, whose
+/// trilinear interpolation of exact distances at the nodes can be steeper (a cone's tip at a
+/// cell corner). Steps and bounds of the trace are divided by it.
+const MESH_SLOPE: f64 = 1.732_050_807_568_877_2;
 
 impl<T: Real> ShapeModel<T> {
+    /// See [`MESH_SLOPE`].
+    #[inline(always)]
+    fn slope(&self) -> T {
+        match self {
+            Self::Mesh(_) => T::of(MESH_SLOPE),
+            _ => T::one(),
+        }
+    }
+
+    /// Whether a straight path (`path`, m) stays outside because its end is farther from the
+    /// surface (`distance`, m) than the distance can change along it. The common case, so it
+    /// avoids a square root. False for a NaN distance.
+    #[inline(always)]
+    pub(super) fn surely_outside(&self, distance: T, path: &Vector3<T>) -> bool {
+        let reach = self.slope() * distance;
+        distance >= T::zero() && reach * reach >= path.norm_squared()
+    }
+
     /// The first point where the straight path from `from` to `to` (`distance`: the signed
     /// distance at `to`, m) reaches the surface, by sphere tracing (each step as long as the
-    /// signed distance where it starts, which cannot overshoot the surface of an exact distance
-    /// field); `None` where the path stays outside, or where `from` is not outside (no side to
-    /// keep). Two bounds end the trace early. The distance changes by at most the length
-    /// moved, so the rest of the path stays outside where it is shorter than the distances at
-    /// its two ends together (a slide along a surface, or a path that comes close and leaves
-    /// again). And every analytic shape is convex, so the distance along a line is a convex
-    /// function: once a step does not bring the path closer, the rest of it stays out.
+    /// signed distance where it starts, over [`MESH_SLOPE`] for a mesh, which cannot overshoot
+    /// the surface); `None` where the path stays outside, or where `from` is not outside (no
+    /// side to keep). Two bounds end the trace early. The distance changes by at most the
+    /// length moved, so the rest of the path stays outside where it is shorter than the
+    /// distances at its two ends together (a slide along a surface, or a path that comes close
+    /// and leaves again). And every analytic shape is convex, so the distance along a line is
+    /// a convex function: once a step does not bring the path closer, the rest of it stays
+    /// out. A trace that is still open after [`TRACE_STEPS`] steps touches where it stopped.
     pub fn first_touch(
         &self,
         from: &Vector3<T>,
@@ -50,20 +67,27 @@ impl<T: Real> ShapeModel<T> {
         }
         let path = to - from;
         let length = path.norm();
+        // No move, or a non-finite one (caught as a divergence by the solver).
+        if length.partial_cmp(&T::zero()) != Some(std::cmp::Ordering::Greater)
+            || !length.is_finite()
+        {
+            return None;
+        }
         let direction = path / length;
         let beyond = if distance > T::zero() {
             distance
         } else {
             T::zero()
         };
+        let slope = self.slope();
         let close = start * T::of(TRACE_TOLERANCE);
         let convex = !matches!(self, Self::Mesh(_));
         let (mut along, mut last) = (T::zero(), start);
         for _ in 0..TRACE_STEPS {
-            if length - along < last + beyond {
+            if (length - along) * slope < last + beyond {
                 return None;
             }
-            along += last;
+            along += last / slope;
             let x = from + direction * along;
             let here = self.signed_distance(&x);
             if here <= close {
@@ -74,7 +98,7 @@ impl<T: Real> ShapeModel<T> {
             }
             last = here;
         }
-        Some(from + direction * along)
+        ((length - along) * slope >= last + beyond).then(|| from + direction * along)
     }
 
     /// The end of the move from `from` (outside) to `to` (`distance`: its signed distance, m)
@@ -93,7 +117,7 @@ impl<T: Real> ShapeModel<T> {
         to: &Vector3<T>,
         distance: T,
     ) -> Option<Vector3<T>> {
-        if surely_outside(distance, &(to - from)) {
+        if self.surely_outside(distance, &(to - from)) {
             return None;
         }
         let entry = self.first_touch(from, to, distance)?;
@@ -137,8 +161,9 @@ mod tests {
     /// 6 mm rod) to points past them, inside them or beside them, up to 0.5 m long. Whatever the
     /// move, the end taken out of the shape (the crossing end, or `to`) projects to the side
     /// the path entered from: the projection's normal is within 90 degrees of the normal at
-    /// the entry. Moves whose path stays outside keep their end; ends inside on the entry
-    /// side too. Every kind of move occurs.
+    /// the entry. Moves whose path stays outside keep their end, and do stay outside (1000
+    /// points along each); ends inside on the entry side are kept too. Every kind of move
+    /// occurs.
     #[test]
     fn a_move_through_a_thin_shape_is_kept_on_the_side_it_came_from() {
         let mut rng = Rng::new(5);
@@ -150,13 +175,19 @@ mod tests {
                 let seed = rng.vector() * 0.3;
                 let normal = model.normal(&seed);
                 let on = seed - normal * model.signed_distance(&seed);
-                let from = on + normal * (margin * (0.5 + rng.uniform()));
+                let from = on + normal * (margin * (1.0 + 0.5 * rng.uniform()));
                 let reach = if rng.uniform() < 0.5 { 0.5 } else { 0.005 };
                 let to =
                     from + rng.vector() * reach * rng.uniform() - normal * 0.03 * rng.uniform();
                 let end = model.crossing_end(&from, &to, model.signed_distance(&to));
                 let Some(entry) = model.first_touch(&from, &to, model.signed_distance(&to)) else {
                     assert_eq!(end, None, "{name}: a move that stays outside is kept");
+                    // ... and does stay outside (1000 points along it).
+                    for k in 0..=1000 {
+                        let x = from + (to - from) * (f64::from(k) / 1000.0);
+                        let d = model.signed_distance(&x);
+                        assert!(d > 0.0, "{name}: the path from {:?} to {:?} enters at {:?} by {d:e} (start {:e}, end {:e})", from.as_slice(), to.as_slice(), x.as_slice(), model.signed_distance(&from), model.signed_distance(&to));
+                    }
                     missed += 1;
                     continue;
                 };
