@@ -671,6 +671,41 @@ mod tests {
         }
     }
 
+    /// A box turning by 0.4 rad and moving 0.3 m during a step: a point carried from the start
+    /// of the step ([`ColliderModel::carried`]) keeps its signed distance (the motion is rigid),
+    /// and [`ColliderModel::displacement`] at the carried point is the move that carried it.
+    /// The crossing check measures start-of-step positions this way ([`MoveStart::OfStep`]).
+    #[test]
+    fn a_point_carried_by_a_turning_collider_keeps_its_distance() {
+        let turn = |angle: f64| {
+            nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.1, -0.2, 1.0).normalize() * angle)
+                .into_inner()
+        };
+        let box_shape = shapes()[2].clone();
+        let collider = Collider::fixed(box_shape);
+        let start = Pose {
+            rotation: turn(0.1),
+            translation: Vector3::new(0.05, 0.0, -0.02),
+        };
+        let end = Pose {
+            rotation: turn(0.5),
+            translation: Vector3::new(0.2, 0.25, 0.1),
+        };
+        let at_start = ColliderModel::<f64>::new(&collider, &start, &start);
+        let moving = ColliderModel::<f64>::new(&collider, &start, &end);
+        let mut rng = Rng::new(13);
+        for _ in 0..200 {
+            let x = rng.vector() * 0.8;
+            let carried = moving.carried(&x);
+            let (before, after) = (
+                at_start.signed_distance(&x),
+                moving.signed_distance(&carried),
+            );
+            assert!((before - after).abs() < 1e-12, "{before} vs {after}");
+            assert!((moving.displacement(&carried) - (carried - x)).norm() < 1e-12);
+        }
+    }
+
     #[test]
     fn bad_shapes_are_named() {
         assert!(Shape::sphere([0.0; 3], 0.0)
