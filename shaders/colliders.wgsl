@@ -90,12 +90,12 @@ fn collider_normal(k: Collider, x: vec3<real>) -> vec3<real> {
     return shape_normal(k, x - k.offset);
 }
 
-// x itself when it is at least `margin` outside, else the point at distance `margin` along
-// the normal.
-fn collider_project(k: Collider, x: vec3<real>, margin: real) -> vec3<real> {
-    let local = x - k.offset;
-    let gap = shape_distance(k, local) - margin;
+// x itself when it is at least `margin` outside (`distance`: its signed distance), else the
+// point at distance `margin` along the normal (project_at in src/contact/collider.rs).
+fn collider_project(k: Collider, x: vec3<real>, distance: real, margin: real) -> vec3<real> {
+    let gap = distance - margin;
     if gap < 0.0 {
+        let local = x - k.offset;
         return local - shape_normal(k, local) * gap + k.offset;
     }
     return x;
@@ -195,7 +195,8 @@ fn feasible(i: u32, origin: vec3<real>, of_step: bool, x: vec3<real>) -> vec3<re
             if of_step {
                 start += k.displacement;
             }
-            out = collider_project(k, collider_keep_side(k, start, out).xyz, margin);
+            let kept = collider_keep_side(k, start, out);
+            out = collider_project(k, kept.xyz, kept.w, margin);
         }
     }
     return out;

@@ -278,19 +278,17 @@ impl<T: Real> ColliderModel<T> {
     /// along the normal.
     #[inline]
     pub fn project(&self, x: Vector3<T>, margin: T) -> Vector3<T> {
-        let local = self.local(&x);
-        let distance = self.shape.signed_distance(&local);
-        self.project_at(x, local, distance, margin)
+        self.project_at(x, self.signed_distance(&x), margin)
     }
 
-    /// [`Self::project`] of `x` (`local`: it in the shape's frame) whose signed distance
-    /// `distance` (m) is known.
+    /// [`Self::project`] of `x` whose signed distance `distance` (m) is known.
     #[inline]
-    fn project_at(&self, x: Vector3<T>, local: Vector3<T>, distance: T, margin: T) -> Vector3<T> {
+    fn project_at(&self, x: Vector3<T>, distance: T, margin: T) -> Vector3<T> {
         if distance >= margin {
             return x;
         }
-        self.rotation * self.shape.project_at(local, distance, margin) + self.translation
+        let local = self.shape.project_at(self.local(&x), distance, margin);
+        self.rotation * local + self.translation
     }
 
     /// Moves `x`, when it is less than `margin` outside (`distance`: its signed distance, m),
@@ -331,17 +329,11 @@ impl<T: Real> ColliderModel<T> {
     /// collider, its slide along the near side ([`ShapeModel::crossing_end`]).
     #[inline]
     pub fn keep_side(&self, from: &Vector3<T>, to: Vector3<T>) -> (Vector3<T>, T) {
-        let (end, _, distance) = self.kept_side(from, to);
-        (end, distance)
-    }
-
-    /// [`Self::keep_side`], with the end in the shape's frame too.
-    #[inline]
-    fn kept_side(&self, from: &Vector3<T>, to: Vector3<T>) -> (Vector3<T>, Vector3<T>, T) {
         let local_to = self.local(&to);
         let distance = self.shape.signed_distance(&local_to);
+        // The common case, decided without looking at `from`'s side.
         if self.shape.surely_outside(distance, &(to - from)) {
-            return (to, local_to, distance);
+            return (to, distance);
         }
         match self
             .shape
@@ -349,10 +341,9 @@ impl<T: Real> ColliderModel<T> {
         {
             Some(end) => (
                 self.rotation * end + self.translation,
-                end,
                 self.shape.signed_distance(&end),
             ),
-            None => (to, local_to, distance),
+            None => (to, distance),
         }
     }
 
@@ -406,14 +397,14 @@ pub fn out_of_colliders<T: Real>(
     inverse: Option<&SymmetricMatrix3<T>>,
 ) -> Vector3<T> {
     for c in colliders {
-        let (end, local, distance) = c.kept_side(&from.seen_by(c), x);
+        let (end, distance) = c.keep_side(&from.seen_by(c), x);
         x = match inverse {
-            None => c.project_at(end, local, distance, margin),
+            None => c.project_at(end, distance, margin),
             Some(a) => {
                 let mut pushed = end;
                 match c.push_out(&mut pushed, distance, a, margin) {
                     Some(_) => c.project(pushed, margin),
-                    None => c.project_at(end, local, distance, margin),
+                    None => c.project_at(end, distance, margin),
                 }
             }
         };

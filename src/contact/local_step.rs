@@ -341,8 +341,6 @@ struct LivePairs {
     /// Per vertex: `max(|s_i - s_i^f|, |y_i - y_i^f|)` (m), how far this local step's safe
     /// position and target are from those the pairs were filtered for (0 after a filter).
     shift: Vec<f64>,
-    /// The barrier's reach (m) the pairs were filtered for.
-    filtered_reach: f64,
     /// Per vertex: `E_i >= |z_i - y_i^k|` (m) at the current iterate `z`: 0 at `z = y^k`, a
     /// clamp to `z^{k-1} + t (z - z^{k-1})` makes it `(1 - t) |y_i^k - z_i^{k-1}| + t E_i`, a
     /// descent move adds its length.
@@ -386,8 +384,7 @@ impl LivePairs {
     ) {
         let n = safe.len();
         if self.filtered_safe.len() == n
-            && self.filtered_reach == reach
-            && self.cache.fits(mesh, n)
+            && self.cache.fits(mesh, n, reach)
             && self.reuse(safe, target, reach)
         {
             refill(&mut self.deviation, n, 0.0);
@@ -472,7 +469,6 @@ impl LivePairs {
         self.filtered_target.clear();
         self.filtered_target.extend_from_slice(target);
         refill(&mut self.shift, safe.len(), 0.0);
-        self.filtered_reach = reach;
         self.refreshed(renewal, 0, safe, stats);
     }
 
@@ -1241,6 +1237,20 @@ mod tests {
         (below, [z[3], z[4], z[5]], target, stats.iterations)
     }
 
+    /// The vertices of a flat `side x side` grid of `spacing` (m) in the plane `z = height`,
+    /// moved by `shift` spacings along x, row by row.
+    fn flat_grid(
+        side: u32,
+        spacing: f64,
+        shift: f64,
+        height: f64,
+    ) -> impl Iterator<Item = Vector3<f64>> {
+        (0..side * side).map(move |v| {
+            let (i, j) = (f64::from(v % side), f64::from(v / side));
+            Vector3::new(spacing * (i + shift), spacing * j, height)
+        })
+    }
+
     /// Two 6 x 6 grids of 1 cm spacing, the lower one fixed at height 0, the upper one moved by
     /// `offset` (in spacings, along `x`) and pressed from `xi + 0.95 d_hat` to
     /// `xi + 0.3 d_hat` with every vertex jittered by up to 0.3 mm: their edges are parallel,
@@ -1252,12 +1262,7 @@ mod tests {
         let mut rng = crate::test_rng::Rng::new(7);
         let (side, spacing) = (6_u32, 0.01);
         let (xi, d_hat) = (params.thickness, params.d_hat);
-        let grid = |shift: f64, height: f64| {
-            (0..side * side).map(move |v| {
-                let (i, j) = (f64::from(v % side), f64::from(v / side));
-                Vector3::new(spacing * (i + shift), spacing * j, height)
-            })
-        };
+        let grid = |shift: f64, height: f64| flat_grid(side, spacing, shift, height);
         let lower: Vec<_> = grid(0.0, 0.0).collect();
         let safe: Vec<_> = lower
             .iter()
@@ -1305,12 +1310,7 @@ mod tests {
         let mut rng = crate::test_rng::Rng::new(3);
         let spacing = 0.01;
         let (xi, d_hat) = (params.thickness, params.d_hat);
-        let grid = |height: f64| {
-            (0..side * side).map(move |v| {
-                let (i, j) = (f64::from(v % side), f64::from(v / side));
-                Vector3::new(spacing * (i + 0.3), spacing * j, height)
-            })
-        };
+        let grid = |height: f64| flat_grid(side, spacing, 0.3, height);
         let safe: Vec<_> = grid(0.0).chain(grid(xi + 0.95 * d_hat)).collect();
         let target: Vec<_> = grid(0.0)
             .chain(grid(xi + 0.3 * d_hat).map(|p| p + rng.vector() * 3e-4))
@@ -1394,12 +1394,7 @@ mod tests {
     fn a_kept_list_counts_the_shift_since_its_filter_against_the_allowance() {
         use super::super::pair_cache::tests::{brute_force_pairs, grid_triangles, two_copies};
         let (side, spacing, reach, a) = (6_u32, 0.01, 0.005, 0.002);
-        let grid = |height: f64| {
-            (0..side * side).map(move |v| {
-                let (i, j) = (f64::from(v % side), f64::from(v / side));
-                Vector3::new(spacing * (i + 0.3), spacing * j, height)
-            })
-        };
+        let grid = |height: f64| flat_grid(side, spacing, 0.3, height);
         let gap = reach + 1.02 * a;
         let safe: Vec<_> = grid(0.0).chain(grid(gap)).collect();
         let n = safe.len() / 2;

@@ -196,7 +196,7 @@ impl PairCache {
         reach: f64,
         live: &mut Vec<Pair>,
     ) -> Renewal {
-        let fits = self.fits(mesh, safe.len()) && self.built_reach == reach;
+        let fits = self.fits(mesh, safe.len(), reach);
         if fits {
             self.measure_motion(safe, target);
         }
@@ -424,9 +424,10 @@ impl PairCache {
             - regions.relative_motion(regions.of_side(a), regions.of_side(b))
     }
 
-    /// Whether the lists were built for this mesh and vertex count.
-    pub(super) fn fits(&self, mesh: &ContactMesh, vertices: usize) -> bool {
-        self.reference.len() == vertices
+    /// Whether the lists were built for this mesh, vertex count and barrier reach (m).
+    pub(super) fn fits(&self, mesh: &ContactMesh, vertices: usize, reach: f64) -> bool {
+        self.built_reach == reach
+            && self.reference.len() == vertices
             && self.triangles == mesh.triangles
             && self.body == mesh.body
             && self.self_contact == mesh.self_contact

@@ -104,9 +104,9 @@ impl<T: Real> ShapeModel<T> {
     /// The end of the move from `from` (outside) to `to` (`distance`: its signed distance, m)
     /// to take out of the shape instead of `to`, so that the nearest surface is on the side
     /// the move came from; `None`: `to` itself. That is every `to` whose path stays outside
-    /// (at once where `to` is farther from the surface than from `from`: the distance changes
-    /// by at most the length moved), or that ends inside on the side it entered (the normal at
-    /// `to` within 90 degrees of the normal `n` at the entry point `e`).
+    /// ([`Self::first_touch`]; a caller that sees [`Self::surely_outside`] need not ask), or
+    /// that ends inside on the side it entered (the normal at `to` within 90 degrees of the
+    /// normal `n` at the entry point `e`).
     /// Any other `to` crossed the solid, or entered and left it: it is replaced by its slide
     /// along the tangent plane at the entry, `e + (I - n n^T)(to - e)`. That plane separates a
     /// convex shape from the free side, so the slide is outside and keeps the move's
@@ -117,9 +117,6 @@ impl<T: Real> ShapeModel<T> {
         to: &Vector3<T>,
         distance: T,
     ) -> Option<Vector3<T>> {
-        if self.surely_outside(distance, &(to - from)) {
-            return None;
-        }
         let entry = self.first_touch(from, to, distance)?;
         let n = self.normal(&entry);
         if distance < T::zero() && self.normal(to).dot(&n) > T::zero() {
