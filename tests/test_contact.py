@@ -27,11 +27,16 @@ def test_contact_parameters_are_validated_and_reported():
     c = peridyn.Contact(thickness=1.5e-3)
     assert c.d_hat == pytest.approx(6e-3) and c.eps == 0.1 and c.max_iters >= 1
     for bad in (dict(thickness=0.0), dict(eps=1.5), dict(weight=-1.0), dict(max_iters=0),
-                dict(toi_threshold=1.0), dict(thickness=float("nan"))):
+                dict(toi_threshold=1.0), dict(thickness=float("nan")),
+                dict(parallel_angle=-0.1), dict(parallel_angle=np.pi / 2)):
         with pytest.raises(ValueError):
             peridyn.Contact(**bad)
     assert c.step == "curvature" and peridyn.Contact(step="uniform").step == "uniform"
     assert "step='uniform'" in repr(peridyn.Contact(step="uniform"))
+    # The fade of nearly parallel edge-edge pairs: IPC's sin^2 = 1e-3 by default, 0 turns it off.
+    assert np.sin(c.parallel_angle) ** 2 == pytest.approx(1e-3)
+    assert peridyn.Contact(parallel_angle=0.0).parallel_angle == 0.0
+    assert "parallel_angle=0.1" in repr(peridyn.Contact(parallel_angle=0.1))
     with pytest.raises(ValueError, match=r"step.*'curvature' or 'uniform'.*newton"):
         peridyn.Contact(step="newton")
     solver = peridyn.Solver(dt=1e-3, contact=c)
@@ -274,3 +279,22 @@ def test_cloths_on_a_ball_are_declared_converged_and_are():
         outcomes.append((stats.converged, stats.iterations, error))
     assert all(converged for converged, _, _ in outcomes), outcomes
     assert all(error < tol for converged, _, error in outcomes if converged), outcomes
+
+
+def test_stacked_layers_converge_at_a_micrometre_tolerance():
+    # Two layers of 12 x 12 (0.5 m) dropped on a ball drape over it onto the ground, each edge
+    # of the upper layer lying along an edge of the lower one. Where two edges turn through
+    # parallel their closest points jump from one end to the other, and with them the barrier's
+    # push on the four vertices: without the fade of nearly parallel edge-edge pairs
+    # (parallel_angle=0) the local step's result went back and forth by about a micrometre,
+    # and from step 163 on 69 of these 300 steps ran to max_iters. With it every step
+    # converges, in at most 4 iterations.
+    tol, cap = 1e-6, 200
+    scene = peridyn.paper_scenes.cloths_over_ball(
+        layers=2, n=12, size=0.5, tol=tol, max_iters=cap, threads=1)
+    touching = 0
+    for k in range(300):
+        stats = scene.solver.step()
+        assert stats.converged, f"step {k} ran to max_iters ({stats.iterations} iterations)"
+        touching += stats.contact["active_pairs"] > 0
+    assert touching > 200, "the layers must lie on each other"

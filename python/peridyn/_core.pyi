@@ -302,6 +302,13 @@ class Contact:
         alone (the paper): the local steps of a time step continue one another's descent. Same
         guarantees; on the 3-layer drop about half the descent iterations, and steps whose
         contacts persist converge instead of stalling at the local step's stopping test.
+    parallel_angle : radians in [0, pi/2); default asin(sqrt(1e-3)), 1.8 degrees, IPC's
+        edge-edge mollifier (not in the paper). An edge-edge pair whose edges are closer to
+        parallel than this at the local step's start enters the barrier with a weight falling
+        to 0 for parallel edges; the point-triangle pairs hold the contact there. The closest
+        points of nearly parallel edges jump along them, and without the fade (0) stacked
+        layers stall at a convergence measure of about a micrometre: a tol below that runs
+        every step to max_iters.
     """
 
     def __init__(
@@ -317,6 +324,7 @@ class Contact:
         ccd_s: float = 0.1,
         ccd_t_c: float = 0.95,
         warm_start: bool = True,
+        parallel_angle: Optional[float] = None,
     ) -> None: ...
     @property
     def thickness(self) -> float: ...
@@ -334,6 +342,8 @@ class Contact:
     def toi_threshold(self) -> float: ...
     @property
     def warm_start(self) -> bool: ...
+    @property
+    def parallel_angle(self) -> float: ...
 
 class StepStats:
     """What one time step did."""

@@ -14,10 +14,13 @@
 //!    whose smallest time of impact `t_i` is in `(threshold, 1)` is clamped to
 //!    `z^{k-1} + t_i (z^m - z^{k-1})` (lines 13-18);
 //! 3. distances and closest-point weights of the pairs (lines 19-23), and the descent
-//!    direction of eq. 49, `g_i = -mu sum_c alpha_c^i B'(f(d_c) - xi) n_c + y_i^k - z_i`, where
-//!    `alpha_c^i` is vertex `i`'s barycentric weight in pair `c` and `n_c` the unit separation;
-//!    following the paper, the barrier slope is taken at the rescaled gap of eq. 51 so that it
-//!    stays bounded, `|B'| <= |B'(eps xi)|`;
+//!    direction of eq. 49, `g_i = -mu sum_c m_c alpha_c^i B'(f(d_c) - xi) n_c + y_i^k - z_i`,
+//!    where `alpha_c^i` is vertex `i`'s barycentric weight in pair `c` and `n_c` the unit
+//!    separation; following the paper, the barrier slope is taken at the rescaled gap of
+//!    eq. 51 so that it stays bounded, `|B'| <= |B'(eps xi)|`. `m_c` (not in the paper) is 1
+//!    except for edge-edge pairs within [`ContactParams::parallel_angle`] of parallel at the
+//!    safe positions, which fade out ([`super::parallel_fade`], IPC's mollifier, held
+//!    through the local step);
 //! 4. a step that keeps every move below `eps xi` ([`DescentStep`]): either eq. 53's
 //!    `lambda = min(1, eps xi / (mu alpha_0 ceil|B'| + D))` for every vertex, with `alpha_0` the
 //!    largest `sum_c alpha_c^i` and `D` the largest `|y_i^k - z_i|` of this iteration, or (the
@@ -30,6 +33,8 @@
 //!    cloth layers are full of such pairs), and so does the push on their vertices: without
 //!    the halving a few of them go back and forth for good, and every local step ran to its
 //!    cap (640 local iterations in a step of the three layers over the ball, 103 with it).
+//!    The halving damps such a jump but cannot remove it: the measure then stalls at about
+//!    the jump (a micrometre), which the fade of nearly parallel pairs (`m_c` above) removes.
 //!    By default the descent starts from the global step's result plus the last local step's
 //!    move ([`ContactParams::warm_start`]), not from the result alone. After every move a
 //!    vertex is taken out of the colliders (not in the paper), on the side its move came from
@@ -56,6 +61,7 @@ use super::broad_phase::ContactMesh;
 use super::ccd::AdditiveCcd;
 use super::distance::Closest;
 use super::pair_cache::{PairCache, Renewal};
+use super::parallel_fade::sin2_limit;
 use super::primitive_pairs::Pair;
 use crate::error::{check_param, invalid, Result};
 use crate::symmetric::SymmetricMatrix3;
@@ -119,6 +125,20 @@ pub struct ContactParams {
     /// as the iteration is, not only to its stopping test. The offset is a move like a descent
     /// move (drift, deviation, CCD from the safe positions), so every guarantee holds.
     pub warm_start: bool,
+    /// Fade angle `theta_0` (radians, in `[0, pi/2)`): an edge-edge pair whose edges are
+    /// closer to parallel than this at the local step's safe positions enters the barrier
+    /// with the weight `r (2 - r)`, `r = sin^2 theta / sin^2 theta_0`, 0 for parallel edges
+    /// (IPC's edge-edge mollifier, not in the paper; see [`super::parallel_fade`]). Without it
+    /// (0) the local step's measure stalls at about a micrometre on stacked layers, as the
+    /// closest points of nearly parallel edges jump. The default, `asin(sqrt(1e-3))` (1.8
+    /// degrees), is IPC's.
+    pub parallel_angle: f64,
+}
+
+/// The default [`ContactParams::parallel_angle`] (radians): `sin^2 theta_0 = 1e-3`, as in IPC
+/// (Li et al. 2020).
+pub fn default_parallel_angle() -> f64 {
+    1e-3_f64.sqrt().asin()
 }
 
 impl Default for ContactParams {
@@ -134,6 +154,7 @@ impl Default for ContactParams {
             toi_threshold: 0.1,
             ccd: AdditiveCcd::default(),
             warm_start: true,
+            parallel_angle: default_parallel_angle(),
         }
     }
 }
@@ -162,6 +183,12 @@ impl ContactParams {
             self.ccd.t_c,
             |v| v > 0.0 && v <= 1.0,
             "in (0, 1]",
+        )?;
+        check_param(
+            "parallel_angle",
+            self.parallel_angle,
+            |v| (0.0..std::f64::consts::FRAC_PI_2).contains(&v),
+            "an angle in [0, pi/2) radians",
         )?;
         if self.max_iters < 1 {
             return Err(invalid!(
@@ -332,6 +359,11 @@ struct LivePairs {
     pairs: Vec<Pair>,
     /// Per pair: distance at the safe positions `z^{k-1}` (m).
     start: Vec<f64>,
+    /// Per pair: the barrier weight at the safe positions, held through the local step (1, or
+    /// an edge-edge pair's fade, see [`super::parallel_fade`]).
+    weight: Vec<f64>,
+    /// `sin^2` of the fade angle the weights are for.
+    sin2_limit: f64,
     /// Per vertex: the allowance `A_i` (m) the pairs were filtered for, around the path
     /// between `filtered_safe` and `filtered_target`.
     allowance: Vec<f64>,
@@ -373,6 +405,7 @@ impl LivePairs {
     /// late global iterations of a step move the vertices by micrometres, against allowances
     /// of `eps xi`: their local steps then skip the filter (about 0.3 s of each local step on
     /// three layers of 200 x 200 on the ball).
+    #[allow(clippy::too_many_arguments)]
     fn start(
         &mut self,
         safe: &[Vector3<f64>],
@@ -380,15 +413,17 @@ impl LivePairs {
         allowance: f64,
         mesh: &ContactMesh,
         reach: f64,
+        sin2_limit: f64,
         stats: &mut ContactStats,
     ) {
         let n = safe.len();
+        self.sin2_limit = sin2_limit;
         if self.filtered_safe.len() == n
             && self.cache.fits(mesh, n, reach)
             && self.reuse(safe, target, reach)
         {
             refill(&mut self.deviation, n, 0.0);
-            start_distances(&self.pairs, 0, safe, &mut self.start);
+            self.measure(0, safe);
             if self.grown.is_empty() {
                 self.count(stats);
             } else {
@@ -516,9 +551,8 @@ impl LivePairs {
     }
 
     /// Counts a refresh of the live pairs (and what it did to the cached pairs) in `stats`
-    /// and writes the distances at the safe positions of the pairs from `new` on (those
-    /// before it were live before the refresh, at the same safe positions: an extension keeps
-    /// them in place).
+    /// and measures the pairs from `new` on at the safe positions (those before it were live
+    /// before the refresh, at the same safe positions: an extension keeps them in place).
     fn refreshed(
         &mut self,
         renewal: Renewal,
@@ -530,7 +564,25 @@ impl LivePairs {
         stats.cache_repairs += usize::from(renewal == Renewal::Repaired);
         stats.live_refreshes += 1;
         self.count(stats);
-        start_distances(&self.pairs, new, safe, &mut self.start);
+        self.measure(new, safe);
+    }
+
+    /// Writes the distance and the barrier weight at the safe positions of the pairs from
+    /// `new` on, keeping those before it.
+    fn measure(&mut self, new: usize, safe: &[Vector3<f64>]) {
+        self.start.truncate(new);
+        self.weight.truncate(new);
+        let sin2_limit = self.sin2_limit;
+        let mut measured = (
+            std::mem::take(&mut self.start),
+            std::mem::take(&mut self.weight),
+        );
+        measured.par_extend(
+            self.pairs[new..]
+                .par_iter()
+                .map(|p| p.distance_and_weight(safe, sin2_limit)),
+        );
+        (self.start, self.weight) = measured;
     }
 
     /// Counts the cached and live pairs in `stats` (the largest of the step).
@@ -612,8 +664,15 @@ pub fn project(
     work.target.clear();
     work.target.extend_from_slice(positions);
     let first = FIRST_ALLOWANCE * eps * xi;
-    work.live
-        .start(safe, &work.target, first, mesh, reach, &mut stats);
+    work.live.start(
+        safe,
+        &work.target,
+        first,
+        mesh,
+        reach,
+        sin2_limit(params.parallel_angle),
+        &mut stats,
+    );
     stats.broad_phase_ms += millis(t);
     refill(&mut work.push, n, Vector3::zeros());
     if work.live.pairs.is_empty() {
@@ -743,6 +802,7 @@ pub fn project(
         barrier_push(
             &live.pairs,
             closest,
+            &live.weight,
             &barrier,
             mu,
             terms,
@@ -873,6 +933,7 @@ pub fn project(
     barrier_push(
         &work.live.pairs,
         &work.closest,
+        &work.live.weight,
         &barrier,
         mu,
         &mut work.terms,
@@ -904,14 +965,17 @@ pub fn project(
 }
 
 /// Writes into `push` the barrier part of the descent direction of eq. 49,
-/// `p_i = -mu sum_c B'(f(d_c) - xi) alpha_c^i n_c` (m), into `alpha` the sums
-/// `sum_c |alpha_c^i|` of eq. 53, and into `curvature` the `K_i` of
-/// [`DescentStep::Curvature`], over the pairs within the barrier's reach. The pairs' terms
+/// `p_i = -mu sum_c m_c B'(f(d_c) - xi) alpha_c^i n_c` (m), into `alpha` the sums
+/// `sum_c m_c |alpha_c^i|` of eq. 53, and into `curvature` the `K_i` of
+/// [`DescentStep::Curvature`] (each pair's term times `m_c`), over the pairs within the
+/// barrier's reach. `m_c` is the pair's weight in `weights` (1, or the fade of a nearly
+/// parallel edge-edge pair, see [`super::parallel_fade`]; not in the paper). The pairs' terms
 /// are evaluated in parallel into `terms` (scratch), then summed per vertex in pair order.
 #[allow(clippy::too_many_arguments)]
 fn barrier_push(
     pairs: &[Pair],
     closest: &[Closest],
+    weights: &[f64],
     barrier: &Barrier,
     mu: f64,
     terms: &mut Vec<PairTerms>,
@@ -921,22 +985,33 @@ fn barrier_push(
 ) {
     let reach = barrier.reach();
     terms.clear();
-    terms.par_extend(closest.par_iter().enumerate().filter_map(|(k, c)| {
-        let d = c.separation.norm();
-        if d >= reach || d == 0.0 {
-            return None;
-        }
-        let gap = barrier.gap(d);
-        // The slope's rate of change with d; the row sum `sum_j |alpha_c^j|` makes `k_i` a
-        // Gershgorin bound of the pair's Hessian `B'' f' (alpha n)(alpha n)^T`.
-        let rows: f64 = c.weights.iter().map(|w| w.abs()).sum();
-        Some(PairTerms {
-            pair: k as u32,
-            normal: c.separation / d,
-            slope: -mu * barrier.derivative(gap),
-            stiffness: mu * barrier.second_derivative(gap) * barrier.rescale_derivative(d) * rows,
-        })
-    }));
+    terms.par_extend(
+        closest
+            .par_iter()
+            .zip(weights)
+            .enumerate()
+            .filter_map(|(k, (c, &m))| {
+                let d = c.separation.norm();
+                if d >= reach || d == 0.0 || m == 0.0 {
+                    return None;
+                }
+                let gap = barrier.gap(d);
+                // The slope's rate of change with d; the row sum `sum_j |alpha_c^j|` makes `k_i` a
+                // Gershgorin bound of the pair's Hessian `B'' f' (alpha n)(alpha n)^T`.
+                let rows: f64 = c.weights.iter().map(|w| w.abs()).sum();
+                Some(PairTerms {
+                    pair: k as u32,
+                    normal: c.separation / d,
+                    weight: m,
+                    slope: -mu * m * barrier.derivative(gap),
+                    stiffness: mu
+                        * m
+                        * barrier.second_derivative(gap)
+                        * barrier.rescale_derivative(d)
+                        * rows,
+                })
+            }),
+    );
     push.iter_mut().for_each(|f| *f = Vector3::zeros());
     alpha.iter_mut().for_each(|a| *a = 0.0);
     curvature
@@ -946,7 +1021,7 @@ fn barrier_push(
         let k = term.pair as usize;
         for (&v, &w) in pairs[k].v.iter().zip(&closest[k].weights) {
             push[v as usize] += term.normal * (term.slope * w);
-            alpha[v as usize] += w.abs();
+            alpha[v as usize] += term.weight * w.abs();
             curvature[v as usize] +=
                 SymmetricMatrix3::outer(&term.normal, term.stiffness * w.abs());
         }
@@ -959,9 +1034,11 @@ struct PairTerms {
     pair: u32,
     /// The unit separation `n_c`.
     normal: Vector3<f64>,
-    /// `-mu B'(f(d_c) - xi)` (m).
+    /// The pair's weight `m_c`.
+    weight: f64,
+    /// `-mu m_c B'(f(d_c) - xi)` (m).
     slope: f64,
-    /// `mu B''(f(d_c) - xi) f'(d_c) sum_j |alpha_c^j|` (dimensionless).
+    /// `mu m_c B''(f(d_c) - xi) f'(d_c) sum_j |alpha_c^j|` (dimensionless).
     stiffness: f64,
 }
 
@@ -997,17 +1074,6 @@ const FAR: Closest = Closest {
     weights: [0.0; 4],
     separation: Vector3::new(f64::INFINITY, 0.0, 0.0),
 };
-
-/// Writes into `start` each pair's distance at the safe positions (m), keeping the first
-/// `kept` as they are.
-fn start_distances(pairs: &[Pair], kept: usize, safe: &[Vector3<f64>], start: &mut Vec<f64>) {
-    start.truncate(kept);
-    start.par_extend(
-        pairs[kept..]
-            .par_iter()
-            .map(|p| p.closest(safe).separation.norm()),
-    );
-}
 
 /// The final clamp (see the module doc) over the live pairs in `work`: adds to `stats` the
 /// vertices it moved, the CCD queries it made and its time (a refresh of the live pairs after
@@ -1417,7 +1483,16 @@ mod tests {
 
         let shift = 0.45 * a;
         let shifted: Vec<_> = grid(0.0).chain(grid(gap - shift)).collect();
-        live.start(&shifted, &shifted, a / 1000.0, &mesh, reach, &mut stats);
+        let sin2 = sin2_limit(default_parallel_angle());
+        live.start(
+            &shifted,
+            &shifted,
+            a / 1000.0,
+            &mesh,
+            reach,
+            sin2,
+            &mut stats,
+        );
         assert_eq!(stats.live_refreshes, 1, "the list is kept: {stats:?}");
         assert_eq!(live.filtered_safe, safe);
 
@@ -1633,6 +1708,68 @@ mod tests {
         }
     }
 
+    /// A pair's weight scales everything it adds to a vertex: its push, its share of eq. 53's
+    /// `alpha` and its curvature `K_i`. An edge-edge pair of two edges 2 mm apart and turned
+    /// by half the fade angle (within the barrier's reach of 5.5 mm) adds `m` (about 7/16)
+    /// times what it adds unweighted; turned to parallel, nothing.
+    #[test]
+    fn a_pairs_weight_scales_its_push_share_and_curvature() {
+        use super::super::parallel_fade::edge_edge_weight;
+        let params = ContactParams::default();
+        let sin2 = sin2_limit(params.parallel_angle);
+        let pair = [Pair {
+            edge_edge: true,
+            v: [0, 1, 2, 3],
+        }];
+        let crossing = |theta: f64| {
+            let (c, s) = (theta.cos(), theta.sin());
+            [
+                Vector3::new(-0.01, 0.0, 0.0),
+                Vector3::new(0.01, 0.0, 0.0),
+                Vector3::new(-0.01 * c, -0.01 * s, 0.002),
+                Vector3::new(0.01 * c, 0.01 * s, 0.002),
+            ]
+        };
+        let terms = |x: &[Vector3<f64>], weight: f64| {
+            let closest = [pair[0].closest(x)];
+            let (mut push, mut alpha) = (vec![Vector3::zeros(); 4], vec![0.0; 4]);
+            let mut curvature = vec![SymmetricMatrix3::zeros(); 4];
+            barrier_push(
+                &pair,
+                &closest,
+                &[weight],
+                &params.barrier(),
+                params.weight,
+                &mut Vec::new(),
+                &mut push,
+                &mut alpha,
+                &mut curvature,
+            );
+            (push, alpha, curvature)
+        };
+        let turned = crossing(0.5 * params.parallel_angle);
+        let m = pair[0].distance_and_weight(&turned, sin2).1;
+        assert_eq!(
+            m,
+            edge_edge_weight(&(turned[1] - turned[0]), &(turned[3] - turned[2]), sin2)
+        );
+        assert!((m - 7.0 / 16.0).abs() < 1e-3, "{m}");
+        let (full, weighted) = (terms(&turned, 1.0), terms(&turned, m));
+        for v in 0..4 {
+            assert!(full.0[v].norm() > 0.0 && full.1[v] > 0.0);
+            assert!((weighted.0[v] - full.0[v] * m).norm() < 1e-15 * full.0[v].norm().max(1.0));
+            assert!((weighted.1[v] - full.1[v] * m).abs() < 1e-15);
+            let (k, k_full) = (weighted.2[v].to_matrix(), full.2[v].to_matrix() * m);
+            assert!((k - k_full).norm() <= 1e-12 * k_full.norm(), "vertex {v}");
+        }
+        let parallel = crossing(0.0);
+        let m = pair[0].distance_and_weight(&parallel, sin2).1;
+        assert_eq!(m, 0.0);
+        let (push, alpha, curvature) = terms(&parallel, m);
+        assert!(push.iter().all(|p| *p == Vector3::zeros()) && alpha.iter().all(|&a| a == 0.0));
+        assert!(curvature.iter().all(|k| *k == SymmetricMatrix3::zeros()));
+    }
+
     /// At the result `z` of a local step from `safe`, no two primitives are closer than
     /// `eps xi`, and the barrier push the local step left in `work` equals the one summed over
     /// every primitive pair (brute force): the live pairs held every pair within the barrier's
@@ -1646,6 +1783,11 @@ mod tests {
     ) {
         let (_, every) = super::super::pair_cache::tests::brute_force_pairs(mesh, safe);
         let closest: Vec<_> = every.iter().map(|p| p.closest(z)).collect();
+        let sin2 = sin2_limit(params.parallel_angle);
+        let weights: Vec<_> = every
+            .iter()
+            .map(|p| p.distance_and_weight(safe, sin2).1)
+            .collect();
         let nearest = closest
             .iter()
             .map(|c| c.separation.norm())
@@ -1657,6 +1799,7 @@ mod tests {
         barrier_push(
             &every,
             &closest,
+            &weights,
             &params.barrier(),
             params.weight,
             &mut Vec::new(),

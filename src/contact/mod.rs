@@ -11,6 +11,7 @@ mod distance_order;
 pub mod local_step;
 mod motion;
 mod pair_cache;
+mod parallel_fade;
 mod patches;
 mod pose;
 mod primitive_pairs;
@@ -21,7 +22,9 @@ mod vertex_index;
 
 pub use broad_phase::{BroadPhase, ContactMesh};
 pub use collider::{out_of_colliders, Collider, ColliderModel, MoveStart, Shape, ShapeModel};
-pub use local_step::{project, ContactParams, ContactStats, DescentStep, KeepOut, Workspace};
+pub use local_step::{
+    default_parallel_angle, project, ContactParams, ContactStats, DescentStep, KeepOut, Workspace,
+};
 pub use motion::MovingCollider;
 pub use pose::{rotation_matrix, Pose};
 pub use primitive_pairs::closest_primitive_distance;

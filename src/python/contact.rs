@@ -9,7 +9,8 @@ use rayon::prelude::*;
 use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use crate::contact::distance::{edge_edge_closest, point_triangle_closest, Closest};
 use crate::contact::{
-    closest_primitive_distance, BroadPhase, ContactMesh, ContactParams, DescentStep,
+    closest_primitive_distance, default_parallel_angle, BroadPhase, ContactMesh, ContactParams,
+    DescentStep,
 };
 
 use super::arrays::{self, to_numpy, to_numpy_1d, vec3s};
@@ -245,7 +246,11 @@ fn edge_edge_ccd_additive<'py>(
 /// times of impact above it clamp inside the descent; `ccd_s`, `ccd_t_c` (0.1, 0.95): the
 /// additive CCD's parameters; `warm_start` (default True): start each local step's descent
 /// from the global step's result plus the move the last local step made where the barrier
-/// pushed, instead of the result alone (Algorithm 2, line 2), see `ContactParams::warm_start`.
+/// pushed, instead of the result alone (Algorithm 2, line 2), see `ContactParams::warm_start`;
+/// `parallel_angle` (radians, default asin(sqrt(1e-3)), 1.8 degrees, as in IPC): edge-edge
+/// pairs closer to parallel than this fade out of the barrier (0 for parallel edges, where the
+/// point-triangle pairs hold the contact), so that stacked layers converge at tight
+/// tolerances; 0 turns the fade off (the paper's barrier), see `ContactParams::parallel_angle`.
 #[pyclass(module = "peridyn._core", name = "Contact", frozen)]
 #[derive(Clone)]
 pub struct PyContact {
@@ -257,7 +262,7 @@ impl PyContact {
     #[new]
     #[pyo3(signature = (*, thickness = 1.5e-3, d_hat = None, eps = 0.1, weight = 1.0,
                         max_iters = 32, step = "curvature", toi_threshold = 0.1, ccd_s = 0.1,
-                        ccd_t_c = 0.95, warm_start = true))]
+                        ccd_t_c = 0.95, warm_start = true, parallel_angle = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         thickness: f64,
@@ -270,6 +275,7 @@ impl PyContact {
         ccd_s: f64,
         ccd_t_c: f64,
         warm_start: bool,
+        parallel_angle: Option<f64>,
     ) -> PyResult<Self> {
         let max_iters = usize::try_from(max_iters).map_err(|_| {
             PyValueError::new_err(format!("max_iters must be >= 1, got {max_iters}"))
@@ -297,6 +303,7 @@ impl PyContact {
                 ..AdditiveCcd::default()
             },
             warm_start,
+            parallel_angle: parallel_angle.unwrap_or_else(default_parallel_angle),
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -340,11 +347,16 @@ impl PyContact {
     fn warm_start(&self) -> bool {
         self.inner.warm_start
     }
+    /// Fade angle of nearly parallel edge-edge pairs (radians).
+    #[getter]
+    fn parallel_angle(&self) -> f64 {
+        self.inner.parallel_angle
+    }
     fn __repr__(&self) -> String {
         let p = &self.inner;
         format!(
             "Contact(thickness={}, d_hat={}, eps={}, weight={}, max_iters={}, step='{}', \
-             toi_threshold={}, warm_start={})",
+             toi_threshold={}, warm_start={}, parallel_angle={})",
             p.thickness,
             p.d_hat,
             p.eps,
@@ -352,7 +364,8 @@ impl PyContact {
             p.max_iters,
             self.step(),
             p.toi_threshold,
-            if p.warm_start { "True" } else { "False" }
+            if p.warm_start { "True" } else { "False" },
+            p.parallel_angle
         )
     }
 }
