@@ -267,4 +267,4 @@ const PROJECTION_STEPS: usize = 8;
 const PROJECTION_TOLERANCE: f64 = 1e-9;
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

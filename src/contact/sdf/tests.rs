@@ -9,7 +9,7 @@ use crate::contact::distance::point_triangle_distance_squared;
 use crate::test_rng::Rng;
 
 /// Closed box mesh of half extents `h` at the origin (12 triangles, outward).
-fn box_mesh(h: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[i64; 3]>) {
+pub(crate) fn box_mesh(h: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[i64; 3]>) {
     let v = (0..8)
         .map(|i| {
             let s = |bit: usize| if i & bit != 0 { 1.0 } else { -1.0 };
