@@ -28,7 +28,8 @@ def test_contact_parameters_are_validated_and_reported():
     assert c.d_hat == pytest.approx(6e-3) and c.eps == 0.1 and c.max_iters >= 1
     for bad in (dict(thickness=0.0), dict(eps=1.5), dict(weight=-1.0), dict(max_iters=0),
                 dict(toi_threshold=1.0), dict(thickness=float("nan")),
-                dict(parallel_angle=-0.1), dict(parallel_angle=np.pi / 2)):
+                dict(parallel_angle=-0.1), dict(parallel_angle=np.pi / 2),
+                dict(parallel_angle=float("nan"))):
         with pytest.raises(ValueError):
             peridyn.Contact(**bad)
     assert c.step == "curvature" and peridyn.Contact(step="uniform").step == "uniform"

@@ -61,7 +61,7 @@ use super::broad_phase::ContactMesh;
 use super::ccd::AdditiveCcd;
 use super::distance::Closest;
 use super::pair_cache::{PairCache, Renewal};
-use super::parallel_fade::sin2_limit;
+use super::parallel_fade::{default_parallel_angle, sin2_limit};
 use super::primitive_pairs::Pair;
 use crate::error::{check_param, invalid, Result};
 use crate::symmetric::SymmetricMatrix3;
@@ -78,9 +78,10 @@ pub enum DescentStep {
     /// what it returns depends on the cap.
     Uniform,
     /// Per vertex, `z_i += (I + K_i)^-1 g_i`, cut to length `eps xi`, with
-    /// `K_i = mu sum_c B''(x_c) f'(d_c) |alpha_c^i| (sum_j |alpha_c^j|) n_c n_c^T`
+    /// `K_i = mu sum_c m_c B''(x_c) f'(d_c) |alpha_c^i| (sum_j |alpha_c^j|) n_c n_c^T`
     /// (dimensionless, 3 x 3): the barrier's curvature along each pair's normal `n_c` (`x_c`
-    /// the rescaled gap, `f'` the rescale's slope), with the pair's weights summed by rows (a
+    /// the rescaled gap, `f'` the rescale's slope, `m_c` the pair's fade, see
+    /// [`ContactParams::parallel_angle`]), with the pair's weights summed by rows (a
     /// block Gershgorin bound: `(sum_j alpha_j n . u_j)^2 <= sum_j |alpha_j| sum_j |alpha_j|
     /// (n . u_j)^2` by Cauchy-Schwarz), so that the block-diagonal matrix of the `I + K_i`
     /// bounds from above the Hessian of eq. 47 with the barrier taken along the normals
@@ -133,12 +134,6 @@ pub struct ContactParams {
     /// closest points of nearly parallel edges jump. The default, `asin(sqrt(1e-3))` (1.8
     /// degrees), is IPC's.
     pub parallel_angle: f64,
-}
-
-/// The default [`ContactParams::parallel_angle`] (radians): `sin^2 theta_0 = 1e-3`, as in IPC
-/// (Li et al. 2020).
-pub fn default_parallel_angle() -> f64 {
-    1e-3_f64.sqrt().asin()
 }
 
 impl Default for ContactParams {
@@ -264,7 +259,7 @@ pub struct ContactStats {
     /// a local step unless the list is kept (`LivePairs::start`), and each time a vertex
     /// outgrows its allowance).
     pub live_refreshes: usize,
-    /// Primitive pairs within the barrier's reach at the end.
+    /// Primitive pairs within the barrier's reach at the end (faded ones included).
     pub active_pairs: usize,
     /// Descent iterations.
     pub iterations: usize,
@@ -342,7 +337,7 @@ pub struct Workspace {
 }
 
 impl Workspace {
-    /// Per vertex, the barrier push `p_i = -mu sum_c B'(f(d_c) - xi) alpha_c^i n_c` (m) of
+    /// Per vertex, the barrier push `p_i = -mu sum_c m_c B'(f(d_c) - xi) alpha_c^i n_c` (m) of
     /// eq. 49 at the positions the last [`project`] returned: where the descent has converged,
     /// `z_i - y_i^k = p_i`, so `p` is the displacement by which contact holds each vertex
     /// back from the global step's target (zero away from contact; empty before any call).
@@ -359,10 +354,10 @@ struct LivePairs {
     pairs: Vec<Pair>,
     /// Per pair: distance at the safe positions `z^{k-1}` (m).
     start: Vec<f64>,
-    /// Per pair: the barrier weight at the safe positions, held through the local step (1, or
-    /// an edge-edge pair's fade, see [`super::parallel_fade`]).
-    weight: Vec<f64>,
-    /// `sin^2` of the fade angle the weights are for.
+    /// Per pair: its fade at the safe positions, held through the local step (1, or a nearly
+    /// parallel edge-edge pair's, see [`super::parallel_fade`]).
+    fade: Vec<f64>,
+    /// `sin^2` of the fade angle the fades are for.
     sin2_limit: f64,
     /// Per vertex: the allowance `A_i` (m) the pairs were filtered for, around the path
     /// between `filtered_safe` and `filtered_target`.
@@ -397,7 +392,7 @@ impl LivePairs {
     /// [`REUSE_STRAYS`] of the vertices have a safe position or target that moved by more
     /// than [`REUSE_SHIFT`] of their allowance since the last filter (`shift_i`); those few
     /// get their allowance raised by their shift and their pairs added
-    /// ([`PairCache::extend_live`]), and the distances at `safe` are measured again. A
+    /// ([`PairCache::extend_live`]), and the distances and fades at `safe` are measured again. A
     /// position this local step looks at, `(1 - tau) s_i + tau y_i + e_i` with
     /// `|e_i| <= E_i`, is `(1 - tau) s_i^f + tau y_i^f + e'_i` with
     /// `e'_i = (1 - tau) (s_i - s_i^f) + tau (y_i - y_i^f) + e_i`, so `|e'_i| <= shift_i + E_i`:
@@ -488,7 +483,7 @@ impl LivePairs {
     }
 
     /// Filters the pairs afresh for the allowances, around the path from `safe` to `target`
-    /// ([`PairCache::live_pairs`]), and measures their distances at `safe`.
+    /// ([`PairCache::live_pairs`]), and measures their distances and fades at `safe`.
     fn filter(
         &mut self,
         safe: &[Vector3<f64>],
@@ -567,22 +562,22 @@ impl LivePairs {
         self.measure(new, safe);
     }
 
-    /// Writes the distance and the barrier weight at the safe positions of the pairs from
-    /// `new` on, keeping those before it.
+    /// Writes the distance and the fade at the safe positions of the pairs from `new` on,
+    /// keeping those before it (one pass over the pairs' points for both).
     fn measure(&mut self, new: usize, safe: &[Vector3<f64>]) {
         self.start.truncate(new);
-        self.weight.truncate(new);
+        self.fade.truncate(new);
         let sin2_limit = self.sin2_limit;
         let mut measured = (
             std::mem::take(&mut self.start),
-            std::mem::take(&mut self.weight),
+            std::mem::take(&mut self.fade),
         );
         measured.par_extend(
             self.pairs[new..]
                 .par_iter()
-                .map(|p| p.distance_and_weight(safe, sin2_limit)),
+                .map(|p| p.distance_and_fade(safe, sin2_limit)),
         );
-        (self.start, self.weight) = measured;
+        (self.start, self.fade) = measured;
     }
 
     /// Counts the cached and live pairs in `stats` (the largest of the step).
@@ -802,7 +797,7 @@ pub fn project(
         barrier_push(
             &live.pairs,
             closest,
-            &live.weight,
+            &live.fade,
             &barrier,
             mu,
             terms,
@@ -933,7 +928,7 @@ pub fn project(
     barrier_push(
         &work.live.pairs,
         &work.closest,
-        &work.live.weight,
+        &work.live.fade,
         &barrier,
         mu,
         &mut work.terms,
@@ -968,14 +963,14 @@ pub fn project(
 /// `p_i = -mu sum_c m_c B'(f(d_c) - xi) alpha_c^i n_c` (m), into `alpha` the sums
 /// `sum_c m_c |alpha_c^i|` of eq. 53, and into `curvature` the `K_i` of
 /// [`DescentStep::Curvature`] (each pair's term times `m_c`), over the pairs within the
-/// barrier's reach. `m_c` is the pair's weight in `weights` (1, or the fade of a nearly
-/// parallel edge-edge pair, see [`super::parallel_fade`]; not in the paper). The pairs' terms
+/// barrier's reach. `m_c` is the pair's fade in `fades` (1, or a nearly parallel edge-edge
+/// pair's, see [`super::parallel_fade`]; not in the paper). The pairs' terms
 /// are evaluated in parallel into `terms` (scratch), then summed per vertex in pair order.
 #[allow(clippy::too_many_arguments)]
 fn barrier_push(
     pairs: &[Pair],
     closest: &[Closest],
-    weights: &[f64],
+    fades: &[f64],
     barrier: &Barrier,
     mu: f64,
     terms: &mut Vec<PairTerms>,
@@ -988,7 +983,7 @@ fn barrier_push(
     terms.par_extend(
         closest
             .par_iter()
-            .zip(weights)
+            .zip(fades)
             .enumerate()
             .filter_map(|(k, (c, &m))| {
                 let d = c.separation.norm();
@@ -1002,7 +997,7 @@ fn barrier_push(
                 Some(PairTerms {
                     pair: k as u32,
                     normal: c.separation / d,
-                    weight: m,
+                    fade: m,
                     slope: -mu * m * barrier.derivative(gap),
                     stiffness: mu
                         * m
@@ -1021,7 +1016,7 @@ fn barrier_push(
         let k = term.pair as usize;
         for (&v, &w) in pairs[k].v.iter().zip(&closest[k].weights) {
             push[v as usize] += term.normal * (term.slope * w);
-            alpha[v as usize] += term.weight * w.abs();
+            alpha[v as usize] += term.fade * w.abs();
             curvature[v as usize] +=
                 SymmetricMatrix3::outer(&term.normal, term.stiffness * w.abs());
         }
@@ -1034,8 +1029,8 @@ struct PairTerms {
     pair: u32,
     /// The unit separation `n_c`.
     normal: Vector3<f64>,
-    /// The pair's weight `m_c`.
-    weight: f64,
+    /// The pair's fade `m_c`.
+    fade: f64,
     /// `-mu m_c B'(f(d_c) - xi)` (m).
     slope: f64,
     /// `mu m_c B''(f(d_c) - xi) f'(d_c) sum_j |alpha_c^j|` (dimensionless).
@@ -1708,13 +1703,13 @@ mod tests {
         }
     }
 
-    /// A pair's weight scales everything it adds to a vertex: its push, its share of eq. 53's
+    /// A pair's fade scales everything it adds to a vertex: its push, its share of eq. 53's
     /// `alpha` and its curvature `K_i`. An edge-edge pair of two edges 2 mm apart and turned
-    /// by half the fade angle (within the barrier's reach of 5.5 mm) adds `m` (about 7/16)
-    /// times what it adds unweighted; turned to parallel, nothing.
+    /// by half the fade angle (within the barrier's reach of 7.5 mm) adds `m` (about 7/16)
+    /// times what it adds unfaded; turned to parallel, nothing.
     #[test]
-    fn a_pairs_weight_scales_its_push_share_and_curvature() {
-        use super::super::parallel_fade::edge_edge_weight;
+    fn a_pairs_fade_scales_its_push_share_and_curvature() {
+        use super::super::parallel_fade::edge_edge_fade;
         let params = ContactParams::default();
         let sin2 = sin2_limit(params.parallel_angle);
         let pair = [Pair {
@@ -1730,14 +1725,14 @@ mod tests {
                 Vector3::new(0.01 * c, 0.01 * s, 0.002),
             ]
         };
-        let terms = |x: &[Vector3<f64>], weight: f64| {
+        let terms = |x: &[Vector3<f64>], fade: f64| {
             let closest = [pair[0].closest(x)];
             let (mut push, mut alpha) = (vec![Vector3::zeros(); 4], vec![0.0; 4]);
             let mut curvature = vec![SymmetricMatrix3::zeros(); 4];
             barrier_push(
                 &pair,
                 &closest,
-                &[weight],
+                &[fade],
                 &params.barrier(),
                 params.weight,
                 &mut Vec::new(),
@@ -1748,22 +1743,22 @@ mod tests {
             (push, alpha, curvature)
         };
         let turned = crossing(0.5 * params.parallel_angle);
-        let m = pair[0].distance_and_weight(&turned, sin2).1;
+        let m = pair[0].distance_and_fade(&turned, sin2).1;
         assert_eq!(
             m,
-            edge_edge_weight(&(turned[1] - turned[0]), &(turned[3] - turned[2]), sin2)
+            edge_edge_fade(&(turned[1] - turned[0]), &(turned[3] - turned[2]), sin2)
         );
         assert!((m - 7.0 / 16.0).abs() < 1e-3, "{m}");
-        let (full, weighted) = (terms(&turned, 1.0), terms(&turned, m));
+        let (full, faded) = (terms(&turned, 1.0), terms(&turned, m));
         for v in 0..4 {
             assert!(full.0[v].norm() > 0.0 && full.1[v] > 0.0);
-            assert!((weighted.0[v] - full.0[v] * m).norm() < 1e-15 * full.0[v].norm().max(1.0));
-            assert!((weighted.1[v] - full.1[v] * m).abs() < 1e-15);
-            let (k, k_full) = (weighted.2[v].to_matrix(), full.2[v].to_matrix() * m);
+            assert!((faded.0[v] - full.0[v] * m).norm() < 1e-15 * full.0[v].norm().max(1.0));
+            assert!((faded.1[v] - full.1[v] * m).abs() < 1e-15);
+            let (k, k_full) = (faded.2[v].to_matrix(), full.2[v].to_matrix() * m);
             assert!((k - k_full).norm() <= 1e-12 * k_full.norm(), "vertex {v}");
         }
         let parallel = crossing(0.0);
-        let m = pair[0].distance_and_weight(&parallel, sin2).1;
+        let m = pair[0].distance_and_fade(&parallel, sin2).1;
         assert_eq!(m, 0.0);
         let (push, alpha, curvature) = terms(&parallel, m);
         assert!(push.iter().all(|p| *p == Vector3::zeros()) && alpha.iter().all(|&a| a == 0.0));
@@ -1772,8 +1767,8 @@ mod tests {
 
     /// At the result `z` of a local step from `safe`, no two primitives are closer than
     /// `eps xi`, and the barrier push the local step left in `work` equals the one summed over
-    /// every primitive pair (brute force): the live pairs held every pair within the barrier's
-    /// reach, and the descent saw them.
+    /// every primitive pair (brute force, each pair faded as at `safe`): the live pairs held
+    /// every pair within the barrier's reach, and the descent saw them.
     fn assert_push_from_every_pair(
         mesh: &ContactMesh,
         safe: &[Vector3<f64>],
@@ -1782,24 +1777,40 @@ mod tests {
         work: &Workspace,
     ) {
         let (_, every) = super::super::pair_cache::tests::brute_force_pairs(mesh, safe);
-        let closest: Vec<_> = every.iter().map(|p| p.closest(z)).collect();
-        let sin2 = sin2_limit(params.parallel_angle);
-        let weights: Vec<_> = every
+        let nearest = every
             .iter()
-            .map(|p| p.distance_and_weight(safe, sin2).1)
-            .collect();
-        let nearest = closest
-            .iter()
-            .map(|c| c.separation.norm())
+            .map(|p| p.closest(z).separation.norm())
             .fold(f64::INFINITY, f64::min);
         assert!(nearest >= params.eps * params.thickness, "{nearest}");
+        let push = brute_force_push(&every, z, safe, params);
+        for (i, (a, b)) in work.push().iter().zip(&push).enumerate() {
+            assert!(
+                (a - b).norm() <= 1e-12 * (1.0 + b.norm()),
+                "vertex {i}: {a} vs {b}"
+            );
+        }
+    }
+
+    /// The barrier push at `z` summed over `pairs`, each pair faded as at `fade_at` (m).
+    fn brute_force_push(
+        pairs: &[Pair],
+        z: &[Vector3<f64>],
+        fade_at: &[Vector3<f64>],
+        params: &ContactParams,
+    ) -> Vec<Vector3<f64>> {
+        let closest: Vec<_> = pairs.iter().map(|p| p.closest(z)).collect();
+        let sin2 = sin2_limit(params.parallel_angle);
+        let fades: Vec<_> = pairs
+            .iter()
+            .map(|p| p.distance_and_fade(fade_at, sin2).1)
+            .collect();
         let mut push = vec![Vector3::zeros(); z.len()];
         let mut alpha = vec![0.0; z.len()];
         let mut curvature = vec![SymmetricMatrix3::zeros(); z.len()];
         barrier_push(
-            &every,
+            pairs,
             &closest,
-            &weights,
+            &fades,
             &params.barrier(),
             params.weight,
             &mut Vec::new(),
@@ -1807,10 +1818,59 @@ mod tests {
             &mut alpha,
             &mut curvature,
         );
-        for (i, (a, b)) in work.push().iter().zip(&push).enumerate() {
+        push
+    }
+
+    /// A triangle lying parallel over another of the same shape (1 cm legs) and pressed into
+    /// its barrier while it turns by twice the fade angle: its edges are parallel to those
+    /// below at the safe positions, 3.6 degrees off at the target. The local step holds every
+    /// pair's fade as it was at the safe positions, so its push is the brute-force push with
+    /// the fades there (the edge-edge pairs along the legs faded out), not with the fades at
+    /// the result, which differs by more than a tenth of it.
+    #[test]
+    fn a_local_step_holds_the_fades_of_its_safe_positions() {
+        let params = pressing(DescentStep::Curvature, 32);
+        let (xi, d_hat) = (params.thickness, params.d_hat);
+        let leg = 0.01;
+        let triangle = |height: f64, turn: f64| {
+            let (c, s) = (turn.cos(), turn.sin());
+            [(0.0, 0.0), (leg, 0.0), (0.0, leg)]
+                .map(|(x, y)| Vector3::new(c * x - s * y, s * x + c * y, height))
+        };
+        let lower = triangle(0.0, 0.0);
+        let safe: Vec<_> = lower
+            .iter()
+            .chain(&triangle(xi + 0.95 * d_hat, 0.0))
+            .copied()
+            .collect();
+        let turn = 2.0 * params.parallel_angle;
+        let mut z: Vec<_> = lower
+            .iter()
+            .chain(&triangle(xi + 0.3 * d_hat, turn))
+            .copied()
+            .collect();
+        let fixed = [true, true, true, false, false, false];
+        let mesh = ContactMesh {
+            triangles: &[[0, 1, 2], [3, 4, 5]],
+            body: &[0, 1],
+            self_contact: &[false, false],
+        };
+        let mut work = Workspace::default();
+        project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
+        let (_, every) = super::super::pair_cache::tests::brute_force_pairs(&mesh, &safe);
+        let (held, at_result) = (
+            brute_force_push(&every, &z, &safe, &params),
+            brute_force_push(&every, &z, &z, &params),
+        );
+        for v in 3..6 {
+            let (a, held, other) = (work.push()[v], held[v], at_result[v]);
             assert!(
-                (a - b).norm() <= 1e-12 * (1.0 + b.norm()),
-                "vertex {i}: {a} vs {b}"
+                (a - held).norm() <= 1e-12 * held.norm(),
+                "vertex {v}: {a} vs {held}"
+            );
+            assert!(
+                (other - held).norm() > 0.1 * held.norm(),
+                "vertex {v}: {other} vs {held}"
             );
         }
     }

@@ -22,10 +22,9 @@ mod vertex_index;
 
 pub use broad_phase::{BroadPhase, ContactMesh};
 pub use collider::{out_of_colliders, Collider, ColliderModel, MoveStart, Shape, ShapeModel};
-pub use local_step::{
-    default_parallel_angle, project, ContactParams, ContactStats, DescentStep, KeepOut, Workspace,
-};
+pub use local_step::{project, ContactParams, ContactStats, DescentStep, KeepOut, Workspace};
 pub use motion::MovingCollider;
+pub use parallel_fade::default_parallel_angle;
 pub use pose::{rotation_matrix, Pose};
 pub use primitive_pairs::closest_primitive_distance;
 pub use sdf::SdfGrid;

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use super::broad_phase::ContactMesh;
 use super::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use super::distance::{edge_edge_closest, point_triangle_closest, Closest};
-use super::parallel_fade::edge_edge_weight;
+use super::parallel_fade::edge_edge_fade;
 use super::sweep::round_down;
 use super::vertex_index::index_by_vertex;
 
@@ -84,7 +84,11 @@ impl Pair {
 
     /// Closest points at the positions `x` (m).
     pub fn closest(&self, x: &[Vector3<f64>]) -> Closest {
-        let p = self.points(x);
+        self.closest_of(&self.points(x))
+    }
+
+    /// [`Pair::closest`] of the pair's four points `p`.
+    fn closest_of(&self, p: &[Vector3<f64>; 4]) -> Closest {
         if self.edge_edge {
             edge_edge_closest(&p[0], &p[1], &p[2], &p[3])
         } else {
@@ -92,23 +96,18 @@ impl Pair {
         }
     }
 
-    /// The pair's distance (m) and barrier weight at `x`: the weight of
-    /// [`edge_edge_weight`] for an edge-edge pair with the fade limit `sin2_limit`
-    /// (`sin^2` of the fade angle), 1 for a point-triangle pair.
-    pub fn distance_and_weight(&self, x: &[Vector3<f64>], sin2_limit: f64) -> (f64, f64) {
+    /// The pair's distance (m) and fade at `x`: [`edge_edge_fade`] for an edge-edge pair
+    /// with the fade limit `sin2_limit` (`sin^2` of the fade angle), 1 for a point-triangle
+    /// pair.
+    pub fn distance_and_fade(&self, x: &[Vector3<f64>], sin2_limit: f64) -> (f64, f64) {
         let p = self.points(x);
+        let distance = self.closest_of(&p).separation.norm();
         if self.edge_edge {
-            let distance = edge_edge_closest(&p[0], &p[1], &p[2], &p[3])
-                .separation
-                .norm();
             (
                 distance,
-                edge_edge_weight(&(p[1] - p[0]), &(p[3] - p[2]), sin2_limit),
+                edge_edge_fade(&(p[1] - p[0]), &(p[3] - p[2]), sin2_limit),
             )
         } else {
-            let distance = point_triangle_closest(&p[0], &p[1], &p[2], &p[3])
-                .separation
-                .norm();
             (distance, 1.0)
         }
     }
