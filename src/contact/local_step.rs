@@ -1726,21 +1726,7 @@ mod tests {
             ]
         };
         let terms = |x: &[Vector3<f64>], fade: f64| {
-            let closest = [pair[0].closest(x)];
-            let (mut push, mut alpha) = (vec![Vector3::zeros(); 4], vec![0.0; 4]);
-            let mut curvature = vec![SymmetricMatrix3::zeros(); 4];
-            barrier_push(
-                &pair,
-                &closest,
-                &[fade],
-                &params.barrier(),
-                params.weight,
-                &mut Vec::new(),
-                &mut push,
-                &mut alpha,
-                &mut curvature,
-            );
-            (push, alpha, curvature)
+            barrier_terms(&pair, &[pair[0].closest(x)], &[fade], 4, &params)
         };
         let turned = crossing(0.5 * params.parallel_angle);
         let m = pair[0].distance_and_fade(&turned, sin2).1;
@@ -1804,13 +1790,24 @@ mod tests {
             .iter()
             .map(|p| p.distance_and_fade(fade_at, sin2).1)
             .collect();
-        let mut push = vec![Vector3::zeros(); z.len()];
-        let mut alpha = vec![0.0; z.len()];
-        let mut curvature = vec![SymmetricMatrix3::zeros(); z.len()];
+        barrier_terms(pairs, &closest, &fades, z.len(), params).0
+    }
+
+    /// [`barrier_push`]'s push, `alpha` and `K_i` over the `n` vertices.
+    fn barrier_terms(
+        pairs: &[Pair],
+        closest: &[Closest],
+        fades: &[f64],
+        n: usize,
+        params: &ContactParams,
+    ) -> (Vec<Vector3<f64>>, Vec<f64>, Vec<SymmetricMatrix3<f64>>) {
+        let mut push = vec![Vector3::zeros(); n];
+        let mut alpha = vec![0.0; n];
+        let mut curvature = vec![SymmetricMatrix3::zeros(); n];
         barrier_push(
             pairs,
-            &closest,
-            &fades,
+            closest,
+            fades,
             &params.barrier(),
             params.weight,
             &mut Vec::new(),
@@ -1818,7 +1815,7 @@ mod tests {
             &mut alpha,
             &mut curvature,
         );
-        push
+        (push, alpha, curvature)
     }
 
     /// A triangle lying parallel over another of the same shape (1 cm legs) and pressed into

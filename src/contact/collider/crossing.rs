@@ -251,18 +251,23 @@ mod tests {
         }
     }
 
-    /// A head-on move straight through a 4 mm plate ends on the plate's near side, with the
-    /// move's tangential part kept; a slanted one slides along the near face by its tangential
-    /// part.
-    #[test]
-    fn a_move_through_a_plate_slides_along_its_near_face() {
-        let plate = Shape::cuboid(
+    /// A 4 mm plate, 1 m wide, in the plane `z = 0`.
+    fn flat_plate() -> ShapeModel<f64> {
+        Shape::cuboid(
             [0.0; 3],
             [0.5, 0.5, 0.002],
             [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         )
         .unwrap()
-        .to_real::<f64>();
+        .to_real::<f64>()
+    }
+
+    /// A head-on move straight through a 4 mm plate ends on the plate's near side, with the
+    /// move's tangential part kept; a slanted one slides along the near face by its tangential
+    /// part.
+    #[test]
+    fn a_move_through_a_plate_slides_along_its_near_face() {
+        let plate = flat_plate();
         let from = Vector3::new(0.0, 0.0, 0.0025);
         let to = Vector3::new(0.1, -0.05, -0.2);
         let end = plate
@@ -286,13 +291,7 @@ mod tests {
     /// slides from it along the near face: the move does not end under the plate.
     #[test]
     fn a_trace_that_runs_out_of_steps_counts_as_a_touch_on_the_near_side() {
-        let plate = Shape::cuboid(
-            [0.0; 3],
-            [0.5, 0.5, 0.002],
-            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        )
-        .unwrap()
-        .to_real::<f64>();
+        let plate = flat_plate();
         let slant = 2f64.to_radians();
         let from = Vector3::new(0.0, 0.0, 0.003);
         let to = from + Vector3::new(slant.cos(), 0.0, -slant.sin()) * 0.2;
