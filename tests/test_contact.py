@@ -43,6 +43,14 @@ def test_contact_parameters_are_validated_and_reported():
     solver = peridyn.Solver(dt=1e-3, contact=c)
     assert solver.contact.thickness == 1.5e-3
     assert peridyn.Solver(dt=1e-3).contact is None
+    # Re-tuned between steps; not switched on or off.
+    solver.contact = peridyn.Contact(thickness=1e-3, parallel_angle=0.0)
+    assert solver.contact.thickness == 1e-3 and solver.contact.parallel_angle == 0.0
+    with pytest.raises(ValueError, match="switched off"):
+        solver.contact = None
+    with pytest.raises(ValueError, match="switched on"):
+        peridyn.Solver(dt=1e-3).contact = c
+    assert solver.contact.thickness == 1e-3
 
 
 def test_contact_off_runs_nothing_of_it():

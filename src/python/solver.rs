@@ -387,10 +387,31 @@ impl PySolver {
             Acceleration::Chebyshev { .. } => Some("chebyshev"),
         }
     }
-    /// The contact parameters, or None when contact is off.
+    /// The contact parameters, or None when contact is off. Settable to another `Contact`
+    /// between steps (a `Contact` is frozen: build a new one), but contact cannot be switched
+    /// on or off on a solver: one built without it kept nothing apart.
     #[getter]
     fn contact(&self) -> Option<PyContact> {
         with_solver!(&self.core, s => s.params().contact.map(|inner| PyContact { inner }))
+    }
+    #[setter]
+    fn set_contact(&mut self, contact: Option<PyRef<'_, PyContact>>) -> PyResult<()> {
+        with_solver!(&mut self.core, s => {
+            let params = *s.params();
+            match (params.contact, contact) {
+                (Some(_), Some(new)) => s
+                    .set_params(SolverParams { contact: Some(new.inner), ..params })
+                    .py(),
+                (Some(_), None) => Err(PyValueError::new_err(
+                    "contact cannot be switched off on a solver that has it: build a Solver \
+                     without contact= instead",
+                )),
+                (None, _) => Err(PyValueError::new_err(
+                    "contact cannot be switched on on a solver built without it (nothing kept \
+                     its bodies apart so far): build the Solver with contact=peridyn.Contact(...)",
+                )),
+            }
+        })
     }
     /// "sissm" or "descent".
     #[getter]

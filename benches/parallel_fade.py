@@ -1,0 +1,93 @@
+"""What the fade of nearly parallel edge-edge pairs (``Contact(parallel_angle=...)``) buys and
+costs: two stacked layers dropped over a ball, solved at a tight and at the default tolerance,
+for fade angles from 0 (the paper's barrier) up, side by side in one process.
+
+The scene is ``paper_scenes.cloths_over_ball(layers=2, n=--n, size=0.5)``: the layers drape over
+the ball onto the ground, and each edge of the upper layer lies along an edge of the lower one.
+Per fade angle and tolerance it records the iterations per step (median and largest), the steps
+that ran to ``--max-iters``, ms per step (median), the local step's iterations per step
+(median), and at the end the smallest distance between non-adjacent primitives (m; the local
+step keeps it above ``eps xi``) and whether any two triangles intersect.
+
+Default (about half a minute):  python benches/parallel_fade.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _common as C  # noqa: E402
+
+import peridyn  # noqa: E402
+from peridyn import checks, paper_scenes  # noqa: E402
+
+IPC_ANGLE = math.asin(math.sqrt(1e-3))
+
+
+def run(angle: float, tol: float, args) -> dict:
+    scene = paper_scenes.cloths_over_ball(layers=2, n=args.n, size=0.5, tol=tol,
+                                          max_iters=args.max_iters, threads=args.threads)
+    c = scene.solver.contact
+    scene.solver.contact = peridyn.Contact(
+        thickness=c.thickness, d_hat=c.d_hat, eps=c.eps, weight=c.weight,
+        max_iters=c.max_iters, step=c.step, toi_threshold=c.toi_threshold,
+        warm_start=c.warm_start, parallel_angle=angle)
+    iterations, ms, local = [], [], []
+    start = time.perf_counter()
+    for _ in range(args.steps):
+        stats = scene.solver.step()
+        iterations.append(stats.iterations)
+        ms.append(stats.timings["total"])
+        local.append(stats.contact["local_iterations"])
+    wall = time.perf_counter() - start
+    x, tris, _ = checks.mesh_of(scene.bodies.values())
+    return {
+        "parallel_angle_rad": angle,
+        "tol_m": tol,
+        "wall_s": wall,
+        "iterations_median": C.median(iterations),
+        "iterations_max": max(iterations),
+        "steps_at_max_iters": sum(i >= args.max_iters for i in iterations),
+        "ms_per_step_median": C.median(ms),
+        "local_iterations_median": C.median(local),
+        "min_distance_m": checks.min_separation(x, tris, 2 * (c.thickness + c.d_hat)),
+        "intersecting_pairs": len(checks.intersecting_pairs(x, tris)),
+        "eps_xi_m": c.eps * c.thickness,
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--n", type=int, default=12, help="vertices per side of each layer")
+    ap.add_argument("--steps", type=int, default=300)
+    ap.add_argument("--max-iters", type=int, default=200)
+    ap.add_argument("--tols", type=float, nargs="+", default=[1e-6, 1e-4],
+                    help="solver tolerances (m)")
+    ap.add_argument("--angles", type=float, nargs="+",
+                    default=[0.0, 0.5 * IPC_ANGLE, IPC_ANGLE, 3 * IPC_ANGLE],
+                    help="fade angles (radians); the default is IPC's, asin(sqrt(1e-3))")
+    ap.add_argument("--threads", type=int, default=None)
+    ap.add_argument("--out", default=None)
+    args = ap.parse_args()
+    record = C.Record("parallel_fade", args)
+    results = []
+    for tol in args.tols:
+        for angle in args.angles:
+            r = run(angle, tol, args)
+            results.append(r)
+            print(f"tol {tol:g} m, fade {math.degrees(angle):.2f} deg: "
+                  f"{r['iterations_median']:.0f} iterations median ({r['iterations_max']} at most, "
+                  f"{r['steps_at_max_iters']} steps at the cap), {r['ms_per_step_median']:.1f} ms "
+                  f"per step, {r['wall_s']:.1f} s, min distance {r['min_distance_m'] * 1e3:.3f} mm, "
+                  f"{r['intersecting_pairs']} intersecting", flush=True)
+    record.data["results"] = results
+    record.write(args.out)
+
+
+if __name__ == "__main__":
+    main()
