@@ -23,7 +23,6 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _common as C  # noqa: E402
 
-import peridyn  # noqa: E402
 from peridyn import checks, paper_scenes  # noqa: E402
 
 IPC_ANGLE = math.asin(math.sqrt(1e-3))
@@ -32,11 +31,8 @@ IPC_ANGLE = math.asin(math.sqrt(1e-3))
 def run(angle: float, tol: float, args) -> dict:
     scene = paper_scenes.cloths_over_ball(layers=2, n=args.n, size=0.5, tol=tol,
                                           max_iters=args.max_iters, threads=args.threads)
-    c = scene.solver.contact
-    scene.solver.contact = peridyn.Contact(
-        thickness=c.thickness, d_hat=c.d_hat, eps=c.eps, weight=c.weight,
-        max_iters=c.max_iters, step=c.step, toi_threshold=c.toi_threshold,
-        warm_start=c.warm_start, parallel_angle=angle)
+    c = scene.solver.contact.replace(parallel_angle=angle)
+    scene.solver.contact = c
     iterations, ms, local = [], [], []
     start = time.perf_counter()
     for _ in range(args.steps):

@@ -43,6 +43,19 @@ def test_contact_parameters_are_validated_and_reported():
     solver = peridyn.Solver(dt=1e-3, contact=c)
     assert solver.contact.thickness == 1.5e-3
     assert peridyn.Solver(dt=1e-3).contact is None
+    # A copy with some parameters changed, the rest (CCD's included) kept.
+    r = c.replace(parallel_angle=0.0, max_iters=8, step="uniform")
+    assert (r.parallel_angle, r.max_iters, r.step) == (0.0, 8, "uniform")
+    assert (r.thickness, r.d_hat, r.eps, r.ccd_s, r.ccd_t_c, r.warm_start) == (
+        c.thickness, c.d_hat, c.eps, c.ccd_s, c.ccd_t_c, c.warm_start)
+    assert c.parallel_angle > 0.0 and c.max_iters == 32, "the original is unchanged"
+    assert peridyn.Contact(ccd_s=0.2).replace(eps=0.2).ccd_s == 0.2
+    with pytest.raises(ValueError, match="eps"):
+        c.replace(eps=1.5)
+    with pytest.raises(ValueError, match="max_iters"):
+        c.replace(max_iters=-1)
+    with pytest.raises(TypeError, match="thicknes"):
+        c.replace(thicknes=1e-3)
     # Re-tuned between steps; not switched on or off.
     solver.contact = peridyn.Contact(thickness=1e-3, parallel_angle=0.0)
     assert solver.contact.thickness == 1e-3 and solver.contact.parallel_angle == 0.0

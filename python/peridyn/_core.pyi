@@ -344,6 +344,14 @@ class Contact:
     def warm_start(self) -> bool: ...
     @property
     def parallel_angle(self) -> float: ...
+    @property
+    def ccd_s(self) -> float: ...
+    @property
+    def ccd_t_c(self) -> float: ...
+    def replace(self, **changes: Any) -> "Contact":
+        """A copy with the parameters named by keyword (the constructor's names) changed and the
+        rest kept, validated as the constructor validates: ``c.replace(parallel_angle=0.0)``.
+        ``d_hat`` is kept unless named, also where ``thickness`` changes."""
 
 class StepStats:
     """What one time step did."""

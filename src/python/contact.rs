@@ -2,8 +2,9 @@
 //! inspection (the solver calls them internally).
 
 use nalgebra::Vector3;
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use rayon::prelude::*;
 
 use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
@@ -277,25 +278,13 @@ impl PyContact {
         warm_start: bool,
         parallel_angle: Option<f64>,
     ) -> PyResult<Self> {
-        let max_iters = usize::try_from(max_iters).map_err(|_| {
-            PyValueError::new_err(format!("max_iters must be >= 1, got {max_iters}"))
-        })?;
-        let step = match step {
-            "curvature" => DescentStep::Curvature,
-            "uniform" => DescentStep::Uniform,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "contact step must be 'curvature' or 'uniform', got {other:?}"
-                )))
-            }
-        };
         let inner = ContactParams {
             thickness,
             d_hat: d_hat.unwrap_or(4.0 * thickness),
             eps,
             weight,
-            max_iters,
-            step,
+            max_iters: iteration_cap(max_iters)?,
+            step: step_rule(step)?,
             toi_threshold,
             ccd: AdditiveCcd {
                 s: ccd_s,
@@ -352,11 +341,51 @@ impl PyContact {
     fn parallel_angle(&self) -> f64 {
         self.inner.parallel_angle
     }
+    /// The additive CCD's `s`.
+    #[getter]
+    fn ccd_s(&self) -> f64 {
+        self.inner.ccd.s
+    }
+    /// The additive CCD's `t_c`.
+    #[getter]
+    fn ccd_t_c(&self) -> f64 {
+        self.inner.ccd.t_c
+    }
+    /// A copy with the parameters named by keyword (the constructor's names) changed and the
+    /// rest kept, validated as the constructor validates: `c.replace(parallel_angle=0.0)`.
+    /// `d_hat` is kept unless named, also where `thickness` changes.
+    #[pyo3(signature = (**changes))]
+    fn replace(&self, changes: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let mut p = self.inner;
+        for (key, value) in changes.into_iter().flatten() {
+            let key: String = key.extract()?;
+            match key.as_str() {
+                "thickness" => p.thickness = value.extract()?,
+                "d_hat" => p.d_hat = value.extract()?,
+                "eps" => p.eps = value.extract()?,
+                "weight" => p.weight = value.extract()?,
+                "max_iters" => p.max_iters = iteration_cap(value.extract()?)?,
+                "step" => p.step = step_rule(&value.extract::<String>()?)?,
+                "toi_threshold" => p.toi_threshold = value.extract()?,
+                "ccd_s" => p.ccd.s = value.extract()?,
+                "ccd_t_c" => p.ccd.t_c = value.extract()?,
+                "warm_start" => p.warm_start = value.extract()?,
+                "parallel_angle" => p.parallel_angle = value.extract()?,
+                other => {
+                    return Err(PyTypeError::new_err(format!(
+                        "Contact.replace() got an unexpected keyword argument {other:?}"
+                    )))
+                }
+            }
+        }
+        p.validate().py()?;
+        Ok(Self { inner: p })
+    }
     fn __repr__(&self) -> String {
         let p = &self.inner;
         format!(
             "Contact(thickness={}, d_hat={}, eps={}, weight={}, max_iters={}, step='{}', \
-             toi_threshold={}, warm_start={}, parallel_angle={})",
+             toi_threshold={}, ccd_s={}, ccd_t_c={}, warm_start={}, parallel_angle={})",
             p.thickness,
             p.d_hat,
             p.eps,
@@ -364,9 +393,28 @@ impl PyContact {
             p.max_iters,
             self.step(),
             p.toi_threshold,
+            p.ccd.s,
+            p.ccd.t_c,
             if p.warm_start { "True" } else { "False" },
             p.parallel_angle
         )
+    }
+}
+
+/// `max_iters` as a count, or a ValueError naming it.
+fn iteration_cap(max_iters: i64) -> PyResult<usize> {
+    usize::try_from(max_iters)
+        .map_err(|_| PyValueError::new_err(format!("max_iters must be >= 1, got {max_iters}")))
+}
+
+/// The descent step rule named `step`, or a ValueError naming the two.
+fn step_rule(step: &str) -> PyResult<DescentStep> {
+    match step {
+        "curvature" => Ok(DescentStep::Curvature),
+        "uniform" => Ok(DescentStep::Uniform),
+        other => Err(PyValueError::new_err(format!(
+            "contact step must be 'curvature' or 'uniform', got {other:?}"
+        ))),
     }
 }
 
