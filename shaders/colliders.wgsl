@@ -105,10 +105,12 @@ fn collider_project(k: Collider, x: vec3<real>, distance: real, margin: real) ->
 // decisions in the same order; every shape here is an exact, convex distance): sphere tracing
 // along the straight path from `origin` (outside) to `to`, at most TRACE_STEPS steps each as
 // long as the signed distance, touching where it falls to TRACE_TOLERANCE of its value at
-// `origin`, and ending early where the rest of the path is shorter than the distances at its
-// two ends together, or where a step brings the path no closer.
+// `origin` or to TOUCH_DISTANCE (m) if that is smaller, and ending early where the rest of the
+// path is shorter than the distances at its two ends together, or where a step brings the
+// path no closer.
 const TRACE_STEPS: u32 = 64u;
 const TRACE_TOLERANCE: real = 1e-3;
+const TOUCH_DISTANCE: real = 1e-6;
 
 // The end of the move from `origin` to `to` (local points; `distance` is the signed distance at
 // `to`) to take out of the shape: `to`, unless its path reaches the surface at e and `to` is not
@@ -129,7 +131,7 @@ fn shape_keep_side(k: Collider, origin: vec3<real>, to: vec3<real>, distance: re
     }
     let direction = path / len;
     let beyond = select(0.0, distance, distance > 0.0);
-    let close = start * TRACE_TOLERANCE;
+    let close = min(start * TRACE_TOLERANCE, TOUCH_DISTANCE);
     var along: real = 0.0;
     var last = start;
     var touched = false;
