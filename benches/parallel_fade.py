@@ -23,9 +23,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _common as C  # noqa: E402
 
+import peridyn  # noqa: E402
 from peridyn import checks, paper_scenes  # noqa: E402
 
-IPC_ANGLE = math.asin(math.sqrt(1e-3))
+#: The default fade angle (radians), IPC's: asin(sqrt(1e-3)).
+DEFAULT_ANGLE = peridyn.Contact().parallel_angle
 
 
 def run(angle: float, tol: float, args) -> dict:
@@ -65,7 +67,7 @@ def main() -> None:
     ap.add_argument("--tols", type=float, nargs="+", default=[1e-6, 1e-4],
                     help="solver tolerances (m)")
     ap.add_argument("--angles", type=float, nargs="+",
-                    default=[0.0, 0.5 * IPC_ANGLE, IPC_ANGLE, 3 * IPC_ANGLE],
+                    default=[0.0, 0.5 * DEFAULT_ANGLE, DEFAULT_ANGLE, 3 * DEFAULT_ANGLE],
                     help="fade angles (radians); the default is IPC's, asin(sqrt(1e-3))")
     ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--out", default=None)
