@@ -271,6 +271,39 @@ mod tests {
         }
     }
 
+    /// Paths aimed at a cube's corner, which sits on a node of its mesh's grid. There the
+    /// grid's trilinear distance rises with slope up to `sqrt 3` (each of its three partial
+    /// derivatives is 1 at the corner's node: along the diagonal the distance grows as
+    /// `sqrt 3` times the length), so a trace stepping by the distance itself would jump past
+    /// the corner into the cube. Stepping by the distance over [`MESH_SLOPE`], every path
+    /// from 1-12 mm out, within 20 degrees of the diagonal, touches outside the cube and within
+    /// a tenth of a millimetre of the corner.
+    #[test]
+    fn a_trace_into_a_mesh_corner_on_a_grid_node_stops_outside() {
+        let (vertices, triangles) = crate::contact::sdf::tests::box_mesh([0.1; 3]);
+        // Cells of 1 cm and a margin of three cells: the corners are grid nodes.
+        let cube = Shape::mesh(vertices, triangles, 20, Some(0.03))
+            .unwrap()
+            .to_real::<f64>();
+        let corner = Vector3::repeat(0.1);
+        let mut rng = Rng::new(11);
+        for _ in 0..200 {
+            let tilt = rng.vector() * 0.2;
+            let direction = (Vector3::repeat(1.0).normalize() + tilt).normalize();
+            let from = corner + direction * (0.0065 + 0.0055 * rng.uniform());
+            let to = corner - direction * 0.05;
+            let touch = cube
+                .first_touch(&from, &to, cube.signed_distance(&to))
+                .unwrap();
+            let depth = cube.signed_distance(&touch);
+            assert!(
+                depth >= 0.0,
+                "from {from} the trace stepped {depth:e} m into the cube"
+            );
+            assert!((touch - corner).norm() < 1e-4, "touched at {touch}");
+        }
+    }
+
     /// A 4 mm plate, 1 m wide, in the plane `z = 0`.
     fn flat_plate() -> ShapeModel<f64> {
         Shape::cuboid(
