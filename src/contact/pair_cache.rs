@@ -52,10 +52,13 @@
 //!   that the raised limits reach are added, found by a search around those vertices'
 //!   triangles only. On the paper's six layers over the ball (steps 138-146 from a saved
 //!   state) each of the four builds after the first was forced by one to three of the 240K
-//!   vertices, by at most 0.21 mm. There a repair so far defers the build by a step only:
+//!   vertices, by at most 0.21 mm. There a repair defers the build by one to three steps:
 //!   then some region pairs outgrow their skins (by at most 0.26 mm), which only a build
-//!   puts right (steps 138-145, two alternating runs: 231 and 234 s with repairs, 241 and
-//!   215 s without).
+//!   puts right. The pairs a repair adds (hundreds) go after the build's (20M there), which
+//!   keep their order, index and sweep, and every filter looks at each of them: arranging
+//!   and indexing all the pairs afresh made a repair cost 1.3-2 s, a third of a build
+//!   (steps 153 and 154 from a saved state, with one and two repairs: broad phase 1.9 and
+//!   1.0 s, against 5.6 and 6.8 s before).
 //! - **Skip**: the pair's distance at every such `x` is at least
 //!   `d_r - max_{a in A, b in B} max(|w_a - w_b|, |g_a - g_b|) - max_A A - max_B A` (A, B the
 //!   two primitives; [`Pair::relative_distance_bound`]): only the primitives' motion relative
@@ -125,10 +128,14 @@ pub(super) struct PairCache {
     /// The triangles of each vertex, for [`Owners`].
     owners: Owners,
     /// The primitive pairs of the build, each with its distance at `reference` (m) rounded
-    /// down to `f32`, in buckets of increasing distance (NaN first).
+    /// down to `f32`: the build's `..arranged` in buckets of increasing distance (NaN first),
+    /// then those that repairs added since, in no order.
     pairs: Vec<(Pair, f32)>,
     /// Where the distance buckets of `pairs` end.
     order: DistanceOrder,
+    /// How many of `pairs` the build arranged in `order`; every filter looks at all the
+    /// others (repairs add a few thousand at most: [`MOST_RAISED`]).
+    arranged: usize,
     /// Per vertex: `dev_i = max_G max(|w_i - c_G^w|, |g_i - c_G^g|) + A_i` (m) over the
     /// regions `G` whose halos hold it, how far it may stray from their common motions (NaN
     /// counts as infinitely far).
@@ -138,8 +145,8 @@ pub(super) struct PairCache {
     apart: f64,
     /// `max_i dev_i` (m).
     farthest: f64,
-    /// The cached pairs by vertex: those of vertex `v` are `by_vertex[by_vertex_start[v]..
-    /// by_vertex_start[v + 1]]` (indices into `pairs`).
+    /// The build's pairs by vertex: those of vertex `v` are `by_vertex[by_vertex_start[v]..
+    /// by_vertex_start[v + 1]]` (indices into `pairs`, below `arranged`).
     by_vertex: Vec<u32>,
     by_vertex_start: Vec<u32>,
     /// Per cached pair: whether it is in the live list; false from `flagged` on.
@@ -233,10 +240,17 @@ impl PairCache {
         } else {
             None
         };
-        let found = match fall.and_then(|fall| self.refilter(near, fall, allowance, reach)) {
+        let mut found = match fall.and_then(|fall| self.refilter(near, fall, allowance, reach)) {
             Some(found) => found,
             None => self.sweep(safe, target, near, allowance, reach),
         };
+        // The repaired pairs, beyond the arranged ones: each looked at on every filter.
+        let this = &*self;
+        found.par_extend(
+            (this.arranged as u32..this.pairs.len() as u32)
+                .into_par_iter()
+                .filter(|&k| this.may_come_within(k as usize, allowance, reach)),
+        );
         self.flagged = found.last().map_or(0, |&k| k as usize + 1);
         live.clear();
         self.mark_live(&found, live);
@@ -261,7 +275,11 @@ impl PairCache {
         if !self.covers(allowance) {
             return false;
         }
+        debug_assert!(grown.windows(2).all(|w| w[0] < w[1]), "grown is increasing");
         let this = &*self;
+        let wanted = |k: u32| {
+            !this.is_live[k as usize] && this.may_come_within(k as usize, allowance, reach)
+        };
         let mut found: Vec<u32> = grown
             .par_iter()
             .flat_map_iter(|&v| {
@@ -269,11 +287,21 @@ impl PairCache {
                     this.by_vertex_start[v as usize] as usize,
                     this.by_vertex_start[v as usize + 1] as usize,
                 );
-                this.by_vertex[from..to].iter().copied().filter(|&k| {
-                    !this.is_live[k as usize] && this.may_come_within(k as usize, allowance, reach)
-                })
+                this.by_vertex[from..to]
+                    .iter()
+                    .copied()
+                    .filter(|&k| wanted(k))
             })
             .collect();
+        // The repaired pairs are not indexed by vertex: few enough to look at each.
+        found.par_extend(
+            (this.arranged as u32..this.pairs.len() as u32)
+                .into_par_iter()
+                .filter(|&k| {
+                    let pair = &this.pairs[k as usize].0;
+                    pair.v.iter().any(|v| grown.binary_search(v).is_ok()) && wanted(k)
+                }),
+        );
         found.par_sort_unstable();
         found.dedup();
         if let Some(&last) = found.last() {
@@ -581,6 +609,7 @@ impl PairCache {
         );
         self.order
             .arrange(&chunks, |&(_, d)| f64::from(d), &mut self.pairs);
+        self.arranged = self.pairs.len();
         drop(chunks);
         self.index_pairs();
     }
@@ -692,13 +721,11 @@ impl PairCache {
             },
             &mut chunks,
         );
-        if chunks.iter().any(|c| !c.is_empty()) {
-            chunks.insert(0, std::mem::take(&mut self.pairs));
-            self.order
-                .arrange(&chunks, |&(_, d)| f64::from(d), &mut self.pairs);
-            drop(chunks);
-            self.index_pairs();
-        }
+        // Appended after the arranged pairs, which keep their places, their order, their
+        // index by vertex and the sweep's record of them: arranging the build's millions
+        // afresh cost 1.3-2 s for a few hundred pairs on the paper's six layers.
+        self.pairs.extend(chunks.into_iter().flatten());
+        self.is_live.resize(self.pairs.len(), false);
         true
     }
 
@@ -731,8 +758,8 @@ impl PairCache {
 
 /// The most vertices, as a share of all, that a build may have raised skins for by
 /// [`PairCache::repair`] before it is built afresh instead (a cost trade-off only: a repair
-/// costs what the raised vertices' triangles cost plus a pass over the cached pairs, a build
-/// what the whole mesh costs, and every raised skin keeps more pairs until the next build).
+/// costs what the raised vertices' triangles cost, a build what the whole mesh costs, and
+/// every raised skin keeps more pairs until the next build, which every filter looks at).
 const MOST_RAISED: f64 = 1.0 / 64.0;
 
 /// The limit of a build (m) for the primitive pair `p`: `reach + max_A R + max_B R + S_PQ`,
@@ -906,6 +933,33 @@ pub(super) mod tests {
     }
 
     impl PairCache {
+        /// Checks that every cached pair whose bounds may come within `reach` (m) for the
+        /// allowances `allowance` (m), on the path the sweep last measured, is in `live`;
+        /// returns how many of them repairs added.
+        fn assert_live_hold_every_cached_pair_that_may_come_within(
+            &self,
+            live: &[Pair],
+            allowance: &[f64],
+            reach: f64,
+            step: usize,
+        ) -> usize {
+            let mut live = live.to_vec();
+            live.sort_unstable();
+            let mut repaired = 0;
+            for (k, (p, _)) in self.pairs.iter().enumerate() {
+                if self.may_come_within(k, allowance, reach) {
+                    assert!(
+                        live.binary_search(p).is_ok(),
+                        "step {step}: cached pair {k} of {} ({} arranged) is not live",
+                        self.pairs.len(),
+                        self.arranged
+                    );
+                    repaired += usize::from(k >= self.arranged);
+                }
+            }
+            repaired
+        }
+
         /// Checks that the stored pairs are exactly those of `every` closer than their limit
         /// at the reference positions (brute force), each with its distance there rounded
         /// down.
@@ -1400,18 +1454,21 @@ pub(super) mod tests {
         );
     }
 
-    /// Two flat sheets 6 cm apart, at rest but for a jitter of up to 0.3 mm, while two
+    /// Two flat sheets 2.5 cm apart, at rest but for a jitter of up to 0.3 mm, while two
     /// vertices of one set off towards the other, faster at every local step (allowances of
     /// 2 mm): they stray beyond their skins while their regions' motions still fit, and the
     /// build is repaired rather than built afresh; after every repair (and build) the stored
     /// pairs are exactly those within their raised limits (brute force), and the live pairs
     /// hold every pair a brute-force search finds within `reach` all the way into contact.
+    /// The live pairs also hold every cached pair whose bounds may come within reach, before
+    /// and after the strays' allowances grow by 1 mm and the list is extended, the pairs that
+    /// repairs added among them (not indexed by vertex, see [`PairCache::extend_live`]).
     #[test]
     fn a_few_strays_repair_the_build_and_miss_no_pair() {
         let mut rng = Rng::new(41);
         let side = 12u32;
         let n = side * side;
-        let sheets = TestMesh::two_sheets(side, 0.06);
+        let sheets = TestMesh::two_sheets(side, 0.025);
         let (mesh, mut safe) = (sheets.mesh(), sheets.positions.clone());
         let (_, every) = brute_force_pairs(&mesh, &safe);
         let strays = [n + 5 * side + 5, n + 7 * side + 6];
@@ -1419,6 +1476,7 @@ pub(super) mod tests {
         let clamp = vec![1.0; safe.len()];
         let (mut cache, mut live, mut renewals, mut within) =
             (PairCache::default(), Vec::new(), Vec::new(), 0);
+        let (mut repaired_live, mut repaired_extended) = (0, 0);
         for k in 0..14 {
             let target: Vec<_> = (0..safe.len())
                 .map(|i| {
@@ -1438,9 +1496,31 @@ pub(super) mod tests {
             let moves = Moves::new(&safe, &target, &clamp, &allowance);
             within +=
                 moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
+            repaired_live += cache.assert_live_hold_every_cached_pair_that_may_come_within(
+                &live, &allowance, reach, k,
+            );
+            let mut grown_allowance = allowance.clone();
+            for &v in &strays {
+                grown_allowance[v as usize] += 0.001;
+            }
+            let mut extended = live.clone();
+            if cache.extend_live(&grown_allowance, &strays, reach, &mut extended) {
+                repaired_extended += cache.assert_live_hold_every_cached_pair_that_may_come_within(
+                    &extended,
+                    &grown_allowance,
+                    reach,
+                    k,
+                );
+            }
+            // The next filter starts afresh, as the local step's next refresh would.
             safe = target;
         }
         assert!(within > 100, "the scene has pairs within reach: {within}");
+        assert!(
+            repaired_live > 0 && repaired_extended > repaired_live,
+            "repaired pairs that may come within reach: {repaired_live} live, \
+             {repaired_extended} after the extensions"
+        );
         let (x0, x1) = (safe[strays[0] as usize].x, safe[strays[1] as usize].x);
         assert!(
             x0 < 0.01 && x1 < 0.01,
