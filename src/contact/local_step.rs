@@ -1013,9 +1013,9 @@ fn barrier_push(
 /// surface unbalanced. The cut comes after the projection: a proposal mostly into the collider
 /// would otherwise be cut to a crawl along it (and the metric's slide along a surface can be
 /// long where the barrier is stiff and nearly normal to it). The cut point lies on the chord
-/// from `before` to the projected end, which cuts into a curved collider (by `f (1 - f) L^2 /
-/// 2R` at the fraction `f` of a chord of length `L` on a ball of radius `R`): hence the second
-/// projection.
+/// from `before` to the projected end, which cuts into a curved collider (by about `f (1 - f)
+/// L^2 / 2R` at the fraction `f` of a chord of length `L` on a ball of radius `R`): hence the
+/// second projection.
 fn damped_move(
     i: usize,
     before: &Vector3<f64>,
@@ -1692,11 +1692,12 @@ mod tests {
     }
 
     /// A descent move along a 1 cm ball, from a point on it: the proposal (5 mm along, 2 mm
-    /// in) is taken out of the ball, 5.5 mm from the start, and then cut to `eps xi` = 0.2
-    /// mm. The cut point is on the chord to the projected end, 53 micrometres inside the
-    /// ball; it is projected out again, so the move ends on the surface, up to 5 % short of
-    /// `eps xi` from the start (the projection shortens it by 3.4 % here). Without the second
-    /// projection the vertex would end inside.
+    /// in) is taken out of the ball, 5.5 mm from the start, and then cut to the longest move,
+    /// 0.2 mm (and 0.1 mm at half damping). The cut point is on the chord to the projected
+    /// end, 53 micrometres inside the ball (13 at half damping); it is projected out again, so
+    /// the move ends on the surface, up to 5 % short of the longest move (the projection
+    /// shortens it by 3.4 %, 0.8 % at half damping). Without the second projection the vertex
+    /// would end inside.
     #[test]
     fn a_move_cut_along_a_ball_ends_on_its_surface() {
         use super::super::{out_of_colliders, Collider, MoveStart, MovingCollider, Shape};

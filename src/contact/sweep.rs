@@ -1,6 +1,7 @@
-//! What the last full filter of the cached primitive pairs (a *sweep*) saw, so that the
-//! filters after it test again only the pairs whose distance bound may have fallen below the
-//! barrier's reach since (see [`super::pair_cache`], "Skip").
+//! What the last full filter of the build's cached primitive pairs (a *sweep*) saw, so that
+//! the filters after it test again only the pairs whose distance bound may have fallen below
+//! the barrier's reach since (see [`super::pair_cache`], "Skip"; the few pairs that repairs
+//! add after a build are tested by every filter).
 //!
 //! A sweep at safe positions `s^0` and targets `y^0` (m) takes each near pair's distance
 //! `d^0` at `s^0` and its relative distance bound ([`Pair::relative_distance_bound`])

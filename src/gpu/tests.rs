@@ -316,11 +316,12 @@ fn friction_and_moving_colliders_match_the_cpu() {
 }
 
 /// A fast impact: a 4 mm plate comes at the cloth from 5 m away in one step, slanted (2500
-/// m/s up, 1500 m/s along), and ends 1 cm above it. In the plate's frame every vertex's path
+/// m/s up, 1500 m/s along), its centre ending 1 cm above it. In the plate's frame every
+/// vertex's path
 /// starts metres out (the step's start carried by the plate's displacement) and crosses the
 /// plate, so each is kept on the near face: the cloth is carried on the plate's upper face at
 /// its margin, not left behind under it, on the GPU as on the CPU (within 10 um). Without the
-/// carry the GPU leaves the cloth 12 mm below. (The trace's `TOUCH_DISTANCE` does not show
+/// carry the GPU leaves the cloth under the plate, 12 mm below its upper face. (The trace's `TOUCH_DISTANCE` does not show
 /// here: the iterations after the first projection start next to the plate.)
 #[test]
 fn a_plate_from_metres_away_lands_the_cloth_on_its_margin_as_on_the_cpu() {

@@ -276,7 +276,7 @@ mod tests {
     /// derivatives is 1 at the corner's node: along the diagonal the distance grows as
     /// `sqrt 3` times the length), so a trace stepping by the distance itself would jump past
     /// the corner into the cube. Stepping by the distance over [`MESH_SLOPE`], every path
-    /// from 1-12 mm out, within 20 degrees of the diagonal, touches outside the cube and within
+    /// from 1-12 mm out, within 21 degrees of the diagonal, touches outside the cube and within
     /// a tenth of a millimetre of the corner.
     #[test]
     fn a_trace_into_a_mesh_corner_on_a_grid_node_stops_outside() {
