@@ -107,10 +107,8 @@ fn collider_project(k: Collider, x: vec3<real>, distance: real, margin: real) ->
 // long as the signed distance, touching where it falls to TRACE_TOLERANCE of its value at
 // `origin` or to TOUCH_DISTANCE (m) if that is smaller, and ending early where the rest of the
 // path is shorter than the distances at its two ends together, or where a step brings the
-// path no closer.
-const TRACE_STEPS: u32 = 64u;
-const TRACE_TOLERANCE: real = 1e-3;
-const TOUCH_DISTANCE: real = 1e-6;
+// path no closer. TRACE_STEPS, TRACE_TOLERANCE and TOUCH_DISTANCE are the CPU's, prepended by
+// src/gpu/pipelines.rs.
 
 // The end of the move from `origin` to `to` (local points; `distance` is the signed distance at
 // `to`) to take out of the shape: `to`, unless its path reaches the surface at e and `to` is not

@@ -4,6 +4,8 @@
 
 mod crossing;
 
+pub(crate) use crossing::{TOUCH_DISTANCE, TRACE_STEPS, TRACE_TOLERANCE};
+
 use std::sync::Arc;
 
 use nalgebra::{Matrix3, Vector3};

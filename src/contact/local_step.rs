@@ -1029,8 +1029,9 @@ fn damped_move(
     keep_out(i, before, &mut at, metric);
     if let Some(longest) = longest {
         let (slide, limit) = (at - before, longest * damp);
-        if slide.norm() > limit {
-            at = before + slide * (limit / slide.norm());
+        let length = slide.norm();
+        if length > limit {
+            at = before + slide * (limit / length);
             keep_out(i, before, &mut at, None);
         }
     }
@@ -1175,6 +1176,22 @@ mod tests {
 
     /// No colliders to keep out of.
     const FREE: &KeepOut = &|_, _, _, _| {};
+
+    /// A [`KeepOut`] for `colliders`: every move from where the vertex is, to their surfaces.
+    fn keeping_out_of(
+        colliders: &[super::super::ColliderModel<f64>],
+    ) -> impl Fn(usize, &Vector3<f64>, &mut Vector3<f64>, Option<&SymmetricMatrix3<f64>>) + Sync + '_
+    {
+        move |_, from, zi, metric| {
+            *zi = super::super::out_of_colliders(
+                colliders,
+                super::super::MoveStart::Now(*from),
+                *zi,
+                0.0,
+                metric,
+            );
+        }
+    }
 
     type Scene = (Vec<Vector3<f64>>, Vec<Vector3<f64>>, Vec<[u32; 3]>);
 
@@ -1638,7 +1655,7 @@ mod tests {
     /// move taken, points against the last move (every iteration here).
     #[test]
     fn a_triangle_pressed_onto_a_collider_by_a_slanted_roof_slides_to_the_balance() {
-        use super::super::{out_of_colliders, Collider, MoveStart, MovingCollider, Shape};
+        use super::super::{Collider, MovingCollider, Shape};
         let params = pressing(DescentStep::Curvature, 32);
         let eps_xi = params.eps * params.thickness;
         let floor = MovingCollider::new(Collider::fixed(
@@ -1667,12 +1684,7 @@ mod tests {
             body: &[0, 1],
             self_contact: &[false, false],
         };
-        let keep_out = |_: usize,
-                        from: &Vector3<f64>,
-                        zi: &mut Vector3<f64>,
-                        metric: Option<&SymmetricMatrix3<f64>>| {
-            *zi = out_of_colliders(&floors, MoveStart::Now(*from), *zi, 0.0, metric);
-        };
+        let keep_out = keeping_out_of(&floors);
         let mut work = Workspace::default();
         let stats = project(&safe, &mut z, &fixed, &mesh, &params, &keep_out, &mut work);
         assert_eq!(stats.active_pairs, 3);
@@ -1700,17 +1712,12 @@ mod tests {
     /// would end inside.
     #[test]
     fn a_move_cut_along_a_ball_ends_on_its_surface() {
-        use super::super::{out_of_colliders, Collider, MoveStart, MovingCollider, Shape};
+        use super::super::{Collider, MovingCollider, Shape};
         let radius = 0.01;
         let ball = Shape::sphere([0.0; 3], radius).unwrap();
         let balls =
             [MovingCollider::new(Collider::fixed(ball.clone())).during_step::<f64>(0.0, 1.0)];
-        let keep_out = |_: usize,
-                        from: &Vector3<f64>,
-                        zi: &mut Vector3<f64>,
-                        metric: Option<&SymmetricMatrix3<f64>>| {
-            *zi = out_of_colliders(&balls, MoveStart::Now(*from), *zi, 0.0, metric);
-        };
+        let keep_out = keeping_out_of(&balls);
         let before = Vector3::new(0.0, 0.0, radius);
         let proposed = Vector3::new(0.005, 0.0, -0.002);
         let longest = 2e-4;

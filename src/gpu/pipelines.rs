@@ -43,10 +43,21 @@ pub(super) struct Pipelines {
     pub finish_energy: wgpu::ComputePipeline,
 }
 
+/// The sphere-tracing constants of the crossing check in colliders.wgsl, written from the
+/// CPU's (`contact::collider::crossing`), so that the two traces cannot drift apart.
+fn trace_constants() -> String {
+    use crate::contact::{TOUCH_DISTANCE, TRACE_STEPS, TRACE_TOLERANCE};
+    format!(
+        "const TRACE_STEPS: u32 = {TRACE_STEPS}u;\n\
+         const TRACE_TOLERANCE: real = {TRACE_TOLERANCE:?};\n\
+         const TOUCH_DISTANCE: real = {TOUCH_DISTANCE:?};\n"
+    )
+}
+
 impl Pipelines {
     pub fn new<T: GpuReal>(ctx: &GpuContext) -> Self {
         let device = &ctx.device;
-        let source = format!("{}{KERNELS}", T::PRELUDE);
+        let source = format!("{}{}{KERNELS}", T::PRELUDE, trace_constants());
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("peridyn kernels"),
             source: wgpu::ShaderSource::Wgsl(source.into()),

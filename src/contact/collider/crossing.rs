@@ -13,17 +13,17 @@ use crate::real::Real;
 /// At most this many sphere-tracing steps along a path. A path still short of the surface
 /// after them grazes it (or, for a mesh, winds near it); the point reached counts as touching
 /// (the conservative choice).
-const TRACE_STEPS: usize = 64;
+pub(crate) const TRACE_STEPS: usize = 64;
 
 /// The path reaches the surface where the signed distance has fallen to this fraction of its
 /// value at the start of the path, or to [`TOUCH_DISTANCE`] if that is smaller.
-const TRACE_TOLERANCE: f64 = 1e-3;
+pub(crate) const TRACE_TOLERANCE: f64 = 1e-3;
 
 /// The path reaches the surface at the latest where the signed distance has fallen to this
 /// (m): a micrometre, far below any margin, so that a move from far out (a fast collider seen
 /// from the start of the step) ends on the surface and not a fraction of its start's distance
 /// short of it.
-const TOUCH_DISTANCE: f64 = 1e-6;
+pub(crate) const TOUCH_DISTANCE: f64 = 1e-6;
 
 /// How much faster than the length moved a shape's signed distance can change along a path:
 /// 1 for an exact distance (every analytic shape); up to `sqrt 3` for a mesh's grid, whose
