@@ -3,6 +3,7 @@
 //! local step of Algorithm 2.
 
 pub mod barrier;
+mod barrier_push;
 pub mod broad_phase;
 pub mod ccd;
 mod collider;
