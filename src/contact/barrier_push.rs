@@ -19,9 +19,14 @@ use crate::symmetric::SymmetricMatrix3;
 /// are made of.
 #[derive(Default)]
 pub(super) struct BarrierPush {
-    /// The live pairs by vertex (compressed rows, each increasing) for the list `indexed`.
-    start: Vec<u32>,
-    by_vertex: Vec<u32>,
+    /// The live pairs `..head` by vertex (compressed rows, each increasing).
+    head_rows: Rows,
+    head: usize,
+    /// The pairs from `head` on by vertex: the list grows by pairs appended at its end (many
+    /// times in a local step where vertices outgrow their allowances), and indexing only
+    /// them keeps an index of millions of pairs from being made again each time (a serial
+    /// counting sort of four entries per pair).
+    tail_rows: Rows,
     /// The version of the live list the rows are for (None: none yet).
     indexed: Option<u64>,
     /// Per pair at its last evaluation: `[s_c, k_c]`, its slope `-mu m_c B'(f(d_c) - xi)` (m)
@@ -40,9 +45,27 @@ pub(super) struct VertexSums<'a> {
     pub curvature: &'a mut [SymmetricMatrix3<f64>],
 }
 
+/// Compressed rows: the entries of vertex `v` are `entries[start[v]..start[v + 1]]`.
+#[derive(Default)]
+struct Rows {
+    start: Vec<u32>,
+    entries: Vec<u32>,
+}
+
+impl Rows {
+    fn of(&self, v: usize) -> &[u32] {
+        &self.entries[self.start[v] as usize..self.start[v + 1] as usize]
+    }
+}
+
+/// The longest tail, as a share of the head, that is indexed on its own: beyond it the whole
+/// list is indexed afresh (so an extension costs at most about this share of a full index).
+const LONGEST_TAIL: f64 = 0.125;
+
 impl BarrierPush {
     /// Brings `sums` up to date with the live pairs `pairs` (version `version` of the list,
-    /// see [`super::local_step`]) and their closest points `closest` at the current iterate:
+    /// see [`super::local_step`], whose first `unchanged` pairs are those of the last update in
+    /// their places) and their closest points `closest` at the current iterate:
     /// recomputes the terms of the pairs marked in `fresh` (those whose closest points were
     /// evaluated since the last update, every new pair among them), and the sums of every
     /// vertex of such a pair, or of every vertex where `all` (the sums were reset, or the list
@@ -53,7 +76,7 @@ impl BarrierPush {
     pub fn update(
         &mut self,
         pairs: &[Pair],
-        version: u64,
+        (version, unchanged): (u64, usize),
         closest: &[Closest],
         fades: &[f64],
         fresh: &[bool],
@@ -63,13 +86,32 @@ impl BarrierPush {
         sums: VertexSums,
     ) {
         let n = sums.push.len();
-        if self.indexed != Some(version) || self.start.len() != n + 1 {
-            index_by_vertex(
-                pairs.iter().map(|p| p.v),
-                n,
-                &mut self.start,
-                &mut self.by_vertex,
-            );
+        let fits = self.head_rows.start.len() == n + 1;
+        if self.indexed != Some(version) || !fits {
+            let tail = pairs.len().saturating_sub(self.head);
+            if fits && unchanged >= self.head && tail as f64 <= LONGEST_TAIL * self.head as f64 {
+                let rows = &mut self.tail_rows;
+                index_by_vertex(
+                    pairs[self.head..].iter().map(|p| p.v),
+                    n,
+                    &mut rows.start,
+                    &mut rows.entries,
+                );
+                let head = self.head as u32;
+                rows.entries.iter_mut().for_each(|k| *k += head);
+            } else {
+                let rows = &mut self.head_rows;
+                index_by_vertex(
+                    pairs.iter().map(|p| p.v),
+                    n,
+                    &mut rows.start,
+                    &mut rows.entries,
+                );
+                self.head = pairs.len();
+                self.tail_rows.start.clear();
+                self.tail_rows.start.resize(n + 1, 0);
+                self.tail_rows.entries.clear();
+            }
             self.indexed = Some(version);
         }
         let reach = barrier.reach();
@@ -84,19 +126,24 @@ impl BarrierPush {
                     *terms = pair_terms(c, m, barrier, mu, reach);
                 }
             });
-        let (start, by_vertex, terms) = (&self.start, &self.by_vertex, &self.terms);
+        let (head_rows, tail_rows, terms) = (&self.head_rows, &self.tail_rows, &self.terms);
         sums.push
             .par_iter_mut()
             .zip(sums.alpha.par_iter_mut())
             .zip(sums.curvature.par_iter_mut())
             .enumerate()
             .for_each(|(v, ((push, alpha), curvature))| {
-                let row = &by_vertex[start[v] as usize..start[v + 1] as usize];
-                if !all && !row.iter().any(|&k| fresh[k as usize]) {
+                // The head's pairs come before the tail's: in increasing order.
+                let rows = [head_rows.of(v), tail_rows.of(v)];
+                if !all
+                    && !rows
+                        .iter()
+                        .any(|row| row.iter().any(|&k| fresh[k as usize]))
+                {
                     return;
                 }
                 (*push, *alpha, *curvature) = (Vector3::zeros(), 0.0, SymmetricMatrix3::zeros());
-                for &k in row {
+                for &k in rows.into_iter().flatten() {
                     let k = k as usize;
                     let Some([slope, stiffness]) = terms[k] else {
                         continue;
@@ -160,7 +207,7 @@ pub(super) mod tests {
         );
         BarrierPush::default().update(
             pairs,
-            0,
+            (0, 0),
             closest,
             fades,
             &vec![true; pairs.len()],
@@ -179,11 +226,11 @@ pub(super) mod tests {
     const MU: f64 = 1.0;
 
     /// On a rolled-up grid whose turns lie within the barrier's reach (6 mm apart, reach 7.5
-    /// mm), with some pairs faded: after five vertices move by up to 1 mm, new terms for the
-    /// pairs with a moved vertex and new sums for those pairs' vertices give, to the bit, the
-    /// sums over every pair from scratch, though vertices that did not move have new sums
-    /// too; so do pairs appended to the list (a new version, only they fresh), and a list
-    /// that lost pairs (every sum made again).
+    /// mm), with some pairs faded: pairs appended to the list (a new version, only they fresh,
+    /// indexed on their own or with the others), new terms for the pairs with a vertex moved
+    /// by up to 1 mm and new sums for those pairs' vertices, and a list that lost pairs (every
+    /// sum made again) give, to the bit, the sums over every pair from scratch, though
+    /// vertices that did not move have new sums too.
     #[test]
     fn kept_sums_equal_sums_from_scratch_to_the_bit() {
         let mut rng = Rng::new(5);
@@ -213,7 +260,7 @@ pub(super) mod tests {
         let update = |kept: &mut BarrierPush,
                       sums: &mut Sums,
                       pairs: &[Pair],
-                      version: u64,
+                      version: (u64, usize),
                       x: &[Vector3<f64>],
                       fresh: &[bool],
                       all: bool| {
@@ -247,22 +294,26 @@ pub(super) mod tests {
             assert_eq!(sums.1, scratch.1);
             assert_eq!(sums.2, scratch.2);
         };
-        let head = every.len() / 2;
-        update(
-            &mut kept,
-            &mut sums,
-            &every[..head],
-            1,
-            &x,
-            &vec![true; head],
-            true,
-        );
-        assert_from_scratch(&sums, &every[..head], &x);
-        let all_fresh = vec![true; every.len()];
-        let mut appended = vec![false; head];
-        appended.extend(&all_fresh[head..]);
-        update(&mut kept, &mut sums, &every, 2, &x, &appended, false);
-        assert_from_scratch(&sums, &every, &x);
+        // The list grows twice: by a tenth of its pairs (indexed on their own), then by a
+        // fifth (beyond the longest tail: indexed afresh), only the new pairs fresh.
+        let lengths = [every.len() * 8 / 10, every.len() * 9 / 10, every.len()];
+        let mut unchanged = 0;
+        for (version, &len) in lengths.iter().enumerate() {
+            let appended: Vec<bool> = (0..len).map(|k| k >= unchanged).collect();
+            let list = &every[..len];
+            let all = unchanged == 0;
+            update(
+                &mut kept,
+                &mut sums,
+                list,
+                (version as u64, unchanged),
+                &x,
+                &appended,
+                all,
+            );
+            assert_from_scratch(&sums, list, &x);
+            unchanged = len;
+        }
         let before = sums.clone();
 
         let moved: Vec<usize> = (0..5).map(|k| 17 + 23 * k).collect();
@@ -275,7 +326,15 @@ pub(super) mod tests {
             .collect();
         let count = fresh.iter().filter(|&&f| f).count();
         assert!(count > 0 && count < every.len() / 4, "{count} fresh pairs");
-        update(&mut kept, &mut sums, &every, 2, &x, &fresh, false);
+        update(
+            &mut kept,
+            &mut sums,
+            &every,
+            (2, every.len()),
+            &x,
+            &fresh,
+            false,
+        );
         assert_from_scratch(&sums, &every, &x);
         let changed_still = (0..n)
             .filter(|v| !moved.contains(v) && sums.0[*v] != before.0[*v])
@@ -287,7 +346,7 @@ pub(super) mod tests {
             &mut kept,
             &mut sums,
             &fewer,
-            3,
+            (3, 0),
             &x,
             &vec![true; fewer.len()],
             true,

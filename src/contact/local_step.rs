@@ -844,7 +844,7 @@ pub fn project(
             .for_each(|(near, c)| *near = c.separation.norm() < near_distance);
         sums.update(
             &live.pairs,
-            live.version,
+            (live.version, measured),
             closest,
             &live.fade,
             fresh,
@@ -981,7 +981,7 @@ pub fn project(
         .count();
     work.barrier_push.update(
         &work.live.pairs,
-        work.live.version,
+        (work.live.version, 0),
         &work.closest,
         &work.live.fade,
         &work.fresh,
