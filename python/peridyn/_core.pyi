@@ -294,7 +294,8 @@ class Contact:
         block-Jacobi-preconditioned descent: stiff along the normals, free along the contact), or
         "uniform", eq. 53 of the paper: one step length for all vertices from the barrier's
         steepest slope. Both move no vertex more than eps * xi per iteration; near contact
-        "uniform" creeps and a local step usually ends at max_iters, far from its minimum.
+        "uniform" creeps and a local step usually ends at max_iters, far from its minimum. A
+        move shorter than eps * xi / 400 is not taken (the vertex has settled).
     toi_threshold : times of impact in (toi_threshold, 1) clamp vertices inside the descent.
     ccd_s, ccd_t_c : the additive CCD's s and t_c (paper: 0.1 and 0.95).
     warm_start : start each local step's descent from the global step's result plus the move

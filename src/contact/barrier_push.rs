@@ -188,6 +188,19 @@ pub(super) mod tests {
     use super::super::pair_cache::tests::{brute_force_pairs, spiral};
     use super::*;
 
+    /// Asserts that the sums `a` and `b` are the same to the bit, naming the first vertex
+    /// where they differ.
+    pub(in crate::contact) fn assert_same_sums(a: &Sums, b: &Sums) {
+        for v in 0..a.0.len() {
+            assert!(
+                a.0[v] == b.0[v] && a.1[v] == b.1[v] && a.2[v] == b.2[v],
+                "vertex {v}: {:?} against {:?}",
+                (a.0[v], a.1[v], a.2[v]),
+                (b.0[v], b.1[v], b.2[v])
+            );
+        }
+    }
+
     /// Per vertex sums over `n` vertices.
     pub(in crate::contact) type Sums = (Vec<Vector3<f64>>, Vec<f64>, Vec<SymmetricMatrix3<f64>>);
 
@@ -290,15 +303,15 @@ pub(super) mod tests {
                 x.len(),
                 (&barrier, MU),
             );
-            assert_eq!(sums.0, scratch.0);
-            assert_eq!(sums.1, scratch.1);
-            assert_eq!(sums.2, scratch.2);
+            assert_same_sums(sums, &scratch);
         };
-        // The list grows twice: by a tenth of its pairs (indexed on their own), then by a
-        // fifth (beyond the longest tail: indexed afresh), only the new pairs fresh.
-        let lengths = [every.len() * 8 / 10, every.len() * 9 / 10, every.len()];
+        // The list grows three times, only the new pairs fresh: by a twentieth and by as much
+        // again (each time the tail indexed on its own, the second time with the first), then
+        // by an eighth (beyond the longest tail: the whole list indexed afresh).
+        let lengths = [20, 21, 22, 25].map(|twentyfifths| every.len() * twentyfifths / 25);
+        let heads = [lengths[0], lengths[0], lengths[0], lengths[3]];
         let mut unchanged = 0;
-        for (version, &len) in lengths.iter().enumerate() {
+        for (version, (&len, &head)) in lengths.iter().zip(&heads).enumerate() {
             let appended: Vec<bool> = (0..len).map(|k| k >= unchanged).collect();
             let list = &every[..len];
             let all = unchanged == 0;
@@ -311,6 +324,7 @@ pub(super) mod tests {
                 &appended,
                 all,
             );
+            assert_eq!(kept.head, head, "list of {len}");
             assert_from_scratch(&sums, list, &x);
             unchanged = len;
         }

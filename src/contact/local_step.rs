@@ -29,7 +29,10 @@
 //!    `max_iters` iterations. A move shorter than [`SETTLED_FRACTION`] `eps xi` is not taken
 //!    (not in the paper): the closest points and barrier terms of the pairs none of whose
 //!    vertices moved are kept, and the sums of the vertices none of whose pairs changed
-//!    ([`super::barrier_push`]), so that an iteration costs what its moving vertices cost.
+//!    ([`super::barrier_push`]): an iteration's distances and barrier terms cost what its
+//!    moving vertices' pairs cost (its cheap scans over every pair and vertex remain). With
+//!    [`DescentStep::Uniform`] a vertex whose `lambda |g_i|` is that short stays put instead
+//!    of creeping.
 //!    A vertex whose move points against its last one has overshot, and its moves are halved
 //!    from then on for the rest of the local step (not in the paper). The step rules bound the barrier's curvature along the contact normals, but
 //!    the closest points of nearly parallel edges jump along them as the edges move (stacked
@@ -212,7 +215,8 @@ pub const STOP_FRACTION: f64 = 1e-2;
 
 /// A descent move shorter than this fraction of `eps xi` is not taken: the vertex stays, and
 /// the pairs none of whose vertices moved keep their closest points and barrier terms, so an
-/// iteration costs what its moving vertices' pairs cost (not in the paper). The stopping test
+/// iteration's distances and terms cost what its moving vertices' pairs cost (not in the
+/// paper). The stopping test
 /// still counts such a move. A cost trade-off: late in a local step most vertices of stacked
 /// layers move by less, though each by a few nanometres (six layers of 200 x 200 landing on
 /// the floor, step 459 from a saved state: of the 122K vertices in contact, 90-100K move by
@@ -349,7 +353,7 @@ pub struct Workspace {
     push: Vec<Vector3<f64>>,
     /// Per vertex: the warm start of the next local step ([`ContactParams::warm_start`]), m.
     warm: Vec<Vector3<f64>>,
-    /// Per vertex: the last descent move of this local step (m).
+    /// Per vertex: the last descent move of this local step that it took (m).
     last_move: Vec<Vector3<f64>>,
     /// Per vertex: the factor on its descent moves, halved at each reversal (see [`project`]).
     damping: Vec<f64>,
@@ -921,6 +925,14 @@ pub fn project(
                     damped_move(i, &before, &proposed, metric.as_ref(), cap, damp, keep_out)
                 };
                 *zi = take(*damp);
+                let mut step = (*zi - before).norm();
+                if step < settled {
+                    // Settled: it stays, its pairs keep their closest points, and its
+                    // damping stays as it is (a move not taken reverses nothing); the
+                    // stopping test still counts the move.
+                    *zi = before;
+                    return step;
+                }
                 // A move against the last one overshot: halve this vertex's moves for the
                 // rest of the local step (see the module doc). The moves as taken are
                 // compared: a proposal into a collider that holds the vertex points against
@@ -928,13 +940,11 @@ pub fn project(
                 if (*zi - before).dot(last) < 0.0 {
                     *damp *= 0.5;
                     *zi = take(*damp);
-                }
-                let step = (*zi - before).norm();
-                if step < settled {
-                    // Settled: it stays, and its pairs keep their closest points (the
-                    // stopping test still counts the move).
-                    *zi = before;
-                    return step;
+                    step = (*zi - before).norm();
+                    if step < settled {
+                        *zi = before;
+                        return step;
+                    }
                 }
                 *last = *zi - before;
                 *ci = true;
@@ -1054,7 +1064,9 @@ fn damped_move(
 
 /// Writes into `closest` the closest points at `z` of the pairs from `measured` on and of those
 /// with a vertex marked in `unmeasured` (`(measured, unmeasured)`), and marks them in `fresh`;
-/// the others keep theirs, as none of their vertices moved. A pair whose distance bound
+/// the others keep theirs, as none of their vertices moved. `closest[..measured]` must hold the
+/// last evaluation of the same pairs in the same places, with `start` and `drift` unchanged
+/// for them since (`drift` changes only for a vertex that moves, which is then marked). A pair whose distance bound
 /// (from its distance `start` at the safe positions, the vertices' `motion` and their total
 /// descent moves `drift`, all m) is at least `reach` feels no barrier, so its closest points
 /// are not needed, and it gets [`FAR`].
@@ -1184,7 +1196,7 @@ fn guarantee(
 
 #[cfg(test)]
 mod tests {
-    use super::super::barrier_push::tests::{sums_from_scratch, Sums};
+    use super::super::barrier_push::tests::{assert_same_sums, sums_from_scratch, Sums};
     use super::*;
 
     /// No colliders to keep out of.
@@ -1688,14 +1700,18 @@ mod tests {
             );
         }
         let sums = sums_from_scratch(&live.pairs, &every, &live.fade, z.len(), (barrier, mu));
-        assert!(push == sums.0 && alpha == sums.1 && curvature == sums.2);
+        let kept = (push.to_vec(), alpha.to_vec(), curvature.to_vec());
+        assert_same_sums(&kept, &sums);
     }
 
     /// A grid falling through another, fixed one (its target 2 mm under it, from 5.1 mm over
-    /// it, with jitter), and the same grid pressed onto it from within the barrier's reach:
-    /// the descent refreshes the live pairs (extending them and filtering them afresh) and
-    /// settles some vertices while others go on (each iteration checks that what it kept is
-    /// exact, see [`assert_as_if_evaluated_afresh`]). The grids stay `eps xi` apart.
+    /// it, with jitter), the same grid pressed onto it from within the barrier's reach, and the
+    /// two grids free and crossing: the descent extends its live pairs, filters them afresh
+    /// mid-descent, and settles some vertices while others go on (each iteration checks that
+    /// what it kept is exact, see [`assert_as_if_evaluated_afresh`]). The grids stay `eps xi`
+    /// apart, and the push is the one summed over every pair. (No CCD clamp happens after the
+    /// first iteration here: the clamp's marking of its vertices has no test that fails
+    /// without it.)
     #[test]
     fn local_steps_that_refresh_their_pairs_keep_exact_closest_points() {
         use super::super::pair_cache::tests::{grid_triangles, two_copies};
