@@ -1751,6 +1751,79 @@ mod tests {
         }
     }
 
+    /// A vertex that has settled and is clamped by the CCD mid-descent gets its pairs measured
+    /// again. The triangle `(q, c, d)` slides 0.3 mm to its target and rests there, 7.6 mm over
+    /// a fixed triangle: beyond the barrier's reach of 7.5 mm, so no force, but within reach
+    /// of the distance bound, so its pairs with it are evaluated. A test hook in the collider
+    /// pass lowers the free vertex `p` of a third triangle `(p, a, b)`, far above, by 0.1 mm
+    /// per iteration (the descent goes on), then throws it under `(q, c, d)`, twice. The CCD
+    /// then clamps `q`, `c` and `d` back along their slides, though the descent did not move
+    /// them since: after the second throw (the first rebuilds the live pairs, which makes
+    /// every pair fresh anyway) only the clamp marks their pairs with the fixed triangle, whose
+    /// closest points [`assert_as_if_evaluated_afresh`] checks at every iteration (without the
+    /// mark, they are those from before the clamp).
+    #[test]
+    fn a_settled_vertex_clamped_mid_descent_has_its_pairs_measured_again() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let params = ContactParams {
+            max_iters: 20,
+            ..ContactParams::default()
+        };
+        let v = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
+        let height = 0.004;
+        let below = height - 0.0076;
+        // q, c, d; p, a, b; the fixed triangle below.
+        let safe = vec![
+            v(0.005, 0.005, height),
+            v(0.010, 0.005, height),
+            v(0.005, 0.010, height),
+            v(0.0075, 0.002, 0.018),
+            v(0.0075, 0.002, 0.014),
+            v(0.0075, -0.003, 0.014),
+            v(0.0, 0.0, below),
+            v(0.02, 0.0, below),
+            v(0.0, 0.02, below),
+        ];
+        let slide = v(3e-4, 0.0, 0.0);
+        let mut z = safe.clone();
+        z[..3].iter_mut().for_each(|x| *x += slide);
+        let fixed = [false, false, false, false, true, true, true, true, true];
+        let mesh = ContactMesh {
+            triangles: &[[0, 1, 2], [3, 4, 5], [6, 7, 8]],
+            body: &[0, 1, 2],
+            self_contact: &[false; 3],
+        };
+        const P: usize = 3;
+        const THROW: usize = 5;
+        const THROWS: [usize; 2] = [THROW, 4 * THROW];
+        let calls = AtomicUsize::new(0);
+        let lower_then_throw: &KeepOut = &|i, before, zi, _| {
+            if i != P {
+                return;
+            }
+            let call = calls.fetch_add(1, Ordering::Relaxed);
+            if call < THROW {
+                *zi = before - v(0.0, 0.0, 1e-4);
+            } else if THROWS.iter().any(|&t| (t..t + 4).contains(&call)) {
+                // The throw, again where the move is cut to `eps xi` after it, and where the
+                // move is halved and taken again as it reverses the last one.
+                *zi = v(0.0075, 0.008, 0.0);
+            }
+        };
+        let mut work = Workspace::default();
+        let stats = project(
+            &safe,
+            &mut z,
+            &fixed,
+            &mesh,
+            &params,
+            lower_then_throw,
+            &mut work,
+        );
+        assert!(calls.load(Ordering::Relaxed) >= THROWS[1] + 4, "{stats:?}");
+        assert_push_from_every_pair(&mesh, &safe, &z, &params, &work);
+    }
+
     /// A small triangle resting on a floor (a collider), under a large one tilted by 20
     /// degrees and fixed within the barrier's reach: the barrier pushes the small one down into
     /// the floor and along it, towards where the roof rises. The floor takes the push's normal
