@@ -68,8 +68,9 @@ impl BarrierPush {
     /// their places) and their closest points `closest` at the current iterate:
     /// recomputes the terms of the pairs marked in `fresh` (those whose closest points were
     /// evaluated since the last update, every new pair among them), and the sums of every
-    /// vertex of such a pair, or of every vertex where `all` (the sums were reset, or the list
-    /// lost pairs). The other sums are kept: none of their pairs changed. `fades` holds each
+    /// vertex of such a pair, or of every vertex where no pair is unchanged (the sums may have
+    /// been reset, or the list lost pairs). The other sums are kept: none of their pairs
+    /// changed. `fades` holds each
     /// pair's fade `m_c` (see [`super::parallel_fade`]), `barrier` and `mu` the barrier of
     /// eq. 47 and its weight.
     #[allow(clippy::too_many_arguments)]
@@ -80,12 +81,12 @@ impl BarrierPush {
         closest: &[Closest],
         fades: &[f64],
         fresh: &[bool],
-        all: bool,
         barrier: &Barrier,
         mu: f64,
         sums: VertexSums,
     ) {
         let n = sums.push.len();
+        let all = unchanged == 0;
         let fits = self.head_rows.start.len() == n + 1;
         if self.indexed != Some(version) || !fits {
             let tail = pairs.len().saturating_sub(self.head);
@@ -224,7 +225,6 @@ pub(super) mod tests {
             closest,
             fades,
             &vec![true; pairs.len()],
-            true,
             barrier,
             mu,
             VertexSums {
@@ -241,8 +241,8 @@ pub(super) mod tests {
     /// On a rolled-up grid whose turns lie within the barrier's reach (6 mm apart, reach 7.5
     /// mm), with some pairs faded: pairs appended to the list (a new version, only they fresh,
     /// indexed on their own or with the others), new terms for the pairs with a vertex moved
-    /// by up to 1 mm and new sums for those pairs' vertices, and a list that lost pairs (every
-    /// sum made again) give, to the bit, the sums over every pair from scratch, though
+    /// by up to 1 mm and new sums for those pairs' vertices, and a list that lost pairs, all of
+    /// one vertex's among them (every sum made again) give, to the bit, the sums over every pair from scratch, though
     /// vertices that did not move have new sums too.
     #[test]
     fn kept_sums_equal_sums_from_scratch_to_the_bit() {
@@ -275,8 +275,7 @@ pub(super) mod tests {
                       pairs: &[Pair],
                       version: (u64, usize),
                       x: &[Vector3<f64>],
-                      fresh: &[bool],
-                      all: bool| {
+                      fresh: &[bool]| {
             let closest: Vec<Closest> = pairs.iter().map(|p| p.closest(x)).collect();
             kept.update(
                 pairs,
@@ -284,7 +283,6 @@ pub(super) mod tests {
                 &closest,
                 &fades[..pairs.len()],
                 fresh,
-                all,
                 &barrier,
                 MU,
                 VertexSums {
@@ -305,16 +303,16 @@ pub(super) mod tests {
             );
             assert_same_sums(sums, &scratch);
         };
-        // The list grows three times, only the new pairs fresh: by a twentieth and by as much
-        // again (each time the tail indexed on its own, the second time with the first), then
-        // by an eighth (beyond the longest tail: the whole list indexed afresh).
+        // The list grows three times, only the new pairs fresh: twice by a twenty-fifth of the
+        // pairs (each time the tail indexed on its own, the second time with the first), then
+        // by three more (the tail, now a quarter of the head, beyond the longest: the whole
+        // list indexed afresh).
         let lengths = [20, 21, 22, 25].map(|twentyfifths| every.len() * twentyfifths / 25);
         let heads = [lengths[0], lengths[0], lengths[0], lengths[3]];
         let mut unchanged = 0;
         for (version, (&len, &head)) in lengths.iter().zip(&heads).enumerate() {
             let appended: Vec<bool> = (0..len).map(|k| k >= unchanged).collect();
             let list = &every[..len];
-            let all = unchanged == 0;
             update(
                 &mut kept,
                 &mut sums,
@@ -322,7 +320,6 @@ pub(super) mod tests {
                 (version as u64, unchanged),
                 &x,
                 &appended,
-                all,
             );
             assert_eq!(kept.head, head, "list of {len}");
             assert_from_scratch(&sums, list, &x);
@@ -330,6 +327,7 @@ pub(super) mod tests {
         }
         let before = sums.clone();
 
+        // The same list (the same version, its index kept), five vertices moved.
         let moved: Vec<usize> = (0..5).map(|k| 17 + 23 * k).collect();
         for &v in &moved {
             x[v] += rng.vector() * 1e-3;
@@ -340,30 +338,31 @@ pub(super) mod tests {
             .collect();
         let count = fresh.iter().filter(|&&f| f).count();
         assert!(count > 0 && count < every.len() / 4, "{count} fresh pairs");
-        update(
-            &mut kept,
-            &mut sums,
-            &every,
-            (2, every.len()),
-            &x,
-            &fresh,
-            false,
-        );
+        update(&mut kept, &mut sums, &every, (3, every.len()), &x, &fresh);
         assert_from_scratch(&sums, &every, &x);
         let changed_still = (0..n)
             .filter(|v| !moved.contains(v) && sums.0[*v] != before.0[*v])
             .count();
         assert!(changed_still > 0, "no vertex that stayed has a new push");
 
-        let fewer: Vec<Pair> = every.iter().copied().step_by(3).collect();
+        // A list that lost pairs, among them every pair of a vertex that felt the barrier: its
+        // sums go to zero.
+        let left_out = (0..n as u32)
+            .find(|&v| sums.0[v as usize] != Vector3::zeros())
+            .expect("some vertex feels the barrier");
+        let fewer: Vec<Pair> = every
+            .iter()
+            .copied()
+            .filter(|p| !p.v.contains(&left_out))
+            .step_by(3)
+            .collect();
         update(
             &mut kept,
             &mut sums,
             &fewer,
-            (3, 0),
+            (4, 0),
             &x,
             &vec![true; fewer.len()],
-            true,
         );
         assert_from_scratch(&sums, &fewer, &x);
     }

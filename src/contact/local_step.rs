@@ -34,9 +34,10 @@
 //!    [`DescentStep::Uniform`] a vertex whose `lambda |g_i|` is that short stays put instead
 //!    of creeping.
 //!    A vertex whose move points against its last one has overshot, and its moves are halved
-//!    from then on for the rest of the local step (not in the paper). The step rules bound the barrier's curvature along the contact normals, but
-//!    the closest points of nearly parallel edges jump along them as the edges move (stacked
-//!    cloth layers are full of such pairs), and so does the push on their vertices: without
+//!    from then on for the rest of the local step (not in the paper). The step rules bound
+//!    the barrier's curvature along the contact normals, but the closest points of nearly
+//!    parallel edges jump along them as the edges move (stacked cloth layers are full of such
+//!    pairs), and so does the push on their vertices: without
 //!    the halving a few of them go back and forth for good, and every local step ran to its
 //!    cap (640 local iterations in a step of the three layers over the ball, 103 with it).
 //!    The halving damps such a jump but cannot remove it: the measure then stalls at about
@@ -216,12 +217,12 @@ pub const STOP_FRACTION: f64 = 1e-2;
 /// A descent move shorter than this fraction of `eps xi` is not taken: the vertex stays, and
 /// the pairs none of whose vertices moved keep their closest points and barrier terms, so an
 /// iteration's distances and terms cost what its moving vertices' pairs cost (not in the
-/// paper). The stopping test
-/// still counts such a move. A cost trade-off: late in a local step most vertices of stacked
-/// layers move by less, though each by a few nanometres (six layers of 200 x 200 landing on
-/// the floor, step 459 from a saved state: of the 122K vertices in contact, 90-100K move by
-/// more than [`STOP_FRACTION`] `eps xi` in the first local step's tenth iteration, 5-20K in
-/// the later local steps'; the step's descent took 112 s instead of 147 s, one run each).
+/// paper). The stopping test still counts such a move. A cost trade-off: late in a local step
+/// most vertices of stacked layers move by less, though each by a few nanometres (six layers
+/// of 200 x 200 landing on the floor, step 459 from a saved state: of the 122K vertices in
+/// contact, 90-100K move by more than [`STOP_FRACTION`] `eps xi` in the first local step's
+/// tenth iteration, 5-20K in the later local steps'; the step's descent took 147 s before,
+/// 101 s with this and the kept sums of [`super::barrier_push`], one run each).
 /// With [`STOP_FRACTION`] itself the vertices that slide by small moves stop short (a
 /// triangle pressed along a floor by a slanted roof keeps 1.5 times the imbalance its test
 /// allows).
@@ -852,7 +853,6 @@ pub fn project(
             closest,
             &live.fade,
             fresh,
-            measured == 0,
             &barrier,
             mu,
             VertexSums {
@@ -925,26 +925,20 @@ pub fn project(
                     damped_move(i, &before, &proposed, metric.as_ref(), cap, damp, keep_out)
                 };
                 *zi = take(*damp);
-                let mut step = (*zi - before).norm();
-                if step < settled {
-                    // Settled: it stays, its pairs keep their closest points, and its
-                    // damping stays as it is (a move not taken reverses nothing); the
-                    // stopping test still counts the move.
-                    *zi = before;
-                    return step;
-                }
                 // A move against the last one overshot: halve this vertex's moves for the
                 // rest of the local step (see the module doc). The moves as taken are
                 // compared: a proposal into a collider that holds the vertex points against
-                // a slide along it.
-                if (*zi - before).dot(last) < 0.0 {
+                // a slide along it. A move too short to be taken reverses nothing.
+                if (*zi - before).norm() >= settled && (*zi - before).dot(last) < 0.0 {
                     *damp *= 0.5;
                     *zi = take(*damp);
-                    step = (*zi - before).norm();
-                    if step < settled {
-                        *zi = before;
-                        return step;
-                    }
+                }
+                let step = (*zi - before).norm();
+                if step < settled {
+                    // Settled: it stays and its pairs keep their closest points; the stopping
+                    // test still counts the move.
+                    *zi = before;
+                    return step;
                 }
                 *last = *zi - before;
                 *ci = true;
@@ -995,7 +989,6 @@ pub fn project(
         &work.closest,
         &work.live.fade,
         &work.fresh,
-        true,
         &barrier,
         mu,
         VertexSums {
@@ -1066,10 +1059,10 @@ fn damped_move(
 /// with a vertex marked in `unmeasured` (`(measured, unmeasured)`), and marks them in `fresh`;
 /// the others keep theirs, as none of their vertices moved. `closest[..measured]` must hold the
 /// last evaluation of the same pairs in the same places, with `start` and `drift` unchanged
-/// for them since (`drift` changes only for a vertex that moves, which is then marked). A pair whose distance bound
-/// (from its distance `start` at the safe positions, the vertices' `motion` and their total
-/// descent moves `drift`, all m) is at least `reach` feels no barrier, so its closest points
-/// are not needed, and it gets [`FAR`].
+/// for them since (`drift` changes only for a vertex that moves, which is then marked). A
+/// pair whose distance bound (from its distance `start` at the safe positions, the vertices'
+/// `motion` and their total descent moves `drift`, all m) is at least `reach` feels no
+/// barrier, so its closest points are not needed, and it gets [`FAR`].
 #[allow(clippy::too_many_arguments)]
 fn closest_within(
     pairs: &[Pair],
