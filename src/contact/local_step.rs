@@ -924,23 +924,13 @@ pub fn project(
                 let take = |damp: f64| {
                     damped_move(i, &before, &proposed, metric.as_ref(), cap, damp, keep_out)
                 };
-                *zi = take(*damp);
-                // A move against the last one overshot: halve this vertex's moves for the
-                // rest of the local step (see the module doc). The moves as taken are
-                // compared: a proposal into a collider that holds the vertex points against
-                // a slide along it. A move too short to be taken reverses nothing.
-                if (*zi - before).norm() >= settled && (*zi - before).dot(last) < 0.0 {
-                    *damp *= 0.5;
-                    *zi = take(*damp);
-                }
-                let step = (*zi - before).norm();
-                if step < settled {
-                    // Settled: it stays and its pairs keep their closest points; the stopping
-                    // test still counts the move.
-                    *zi = before;
-                    return step;
-                }
-                *last = *zi - before;
+                let step = match settle_or_move(&before, take, settled, last, damp) {
+                    Move::Settled(length) => return length,
+                    Move::Taken(end) => {
+                        *zi = end;
+                        (end - before).norm()
+                    }
+                };
                 *ci = true;
                 *ui = true;
                 *di += step;
@@ -1018,6 +1008,43 @@ pub fn project(
     }
     stats.descent_ms += millis(t);
     stats
+}
+
+/// A vertex's descent move, as [`settle_or_move`] decides it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Move {
+    /// Shorter than the settled length: not taken (the vertex stays); the move's length (m),
+    /// which the stopping test still counts.
+    Settled(f64),
+    /// Taken: where the vertex goes (m).
+    Taken(Vector3<f64>),
+}
+
+/// Decides a vertex's descent move from `before` (m), where `take(damp)` is where a move at
+/// damping `damp` ends ([`damped_move`]). A move at least `settled` (m) long that points
+/// against `last`, the vertex's last move taken, overshot: its damping `damp` is halved for the
+/// rest of the local step and the move taken again at it (see the module doc; the moves as
+/// taken are compared, so a proposal into a collider that holds the vertex points against a
+/// slide along it). A move shorter than `settled` is not taken and changes neither `damp` nor
+/// `last` (it reverses nothing); a move taken becomes `last`.
+fn settle_or_move(
+    before: &Vector3<f64>,
+    take: impl Fn(f64) -> Vector3<f64>,
+    settled: f64,
+    last: &mut Vector3<f64>,
+    damp: &mut f64,
+) -> Move {
+    let mut end = take(*damp);
+    if (end - before).norm() >= settled && (end - before).dot(last) < 0.0 {
+        *damp *= 0.5;
+        end = take(*damp);
+    }
+    let length = (end - before).norm();
+    if length < settled {
+        return Move::Settled(length);
+    }
+    *last = end - before;
+    Move::Taken(end)
 }
 
 /// Where vertex `i` goes from `before` on a descent move of `damp` times `proposed` (m):
@@ -1915,6 +1942,60 @@ mod tests {
     /// A local step repeated on the same positions starts from where the last one ended: it
     /// stops after one move below the stopping test and returns the same positions (within
     /// it). Cold, it repeats the whole approach.
+    /// The halving of an overshooting vertex's moves and the settled rule: a move too short to
+    /// be taken reverses nothing (its damping and last move stay), a long one against the last
+    /// move is halved and taken, and one that halving makes too short is not taken (but the
+    /// halving stays).
+    #[test]
+    fn a_move_too_short_to_take_leaves_the_damping_and_the_last_move_alone() {
+        let before = Vector3::new(0.3, -0.2, 1.0);
+        let settled = 1e-6;
+        let straight = |proposed: Vector3<f64>| move |damp: f64| before + proposed * damp;
+        let settled_length = |decided: Move| match decided {
+            Move::Settled(length) => length,
+            Move::Taken(end) => panic!("taken to {end}"),
+        };
+        let first = Vector3::new(1e-4, 0.0, 0.0);
+        let (mut last, mut damp) = (first, 1.0);
+
+        let back = Vector3::new(-0.5e-6, 0.0, 0.0);
+        let length = settled_length(settle_or_move(
+            &before,
+            straight(back),
+            settled,
+            &mut last,
+            &mut damp,
+        ));
+        assert!((length - 0.5e-6).abs() < 1e-12, "{length}");
+        assert_eq!(
+            (last, damp),
+            (first, 1.0),
+            "a short move changed the descent"
+        );
+
+        let far_back = Vector3::new(-1e-4, 0.0, 0.0);
+        let decided = settle_or_move(&before, straight(far_back), settled, &mut last, &mut damp);
+        assert_eq!(decided, Move::Taken(before + far_back * 0.5));
+        assert_eq!((last, damp), (before + far_back * 0.5 - before, 0.5));
+
+        let onwards = Vector3::new(-2e-4, 1e-4, 0.0);
+        let decided = settle_or_move(&before, straight(onwards), settled, &mut last, &mut damp);
+        assert_eq!(decided, Move::Taken(before + onwards * 0.5));
+        assert_eq!(damp, 0.5, "a move along the last one halved the damping");
+
+        let (mut last, mut damp) = (first, 1.0);
+        let barely = Vector3::new(-1.5e-6, 0.0, 0.0);
+        let length = settled_length(settle_or_move(
+            &before,
+            straight(barely),
+            settled,
+            &mut last,
+            &mut damp,
+        ));
+        assert!((length - 0.75e-6).abs() < 1e-12, "{length}");
+        assert_eq!((last, damp), (first, 0.5));
+    }
+
     #[test]
     fn a_warm_start_continues_the_last_local_step() {
         let eps_xi = 0.1 * 2e-3;
