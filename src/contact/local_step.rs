@@ -926,9 +926,9 @@ pub fn project(
                 };
                 let step = match settle_or_move(&before, take, settled, last, damp) {
                     Move::Settled(length) => return length,
-                    Move::Taken(end) => {
+                    Move::Taken { end, length } => {
                         *zi = end;
-                        (end - before).norm()
+                        length
                     }
                 };
                 *ci = true;
@@ -1016,8 +1016,8 @@ enum Move {
     /// Shorter than the settled length: not taken (the vertex stays); the move's length (m),
     /// which the stopping test still counts.
     Settled(f64),
-    /// Taken: where the vertex goes (m).
-    Taken(Vector3<f64>),
+    /// Taken: where the vertex goes (m), and the move's length (m).
+    Taken { end: Vector3<f64>, length: f64 },
 }
 
 /// Decides a vertex's descent move from `before` (m), where `take(damp)` is where a move at
@@ -1044,7 +1044,7 @@ fn settle_or_move(
         return Move::Settled(length);
     }
     *last = end - before;
-    Move::Taken(end)
+    Move::Taken { end, length }
 }
 
 /// Where vertex `i` goes from `before` on a descent move of `damp` times `proposed` (m):
@@ -1939,9 +1939,6 @@ mod tests {
         }
     }
 
-    /// A local step repeated on the same positions starts from where the last one ended: it
-    /// stops after one move below the stopping test and returns the same positions (within
-    /// it). Cold, it repeats the whole approach.
     /// The halving of an overshooting vertex's moves and the settled rule: a move too short to
     /// be taken reverses nothing (its damping and last move stay), a long one against the last
     /// move is halved and taken, and one that halving makes too short is not taken (but the
@@ -1950,23 +1947,17 @@ mod tests {
     fn a_move_too_short_to_take_leaves_the_damping_and_the_last_move_alone() {
         let before = Vector3::new(0.3, -0.2, 1.0);
         let settled = 1e-6;
-        let straight = |proposed: Vector3<f64>| move |damp: f64| before + proposed * damp;
-        let settled_length = |decided: Move| match decided {
-            Move::Settled(length) => length,
-            Move::Taken(end) => panic!("taken to {end}"),
+        let decide = |proposed: Vector3<f64>, last: &mut Vector3<f64>, damp: &mut f64| {
+            settle_or_move(&before, |d| before + proposed * d, settled, last, damp)
         };
         let first = Vector3::new(1e-4, 0.0, 0.0);
         let (mut last, mut damp) = (first, 1.0);
 
         let back = Vector3::new(-0.5e-6, 0.0, 0.0);
-        let length = settled_length(settle_or_move(
-            &before,
-            straight(back),
-            settled,
-            &mut last,
-            &mut damp,
-        ));
-        assert!((length - 0.5e-6).abs() < 1e-12, "{length}");
+        match decide(back, &mut last, &mut damp) {
+            Move::Settled(length) => assert!((length - 0.5e-6).abs() < 1e-12, "{length}"),
+            taken => panic!("{taken:?}"),
+        }
         assert_eq!(
             (last, damp),
             (first, 1.0),
@@ -1974,28 +1965,39 @@ mod tests {
         );
 
         let far_back = Vector3::new(-1e-4, 0.0, 0.0);
-        let decided = settle_or_move(&before, straight(far_back), settled, &mut last, &mut damp);
-        assert_eq!(decided, Move::Taken(before + far_back * 0.5));
-        assert_eq!((last, damp), (before + far_back * 0.5 - before, 0.5));
+        let end = before + far_back * 0.5;
+        let length = (end - before).norm();
+        assert_eq!(
+            decide(far_back, &mut last, &mut damp),
+            Move::Taken { end, length }
+        );
+        assert_eq!((last, damp), (end - before, 0.5));
 
         let onwards = Vector3::new(-2e-4, 1e-4, 0.0);
-        let decided = settle_or_move(&before, straight(onwards), settled, &mut last, &mut damp);
-        assert_eq!(decided, Move::Taken(before + onwards * 0.5));
-        assert_eq!(damp, 0.5, "a move along the last one halved the damping");
+        let end = before + onwards * 0.5;
+        let length = (end - before).norm();
+        assert_eq!(
+            decide(onwards, &mut last, &mut damp),
+            Move::Taken { end, length }
+        );
+        assert_eq!(
+            (last, damp),
+            (end - before, 0.5),
+            "a move along the last one halved"
+        );
 
         let (mut last, mut damp) = (first, 1.0);
         let barely = Vector3::new(-1.5e-6, 0.0, 0.0);
-        let length = settled_length(settle_or_move(
-            &before,
-            straight(barely),
-            settled,
-            &mut last,
-            &mut damp,
-        ));
-        assert!((length - 0.75e-6).abs() < 1e-12, "{length}");
+        match decide(barely, &mut last, &mut damp) {
+            Move::Settled(length) => assert!((length - 0.75e-6).abs() < 1e-12, "{length}"),
+            taken => panic!("{taken:?}"),
+        }
         assert_eq!((last, damp), (first, 0.5));
     }
 
+    /// A local step repeated on the same positions starts from where the last one ended: it
+    /// stops after one move below the stopping test and returns the same positions (within
+    /// it). Cold, it repeats the whole approach.
     #[test]
     fn a_warm_start_continues_the_last_local_step() {
         let eps_xi = 0.1 * 2e-3;
