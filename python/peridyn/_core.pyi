@@ -290,8 +290,9 @@ class Contact:
     weight : barrier weight mu of eq. 47 (> 0).
     max_iters : descent iterations per local step (>= 1).
     step : the descent's step rule: "curvature" (default) moves each vertex by its direction
-        times (I + K)^-1, K the barrier's curvature along the contact normals there (a
-        block-Jacobi-preconditioned descent: stiff along the normals, free along the contact), or
+        times (W + K)^-1, W the proximal metric (below) and K the barrier's curvature along the
+        contact normals there (a block-Jacobi-preconditioned descent: stiff along the normals,
+        free along the contact), or
         "uniform", eq. 53 of the paper: one step length for all vertices from the barrier's
         steepest slope. Both move no vertex more than eps * xi per iteration; near contact
         "uniform" creeps and a local step usually ends at max_iters, far from its minimum. A
@@ -310,6 +311,15 @@ class Contact:
         points of nearly parallel edges jump along them, and without the fade (0) stacked
         layers stall at a convergence measure of about a micrometre: a tol below that runs
         every step to max_iters.
+    proximal : the metric W_i of eq. 47's proximal term, sum_i (z_i - y_i)^T W_i (z_i - y_i) / 2.
+        "jacobi" (default, not in the paper): W_i = D_i / d, the global step's Jacobi block of
+        the vertex (m_i I + h^2 sum (C_i + C_j), kg) over d, the mean of trace(D_i) / 3 over the
+        free vertices. Both steps then work in one metric: the iteration's fixed points are the
+        stationary points of the implicit Euler energy plus d * weight * B, and a pair's
+        contact forces sum to zero (contact conserves momentum). "identity": the paper's
+        W_i = I; the contact force on a vertex is then scaled by its own D_i, and where D_i
+        varies (light, stiff vertices of free edges in folds) the global and local steps can
+        alternate for good instead of converging.
     """
 
     def __init__(
@@ -326,6 +336,7 @@ class Contact:
         ccd_t_c: float = 0.95,
         warm_start: bool = True,
         parallel_angle: Optional[float] = None,
+        proximal: str = "jacobi",
     ) -> None: ...
     @property
     def thickness(self) -> float: ...
@@ -343,6 +354,8 @@ class Contact:
     def toi_threshold(self) -> float: ...
     @property
     def warm_start(self) -> bool: ...
+    @property
+    def proximal(self) -> str: ...
     @property
     def parallel_angle(self) -> float: ...
     @property

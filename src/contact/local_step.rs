@@ -2,7 +2,9 @@
 //!
 //! Given the last intersection-free positions `z^{k-1}` ("safe") and the positions `y^k` after
 //! a global step, it looks for `z` near `y^k` that keeps every pair of primitives apart,
-//! minimising eq. 47, `sum_i |z_i - y_i^k|^2 / 2 + mu sum_c B(f(d_c) - xi)`, by gradient descent:
+//! minimising eq. 47, `sum_i |z_i - y_i^k|^2 / 2 + mu sum_c B(f(d_c) - xi)`, by gradient descent
+//! (with the proximal term in a metric `W_i` per vertex, `(z_i - y_i^k)^T W_i (z_i - y_i^k) / 2`,
+//! by default the global step's: see [`ProximalMetric`]; the paper's is the identity):
 //!
 //! 1. broad phase: candidate triangle pairs, expanded into 6 point-triangle and 9 edge-edge
 //!    primitive pairs per triangle pair (deduplicated), kept from one local step to the next
@@ -14,7 +16,7 @@
 //!    whose smallest time of impact `t_i` is in `(threshold, 1)` is clamped to
 //!    `z^{k-1} + t_i (z^m - z^{k-1})` (lines 13-18);
 //! 3. distances and closest-point weights of the pairs (lines 19-23), and the descent
-//!    direction of eq. 49, `g_i = -mu sum_c m_c alpha_c^i B'(f(d_c) - xi) n_c + y_i^k - z_i`,
+//!    direction of eq. 49, `g_i = -mu sum_c m_c alpha_c^i B'(f(d_c) - xi) n_c + W_i (y_i^k - z_i)`,
 //!    where `alpha_c^i` is vertex `i`'s barycentric weight in pair `c` and `n_c` the unit
 //!    separation; following the paper, the barrier slope is taken at the rescaled gap of
 //!    eq. 51 so that it stays bounded, `|B'| <= |B'(eps xi)|`. `m_c` (not in the paper) is 1
@@ -85,13 +87,13 @@ pub enum DescentStep {
     /// vertex creeps: a local step then ends at its iteration cap far from the minimum, and
     /// what it returns depends on the cap.
     Uniform,
-    /// Per vertex, `z_i += (I + K_i)^-1 g_i`, cut to length `eps xi`, with
+    /// Per vertex, `z_i += (W_i + K_i)^-1 g_i`, cut to length `eps xi`, with
     /// `K_i = mu sum_c m_c B''(x_c) f'(d_c) |alpha_c^i| (sum_j |alpha_c^j|) n_c n_c^T`
     /// (dimensionless, 3 x 3): the barrier's curvature along each pair's normal `n_c` (`x_c`
     /// the rescaled gap, `f'` the rescale's slope, `m_c` the pair's fade, see
     /// [`ContactParams::parallel_angle`]), with the pair's weights summed by rows (a
     /// block Gershgorin bound: `(sum_j alpha_j n . u_j)^2 <= sum_j |alpha_j| sum_j |alpha_j|
-    /// (n . u_j)^2` by Cauchy-Schwarz), so that the block-diagonal matrix of the `I + K_i`
+    /// (n . u_j)^2` by Cauchy-Schwarz), so that the block-diagonal matrix of the `W_i + K_i`
     /// bounds from above the Hessian of eq. 47 with the barrier taken along the normals
     /// (their difference is positive semi-definite). A block-Jacobi-preconditioned descent:
     /// vertices away from contact go straight to their target (up to `eps xi` per iteration),
@@ -100,6 +102,30 @@ pub enum DescentStep {
     /// their sliding as much as their approach, and a sheet resting on another would hardly
     /// slide at all).
     Curvature,
+}
+
+/// The metric `W_i` of eq. 47's proximal term, `sum_i (z_i - y_i^k)^T W_i (z_i - y_i^k) / 2`,
+/// which the local step minimises with the barrier.
+///
+/// The global step is a Jacobi sweep, `y^k = y + D^-1 r(y)` with `D` the block diagonal of
+/// eq. 25 (`D_i = m_i I + h^2 sum (C_i + C_j)`, kg), a step on the implicit Euler energy `E` in
+/// the metric `D` (`-r` is the gradient of `h^2 E`). At a fixed point of the two steps the local
+/// step's move balances the global step's, `W_i^-1 mu grad_i B = D_i^-1 r_i`, so the contact
+/// force on vertex `i` is `r_i / h^2 = D_i W_i^-1 mu grad_i B / h^2`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProximalMetric {
+    /// `W_i = I`, eq. 47 as in the paper: the contact force on each vertex is scaled by its own
+    /// `D_i`. The forces of a pair then do not cancel where its vertices' `D_i` differ, and
+    /// contact makes momentum: a light sheet meeting one eight times heavier pushes it eight
+    /// times harder than it is pushed, and both nearly stop (`tests/test_contact.py`).
+    Identity,
+    /// `W_i = D_i / d` with `d` the mean of `trace(D_i) / 3` over the free vertices (kg), so
+    /// that both steps work in the metric `D` (not in the paper): the contact force is
+    /// `d mu grad_i B / h^2`, the gradient of the energy `d mu B / h^2`, so a pair's forces
+    /// cancel and contact conserves momentum, and the fixed points are the stationary points
+    /// of `E + d mu B / h^2`. The barrier is as strong as the paper's at a vertex of mean `D`,
+    /// weaker at stiffer or heavier ones.
+    Jacobi,
 }
 
 /// Contact parameters (SI units). Defaults follow Table 1 of the paper (cloths over a ball):
@@ -142,6 +168,8 @@ pub struct ContactParams {
     /// closest points of nearly parallel edges jump. The default, `asin(sqrt(1e-3))` (1.8
     /// degrees), is IPC's.
     pub parallel_angle: f64,
+    /// The metric of eq. 47's proximal term.
+    pub proximal: ProximalMetric,
 }
 
 impl Default for ContactParams {
@@ -158,6 +186,7 @@ impl Default for ContactParams {
             ccd: AdditiveCcd::default(),
             warm_start: true,
             parallel_angle: default_parallel_angle(),
+            proximal: ProximalMetric::Jacobi,
         }
     }
 }
@@ -666,16 +695,20 @@ pub type KeepOut<'a> =
     dyn Fn(usize, &Vector3<f64>, &mut Vector3<f64>, Option<&SymmetricMatrix3<f64>>) + Sync + 'a;
 
 /// Runs the local step: `positions` holds `y^k` on entry and `z` on return; `safe` is
-/// `z^{k-1}`, free of intersections; `fixed` vertices are never moved. `keep_out`
+/// `z^{k-1}`, free of intersections; `fixed` vertices are never moved; `weights` holds the
+/// metric `W_i` of eq. 47's proximal term per vertex (dimensionless, symmetric positive
+/// definite; `None`: the identity, see [`ProximalMetric`]). `keep_out`
 /// ([`KeepOut`]) takes a vertex out of the colliders after every descent move, in the move's
 /// metric, so the barrier cannot push a membrane into a collider. (The final clamp moves a
 /// vertex back towards its safe position along a straight line, which can cut into a curved
 /// collider by the sagitta of that chord, `L^2 / 8R` for a chord of length `L` on a ball of
 /// radius `R`.) `work` holds the buffers between calls.
+#[allow(clippy::too_many_arguments)]
 pub fn project(
     safe: &[Vector3<f64>],
     positions: &mut [Vector3<f64>],
     fixed: &[bool],
+    weights: Option<&[SymmetricMatrix3<f64>]>,
     mesh: &ContactMesh,
     params: &ContactParams,
     keep_out: &KeepOut,
@@ -877,9 +910,14 @@ pub fn project(
                 let (alpha_0, farthest) = (0..n)
                     .into_par_iter()
                     .filter(|&i| !fixed[i])
-                    .map(|i| (alpha[i], (target[i] - z[i]).norm()))
+                    .map(|i| {
+                        (
+                            alpha[i],
+                            proximal_pull(weights, i, &(target[i] - z[i])).norm(),
+                        )
+                    })
                     .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
-                // Eq. 53.
+                // Eq. 53 (with `W_i`, `D` the largest `|W_i (y_i^k - z_i)|`).
                 Some((eps * xi / (mu * alpha_0 * bound + farthest)).min(1.0))
             }
             DescentStep::Curvature => None,
@@ -899,24 +937,25 @@ pub fn project(
                     return 0.0;
                 }
                 let before = *zi;
-                let direction = force[i] + target[i] - *zi;
-                // The proposal, the metric it is taken in (`(I + K_i)^-1` with the curvature
-                // rule where the barrier curves; None: the identity) and the longest move
-                // it may make (the curvature rule's bound, None for eq. 53's step).
+                let direction = force[i] + proximal_pull(weights, i, &(target[i] - *zi));
+                // The proposal, the metric it is taken in (`(W_i + K_i)^-1` with the curvature
+                // rule; None: the identity) and the longest move it may make (the curvature
+                // rule's bound, None for eq. 53's step).
                 let (proposed, metric, cap) = match lambda {
                     Some(lambda) => (direction * lambda, None, None),
                     None => {
-                        // `I + K_i` is positive definite unless `K_i` is not finite; then
-                        // the vertex stays (a NaN position is caught by the global step). Away
-                        // from contact `K_i = 0`: no inverse needed.
+                        // `W_i + K_i` is positive definite unless `K_i` is not finite; then
+                        // the vertex stays (a NaN position is caught by the global step). With
+                        // `W_i = I` away from contact `K_i = 0`: no inverse needed.
                         let k = &curvature[i];
-                        let (step, metric) = if *k == SymmetricMatrix3::zeros() {
-                            (direction, None)
-                        } else {
-                            match k.plus_identity(1.0).try_inverse() {
-                                Some(inverse) => (inverse.mul_vector(&direction), Some(inverse)),
-                                None => (Vector3::zeros(), None),
-                            }
+                        let system = match weights {
+                            Some(w) => Some(*k + w[i]),
+                            None => (*k != SymmetricMatrix3::zeros()).then(|| k.plus_identity(1.0)),
+                        };
+                        let (step, metric) = match system.map(|s| s.try_inverse()) {
+                            None => (direction, None),
+                            Some(Some(inverse)) => (inverse.mul_vector(&direction), Some(inverse)),
+                            Some(None) => (Vector3::zeros(), None),
                         };
                         (step, metric, Some(longest))
                     }
@@ -1010,6 +1049,17 @@ pub fn project(
     stats
 }
 
+/// The proximal term's pull on vertex `i`, `W_i (y_i^k - z_i)` (m) for `to_target =
+/// y_i^k - z_i` (`weights`: see [`project`]).
+#[inline]
+fn proximal_pull(
+    weights: Option<&[SymmetricMatrix3<f64>]>,
+    i: usize,
+    to_target: &Vector3<f64>,
+) -> Vector3<f64> {
+    weights.map_or(*to_target, |w| w[i].mul_vector(to_target))
+}
+
 /// A vertex's descent move, as [`settle_or_move`] decides it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Move {
@@ -1048,12 +1098,12 @@ fn settle_or_move(
 }
 
 /// Where vertex `i` goes from `before` on a descent move of `damp` times `proposed` (m):
-/// out of the colliders in the proposal's metric (`metric`, the inverse of `I + K_i`; `None`:
+/// out of the colliders in the proposal's metric (`metric`, the inverse of `W_i + K_i`; `None`:
 /// the identity), then cut to `damp` times `longest` (m; `None`: no cut) and taken out of the
 /// colliders again, by a normal projection, where the cut point is inside.
 ///
-/// A normal projection after a move in `(I + K_i)^-1` would stop where that move points
-/// straight into the collider, with the part `(I + K_i) n` of the descent direction along the
+/// A normal projection after a move in `(W_i + K_i)^-1` would stop where that move points
+/// straight into the collider, with the part `(W_i + K_i) n` of the descent direction along the
 /// surface unbalanced. The cut comes after the projection: a proposal mostly into the collider
 /// would otherwise be cut to a crawl along it (and the metric's slide along a surface can be
 /// long where the barrier is stiff and nearly normal to it). The cut point lies on the chord
@@ -1274,7 +1324,7 @@ mod tests {
         let mut z = target.clone();
         let fixed = vec![false; 6];
         let mut work = Workspace::default();
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
+        let stats = project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
         assert_eq!(stats.candidate_pairs, 1);
         assert!(stats.active_pairs > 0 && stats.iterations > 0);
         let lowest_upper = z[3..].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
@@ -1290,7 +1340,7 @@ mod tests {
             ..mesh
         };
         let mut z = target.clone();
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
+        let stats = project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
         assert_eq!(stats.candidate_pairs, 0);
         assert_eq!(z, target);
     }
@@ -1314,7 +1364,7 @@ mod tests {
                 body: &[0, 1],
                 self_contact: &[true, true],
             };
-            let stats = project(&safe, &mut z, &[false; 6], &mesh, &params, FREE, work);
+            let stats = project(&safe, &mut z, &[false; 6], None, &mesh, &params, FREE, work);
             let counts = (
                 stats.candidate_pairs,
                 stats.active_pairs,
@@ -1344,6 +1394,20 @@ mod tests {
         slide: f64,
         work: &mut Workspace,
     ) -> (f64, [Vector3<f64>; 3], [Vector3<f64>; 3], usize) {
+        pressed_triangle_in(None, params, depth, slide, work)
+    }
+
+    /// [`pressed_triangle`] with the proximal term in the metric `W` at every vertex (`None`:
+    /// the identity): the minimum solves `W (z - y) = -mu B'(h - xi) e_z`, so `z - y` is
+    /// `W^-1 e_z` times `-mu B'`, and its height `h` solves `h - y_z = -(W^-1)_zz mu B'(h - xi)`
+    /// (the root returned).
+    fn pressed_triangle_in(
+        metric: Option<SymmetricMatrix3<f64>>,
+        params: &ContactParams,
+        depth: f64,
+        slide: f64,
+        work: &mut Workspace,
+    ) -> (f64, [Vector3<f64>; 3], [Vector3<f64>; 3], usize) {
         let (xi, d_hat) = (params.thickness, params.d_hat);
         let v = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
         let lower = [v(-1., -1., 0.), v(2., -1., 0.), v(-1., 2., 0.)];
@@ -1358,13 +1422,24 @@ mod tests {
             body: &[0, 1],
             self_contact: &[false, false],
         };
-        let stats = project(&safe, &mut z, &fixed, &mesh, params, FREE, work);
+        let weights = metric.map(|w| vec![w; 6]);
+        let stats = project(
+            &safe,
+            &mut z,
+            &fixed,
+            weights.as_deref(),
+            &mesh,
+            params,
+            FREE,
+            work,
+        );
         assert_eq!(stats.active_pairs, 3);
         let barrier = params.barrier();
+        let compliance = metric.map_or(1.0, |w| w.try_inverse().unwrap().diagonal[2]);
         let (mut below, mut above) = (pressed, xi + d_hat);
         for _ in 0..200 {
             let mid = 0.5 * (below + above);
-            let excess = mid - pressed + params.weight * barrier.derivative(mid - xi);
+            let excess = mid - pressed + compliance * params.weight * barrier.derivative(mid - xi);
             if excess > 0.0 {
                 above = mid;
             } else {
@@ -1422,7 +1497,7 @@ mod tests {
         };
         let mut z = target.clone();
         let mut work = Workspace::default();
-        let stats = project(&safe, &mut z, &fixed, &mesh, params, FREE, &mut work);
+        let stats = project(&safe, &mut z, &fixed, None, &mesh, params, FREE, &mut work);
         let longest = (n..2 * n)
             .map(|i| {
                 let direction = work.push()[i] + target[i] - z[i];
@@ -1466,7 +1541,9 @@ mod tests {
         let mut first = safe.clone();
         for _ in 0..2 {
             let mut next = target.clone();
-            project(&first, &mut next, &fixed, &mesh, &params, FREE, &mut work);
+            project(
+                &first, &mut next, &fixed, None, &mesh, &params, FREE, &mut work,
+            );
             first = next;
         }
         let allowance = &work.live.allowance;
@@ -1480,7 +1557,9 @@ mod tests {
             })
             .collect();
         let mut kept = moved.clone();
-        let stats = project(&first, &mut kept, &fixed, &mesh, &params, FREE, &mut work);
+        let stats = project(
+            &first, &mut kept, &fixed, None, &mesh, &params, FREE, &mut work,
+        );
         assert!(stats.active_pairs > 0);
         // The CCD's distances at the safe positions are this local step's, kept list or not.
         for (p, &d) in work.live.pairs.iter().zip(&work.live.start) {
@@ -1492,6 +1571,7 @@ mod tests {
             &first,
             &mut fresh,
             &fixed,
+            None,
             &mesh,
             &params,
             FREE,
@@ -1664,6 +1744,38 @@ mod tests {
         }
     }
 
+    /// In a metric `W` that couples `x` to `z` ([`ProximalMetric::Jacobi`] gives each vertex
+    /// its own), the pressed triangle's minimum moves along `W^-1 e_z`: up to the height where
+    /// `(W^-1)_zz mu B'` balances the press (2.13 mm above the target, against 1.54 mm with the
+    /// identity) and sideways by `(W^-1)_xz / (W^-1)_zz` (-0.4) times that rise. The curvature
+    /// step in `W + K` reaches it within its stopping test.
+    #[test]
+    fn a_weighted_proximal_term_moves_the_minimum_along_its_metric() {
+        let eps_xi = 0.1 * 2e-3;
+        let metric = SymmetricMatrix3 {
+            diagonal: [2.0, 1.0, 0.5],
+            upper: [0.0, 0.8, 0.0],
+        };
+        let params = pressing(DescentStep::Curvature, 64);
+        let (root, z, target, iterations) =
+            pressed_triangle_in(Some(metric), &params, 0.3, 0.0, &mut Workspace::default());
+        let rise = root - target[0].z;
+        let inverse = metric.try_inverse().unwrap();
+        let sideways = inverse.upper[1] / inverse.diagonal[2] * rise;
+        assert!(sideways < -2.0 * eps_xi, "{sideways}");
+        for (p, t) in z.iter().zip(&target) {
+            assert!((p.z - root).abs() < 0.02 * eps_xi, "{} vs {root}", p.z);
+            assert!(
+                (p.x - t.x - sideways).abs() < 0.02 * eps_xi,
+                "{} vs {}",
+                p.x - t.x,
+                sideways
+            );
+            assert!((p.y - t.y).abs() < 0.02 * eps_xi, "{} vs {}", p.y, t.y);
+        }
+        assert!(iterations < 64, "{iterations} iterations");
+    }
+
     /// Pulled `10 eps xi` sideways to a target below `xi`, the triangle is clamped by the CCD
     /// about a quarter of the way short, in the barrier, and the descent has to slide it the
     /// rest along the contact while pushing it up: it reaches the target's place and the
@@ -1762,7 +1874,7 @@ mod tests {
                 .map(|(p, jitter)| p + rng.vector() * jitter)
                 .collect();
             let mut work = Workspace::default();
-            let stats = project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
+            let stats = project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
             assert!(
                 stats.iterations > 3 && stats.live_refreshes > 1,
                 "{stats:?}"
@@ -1835,6 +1947,7 @@ mod tests {
             &safe,
             &mut z,
             &fixed,
+            None,
             &mesh,
             &params,
             lower_then_throw,
@@ -1889,7 +2002,9 @@ mod tests {
         };
         let keep_out = keeping_out_of(&floors);
         let mut work = Workspace::default();
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params, &keep_out, &mut work);
+        let stats = project(
+            &safe, &mut z, &fixed, None, &mesh, &params, &keep_out, &mut work,
+        );
         assert_eq!(stats.active_pairs, 3);
         // About 7 moves of `eps xi` along the floor, then the approach (14 here).
         assert!(stats.iterations < 20, "{} iterations", stats.iterations);
@@ -2157,7 +2272,7 @@ mod tests {
             self_contact: &[false, false],
         };
         let mut work = Workspace::default();
-        project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
+        project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
         let (_, every) = super::super::pair_cache::tests::brute_force_pairs(&mesh, &safe);
         let (held, at_result) = (
             brute_force_push(&every, &z, &safe, &params),
@@ -2213,7 +2328,7 @@ mod tests {
         let fixed = [true, true, true, false, false, false, false, false, false];
         let mut z = target.clone();
         let mut work = Workspace::default();
-        project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
+        project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
         assert_push_from_every_pair(&mesh, &safe, &z, &params, &work);
         let lowered = z[3..6].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
         assert!(
@@ -2279,7 +2394,7 @@ mod tests {
         let mut z = target.clone();
         let mut work = Workspace::default();
         let fixed = vec![false; safe.len()];
-        let stats = project(&safe, &mut z, &fixed, &mesh, &params, FREE, &mut work);
+        let stats = project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
         assert!(stats.active_pairs > 0, "{stats:?}");
         // Held back by clamps: some vertices by far more than the descent's moves of at most
         // `eps xi` each could take them, others hardly at all.
@@ -2297,7 +2412,9 @@ mod tests {
         // positions differ a little: a refresh restarts the CCD, whose additive steps can
         // report a time for pairs it would otherwise have skipped.)
         let mut again = target.clone();
-        let second = project(&safe, &mut again, &fixed, &mesh, &params, FREE, &mut work);
+        let second = project(
+            &safe, &mut again, &fixed, None, &mesh, &params, FREE, &mut work,
+        );
         assert!(
             second.live_refreshes < stats.live_refreshes,
             "{} then {} refreshes",
@@ -2326,6 +2443,7 @@ mod tests {
             &safe,
             &mut z,
             &[false; 6],
+            None,
             &mesh,
             &params,
             FREE,

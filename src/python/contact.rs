@@ -11,7 +11,7 @@ use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use crate::contact::distance::{edge_edge_closest, point_triangle_closest, Closest};
 use crate::contact::{
     closest_primitive_distance, default_parallel_angle, BroadPhase, ContactMesh, ContactParams,
-    DescentStep,
+    DescentStep, ProximalMetric,
 };
 
 use super::arrays::{self, to_numpy, to_numpy_1d, vec3s};
@@ -251,7 +251,11 @@ fn edge_edge_ccd_additive<'py>(
 /// `parallel_angle` (radians, default asin(sqrt(1e-3)), 1.8 degrees, as in IPC): edge-edge
 /// pairs closer to parallel than this fade out of the barrier (0 for parallel edges, where the
 /// point-triangle pairs hold the contact), so that stacked layers converge at tight
-/// tolerances; 0 turns the fade off (the paper's barrier), see `ContactParams::parallel_angle`.
+/// tolerances; 0 turns the fade off (the paper's barrier), see `ContactParams::parallel_angle`;
+/// `proximal` ("jacobi", default, or "identity"): the metric of eq. 47's proximal term, the
+/// global step's Jacobi blocks `D_i` over their mean (both steps in one metric: the iteration
+/// settles where the paper's can cycle, and contact conserves momentum) or the paper's
+/// identity, see `ProximalMetric`.
 #[pyclass(module = "peridyn._core", name = "Contact", frozen)]
 #[derive(Clone)]
 pub struct PyContact {
@@ -263,7 +267,8 @@ impl PyContact {
     #[new]
     #[pyo3(signature = (*, thickness = 1.5e-3, d_hat = None, eps = 0.1, weight = 1.0,
                         max_iters = 32, step = "curvature", toi_threshold = 0.1, ccd_s = 0.1,
-                        ccd_t_c = 0.95, warm_start = true, parallel_angle = None))]
+                        ccd_t_c = 0.95, warm_start = true, parallel_angle = None,
+                        proximal = "jacobi"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         thickness: f64,
@@ -277,6 +282,7 @@ impl PyContact {
         ccd_t_c: f64,
         warm_start: bool,
         parallel_angle: Option<f64>,
+        proximal: &str,
     ) -> PyResult<Self> {
         let inner = ContactParams {
             thickness,
@@ -293,6 +299,7 @@ impl PyContact {
             },
             warm_start,
             parallel_angle: parallel_angle.unwrap_or_else(default_parallel_angle),
+            proximal: proximal_metric(proximal)?,
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -336,6 +343,14 @@ impl PyContact {
     fn warm_start(&self) -> bool {
         self.inner.warm_start
     }
+    /// The metric of eq. 47's proximal term: "jacobi" or "identity".
+    #[getter]
+    fn proximal(&self) -> &'static str {
+        match self.inner.proximal {
+            ProximalMetric::Jacobi => "jacobi",
+            ProximalMetric::Identity => "identity",
+        }
+    }
     /// Fade angle of nearly parallel edge-edge pairs (radians).
     #[getter]
     fn parallel_angle(&self) -> f64 {
@@ -371,6 +386,7 @@ impl PyContact {
                 "ccd_t_c" => p.ccd.t_c = value.extract()?,
                 "warm_start" => p.warm_start = value.extract()?,
                 "parallel_angle" => p.parallel_angle = value.extract()?,
+                "proximal" => p.proximal = proximal_metric(&value.extract::<String>()?)?,
                 other => {
                     return Err(PyTypeError::new_err(format!(
                         "Contact.replace() got an unexpected keyword argument {other:?}"
@@ -385,7 +401,8 @@ impl PyContact {
         let p = &self.inner;
         format!(
             "Contact(thickness={}, d_hat={}, eps={}, weight={}, max_iters={}, step='{}', \
-             toi_threshold={}, ccd_s={}, ccd_t_c={}, warm_start={}, parallel_angle={})",
+             toi_threshold={}, ccd_s={}, ccd_t_c={}, warm_start={}, parallel_angle={}, \
+             proximal='{}')",
             p.thickness,
             p.d_hat,
             p.eps,
@@ -396,7 +413,8 @@ impl PyContact {
             p.ccd.s,
             p.ccd.t_c,
             if p.warm_start { "True" } else { "False" },
-            p.parallel_angle
+            p.parallel_angle,
+            self.proximal()
         )
     }
 }
@@ -414,6 +432,17 @@ fn step_rule(step: &str) -> PyResult<DescentStep> {
         "uniform" => Ok(DescentStep::Uniform),
         other => Err(PyValueError::new_err(format!(
             "contact step must be 'curvature' or 'uniform', got {other:?}"
+        ))),
+    }
+}
+
+/// The proximal metric named `proximal`, or a ValueError naming the two.
+fn proximal_metric(proximal: &str) -> PyResult<ProximalMetric> {
+    match proximal {
+        "jacobi" => Ok(ProximalMetric::Jacobi),
+        "identity" => Ok(ProximalMetric::Identity),
+        other => Err(PyValueError::new_err(format!(
+            "contact proximal must be 'jacobi' or 'identity', got {other:?}"
         ))),
     }
 }

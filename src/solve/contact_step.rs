@@ -7,12 +7,13 @@ use rayon::prelude::*;
 
 use crate::contact::{
     out_of_colliders, project, ColliderModel, ContactMesh, ContactParams, ContactStats, MoveStart,
-    Workspace,
+    ProximalMetric, Workspace,
 };
 use crate::membrane::Membrane;
 use crate::real::Real;
 use crate::symmetric::SymmetricMatrix3;
 
+use super::jacobi::jacobi_block;
 use super::reaction::realised_reaction;
 use super::system::System;
 
@@ -37,6 +38,9 @@ pub(super) struct ContactState<T: Real> {
     /// on ([`realised_reaction`]): the contact reaction it realised (m; zero away from contact;
     /// empty before the first local step of a time step).
     reaction: Vec<Vector3<T>>,
+    /// Per vertex, the metric `W_i` of eq. 47's proximal term (dimensionless) with
+    /// [`ProximalMetric::Jacobi`] (else empty).
+    weights: Vec<SymmetricMatrix3<f64>>,
 }
 
 impl<T: Real> ContactState<T> {
@@ -61,6 +65,7 @@ impl<T: Real> ContactState<T> {
             next: vec![Vector3::zeros(); n],
             work: Workspace::default(),
             reaction: Vec::with_capacity(n),
+            weights: Vec::new(),
         }
     }
 
@@ -77,14 +82,23 @@ impl<T: Real> ContactState<T> {
     }
 
     /// Runs the local step on `sys.y_next` (the global step's result, after colliders), keeping
-    /// vertices out of the colliders, and makes the result the new safe positions. Returns the
+    /// vertices out of the colliders, and makes the result the new safe positions. `h` (s) is
+    /// the time step, for the Jacobi blocks of [`ProximalMetric::Jacobi`]. Returns the
     /// largest move from `sys.y` (m) and the step's figures.
     pub fn local_step(
         &mut self,
         sys: &mut System<T>,
+        h: T,
         params: &ContactParams,
         colliders: &[ColliderModel<T>],
     ) -> (f64, ContactStats) {
+        let weights = match params.proximal {
+            ProximalMetric::Identity => None,
+            ProximalMetric::Jacobi => {
+                jacobi_weights(sys, h, &mut self.weights);
+                Some(&self.weights[..])
+            }
+        };
         let mut z = std::mem::take(&mut self.next);
         for (zi, next) in z.iter_mut().zip(&sys.y_next) {
             *zi = next.map(|c| c.to_f64());
@@ -111,6 +125,7 @@ impl<T: Real> ContactState<T> {
             &self.safe,
             &mut z,
             &sys.pinned,
+            weights,
             &mesh,
             params,
             &keep_out,
@@ -128,17 +143,25 @@ impl<T: Real> ContactState<T> {
             .enumerate()
             .map(|(i, ((next, zi), reaction))| {
                 // The local step's move as far as the barrier's push and the colliders the
-                // vertex ends on explain it: the realised contact reaction.
+                // vertex ends on explain it: the realised contact reaction. In the local step's
+                // metric a force `f` moves the vertex along `W_i^-1 f`.
                 let local_move = *zi - next.map(|c| c.to_f64());
-                let norm = push[i].norm();
-                let push_direction = (norm > 0.0).then(|| push[i] / norm);
+                let moves_along = |f: Vector3<f64>| {
+                    let along = match weights {
+                        Some(w) if f != Vector3::zeros() => w[i].try_inverse()?.mul_vector(&f),
+                        _ => f,
+                    };
+                    let norm = along.norm();
+                    (norm > 0.0).then(|| along / norm)
+                };
+                let push_direction = moves_along(push[i]);
                 let at = zi.map(T::of);
                 let touching = rest.vertices[i].half_thickness + T::of(TOUCHING);
                 // Empty (no allocation) unless the vertex rests on a collider.
                 let mut directions: Vec<Vector3<f64>> = colliders
                     .iter()
                     .filter(|c| c.signed_distance(&at) <= touching)
-                    .map(|c| c.normal(&at).map(|x| x.to_f64()))
+                    .filter_map(|c| moves_along(c.normal(&at).map(|x| x.to_f64())))
                     .collect();
                 *reaction = match (directions.is_empty(), push_direction) {
                     (true, None) => Vector3::zeros(),
@@ -163,4 +186,29 @@ impl<T: Real> ContactState<T> {
     pub fn reaction(&self) -> &[Vector3<T>] {
         &self.reaction
     }
+}
+
+/// Writes into `weights` the metric of [`ProximalMetric::Jacobi`] for every vertex, `W_i = D_i /
+/// d` with `D_i` its Jacobi block of eq. 25 at the current iterate (kg) and `d` the mean of
+/// `trace(D_i) / 3` over the free vertices (the identity everywhere if none is free).
+fn jacobi_weights<T: Real>(sys: &System<T>, h: T, weights: &mut Vec<SymmetricMatrix3<f64>>) {
+    let h2 = h * h;
+    (0..sys.y.len())
+        .into_par_iter()
+        .map(|k| jacobi_block(sys, k, h2).map(|x| x.to_f64()))
+        .collect_into_vec(weights);
+    let (sum, free) = weights
+        .par_iter()
+        .zip(&sys.pinned)
+        .filter(|(_, &pinned)| !pinned)
+        .map(|(d, _)| (d.diagonal.iter().sum::<f64>() / 3.0, 1usize))
+        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    let scale = if free > 0 { free as f64 / sum } else { 0.0 };
+    weights.par_iter_mut().for_each(|w| {
+        *w = if scale > 0.0 {
+            *w * scale
+        } else {
+            SymmetricMatrix3::zeros().plus_identity(1.0)
+        }
+    });
 }

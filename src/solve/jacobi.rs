@@ -117,22 +117,36 @@ struct Gathered<T: Real> {
 impl<T: Real> Gathered<T> {
     #[inline(always)]
     fn of(sys: &System<T>, k: usize, h2: T) -> Self {
-        let neighbors = sys.nb.of(k);
-        let response = &sys.response;
-        let own = &response[k];
-        // One record at a time.
-        let mut responses =
-            GatheredResponse::new(own.precond() * T::of(neighbors.len() as f64), own.energy());
-        for &j in neighbors {
-            responses += response[j as usize];
-        }
         Self {
             mass: sys.rest.vertices[k].mass,
             to_prediction: sys.y_star[k] - sys.y[k],
             force_h2: internal_force(k, &sys.nb, &sys.bond_grad) * h2,
-            responses,
+            responses: gathered_response(sys, k),
         }
     }
+}
+
+/// Vertex `k`'s `n_k C_k + sum_j C_j` (N/m) and `E_k + sum_j E_j` (J) from the responses of
+/// the last evaluation, one record at a time.
+#[inline(always)]
+fn gathered_response<T: Real>(sys: &System<T>, k: usize) -> GatheredResponse<T> {
+    let neighbors = sys.nb.of(k);
+    let response = &sys.response;
+    let own = &response[k];
+    let mut responses =
+        GatheredResponse::new(own.precond() * T::of(neighbors.len() as f64), own.energy());
+    for &j in neighbors {
+        responses += response[j as usize];
+    }
+    responses
+}
+
+/// Vertex `k`'s Jacobi block `D_k = m_k I + h^2 (n_k C_k + sum_j C_j)` (kg) of eq. 25 from
+/// the responses of the last evaluation: the `system` of [`LocalSystem::of`] without its
+/// residual, for the metric of the contact local step's proximal term
+/// ([`crate::contact::ProximalMetric::Jacobi`]).
+pub(super) fn jacobi_block<T: Real>(sys: &System<T>, k: usize, h2: T) -> SymmetricMatrix3<T> {
+    (gathered_response(sys, k).precond() * h2).plus_identity(sys.rest.vertices[k].mass)
 }
 
 impl<T: Real> LocalSystem<T> {
@@ -627,7 +641,8 @@ pub(super) fn keep_out<T: Real>(
 /// (Algorithm 2) moves that to `z`. At a fixed point `z = y`, so `r = -D (z - y^k)`: the local
 /// step's move, weighted by `D`, is the reaction that balances the residual. Only its part
 /// that is a non-negative combination of the barrier's push `p_i` and the outward normals of
-/// the colliders the vertex touches counts as reaction (`q`, see
+/// the colliders the vertex touches, each taken through the local step's proximal metric
+/// (`W_i^-1 p_i`, see [`crate::contact::ProximalMetric`]), counts as reaction (`q`, see
 /// [`super::reaction::realised_reaction`]), with the `q` of the local step that produced
 /// `y`. So a vertex out of the barrier's reach and off the colliders (in free flight) keeps its
 /// whole residual, and a tangential imbalance (sliding not yet resolved, or held back by a CCD
