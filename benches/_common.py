@@ -182,3 +182,41 @@ def hanging_cloth(
 def median(xs) -> float:
     xs = [x for x in xs if x is not None]
     return float(np.median(xs)) if xs else float("nan")
+
+
+def layers_over_ball(contact_changes: Dict[str, Any], tol: float, args: Any, layers: int = 2) -> dict:
+    """``layers`` stacked layers of 0.5 m dropped over the ball
+    (``paper_scenes.cloths_over_ball(layers, n=args.n, size=0.5)``), with the contact parameters
+    ``contact_changes`` changed, for ``args.steps`` steps at ``tol`` (m) and ``args.max_iters``:
+    the iterations per step (median and largest), the steps that ran to the cap, ms per step
+    (median), the local step's iterations per step (median), and at the end the smallest distance
+    between non-adjacent primitives (m; the local step keeps it above ``eps xi``) and the count of
+    intersecting triangle pairs."""
+    from peridyn import checks, paper_scenes
+
+    scene = paper_scenes.cloths_over_ball(layers=layers, n=args.n, size=0.5, tol=tol,
+                                          max_iters=args.max_iters, threads=args.threads)
+    c = scene.solver.contact.replace(**contact_changes)
+    scene.solver.contact = c
+    iterations, ms, local = [], [], []
+    start = time.perf_counter()
+    for _ in range(args.steps):
+        stats = scene.solver.step()
+        iterations.append(stats.iterations)
+        ms.append(stats.timings["total"])
+        local.append(stats.contact["local_iterations"])
+    wall = time.perf_counter() - start
+    x, tris, _ = checks.mesh_of(scene.bodies.values())
+    return {
+        **contact_changes,
+        "tol_m": tol,
+        "wall_s": wall,
+        "iterations_median": median(iterations),
+        "iterations_max": max(iterations),
+        "steps_at_max_iters": sum(i >= args.max_iters for i in iterations),
+        "ms_per_step_median": median(ms),
+        "local_iterations_median": median(local),
+        "min_distance_m": checks.min_separation(x, tris, 2 * (c.thickness + c.d_hat)),
+        "intersecting_pairs": len(checks.intersecting_pairs(x, tris)),
+        "eps_xi_m": c.eps * c.thickness,
+    }

@@ -133,6 +133,9 @@ def main(argv=None):
                         "0, 0.003, 0.03, 0.3)")
     p.add_argument("--steps", type=int, default=400)
     p.add_argument("--check-every", type=int, default=20)
+    p.add_argument("--proximal", choices=["jacobi", "identity"], default=None,
+                   help="metric of the local step's proximal term (default: Contact's, jacobi; "
+                        "identity is the paper's eq. 47)")
     p.add_argument("--tol", type=float, default=1e-4)
     p.add_argument("--max-iters", type=int, default=100)
     p.add_argument("--threads", type=int, default=None)
@@ -152,6 +155,8 @@ def main(argv=None):
     rec = C.Record("paper_scenes", args)
     hwm0 = C.vm_kib("VmHWM")
     scene = build(args)
+    if args.proximal is not None:
+        scene.solver.contact = scene.solver.contact.replace(proximal=args.proximal)
     solver, contact = scene.solver, scene.solver.contact
     bodies = list(scene.bodies.values())
     colliders = list(scene.colliders.values())
@@ -184,7 +189,8 @@ def main(argv=None):
         print(f"{scene.description}: {nv} vertices; step 0: {rec.data['checks'][0]}", flush=True)
     rec.data.update({
         "scene": scene.description, "vertices": nv, "dt": solver.dt,
-        "contact": {"thickness": contact.thickness, "d_hat": contact.d_hat, "eps": contact.eps},
+        "contact": {"thickness": contact.thickness, "d_hat": contact.d_hat, "eps": contact.eps,
+                    "proximal": contact.proximal},
     })
     start = time.perf_counter()
     stopped = None

@@ -17,46 +17,15 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _common as C  # noqa: E402
 
 import peridyn  # noqa: E402
-from peridyn import checks, paper_scenes  # noqa: E402
 
 #: The default fade angle (radians), IPC's: asin(sqrt(1e-3)).
 DEFAULT_ANGLE = peridyn.Contact().parallel_angle
-
-
-def run(angle: float, tol: float, args) -> dict:
-    scene = paper_scenes.cloths_over_ball(layers=2, n=args.n, size=0.5, tol=tol,
-                                          max_iters=args.max_iters, threads=args.threads)
-    c = scene.solver.contact.replace(parallel_angle=angle)
-    scene.solver.contact = c
-    iterations, ms, local = [], [], []
-    start = time.perf_counter()
-    for _ in range(args.steps):
-        stats = scene.solver.step()
-        iterations.append(stats.iterations)
-        ms.append(stats.timings["total"])
-        local.append(stats.contact["local_iterations"])
-    wall = time.perf_counter() - start
-    x, tris, _ = checks.mesh_of(scene.bodies.values())
-    return {
-        "parallel_angle_rad": angle,
-        "tol_m": tol,
-        "wall_s": wall,
-        "iterations_median": C.median(iterations),
-        "iterations_max": max(iterations),
-        "steps_at_max_iters": sum(i >= args.max_iters for i in iterations),
-        "ms_per_step_median": C.median(ms),
-        "local_iterations_median": C.median(local),
-        "min_distance_m": checks.min_separation(x, tris, 2 * (c.thickness + c.d_hat)),
-        "intersecting_pairs": len(checks.intersecting_pairs(x, tris)),
-        "eps_xi_m": c.eps * c.thickness,
-    }
 
 
 def main() -> None:
@@ -76,7 +45,7 @@ def main() -> None:
     results = []
     for tol in args.tols:
         for angle in args.angles:
-            r = run(angle, tol, args)
+            r = C.layers_over_ball({"parallel_angle": angle}, tol, args)
             results.append(r)
             print(f"tol {tol:g} m, fade {math.degrees(angle):.2f} deg: "
                   f"{r['iterations_median']:.0f} iterations median ({r['iterations_max']} at most, "
