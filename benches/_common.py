@@ -220,3 +220,11 @@ def layers_over_ball(contact_changes: Dict[str, Any], tol: float, args: Any, lay
         "intersecting_pairs": len(checks.intersecting_pairs(x, tris)),
         "eps_xi_m": c.eps * c.thickness,
     }
+
+
+def layers_summary(r: dict) -> str:
+    """One line of a :func:`layers_over_ball` result."""
+    return (f"{r['iterations_median']:.0f} iterations median ({r['iterations_max']} at most, "
+            f"{r['steps_at_max_iters']} steps at the cap), {r['local_iterations_median']:.0f} "
+            f"local, {r['ms_per_step_median']:.1f} ms per step, {r['wall_s']:.1f} s, min distance "
+            f"{r['min_distance_m'] * 1e3:.3f} mm, {r['intersecting_pairs']} intersecting")

@@ -47,11 +47,8 @@ def main() -> None:
         for angle in args.angles:
             r = C.layers_over_ball({"parallel_angle": angle}, tol, args)
             results.append(r)
-            print(f"tol {tol:g} m, fade {math.degrees(angle):.2f} deg: "
-                  f"{r['iterations_median']:.0f} iterations median ({r['iterations_max']} at most, "
-                  f"{r['steps_at_max_iters']} steps at the cap), {r['ms_per_step_median']:.1f} ms "
-                  f"per step, {r['wall_s']:.1f} s, min distance {r['min_distance_m'] * 1e3:.3f} mm, "
-                  f"{r['intersecting_pairs']} intersecting", flush=True)
+            print(f"tol {tol:g} m, fade {math.degrees(angle):.2f} deg: {C.layers_summary(r)}",
+                  flush=True)
     record.data["results"] = results
     record.write(args.out)
 

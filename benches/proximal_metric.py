@@ -96,11 +96,7 @@ def main() -> None:
     for proximal in METRICS:
         r = C.layers_over_ball({"proximal": proximal}, args.tol, args, layers=args.layers)
         layers.append(r)
-        print(f"{args.layers} layers, {proximal}: {r['iterations_median']:.0f} iterations median "
-              f"({r['iterations_max']} at most, {r['steps_at_max_iters']} steps at the cap), "
-              f"{r['local_iterations_median']:.0f} local, {r['ms_per_step_median']:.1f} ms per "
-              f"step, min distance {r['min_distance_m'] * 1e3:.3f} mm, "
-              f"{r['intersecting_pairs']} intersecting", flush=True)
+        print(f"{args.layers} layers, {proximal}: {C.layers_summary(r)}", flush=True)
     record.data["collision"] = collisions
     record.data["layers_over_ball"] = layers
     record.write(args.out)
