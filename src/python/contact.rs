@@ -253,8 +253,8 @@ fn edge_edge_ccd_additive<'py>(
 /// point-triangle pairs hold the contact), so that stacked layers converge at tight
 /// tolerances; 0 turns the fade off (the paper's barrier), see `ContactParams::parallel_angle`;
 /// `proximal` ("jacobi", default, or "identity"): the metric of eq. 47's proximal term, the
-/// global step's Jacobi blocks `D_i` over their mean (both steps in one metric: the iteration
-/// settles where the paper's can cycle, and contact conserves momentum) or the paper's
+/// global step's Jacobi blocks `D_i` over their mean `d` (both steps in one metric: contact
+/// conserves momentum, the barrier's weight is effectively `d * weight`) or the paper's
 /// identity, see `ProximalMetric`.
 #[pyclass(module = "peridyn._core", name = "Contact", frozen)]
 #[derive(Clone)]
