@@ -704,8 +704,9 @@ pub type KeepOut<'a> =
 
 /// Runs the local step: `positions` holds `y^k` on entry and `z` on return; `safe` is
 /// `z^{k-1}`, free of intersections; `fixed` vertices are never moved; `weights` holds the
-/// metric `W_i` of eq. 47's proximal term per vertex (dimensionless, symmetric positive
-/// definite; `None`: the identity, see [`ProximalMetric`]). `keep_out`
+/// metric `W_i` of eq. 47's proximal term, one per vertex (dimensionless, symmetric positive
+/// definite; a vertex whose `W_i` cannot be inverted stays; `None`: the identity, see
+/// [`ProximalMetric`]). `keep_out`
 /// ([`KeepOut`]) takes a vertex out of the colliders after every descent move, in the move's
 /// metric, so the barrier cannot push a membrane into a collider. (The final clamp moves a
 /// vertex back towards its safe position along a straight line, which can cut into a curved
