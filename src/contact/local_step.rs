@@ -396,6 +396,8 @@ pub struct Workspace {
     damping: Vec<f64>,
     /// The barrier's terms per pair and their sums per vertex, kept between iterations.
     barrier_push: BarrierPush,
+    /// Per vertex: the metric `W_i` of the last [`project`] ([`ProximalWeights`]).
+    weights: Vec<SymmetricMatrix3<f64>>,
 }
 
 impl Workspace {
@@ -406,6 +408,12 @@ impl Workspace {
     /// any call).
     pub fn push(&self) -> &[Vector3<f64>] {
         &self.push
+    }
+
+    /// Per vertex, the metric `W_i` the last [`project`] used (`None`: the identity, or no pair
+    /// was within reach and nothing moved).
+    pub fn weights(&self) -> Option<&[SymmetricMatrix3<f64>]> {
+        (!self.weights.is_empty()).then_some(&self.weights[..])
     }
 }
 
@@ -702,11 +710,16 @@ fn vertex_toi(pairs: &[Pair], toi: &[Option<f64>], t: &mut Vec<f64>, n: usize) {
 pub type KeepOut<'a> =
     dyn Fn(usize, &Vector3<f64>, &mut Vector3<f64>, Option<&SymmetricMatrix3<f64>>) + Sync + 'a;
 
+/// Writes the metric `W_i` of eq. 47's proximal term into its argument, one per vertex
+/// (dimensionless, symmetric positive definite; a vertex whose `W_i` cannot be inverted stays).
+/// Called by [`project`] only when some pair is within the barrier's reach (a scene with
+/// nothing near pays nothing for it).
+pub type ProximalWeights<'a> = dyn Fn(&mut Vec<SymmetricMatrix3<f64>>) + Sync + 'a;
+
 /// Runs the local step: `positions` holds `y^k` on entry and `z` on return; `safe` is
-/// `z^{k-1}`, free of intersections; `fixed` vertices are never moved; `weights` holds the
-/// metric `W_i` of eq. 47's proximal term, one per vertex (dimensionless, symmetric positive
-/// definite; a vertex whose `W_i` cannot be inverted stays; `None`: the identity, see
-/// [`ProximalMetric`]). `keep_out`
+/// `z^{k-1}`, free of intersections; `fixed` vertices are never moved; `weights` gives the
+/// metric of eq. 47's proximal term ([`ProximalWeights`]; `None`: the identity, see
+/// [`ProximalMetric`]), kept in `work` ([`Workspace::weights`]). `keep_out`
 /// ([`KeepOut`]) takes a vertex out of the colliders after every descent move, in the move's
 /// metric, so the barrier cannot push a membrane into a collider. (The final clamp moves a
 /// vertex back towards its safe position along a straight line, which can cut into a curved
@@ -717,7 +730,7 @@ pub fn project(
     safe: &[Vector3<f64>],
     positions: &mut [Vector3<f64>],
     fixed: &[bool],
-    weights: Option<&[SymmetricMatrix3<f64>]>,
+    weights: Option<&ProximalWeights>,
     mesh: &ContactMesh,
     params: &ContactParams,
     keep_out: &KeepOut,
@@ -744,10 +757,17 @@ pub fn project(
     );
     stats.broad_phase_ms += millis(t);
     refill(&mut work.push, n, Vector3::zeros());
+    work.weights.clear();
     if work.live.pairs.is_empty() {
         work.warm.clear();
         return stats;
     }
+    if let Some(fill) = weights {
+        fill(&mut work.weights);
+    }
+    // Moved out for the descent, which borrows the rest of `work`; put back below.
+    let metric = std::mem::take(&mut work.weights);
+    let weights = weights.map(|_| &metric[..]);
 
     let z = positions;
     safe.par_iter()
@@ -1004,6 +1024,7 @@ pub fn project(
     }
 
     guarantee(safe, z, fixed, mesh, params, work, &mut stats);
+    work.weights = metric;
 
     let t = Instant::now();
     closest_within(
@@ -1442,17 +1463,10 @@ mod tests {
             body: &[0, 1],
             self_contact: &[false, false],
         };
-        let weights = metric.map(|w| vec![w; 6]);
-        let stats = project(
-            &safe,
-            &mut z,
-            &fixed,
-            weights.as_deref(),
-            &mesh,
-            params,
-            FREE,
-            work,
-        );
+        let fill =
+            |w: &mut Vec<SymmetricMatrix3<f64>>| w.extend(metric.into_iter().cycle().take(6));
+        let weights = metric.is_some().then_some(&fill as &ProximalWeights);
+        let stats = project(&safe, &mut z, &fixed, weights, &mesh, params, FREE, work);
         assert_eq!(stats.active_pairs, 3);
         let barrier = params.barrier();
         let compliance = metric.map_or(1.0, |w| w.try_inverse().unwrap().diagonal[2]);

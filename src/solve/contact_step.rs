@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use crate::contact::{
     out_of_colliders, project, ColliderModel, ContactMesh, ContactParams, ContactStats, MoveStart,
-    ProximalMetric, Workspace,
+    ProximalMetric, ProximalWeights, Workspace,
 };
 use crate::membrane::Membrane;
 use crate::real::Real;
@@ -38,9 +38,6 @@ pub(super) struct ContactState<T: Real> {
     /// on ([`realised_reaction`]): the contact reaction it realised (m; zero away from contact;
     /// empty before the first local step of a time step).
     reaction: Vec<Vector3<T>>,
-    /// Per vertex, the metric `W_i` of eq. 47's proximal term (dimensionless) with
-    /// [`ProximalMetric::Jacobi`] (else empty).
-    weights: Vec<SymmetricMatrix3<f64>>,
 }
 
 impl<T: Real> ContactState<T> {
@@ -65,7 +62,6 @@ impl<T: Real> ContactState<T> {
             next: vec![Vector3::zeros(); n],
             work: Workspace::default(),
             reaction: Vec::with_capacity(n),
-            weights: Vec::new(),
         }
     }
 
@@ -92,13 +88,6 @@ impl<T: Real> ContactState<T> {
         params: &ContactParams,
         colliders: &[ColliderModel<T>],
     ) -> (f64, ContactStats) {
-        let weights = match params.proximal {
-            ProximalMetric::Identity => None,
-            ProximalMetric::Jacobi => {
-                jacobi_weights(sys, h, &mut self.weights);
-                Some(&self.weights[..])
-            }
-        };
         let mut z = std::mem::take(&mut self.next);
         for (zi, next) in z.iter_mut().zip(&sys.y_next) {
             *zi = next.map(|c| c.to_f64());
@@ -109,6 +98,11 @@ impl<T: Real> ContactState<T> {
             self_contact: &self.self_contact,
         };
         let rest = &sys.rest;
+        let jacobi = |weights: &mut Vec<SymmetricMatrix3<f64>>| jacobi_weights(sys, h, weights);
+        let weights = match params.proximal {
+            ProximalMetric::Identity => None,
+            ProximalMetric::Jacobi => Some(&jacobi as &ProximalWeights),
+        };
         let keep_out = |i: usize,
                         from: &Vector3<f64>,
                         zi: &mut Vector3<f64>,
@@ -132,7 +126,7 @@ impl<T: Real> ContactState<T> {
             &mut self.work,
         );
         let y = &sys.y;
-        let push = self.work.push();
+        let (push, weights) = (self.work.push(), self.work.weights());
         self.reaction.clear();
         self.reaction.resize(z.len(), Vector3::zeros());
         let moved = sys
