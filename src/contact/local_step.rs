@@ -360,8 +360,6 @@ pub struct Workspace {
     target: Vec<Vector3<f64>>,
     /// Per vertex: total distance moved by the descent (m).
     drift: Vec<f64>,
-    /// Per vertex: the barrier part of the descent direction of eq. 49 (m).
-    force: Vec<Vector3<f64>>,
     /// Per vertex: `sum_c |alpha_c^i|` of eq. 53.
     alpha: Vec<f64>,
     /// Per vertex: the barrier curvature `K_i` of [`DescentStep::Curvature`].
@@ -386,7 +384,8 @@ pub struct Workspace {
     floors: Vec<f64>,
     /// Per vertex: `|y_i^k - z_i^{k-1}|` (m), how far the global step took it from safety.
     motion: Vec<f64>,
-    /// Per vertex: the barrier push at the returned positions (see [`Workspace::push`]).
+    /// Per vertex: the barrier push of eq. 49 at the current iterate (m), at the returned
+    /// positions once [`project`] returns (see [`Workspace::push`]).
     push: Vec<Vector3<f64>>,
     /// Per vertex: the warm start of the next local step ([`ContactParams::warm_start`]), m.
     warm: Vec<Vector3<f64>>,
@@ -776,7 +775,6 @@ pub fn project(
         .collect_into_vec(&mut work.motion);
     let bound = barrier.derivative_bound();
     refill(&mut work.drift, n, 0.0);
-    refill(&mut work.force, n, Vector3::zeros());
     refill(&mut work.alpha, n, 0.0);
     refill(&mut work.curvature, n, SymmetricMatrix3::zeros());
     refill(&mut work.last_move, n, Vector3::zeros());
@@ -827,7 +825,7 @@ pub fn project(
         motion,
         target,
         drift,
-        force,
+        push,
         alpha,
         curvature,
         changed,
@@ -918,7 +916,7 @@ pub fn project(
             &barrier,
             mu,
             VertexSums {
-                push: force,
+                push,
                 alpha,
                 curvature,
             },
@@ -930,7 +928,7 @@ pub fn project(
             z,
             closest,
             (&barrier, mu),
-            (force, alpha, curvature),
+            (push, alpha, curvature),
         );
         measured = live.pairs.len();
         unmeasured.par_iter_mut().for_each(|u| *u = false);
@@ -967,7 +965,7 @@ pub fn project(
                     return 0.0;
                 }
                 let before = *zi;
-                let direction = force[i] + proximal_pull(weights, i, &(target[i] - *zi));
+                let direction = push[i] + proximal_pull(weights, i, &(target[i] - *zi));
                 // The move is `M_i^-1` times the direction, taken in the metric `M_i^-1`:
                 // `M_i = W_i / lambda` for eq. 53's step, `W_i + K_i` for the curvature rule
                 // (None: the identity). `M_i` is positive definite unless `K_i` is not finite;
@@ -1023,9 +1021,14 @@ pub fn project(
         }
     }
 
-    guarantee(safe, z, fixed, mesh, params, work, &mut stats);
+    if let Some(kept) = guarantee(safe, z, fixed, mesh, params, work, &mut stats) {
+        measured = measured.min(kept);
+    }
     work.weights = metric;
 
+    // The sums at the final positions: as in the loop, only the pairs with a vertex that
+    // moved since the last evaluation (the last descent move, the guarantee's clamps) or new
+    // in the list are evaluated afresh.
     let t = Instant::now();
     closest_within(
         &work.live.pairs,
@@ -1034,7 +1037,7 @@ pub fn project(
         &work.drift,
         reach,
         z,
-        (0, &work.unmeasured),
+        (measured, &work.unmeasured),
         &mut work.closest,
         &mut work.fresh,
     );
@@ -1045,7 +1048,7 @@ pub fn project(
         .count();
     work.barrier_push.update(
         &work.live.pairs,
-        (work.live.version, 0),
+        (work.live.version, measured),
         &work.closest,
         &work.live.fade,
         &work.fresh,
@@ -1056,6 +1059,15 @@ pub fn project(
             alpha: &mut work.alpha,
             curvature: &mut work.curvature,
         },
+    );
+    #[cfg(test)]
+    tests::assert_as_if_evaluated_afresh(
+        &work.live,
+        (&work.motion, &work.drift, reach),
+        z,
+        &work.closest,
+        (&barrier, mu),
+        (&work.push, &work.alpha, &work.curvature),
     );
     // The next warm start: this step's own move where the barrier pushes and no clamp of
     // the guarantee pass moved the vertex.
@@ -1220,9 +1232,11 @@ const FAR: Closest = Closest {
     separation: Vector3::new(f64::INFINITY, 0.0, 0.0),
 };
 
-/// The final clamp (see the module doc) over the live pairs in `work`: adds to `stats` the
-/// vertices it moved, the CCD queries it made and its time (a refresh of the live pairs after
-/// a clamp counting as broad phase).
+/// The final clamp (see the module doc) over the live pairs in `work`: marks the vertices it
+/// moves in `work.unmeasured`, adds to `stats` their number, the CCD queries it made and its
+/// time (a refresh of the live pairs after a clamp counting as broad phase). Returns, where
+/// it refreshed the live pairs, how many of those before are still in their places at the
+/// head of the list (the least over its refreshes).
 fn guarantee(
     safe: &[Vector3<f64>],
     z: &mut [Vector3<f64>],
@@ -1231,7 +1245,7 @@ fn guarantee(
     params: &ContactParams,
     work: &mut Workspace,
     stats: &mut ContactStats,
-) {
+) -> Option<usize> {
     let t = Instant::now();
     let (floor, reach) = (params.eps * params.thickness, params.barrier().reach());
     let Workspace {
@@ -1243,10 +1257,12 @@ fn guarantee(
         toi,
         vertex_toi: per_vertex,
         clamped,
+        unmeasured,
         ..
     } = work;
     refill(clamped, z.len(), false);
     let mut stale = true;
+    let mut kept: Option<usize> = None;
     let mut refreshing = 0.0;
     for pass in 0..=CLAMP_PASSES {
         if stale {
@@ -1293,16 +1309,23 @@ fn guarantee(
             *zi = safe[i] + (*zi - safe[i]) * keep;
             live.deviation[i] = (1.0 - keep) * motion[i] + keep * live.deviation[i];
             clamped[i] = true;
+            unmeasured[i] = true;
         }
         // The clamps may have taken a vertex beyond its allowance: the next pass and the
         // final evaluation look at the clamped positions.
         let r = Instant::now();
-        stale = live.cover(safe, target, mesh, reach, stats).is_some();
+        let refreshed = live.cover(safe, target, mesh, reach, stats);
+        stale = refreshed.is_some();
+        kept = match (kept, refreshed) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
         refreshing += millis(r);
     }
     stats.clamped = clamped.iter().filter(|&&m| m).count();
     stats.broad_phase_ms += refreshing;
     stats.ccd_ms += millis(t) - refreshing;
+    kept
 }
 
 #[cfg(test)]
@@ -2470,6 +2493,58 @@ mod tests {
             second.live_refreshes
         );
         assert_push_from_every_pair(&mesh, &safe, &again, &params, &work);
+    }
+
+    /// A triangle within `xi` of a fixed one that the global step takes 10 mm through it: the
+    /// CCD inside the descent finds the time of impact below its threshold and leaves the
+    /// move, the descent sees no barrier at the far side (beyond reach) and stops at once,
+    /// so only the guarantee pass keeps the triangle out. It clamps all three vertices, which
+    /// end at least the floor `eps xi` above, and the barrier push left for the next global
+    /// iteration is measured where the clamps left them (not where the descent last saw
+    /// them, beyond reach with no push). The first time the clamps take the vertices beyond
+    /// their allowances and the live pairs are filtered afresh; the same local step again
+    /// starts with room for them, keeps its list, and measures only the clamped vertices'
+    /// pairs afresh.
+    #[test]
+    fn the_guarantee_pass_keeps_out_a_move_from_within_the_threshold_and_measures_its_push() {
+        let v = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
+        let lower = [v(-1.0, -1.0, 0.0), v(2.0, -1.0, 0.0), v(-1.0, 2.0, 0.0)];
+        let upper = [v(0.1, 0.1, 0.0), v(0.2, 0.1, 0.0), v(0.1, 0.2, 0.0)];
+        let params = pressing(DescentStep::Curvature, 32);
+        let (xi, floor) = (params.thickness, params.eps * params.thickness);
+        let height = 1.5 * floor;
+        let safe: Vec<_> = lower
+            .iter()
+            .copied()
+            .chain(upper.iter().map(|p| p + v(0.0, 0.0, height)))
+            .collect();
+        let target: Vec<_> = lower
+            .iter()
+            .copied()
+            .chain(upper.iter().map(|p| p - v(0.0, 0.0, 0.01)))
+            .collect();
+        // The time of impact at `xi` is 0 and at the floor far below the threshold.
+        assert!(height < xi && (height - floor) / (height + 0.01) < params.toi_threshold);
+        let triangles = [[0, 1, 2], [3, 4, 5]];
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &[0, 1],
+            self_contact: &[true, true],
+        };
+        let fixed = [true, true, true, false, false, false];
+        let mut work = Workspace::default();
+        for refreshes in [2, 0] {
+            let mut z = target.clone();
+            let stats = project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
+            assert_eq!(stats.iterations, 1, "{stats:?}");
+            assert_eq!(stats.clamped, 3, "{stats:?}");
+            assert_eq!(stats.live_refreshes, refreshes, "{stats:?}");
+            for p in &z[3..] {
+                assert!(floor <= p.z && p.z < height, "{p}");
+            }
+            assert!(work.push()[3..].iter().all(|p| p.z > 0.0));
+            assert_push_from_every_pair(&mesh, &safe, &z, &params, &work);
+        }
     }
 
     #[test]
