@@ -3,11 +3,11 @@ the paper's identity against the global step's Jacobi blocks (the default), side
 process, on two scenes.
 
 1. **Collision of a light and a heavy sheet.** Two 7x7 sheets of 0.1 m, 200 and 1600 kg/m^3,
-   meet at 0.5 m/s in zero gravity, offset by half a spacing (the scene of
-   ``tests/test_contact.py``). Records the largest change of the total momentum over the steps,
-   over the light sheet's momentum before impact (0 for exact conservation), both sheets' mean
-   velocity at the end (m/s), the iterations per step (median and largest) and ms per step
-   (median).
+   meet at 0.5 m/s in zero gravity, offset by half a spacing (:func:`peridyn.colliding_sheets`,
+   as in ``tests/test_contact.py``). Records the largest change of the total momentum over the
+   steps, over the light sheet's momentum before impact (0 for exact conservation), both
+   sheets' mean velocity at the end (m/s), the iterations per step (median and largest) and
+   ms per step (median).
 2. **Stacked layers over the ball** (``_common.layers_over_ball``): iterations and local
    iterations per step, steps at the cap, ms per step, smallest distance, intersections.
 
@@ -32,21 +32,13 @@ METRICS = ("identity", "jacobi")
 
 
 def collision(proximal: str, args) -> dict:
-    """Scene 1 for ``proximal``, ``args.collision_steps`` steps of 1 ms at ``args.collision_tol``."""
-    def sheet(z: float, density: float, velocity: float, offset: float):
-        V, F = peridyn.grid(7, 7, size=(0.1, 0.1))
-        body = peridyn.Membrane(V + np.array([offset, offset, z]), F, thickness=1e-3,
-                                density=density, material=peridyn.StretchA3(s0=2e3),
-                                bending=1e-5, self_contact=False)
-        body.velocities = np.tile([0.0, 0.0, velocity], (body.num_vertices, 1))
-        return body
-
-    light, heavy = sheet(0.0, 200.0, 0.25, 0.0), sheet(0.008, 1600.0, -0.25, 0.1 / 12)
-    contact = peridyn.Contact(thickness=2e-3, d_hat=4e-3, proximal=proximal)
-    solver = peridyn.Solver(dt=1e-3, gravity=(0, 0, 0), max_iters=args.max_iters,
-                            tol=args.collision_tol, contact=contact, threads=args.threads)
-    solver.add(light)
-    solver.add(heavy)
+    """Scene 1 for ``proximal``: ``args.collision_steps`` steps of 1 ms at
+    ``args.collision_tol``."""
+    scene = peridyn.colliding_sheets(
+        densities=(200.0, 1600.0), speed=0.5, tol=args.collision_tol, max_iters=args.max_iters,
+        contact=peridyn.Contact(thickness=2e-3, d_hat=4e-3, proximal=proximal),
+        threads=args.threads)
+    solver, light, heavy = scene.solver, scene.lower, scene.upper
 
     def momentum():
         return sum(b.masses @ b.velocities for b in (light, heavy))

@@ -155,30 +155,20 @@ def test_two_bodies_collide_and_separate():
 
 
 def momentum_through_a_collision(proximal):
-    """A light sheet (200 kg/m^3) and a heavy one (1600) meet at 0.5 m/s in zero gravity, offset
-    by half a spacing. Returns the largest change of their total momentum over the steps, over
-    the light sheet's momentum before impact, and the largest count of active pairs."""
-    def sheet_at(z, density, velocity, offset):
-        v, t = make_grid(7, 7, 0.1, 0.1)
-        body = peridyn.Membrane(v + np.array([offset, offset, z]), t, thickness=1e-3,
-                                density=density, material=peridyn.StretchA3(s0=2e3),
-                                bending=1e-5, self_contact=False)
-        body.velocities = np.tile([0.0, 0.0, velocity], (body.num_vertices, 1))
-        return body
-
-    light = sheet_at(0.0, 200.0, 0.25, 0.0)
-    heavy = sheet_at(0.008, 1600.0, -0.25, 0.1 / 12)
-    solver = peridyn.Solver(dt=1e-3, gravity=(0, 0, 0), max_iters=100, tol=1e-7,
-                            contact=peridyn.Contact(**CONTACT, proximal=proximal))
-    solver.add(light)
-    solver.add(heavy)
+    """A light sheet (200 kg/m^3) and a heavy one (1600) meet at 0.5 m/s in zero gravity
+    (:func:`peridyn.colliding_sheets`). Returns the largest change of their total momentum over
+    the steps, over the light sheet's momentum before impact, and the largest count of active
+    pairs."""
+    scene = peridyn.colliding_sheets(densities=(200.0, 1600.0), speed=0.5,
+                                     contact=peridyn.Contact(**CONTACT, proximal=proximal))
+    light, heavy = scene.lower, scene.upper
 
     def momentum():
         return sum(b.masses @ b.velocities for b in (light, heavy))
 
     before, drift, active = momentum(), 0.0, 0
-    for _ in range(40):
-        stats = solver.step()
+    for _ in range(scene.steps):
+        stats = scene.solver.step()
         assert stats.converged, f"{proximal}: step {stats.step} did not converge"
         drift = max(drift, np.linalg.norm(momentum() - before))
         active = max(active, stats.contact["active_pairs"])

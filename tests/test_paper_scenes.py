@@ -104,6 +104,8 @@ def test_the_barrier_leaves_every_mesh_at_rest_alone(build, kwargs):
     (shooting_shell, dict(subdivisions=0)),
     (shooting_shell, dict(radius=2.0)),
     (shooting_shell, dict(xi=-1.0)),
+    (peridyn.colliding_sheets, dict(size=0.0)),
+    (peridyn.colliding_sheets, dict(gap=-1e-3)),
 ])
 def test_scene_builders_refuse_bad_input(build, kwargs):
     with pytest.raises(ValueError):
@@ -115,3 +117,22 @@ def test_scene_names_its_bodies_and_colliders():
     assert scene.cloth is scene.bodies["cloth"] and scene.sphere is scene.colliders["sphere"]
     with pytest.raises(AttributeError, match="no attribute, body or collider named 'table'"):
         scene.table
+
+
+def test_colliding_sheets_start_apart_offset_and_closing_with_no_net_momentum():
+    """The upper sheet starts `gap` above the lower one, shifted by half a spacing along x
+    and y; the two close at `speed`, each at half of it, so equal densities carry no net
+    momentum and unequal ones the difference of their masses times speed / 2."""
+    scene = peridyn.colliding_sheets(n=5, size=0.2, gap=0.01, speed=0.6,
+                                     densities=(500.0, 500.0))
+    lower, upper = scene.lower, scene.upper
+    np.testing.assert_allclose(upper.positions - lower.positions, [[0.025, 0.025, 0.01]] * 25)
+    np.testing.assert_allclose(upper.velocities - lower.velocities, [[0.0, 0.0, -0.6]] * 25)
+    momentum = lower.masses @ lower.velocities + upper.masses @ upper.velocities
+    np.testing.assert_allclose(momentum, 0.0, atol=1e-15)
+    heavy = peridyn.colliding_sheets(n=5, size=0.2, speed=0.6, densities=(500.0, 1500.0))
+    light, dense = heavy.lower, heavy.upper
+    momentum = light.masses @ light.velocities + dense.masses @ dense.velocities
+    np.testing.assert_allclose(momentum[2], -light.masses.sum() * 0.3 * 2, rtol=1e-12)
+    assert scene.colliders == {} and scene.solver.gravity == [0.0, 0.0, 0.0]
+    assert scene.solver.contact is not None and scene.steps == 40

@@ -26,7 +26,7 @@ from .materials import plate_bending_stiffness
 from .mesh import grid, load_mesh
 from .render import draw_scene, render_png
 from .paper_scenes import antependium, cloths_over_ball, shooting_shell
-from .scenes import Scene, default_scene
+from .scenes import Scene, colliding_sheets, default_scene
 from .solver import RunSummary, Solver
 
 __version__: str = _core.__version__
@@ -49,6 +49,7 @@ __all__ = [
     "Scene",
     "antependium",
     "cloths_over_ball",
+    "colliding_sheets",
     "default_scene",
     "draw_scene",
     "grid",
