@@ -289,7 +289,10 @@ class Contact:
         iteration in units of xi.
     weight : barrier weight mu of eq. 47 (> 0; with proximal="jacobi" in units of the mean
         Jacobi block d, see below).
-    max_iters : descent iterations per local step (>= 1).
+    max_iters : descent iterations per local step (>= 1). A local step stops earlier once its
+        largest move is below eps * xi / 100, or below tol / 5 where the solver's tol is
+        smaller: its result is only that exact, and a stop above about tol / 2 lets the global
+        iteration go on at tol without converging.
     step : the descent's step rule: "curvature" (default) moves each vertex by its direction
         times (W + K)^-1, W the proximal metric (below) and K the barrier's curvature along the
         contact normals there (a block-Jacobi-preconditioned descent: stiff along the normals,
@@ -297,7 +300,8 @@ class Contact:
         "uniform", eq. 53 of the paper: one step length for all vertices from the barrier's
         steepest slope. Both move no vertex more than eps * xi per iteration; near contact
         "uniform" creeps and a local step usually ends at max_iters, far from its minimum. A
-        move shorter than eps * xi / 400 is not taken (the vertex has settled).
+        move shorter than a quarter of the stopping distance (eps * xi / 400 unless tol asks
+        for less) is not taken (the vertex has settled).
     toi_threshold : times of impact in (toi_threshold, 1) clamp vertices inside the descent.
     ccd_s, ccd_t_c : the additive CCD's s and t_c (paper: 0.1 and 0.95).
     warm_start : start each local step's descent from the global step's result plus the move

@@ -27,8 +27,10 @@
 //!    `lambda = min(1, eps xi / (mu alpha_0 ceil|B'| + D))` for every vertex, with `alpha_0` the
 //!    largest `sum_c alpha_c^i` and `D` the largest `|y_i^k - z_i|` of this iteration, or (the
 //!    default) a step per vertex scaled by the barrier's curvature along the contact normals
-//!    there; stop when the largest move is below [`STOP_FRACTION`] `eps xi` or after
-//!    `max_iters` iterations. A move shorter than [`SETTLED_FRACTION`] `eps xi` is not taken
+//!    there; stop when the largest move is below the stopping distance
+//!    ([`ContactParams::stop_distance`]: [`STOP_FRACTION`] `eps xi`, less where the solver's
+//!    tolerance asks it) or after `max_iters` iterations. A move shorter than
+//!    [`SETTLED_SHARE`] of the stopping distance is not taken
 //!    (not in the paper): the closest points and barrier terms of the pairs none of whose
 //!    vertices moved are kept, and the sums of the vertices none of whose pairs changed
 //!    ([`super::barrier_push`]): an iteration's distances and barrier terms cost what its
@@ -245,12 +247,38 @@ impl ContactParams {
             eps: self.eps,
         }
     }
+
+    /// The local step's stopping distance (m) for the solver's tolerance `tol` (m; 0: the
+    /// solver runs a fixed number of iterations): the local step stops once its largest move
+    /// is below [`STOP_FRACTION`] `eps xi`, or below [`TOL_SHARE`] `tol` where `tol > 0` and
+    /// that is smaller.
+    pub fn stop_distance(&self, tol: f64) -> f64 {
+        let own = STOP_FRACTION * self.eps * self.thickness;
+        if tol > 0.0 {
+            own.min(TOL_SHARE * tol)
+        } else {
+            own
+        }
+    }
 }
 
-/// A local step stops once its largest move is below this fraction of `eps xi`.
+/// A local step stops once its largest move is below this fraction of `eps xi`, or below
+/// [`TOL_SHARE`] of the solver's tolerance where that is smaller
+/// ([`ContactParams::stop_distance`]).
 pub const STOP_FRACTION: f64 = 1e-2;
 
-/// A descent move shorter than this fraction of `eps xi` is not taken: the vertex stays, and
+/// The share of the solver's tolerance `tol` that bounds the local step's stopping distance.
+/// The local step's result is only as exact as its stopping test, and an error of its size
+/// enters every global iteration: with a stop above about `tol / 2` the global iteration can
+/// go on at `tol` without converging. Three 16 x 16 layers of 0.5 m over the ball at `tol =
+/// 1e-6 m` (`xi = 1.5 mm`, so `STOP_FRACTION eps xi = 1.5 um`), steps of 500 run to the cap
+/// of 200 iterations: 36 with the stop at 1.5 um, 11 at `tol`, 2 at `0.5 tol`, none at
+/// `0.3 tol` (at most 11 iterations) or `0.15 tol` (at most 6). At the paper scenes' `tol =
+/// 1e-4 m` the fraction of `eps xi` is the smaller one, so they are not affected.
+pub const TOL_SHARE: f64 = 0.2;
+
+/// A descent move shorter than this share of the stopping distance is not taken: the vertex
+/// stays, and
 /// the pairs none of whose vertices moved keep their closest points and barrier terms, so an
 /// iteration's distances and terms cost what its moving vertices' pairs cost (not in the
 /// paper). The stopping test still counts such a move. A cost trade-off: late in a local step
@@ -259,10 +287,10 @@ pub const STOP_FRACTION: f64 = 1e-2;
 /// contact, 90-100K move by more than [`STOP_FRACTION`] `eps xi` in the first local step's
 /// tenth iteration, 5-20K in the later local steps'; the step's descent took 147 s before,
 /// 101 s with this and the kept sums of [`super::barrier_push`], one run each).
-/// With [`STOP_FRACTION`] itself the vertices that slide by small moves stop short (a
+/// With the stopping distance itself the vertices that slide by small moves stop short (a
 /// triangle pressed along a floor by a slanted roof keeps 1.5 times the imbalance its test
 /// allows).
-pub const SETTLED_FRACTION: f64 = STOP_FRACTION / 4.0;
+pub const SETTLED_SHARE: f64 = 0.25;
 
 /// Passes of the final clamp before the remaining colliding vertices fall back to safety.
 pub const CLAMP_PASSES: usize = 16;
@@ -718,7 +746,9 @@ pub type ProximalWeights<'a> = dyn Fn(&mut Vec<SymmetricMatrix3<f64>>) + Sync + 
 /// Runs the local step: `positions` holds `y^k` on entry and `z` on return; `safe` is
 /// `z^{k-1}`, free of intersections; `fixed` vertices are never moved; `weights` gives the
 /// metric of eq. 47's proximal term ([`ProximalWeights`]; `None`: the identity, see
-/// [`ProximalMetric`]), kept in `work` ([`Workspace::weights`]). `keep_out`
+/// [`ProximalMetric`]), kept in `work` ([`Workspace::weights`]). `tol` is the solver's
+/// tolerance (m; 0: none), which bounds the stopping distance
+/// ([`ContactParams::stop_distance`]). `keep_out`
 /// ([`KeepOut`]) takes a vertex out of the colliders after every descent move, in the move's
 /// metric, so the barrier cannot push a membrane into a collider. (The final clamp moves a
 /// vertex back towards its safe position along a straight line, which can cut into a curved
@@ -732,6 +762,7 @@ pub fn project(
     weights: Option<&ProximalWeights>,
     mesh: &ContactMesh,
     params: &ContactParams,
+    tol: f64,
     keep_out: &KeepOut,
     work: &mut Workspace,
 ) -> ContactStats {
@@ -815,7 +846,8 @@ pub fn project(
         &mut work.changed,
     );
     let near_distance = (1.0 + 4.0 * eps) * xi;
-    let settled = SETTLED_FRACTION * eps * xi;
+    let stop = params.stop_distance(tol);
+    let settled = SETTLED_SHARE * stop;
     refill(&mut work.unmeasured, n, true);
     // The live pairs before this one have their closest points at the current iterate, as
     // far as the list goes (vertices in `unmeasured` moved since).
@@ -1016,7 +1048,7 @@ pub fn project(
             measured = measured.min(kept);
         }
         stats.broad_phase_ms += millis(t);
-        if moved < STOP_FRACTION * eps * xi {
+        if moved < stop {
             break;
         }
     }
@@ -1336,6 +1368,9 @@ mod tests {
     /// No colliders to keep out of.
     const FREE: &KeepOut = &|_, _, _, _| {};
 
+    /// No solver tolerance: the local step stops at [`STOP_FRACTION`] `eps xi`.
+    const NO_TOL: f64 = 0.0;
+
     /// A [`KeepOut`] for `colliders`: every move from where the vertex is, to their surfaces.
     fn keeping_out_of(
         colliders: &[super::super::ColliderModel<f64>],
@@ -1388,7 +1423,9 @@ mod tests {
         let mut z = target.clone();
         let fixed = vec![false; 6];
         let mut work = Workspace::default();
-        let stats = project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
+        let stats = project(
+            &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
+        );
         assert_eq!(stats.candidate_pairs, 1);
         assert!(stats.active_pairs > 0 && stats.iterations > 0);
         let lowest_upper = z[3..].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
@@ -1404,7 +1441,9 @@ mod tests {
             ..mesh
         };
         let mut z = target.clone();
-        let stats = project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
+        let stats = project(
+            &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
+        );
         assert_eq!(stats.candidate_pairs, 0);
         assert_eq!(z, target);
     }
@@ -1428,7 +1467,17 @@ mod tests {
                 body: &[0, 1],
                 self_contact: &[true, true],
             };
-            let stats = project(&safe, &mut z, &[false; 6], None, &mesh, &params, FREE, work);
+            let stats = project(
+                &safe,
+                &mut z,
+                &[false; 6],
+                None,
+                &mesh,
+                &params,
+                NO_TOL,
+                FREE,
+                work,
+            );
             let counts = (
                 stats.candidate_pairs,
                 stats.active_pairs,
@@ -1458,16 +1507,17 @@ mod tests {
         slide: f64,
         work: &mut Workspace,
     ) -> (f64, [Vector3<f64>; 3], [Vector3<f64>; 3], usize) {
-        pressed_triangle_in(None, params, depth, slide, work)
+        pressed_triangle_in(None, params, NO_TOL, depth, slide, work)
     }
 
     /// [`pressed_triangle`] with the proximal term in the metric `W` at every vertex (`None`:
     /// the identity): the minimum solves `W (z - y) = -mu B'(h - xi) e_z`, so `z - y` is
     /// `W^-1 e_z` times `-mu B'`, and its height `h` solves `h - y_z = -(W^-1)_zz mu B'(h - xi)`
-    /// (the root returned).
+    /// (the root returned). `tol` is the solver's tolerance passed to [`project`].
     fn pressed_triangle_in(
         metric: Option<SymmetricMatrix3<f64>>,
         params: &ContactParams,
+        tol: f64,
         depth: f64,
         slide: f64,
         work: &mut Workspace,
@@ -1489,7 +1539,9 @@ mod tests {
         let fill =
             |w: &mut Vec<SymmetricMatrix3<f64>>| w.extend(metric.into_iter().cycle().take(6));
         let weights = metric.is_some().then_some(&fill as &ProximalWeights);
-        let stats = project(&safe, &mut z, &fixed, weights, &mesh, params, FREE, work);
+        let stats = project(
+            &safe, &mut z, &fixed, weights, &mesh, params, tol, FREE, work,
+        );
         assert_eq!(stats.active_pairs, 3);
         let barrier = params.barrier();
         let compliance = metric.map_or(1.0, |w| w.try_inverse().unwrap().diagonal[2]);
@@ -1554,7 +1606,9 @@ mod tests {
         };
         let mut z = target.clone();
         let mut work = Workspace::default();
-        let stats = project(&safe, &mut z, &fixed, None, &mesh, params, FREE, &mut work);
+        let stats = project(
+            &safe, &mut z, &fixed, None, &mesh, params, NO_TOL, FREE, &mut work,
+        );
         let longest = (n..2 * n)
             .map(|i| {
                 let direction = work.push()[i] + target[i] - z[i];
@@ -1599,7 +1653,7 @@ mod tests {
         for _ in 0..2 {
             let mut next = target.clone();
             project(
-                &first, &mut next, &fixed, None, &mesh, &params, FREE, &mut work,
+                &first, &mut next, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
             );
             first = next;
         }
@@ -1615,7 +1669,7 @@ mod tests {
             .collect();
         let mut kept = moved.clone();
         let stats = project(
-            &first, &mut kept, &fixed, None, &mesh, &params, FREE, &mut work,
+            &first, &mut kept, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
         );
         assert!(stats.active_pairs > 0);
         // The CCD's distances at the safe positions are this local step's, kept list or not.
@@ -1631,6 +1685,7 @@ mod tests {
             None,
             &mesh,
             &params,
+            NO_TOL,
             FREE,
             &mut Workspace::default(),
         );
@@ -1759,6 +1814,33 @@ mod tests {
         }
     }
 
+    /// The solver's tolerance bounds how far from the minimum of eq. 47 the local step may
+    /// stop: on its own stopping test (`1 % eps xi`, 2 um here) the pressed triangle ends
+    /// within `eps xi / 100` of it (1.3 um, 13 iterations), at `tol = 10 nm` within `tol`
+    /// (1.4 nm, 21 iterations; its stop at `tol / 5`). Above the own stopping distance, `tol`
+    /// changes nothing.
+    #[test]
+    fn a_tighter_solver_tolerance_takes_the_local_step_closer_to_its_minimum() {
+        let params = pressing(DescentStep::Curvature, 100);
+        let eps_xi = params.eps * params.thickness;
+        let solve = |tol: f64| {
+            let (root, z, _, iterations) =
+                pressed_triangle_in(None, &params, tol, 0.3, 0.0, &mut Workspace::default());
+            let error = z.iter().map(|p| (p.z - root).abs()).fold(0.0, f64::max);
+            (error, iterations)
+        };
+        let (own, own_iterations) = solve(NO_TOL);
+        let (tight, tight_iterations) = solve(1e-8);
+        assert!(own < 0.01 * eps_xi, "{own}");
+        assert!(
+            own > 1e-8,
+            "the own stop must be the looser one here: {own}"
+        );
+        assert!(tight < 1e-8, "{tight} m from the minimum at tol = 1e-8 m");
+        assert!(tight_iterations > own_iterations);
+        assert_eq!(solve(1e-4), (own, own_iterations));
+    }
+
     /// The curvature step reaches the minimum of eq. 47 within its stopping test: 13
     /// iterations, about 10 of them the approach at `eps xi` per iteration, and 0.7 % of
     /// `eps xi` from the minimum. Eq. 53's uniform step creeps, its steepest slope bound being
@@ -1815,8 +1897,14 @@ mod tests {
             upper: [0.0, 0.8, 0.0],
         };
         let params = pressing(DescentStep::Curvature, 64);
-        let (root, z, target, iterations) =
-            pressed_triangle_in(Some(metric), &params, 0.3, 0.0, &mut Workspace::default());
+        let (root, z, target, iterations) = pressed_triangle_in(
+            Some(metric),
+            &params,
+            NO_TOL,
+            0.3,
+            0.0,
+            &mut Workspace::default(),
+        );
         let rise = root - target[0].z;
         let inverse = metric.try_inverse().unwrap();
         let sideways = inverse.upper[1] / inverse.diagonal[2] * rise;
@@ -1834,8 +1922,14 @@ mod tests {
         assert!(iterations < 24, "{iterations} iterations");
         // Eq. 53's step in `W` creeps, but along the same line: `z - y` stays along `W^-1 e_z`.
         let params = pressing(DescentStep::Uniform, 200);
-        let (_, z, target, _) =
-            pressed_triangle_in(Some(metric), &params, 0.3, 0.0, &mut Workspace::default());
+        let (_, z, target, _) = pressed_triangle_in(
+            Some(metric),
+            &params,
+            NO_TOL,
+            0.3,
+            0.0,
+            &mut Workspace::default(),
+        );
         for (p, t) in z.iter().zip(&target) {
             let moved = p - t;
             assert!(moved.z > eps_xi, "{moved}");
@@ -1945,7 +2039,9 @@ mod tests {
                 .map(|(p, jitter)| p + rng.vector() * jitter)
                 .collect();
             let mut work = Workspace::default();
-            let stats = project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
+            let stats = project(
+                &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
+            );
             assert!(
                 stats.iterations > 3 && stats.live_refreshes > 1,
                 "{stats:?}"
@@ -2021,6 +2117,7 @@ mod tests {
             None,
             &mesh,
             &params,
+            NO_TOL,
             lower_then_throw,
             &mut work,
         );
@@ -2074,7 +2171,7 @@ mod tests {
         let keep_out = keeping_out_of(&floors);
         let mut work = Workspace::default();
         let stats = project(
-            &safe, &mut z, &fixed, None, &mesh, &params, &keep_out, &mut work,
+            &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, &keep_out, &mut work,
         );
         assert_eq!(stats.active_pairs, 3);
         // About 7 moves of `eps xi` along the floor, then the approach (14 here).
@@ -2343,7 +2440,9 @@ mod tests {
             self_contact: &[false, false],
         };
         let mut work = Workspace::default();
-        project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
+        project(
+            &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
+        );
         let (_, every) = super::super::pair_cache::tests::brute_force_pairs(&mesh, &safe);
         let (held, at_result) = (
             brute_force_push(&every, &z, &safe, &params),
@@ -2399,7 +2498,9 @@ mod tests {
         let fixed = [true, true, true, false, false, false, false, false, false];
         let mut z = target.clone();
         let mut work = Workspace::default();
-        project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
+        project(
+            &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
+        );
         assert_push_from_every_pair(&mesh, &safe, &z, &params, &work);
         let lowered = z[3..6].iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
         assert!(
@@ -2465,7 +2566,9 @@ mod tests {
         let mut z = target.clone();
         let mut work = Workspace::default();
         let fixed = vec![false; safe.len()];
-        let stats = project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
+        let stats = project(
+            &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
+        );
         assert!(stats.active_pairs > 0, "{stats:?}");
         // Held back by clamps: some vertices by far more than the descent's moves of at most
         // `eps xi` each could take them, others hardly at all.
@@ -2484,7 +2587,7 @@ mod tests {
         // report a time for pairs it would otherwise have skipped.)
         let mut again = target.clone();
         let second = project(
-            &safe, &mut again, &fixed, None, &mesh, &params, FREE, &mut work,
+            &safe, &mut again, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
         );
         assert!(
             second.live_refreshes < stats.live_refreshes,
@@ -2535,7 +2638,9 @@ mod tests {
         let mut work = Workspace::default();
         for refreshes in [2, 0] {
             let mut z = target.clone();
-            let stats = project(&safe, &mut z, &fixed, None, &mesh, &params, FREE, &mut work);
+            let stats = project(
+                &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
+            );
             assert_eq!(stats.iterations, 1, "{stats:?}");
             assert_eq!(stats.clamped, 3, "{stats:?}");
             assert_eq!(stats.live_refreshes, refreshes, "{stats:?}");
@@ -2569,6 +2674,7 @@ mod tests {
             None,
             &mesh,
             &params,
+            NO_TOL,
             FREE,
             &mut Workspace::default(),
         );

@@ -241,7 +241,9 @@ fn edge_edge_ccd_additive<'py>(
 /// `eps * xi`; `d_hat` (m, default 4 xi as in Table 1): barrier range on the gap `f(d) - xi`;
 /// `eps` (default 0.1): minimal separation multiplier of eq. 51, also the largest descent move
 /// per iteration in units of xi; `weight` mu (default 1): barrier weight of eq. 47;
-/// `max_iters` (default 32): descent iterations per local step; `step` ("curvature", default,
+/// `max_iters` (default 32): descent iterations per local step, which stops earlier once its
+/// largest move is below `eps * xi / 100`, or `tol / 5` with a smaller solver `tol` (see
+/// `ContactParams::stop_distance`); `step` ("curvature", default,
 /// or "uniform"): the descent's step rule, per vertex scaled by the barrier's curvature, or
 /// eq. 53's one step for all vertices (see `DescentStep`); `toi_threshold` (default 0.1):
 /// times of impact above it clamp inside the descent; `ccd_s`, `ccd_t_c` (0.1, 0.95): the

@@ -79,13 +79,16 @@ impl<T: Real> ContactState<T> {
 
     /// Runs the local step on `sys.y_next` (the global step's result, after colliders), keeping
     /// vertices out of the colliders, and makes the result the new safe positions. `h` (s) is
-    /// the time step, for the Jacobi blocks of [`ProximalMetric::Jacobi`]. Returns the
-    /// largest move from `sys.y` (m) and the step's figures.
+    /// the time step, for the Jacobi blocks of [`ProximalMetric::Jacobi`]; `tol` (m) the
+    /// solver's tolerance, which bounds the local step's stopping distance
+    /// ([`ContactParams::stop_distance`]). Returns the largest move from `sys.y` (m) and the
+    /// step's figures.
     pub fn local_step(
         &mut self,
         sys: &mut System<T>,
         h: T,
         params: &ContactParams,
+        tol: f64,
         colliders: &[ColliderModel<T>],
     ) -> (f64, ContactStats) {
         let mut z = std::mem::take(&mut self.next);
@@ -122,6 +125,7 @@ impl<T: Real> ContactState<T> {
             weights,
             &mesh,
             params,
+            tol,
             &keep_out,
             &mut self.work,
         );

@@ -305,7 +305,8 @@ impl<T: Real> Solver<T> {
                 });
             }
             if let (Some(state), Some(contact_params)) = (self.contact.as_mut(), &params.contact) {
-                let (moved, figures) = state.local_step(sys, h, contact_params, &colliders);
+                let (moved, figures) =
+                    state.local_step(sys, h, contact_params, params.tol, &colliders);
                 update.moved = moved;
                 stats.contact.accumulate(&figures);
             }
