@@ -483,24 +483,24 @@ LOCKSTEP_SCENES = {
 }
 
 
-@pytest.mark.parametrize("precision, scene",
-                         [("f32", s) for s in LOCKSTEP_SCENES]
-                         + [("f64", s) for s in LOCKSTEP_SCENES if not s.startswith("slope")])
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+@pytest.mark.parametrize("scene", sorted(LOCKSTEP_SCENES))
 def test_every_step_from_a_shared_state_matches_cpu(gpu, precision, scene):
     """Each of 100 steps, started on both backends from the same positions and velocities,
     ends at the same positions to 16 machine epsilons of the cloth's size (velocities to that
     over the time step), or, where one side's stopping test fires an iteration later, to twice
-    the tolerance tol."""
+    the tolerance tol (or the former bound, where larger)."""
     gpu_precision(gpu, precision)
     rows, solver = lockstep(lambda backend: LOCKSTEP_SCENES[scene](backend, precision))
     same = rows[:, 0] == rows[:, 1]
     print(f"{scene} {precision}: {int((~same).sum())} stops apart; same stop: max |dy| "
-          f"{rows[same, 2].max():.2e} m, max |dv| {rows[same, 3].max():.2e} m/s; apart: max "
+          f"{rows[same, 2].max(initial=0.0):.2e} m, max |dv| "
+          f"{rows[same, 3].max(initial=0.0):.2e} m/s; apart: max "
           f"|dy| {rows[~same, 2].max(initial=0.0):.2e} m")
     assert same.mean() >= 0.95
     assert rows[same, 2].max() < STEP_TOLERANCE[precision]
     assert rows[same, 3].max() < STEP_TOLERANCE[precision] / solver.dt
-    assert rows[~same, 2].max(initial=0.0) < 2 * solver.tol
+    assert rows[~same, 2].max(initial=0.0) < max(2 * solver.tol, STEP_TOLERANCE[precision])
 
 
 @pytest.mark.parametrize("precision", ["f32", "f64"])

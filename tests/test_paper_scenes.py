@@ -106,6 +106,7 @@ def test_the_barrier_leaves_every_mesh_at_rest_alone(build, kwargs):
     (shooting_shell, dict(xi=-1.0)),
     (peridyn.colliding_sheets, dict(size=0.0)),
     (peridyn.colliding_sheets, dict(gap=-1e-3)),
+    (peridyn.colliding_sheets, dict(gap=float("nan"))),
 ])
 def test_scene_builders_refuse_bad_input(build, kwargs):
     with pytest.raises(ValueError):

@@ -292,7 +292,8 @@ class Contact:
     max_iters : descent iterations per local step (>= 1). A local step stops earlier once its
         largest move is below eps * xi / 100, or below tol / 5 where the solver's tol is
         smaller: its result is only that exact, and a stop above about tol / 2 lets the global
-        iteration go on at tol without converging.
+        iteration go on at tol without converging. A tight tol thus also costs local
+        iterations (on three layers at tol = 1e-6 m, 19 per step median against 11).
     step : the descent's step rule: "curvature" (default) moves each vertex by its direction
         times (W + K)^-1, W the proximal metric (below) and K the barrier's curvature along the
         contact normals there (a block-Jacobi-preconditioned descent: stiff along the normals,
@@ -315,7 +316,7 @@ class Contact:
         to 0 for parallel edges; the point-triangle pairs hold the contact there. The closest
         points of nearly parallel edges jump along them, and without the fade (0) stacked
         layers stall at a convergence measure of about a micrometre: a tol below that runs
-        every step to max_iters.
+        steps to max_iters, and every local step to its own max_iters.
     proximal : the metric W_i of eq. 47's proximal term, sum_i (z_i - y_i)^T W_i (z_i - y_i) / 2.
         "jacobi" (default, not in the paper): W_i = D_i / d, the global step's Jacobi block of
         the vertex (m_i I + h^2 sum (C_i + C_j), kg) over d, the mean of trace(D_i) / 3 over the

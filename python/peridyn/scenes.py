@@ -209,11 +209,11 @@ def colliding_sheets(
     Scene
         Bodies ``lower`` and ``upper``, no colliders.
     """
-    if size <= 0.0:
+    if not size > 0.0:
         raise ValueError(f"colliding_sheets: size must be > 0 m, got {size!r}")
-    if gap <= 0.0:
+    if not gap > 0.0:
         raise ValueError(f"colliding_sheets: gap must be > 0 m, got {gap!r}")
-    if duration < 0.0:
+    if not duration >= 0.0:
         raise ValueError(f"colliding_sheets: duration must be >= 0 s, got {duration!r}")
     if contact is None:
         contact = _core.Contact(thickness=2e-3, d_hat=4e-3)
