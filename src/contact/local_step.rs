@@ -852,6 +852,16 @@ pub fn project(
     let near_distance = (1.0 + 4.0 * eps) * xi;
     let stop = params.stop_distance(tol);
     let settled = SETTLED_SHARE * stop;
+    // Eq. 53's step in the metric `W` bounds the push's slope times the largest `|W_i^-1|`
+    // over the free vertices: `W` is fixed through the local step, so once.
+    let compliance = match (params.step, weights) {
+        (DescentStep::Uniform, Some(w)) => (0..n)
+            .into_par_iter()
+            .filter(|&i| !fixed[i])
+            .map(|i| compliance_bound(&w[i]))
+            .reduce(|| 0.0, f64::max),
+        _ => 1.0,
+    };
     refill(&mut work.unmeasured, n, true);
     // The live pairs before this one have their closest points at the current iterate, as
     // far as the list goes (vertices in `unmeasured` moved since).
@@ -970,17 +980,11 @@ pub fn project(
         unmeasured.par_iter_mut().for_each(|u| *u = false);
         let lambda = match params.step {
             DescentStep::Uniform => {
-                let (alpha_0, farthest, compliance) = (0..n)
+                let (alpha_0, farthest) = (0..n)
                     .into_par_iter()
                     .filter(|&i| !fixed[i])
-                    .map(|i| {
-                        let compliance = weights.map_or(1.0, |w| compliance_bound(&w[i]));
-                        (alpha[i], (target[i] - z[i]).norm(), compliance)
-                    })
-                    .reduce(
-                        || (0.0, 0.0, 0.0),
-                        |a, b| (a.0.max(b.0), a.1.max(b.1), a.2.max(b.2)),
-                    );
+                    .map(|i| (alpha[i], (target[i] - z[i]).norm()))
+                    .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
                 // Eq. 53, in the metric `W` (the push's bound times the largest `|W_i^-1|`).
                 Some((eps * xi / (mu * alpha_0 * bound * compliance + farthest)).min(1.0))
             }
@@ -1816,6 +1820,43 @@ mod tests {
             step,
             ..ContactParams::default()
         }
+    }
+
+    /// Eq. 53's step in a metric `W` with `|W^-1| = 4` (a vertex lighter than the mean): one
+    /// iteration from a target whose gap is `eps xi`, where the push reaches the slope bound,
+    /// moves each vertex by at most `eps xi` (the bound times the largest `|W_i^-1|`); with
+    /// the bound in the identity it would move about four times that.
+    #[test]
+    fn eq_53_in_a_light_metric_moves_no_vertex_beyond_eps_xi() {
+        let metric = SymmetricMatrix3 {
+            diagonal: [0.25; 3],
+            upper: [0.0; 3],
+        };
+        let params = pressing(DescentStep::Uniform, 1);
+        let eps_xi = params.eps * params.thickness;
+        let depth = eps_xi / params.d_hat;
+        let (_, z, target, iterations) = pressed_triangle_in(
+            Some(metric),
+            &params,
+            NO_TOL,
+            depth,
+            0.0,
+            &mut Workspace::default(),
+        );
+        assert_eq!(iterations, 1);
+        let longest = z
+            .iter()
+            .zip(&target)
+            .map(|(p, t)| (p - t).norm())
+            .fold(0.0, f64::max);
+        assert!(
+            longest <= eps_xi * (1.0 + 1e-9),
+            "{longest} against {eps_xi}"
+        );
+        assert!(
+            longest > 0.5 * eps_xi,
+            "the push must be near its bound: {longest}"
+        );
     }
 
     /// The solver's tolerance bounds how far from the minimum of eq. 47 the local step may
