@@ -6,9 +6,10 @@ checks the promises of the contact local step with :mod:`peridyn.checks`: no two
 triangles intersect (exact test, ipctk), the smallest distance between non-adjacent primitives
 (looked for up to ``4 xi``; the local step keeps it above ``eps xi``), and how deep the deepest
 vertex is inside a collider. Per step it records ms (the solver's own timing), iterations,
-the contact figures (candidate and box triangle pairs, live and active primitive pairs, CCD
-queries, broad-phase builds and repairs, clamped vertices, ms by phase), the lowest and
-highest vertex and how many vertices touch a collider (within ``2 xi`` of its surface).
+the convergence measure after each iteration (``error_estimates``, m), the contact figures
+(candidate and box triangle pairs, live and active primitive pairs, CCD queries, broad-phase
+builds and repairs, clamped vertices, ms by phase), the lowest and highest vertex and how
+many vertices touch a collider (within ``2 xi`` of its surface).
 
 The JSON (and a PNG of the smallest distance and ms per step against the step) is rewritten
 at every check, so a run stopped early (``--time-limit``, or killed) keeps what it measured.
@@ -53,6 +54,8 @@ def build(args):
     from peridyn import paper_scenes
 
     common = dict(tol=args.tol, max_iters=args.max_iters, threads=args.threads)
+    if args.chebyshev_rho is not None:
+        common["solver_options"] = dict(acceleration="chebyshev", chebyshev_rho=args.chebyshev_rho)
     if args.kb is not None:
         common["bending" if args.scene == "antependium" else "kb"] = args.kb
     if args.scene == "cloths_over_ball":
@@ -138,6 +141,8 @@ def main(argv=None):
                         "identity is the paper's eq. 47)")
     p.add_argument("--tol", type=float, default=1e-4)
     p.add_argument("--max-iters", type=int, default=100)
+    p.add_argument("--chebyshev-rho", type=float, default=None,
+                   help="Chebyshev acceleration with this spectral-radius estimate (default: none)")
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--time-limit", type=float, default=None,
                    help="stop after this many wall seconds (the JSON keeps what ran)")
@@ -203,6 +208,7 @@ def main(argv=None):
             near |= c.signed_distance((x - translation) @ rotation) < 2 * contact.thickness
         row = {"step": k, "time_s": st.time, "ms": st.timings["total"],
                "iterations": st.iterations, "converged": bool(st.converged),
+               "error_estimates": [float(e) for e in st.error_estimates],
                "lowest_z": float(x[:, 2].min()), "highest_z": float(x[:, 2].max()),
                "touching_collider": int(near.sum()),
                **{f: st.contact[f] for f in CONTACT_FIGURES}}

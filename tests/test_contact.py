@@ -9,7 +9,7 @@ import pytest
 
 import peridyn
 from conftest import icosphere, make_grid
-from contact_checks import intersecting_pairs, mesh_of, min_separation
+from contact_checks import assert_apart, intersecting_pairs, mesh_of, min_separation
 
 XI = 2e-3  # contact thickness (m)
 CONTACT = dict(thickness=XI, d_hat=2 * XI, eps=0.1)
@@ -54,6 +54,13 @@ def test_contact_parameters_are_validated_and_reported():
         c.thickness, c.d_hat, c.eps, c.ccd_s, c.ccd_t_c, c.warm_start)
     assert c.parallel_angle > 0.0 and c.max_iters == 32, "the original is unchanged"
     assert peridyn.Contact(ccd_s=0.2).replace(eps=0.2).ccd_s == 0.2
+    # The local step stops at 1 % of eps * xi, or at tol / 5 where the solver asks for less.
+    assert c.stop_distance(0.0) == pytest.approx(1.5e-6)
+    assert c.stop_distance(1e-4) == pytest.approx(1.5e-6)
+    assert c.stop_distance(1e-6) == pytest.approx(2e-7)
+    for bad in (-1e-6, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="tol"):
+            c.stop_distance(bad)
     with pytest.raises(ValueError, match="eps"):
         c.replace(eps=1.5)
     with pytest.raises(ValueError, match="max_iters"):
@@ -353,7 +360,8 @@ def assert_layers_converge_at_a_micrometre(layers, n, most_iterations):
         layers=layers, n=n, size=0.5, tol=tol, max_iters=200, threads=1)
     contact = scene.solver.contact
     # The local step's own stop (1 % of eps * xi, 1.5 um) is above tol: it stops at tol / 5.
-    assert 0.01 * contact.eps * contact.thickness > tol
+    assert contact.stop_distance(0.0) > tol
+    assert contact.stop_distance(tol) == pytest.approx(tol / 5)
     touching = 0
     for k in range(300):
         stats = scene.solver.step()
@@ -381,3 +389,33 @@ def test_three_layers_converge_at_a_tolerance_below_the_local_steps_own_stop():
     # these 300 steps ran to max_iters; stopping at a fifth of tol, every step converges, in at
     # most 4 iterations.
     assert_layers_converge_at_a_micrometre(layers=3, n=10, most_iterations=10)
+
+
+def test_chebyshev_with_contact_keeps_layers_apart_in_fewer_iterations():
+    # Three layers of 16 x 16 dropped on the ball at h = 4 ms, where the plain iteration
+    # converges slowly (about 0.8 per iteration on stacked layers). Chebyshev extrapolates the
+    # local step's result; the local step keeps the intersection-free positions, so the layers
+    # stay apart at every check. Measured: 770 iterations against 1052 plain (the first 40
+    # steps, before the layers land on each other, save 7 %), the same 58 steps converged, and
+    # the layers end within 1.5 mm of the plain run's.
+    def run(**solver_options):
+        scene = peridyn.paper_scenes.cloths_over_ball(
+            layers=3, n=16, size=0.5, dt=4e-3, tol=1e-5, max_iters=60, threads=1,
+            solver_options=solver_options)
+        contact = scene.solver.contact
+        iterations, converged = 0, 0
+        for k in range(60):
+            stats = scene.solver.step()
+            iterations += stats.iterations
+            converged += stats.converged
+            if k % 15 == 14:
+                assert_apart(list(scene.bodies.values()), list(scene.colliders.values()),
+                             contact.thickness, contact.eps)
+        x = np.concatenate([b.positions for b in scene.bodies.values()])
+        return iterations, converged, x
+
+    plain, plain_converged, x_plain = run()
+    fast, fast_converged, x_fast = run(acceleration="chebyshev", chebyshev_rho=0.9)
+    assert fast < 0.85 * plain, (fast, plain)
+    assert fast_converged >= plain_converged
+    assert np.abs(x_fast - x_plain).max() < 5e-3

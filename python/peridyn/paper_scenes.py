@@ -100,6 +100,7 @@ def cloths_over_ball(
     tol: float = 1e-4,
     max_iters: int = 100,
     threads: Optional[int] = None,
+    solver_options: Optional[dict] = None,
 ) -> Scene:
     """Square cloths stacked flat above a ball that rests on the ground, dropped onto it
     (Table 1: 1, 3 or 6 layers of 200 x 200 vertices, 1.7 m).
@@ -138,6 +139,9 @@ def cloths_over_ball(
         Simulated time in s covered by the suggested ``steps``.
     tol, max_iters, threads
         Passed to :class:`Solver`.
+    solver_options : dict, optional
+        Further keyword arguments of :class:`Solver` (``acceleration="chebyshev"``,
+        ``chebyshev_rho=0.9``, ...).
 
     Returns
     -------
@@ -154,7 +158,8 @@ def cloths_over_ball(
     V = V - np.array([0.5 * size, 0.5 * size, 0.0])
     contact = _contact(name, xi, [(V, F)])
     gap = layer_gap * (xi + contact.d_hat)
-    solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=contact)
+    solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=contact,
+                    **(solver_options or {}))
     bodies = {}
     for k in range(int(layers)):
         z = 2.0 * radius + drop + k * gap
@@ -196,6 +201,7 @@ def antependium(
     tol: float = 1e-4,
     max_iters: int = 100,
     threads: Optional[int] = None,
+    solver_options: Optional[dict] = None,
 ) -> Scene:
     """A square cloth laid flat on a table, part of it sticking out over the front edge, with
     books on the part on the table (Table 1: 200 x 200 vertices, 1 m; bending 0, 0.003, 0.03,
@@ -230,6 +236,9 @@ def antependium(
         Simulated time in s covered by the suggested ``steps``.
     tol, max_iters, threads
         Passed to :class:`Solver`.
+    solver_options : dict, optional
+        Further keyword arguments of :class:`Solver` (``acceleration="chebyshev"``,
+        ``chebyshev_rho=0.9``, ...).
 
     Returns
     -------
@@ -246,7 +255,8 @@ def antependium(
     V, F = grid(n, n, size=(size, size), diagonal="alternate")
     V = V + np.array([-0.5 * size, overhang - size, 0.5 * THICKNESS])
     solver = Solver(
-        dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=_contact(name, xi, [(V, F)])
+        dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=_contact(name, xi, [(V, F)]),
+        **(solver_options or {}),
     )
     cloth = _core.Membrane(
         V,
@@ -299,6 +309,7 @@ def shooting_shell(
     tol: float = 1e-4,
     max_iters: int = 100,
     threads: Optional[int] = None,
+    solver_options: Optional[dict] = None,
 ) -> Scene:
     """A closed shell (an icosphere standing in for the paper's panda) shot straight down at
     ``speed`` into a horizontal square cloth pinned along its four edges (Table 1: h = 5e-4 s,
@@ -339,6 +350,9 @@ def shooting_shell(
         Simulated time in s covered by the suggested ``steps``.
     tol, max_iters, threads
         Passed to :class:`Solver`.
+    solver_options : dict, optional
+        Further keyword arguments of :class:`Solver` (``acceleration="chebyshev"``,
+        ``chebyshev_rho=0.9``, ...).
 
     Returns
     -------
@@ -362,7 +376,8 @@ def shooting_shell(
     Vt, Ft = grid(n, n, size=(size, size), diagonal="alternate")
     Vt = Vt - np.array([0.5 * size, 0.5 * size, 0.0])
     contact = _contact(name, xi, [(Vs, Fs), (Vt, Ft)])
-    solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=contact)
+    solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=contact,
+                    **(solver_options or {}))
     shell = _core.Membrane(
         Vs,
         Fs,

@@ -311,6 +311,7 @@ impl<T: GpuReal> GpuSolver<T> {
             stats.residuals.push(moved.to_f64());
             stats.residual = moved.to_f64();
             stats.error_estimate = residual.to_f64();
+            stats.error_estimates.push(residual.to_f64());
         }
         if params.record_energy {
             let [previous, prediction, _, _] = history[0];

@@ -368,6 +368,17 @@ impl PyContact {
     fn ccd_t_c(&self) -> f64 {
         self.inner.ccd.t_c
     }
+    /// The local step's stopping distance (m) under a solver tolerance `tol` (m; 0 for a
+    /// fixed iteration count): `eps * xi / 100`, or `tol / 5` where that is smaller (see
+    /// `ContactParams::stop_distance`). The local step's result is only this exact.
+    fn stop_distance(&self, tol: f64) -> PyResult<f64> {
+        if !(tol >= 0.0 && tol.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "tol must be finite and >= 0 (m), got {tol}"
+            )));
+        }
+        Ok(self.inner.stop_distance(tol))
+    }
     /// A copy with the parameters named by keyword (the constructor's names) changed and the
     /// rest kept, validated as the constructor validates: `c.replace(parallel_angle=0.0)`.
     /// `d_hat` is kept unless named, also where `thickness` changes.

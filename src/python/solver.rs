@@ -533,6 +533,11 @@ impl PyStepStats {
     fn residuals<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         to_numpy_1d(py, self.inner.residuals.clone())
     }
+    /// The error estimate after each iteration (m).
+    #[getter]
+    fn error_estimates<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(py, self.inner.error_estimates.clone())
+    }
     /// Total variational energy E(y^k) (J) of every iterate k = 0..iterations (empty unless the
     /// solver was built with record_energy=True).
     #[getter]

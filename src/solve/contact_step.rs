@@ -2,6 +2,8 @@
 //! intersection-free positions, and the call of the contact local step (Algorithm 2) after
 //! each global iteration.
 
+use std::cell::OnceCell;
+
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
@@ -144,9 +146,15 @@ impl<T: Real> ContactState<T> {
                 // vertex ends on explain it: the realised contact reaction. In the local step's
                 // metric a force `f` moves the vertex along `W_i^-1 f`.
                 let local_move = *zi - next.map(|c| c.to_f64());
+                // `W_i^-1`, taken once for all of the vertex's directions, and only for a
+                // vertex that has one (most have none).
+                let metric_inverse = OnceCell::new();
                 let moves_along = |f: Vector3<f64>| {
                     let along = match weights {
-                        Some(w) if f != Vector3::zeros() => w[i].try_inverse()?.mul_vector(&f),
+                        Some(w) if f != Vector3::zeros() => metric_inverse
+                            .get_or_init(|| w[i].try_inverse())
+                            .as_ref()?
+                            .mul_vector(&f),
                         _ => f,
                     };
                     let norm = along.norm();

@@ -212,6 +212,7 @@ impl<T: Real> Solver<T> {
         let mut stats = StepStats {
             step: self.clock.steps,
             residuals: Vec::with_capacity(params.max_iters.min(4096)),
+            error_estimates: Vec::with_capacity(params.max_iters.min(4096)),
             energies: Vec::with_capacity(if params.record_energy {
                 params.max_iters.min(4096) + 1
             } else {
@@ -242,10 +243,14 @@ impl<T: Real> Solver<T> {
             // With contact, the first iterate of a step has not been through a local step: its
             // residual says nothing of the contacts, so it cannot decide convergence.
             let decisive = params.contact.is_none() || !contact_reaction.is_empty();
+            // With contact the extrapolation follows the local step (see
+            // [`extrapolate_local_step`]), not the global step.
             let options = MoveOptions {
                 step_length: params.step_length,
                 inner_iters: params.inner_iters,
-                omega: extrapolation.map(T::of),
+                omega: extrapolation
+                    .filter(|_| params.contact.is_none())
+                    .map(T::of),
                 colliders: &colliders,
                 contact_reaction,
             };
@@ -309,6 +314,11 @@ impl<T: Real> Solver<T> {
                     state.local_step(sys, h, contact_params, params.tol, &colliders);
                 update.moved = moved;
                 stats.contact.accumulate(&figures);
+                let last = iteration + 1 == params.max_iters
+                    || (decisive && params.tol > 0.0 && update.residual < params.tol);
+                if let Some(w) = extrapolation.filter(|_| !last) {
+                    extrapolate_local_step(sys, T::of(w), &colliders);
+                }
             }
             if accelerated {
                 std::mem::swap(&mut sys.y_prev, &mut sys.y);
@@ -318,6 +328,7 @@ impl<T: Real> Solver<T> {
             stats.residual = update.moved;
             stats.residuals.push(update.moved);
             stats.error_estimate = update.residual;
+            stats.error_estimates.push(update.residual);
             if decisive && params.tol > 0.0 && stats.error_estimate < params.tol {
                 stats.converged = true;
                 break;
@@ -434,6 +445,44 @@ fn project_colliders<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>
             Update::of(k, &y[k], next)
         })
         .reduce(|| Update::NONE, Update::merge)
+}
+
+/// Chebyshev's extrapolation with contact: `y^{k+1} = w (z - y^{k-1}) + y^{k-1}` on the local
+/// step's result `z` (in `y_next`; `y^{k-1}` in `y_prev`), so that it extrapolates the whole
+/// iteration, global and local step, as the semi-iterative method asks. The extrapolated
+/// iterate is only where the next global step evaluates the forces: the local step keeps its
+/// own safe positions (`z`, intersection-free) and runs its CCD from them, and the solver
+/// does not extrapolate the iteration it stops at, so every step still ends on a local step's
+/// result. A vertex that the extrapolation could take into a collider (its signed distance at
+/// `z`, beyond its half thickness, no more than the extrapolation's move) keeps `z`: the global
+/// step's collider projection starts from outside, and friction does not see an extrapolated
+/// slide.
+fn extrapolate_local_step<T: Real>(sys: &mut System<T>, w: T, colliders: &[ColliderModel<T>]) {
+    let (y_prev, pinned, rest) = (&sys.y_prev, &sys.pinned, &sys.rest);
+    sys.y_next.par_iter_mut().enumerate().for_each(|(k, z)| {
+        if !pinned[k] {
+            let margin = rest.vertices[k].half_thickness;
+            *z = extrapolated(z, &y_prev[k], w, margin, colliders);
+        }
+    });
+}
+
+/// One vertex of [`extrapolate_local_step`]: `w (z - previous) + previous`, or `z` where
+/// that move could reach into a collider (within `margin`, m, of its surface).
+pub(super) fn extrapolated<T: Real>(
+    z: &Vector3<T>,
+    previous: &Vector3<T>,
+    w: T,
+    margin: T,
+    colliders: &[ColliderModel<T>],
+) -> Vector3<T> {
+    let moved = (z - previous) * w + previous;
+    let reach = (moved - z).norm() + margin;
+    if colliders.iter().all(|c| c.signed_distance(z) > reach) {
+        moved
+    } else {
+        *z
+    }
 }
 
 /// `v_{t+1} = (y_{t+1} - y_t) / h`, `y_t <- y_{t+1}`.

@@ -39,6 +39,10 @@ pub struct StepStats {
     pub error_estimate: f64,
     /// Whether `error_estimate` fell below `tol` (never when `tol == 0`).
     pub converged: bool,
+    /// `error_estimate` after each iteration (m): how the convergence measure fell, or stalled.
+    /// With contact, the first iteration's measures the whole residual, contacts included (no
+    /// local step has run before it), and does not decide convergence.
+    pub error_estimates: Vec<f64>,
     /// Residual after each iteration (m).
     pub residuals: Vec<f64>,
     /// Total variational energy `E(y^k)` of eq. 2 without the barrier (J) for `k = 0..=iterations`,

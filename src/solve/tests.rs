@@ -264,6 +264,19 @@ fn hanging_step(params: SolverParams) -> (Vec<Vector3<f64>>, super::StepStats) {
     (body.positions().to_vec(), stats)
 }
 
+/// The measure's history has one entry per iteration, ends at `error_estimate`, and the step
+/// stopped at the first iterate whose measure fell below `tol`.
+fn stops_at_the_first_iterate_below_tol(stats: &super::StepStats, tol: f64) {
+    let history = &stats.error_estimates;
+    assert_eq!(history.len(), stats.iterations);
+    assert_eq!(history.last(), Some(&stats.error_estimate));
+    assert!(stats.error_estimate < tol);
+    assert!(
+        history[..history.len() - 1].iter().all(|&e| e >= tol),
+        "{history:?}"
+    );
+}
+
 /// Chebyshev acceleration reaches the same implicit Euler solution in fewer iterations.
 #[test]
 fn chebyshev_converges_to_the_same_solution_faster() {
@@ -283,6 +296,9 @@ fn chebyshev_converges_to_the_same_solution_faster() {
     };
     let (fast, fast_stats) = hanging_step(accelerated);
     assert!(plain_stats.converged && fast_stats.converged);
+    for stats in [&plain_stats, &fast_stats] {
+        stops_at_the_first_iterate_below_tol(stats, tight.tol);
+    }
     assert!(
         fast_stats.iterations * 2 < plain_stats.iterations,
         "chebyshev {} vs plain {} iterations",
@@ -365,12 +381,16 @@ fn a_sheet_on_a_slope_obeys_coulomb_friction() {
 
 /// Contact in the solver: a sheet dropped onto another resting on the ground stays above it
 /// (every upper vertex over the lower sheet above the lower sheet's highest point, which is
-/// flat), in f64 and f32,
-/// and the step reports the contact figures; without contact it falls through.
+/// flat), in f64 and f32, plain and with Chebyshev's extrapolation (which must not take the
+/// resting sheet into the ground either), and the step reports the contact figures; without
+/// contact it falls through.
 #[test]
 fn contact_keeps_a_falling_sheet_above_a_resting_one() {
     use crate::contact::ContactParams;
-    fn run<T: crate::real::Real>(contact: Option<ContactParams>) -> (f64, f64, usize) {
+    fn run<T: crate::real::Real>(
+        contact: Option<ContactParams>,
+        acceleration: super::Acceleration,
+    ) -> (f64, f64, usize) {
         let mut lower = cloth(6);
         let mut upper = cloth(6);
         let lifted: Vec<_> = upper
@@ -387,6 +407,7 @@ fn contact_keeps_a_falling_sheet_above_a_resting_one() {
                 dt: 2e-3,
                 max_iters: 10,
                 contact,
+                acceleration,
                 ..SolverParams::default()
             },
             None,
@@ -401,6 +422,14 @@ fn contact_keeps_a_falling_sheet_above_a_resting_one() {
         for _ in 0..20 {
             let stats = solver.step(&mut [&mut lower, &mut upper]).unwrap();
             active = active.max(stats.contact.active_pairs);
+            let margin = lower.params().thickness / 2.0;
+            for p in lower.positions().iter().chain(upper.positions()) {
+                assert!(
+                    p.z >= margin - 1e-6,
+                    "{} m below the ground's margin",
+                    margin - p.z
+                );
+            }
         }
         // The upper sheet's vertices over the lower one (its overhang may drape down past
         // the lower sheet's edge), and the lower sheet's top.
@@ -423,18 +452,59 @@ fn contact_keeps_a_falling_sheet_above_a_resting_one() {
         d_hat: 4e-3,
         ..ContactParams::default()
     };
-    for (upper, lower, active) in [run::<f64>(Some(params)), run::<f32>(Some(params))] {
+    let chebyshev = super::Acceleration::Chebyshev { rho: 0.9, delay: 2 };
+    let plain = super::Acceleration::None;
+    for (upper, lower, active) in [
+        run::<f64>(Some(params), plain),
+        run::<f32>(Some(params), plain),
+        run::<f64>(Some(params), chebyshev),
+        run::<f32>(Some(params), chebyshev),
+    ] {
         assert!(active > 0);
         assert!(
             upper - lower > params.eps * params.thickness,
             "{upper} vs {lower}"
         );
     }
-    let (upper, lower, active) = run::<f64>(None);
+    let (upper, lower, active) = run::<f64>(None, plain);
     assert_eq!(active, 0);
     assert!(
         upper < lower,
         "without contact the sheets should pass through each other"
+    );
+}
+
+/// Chebyshev's extrapolation of a local step's result moves a vertex away from colliders, and
+/// keeps in place one whose extrapolated move could reach into a collider (the ground, at a
+/// margin of 1 mm): the global step's collider projection needs an iterate outside them.
+#[test]
+fn the_extrapolation_keeps_a_vertex_that_could_reach_into_a_collider() {
+    use crate::contact::MovingCollider;
+    let ground = MovingCollider::new(Collider::fixed(
+        Shape::plane([0.0; 3], [0.0, 0.0, 1.0]).unwrap(),
+    ))
+    .during_step::<f64>(0.0, 1e-3);
+    let (w, margin) = (1.5, 1e-3);
+    // From 5 mm up towards the ground by 2 mm, extrapolated by a further 1 mm: 2 mm up, clear.
+    let (previous, z) = (Vector3::new(0.1, 0.2, 7e-3), Vector3::new(0.1, 0.2, 5e-3));
+    let grounds = std::slice::from_ref(&ground);
+    let far = super::sissm::extrapolated(&z, &previous, w, margin, grounds);
+    assert!(
+        (far - Vector3::new(0.1, 0.2, 4e-3)).norm() < 1e-15,
+        "{far:?}"
+    );
+    // 1.8 mm up: the extra 1 mm would end within the margin (and sideways too).
+    let (previous, z) = (
+        Vector3::new(0.0, 0.0, 3.8e-3),
+        Vector3::new(1e-3, 0.0, 1.8e-3),
+    );
+    let near = super::sissm::extrapolated(&z, &previous, w, margin, grounds);
+    assert_eq!(near, z);
+    // With no collider the same vertex is extrapolated.
+    let free = super::sissm::extrapolated(&z, &previous, w, margin, &[]);
+    assert!(
+        (free - Vector3::new(1.5e-3, 0.0, 0.8e-3)).norm() < 1e-15,
+        "{free:?}"
     );
 }
 
