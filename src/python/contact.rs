@@ -13,6 +13,7 @@ use crate::contact::{
     closest_primitive_distance, default_parallel_angle, BroadPhase, ContactMesh, ContactParams,
     DescentStep, ProximalMetric,
 };
+use crate::error::check_param;
 
 use super::arrays::{self, to_numpy, to_numpy_1d, vec3s};
 use super::errors::IntoPyResult;
@@ -372,11 +373,7 @@ impl PyContact {
     /// fixed iteration count): `eps * xi / 100`, or `tol / 5` where that is smaller (see
     /// `ContactParams::stop_distance`). The local step's result is only this exact.
     fn stop_distance(&self, tol: f64) -> PyResult<f64> {
-        if !(tol >= 0.0 && tol.is_finite()) {
-            return Err(PyValueError::new_err(format!(
-                "tol must be finite and >= 0 (m), got {tol}"
-            )));
-        }
+        let tol = check_param("tol", tol, |v| v >= 0.0, "a finite distance >= 0 m").py()?;
         Ok(self.inner.stop_distance(tol))
     }
     /// A copy with the parameters named by keyword (the constructor's names) changed and the

@@ -243,6 +243,8 @@ impl<T: Real> Solver<T> {
             // With contact, the first iterate of a step has not been through a local step: its
             // residual says nothing of the contacts, so it cannot decide convergence.
             let decisive = params.contact.is_none() || !contact_reaction.is_empty();
+            let converges =
+                |update: &Update| decisive && params.tol > 0.0 && update.residual < params.tol;
             // With contact the extrapolation follows the local step (see
             // [`extrapolate_local_step`]), not the global step.
             let options = MoveOptions {
@@ -314,8 +316,8 @@ impl<T: Real> Solver<T> {
                     state.local_step(sys, h, contact_params, params.tol, &colliders);
                 update.moved = moved;
                 stats.contact.accumulate(&figures);
-                let last = iteration + 1 == params.max_iters
-                    || (decisive && params.tol > 0.0 && update.residual < params.tol);
+                // The iteration the step stops at is not extrapolated: it ends on `z`.
+                let last = iteration + 1 == params.max_iters || converges(&update);
                 if let Some(w) = extrapolation.filter(|_| !last) {
                     extrapolate_local_step(sys, T::of(w), &colliders);
                 }
@@ -329,7 +331,7 @@ impl<T: Real> Solver<T> {
             stats.residuals.push(update.moved);
             stats.error_estimate = update.residual;
             stats.error_estimates.push(update.residual);
-            if decisive && params.tol > 0.0 && stats.error_estimate < params.tol {
+            if converges(&update) {
                 stats.converged = true;
                 break;
             }
