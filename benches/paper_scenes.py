@@ -17,8 +17,9 @@ at every check, so a run stopped early (``--time-limit``, or killed) keeps what 
 A full-size run can take longer than one sitting: with ``--state PATH`` the solver's state
 (``peridyn.save_state``) is written to PATH at every check, and a later run with the same
 arguments and ``--state PATH`` continues from it, appending to the JSON of ``--out`` (one entry
-per sitting in its ``segments``: command, commit, machine, steps and wall time). The pair
-cache is not saved: a resumed run builds it afresh at its first step.
+per sitting in its ``segments``: command, commit, machine, steps and wall time). It refuses to
+continue with other settings (only ``--steps``, ``--check-every``, ``--time-limit``, ``--out``,
+``--state`` and ``--threads`` may change). The pair cache is not saved: a resumed run builds it afresh at its first step.
 
 Full size, one layer over the ball (40K vertices):
     python benches/paper_scenes.py --scene cloths_over_ball --layers 1 --steps 400 --check-every 20
@@ -118,6 +119,12 @@ def plot(data, path):
     fig.savefig(path, dpi=100)
 
 
+#: Arguments that may differ between the sittings of one run: they change where a run ends,
+#: how long a sitting lasts, how often it checks, where it writes and how many threads it uses,
+#: not the simulation.
+PER_SITTING_ARGS = ("steps", "check_every", "time_limit", "out", "state", "threads")
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -180,6 +187,13 @@ def main(argv=None):
         earlier = json.loads(out.read_text())
         if earlier["vertices"] != nv or earlier["scene"] != scene.description:
             p.error(f"--state {state}: {out} is of another scene")
+        changed = {key: (earlier["args"].get(key), value) for key, value in vars(args).items()
+                   if key not in PER_SITTING_ARGS and earlier["args"].get(key) != value}
+        if changed:
+            p.error(f"--state {state}: {out} ran with other settings; a run continues with the "
+                    "settings it began with: " + ", ".join(
+                        f"--{key.replace('_', '-')} was {was}, now {now}"
+                        for key, (was, now) in changed.items()))
         peridyn.load_state(state, solver)
         first = solver.steps_taken + 1
         segments = earlier.get("segments") or [{

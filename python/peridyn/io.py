@@ -188,7 +188,7 @@ class FrameRecorder:
 
 
 def save_state(path: PathLike, solver: Any) -> Path:
-    """Saves everything that a solver's next steps depend on to an ``.npz`` file.
+    """Saves everything that a solver's next steps depend on to a compressed ``.npz`` file.
 
     That is each body's positions, velocities, pinned vertices and pin targets, each collider's
     motion (the pose its velocity carries on from and a pose set with
@@ -228,7 +228,7 @@ def save_state(path: PathLike, solver: Any) -> Path:
             arrays[f"collider_target_rotation_{c}"] = np.asarray(target[0], dtype=np.float64)
             arrays[f"collider_target_translation_{c}"] = np.asarray(target[1], dtype=np.float64)
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(path, **arrays)
+    np.savez_compressed(path, **arrays)
     return path
 
 
