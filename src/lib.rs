@@ -2,7 +2,11 @@
 //! elastoplastic particle materials (He et al. 2017).
 //!
 //! The core is plain Rust (testable with `cargo test`); the Python bindings live in
-//! [`python`] behind the `python` feature, which maturin enables.
+//! `src/python` behind the `python` feature, which maturin enables.
+
+// The Rust documentation is for the engineers of the core and documents the private items
+// (`.cargo/config.toml`), so a public item's doc may link to a private one.
+#![allow(rustdoc::private_intra_doc_links)]
 
 pub mod contact;
 pub mod error;

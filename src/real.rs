@@ -61,9 +61,9 @@ impl Real for f32 {
     }
 }
 
-/// A pack of [`Lanes::LANES`] scalars computed on in lock step: a scalar [`Real`] itself (one
+/// A pack of [`LANES`](nalgebra::SimdValue::LANES) scalars computed on in lock step: a scalar [`Real`] itself (one
 /// lane) or a SIMD vector of them. The per-vertex kernels are written once over `Lanes`, so the
-/// same code runs one vertex at a time or [`Lanes::LANES`] vertices at a time (one per lane).
+/// same code runs one vertex at a time or [`LANES`](nalgebra::SimdValue::LANES) vertices at a time (one per lane).
 ///
 /// Every lane performs exactly the IEEE operations the scalar code performs, in the same order
 /// (no fused multiply-add, no approximate reciprocals), so a pack's lanes are bit-identical to
