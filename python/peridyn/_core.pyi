@@ -385,7 +385,8 @@ class StepStats:
     def iterations(self) -> int: ...
     @property
     def residual(self) -> float:
-        """Final max_i |y_i^k - y_i^(k-1)| in m (the convergence measure of Algorithm 1)."""
+        """The last iteration's max_i |y_i^k - y_i^(k-1)| in m (the convergence measure of
+        Algorithm 1): the last of ``residuals``."""
     @property
     def converged(self) -> bool:
         """True when ``error_estimate`` fell below ``tol`` (always False when tol == 0)."""
@@ -398,9 +399,8 @@ class StepStats:
         iterate, without the contact reactions (the colliders' reaction to the vertex's Jacobi
         move, normal and Coulomb friction within the cone, and the part of the contact local
         step's move that its barrier push and the normals of the colliders the vertex rests on
-        explain): an upper bound on the
-        mass-weighted RMS distance to the exact implicit Euler solution where the energy is
-        convex."""
+        explain): an upper bound on the mass-weighted RMS distance to the exact implicit Euler
+        solution where the energy is convex. The last of ``error_estimates``."""
     @property
     def error_estimates(self) -> np.ndarray:
         """``error_estimate`` after each iteration (m): whether a step that ran to max_iters was

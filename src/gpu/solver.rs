@@ -309,8 +309,6 @@ impl<T: GpuReal> GpuSolver<T> {
         for k in 0..iterations {
             let [moved, residual, _, _] = history[1 + k];
             stats.residuals.push(moved.to_f64());
-            stats.residual = moved.to_f64();
-            stats.error_estimate = residual.to_f64();
             stats.error_estimates.push(residual.to_f64());
         }
         if params.record_energy {

@@ -514,15 +514,16 @@ impl PyStepStats {
     fn iterations(&self) -> usize {
         self.inner.iterations
     }
-    /// Final max_i |y_i^k - y_i^(k-1)| (m).
+    /// The last iteration's max_i |y_i^k - y_i^(k-1)| (m): the last of ``residuals``.
     #[getter]
     fn residual(&self) -> f64 {
-        self.inner.residual
+        self.inner.residual()
     }
-    /// Estimated distance (m) from the result to the exact implicit Euler solution.
+    /// Estimated distance (m) from the result to the exact implicit Euler solution: the last of
+    /// ``error_estimates``.
     #[getter]
     fn error_estimate(&self) -> f64 {
-        self.inner.error_estimate
+        self.inner.error_estimate()
     }
     #[getter]
     fn converged(&self) -> bool {
@@ -608,7 +609,7 @@ impl PyStepStats {
             "StepStats(step={}, iterations={}, residual={:.3e}, converged={}, total_ms={:.3})",
             self.inner.step,
             self.inner.iterations,
-            self.inner.residual,
+            self.inner.residual(),
             self.inner.converged,
             self.inner.timings.total
         )

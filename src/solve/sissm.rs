@@ -327,9 +327,7 @@ impl<T: Real> Solver<T> {
             }
             std::mem::swap(&mut sys.y, &mut sys.y_next);
             stats.iterations = iteration + 1;
-            stats.residual = update.moved;
             stats.residuals.push(update.moved);
-            stats.error_estimate = update.residual;
             stats.error_estimates.push(update.residual);
             if converges(&update) {
                 stats.converged = true;

@@ -30,20 +30,16 @@ pub struct StepStats {
     pub time: f64,
     /// Global iterations performed.
     pub iterations: usize,
-    /// Final `max_i |y_i^k - y_i^(k-1)|` (m).
-    pub residual: f64,
-    /// `max_i |r_i| / m_i` (m) at the last iterate the kernel evaluated, without the contact
-    /// reactions (colliders, and the barrier push of the contact local step): an upper bound on
-    /// the mass-weighted RMS distance to the exact implicit Euler solution where the energy is
-    /// convex.
-    pub error_estimate: f64,
-    /// Whether `error_estimate` fell below `tol` (never when `tol == 0`).
+    /// Whether [`StepStats::error_estimate`] fell below `tol` (never when `tol == 0`).
     pub converged: bool,
-    /// `error_estimate` after each iteration (m): how the convergence measure fell, or stalled.
-    /// With contact, the first iteration's measures the whole residual, contacts included (no
-    /// local step has run before it), and does not decide convergence.
+    /// The convergence measure after each iteration (m): `max_i |r_i| / m_i` at the iterate
+    /// the kernel evaluated, without the contact reactions (colliders, and the barrier push of
+    /// the contact local step), an upper bound on the mass-weighted RMS distance to the exact
+    /// implicit Euler solution where the energy is convex. How it fell, or stalled. With
+    /// contact, the first iteration's measures the whole residual, contacts included (no local
+    /// step has run before it), and does not decide convergence.
     pub error_estimates: Vec<f64>,
-    /// Residual after each iteration (m).
+    /// `max_i |y_i^k - y_i^(k-1)|` after each iteration `k` (m).
     pub residuals: Vec<f64>,
     /// Total variational energy `E(y^k)` of eq. 2 without the barrier (J) for `k = 0..=iterations`,
     /// when the solver records it (else empty).
@@ -54,4 +50,17 @@ pub struct StepStats {
     /// contact is off): candidate triangle pairs (largest), active primitive pairs (last),
     /// descent iterations and milliseconds in broad phase, CCD and descent.
     pub contact: ContactStats,
+}
+
+impl StepStats {
+    /// The last iteration's `max_i |y_i^k - y_i^(k-1)|` (m; 0 before any iteration).
+    pub fn residual(&self) -> f64 {
+        self.residuals.last().copied().unwrap_or(0.0)
+    }
+
+    /// The last iteration's convergence measure (m; see [`StepStats::error_estimates`]; 0
+    /// before any iteration).
+    pub fn error_estimate(&self) -> f64 {
+        self.error_estimates.last().copied().unwrap_or(0.0)
+    }
 }
