@@ -10,7 +10,7 @@
 //! lies. Rounding to `f32` is
 //! monotone, so an item closer than the horizon is in its bucket or an earlier one.
 
-use rayon::prelude::*;
+use super::counting_sort::counting_sort;
 
 /// Buckets of an order: the NaN bucket, then 32 factors of two from 2^-24 m.
 pub(super) const BUCKETS: usize = 1 + 32 * 128;
@@ -35,39 +35,17 @@ impl DistanceOrder {
         distance: impl Fn(&T) -> f64 + Sync,
         items: &mut Vec<T>,
     ) {
-        let bucket = |item: &T| bucket(distance(item));
-        let count = chunks
-            .par_iter()
-            .map(|chunk| {
-                let mut count = vec![0u32; BUCKETS];
-                chunk.iter().for_each(|item| count[bucket(item)] += 1);
-                count
-            })
-            .reduce(
-                || vec![0u32; BUCKETS],
-                |mut a, b| {
-                    a.iter_mut().zip(b).for_each(|(a, b)| *a += b);
-                    a
-                },
-            );
-        let mut next = Vec::with_capacity(BUCKETS);
-        let mut end = 0;
-        self.end.clear();
-        for c in count {
-            next.push(end as usize);
-            end += c;
-            self.end.push(end);
-        }
-        items.clear();
-        let Some(&first) = chunks.iter().flatten().next() else {
-            return;
-        };
-        items.resize(end as usize, first);
-        for item in chunks.iter().flatten() {
-            let b = bucket(item);
-            items[next[b]] = *item;
-            next[b] += 1;
-        }
+        counting_sort(
+            chunks
+                .iter()
+                .flatten()
+                .map(|item| (bucket(distance(item)), *item)),
+            BUCKETS,
+            &mut self.end,
+            items,
+        );
+        // `end[b]` is where bucket `b` ends: drop the start of the first.
+        self.end.remove(0);
     }
 
     /// How many of the leading items hold every item closer than `horizon` (m) or NaN

@@ -7,6 +7,7 @@ mod barrier_push;
 pub mod broad_phase;
 pub mod ccd;
 mod collider;
+mod counting_sort;
 pub mod distance;
 mod distance_order;
 pub mod local_step;
