@@ -18,17 +18,17 @@ pub(super) const BUCKETS: usize = 1 + 32 * 128;
 /// The bucket key (the top 16 bits of an `f32`) of 2^-24, the first past the NaN bucket.
 const LOWEST_KEY: u32 = (127 - 24) << 7;
 
-/// Where the buckets of the last [`DistanceOrder::arrange`] end.
+/// Where the buckets of the last [`DistanceOrder::arrange`] begin and end.
 #[derive(Default)]
 pub(super) struct DistanceOrder {
-    /// Per bucket: the end of its items.
-    end: Vec<u32>,
+    /// Per bucket `b`: its items are `start[b]..start[b + 1]` (`BUCKETS + 1` entries).
+    start: Vec<u32>,
 }
 
 impl DistanceOrder {
     /// Writes into `items` the items of `chunks` (in order) by the bucket of
     /// `distance(item)` (m), keeping their order within a bucket (reusing its allocation),
-    /// and records where the buckets end.
+    /// and records where the buckets begin and end.
     pub fn arrange<T: Copy + Send + Sync>(
         &mut self,
         chunks: &[Vec<T>],
@@ -41,20 +41,18 @@ impl DistanceOrder {
                 .flatten()
                 .map(|item| (bucket(distance(item)), *item)),
             BUCKETS,
-            &mut self.end,
+            &mut self.start,
             items,
         );
-        // `end[b]` is where bucket `b` ends: drop the start of the first.
-        self.end.remove(0);
     }
 
     /// How many of the leading items hold every item closer than `horizon` (m) or NaN
     /// (all of them for an infinite or NaN horizon): the ends of whole buckets.
     pub fn within(&self, horizon: f64) -> usize {
-        match self.end.last() {
+        match self.start.last() {
             None => 0,
             Some(&all) if !horizon.is_finite() => all as usize,
-            Some(_) => self.end[bucket(horizon)] as usize,
+            Some(_) => self.start[bucket(horizon) + 1] as usize,
         }
     }
 }
