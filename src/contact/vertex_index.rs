@@ -38,3 +38,44 @@ pub(super) fn index_incidences(
         entries,
     );
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_rng::Rng;
+
+    /// Every vertex's row holds exactly the items that hold it, in increasing order (compared
+    /// with a sort of the incidences), and the vertices of no item have empty rows.
+    #[test]
+    fn rows_hold_each_vertexs_items_in_increasing_order() {
+        let mut rng = Rng::new(3);
+        let mut below = |n: u32| (rng.uniform() * f64::from(n)) as u32;
+        let vertices = 5000;
+        let items: Vec<[u32; 3]> = (0..20_000)
+            .map(|_| {
+                let first = below(4000);
+                [first + 2 + below(50), first, first + 1]
+            })
+            .collect();
+        let mut expected: Vec<(u32, u32)> = items
+            .iter()
+            .enumerate()
+            .flat_map(|(k, item)| item.map(|v| (v, k as u32)))
+            .collect();
+        expected.sort_unstable();
+        let (mut start, mut entries) = (Vec::new(), Vec::new());
+        index_by_vertex(items.iter().copied(), vertices, &mut start, &mut entries);
+        let found: Vec<(u32, u32)> = (0..vertices)
+            .flat_map(|v| {
+                entries[start[v] as usize..start[v + 1] as usize]
+                    .iter()
+                    .map(move |&k| (v as u32, k))
+            })
+            .collect();
+        assert_eq!(found, expected);
+        assert_eq!(
+            start[4100], start[vertices],
+            "no item holds a vertex past 4050"
+        );
+    }
+}
