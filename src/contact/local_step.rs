@@ -517,16 +517,16 @@ impl LivePairs {
     ) {
         let n = safe.len();
         self.sin2_limit = sin2_limit;
-        if self.filtered_safe.len() == n
-            && self.cache.fits(mesh, n, reach)
-            && self.reuse(safe, target, reach)
-        {
+        let reused = (self.filtered_safe.len() == n && self.cache.fits(mesh, n, reach))
+            .then(|| self.reuse(safe, target, mesh, reach))
+            .flatten();
+        if let Some(renewal) = reused {
             refill(&mut self.deviation, n, 0.0);
             self.measure(0, safe);
             if self.grown.is_empty() {
                 self.count(stats);
             } else {
-                self.refreshed(Renewal::Kept, self.pairs.len(), safe, stats);
+                self.refreshed(renewal, self.pairs.len(), safe, stats);
             }
             return;
         }
@@ -549,8 +549,14 @@ impl LivePairs {
 
     /// The reuse test of [`LivePairs::start`]: measures the shifts and, where few vertices
     /// stray, raises their allowances and adds their pairs (they are left in `grown`).
-    /// Returns whether the pairs are kept.
-    fn reuse(&mut self, safe: &[Vector3<f64>], target: &[Vector3<f64>], reach: f64) -> bool {
+    /// Returns, where the pairs are kept, what the extension did to the cached pairs.
+    fn reuse(
+        &mut self,
+        safe: &[Vector3<f64>],
+        target: &[Vector3<f64>],
+        mesh: &ContactMesh,
+        reach: f64,
+    ) -> Option<Renewal> {
         self.shift.clear();
         self.shift.par_extend(
             safe.par_iter()
@@ -570,20 +576,20 @@ impl LivePairs {
                 }),
         );
         if self.grown.len() as f64 > REUSE_STRAYS * safe.len() as f64 {
-            return false;
+            return None;
         }
         if self.grown.is_empty() {
-            return true;
+            return Some(Renewal::Kept);
         }
         for &i in &self.grown {
             let (shift, a) = (self.shift[i as usize], &mut self.allowance[i as usize]);
             if !(shift.is_finite() && a.is_finite()) {
-                return false;
+                return None;
             }
             *a += shift;
         }
         self.cache
-            .extend_live(&self.allowance, &self.grown, reach, &mut self.pairs)
+            .extend_live(&self.allowance, &self.grown, mesh, reach, &mut self.pairs)
     }
 
     /// Filters the pairs afresh for the allowances, around the path from `safe` to `target`
@@ -643,8 +649,8 @@ impl LivePairs {
         }
         let (cache, live) = (&mut self.cache, &mut self.pairs);
         let kept = live.len();
-        if cache.extend_live(&self.allowance, &self.grown, reach, live) {
-            self.refreshed(Renewal::Kept, kept, safe, stats);
+        if let Some(renewal) = cache.extend_live(&self.allowance, &self.grown, mesh, reach, live) {
+            self.refreshed(renewal, kept, safe, stats);
             Some(kept)
         } else {
             self.filter(safe, target, mesh, reach, stats);

@@ -262,23 +262,54 @@ impl PairCache {
     /// After [`PairCache::live_pairs`] (the allowances still measured around the path between
     /// the safe and target positions it was given, with the same mesh, even where later local
     /// steps have kept its list), the allowances of the vertices `grown` have grown and the
-    /// others are as they were: appends
-    /// to `live` the pairs that may now come within `reach` (only pairs with a grown vertex can,
-    /// as the bounds of the others are unchanged and allowances only grow) and returns true;
-    /// returns false, leaving `live` alone, when the build no longer covers the allowances
-    /// (then [`PairCache::live_pairs`] must rebuild). `grown` is increasing. The build's pairs
-    /// of the grown vertices are found by their index by vertex; the pairs repairs added,
-    /// not indexed, are each looked at.
+    /// others are as they were: appends to `live` the pairs that may now come within `reach`
+    /// (only pairs with a grown vertex can, as the bounds of the others are unchanged and
+    /// allowances only grow) and returns what it did to the cached pairs: kept them, or
+    /// repaired them first ([`PairCache::repair`]) where a few grown vertices strayed beyond
+    /// their skins. Returns `None`, leaving `live` alone, when a repair does not make the
+    /// build cover the allowances (then [`PairCache::live_pairs`] must filter afresh, and may
+    /// build). `grown` is increasing; `mesh` is the one the last filter was given. The
+    /// build's pairs of the grown vertices are found by their index by vertex; the pairs
+    /// repairs added, not indexed, are each looked at.
+    ///
+    /// The repair here saves a full filter: the region pairs' motions are the ones the last
+    /// filter measured (they still hold), and a pair that the filter left beyond its
+    /// horizon (`reach + 2 max dev + max T`, with `max dev` now larger) has a grown vertex
+    /// if its bound has fallen below `reach`, so the index finds it. On the paper's six
+    /// layers landing on the floor (steps 476-478 from a saved state), a local step's
+    /// allowances outgrew the build six times in a row, and each full filter looked again at
+    /// all 76M cached pairs (about 2 s each) for a repair that itself took 10 ms.
     pub fn extend_live(
         &mut self,
         allowance: &[f64],
         grown: &[u32],
+        mesh: &ContactMesh,
         reach: f64,
         live: &mut Vec<Pair>,
-    ) -> bool {
-        if !self.covers(allowance) {
-            return false;
-        }
+    ) -> Option<Renewal> {
+        debug_assert!(
+            self.fits(mesh, allowance.len(), reach),
+            "the mesh filtered for"
+        );
+        let renewal = if self.covers(allowance) {
+            Renewal::Kept
+        } else if {
+            // The last filter left every vertex covered, and only the grown ones' deviations
+            // have grown since: the strays, and the sides of every pair the repair adds, are
+            // among them.
+            debug_assert!(
+                (0..self.skin.len()).all(|i| self.deviation[i] <= self.skin[i]
+                    || grown.binary_search(&(i as u32)).is_ok()),
+                "a stray that did not grow"
+            );
+            self.repair(mesh, reach)
+        } && self.regions.hold()
+            && self.covers(allowance)
+        {
+            Renewal::Repaired
+        } else {
+            return None;
+        };
         debug_assert!(grown.windows(2).all(|w| w[0] < w[1]), "grown is increasing");
         let this = &*self;
         let wanted = |k: u32| {
@@ -308,7 +339,7 @@ impl PairCache {
             self.flagged = self.flagged.max(last as usize + 1);
         }
         self.mark_live(&found, live);
-        true
+        Some(renewal)
     }
 
     /// Filters the cached pairs `..near` afresh for the path from `safe` to `target` and the
@@ -1510,7 +1541,10 @@ pub(super) mod tests {
                 grown_allowance[v as usize] += 0.001;
             }
             let mut extended = live.clone();
-            if cache.extend_live(&grown_allowance, &strays, reach, &mut extended) {
+            if let Some(renewal) =
+                cache.extend_live(&grown_allowance, &strays, &mesh, reach, &mut extended)
+            {
+                assert_eq!(renewal, Renewal::Kept, "step {k}: the grown allowances fit");
                 cache.assert_live_hold_every_cached_pair_that_may_come_within(
                     &extended,
                     &grown_allowance,
@@ -1619,14 +1653,16 @@ pub(super) mod tests {
 
     /// Growing the allowances of some vertices and extending the live list gives the list a
     /// full filter gives for the grown allowances, whether the build still covers them (a
-    /// few vertices by a few millimetres) or not (one vertex by 0.3 m: the extension declines
-    /// and a full filter rebuilds, as it does afresh).
+    /// few vertices by a few millimetres), is repaired for them (one vertex by 0.3 m: the
+    /// extension repairs, as the filter does) or is built afresh (a third of the vertices by
+    /// 0.3 m, too many to repair: the extension declines and the filter builds).
     #[test]
     fn extending_the_live_pairs_equals_filtering_them_afresh() {
         let mut rng = Rng::new(41);
         let rolled = TestMesh::rolled(12, 0.03, &mut rng);
         let mesh = rolled.mesh();
         let safe = rolled.positions.clone();
+        let (_, all_pairs) = brute_force_pairs(&mesh, &safe);
         let reach = 0.02;
         let target: Vec<_> = safe.iter().map(|p| p + rng.vector() * 0.004).collect();
         let mut allowance = vec![0.001; safe.len()];
@@ -1635,22 +1671,32 @@ pub(super) mod tests {
         extended.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_extension);
         afresh.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_filter);
         let first = by_extension.len();
-        for (round, (every, by)) in [(7, 0.004), (5, 0.004), (1000, 0.3)]
-            .into_iter()
-            .enumerate()
+        use Renewal::{Built, Kept, Repaired};
+        for (round, (every, by, expected)) in [
+            (7, 0.004, Kept),
+            (5, 0.004, Kept),
+            (1000, 0.3, Repaired),
+            (3, 0.3, Built),
+        ]
+        .into_iter()
+        .enumerate()
         {
             let grown: Vec<u32> = (0..safe.len() as u32).step_by(every).collect();
             for &v in &grown {
                 allowance[v as usize] += by;
             }
-            let rebuilt = !extended.extend_live(&allowance, &grown, reach, &mut by_extension)
-                && extended.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_extension)
-                    != Renewal::Kept;
-            let rebuilt_afresh =
-                afresh.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_filter)
-                    != Renewal::Kept;
-            assert_eq!(rebuilt, round == 2, "round {round}");
-            assert_eq!(rebuilt_afresh, round == 2, "round {round}");
+            let renewal = extended
+                .extend_live(&allowance, &grown, &mesh, reach, &mut by_extension)
+                .unwrap_or_else(|| {
+                    extended.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_extension)
+                });
+            let renewal_afresh =
+                afresh.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut by_filter);
+            assert_eq!([renewal, renewal_afresh], [expected; 2], "round {round}");
+            if renewal == Repaired {
+                extended
+                    .assert_stores_exactly_the_pairs_within_their_limit(&all_pairs, reach, round);
+            }
             let sorted = |pairs: &[Pair]| {
                 let mut pairs = pairs.to_vec();
                 pairs.sort_unstable();
