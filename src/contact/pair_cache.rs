@@ -70,10 +70,12 @@
 //!   pair that never comes near: the skip removes that spurious clamp, nothing else.) The
 //!   reuse argument gives a second, cheaper bound, `d_r - max_A dev - max_B dev - T_PQ`; a
 //!   pair is skipped when either bound is at least `reach`. The build's pairs are grouped by
-//!   `d_r` ([`DistanceOrder`]), so those beyond `reach + 2 max_i dev_i + max T` (`T` over the
-//!   region pairs that may hold a stored pair; where the
-//!   cheaper bound skips every one) are not looked at: a local step costs what the pairs near
-//!   the reach cost, not what the whole cache holds. (The few that repairs add since are
+//!   `d_r` ([`DistanceOrder`]), so those beyond `reach + 2 D + max T` (`T` over the region
+//!   pairs that may hold a stored pair, `D` a deviation that all but a few vertices stay
+//!   within; where the cheaper bound skips every pair of vertices within `D`) are looked at
+//!   only where a vertex deviates by more than `D`, found by the index by vertex: a local
+//!   step costs what the pairs near the reach cost, not what the whole cache holds, and a few
+//!   fast vertices do not make every pair near. (The few pairs that repairs add since are
 //!   looked at by every filter.)
 //! - **Sweeps**: a filter applies the first bound with `s`, the safe positions of its own
 //!   local step, for `r` (each pair's distance at `s`, the moves along this local step's
@@ -146,8 +148,6 @@ pub(super) struct PairCache {
     /// `max T_PQ` over the near region pairs (m), how far the common motions of two regions
     /// that may hold a cached pair may have moved relative to each other.
     apart: f64,
-    /// `max_i dev_i` (m).
-    farthest: f64,
     /// The build's pairs by vertex: those of vertex `v` are `by_vertex[by_vertex_start[v]..
     /// by_vertex_start[v + 1]]` (indices into `pairs`, below `arranged`).
     by_vertex: Vec<u32>,
@@ -222,8 +222,10 @@ impl PairCache {
             Renewal::Built
         };
         self.apart = self.regions.largest_near_motion();
-        // Only pairs closer than `reach + 2 max dev + max T` at `r` can pass the first test.
-        let horizon = reach + 2.0 * self.farthest + self.apart;
+        // Only pairs closer than `reach + 2 D + max T` at `r`, or with a vertex deviating by
+        // more than `D`, can pass the first test.
+        let (typical, outlying) = self.outlying();
+        let horizon = reach + 2.0 * typical + self.apart;
         let horizon = if horizon.is_nan() {
             f64::INFINITY
         } else {
@@ -247,8 +249,26 @@ impl PairCache {
             Some(found) => found,
             None => self.sweep(safe, target, near, allowance, reach),
         };
-        // The repaired pairs: each looked at on every filter.
+        // Beyond the horizon, the build's pairs of the outlying vertices (after those before
+        // it: `found` stays increasing).
         let this = &*self;
+        let mut beyond: Vec<u32> = outlying
+            .par_iter()
+            .flat_map_iter(|&v| {
+                this.pairs_of(v)
+                    .iter()
+                    .copied()
+                    .filter(|&k| k as usize >= near)
+            })
+            .collect();
+        beyond.par_sort_unstable();
+        beyond.dedup();
+        found.par_extend(
+            beyond
+                .into_par_iter()
+                .filter(|&k| this.may_come_within(k as usize, allowance, reach)),
+        );
+        // The repaired pairs: each looked at on every filter.
         found.par_extend(
             this.repaired()
                 .filter(|&k| this.may_come_within(k as usize, allowance, reach)),
@@ -317,16 +337,7 @@ impl PairCache {
         };
         let mut found: Vec<u32> = grown
             .par_iter()
-            .flat_map_iter(|&v| {
-                let (from, to) = (
-                    this.by_vertex_start[v as usize] as usize,
-                    this.by_vertex_start[v as usize + 1] as usize,
-                );
-                this.by_vertex[from..to]
-                    .iter()
-                    .copied()
-                    .filter(|&k| wanted(k))
-            })
+            .flat_map_iter(|&v| this.pairs_of(v).iter().copied().filter(|&k| wanted(k)))
             .collect();
         // The repaired pairs are not indexed by vertex: few enough to look at each.
         found.par_extend(this.repaired().filter(|&k| {
@@ -500,7 +511,7 @@ impl PairCache {
     /// Whether the build still holds every pair the local step may look at, as far as the
     /// vertices go (the reuse test of the module doc; the region pairs' part,
     /// [`Regions::hold`], depends only on the motion): per vertex `dev_i <= R_i`; writes
-    /// `dev_i` and `max_i dev_i`. False if a figure is NaN.
+    /// `dev_i`. False if a figure is NaN.
     fn covers(&mut self, allowance: &[f64]) -> bool {
         let (shift, vertex_body, regions) = (&self.shift, &self.vertex_body, &self.regions);
         allowance
@@ -518,14 +529,34 @@ impl PairCache {
                 }
             })
             .collect_into_vec(&mut self.deviation);
-        let (deviation, skin) = (&self.deviation, &self.skin);
-        let (farthest, within) = deviation
+        self.deviation
             .par_iter()
-            .zip(skin)
-            .map(|(&d, &r)| (d, d <= r))
-            .reduce(|| (0.0, true), |a, b| (a.0.max(b.0), a.1 && b.1));
-        self.farthest = farthest;
-        within
+            .zip(&self.skin)
+            .all(|(&d, &r)| d <= r)
+    }
+
+    /// The build's pairs of the vertex `v` (indices into `pairs`, below `arranged`).
+    fn pairs_of(&self, v: u32) -> &[u32] {
+        let v = v as usize;
+        &self.by_vertex[self.by_vertex_start[v] as usize..self.by_vertex_start[v + 1] as usize]
+    }
+
+    /// Splits the vertices by their deviations `dev_i` (as [`PairCache::covers`] last
+    /// measured them) for a filter's horizon: returns `D`, the least deviation that at most
+    /// [`OUTLYING_SHARE`] of the vertices exceed, and those vertices (increasing).
+    fn outlying(&self) -> (f64, Vec<u32>) {
+        let n = self.deviation.len();
+        let most = (OUTLYING_SHARE * n as f64) as usize;
+        let Some(rank) = n.checked_sub(most + 1) else {
+            return (0.0, Vec::new());
+        };
+        let mut sorted = self.deviation.clone();
+        let (_, &mut typical, _) = sorted.select_nth_unstable_by(rank, f64::total_cmp);
+        let outlying = (0..n as u32)
+            .into_par_iter()
+            .filter(|&i| self.deviation[i as usize] > typical)
+            .collect();
+        (typical, outlying)
     }
 
     /// Writes `[s_i - r_i, y_i - r_i]` into `shift` and measures the regions' common
@@ -791,6 +822,14 @@ impl PairCache {
         self.sweep.valid = false;
     }
 }
+
+/// The most vertices, as a share of all, whose deviations a filter's horizon may leave out
+/// (see [`PairCache::outlying`]; the module doc, "Skip"). A cost trade-off only: the filter
+/// looks at every pair of such a vertex by the index by vertex (about 1300 pairs per vertex
+/// on the paper's six layers landing, so 1/512 of the vertices cost a few percent of a
+/// sweep), and where the deviations of a few vertices reach centimetres (strays hitting the
+/// floor) the horizon from the rest is several times nearer.
+const OUTLYING_SHARE: f64 = 1.0 / 512.0;
 
 /// The most vertices, as a share of all, that a build may have raised skins for by
 /// [`PairCache::repair`] before it is built afresh instead (a cost trade-off only: a repair
@@ -1578,6 +1617,73 @@ pub(super) mod tests {
         assert!(
             renewals.iter().filter(|&&r| r == Renewal::Repaired).count() >= 2,
             "{renewals:?}"
+        );
+    }
+
+    /// Two sheets 18 mm apart, jittered by up to 0.3 mm, while two vertices of one head for
+    /// the other at 3 mm per local step, from the build on (so that the build stores their
+    /// pairs with the other sheet): their deviations reach 14 mm and the others' stay near
+    /// 3 mm, so the filter's horizon from all but the two (`reach + 2 D + max T`) is less than
+    /// half of the one from the farthest (`D` = the largest deviation) and leaves out their
+    /// pairs with the other sheet; found by the index by vertex, those that may come within
+    /// reach are still live (every cached pair that may, and every pair within reach by brute
+    /// force).
+    #[test]
+    fn a_few_fast_vertices_do_not_make_every_pair_near() {
+        let mut rng = Rng::new(47);
+        let side = 24u32;
+        let n = side * side;
+        let sheets = TestMesh::two_sheets(side, 0.018);
+        let (mesh, rest) = (sheets.mesh(), sheets.positions.clone());
+        let (_, every) = brute_force_pairs(&mesh, &rest);
+        let strays = [n + 9 * side + 9, n + 14 * side + 12];
+        assert_eq!((OUTLYING_SHARE * f64::from(2 * n)) as usize, strays.len());
+        let (reach, allowance) = (0.008, vec![0.002; rest.len()]);
+        let clamp = vec![1.0; rest.len()];
+        let (mut cache, mut live, mut within) = (PairCache::default(), Vec::new(), 0);
+        let (mut safe, mut beyond_live) = (rest.clone(), 0);
+        for k in 0..4 {
+            let target: Vec<_> = (0..rest.len())
+                .map(|i| {
+                    let towards = if strays.contains(&(i as u32)) {
+                        -0.003 * (k + 1) as f64
+                    } else {
+                        0.0
+                    };
+                    rest[i] + Vector3::new(towards, 0.0, 0.0) + rng.vector() * 0.0003
+                })
+                .collect();
+            let renewal = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+            assert_eq!(renewal == Renewal::Built, k == 0, "step {k}: {renewal:?}");
+            let (typical, outlying) = cache.outlying();
+            assert_eq!(outlying, strays, "step {k}");
+            let farthest = cache.deviation.iter().copied().fold(0.0, f64::max);
+            let near = cache.order.within(reach + 2.0 * typical + cache.apart);
+            let near_by_farthest = cache.order.within(reach + 2.0 * farthest + cache.apart);
+            if k >= 2 {
+                assert!(
+                    2 * near < near_by_farthest,
+                    "step {k}: {near} pairs near, {near_by_farthest} by the farthest deviation"
+                );
+            }
+            let mut live_sorted = live.clone();
+            live_sorted.sort_unstable();
+            beyond_live += cache.pairs[near..cache.arranged]
+                .iter()
+                .filter(|(p, _)| live_sorted.binary_search(p).is_ok())
+                .count();
+            cache.assert_live_hold_every_cached_pair_that_may_come_within(
+                &live, &allowance, reach, k,
+            );
+            let moves = Moves::new(&safe, &target, &clamp, &allowance);
+            within +=
+                moves.assert_live_hold_every_pair_within_reach(&every, &live, reach, &mut rng, k);
+            safe = target;
+        }
+        assert!(within > 100, "the scene has pairs within reach: {within}");
+        assert!(
+            beyond_live > 0,
+            "live pairs beyond the horizon: {beyond_live}"
         );
     }
 
