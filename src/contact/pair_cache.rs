@@ -293,9 +293,10 @@ impl PairCache {
     /// repairs added, not indexed, are each looked at.
     ///
     /// The repair here saves a full filter: the region pairs' motions are the ones the last
-    /// filter measured (they still hold), and a pair that the filter left beyond its
-    /// horizon (`reach + 2 max dev + max T`, with `max dev` now larger) has a grown vertex
-    /// if its bound has fallen below `reach`, so the index finds it. On the paper's six
+    /// filter measured (they still hold), and a pair that the filter left out without a look
+    /// (beyond its horizon `reach + 2 D + max T`, no vertex beyond `D`, which a filter
+    /// afresh might now set larger) has a grown vertex if its bound has fallen below
+    /// `reach`, so the index finds it. On the paper's six
     /// layers landing on the floor (steps 476-478 from a saved state), a local step's
     /// allowances outgrew the build six times in a row, and each full filter looked again at
     /// all 76M cached pairs (about 2 s each) for a repair that itself took 10 ms.
