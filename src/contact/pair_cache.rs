@@ -213,8 +213,7 @@ impl PairCache {
         let holds = fits && self.regions.hold();
         let renewal = if holds && self.covers(allowance) {
             Renewal::Kept
-        } else if holds && self.repair(mesh, reach) && self.regions.hold() && self.covers(allowance)
-        {
+        } else if holds && self.repair_to_cover(mesh, reach, allowance) {
             Renewal::Repaired
         } else {
             self.build(safe, target, allowance, mesh, reach);
@@ -222,17 +221,7 @@ impl PairCache {
             Renewal::Built
         };
         self.apart = self.regions.largest_near_motion();
-        // Only pairs closer than `reach + 2 D + max T` at `r`, or with a vertex deviating by
-        // more than `D`, can pass the first test.
-        let (typical, outlying) = self.outlying();
-        let horizon = reach + 2.0 * typical + self.apart;
-        let horizon = if horizon.is_nan() {
-            f64::INFINITY
-        } else {
-            horizon
-        };
-        // NaN distances come first and count as near.
-        let near = self.order.within(horizon);
+        let (near, outlying) = self.near(reach);
         self.is_live[..self.flagged].fill(false);
         // Ski rental: refilter until the refilters since the sweep have cost a sweep.
         let fall = if self.sweep.valid && self.sweep.rent <= near as f64 {
@@ -314,7 +303,7 @@ impl PairCache {
         );
         let renewal = if self.covers(allowance) {
             Renewal::Kept
-        } else if {
+        } else {
             // The last filter left every vertex covered, and only the grown ones' deviations
             // have grown since: the strays, and the sides of every pair the repair adds, are
             // among them.
@@ -323,13 +312,10 @@ impl PairCache {
                     || grown.binary_search(&(i as u32)).is_ok()),
                 "a stray that did not grow"
             );
-            self.repair(mesh, reach)
-        } && self.regions.hold()
-            && self.covers(allowance)
-        {
+            if !self.repair_to_cover(mesh, reach, allowance) {
+                return None;
+            }
             Renewal::Repaired
-        } else {
-            return None;
         };
         debug_assert!(grown.windows(2).all(|w| w[0] < w[1]), "grown is increasing");
         let this = &*self;
@@ -534,6 +520,27 @@ impl PairCache {
             .par_iter()
             .zip(&self.skin)
             .all(|(&d, &r)| d <= r)
+    }
+
+    /// Repairs the build ([`PairCache::repair`]) and tells whether it then covers the
+    /// allowances `allowance` (m), its region pairs' motions included.
+    fn repair_to_cover(&mut self, mesh: &ContactMesh, reach: f64, allowance: &[f64]) -> bool {
+        self.repair(mesh, reach) && self.regions.hold() && self.covers(allowance)
+    }
+
+    /// The filter's horizon: how many of the build's arranged pairs are closer at `r` than
+    /// `reach + 2 D + max T` (m; NaN distances, first, count as near), and the vertices
+    /// deviating by more than `D` ([`PairCache::outlying`]). Only those pairs, and the
+    /// pairs of those vertices, can pass the first test.
+    fn near(&self, reach: f64) -> (usize, Vec<u32>) {
+        let (typical, outlying) = self.outlying();
+        let horizon = reach + 2.0 * typical + self.apart;
+        let horizon = if horizon.is_nan() {
+            f64::INFINITY
+        } else {
+            horizon
+        };
+        (self.order.within(horizon), outlying)
     }
 
     /// The build's pairs of the vertex `v` (indices into `pairs`, below `arranged`).
@@ -1656,10 +1663,9 @@ pub(super) mod tests {
                 .collect();
             let renewal = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
             assert_eq!(renewal == Renewal::Built, k == 0, "step {k}: {renewal:?}");
-            let (typical, outlying) = cache.outlying();
+            let (near, outlying) = cache.near(reach);
             assert_eq!(outlying, strays, "step {k}");
             let farthest = cache.deviation.iter().copied().fold(0.0, f64::max);
-            let near = cache.order.within(reach + 2.0 * typical + cache.apart);
             let near_by_farthest = cache.order.within(reach + 2.0 * farthest + cache.apart);
             if k >= 2 {
                 assert!(
