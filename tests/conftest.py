@@ -175,6 +175,66 @@ def plate_scene(half, *, speed=0.0, slant=0.0, lift=0.0, contact=False, backend=
     return s, m, plate
 
 
+def turned(angle, axis):
+    """Rotation matrix by `angle` (rad) about the unit `axis` (Rodrigues)."""
+    k = np.asarray(axis, float)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+#: The slope of `slope_scene` (rad): tan = 0.5, so Coulomb friction holds a cloth for mu > 0.5.
+SLOPE = np.arctan(0.5)
+#: The time step of `slope_scene` (s).
+SLOPE_DT = 2e-3
+
+
+def slope_scene(backend, precision, shape, mu):
+    """A free 12 x 12 cloth (0.3 m) lying at rest on a slope of angle SLOPE with Coulomb
+    coefficient `mu`: a `Plane`, the top face of a turned `Box`, the top line of a `Capsule`
+    of radius 20 m whose axis runs downhill (the cloth's sides sit at most 0.6 mm above it),
+    or the top face of a `MeshCollider` of the turned box (its field is exact there: linear).
+    Returns the membrane, its solver, the downhill direction and the start positions."""
+    import trimesh
+
+    turn = turned(SLOPE, (0.0, 1.0, 0.0))  # x -> downhill (cos, 0, -sin); z -> the normal
+    normal, downhill = turn[:, 2], turn[:, 0]
+    v, t = make_grid(12, 12, 0.3, 0.3)
+    m = membrane(v @ turn.T, t, material=peridyn.StretchA3(s0=2e4), thickness=1e-3,
+                 density=300.0, bending=1e-5, hourglass=0.1)
+    surface = -0.5e-3 * normal  # the cloth's mid-surface sits half its thickness above it
+    under_centre = surface + 0.15 * downhill + np.array([0.0, 0.15, 0.0])
+    if shape == "plane":
+        collider = peridyn.Plane(point=surface, normal=normal, friction=mu)
+    elif shape == "box":
+        collider = peridyn.Box(center=under_centre - 0.1 * normal, half_extents=(1.0, 1.0, 0.1),
+                               rotation=turn, friction=mu)
+    elif shape == "capsule":
+        axis = under_centre - 20.0 * normal
+        collider = peridyn.Capsule(a=axis - 0.5 * downhill, b=axis + 0.5 * downhill,
+                                   radius=20.0, friction=mu)
+    elif shape == "mesh":
+        box = trimesh.creation.box(extents=(2.0, 2.0, 0.2))
+        vertices = box.vertices @ turn.T + (under_centre - 0.1 * normal)
+        collider = peridyn.MeshCollider(vertices, box.faces, friction=mu)
+    else:
+        raise ValueError(f"unknown shape {shape!r}")
+    # friction needs the step solved tightly: at tol = 1e-6 the iteration stops while the
+    # tangential reaction is still short of the Coulomb bound (the cloth slides 5 % too far)
+    sol = peridyn.Solver(backend=backend, precision=precision, dt=SLOPE_DT, tol=1e-8,
+                         max_iters=60)
+    sol.add(m)
+    sol.add_collider(collider)
+    return m, sol, downhill, v @ turn.T
+
+
+def coulomb_slide(mu, steps):
+    """How far (m) a block at rest on `slope_scene`'s slope slides in `steps` implicit Euler
+    steps of SLOPE_DT with Coulomb coefficient `mu`: 0 where friction holds it (mu >= tan),
+    else s_n = a h^2 n (n + 1) / 2 with a = g (sin - mu cos)."""
+    a = G * (np.sin(SLOPE) - mu * np.cos(SLOPE))
+    return max(a, 0.0) * SLOPE_DT**2 * steps * (steps + 1) / 2
+
+
 def find_numbers(text):
     return [float(x) for x in re.findall(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", text)]
 

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import peridyn
-from conftest import G, make_grid, membrane, plate_scene
+from conftest import G, coulomb_slide, icosphere, make_grid, membrane, plate_scene, slope_scene, turned
 
 REQUIRE = os.environ.get("PERIDYN_REQUIRE_GPU") == "1"
 
@@ -317,13 +317,6 @@ def test_missing_adapter_raises_a_clear_error():
 # hence the 250x factor (the differences do not all align).
 
 
-def _turned(angle, axis):
-    """Rotation matrix by `angle` (rad) about the unit `axis` (Rodrigues)."""
-    k = np.asarray(axis, float)
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
-
-
 def drape_over_scene(backend, precision, collider, pins=(0, 19)):
     """The 20 x 20 cloth of `drape`, pinned at `pins`, over `collider`: membrane and solver."""
     v, t = make_grid(20, 20, 0.5, 0.5)
@@ -346,7 +339,7 @@ def drape_over(backend, precision, collider, steps=100, pins=(0, 19)):
 
 COLLIDERS = {
     "box": lambda: peridyn.Box(center=(0.25, 0.2, -0.12), half_extents=(0.12, 0.08, 0.06),
-                               rotation=_turned(0.4, (0.0, 0.6, 0.8))),
+                               rotation=turned(0.4, (0.0, 0.6, 0.8))),
     "capsule": lambda: peridyn.Capsule(a=(0.05, 0.1, -0.1), b=(0.45, 0.3, -0.14), radius=0.05),
 }
 
@@ -375,32 +368,6 @@ def test_draping_over_box_and_capsule_matches_cpu(gpu, shape, precision):
     assert d.min() < 2e-3  # ... and touching it
 
 
-SLOPE = np.arctan(0.5)  # tan = 0.5: Coulomb friction holds the cloth for mu > 0.5
-
-
-def slope_scene(backend, precision, shape, mu):
-    """A free 12 x 12 cloth (0.3 m) lying on a slope of angle SLOPE (a plane or the top face
-    of a turned box), at rest; returns the membrane, its solver, the downhill direction and
-    the start positions."""
-    turn = _turned(SLOPE, (0.0, 1.0, 0.0))  # x -> downhill (cos, 0, -sin); z -> the normal
-    normal, downhill = turn[:, 2], turn[:, 0]
-    v, t = make_grid(12, 12, 0.3, 0.3)
-    m = membrane(v @ turn.T, t, material=peridyn.StretchA3(s0=2e4), thickness=1e-3,
-                 density=300.0, bending=1e-5, hourglass=0.1)
-    surface = -0.5e-3 * normal  # the cloth's mid-surface sits half its thickness above it
-    if shape == "plane":
-        collider = peridyn.Plane(point=surface, normal=normal, friction=mu)
-    else:
-        collider = peridyn.Box(center=surface - 0.1 * normal + 0.15 * downhill + [0, 0.15, 0],
-                               half_extents=(1.0, 1.0, 0.1), rotation=turn, friction=mu)
-    # friction needs the step solved tightly: at tol = 1e-6 the iteration stops while the
-    # tangential reaction is still short of the Coulomb bound (the cloth slides 5 % too far)
-    sol = peridyn.Solver(backend=backend, precision=precision, dt=2e-3, tol=1e-8, max_iters=60)
-    sol.add(m)
-    sol.add_collider(collider)
-    return m, sol, downhill, v @ turn.T
-
-
 def on_slope(backend, precision, shape, mu, steps=100):
     """`slope_scene` run for `steps` steps: the membrane, the iterations per step, the downhill
     direction and the start positions."""
@@ -420,11 +387,10 @@ def test_friction_on_a_slope_matches_cpu_and_coulomb(gpu, shape, mu):
     assert_parity(mg, mc, ig, ic, "f32")
     slide = ((mg.positions - x0) @ downhill).mean()
     print(f"{shape} mu = {mu}: slid {slide:.4e} m")
-    if mu > np.tan(SLOPE):
+    expected = coulomb_slide(mu, steps=100)
+    if expected == 0.0:
         assert abs(slide) < 2e-4, slide
     else:
-        h, n = 2e-3, 100
-        expected = G * (np.sin(SLOPE) - mu * np.cos(SLOPE)) * h * h * n * (n + 1) / 2
         assert slide == pytest.approx(expected, rel=0.01)
 
 
@@ -579,6 +545,16 @@ def test_cli_runs_on_the_gpu(gpu, tmp_path):
     assert data["positions_0"].shape == (3, 64, 3)
     assert np.isfinite(data["positions_0"]).all()
     assert not np.array_equal(data["positions_0"][0], data["positions_0"][-1])
+
+
+def test_gpu_refuses_mesh_colliders_and_poses(gpu):
+    s = peridyn.Solver(dt=1e-3, backend="gpu")
+    v, t = icosphere(1, 0.2)
+    with pytest.raises(ValueError, match="MeshCollider"):
+        s.add_collider(peridyn.MeshCollider(v, t, resolution=8))
+    s.add_collider(peridyn.Plane())
+    with pytest.raises(ValueError, match="GPU.*pose"):
+        s.set_collider_pose(0, translation=(0, 0, 1))
 
 
 def test_gpu_refuses_what_it_does_not_implement():

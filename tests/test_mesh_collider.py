@@ -203,16 +203,3 @@ def test_a_turning_table_with_friction_carries_the_cloth_around():
     assert np.abs(radius).max() < 2e-4
     start, end, _ = spin(0.0)
     assert np.abs(end - start).max() < 1e-3
-
-
-def test_gpu_refuses_mesh_colliders_and_poses():
-    try:
-        s = peridyn.Solver(dt=1e-3, backend="gpu")
-    except RuntimeError:
-        pytest.skip("no GPU adapter")
-    v, t = icosphere(1, 0.2)
-    with pytest.raises(ValueError, match="MeshCollider"):
-        s.add_collider(peridyn.MeshCollider(v, t, resolution=8))
-    s.add_collider(peridyn.Plane())
-    with pytest.raises(ValueError, match="GPU.*pose"):
-        s.set_collider_pose(0, translation=(0, 0, 1))
