@@ -105,7 +105,22 @@ def test_a_lone_flat_cloth_reuses_the_broad_phase_and_tests_no_pair():
     assert local_steps == 50 and 1 <= builds <= 2
 
 
+def assert_contact_figures_add_up(stats):
+    """A step's contact figures (StepStats.contact) are consistent with each other and with
+    the step's time: the candidates are among the overlapping boxes, the active pairs among the
+    pairs looked at, and a step with active pairs did descent work; the phases' times fit in
+    the step's."""
+    c = stats.contact
+    assert c["box_pairs"] >= c["candidate_pairs"] > 0, c
+    assert c["primitive_pairs"] >= c["active_pairs"], c
+    if c["active_pairs"] > 0:
+        assert c["local_iterations"] >= 1 and c["descent_ms"] > 0.0, c
+    phases = c["broad_phase_ms"] + c["ccd_ms"] + c["descent_ms"]
+    assert 0.0 < phases <= stats.timings["total"], (c, stats.timings)
+
+
 def test_three_layers_dropped_on_a_sphere_never_intersect():
+    # The layers reach the ball at about step 32 and lie stacked on it for the 90 steps after.
     layers = [sheet(9, 0.3, 0.02 + 0.008 * k) for k in range(3)]
     solver = peridyn.Solver(dt=2e-3, max_iters=15, tol=1e-5,
                             contact=peridyn.Contact(**CONTACT))
@@ -114,15 +129,20 @@ def test_three_layers_dropped_on_a_sphere_never_intersect():
     ball = peridyn.Sphere(center=(0.0, 0.0, -0.1), radius=0.1)
     solver.add_collider(ball)
     _, tris, _ = mesh_of(layers)
-    touched = 0
-    for _ in range(40):
+    in_contact = builds = ccd_queries = 0
+    for _ in range(120):
         stats = solver.step()
         x, _, _ = mesh_of(layers)
         assert not intersecting_pairs(x, tris)
         assert min_separation(x, tris, 2 * XI) > CONTACT["eps"] * XI
         assert ball.signed_distance(x).min() > -1e-6
-        touched = max(touched, stats.contact["active_pairs"])
-    assert touched > 0, "the layers must have come into contact"
+        assert_contact_figures_add_up(stats)
+        in_contact += stats.contact["active_pairs"] > 0
+        builds += stats.contact["broad_phase_builds"]
+        ccd_queries += stats.contact["ccd_queries"]
+    assert in_contact >= 80, f"the layers were in contact at only {in_contact} steps"
+    assert ccd_queries > 0
+    assert 1 <= builds < 120, "the broad phase is built when needed, not at every step"
     # The layers lie on the ball, stacked in order at its top.
     top = [body.positions[np.argmin(np.linalg.norm(body.positions[:, :2], axis=1)), 2]
            for body in layers]
