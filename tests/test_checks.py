@@ -8,8 +8,6 @@ import pytest
 from peridyn import checks
 from peridyn._core import contact
 
-ipctk = pytest.importorskip("ipctk")
-
 
 def crumpled_sheet(n=10, seed=1):
     """A unit grid rolled into a spiral (layers about 0.03 apart) and jittered."""
