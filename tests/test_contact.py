@@ -204,13 +204,14 @@ def momentum_through_a_collision(proximal):
 
 def test_contact_between_a_light_and_a_heavy_sheet_conserves_momentum():
     # With the proximal term of the local step in the global step's Jacobi metric (the
-    # default), the iteration's fixed point balances each vertex's residual with d * mu * grad B,
-    # the gradient of an energy, so a pair's pushes cancel and momentum is kept up to the local
-    # step's stopping test (it stops once its moves are below tol / 5, 20 nm): measured 0.0011
-    # of the light sheet's momentum (0.06 with the stop at 1 % of eps * xi, 2 um, above tol).
-    # In the paper's identity metric each vertex's push is
-    # scaled by its own D_i, eight times larger on the heavy sheet, whose vertices then slow
-    # down as fast as the light one's: both nearly stop (7.6 of the light sheet's momentum).
+    # default), the iteration's fixed point balances each vertex's residual with its push
+    # s_c alpha_c^i n_c (eq. 49), and a pair's pushes cancel (its weights sum to 1 on one
+    # primitive and -1 on the other), so momentum is kept up to the local step's stopping test
+    # (it stops once its moves are below tol / 5, 20 nm): measured 0.0011 of the light sheet's
+    # momentum (0.06 with the stop at 1 % of eps * xi, 2 um, above tol). In the paper's
+    # identity metric each vertex's push is scaled by its own D_i, eight times larger on the
+    # heavy sheet, whose vertices then slow down as fast as the light one's: both nearly stop
+    # (7.6 of the light sheet's momentum).
     drift, active = momentum_through_a_collision("jacobi")
     assert active > 0, "the sheets must have touched"
     assert drift < 0.005, drift
