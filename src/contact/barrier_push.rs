@@ -475,4 +475,98 @@ pub(super) mod tests {
         }
         assert!(pushed > n / 4, "{pushed} of {n} vertices feel the barrier");
     }
+    /// The push of a lone pair against central differences of its barrier energy
+    /// `E(x) = mu B(f(d(x)) - xi)` (eq. 47, fade 1), on random point-triangle and edge-edge
+    /// pairs set at distances across the barrier's range: beyond the rescale (`d > (1 + 2 eps)
+    /// xi`, `f' = 1`) the push is the energy's descent direction `-grad E` exactly; within it
+    /// eq. 49 leaves `f'(d)` out, so the push is `-grad E / f'`, larger (the rescaled
+    /// barrier's slope, not the energy's: it keeps pushing apart as `f'` falls to 0 at `xi`).
+    #[test]
+    fn the_push_is_the_descent_direction_of_the_barrier_energy_up_to_the_rescale_slope() {
+        let barrier = Barrier {
+            thickness: 1.5e-3,
+            d_hat: 6e-3,
+            eps: 0.1,
+        };
+        let xi = barrier.thickness;
+        let rescale_end = (1.0 + 2.0 * barrier.eps) * xi;
+        let mut rng = Rng::new(23);
+        let mut checked = [[0; 2]; 2];
+        for case in 0..400 {
+            let pair = Pair {
+                edge_edge: case % 2 == 1,
+                v: [0, 1, 2, 3],
+            };
+            let mut x: Vec<Vector3<f64>> = (0..4).map(|_| rng.vector() * 0.01).collect();
+            // Set the pair at a distance drawn within the rescale `(xi, (1 + 2 eps) xi)` or
+            // beyond it, up to `reach`, by moving its second primitive along the separation.
+            let c = pair.closest(&x);
+            let d = c.separation.norm();
+            let (near, far) = if case % 4 < 2 {
+                (xi, rescale_end)
+            } else {
+                (rescale_end, barrier.reach())
+            };
+            let target = near + (far - near) * (0.02 + 0.96 * rng.uniform().abs());
+            let (_, second) = pair.sides();
+            for &v in second {
+                x[v as usize] -= c.separation * ((target - d) / d);
+            }
+            let c = pair.closest(&x);
+            let d = c.separation.norm();
+            let normal = c.separation / d;
+            let edges_parallel = pair.edge_edge && {
+                let (a, b) = (x[1] - x[0], x[3] - x[2]);
+                a.cross(&b).norm() < 0.1 * a.norm() * b.norm()
+            };
+            // Away from the rescale's breakpoint (f'' jumps there) and from nearly parallel
+            // edges (closest points that jump with the motion).
+            if (d - rescale_end).abs() < 1e-5 || edges_parallel || d >= barrier.reach() - 1e-5 {
+                continue;
+            }
+            let sums = sums_from_scratch(&[pair], &[c], &[1.0], 4, (&barrier, MU));
+            let energy = |x: &[Vector3<f64>]| {
+                MU * barrier.value(barrier.gap(pair.closest(x).separation.norm()))
+            };
+            let h = 1e-8;
+            let slope = barrier.rescale_derivative(d);
+            // Within a millionth of the largest slope, `|B'(eps xi)|`.
+            let tolerance = 1e-6 * MU * barrier.derivative_bound();
+            for v in 0..4 {
+                let mut descent = Vector3::zeros();
+                for k in 0..3 {
+                    let (mut ahead, mut behind) = (x.clone(), x.clone());
+                    ahead[v][k] += h;
+                    behind[v][k] -= h;
+                    descent[k] = -(energy(&ahead) - energy(&behind)) / (2.0 * h);
+                }
+                assert!(
+                    (sums.0[v] * slope - descent).norm() <= tolerance,
+                    "case {case} ({} at d = {d:e} m, f' = {slope}), vertex {v}: push {:?} \
+                     times f' against -grad E {:?}",
+                    if pair.edge_edge {
+                        "edge-edge"
+                    } else {
+                        "point-triangle"
+                    },
+                    sums.0[v] * slope,
+                    descent
+                );
+                // The push points along the separation, apart, on the side of each vertex.
+                assert!(
+                    sums.0[v].dot(&normal) * c.weights[v] >= 0.0,
+                    "case {case}, vertex {v}"
+                );
+            }
+            let within = usize::from(d < rescale_end);
+            checked[usize::from(pair.edge_edge)][within] += 1;
+            if within == 1 {
+                assert!(slope < 1.0 && sums.0.iter().map(|p| p.norm()).sum::<f64>() > 0.0);
+            }
+        }
+        assert!(
+            checked.iter().flatten().all(|&n| n >= 10),
+            "{checked:?} [point-triangle, edge-edge] x [beyond, within the rescale]"
+        );
+    }
 }
