@@ -8,6 +8,7 @@ import re
 
 import numpy as np
 import pytest
+import trimesh
 
 import peridyn
 
@@ -194,8 +195,6 @@ def slope_scene(backend, precision, shape, mu):
     of radius 20 m whose axis runs downhill (the cloth's sides sit at most 0.6 mm above it),
     or the top face of a `MeshCollider` of the turned box (its field is exact there: linear).
     Returns the membrane, its solver, the downhill direction and the start positions."""
-    import trimesh
-
     turn = turned(SLOPE, (0.0, 1.0, 0.0))  # x -> downhill (cos, 0, -sin); z -> the normal
     normal, downhill = turn[:, 2], turn[:, 0]
     v, t = make_grid(12, 12, 0.3, 0.3)

@@ -103,7 +103,6 @@ def test_friction_on_a_slope_follows_coulomb_for_every_shape(shape, mu):
         assert abs(slide) < 2e-4, slide
     else:
         assert slide == pytest.approx(expected, rel=0.01)
-    assert coulomb_slide(0.0, steps=100) > 0.08
 
 
 def test_moving_collider_carries_the_cloth_and_keeps_it_outside():

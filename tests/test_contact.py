@@ -129,7 +129,7 @@ def test_three_layers_dropped_on_a_sphere_never_intersect():
     ball = peridyn.Sphere(center=(0.0, 0.0, -0.1), radius=0.1)
     solver.add_collider(ball)
     _, tris, _ = mesh_of(layers)
-    in_contact = builds = ccd_queries = 0
+    in_contact = builds = local_steps = ccd_queries = 0
     for _ in range(120):
         stats = solver.step()
         x, _, _ = mesh_of(layers)
@@ -139,10 +139,13 @@ def test_three_layers_dropped_on_a_sphere_never_intersect():
         assert_contact_figures_add_up(stats)
         in_contact += stats.contact["active_pairs"] > 0
         builds += stats.contact["broad_phase_builds"]
+        local_steps += stats.iterations
         ccd_queries += stats.contact["ccd_queries"]
     assert in_contact >= 80, f"the layers were in contact at only {in_contact} steps"
     assert ccd_queries > 0
-    assert 1 <= builds < 120, "the broad phase is built when needed, not at every step"
+    # Built when the motion outgrows the skins, not at every local step: measured 23 builds
+    # in 377 local steps.
+    assert 1 <= builds <= local_steps // 8, (builds, local_steps)
     # The layers lie on the ball, stacked in order at its top.
     top = [body.positions[np.argmin(np.linalg.norm(body.positions[:, :2], axis=1)), 2]
            for body in layers]

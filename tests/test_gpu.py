@@ -22,7 +22,8 @@ import numpy as np
 import pytest
 
 import peridyn
-from conftest import G, coulomb_slide, icosphere, make_grid, membrane, plate_scene, slope_scene, turned
+from conftest import (G, coulomb_slide, icosphere, make_grid, membrane, plate_scene, slope_scene,
+                      turned)
 
 REQUIRE = os.environ.get("PERIDYN_REQUIRE_GPU") == "1"
 
