@@ -679,7 +679,8 @@ impl PairCache {
             Some(&self.owners),
             &boxes,
             reference,
-            |p, d| within_limit(skin, regions, reach, p, d),
+            |p| limit(skin, regions, reach, p),
+            |_, _| true,
             &mut chunks,
         );
         self.order
@@ -790,10 +791,8 @@ impl PairCache {
             Some(&self.owners),
             &boxes,
             reference,
-            |p, d| {
-                within_limit(skin, regions, reach, p, d)
-                    && !within_limit(&before, regions, reach, p, d)
-            },
+            |p| limit(skin, regions, reach, p),
+            |p, d| !within_limit(&before, regions, reach, p, d),
             &mut chunks,
         );
         // Appended after the arranged pairs, which keep their places, their order, their
@@ -941,7 +940,15 @@ pub(super) mod tests {
             .map(|(a, b)| (a as u32, b as u32))
             .collect();
         let mut every = Vec::new();
-        close_primitive_pairs(mesh, None, &all, positions, |_, _| true, &mut every);
+        close_primitive_pairs(
+            mesh,
+            None,
+            &all,
+            positions,
+            |_| f64::INFINITY,
+            |_, _| true,
+            &mut every,
+        );
         let mut every: Vec<Pair> = every.into_iter().flatten().map(|(p, _)| p).collect();
         every.sort_unstable();
         every.dedup();
@@ -1240,8 +1247,7 @@ pub(super) mod tests {
             builds.push(renewal);
             if renewal == Renewal::Built {
                 let r = &cache.reference;
-                let keep =
-                    |p: &Pair, d: f64| within_limit(&cache.skin, &cache.regions, reach, p, d);
+                let limit = |p: &Pair| limit(&cache.skin, &cache.regions, reach, p);
                 let near: Vec<_> = all
                     .iter()
                     .copied()
@@ -1252,7 +1258,8 @@ pub(super) mod tests {
                             Some(&cache.owners),
                             &[pair],
                             r,
-                            keep,
+                            limit,
+                            |_, _| true,
                             &mut owned,
                         );
                         !candidates.is_empty()

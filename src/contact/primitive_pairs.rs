@@ -9,6 +9,7 @@ use super::broad_phase::ContactMesh;
 use super::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use super::distance::{edge_edge_closest, point_triangle_closest, Closest};
 use super::parallel_fade::edge_edge_fade;
+use super::regions::box_gap;
 use super::sweep::round_down;
 use super::vertex_index::index_by_vertex;
 
@@ -80,6 +81,24 @@ impl Pair {
     /// The vertices of the two primitives.
     pub fn sides(&self) -> (&[u32], &[u32]) {
         self.v.split_at(if self.edge_edge { 2 } else { 1 })
+    }
+
+    /// A lower bound of the pair's distance at the positions `x` (m) that costs a fraction of
+    /// [`Pair::closest`]: the gap between the axis-aligned boxes of its two primitives (every
+    /// point of a primitive lies in the box of its vertices). NaN if a position is NaN or
+    /// infinite.
+    pub fn box_gap(&self, x: &[Vector3<f64>]) -> f64 {
+        let p = self.points(x);
+        if (p[0] + p[1] + p[2] + p[3]).iter().any(|c| c.is_nan()) {
+            return f64::NAN;
+        }
+        let (a, b) = p.split_at(if self.edge_edge { 2 } else { 1 });
+        let bounds = |side: &[Vector3<f64>]| {
+            side[1..]
+                .iter()
+                .fold((side[0], side[0]), |(lo, hi), q| (lo.inf(q), hi.sup(q)))
+        };
+        box_gap(bounds(a), bounds(b))
     }
 
     /// Closest points at the positions `x` (m).
@@ -348,19 +367,24 @@ impl Owners {
 const BOXES_PER_CHUNK: usize = 4096;
 
 /// Writes into `found` the primitive pairs `p` of the triangle pairs `(i, j)` (`i < j`) of
-/// `boxes` whose distance `d` (m, NaN where a position is) at the positions `x` (m) passes
-/// `keep(p, d)`, each with that distance rounded down to `f32` (a lower bound in 4 bytes
-/// instead of 8; NaN stays NaN), in the order of `boxes`, in chunks (one per
+/// `boxes` whose distance `d` (m, NaN where a position is) at the positions `x` (m) is below
+/// `limit(p)` (m) or NaN and passes `keep(p, d)`, each with that distance rounded down to `f32`
+/// (a lower bound in 4 bytes instead of 8; NaN stays NaN), in the order of `boxes`, in chunks
+/// (one per
 /// [`BOXES_PER_CHUNK`] triangle pairs: concatenating them is left to the caller, who orders
 /// them anyway); returns the triangle pairs that hold one of them (the candidates), in the
 /// same order. With `owners`, a triangle pair expands only the pairs it owns (see
 /// [`Owners`]): each close pair is found once (and only if the boxes of its owner are in
-/// `boxes`); without, a pair shared by several triangle pairs is found once for each.
+/// `boxes`); without, a pair shared by several triangle pairs is found once for each. A pair
+/// whose [`Pair::box_gap`] is at least its limit is left out without its distance: most pairs
+/// of a build's boxes are beyond their limit, and their closest points cost several times
+/// the gap.
 pub(super) fn close_primitive_pairs(
     mesh: &ContactMesh,
     owners: Option<&Owners>,
     boxes: &[(u32, u32)],
     x: &[Vector3<f64>],
+    limit: impl Fn(&Pair) -> f64 + Sync,
     keep: impl Fn(&Pair, f64) -> bool + Sync,
     found: &mut Vec<Vec<(Pair, f32)>>,
 ) -> Vec<(u32, u32)> {
@@ -377,8 +401,15 @@ pub(super) fn close_primitive_pairs(
                         .into_iter()
                         .zip(owned)
                         .filter_map(|(p, owned)| owned.then_some(p))
-                        .map(|p| (p, p.closest(x).separation.norm()))
-                        .filter(|(p, d)| keep(p, *d))
+                        .filter_map(|p| {
+                            let limit = limit(&p);
+                            // A NaN gap or limit compares false: the distance decides then.
+                            if p.box_gap(x) >= limit {
+                                return None;
+                            }
+                            let d = p.closest(x).separation.norm();
+                            ((d < limit || d.is_nan()) && keep(&p, d)).then_some((p, d))
+                        })
                         .map(|(p, d)| (p, round_down(d))),
                 );
                 if close.len() > before {
@@ -557,5 +588,98 @@ mod tests {
         assert!(pair
             .relative_distance_bound(1.0, &shift, &[0.0; 4])
             .is_nan());
+    }
+
+    /// The box gap never exceeds the pair's distance, is often a large part of it for
+    /// primitives apart, equals it for a point straight above a triangle in a plane `z = c`,
+    /// and is NaN where a position is.
+    #[test]
+    fn the_box_gap_is_a_lower_bound_of_the_distance() {
+        let mut rng = Rng::new(17);
+        let mut tight = 0;
+        for k in 0..4000 {
+            let pair = Pair {
+                edge_edge: k % 2 == 0,
+                v: [0, 1, 2, 3],
+            };
+            let split = if pair.edge_edge { 2 } else { 1 };
+            let offset = rng.vector() * 3.0;
+            let x: Vec<_> = (0..4)
+                .map(|i| rng.vector() + if i < split { offset } else { Vector3::zeros() })
+                .collect();
+            let (gap, d) = (pair.box_gap(&x), pair.closest(&x).separation.norm());
+            assert!(
+                gap >= 0.0 && gap <= d + 1e-12,
+                "case {k}: gap {gap}, distance {d}"
+            );
+            tight += usize::from(gap > 0.5 * d);
+        }
+        assert!(tight > 1000, "{tight}");
+        let pair = Pair {
+            edge_edge: false,
+            v: [0, 1, 2, 3],
+        };
+        let mut x = vec![
+            Vector3::new(0.2, 0.3, 0.7),
+            Vector3::new(0.0, 0.0, 0.1),
+            Vector3::new(1.0, 0.0, 0.1),
+            Vector3::new(0.0, 1.0, 0.1),
+        ];
+        assert!((pair.box_gap(&x) - 0.6).abs() < 1e-12);
+        x[2].z = f64::NAN;
+        assert!(pair.box_gap(&x).is_nan());
+    }
+
+    /// Leaving out pairs by their box gap changes nothing: over every triangle pair of a soup
+    /// of random triangles (one vertex NaN), the pairs found with per-pair limits are exactly
+    /// those whose distance is below their limit or NaN and that pass `keep`.
+    #[test]
+    fn close_pairs_are_those_within_their_limit() {
+        let mut rng = Rng::new(19);
+        let x: Vec<_> = (0..90)
+            .map(|v| {
+                if v == 40 {
+                    Vector3::new(f64::NAN, 0.0, 0.0)
+                } else {
+                    rng.vector() * 2.0
+                }
+            })
+            .collect();
+        let triangles: Vec<[u32; 3]> = (0..30).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+        let body = vec![0; triangles.len()];
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[true],
+        };
+        let all: Vec<(u32, u32)> = (0..30)
+            .flat_map(|a| (a + 1..30).map(move |b| (a, b)))
+            .collect();
+        let limit = |p: &Pair| 0.2 + 0.1 * f64::from(p.v[0] % 7 + p.v[3] % 3);
+        let keep = |p: &Pair, d: f64| p.edge_edge || !(d < 0.1);
+        let found = |limit: &(dyn Fn(&Pair) -> f64 + Sync),
+                     keep: &(dyn Fn(&Pair, f64) -> bool + Sync)| {
+            let mut chunks = Vec::new();
+            close_primitive_pairs(&mesh, None, &all, &x, limit, keep, &mut chunks);
+            let mut pairs: Vec<Pair> = chunks.into_iter().flatten().map(|(p, _)| p).collect();
+            pairs.sort_unstable();
+            pairs
+        };
+        let mut expected: Vec<Pair> = found(&|_| f64::INFINITY, &|_, _| true)
+            .into_iter()
+            .filter(|p| {
+                let d = p.closest(&x).separation.norm();
+                (d < limit(p) || d.is_nan()) && keep(p, d)
+            })
+            .collect();
+        expected.sort_unstable();
+        let got = found(&limit, &keep);
+        assert_eq!(got, expected);
+        // Both ways out are taken: pairs beyond their box gap, pairs within their box gap but
+        // beyond their distance, and pairs kept.
+        let every = found(&|_| f64::INFINITY, &|_, _| true);
+        let beyond_gap = every.iter().filter(|p| p.box_gap(&x) >= limit(p)).count();
+        assert!(beyond_gap > 1000 && got.len() > 1000 && beyond_gap + got.len() < every.len());
+        assert!(got.iter().any(|p| p.v.contains(&40)));
     }
 }
