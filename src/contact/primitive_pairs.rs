@@ -656,7 +656,7 @@ mod tests {
             .flat_map(|a| (a + 1..30).map(move |b| (a, b)))
             .collect();
         let limit = |p: &Pair| 0.2 + 0.1 * f64::from(p.v[0] % 7 + p.v[3] % 3);
-        let keep = |p: &Pair, d: f64| p.edge_edge || !(d < 0.1);
+        let keep = |p: &Pair, d: f64| p.edge_edge || d >= 0.1 || d.is_nan();
         let found = |limit: &(dyn Fn(&Pair) -> f64 + Sync),
                      keep: &(dyn Fn(&Pair, f64) -> bool + Sync)| {
             let mut chunks = Vec::new();
