@@ -11,14 +11,15 @@ resident memory (``VmHWM`` delta, Rust allocations included) is its own.
 Per case: at least ``--warmup`` steps (the fall onto the ball), then on until a step ends with
 an active pair between membranes (``StepStats.contact['active_pairs'] > 0``), at most
 ``--max-warmup`` steps in all, then ``--steps`` timed steps with exactly ``--iters`` global
-iterations each (``tol = 0``) unless ``--tol`` is given. Reported as medians over the timed steps: ms per step and per phase (global, colliders,
-broad phase, CCD, descent = local step distances and moves), global and local (descent)
-iterations, candidate triangle pairs, live primitive pairs (those that may come within the
-barrier's reach), CCD queries and broad-phase builds per step, active primitive pairs, clamped
-vertices, peak memory. Three layers start one barrier reach apart, so they are in contact
-after the minimal warm-up; a single cloth has no contact of its own until it folds as it
-drapes (after 480-1020 steps on 30 x 30 to 60 x 60 vertices; 20 x 20 slides off the ball
-without folding within 1500), and before that its steps do no CCD and no descent. ``--no-until-contact`` times after exactly ``--warmup`` steps.
+iterations each (``tol = 0``) unless ``--tol`` is given. Reported as medians over the timed
+steps: ms per step and per phase (global, colliders, broad phase, CCD, descent = local step
+distances and moves), global and local (descent) iterations, candidate triangle pairs, live
+primitive pairs (those that may come within the barrier's reach), CCD queries and broad-phase
+builds per step, active primitive pairs, clamped vertices, peak memory. Three layers start
+one barrier reach apart, so they are in contact after the minimal warm-up; a single cloth has
+no contact of its own until it folds as it drapes (after 480-1020 steps on 30 x 30 to
+60 x 60 vertices; 20 x 20 slides off the ball without folding within 1500), and before that its steps do no CCD and no descent.
+``--no-until-contact`` times after exactly ``--warmup`` steps.
 
 Broad-phase cost against vertex count: one layer at ``--bp-sizes``, ms of broad phase per
 local step (there is one local step per global iteration).

@@ -83,13 +83,14 @@ impl Pair {
         self.v.split_at(if self.edge_edge { 2 } else { 1 })
     }
 
-    /// A lower bound of the pair's distance at the positions `x` (m) that costs a fraction of
-    /// [`Pair::closest`]: the gap between the axis-aligned boxes of its two primitives (every
-    /// point of a primitive lies in the box of its vertices). NaN if a position is NaN or
-    /// infinite.
-    pub fn box_gap(&self, x: &[Vector3<f64>]) -> f64 {
-        let p = self.points(x);
-        if (p[0] + p[1] + p[2] + p[3]).iter().any(|c| c.is_nan()) {
+    /// A lower bound of the pair's distance (m) at its four points `p` (m) that costs a
+    /// fraction of [`Pair::closest`]: the gap between the axis-aligned boxes of its two
+    /// primitives (every point of a primitive lies in the box of its vertices). NaN if a
+    /// position is NaN or infinite (where [`Pair::closest`] gives NaN too, so such a pair is
+    /// kept).
+    fn box_gap(&self, p: &[Vector3<f64>; 4]) -> f64 {
+        // A sum of finite coordinates may overflow: then the distance decides, as for NaN.
+        if !(p[0] + p[1] + p[2] + p[3]).iter().all(|c| c.is_finite()) {
             return f64::NAN;
         }
         let (a, b) = p.split_at(if self.edge_edge { 2 } else { 1 });
@@ -370,9 +371,8 @@ const BOXES_PER_CHUNK: usize = 4096;
 /// `boxes` whose distance `d` (m, NaN where a position is) at the positions `x` (m) is below
 /// `limit(p)` (m) or NaN and passes `keep(p, d)`, each with that distance rounded down to `f32`
 /// (a lower bound in 4 bytes instead of 8; NaN stays NaN), in the order of `boxes`, in chunks
-/// (one per
-/// [`BOXES_PER_CHUNK`] triangle pairs: concatenating them is left to the caller, who orders
-/// them anyway); returns the triangle pairs that hold one of them (the candidates), in the
+/// (one per [`BOXES_PER_CHUNK`] triangle pairs: concatenating them is left to the caller, who
+/// orders them anyway); returns the triangle pairs that hold one of them (the candidates), in the
 /// same order. With `owners`, a triangle pair expands only the pairs it owns (see
 /// [`Owners`]): each close pair is found once (and only if the boxes of its owner are in
 /// `boxes`); without, a pair shared by several triangle pairs is found once for each. A pair
@@ -402,12 +402,12 @@ pub(super) fn close_primitive_pairs(
                         .zip(owned)
                         .filter_map(|(p, owned)| owned.then_some(p))
                         .filter_map(|p| {
-                            let limit = limit(&p);
+                            let (limit, q) = (limit(&p), p.points(x));
                             // A NaN gap or limit compares false: the distance decides then.
-                            if p.box_gap(x) >= limit {
+                            if p.box_gap(&q) >= limit {
                                 return None;
                             }
-                            let d = p.closest(x).separation.norm();
+                            let d = p.closest_of(&q).separation.norm();
                             ((d < limit || d.is_nan()) && keep(&p, d)).then_some((p, d))
                         })
                         .map(|(p, d)| (p, round_down(d))),
@@ -592,7 +592,7 @@ mod tests {
 
     /// The box gap never exceeds the pair's distance, is often a large part of it for
     /// primitives apart, equals it for a point straight above a triangle in a plane `z = c`,
-    /// and is NaN where a position is.
+    /// and is NaN where a position is NaN or infinite (as the distance is).
     #[test]
     fn the_box_gap_is_a_lower_bound_of_the_distance() {
         let mut rng = Rng::new(17);
@@ -607,7 +607,10 @@ mod tests {
             let x: Vec<_> = (0..4)
                 .map(|i| rng.vector() + if i < split { offset } else { Vector3::zeros() })
                 .collect();
-            let (gap, d) = (pair.box_gap(&x), pair.closest(&x).separation.norm());
+            let (gap, d) = (
+                pair.box_gap(&pair.points(&x)),
+                pair.closest(&x).separation.norm(),
+            );
             assert!(
                 gap >= 0.0 && gap <= d + 1e-12,
                 "case {k}: gap {gap}, distance {d}"
@@ -625,9 +628,13 @@ mod tests {
             Vector3::new(1.0, 0.0, 0.1),
             Vector3::new(0.0, 1.0, 0.1),
         ];
-        assert!((pair.box_gap(&x) - 0.6).abs() < 1e-12);
+        assert!((pair.box_gap(&pair.points(&x)) - 0.6).abs() < 1e-12);
+        x[2].z = f64::INFINITY;
+        assert!(
+            pair.box_gap(&pair.points(&x)).is_nan() && pair.closest(&x).separation.norm().is_nan()
+        );
         x[2].z = f64::NAN;
-        assert!(pair.box_gap(&x).is_nan());
+        assert!(pair.box_gap(&pair.points(&x)).is_nan());
     }
 
     /// Leaving out pairs by their box gap changes nothing: over every triangle pair of a soup
@@ -678,7 +685,10 @@ mod tests {
         // Both ways out are taken: pairs beyond their box gap, pairs within their box gap but
         // beyond their distance, and pairs kept.
         let every = found(&|_| f64::INFINITY, &|_, _| true);
-        let beyond_gap = every.iter().filter(|p| p.box_gap(&x) >= limit(p)).count();
+        let beyond_gap = every
+            .iter()
+            .filter(|p| p.box_gap(&p.points(&x)) >= limit(p))
+            .count();
         assert!(beyond_gap > 1000 && got.len() > 1000 && beyond_gap + got.len() < every.len());
         assert!(got.iter().any(|p| p.v.contains(&40)));
     }
