@@ -52,6 +52,7 @@ CONTACT_FIGURES = ("candidate_pairs", "box_pairs", "primitive_pairs", "active_pa
 
 
 def build(args):
+    """The scene of the parsed arguments (``args`` of this script, or a run JSON's ``args``)."""
     from peridyn import paper_scenes
 
     common = dict(tol=args.tol, max_iters=args.max_iters, threads=args.threads)
@@ -62,10 +63,14 @@ def build(args):
     if args.scene == "cloths_over_ball":
         shape = {key: value for key, value in (("size", args.size), ("drop", args.drop))
                  if value is not None}
-        return paper_scenes.cloths_over_ball(layers=args.layers, n=args.n, **shape, **common)
-    if args.scene == "antependium":
-        return paper_scenes.antependium(n=args.n, **common)
-    return paper_scenes.shooting_shell(n=args.n, **common)
+        scene = paper_scenes.cloths_over_ball(layers=args.layers, n=args.n, **shape, **common)
+    elif args.scene == "antependium":
+        scene = paper_scenes.antependium(n=args.n, **common)
+    else:
+        scene = paper_scenes.shooting_shell(n=args.n, **common)
+    if args.proximal is not None:
+        scene.solver.contact = scene.solver.contact.replace(proximal=args.proximal)
+    return scene
 
 
 def check(scene, step):
@@ -167,8 +172,6 @@ def main(argv=None):
     rec = C.Record("paper_scenes", args)
     hwm0 = C.vm_kib("VmHWM")
     scene = build(args)
-    if args.proximal is not None:
-        scene.solver.contact = scene.solver.contact.replace(proximal=args.proximal)
     solver, contact = scene.solver, scene.solver.contact
     bodies = list(scene.bodies.values())
     colliders = list(scene.colliders.values())
