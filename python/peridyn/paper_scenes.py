@@ -50,6 +50,13 @@ def _bending(kb: float, s0: float) -> float:
     return kb * plate_bending_stiffness(2.0 * s0, 0.0, THICKNESS)
 
 
+def _cloth(V: np.ndarray, F: np.ndarray, s0: float, kb: float) -> _core.Membrane:
+    """A membrane of the scenes' cloth (:data:`THICKNESS`, :data:`DENSITY`) with
+    :class:`StretchA3` stiffness ``s0`` (Pa) and bending factor ``kb`` (see the module doc)."""
+    return _core.Membrane(V, F, thickness=THICKNESS, density=DENSITY,
+                          material=_core.StretchA3(s0=s0), bending=_bending(kb, s0))
+
+
 def _rest_gap(V: np.ndarray, F: np.ndarray) -> float:
     """The smallest distance (m) between non-adjacent primitives of the mesh ``(V, F)``
     (looked for within its longest edge: two triangles sharing no vertex are closer than that
@@ -163,14 +170,7 @@ def cloths_over_ball(
     bodies = {}
     for k in range(int(layers)):
         z = 2.0 * radius + drop + k * gap
-        cloth = _core.Membrane(
-            V + np.array([0.0, 0.0, z]),
-            F,
-            thickness=THICKNESS,
-            density=DENSITY,
-            material=_core.StretchA3(s0=s0),
-            bending=_bending(kb, s0),
-        )
+        cloth = _cloth(V + np.array([0.0, 0.0, z]), F, s0, kb)
         solver.add(cloth)
         bodies[f"layer{k}"] = cloth
     colliders = {
@@ -258,14 +258,7 @@ def antependium(
         dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=_contact(name, xi, [(V, F)]),
         **(solver_options or {}),
     )
-    cloth = _core.Membrane(
-        V,
-        F,
-        thickness=THICKNESS,
-        density=DENSITY,
-        material=_core.StretchA3(s0=s0),
-        bending=_bending(bending, s0),
-    )
+    cloth = _cloth(V, F, s0, bending)
     solver.add(cloth)
     depth, height = 0.8 * size, 0.75
     colliders = {
@@ -378,23 +371,9 @@ def shooting_shell(
     contact = _contact(name, xi, [(Vs, Fs), (Vt, Ft)])
     solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=contact,
                     **(solver_options or {}))
-    shell = _core.Membrane(
-        Vs,
-        Fs,
-        thickness=THICKNESS,
-        density=DENSITY,
-        material=_core.StretchA3(s0=s0),
-        bending=_bending(kb, s0),
-    )
+    shell = _cloth(Vs, Fs, s0, kb)
     shell.velocities = np.tile([0.0, 0.0, -speed], (len(Vs), 1))
-    target = _core.Membrane(
-        Vt,
-        Ft,
-        thickness=THICKNESS,
-        density=DENSITY,
-        material=_core.StretchA3(s0=target_s0),
-        bending=_bending(0.1, target_s0),
-    )
+    target = _cloth(Vt, Ft, target_s0, 0.1)
     border = np.flatnonzero(np.isclose(np.abs(Vt[:, :2]).max(axis=1), 0.5 * size))
     target.pin(border)
     solver.add(shell)
