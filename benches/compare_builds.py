@@ -17,11 +17,15 @@ reorders floating-point sums.
 
 A build is a wheel (``maturin build --release -o DIR``) or a directory holding an unpacked
 ``peridyn`` package. Wheels of older commits come from git worktrees that share this
-checkout's target directory, so only the crate itself compiles:
+checkout's target directory, so only the crate itself compiles. Cargo gives the crate the
+same fingerprint in every checkout and calls it fresh when no source file is newer than
+the last build of it, whichever checkout that was: touch the sources before each build, or
+the wheel holds the previous build's code (``Finished`` with no ``Compiling peridyn`` line;
+touch this checkout's too before building it again):
 
     git worktree add /tmp/ab/wt_a39010f a39010f
-    cd /tmp/ab/wt_a39010f && CARGO_TARGET_DIR=/work/main/target maturin build --release \\
-        -o /tmp/ab/wheels/a39010f
+    cd /tmp/ab/wt_a39010f && find src -name '*.rs' -exec touch {} + && \\
+        CARGO_TARGET_DIR=/work/main/target maturin build --release -o /tmp/ab/wheels/a39010f
 
 Then, from the repository root:
 
@@ -97,6 +101,17 @@ def unpacked(build: str, scratch: Path, name: str) -> Path:
     with zipfile.ZipFile(path) as wheel:
         wheel.extractall(target)
     return target
+
+
+def core_digest(where: Path) -> str:
+    """The SHA-256 of the build's compiled core (``peridyn/_core*.so`` or ``.pyd``)."""
+    import hashlib
+
+    cores = sorted((where / "peridyn").glob("_core*.so")) + sorted(
+        (where / "peridyn").glob("_core*.pyd"))
+    if len(cores) != 1:
+        raise SystemExit(f"{where}: expected one compiled core in peridyn/, found {len(cores)}")
+    return hashlib.sha256(cores[0].read_bytes()).hexdigest()
 
 
 def run_build(name, where, args, scratch, index):
@@ -177,6 +192,13 @@ def main(argv=None):
     with tempfile.TemporaryDirectory(prefix="peridyn_builds_") as tmp:
         scratch = Path(tmp)
         where = {name: unpacked(build, scratch, name) for name, build in builds.items()}
+        digests = {name: core_digest(path) for name, path in where.items()}
+        same = [name for name in names[1:] if digests[name] in
+                [digests[earlier] for earlier in names[:names.index(name)]]]
+        if same:
+            p.error(f"builds {same} hold the same compiled core as an earlier build (see "
+                    "--help on touching the sources before building)")
+        rec.data["core_sha256"] = digests
         for r in range(args.rounds):
             for name in (names if r % 2 == 0 else names[::-1]):
                 result, x = run_build(name, where[name], args, scratch, r)
