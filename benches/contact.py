@@ -17,15 +17,19 @@ distances and moves), global and local (descent) iterations, candidate triangle 
 primitive pairs (those that may come within the barrier's reach), CCD queries and broad-phase
 builds per step, active primitive pairs, clamped vertices, peak memory. Three layers start
 one barrier reach apart, so they are in contact after the minimal warm-up; a single cloth has
-no contact of its own until it folds as it drapes (after 480-1020 steps on 30 x 30 to
-60 x 60 vertices; 20 x 20 slides off the ball without folding within 1500), and before that its steps do no CCD and no descent.
+no contact of its own until it folds as it drapes (after 343-384 steps from 80 x 80 to
+200 x 200 vertices, 475-1020 from 30 x 30 to 60 x 60; 20 x 20 slides off the ball without
+folding within 1500), and before that its steps do no CCD and no descent.
 ``--no-until-contact`` times after exactly ``--warmup`` steps.
 
 Broad-phase cost against vertex count: one layer at ``--bp-sizes``, ms of broad phase per
 local step (there is one local step per global iteration).
 
-Quick check (minutes):     python benches/contact.py --sizes 1:30,3:17 --bp-sizes 30 --steps 2 --warmup 12 --max-warmup 600
-Full size:                python benches/contact.py
+Quick check (minutes):
+    python benches/contact.py --sizes 1:30,3:17 --bp-sizes 30 --steps 2 --warmup 12 \\
+        --max-warmup 600
+Full size (about 10 minutes alone on 2 cores):
+    python benches/contact.py
 """
 
 from __future__ import annotations

@@ -19,7 +19,8 @@ A full-size run can take longer than one sitting: with ``--state PATH`` the solv
 arguments and ``--state PATH`` continues from it, appending to the JSON of ``--out`` (one entry
 per sitting in its ``segments``: command, commit, machine, steps and wall time). It refuses to
 continue with other settings (only ``--steps``, ``--check-every``, ``--time-limit``, ``--out``,
-``--state`` and ``--threads`` may change). The pair cache is not saved: a resumed run builds it afresh at its first step.
+``--state`` and ``--threads`` may change). The pair cache is not saved: a resumed run builds
+it afresh at its first step.
 
 Full size, one layer over the ball (40K vertices):
     python benches/paper_scenes.py --scene cloths_over_ball --layers 1 --steps 400 --check-every 20
