@@ -97,7 +97,7 @@ use super::broad_phase::{BroadPhase, ContactMesh};
 use super::distance_order::DistanceOrder;
 use super::patches::Patches;
 use super::primitive_pairs::{close_primitive_pairs, nan_max, Owners, Pair};
-use super::regions::{box_gap, Regions};
+use super::regions::{bounding_box, box_gap, Regions};
 use super::sweep::{displacements, round_down, Sweep, SweptPair, NO_BODY};
 use super::vertex_index::index_by_vertex;
 
@@ -859,15 +859,10 @@ fn within_limit(skin: &[f64], regions: &Regions, reach: f64, p: &Pair, d: f64) -
 }
 
 /// The distance (m) between the bounding boxes of the triangles `a` and `b` at `x` (m), NaN
-/// where a position is: at most the distance between any of their points.
+/// where a position is not finite: at most the distance between any of their points.
 fn box_distance(x: &[Vector3<f64>], a: &[u32; 3], b: &[u32; 3]) -> f64 {
-    if a.iter()
-        .chain(b)
-        .any(|&v| x[v as usize].iter().any(|c| c.is_nan()))
-    {
-        return f64::NAN;
-    }
-    box_gap(triangle_box(x, a, 0.0), triangle_box(x, b, 0.0))
+    let bounds = |t: &[u32; 3]| bounding_box(t.iter().map(|&v| &x[v as usize]));
+    box_gap(bounds(a), bounds(b))
 }
 
 /// The box `(lo, hi)` of the triangle `t` at `x` (m), inflated by `pad` (m) on every side.
