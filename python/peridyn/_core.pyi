@@ -418,7 +418,8 @@ class StepStats:
         """Contact figures (zeros when contact is off): 'candidate_pairs' (triangle pairs of
         the broad phase's last build, largest over the iterations), 'box_pairs' (the triangle
         pairs of that build whose inflated boxes overlap, before the distance test that leaves
-        the candidates; largest), 'primitive_pairs'
+        the candidates; largest), 'cached_pairs' (primitive pairs of that build and of the
+        repairs since, which each filter chooses from; largest), 'primitive_pairs'
         (primitive pairs that may come within the barrier's reach, largest), 'active_pairs'
         (primitive pairs within the barrier's reach at the end), 'local_iterations' (descent
         iterations, summed), 'clamped' (vertices the final CCD clamp moved, summed),
@@ -426,7 +427,9 @@ class StepStats:
         other local steps reused the last build), 'cache_repairs' (summed; repairs of the last
         build for a few vertices that strayed beyond their skins, each instead of a build),
         'live_refreshes' (filterings of the cached pairs into the live list, summed),
-        'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
+        'sweeps' (those filterings that looked at every cached pair near enough afresh,
+        summed; the others looked again only at the pairs that may have come nearer since the
+        last sweep), 'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
     @property
     def time(self) -> float:
         """Simulation time after the step (s)."""

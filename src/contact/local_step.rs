@@ -336,6 +336,9 @@ pub struct ContactStats {
     /// Triangle pairs of that build whose inflated boxes overlap (before the distance test
     /// that leaves the candidates).
     pub box_pairs: usize,
+    /// Primitive pairs of the broad phase's last build, with those repairs added since (the
+    /// pairs each filter of the live list chooses from; largest).
+    pub cached_pairs: usize,
     /// Primitive pairs that may come within the barrier's reach (the live pairs).
     pub primitive_pairs: usize,
     /// Primitive pair CCD queries (descent and guarantee pass).
@@ -349,6 +352,10 @@ pub struct ContactStats {
     /// a local step unless the list is kept (`LivePairs::start`), and each time a vertex
     /// outgrows its allowance).
     pub live_refreshes: usize,
+    /// Those of the filterings that were sweeps: each looked at every cached pair near
+    /// enough afresh; the others looked again only at the pairs whose bound may have fallen
+    /// below the reach since the last sweep (see [`super::sweep`]).
+    pub sweeps: usize,
     /// Primitive pairs within the barrier's reach at the end (faded ones included).
     pub active_pairs: usize,
     /// Descent iterations.
@@ -365,15 +372,17 @@ pub struct ContactStats {
 
 impl ContactStats {
     /// Sums the counts and times of two local steps (active pairs: the later one's; box,
-    /// candidate and primitive pairs: the larger).
+    /// candidate, cached and primitive pairs: the larger).
     pub fn accumulate(&mut self, other: &ContactStats) {
         self.candidate_pairs = self.candidate_pairs.max(other.candidate_pairs);
         self.box_pairs = self.box_pairs.max(other.box_pairs);
+        self.cached_pairs = self.cached_pairs.max(other.cached_pairs);
         self.primitive_pairs = self.primitive_pairs.max(other.primitive_pairs);
         self.ccd_queries += other.ccd_queries;
         self.broad_phase_builds += other.broad_phase_builds;
         self.cache_repairs += other.cache_repairs;
         self.live_refreshes += other.live_refreshes;
+        self.sweeps += other.sweeps;
         self.active_pairs = other.active_pairs;
         self.iterations += other.iterations;
         self.clamped += other.clamped;
@@ -603,7 +612,9 @@ impl LivePairs {
         stats: &mut ContactStats,
     ) {
         let (cache, live) = (&mut self.cache, &mut self.pairs);
+        let sweeps = cache.sweeps();
         let renewal = cache.live_pairs(safe, target, &self.allowance, mesh, reach, live);
+        stats.sweeps += cache.sweeps() - sweeps;
         self.filtered_safe.clear();
         self.filtered_safe.extend_from_slice(safe);
         self.filtered_target.clear();
@@ -699,6 +710,7 @@ impl LivePairs {
         let cache = &self.cache;
         stats.candidate_pairs = stats.candidate_pairs.max(cache.candidates());
         stats.box_pairs = stats.box_pairs.max(cache.box_pairs());
+        stats.cached_pairs = stats.cached_pairs.max(cache.cached_pairs());
         stats.primitive_pairs = stats.primitive_pairs.max(self.pairs.len());
     }
 }

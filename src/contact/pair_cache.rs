@@ -160,6 +160,8 @@ pub(super) struct PairCache {
     shift: Vec<[Vector3<f64>; 2]>,
     /// The last full filter of the cached pairs into the live list.
     sweep: Sweep,
+    /// Sweeps since the cache was made (a count, for [`super::local_step::ContactStats`]).
+    sweeps: usize,
     /// The mesh's vertices in patches, for [`Sweep::patch_fall`].
     patches: Patches,
     /// Per region: the largest skin `S_PQ` over the regions near it at the last build (m).
@@ -190,6 +192,18 @@ impl PairCache {
     /// the distance test).
     pub fn box_pairs(&self) -> usize {
         self.box_pairs
+    }
+
+    /// Primitive pairs in the lists: the last build's and those repairs added since.
+    pub fn cached_pairs(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// Sweeps since the cache was made: filters that looked at every cached pair near
+    /// enough afresh ([`super::sweep`]) instead of only those whose bound may have fallen
+    /// below the reach since the last sweep.
+    pub fn sweeps(&self) -> usize {
+        self.sweeps
     }
 
     /// Writes into `live` the pairs that may come within `reach` (m) at the positions the
@@ -351,6 +365,7 @@ impl PairCache {
         allowance: &[f64],
         reach: f64,
     ) -> Vec<u32> {
+        self.sweeps += 1;
         let mut swept = std::mem::take(&mut self.sweep.swept);
         self.sweep.record(safe, target, allowance, near);
         let this = &*self;
@@ -1862,9 +1877,15 @@ pub(super) mod tests {
                         *a += 0.0005;
                     }
                 }
-                let before = cache.sweep.valid.then(|| cache.sweep.swept.clone());
-                let built = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live)
-                    != Renewal::Kept;
+                let swept = cache.sweeps();
+                let renewal = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
+                let swept = cache.sweeps() - swept;
+                assert!(swept <= 1, "{swept} sweeps in one filter");
+                // A build leaves no sweep to refilter from.
+                assert!(
+                    renewal != Renewal::Built || swept == 1,
+                    "a build without a sweep"
+                );
                 let moves = Moves::new(&safe, &target, &clamp, &allowance);
                 within += moves.assert_live_hold_every_pair_within_reach(
                     &every, &live, reach, &mut rng, calls,
@@ -1878,11 +1899,8 @@ pub(super) mod tests {
                     afresh.len()
                 );
                 calls += 1;
-                if !built && before.as_ref() == Some(&cache.sweep.swept) {
-                    refilters += 1;
-                } else {
-                    sweeps += 1;
-                }
+                sweeps += swept;
+                refilters += 1 - swept;
             }
             safe = target;
         }

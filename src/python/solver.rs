@@ -565,22 +565,25 @@ impl PyStepStats {
     /// Contact figures of the step (zeros when contact is off): `candidate_pairs` (triangle
     /// pairs of the broad phase's last build, largest over the iterations), `box_pairs` (the
     /// triangle pairs of that build whose inflated boxes overlap, before the distance test that
-    /// leaves the candidates; largest), `primitive_pairs`
+    /// leaves the candidates; largest), `cached_pairs` (primitive pairs of that build and of
+    /// the repairs since, which each filter chooses from; largest), `primitive_pairs`
     /// (primitive pairs that may come within the barrier's reach, largest), `active_pairs`
     /// (primitive pairs within the barrier's reach at the end), `local_iterations` (descent
     /// iterations, summed), `clamped` (vertices the final CCD clamp moved, summed),
     /// `ccd_queries` (primitive pair CCD queries, summed), `broad_phase_builds` (summed; the
     /// other local steps reused the last build), `cache_repairs` (summed; repairs of the last
     /// build for a few vertices that strayed beyond their skins, each instead of a build),
-    /// `live_refreshes` (filterings of the cached
-    /// pairs into the live list, summed), and milliseconds `broad_phase_ms`, `ccd_ms`,
-    /// `descent_ms`.
+    /// `live_refreshes` (filterings of the cached pairs into the live list, summed), `sweeps`
+    /// (those filterings that looked at every cached pair near enough afresh, summed; the
+    /// others looked again only at the pairs that may have come nearer since the last
+    /// sweep), and milliseconds `broad_phase_ms`, `ccd_ms`, `descent_ms`.
     #[getter]
     fn contact<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let c = &self.inner.contact;
         let d = PyDict::new(py);
         d.set_item("candidate_pairs", c.candidate_pairs)?;
         d.set_item("box_pairs", c.box_pairs)?;
+        d.set_item("cached_pairs", c.cached_pairs)?;
         d.set_item("primitive_pairs", c.primitive_pairs)?;
         d.set_item("active_pairs", c.active_pairs)?;
         d.set_item("local_iterations", c.iterations)?;
@@ -589,6 +592,7 @@ impl PyStepStats {
         d.set_item("broad_phase_builds", c.broad_phase_builds)?;
         d.set_item("cache_repairs", c.cache_repairs)?;
         d.set_item("live_refreshes", c.live_refreshes)?;
+        d.set_item("sweeps", c.sweeps)?;
         d.set_item("broad_phase_ms", c.broad_phase_ms)?;
         d.set_item("ccd_ms", c.ccd_ms)?;
         d.set_item("descent_ms", c.descent_ms)?;
