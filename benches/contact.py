@@ -14,16 +14,19 @@ an active pair between membranes (``StepStats.contact['active_pairs'] > 0``), at
 iterations each (``tol = 0``) unless ``--tol`` is given. Reported as medians over the timed
 steps: ms per step and per phase (global, colliders, broad phase, CCD, descent = local step
 distances and moves), global and local (descent) iterations, candidate triangle pairs, live
-primitive pairs (those that may come within the barrier's reach), CCD queries and broad-phase
-builds per step, active primitive pairs, clamped vertices, peak memory. Three layers start
-one barrier reach apart, so they are in contact after the minimal warm-up; a single cloth has
-no contact of its own until it folds as it drapes (after 343-384 steps from 80 x 80 to
-200 x 200 vertices, 475-1020 from 30 x 30 to 60 x 60; 20 x 20 slides off the ball without
-folding within 1500), and before that its steps do no CCD and no descent.
+primitive pairs (those that may come within the barrier's reach) and the cached primitive pairs
+they are filtered from, CCD queries, broad-phase builds, repairs, filterings of the live pairs
+and the sweeps among them per step, active primitive pairs, clamped vertices, peak memory.
+Three layers start one barrier reach apart, so they are in contact after the minimal warm-up;
+a single cloth has no contact of its own until it folds as it drapes (after 343-384 steps
+from 80 x 80 to 200 x 200 vertices, 475-1020 from 30 x 30 to 60 x 60; 20 x 20 slides off the
+ball without folding within 1500), and before that its steps do no CCD and no descent.
 ``--no-until-contact`` times after exactly ``--warmup`` steps.
 
 Broad-phase cost against vertex count: one layer at ``--bp-sizes``, ms of broad phase per
-local step (there is one local step per global iteration).
+local step (there is one local step per global iteration), ``--bp-steps`` timed steps each,
+reported apart for the steps that built the pair cache and those that did not (a build costs
+several filterings, so a median over a few mixed steps says little about either).
 
 Quick check (minutes):
     python benches/contact.py --sizes 1:30,3:17 --bp-sizes 30 --steps 2 --warmup 12 \\
@@ -61,6 +64,21 @@ def warm_up(solver, warmup: int, until_contact: bool, max_warmup: int) -> tuple[
     return taken, active
 
 
+def broad_phase_by_build(rows) -> dict:
+    """Broad-phase ms per local step (one per global iteration), median over the timed steps
+    that built the pair cache anew (``broad_phase_builds > 0``: every triangle pair within the
+    allowance found again) and apart over those that only kept or repaired it and filtered
+    its pairs, so that a build in one of a few timed steps cannot pass for the filtering cost.
+    Each comes with its step count; its median is None where no timed step falls in it."""
+    out = {}
+    for name, built in (("without_build", False), ("with_build", True)):
+        per = [r["broad_phase"] / max(r["iterations"], 1) for r in rows
+               if (r["broad_phase_builds"] > 0) == built]
+        out[name] = {"steps": len(per),
+                     "ms_per_local_step": float(np.median(per)) if per else None}
+    return out
+
+
 def child(layers: int, n: int, steps: int, warmup: int, until_contact: bool, max_warmup: int,
           iters: int, tol: float, threads):
     """Runs in the subprocess: prints one JSON line."""
@@ -87,7 +105,9 @@ def child(layers: int, n: int, steps: int, warmup: int, until_contact: bool, max
             "candidate_pairs": c["candidate_pairs"], "box_pairs": c["box_pairs"],
             "active_pairs": c["active_pairs"],
             "primitive_pairs": c["primitive_pairs"], "ccd_queries": c["ccd_queries"],
-            "broad_phase_builds": c["broad_phase_builds"],
+            "broad_phase_builds": c["broad_phase_builds"], "cache_repairs": c["cache_repairs"],
+            "cached_pairs": c["cached_pairs"], "live_refreshes": c["live_refreshes"],
+            "sweeps": c["sweeps"],
             "clamped": c["clamped"], "error_estimate": st.error_estimate,
             "converged": st.converged, "wall": wall,
             "cpu": (time.process_time() - c0) * 1e3,
@@ -104,6 +124,7 @@ def child(layers: int, n: int, steps: int, warmup: int, until_contact: bool, max
         "median": med, "steps": rows,
         "ms_step_median": med["total"],
         "broad_phase_ms_per_local_step": med["broad_phase"] / max(med["iterations"], 1.0),
+        "broad_phase_by_build": broad_phase_by_build(rows),
         "cores_busy": med["cpu"] / med["wall"],
         "peak_bytes_per_vertex": (hwm1 - hwm0) * 1024.0 / nv,
         "VmHWM_kib": [hwm0, hwm1],
@@ -136,8 +157,11 @@ def plot(data, path):
     bp = sorted([r for r in data["broad_phase"] if "median" in r], key=lambda r: r["vertices"])
     if bp:
         v = np.array([r["vertices"] for r in bp], float)
+        for kind, style in (("without_build", "o-"), ("with_build", "s--")):
+            ms = np.array([r["broad_phase_by_build"][kind]["ms_per_local_step"] or np.nan
+                           for r in bp], float)
+            a2.loglog(v, ms, style, label=f"broad phase per local step, steps {kind}")
         ms = np.array([r["broad_phase_ms_per_local_step"] for r in bp])
-        a2.loglog(v, ms, "o-", label="broad phase per local step")
         a2.loglog(v, ms[-1] * v / v[-1], "k:", lw=1, label="linear")
         a2.legend(fontsize=8)
     a2.set(xlabel="vertices (one layer)", ylabel="ms", title="broad-phase cost against size")
@@ -175,10 +199,17 @@ def run_case(args, layers: int, n: int, steps: int):
           f"{m['iterations']:.0f} it, {m['local_iterations']:.0f} local it, "
           f"{m['candidate_pairs']:.0f} candidates ({m['box_pairs']:.0f} boxes), "
           f"{m['primitive_pairs']:.0f} live primitive "
-          f"pairs, {m['ccd_queries']:.0f} CCD queries, {m['broad_phase_builds']:.0f} builds, "
+          f"pairs of {m['cached_pairs']:.0f} cached, {m['ccd_queries']:.0f} CCD queries, "
+          f"{m['broad_phase_builds']:.0f} builds, {m['sweeps']:.0f} sweeps in "
+          f"{m['live_refreshes']:.0f} filterings, "
           f"{m['active_pairs']:.0f} active, "
           f"peak {case['peak_bytes_per_vertex']:.0f} B/v, load {case['loadavg_1']:.1f}",
           flush=True)
+    split = []
+    for kind, b in case["broad_phase_by_build"].items():
+        ms = "-" if b["ms_per_local_step"] is None else f"{b['ms_per_local_step']:.1f}"
+        split.append(f"{ms} ms {kind.replace('_', ' ')} ({b['steps']} steps)")
+    print("    broad phase per local step: " + ", ".join(split), flush=True)
     return case
 
 
@@ -190,7 +221,7 @@ def main(argv=None):
     p.add_argument("--bp-sizes", default="40,80,120,160,200",
                    help="one-layer sizes for the broad-phase sweep")
     p.add_argument("--steps", type=int, default=5, help="timed steps per case (median)")
-    p.add_argument("--bp-steps", type=int, default=2, help="timed steps per broad-phase case")
+    p.add_argument("--bp-steps", type=int, default=8, help="timed steps per broad-phase case")
     p.add_argument("--warmup", type=int, default=20, help="least steps before timing (the fall)")
     p.add_argument("--until-contact", action=argparse.BooleanOptionalAction, default=True,
                    help="warm up on until a step ends with an active membrane pair")
