@@ -66,9 +66,11 @@ def _rest_gap(V: np.ndarray, F: np.ndarray) -> float:
     return min_separation(V, F, longest)
 
 
-def _contact(scene: str, xi: float, meshes: Sequence[tuple]) -> _core.Contact:
-    """Contact of thickness ``xi`` (m) with ``d_hat = min(4 xi, 0.85 g - xi)`` (see the module
-    doc), ``g`` the smallest rest gap of ``meshes``."""
+def _solver(scene: str, xi: float, meshes: Sequence[tuple], solver_options: Optional[dict],
+            **settings) -> Solver:
+    """A solver with ``settings`` (``dt``, ``tol``, ``max_iters``, ``threads``) and the
+    caller's ``solver_options``, and contact of thickness ``xi`` (m) with ``d_hat = min(4 xi,
+    0.85 g - xi)`` (see the module doc), ``g`` the smallest rest gap of ``meshes``."""
     gap = min(_rest_gap(np.asarray(V, dtype=np.float64), np.asarray(F)) for V, F in meshes)
     d_hat = min(4.0 * xi, REST_GAP_FRACTION * gap - xi)
     if d_hat < 0.5 * xi:
@@ -77,7 +79,8 @@ def _contact(scene: str, xi: float, meshes: Sequence[tuple]) -> _core.Contact:
             f"primitives {gap:g} m apart at rest leave a barrier range of {d_hat:g} m < xi / 2; "
             "use fewer vertices or a thinner contact"
         )
-    return _core.Contact(thickness=xi, d_hat=d_hat)
+    return Solver(contact=_core.Contact(thickness=xi, d_hat=d_hat), **settings,
+                  **(solver_options or {}))
 
 
 def _check(scene: str, **values: float) -> None:
@@ -163,10 +166,9 @@ def cloths_over_ball(
         raise ValueError(f"{name}: layer_gap must be > 1 barrier reach, got {layer_gap!r}")
     V, F = grid(n, n, size=(size, size), diagonal="alternate")
     V = V - np.array([0.5 * size, 0.5 * size, 0.0])
-    contact = _contact(name, xi, [(V, F)])
-    gap = layer_gap * (xi + contact.d_hat)
-    solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=contact,
-                    **(solver_options or {}))
+    solver = _solver(name, xi, [(V, F)], solver_options, dt=dt, tol=tol, max_iters=max_iters,
+                     threads=threads)
+    gap = layer_gap * (xi + solver.contact.d_hat)
     bodies = {}
     for k in range(int(layers)):
         z = 2.0 * radius + drop + k * gap
@@ -254,10 +256,8 @@ def antependium(
         raise ValueError(f"{name}: books must be 0, 1, 2 or 3, got {books!r}")
     V, F = grid(n, n, size=(size, size), diagonal="alternate")
     V = V + np.array([-0.5 * size, overhang - size, 0.5 * THICKNESS])
-    solver = Solver(
-        dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=_contact(name, xi, [(V, F)]),
-        **(solver_options or {}),
-    )
+    solver = _solver(name, xi, [(V, F)], solver_options, dt=dt, tol=tol, max_iters=max_iters,
+                     threads=threads)
     cloth = _cloth(V, F, s0, bending)
     solver.add(cloth)
     depth, height = 0.8 * size, 0.75
@@ -368,9 +368,8 @@ def shooting_shell(
     Fs = np.asarray(ball.faces, dtype=np.int64)
     Vt, Ft = grid(n, n, size=(size, size), diagonal="alternate")
     Vt = Vt - np.array([0.5 * size, 0.5 * size, 0.0])
-    contact = _contact(name, xi, [(Vs, Fs), (Vt, Ft)])
-    solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads, contact=contact,
-                    **(solver_options or {}))
+    solver = _solver(name, xi, [(Vs, Fs), (Vt, Ft)], solver_options, dt=dt, tol=tol,
+                     max_iters=max_iters, threads=threads)
     shell = _cloth(Vs, Fs, s0, kb)
     shell.velocities = np.tile([0.0, 0.0, -speed], (len(Vs), 1))
     target = _cloth(Vt, Ft, target_s0, 0.1)
