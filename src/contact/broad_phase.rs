@@ -85,6 +85,13 @@ fn cell_of(p: &Vector3<f64>, cell: f64) -> Cell {
     [0, 1, 2].map(|k| (p[k] / cell).floor() as i64)
 }
 
+/// How many grid cells the range `lo..=hi` covers, counted in `f64`: [`cell_of`] saturates
+/// far out, and a box reaching infinity spans the whole `i64` range, which `i64` arithmetic
+/// would wrap to a span of 0.
+fn cells_spanned(lo: &Cell, hi: &Cell) -> f64 {
+    (0..3).map(|k| hi[k] as f64 - lo[k] as f64 + 1.0).product()
+}
+
 impl BroadPhase {
     /// Triangle pairs `(a, b)`, `a < b`, whose boxes over the motion `start -> end`, each
     /// inflated by its `padding[triangle]` (m), overlap and that [`ContactMesh::may_touch`]
@@ -131,8 +138,7 @@ impl BroadPhase {
         let cell_of = |p: &Vector3<f64>| cell_of(p, cell);
         for (t, b) in boxes.iter().enumerate() {
             let (lo, hi) = (cell_of(&b.lo), cell_of(&b.hi));
-            let span = (0..3).map(|k| (hi[k] - lo[k]).saturating_add(1) as f64);
-            if span.product::<f64>() > MAX_CELLS_PER_BOX {
+            if cells_spanned(&lo, &hi) > MAX_CELLS_PER_BOX {
                 self.oversized.push(t);
                 continue;
             }
@@ -208,9 +214,8 @@ impl BroadPhase {
         let query = Aabb { lo, hi };
         let start = out.len();
         let (first, last) = (cell_of(&lo, self.cell), cell_of(&hi, self.cell));
-        let span = (0..3).map(|k| (last[k] - first[k]).saturating_add(1) as f64);
         // No grid (fewer than two boxes, or all oversized) or a query too large for it.
-        if self.entries.is_empty() || span.product::<f64>() > MAX_CELLS_PER_BOX {
+        if self.entries.is_empty() || cells_spanned(&first, &last) > MAX_CELLS_PER_BOX {
             out.extend(
                 (0..self.boxes.len() as u32).filter(|&t| self.boxes[t as usize].overlaps(&query)),
             );
@@ -363,6 +368,23 @@ mod tests {
                     .collect();
                 assert_eq!(found[0], u32::MAX, "what was in `out` stays");
                 assert_eq!(found[1..], brute, "query {k}");
+            }
+            // Queries whose cells reach the ends of `i64` (far out, or the whole space of a
+            // box with a point that is not finite) find every triangle.
+            for (lo, hi) in [
+                (Vector3::repeat(-1e300), Vector3::repeat(1e300)),
+                (
+                    Vector3::repeat(f64::NEG_INFINITY),
+                    Vector3::repeat(f64::INFINITY),
+                ),
+            ] {
+                found.clear();
+                grid.overlapping(lo, hi, &mut found);
+                assert_eq!(
+                    found,
+                    (0..count as u32).collect::<Vec<_>>(),
+                    "{lo:?}..{hi:?}"
+                );
             }
         }
     }

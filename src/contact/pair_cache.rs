@@ -873,21 +873,20 @@ fn within_limit(skin: &[f64], regions: &Regions, reach: f64, p: &Pair, d: f64) -
     d < limit(skin, regions, reach, p) || d.is_nan()
 }
 
-/// The distance (m) between the bounding boxes of the triangles `a` and `b` at `x` (m), NaN
-/// where a position is not finite: at most the distance between any of their points.
+/// The distance (m) between the bounding boxes of the triangles `a` and `b` at `x` (m): at
+/// most the distance between any of their points, 0 where a position is not finite (see
+/// [`bounding_box`]).
 fn box_distance(x: &[Vector3<f64>], a: &[u32; 3], b: &[u32; 3]) -> f64 {
     let bounds = |t: &[u32; 3]| bounding_box(t.iter().map(|&v| &x[v as usize]));
     box_gap(bounds(a), bounds(b))
 }
 
-/// The box `(lo, hi)` of the triangle `t` at `x` (m), inflated by `pad` (m) on every side.
+/// The box `(lo, hi)` of the triangle `t` at `x` (m), inflated by `pad` (m) on every side
+/// (the whole space where a position is not finite, see [`bounding_box`]).
 fn triangle_box(x: &[Vector3<f64>], t: &[u32; 3], pad: f64) -> (Vector3<f64>, Vector3<f64>) {
-    let p = t.map(|v| x[v as usize]);
+    let (lo, hi) = bounding_box(t.iter().map(|&v| &x[v as usize]));
     let pad = Vector3::repeat(pad);
-    (
-        p[0].inf(&p[1]).inf(&p[2]) - pad,
-        p[0].sup(&p[1]).sup(&p[2]) + pad,
-    )
+    (lo - pad, hi + pad)
 }
 
 /// Whether `x < limit`, NaN counting as below (a NaN bound keeps its pair).
