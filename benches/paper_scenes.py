@@ -29,7 +29,7 @@ Quick check (a minute):
 The six layers' landing at the paper's mesh spacing (8.6 mm) on a cloth 0.4 times the size,
 dropped from 0.4 m so that it lands at speed (38K vertices, 20 minutes on two cores; as at full
 size from step 437 on, 11 of its steps 383-400 run to 20 iterations without converging; see
-benches/paper_scenes.md):
+docs/performance.md):
     python benches/paper_scenes.py --layers 6 --n 80 --size 0.68 --drop 0.4 --steps 420 \
         --check-every 20 --max-iters 20
 """
