@@ -45,11 +45,11 @@ fn run<T: Real>(n: usize, iterations: usize, steps: usize, threads: Option<usize
         ..SolverParams::default()
     };
     let mut solver = Solver::<T>::new(params, threads).unwrap();
-    solver.step(&mut [&mut body]).unwrap();
+    solver.step(&mut [(&mut body).into()]).unwrap();
     let mut all: Vec<StepStats> = Vec::new();
     let start = Instant::now();
     for _ in 0..steps {
-        all.push(solver.step(&mut [&mut body]).unwrap());
+        all.push(solver.step(&mut [(&mut body).into()]).unwrap());
     }
     let wall = start.elapsed().as_secs_f64() * 1e3 / steps as f64;
     let pick = |f: fn(&StepStats) -> f64| median(all.iter().map(f).collect());

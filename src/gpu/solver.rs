@@ -22,7 +22,9 @@ use nalgebra::Vector3;
 use crate::contact::{Collider, ColliderModel, MovingCollider, Shape};
 use crate::error::{invalid, Error, Result};
 use crate::membrane::{DeviceCopy, Fetch, Membrane, Preconditioner};
-use crate::solve::system::System;
+use crate::solve::body::ByKind;
+use crate::solve::membrane_system::MembraneSystem;
+use crate::solve::BodyMut;
 use crate::solve::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
 
 use super::device::GpuContext;
@@ -64,7 +66,7 @@ struct State<T: GpuReal> {
     id: u64,
     /// Steps these buffers have finished.
     epoch: u64,
-    system: System<T>,
+    system: MembraneSystem<T>,
     n: u32,
     bonds: u64,
     iter_capacity: usize,
@@ -205,15 +207,18 @@ impl<T: GpuReal> GpuSolver<T> {
     }
 
     /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
-    /// [`Error::Diverged`] names the first non-finite vertex.
-    pub fn step(&mut self, bodies: &mut [&mut Membrane]) -> Result<StepStats> {
+    /// [`Error::Diverged`] names the first non-finite vertex (the body by its index in
+    /// `bodies`). The GPU steps membranes; every body kind the solver knows is one.
+    pub fn step(&mut self, bodies: &mut [BodyMut<'_>]) -> Result<StepStats> {
         let started = Instant::now();
+        let mut by_kind = ByKind::sort(bodies);
+        let (bodies, list_indices) = (&mut by_kind.membranes[..], &by_kind.membrane_indices);
         let params = self.params;
         let records = params.max_iters + RECORD_FIRST_ITERATION;
         let rebuild = match &self.state {
             None => true,
             Some(s) => {
-                !s.system.matches(bodies)
+                !s.system.points.matches(bodies)
                     || s.iter_capacity < records
                     || s.collider_capacity < self.colliders.len().max(1)
             }
@@ -269,11 +274,11 @@ impl<T: GpuReal> GpuSolver<T> {
             let header = state.read_header(&self.ctx, encoder)?;
             limit = header[0];
             if limit != u32::MAX && header[1] != u32::MAX {
-                let (body, vertex) = state.system.locate(header[1] as usize);
+                let (body, vertex) = state.system.points.locate(header[1] as usize);
                 return Err(Error::Diverged {
                     step: self.clock.steps,
                     iteration: header[2] as usize,
-                    body,
+                    body: list_indices[body],
                     vertex,
                 });
             }
@@ -339,8 +344,8 @@ impl<T: GpuReal> State<T> {
         iter_capacity: usize,
         collider_capacity: usize,
     ) -> Result<Self> {
-        let system = System::<T>::build(bodies, false)?;
-        let n = system.y.len();
+        let system = MembraneSystem::<T>::build(bodies, false)?;
+        let n = system.points.y.len();
         let bonds = system.nb.indices.len();
         if n == 0 {
             return Err(invalid!("the bodies have no vertices"));
@@ -532,7 +537,7 @@ impl<T: GpuReal> State<T> {
                 .map(|x| layout::vec4(&x.map(T::of)))
                 .collect::<Vec<_>>()
         };
-        for (body, range) in bodies.iter_mut().zip(&sys.ranges) {
+        for (body, range) in bodies.iter_mut().zip(&sys.points.ranges) {
             if body.device_copy() == Some((self.id, self.epoch)) {
                 continue;
             }
@@ -547,19 +552,19 @@ impl<T: GpuReal> State<T> {
         // uploaded.
         let device = self
             .pins_synced
-            .then(|| (sys.y_star.clone(), sys.pinned.clone()));
-        sys.load_pins(bodies);
+            .then(|| (sys.points.y_star.clone(), sys.points.pinned.clone()));
+        sys.points.load_pins(bodies);
         let (same_star, same_pins) = match &device {
-            Some((star, pins)) => (*star == sys.y_star, *pins == sys.pinned),
+            Some((star, pins)) => (*star == sys.points.y_star, *pins == sys.points.pinned),
             None => (false, false),
         };
         // a vertex pinned anew needs its target even if the host's stale entry matches
         if !(same_star && same_pins) {
-            let targets: Vec<[T; 4]> = sys.y_star.iter().map(layout::vec4).collect();
+            let targets: Vec<[T; 4]> = sys.points.y_star.iter().map(layout::vec4).collect();
             q.write_buffer(&self.buffers.y_star, 0, bytemuck::cast_slice(&targets));
         }
         if !same_pins {
-            let pinned: Vec<u32> = sys.pinned.iter().map(|&p| p as u32).collect();
+            let pinned: Vec<u32> = sys.points.pinned.iter().map(|&p| p as u32).collect();
             q.write_buffer(&self.buffers.pinned, 0, bytemuck::cast_slice(&pinned));
         }
         self.pins_synced = true;
@@ -674,7 +679,7 @@ impl<T: GpuReal> State<T> {
         // y_t and v hold the new state on the device from here on (the queue runs in order,
         // so a body's read-back sees it)
         self.epoch += 1;
-        for (body, range) in bodies.iter_mut().zip(&self.system.ranges) {
+        for (body, range) in bodies.iter_mut().zip(&self.system.points.ranges) {
             let fetch = fetch_body::<T>(ctx, b, range.clone());
             body.leave_on_device(DeviceCopy::pending(self.id, self.epoch, fetch));
         }

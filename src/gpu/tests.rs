@@ -63,7 +63,7 @@ fn free_fall_is_implicit_euler() {
     let x0 = body.positions().to_vec();
     let g = Vector3::from(params.gravity);
     for n in 1..=10u32 {
-        let stats = solver.step(&mut [&mut body]).unwrap();
+        let stats = solver.step(&mut [(&mut body).into()]).unwrap();
         assert!(body.is_pending(), "the step leaves the state on the device");
         body.sync().unwrap();
         assert!(stats.converged, "step {n}: {stats:?}");
@@ -107,8 +107,8 @@ fn draping_cloth_matches_the_cpu<T: GpuReal>(tolerance: f64) {
         let mut b = cloth(10, material);
         b.pin(&[0, 9], None).unwrap();
         for step in 0..40 {
-            let sa = gpu.step(&mut [&mut a]).unwrap();
-            let sb = cpu.step(&mut [&mut b]).unwrap();
+            let sa = gpu.step(&mut [(&mut a).into()]).unwrap();
+            let sb = cpu.step(&mut [(&mut b).into()]).unwrap();
             assert!(
                 sa.iterations.abs_diff(sb.iterations) <= 2,
                 "step {step}: {} vs {} iterations",
@@ -189,8 +189,8 @@ fn changes_between_steps_reach_the_device() {
                 _ => {}
             }
         }
-        gpu.step(&mut [&mut a]).unwrap();
-        cpu.step(&mut [&mut b]).unwrap();
+        gpu.step(&mut [(&mut a).into()]).unwrap();
+        cpu.step(&mut [(&mut b).into()]).unwrap();
         // read back only every other step: the device keeps its own copy in between
         if step % 2 == 1 {
             let worst = largest_difference(&mut a, &b);
@@ -242,8 +242,8 @@ fn collider_parity<T: GpuReal>(
         b.pin(pins, None).unwrap();
     }
     for _ in 0..steps {
-        gpu.step(&mut [&mut a]).unwrap();
-        cpu.step(&mut [&mut b]).unwrap();
+        gpu.step(&mut [(&mut a).into()]).unwrap();
+        cpu.step(&mut [(&mut b).into()]).unwrap();
     }
     let worst = largest_difference(&mut a, &b);
     eprintln!("{}: GPU and CPU differ by {worst:.3e} m", T::NAME);

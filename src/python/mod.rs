@@ -2,6 +2,7 @@
 //! Nothing outside this module (and `lib.rs`) imports pyo3 or numpy.
 
 mod arrays;
+mod body;
 mod collider;
 mod contact;
 mod errors;

@@ -1,7 +1,5 @@
 //! Python wrapper of [`Solver`], in f32 or f64, and of [`StepStats`].
 
-use std::sync::{Arc, Mutex};
-
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -9,14 +7,14 @@ use pyo3::types::PyDict;
 use crate::contact::{Collider, MovingCollider, Pose};
 use crate::error::Result;
 use crate::gpu::GpuSolver;
-use crate::membrane::{Membrane, Preconditioner};
-use crate::solve::{Acceleration, Clock, Method, Solver, SolverParams, StepStats};
+use crate::membrane::Preconditioner;
+use crate::solve::{Acceleration, BodyMut, Clock, Method, Solver, SolverParams, StepStats};
 
 use super::arrays::{to_numpy, to_numpy_1d, vec3, vec3s};
+use super::body::{LockedBody, PyBody, SharedBody};
 use super::collider;
 use super::contact::PyContact;
 use super::errors::{guard, IntoPyResult};
-use super::membrane::PyMembrane;
 
 /// The core solver, on the CPU or the GPU, in the precision the user chose.
 enum Precision {
@@ -27,7 +25,7 @@ enum Precision {
 }
 
 impl Precision {
-    fn step(&mut self, bodies: &mut [&mut Membrane]) -> Result<StepStats> {
+    fn step(&mut self, bodies: &mut [BodyMut<'_>]) -> Result<StepStats> {
         match self {
             Self::F64(s) => s.step(bodies),
             Self::F32(s) => s.step(bodies),
@@ -72,7 +70,7 @@ macro_rules! with_solver {
 #[pyclass(module = "peridyn._core", name = "Solver", subclass)]
 pub struct PySolver {
     core: Precision,
-    bodies: Vec<Py<PyMembrane>>,
+    bodies: Vec<PyBody>,
     colliders: Vec<Py<PyAny>>,
 }
 
@@ -205,19 +203,18 @@ impl PySolver {
         })
     }
 
-    /// Adds a membrane; the solver steps it from now on.
-    fn add(&mut self, body: Bound<'_, PyMembrane>) -> PyResult<()> {
-        let new = body.borrow().inner.clone();
-        if self
-            .bodies
-            .iter()
-            .any(|b| Arc::ptr_eq(&b.borrow(body.py()).inner, &new))
-        {
-            return Err(PyValueError::new_err(
-                "this membrane was already added to the solver",
-            ));
+    /// Adds a body (a Membrane); the solver steps it from now on.
+    fn add(&mut self, body: &Bound<'_, PyAny>) -> PyResult<()> {
+        let py = body.py();
+        let new = PyBody::extract(body)?;
+        let core = new.shared(py);
+        if self.bodies.iter().any(|b| b.shared(py).same(&core)) {
+            return Err(PyValueError::new_err(format!(
+                "this {} was already added to the solver",
+                body.get_type().name()?
+            )));
         }
-        self.bodies.push(body.unbind());
+        self.bodies.push(new);
         Ok(())
     }
 
@@ -325,19 +322,12 @@ impl PySolver {
                 "the solver has no bodies: call solver.add(membrane) first",
             ));
         }
-        let shared: Vec<Arc<Mutex<Membrane>>> = self
-            .bodies
-            .iter()
-            .map(|b| b.borrow(py).inner.clone())
-            .collect();
+        let shared: Vec<SharedBody> = self.bodies.iter().map(|b| b.shared(py)).collect();
         let core = &mut self.core;
         let stats = py.detach(move || {
             guard("Solver.step", || {
-                let mut locks: Vec<_> = shared
-                    .iter()
-                    .map(|m| m.lock().unwrap_or_else(|p| p.into_inner()))
-                    .collect();
-                let mut refs: Vec<&mut Membrane> = locks.iter_mut().map(|g| &mut **g).collect();
+                let mut locks: Vec<LockedBody> = shared.iter().map(SharedBody::lock).collect();
+                let mut refs: Vec<BodyMut> = locks.iter_mut().map(LockedBody::body_mut).collect();
                 core.step(&mut refs)
             })
         });
@@ -469,8 +459,8 @@ impl PySolver {
         Ok(())
     }
     #[getter]
-    fn bodies(&self, py: Python<'_>) -> Vec<Py<PyMembrane>> {
-        self.bodies.iter().map(|b| b.clone_ref(py)).collect()
+    fn bodies(&self, py: Python<'_>) -> Vec<Py<PyAny>> {
+        self.bodies.iter().map(|b| b.object(py)).collect()
     }
     #[getter]
     fn colliders(&self, py: Python<'_>) -> Vec<Py<PyAny>> {

@@ -16,8 +16,8 @@ use crate::real::Real;
 use crate::symmetric::SymmetricMatrix3;
 
 use super::jacobi::jacobi_block;
+use super::membrane_system::MembraneSystem;
 use super::reaction::realised_reaction;
-use super::system::System;
 
 /// How close to a collider's surface (m, beyond the vertex's half thickness) a vertex counts as
 /// resting on it: the local step leaves the vertices it keeps out on the surface, up to
@@ -45,17 +45,17 @@ pub(super) struct ContactState<T: Real> {
 impl<T: Real> ContactState<T> {
     /// Concatenates the bodies' triangles in the system's global vertex numbering; call
     /// [`Self::start_step`] before each step.
-    pub fn new(bodies: &[&mut Membrane], sys: &System<T>) -> Self {
+    pub fn new(bodies: &[&mut Membrane], sys: &MembraneSystem<T>) -> Self {
         let mut triangles = Vec::new();
         let mut body = Vec::new();
-        for (b, (membrane, range)) in bodies.iter().zip(&sys.ranges).enumerate() {
+        for (b, (membrane, range)) in bodies.iter().zip(&sys.points.ranges).enumerate() {
             let base = range.start as u32;
             for t in membrane.mesh().triangles() {
                 triangles.push(t.map(|v| v + base));
                 body.push(b as u32);
             }
         }
-        let n = sys.y_start.len();
+        let n = sys.points.y_start.len();
         Self {
             triangles,
             body,
@@ -69,32 +69,32 @@ impl<T: Real> ContactState<T> {
 
     /// Takes the bodies' current self-contact switches, and the start-of-step positions `y_t`
     /// as the first safe positions.
-    pub fn start_step(&mut self, bodies: &[&mut Membrane], sys: &System<T>) {
+    pub fn start_step(&mut self, bodies: &[&mut Membrane], sys: &MembraneSystem<T>) {
         self.reaction.clear();
         self.self_contact.clear();
         self.self_contact
             .extend(bodies.iter().map(|b| b.self_contact()));
-        for (safe, start) in self.safe.iter_mut().zip(&sys.y_start) {
+        for (safe, start) in self.safe.iter_mut().zip(&sys.points.y_start) {
             *safe = start.map(|c| c.to_f64());
         }
     }
 
-    /// Runs the local step on `sys.y_next` (the global step's result, after colliders), keeping
+    /// Runs the local step on `sys.points.y_next` (the global step's result, after colliders), keeping
     /// vertices out of the colliders, and makes the result the new safe positions. `h` (s) is
     /// the time step, for the Jacobi blocks of [`ProximalMetric::Jacobi`]; `tol` (m) the
     /// solver's tolerance, which bounds the local step's stopping distance
-    /// ([`ContactParams::stop_distance`]). Returns the largest move from `sys.y` (m) and the
+    /// ([`ContactParams::stop_distance`]). Returns the largest move from `sys.points.y` (m) and the
     /// step's figures.
     pub fn local_step(
         &mut self,
-        sys: &mut System<T>,
+        sys: &mut MembraneSystem<T>,
         h: T,
         params: &ContactParams,
         tol: f64,
         colliders: &[ColliderModel<T>],
     ) -> (f64, ContactStats) {
         let mut z = std::mem::take(&mut self.next);
-        for (zi, next) in z.iter_mut().zip(&sys.y_next) {
+        for (zi, next) in z.iter_mut().zip(&sys.points.y_next) {
             *zi = next.map(|c| c.to_f64());
         }
         let mesh = ContactMesh {
@@ -123,7 +123,7 @@ impl<T: Real> ContactState<T> {
         let stats = project(
             &self.safe,
             &mut z,
-            &sys.pinned,
+            &sys.points.pinned,
             weights,
             &mesh,
             params,
@@ -131,11 +131,12 @@ impl<T: Real> ContactState<T> {
             &keep_out,
             &mut self.work,
         );
-        let y = &sys.y;
+        let y = &sys.points.y;
         let (push, weights) = (self.work.push(), self.work.weights());
         self.reaction.clear();
         self.reaction.resize(z.len(), Vector3::zeros());
         let moved = sys
+            .points
             .y_next
             .par_iter_mut()
             .zip(z.par_iter_mut())
@@ -197,15 +198,19 @@ impl<T: Real> ContactState<T> {
 /// Writes into `weights` the metric of [`ProximalMetric::Jacobi`] for every vertex, `W_i = D_i /
 /// d` with `D_i` its Jacobi block of eq. 25 at the current iterate (kg) and `d` the mean of
 /// `trace(D_i) / 3` over the free vertices (the identity everywhere if none is free).
-fn jacobi_weights<T: Real>(sys: &System<T>, h: T, weights: &mut Vec<SymmetricMatrix3<f64>>) {
+fn jacobi_weights<T: Real>(
+    sys: &MembraneSystem<T>,
+    h: T,
+    weights: &mut Vec<SymmetricMatrix3<f64>>,
+) {
     let h2 = h * h;
-    (0..sys.y.len())
+    (0..sys.points.y.len())
         .into_par_iter()
         .map(|k| jacobi_block(sys, k, h2).map(|x| x.to_f64()))
         .collect_into_vec(weights);
     let (sum, free) = weights
         .par_iter()
-        .zip(&sys.pinned)
+        .zip(&sys.points.pinned)
         .filter(|(_, &pinned)| !pinned)
         .map(|(d, _)| (d.diagonal.iter().sum::<f64>() / 3.0, 1usize))
         .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));

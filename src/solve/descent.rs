@@ -44,7 +44,7 @@ use super::evaluate::{evaluate, total_energy};
 use super::jacobi::{
     free_residual, keep_out, whole_move_reaction, LocalSystem, MoveOptions, Update,
 };
-use super::system::System;
+use super::membrane_system::MembraneSystem;
 
 /// Halvings of the step length tried before the iterate is kept unchanged (`2^-40`: far below
 /// any step that can still lower an f64 energy).
@@ -88,7 +88,7 @@ pub(super) struct DescentState {
 }
 
 impl DescentState {
-    /// Concatenates the bodies' rest data (in the vertex and bond order of [`System::build`]).
+    /// Concatenates the bodies' rest data (in the vertex and bond order of [`MembraneSystem::build`]).
     pub fn new(bodies: &[&mut Membrane]) -> Result<Self> {
         let mut rest = RestData::empty();
         for body in bodies {
@@ -110,7 +110,7 @@ impl DescentState {
 /// redone without extrapolation. Leaves the accepted trial in `y_next` (or `y` itself when no
 /// step length lowers the energy), the responses evaluated there, and its energy in `search`.
 pub(super) fn descent_iteration<T: Real>(
-    sys: &mut System<T>,
+    sys: &mut MembraneSystem<T>,
     state: &mut DescentState,
     h: T,
     mode: Preconditioner,
@@ -118,8 +118,8 @@ pub(super) fn descent_iteration<T: Real>(
     search: &mut LineSearch,
 ) -> Update {
     let h2 = h * h;
-    let n = sys.y.len();
-    for (wide, y) in state.y.iter_mut().zip(&sys.y) {
+    let n = sys.points.y.len();
+    for (wide, y) in state.y.iter_mut().zip(&sys.points.y) {
         *wide = y.map(|c| c.to_f64());
     }
     vertex_hessian_blocks(
@@ -148,7 +148,7 @@ pub(super) fn descent_iteration<T: Real>(
         .zip(direction.par_iter_mut())
         .enumerate()
         .map(|(k, (local, d))| {
-            if sys_ref.pinned[k] {
+            if sys_ref.points.pinned[k] {
                 *d = Vector3::zeros();
                 return 0.0;
             }
@@ -169,9 +169,15 @@ pub(super) fn descent_iteration<T: Real>(
     let mut settled = false;
     for _ in 0..=MAX_HALVINGS {
         let alpha = T::of(search.alpha);
-        let (y, y_prev, y_start, pinned, rest) =
-            (&sys.y, &sys.y_prev, &sys.y_start, &sys.pinned, &sys.rest);
+        let (y, y_prev, y_start, pinned, rest) = (
+            &sys.points.y,
+            &sys.points.y_prev,
+            &sys.points.y_start,
+            &sys.points.pinned,
+            &sys.rest,
+        );
         update = sys
+            .points
             .y_next
             .par_iter_mut()
             .enumerate()
@@ -201,10 +207,10 @@ pub(super) fn descent_iteration<T: Real>(
             settled = true;
             break;
         }
-        std::mem::swap(&mut sys.y, &mut sys.y_next);
+        std::mem::swap(&mut sys.points.y, &mut sys.points.y_next);
         evaluate(sys, mode);
         let energy = total_energy(sys, h);
-        std::mem::swap(&mut sys.y, &mut sys.y_next);
+        std::mem::swap(&mut sys.points.y, &mut sys.points.y_next);
         if energy <= search.energy + round_off * search.energy.abs() {
             search.energy = energy;
             settled = true;
@@ -216,7 +222,7 @@ pub(super) fn descent_iteration<T: Real>(
     }
     if !settled {
         // No step length lowers the energy: the iterate is a minimum to round-off. Stay.
-        sys.y_next.copy_from_slice(&sys.y);
+        sys.points.y_next.copy_from_slice(&sys.points.y);
         evaluate(sys, mode);
         update = Update::NONE;
     }
@@ -229,14 +235,14 @@ pub(super) fn descent_iteration<T: Real>(
 /// force of the last evaluation.
 #[inline]
 fn jacobi_system<T: Real>(
-    sys: &System<T>,
+    sys: &MembraneSystem<T>,
     state: &DescentState,
     k: usize,
     h2: T,
 ) -> LocalSystem<T> {
     let mass = sys.rest.vertices[k].mass;
     let force_h2 = internal_force(k, &sys.nb, &sys.bond_grad) * h2;
-    let residual = (sys.y_star[k] - sys.y[k]) * mass + force_h2;
+    let residual = (sys.points.y_star[k] - sys.points.y[k]) * mass + force_h2;
     let block = hessian_diagonal_block(k, &sys.nb, &state.bond_blocks, &state.self_blocks);
     let stiffness =
         SymmetricMatrix3::from_diagonal(&block.diagonal().map(|x| T::of(x.max(0.0)))) * h2;

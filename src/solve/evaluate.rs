@@ -5,21 +5,30 @@ use rayon::prelude::*;
 use crate::membrane::{evaluate_vertices, Preconditioner};
 use crate::real::Real;
 
-use super::system::System;
+use super::membrane_system::MembraneSystem;
+use super::points::Points;
 
 /// The vertex kernel at every vertex of the current iterate `y`: per-bond gradients and
 /// per-vertex responses (energy, preconditioner block), a SIMD pack of vertices at a time.
-pub(super) fn evaluate<T: Real>(sys: &mut System<T>, mode: Preconditioner) {
-    let System {
+pub(super) fn evaluate<T: Real>(sys: &mut MembraneSystem<T>, mode: Preconditioner) {
+    let MembraneSystem {
         nb,
         rest,
         packed,
-        y,
+        points,
         bond_grad,
         response,
         ..
     } = sys;
-    evaluate_vertices(nb, rest, packed.as_ref(), y, mode, bond_grad, response);
+    evaluate_vertices(
+        nb,
+        rest,
+        packed.as_ref(),
+        &points.y,
+        mode,
+        bond_grad,
+        response,
+    );
 }
 
 /// Vertices per partial sum of the energy reductions: fixed, so that the sums do not depend
@@ -40,41 +49,37 @@ fn chunked_sum(n: usize, scratch: &mut Vec<f64>, term: impl Fn(usize) -> f64 + S
     scratch.iter().sum()
 }
 
-/// `sum_i m_i |x_i - y*_i|^2 / (2 h^2)` (J) over free vertices, for `x` = `y_start` when
+/// `sum_i m_i |x_i - y*_i|^2 / (2 h^2)` (J) over free points, for `x` = `y_start` when
 /// `at_start`, else `y`.
-pub(super) fn inertial_energy<T: Real>(sys: &mut System<T>, h: T, at_start: bool) -> f64 {
+pub(super) fn inertial_energy<T: Real>(points: &mut Points<T>, h: T, at_start: bool) -> f64 {
     let inv_2h2 = 0.5 / (h.to_f64() * h.to_f64());
-    let System {
+    let Points {
         y,
         y_start,
         y_star,
         pinned,
-        rest,
+        mass,
         energy_chunks,
         ..
-    } = sys;
+    } = points;
     let x = if at_start { &*y_start } else { &*y };
     chunked_sum(x.len(), energy_chunks, |i| {
         if pinned[i] {
             0.0
         } else {
-            (x[i] - y_star[i]).norm_squared().to_f64() * rest.vertices[i].mass.to_f64() * inv_2h2
+            (x[i] - y_star[i]).norm_squared().to_f64() * mass[i].to_f64() * inv_2h2
         }
     })
 }
 
 /// `E(y) = sum_i m_i |y_i - y*_i|^2 / (2 h^2) + sum_i E_i(y)` (eq. 2 without the barrier, J), from
 /// the responses of the last [`evaluate`].
-pub(super) fn total_energy<T: Real>(sys: &mut System<T>, h: T) -> f64 {
-    let elastic = {
-        let System {
-            response,
-            energy_chunks,
-            ..
-        } = &mut *sys;
-        chunked_sum(response.len(), energy_chunks, |i| {
-            response[i].energy().to_f64()
-        })
-    };
-    inertial_energy(sys, h, false) + elastic
+pub(super) fn total_energy<T: Real>(sys: &mut MembraneSystem<T>, h: T) -> f64 {
+    let MembraneSystem {
+        points, response, ..
+    } = sys;
+    let elastic = chunked_sum(response.len(), &mut points.energy_chunks, |i| {
+        response[i].energy().to_f64()
+    });
+    inertial_energy(points, h, false) + elastic
 }

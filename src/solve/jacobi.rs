@@ -12,7 +12,7 @@ use crate::parallel::GRAIN;
 use crate::real::{Lanes, Real};
 use crate::symmetric::SymmetricMatrix3;
 
-use super::system::System;
+use super::membrane_system::MembraneSystem;
 
 /// Per-vertex outcome of an update, reduced over vertices.
 #[derive(Clone, Copy)]
@@ -116,10 +116,10 @@ struct Gathered<T: Real> {
 
 impl<T: Real> Gathered<T> {
     #[inline(always)]
-    fn of(sys: &System<T>, k: usize, h2: T) -> Self {
+    fn of(sys: &MembraneSystem<T>, k: usize, h2: T) -> Self {
         Self {
             mass: sys.rest.vertices[k].mass,
-            to_prediction: sys.y_star[k] - sys.y[k],
+            to_prediction: sys.points.y_star[k] - sys.points.y[k],
             force_h2: internal_force(k, &sys.nb, &sys.bond_grad) * h2,
             responses: gathered_response(sys, k),
         }
@@ -129,7 +129,7 @@ impl<T: Real> Gathered<T> {
 /// Vertex `k`'s `n_k C_k + sum_j C_j` (N/m) and `E_k + sum_j E_j` (J) from the responses of
 /// the last evaluation, one record at a time.
 #[inline(always)]
-fn gathered_response<T: Real>(sys: &System<T>, k: usize) -> GatheredResponse<T> {
+fn gathered_response<T: Real>(sys: &MembraneSystem<T>, k: usize) -> GatheredResponse<T> {
     let neighbors = sys.nb.of(k);
     let response = &sys.response;
     let own = &response[k];
@@ -145,14 +145,18 @@ fn gathered_response<T: Real>(sys: &System<T>, k: usize) -> GatheredResponse<T> 
 /// the responses of the last evaluation: the `system` of [`LocalSystem::of`] without its
 /// residual, for the metric of the contact local step's proximal term
 /// ([`crate::contact::ProximalMetric::Jacobi`]).
-pub(super) fn jacobi_block<T: Real>(sys: &System<T>, k: usize, h2: T) -> SymmetricMatrix3<T> {
+pub(super) fn jacobi_block<T: Real>(
+    sys: &MembraneSystem<T>,
+    k: usize,
+    h2: T,
+) -> SymmetricMatrix3<T> {
     (gathered_response(sys, k).precond() * h2).plus_identity(sys.rest.vertices[k].mass)
 }
 
 impl<T: Real> LocalSystem<T> {
     /// Assembles vertex `k`'s system from the responses of the last evaluation.
     #[inline(always)]
-    pub fn of(sys: &System<T>, k: usize, h2: T) -> Self {
+    pub fn of(sys: &MembraneSystem<T>, k: usize, h2: T) -> Self {
         let g = Gathered::of(sys, k, h2);
         Self::assemble(
             g.mass,
@@ -263,7 +267,7 @@ const STEP_LENGTH_SIGNIFICANCE: f64 = 0.1;
 /// The move of one SISSM iteration from the responses of the last evaluation, written to
 /// `y_next`.
 pub(super) fn jacobi_update<T: Real>(
-    sys: &mut System<T>,
+    sys: &mut MembraneSystem<T>,
     h: T,
     options: &MoveOptions<'_, T>,
 ) -> Update {
@@ -274,7 +278,7 @@ pub(super) fn jacobi_update<T: Real>(
     }
     // Without inner sweeps the systems are assembled and solved a SIMD pack at a time.
     let packed = !inner;
-    let mut y_next = std::mem::take(&mut sys.y_next);
+    let mut y_next = std::mem::take(&mut sys.points.y_next);
     let sys_ref = &*sys;
     let update = y_next
         .par_chunks_mut(GRAIN)
@@ -292,7 +296,7 @@ pub(super) fn jacobi_update<T: Real>(
             )
         })
         .reduce(|| Update::NONE, Update::merge);
-    sys.y_next = y_next;
+    sys.points.y_next = y_next;
     update
 }
 
@@ -360,7 +364,7 @@ fn vector_lanes<T: Real>(v: &[Vector3<T>], k: usize) -> Vector3<T::Pack> {
 /// pack, go through [`move_vertices`].
 #[inline(always)]
 fn move_packs<T: Real>(
-    sys: &System<T>,
+    sys: &MembraneSystem<T>,
     first: usize,
     next: &mut [Vector3<T>],
     h2: T,
@@ -404,8 +408,8 @@ fn move_packs<T: Real>(
         if !plain {
             for (l, out) in out.iter_mut().enumerate() {
                 let k = base + l;
-                if sys.pinned[k] {
-                    *out = sys.y[k];
+                if sys.points.pinned[k] {
+                    *out = sys.points.y[k];
                     continue;
                 }
                 let delta =
@@ -419,18 +423,18 @@ fn move_packs<T: Real>(
         } else {
             T::Pack::lit(1.0)
         };
-        let y = vector_lanes(&sys.y, base);
+        let y = vector_lanes(&sys.points.y, base);
         let mut moved_to = y + delta * alpha;
         if let Some(w) = options.omega {
-            let previous = vector_lanes(&sys.y_prev, base);
+            let previous = vector_lanes(&sys.points.y_prev, base);
             moved_to = (moved_to - previous) * T::Pack::splat(w) + previous;
         }
         let move_sq = (moved_to - y).norm_squared();
         let free_sq = local.residual_per_mass().norm_squared();
         for (l, out) in out.iter_mut().enumerate() {
             let k = base + l;
-            if sys.pinned[k] {
-                *out = sys.y[k];
+            if sys.points.pinned[k] {
+                *out = sys.points.y[k];
                 continue;
             }
             *out = Vector3::new(
@@ -438,7 +442,13 @@ fn move_packs<T: Real>(
                 moved_to.y.extract(l),
                 moved_to.z.extract(l),
             );
-            measures.add(k, &sys.y[k], out, move_sq.extract(l), free_sq.extract(l));
+            measures.add(
+                k,
+                &sys.points.y[k],
+                out,
+                move_sq.extract(l),
+                free_sq.extract(l),
+            );
         }
     }
     let tail = move_vertices(sys, first + whole, tail, h2, options);
@@ -449,7 +459,7 @@ fn move_packs<T: Real>(
 /// merged (see [`Measures`]). Inlined into each copy [`isa::run`] chooses from.
 #[inline(always)]
 fn move_vertices<T: Real>(
-    sys: &System<T>,
+    sys: &MembraneSystem<T>,
     first: usize,
     next: &mut [Vector3<T>],
     h2: T,
@@ -458,8 +468,8 @@ fn move_vertices<T: Real>(
     let inner = options.inner_iters > 1;
     let mut measures = Measures::new();
     for (k, next) in (first..).zip(next) {
-        if sys.pinned[k] {
-            *next = sys.y[k];
+        if sys.points.pinned[k] {
+            *next = sys.points.y[k];
             continue;
         }
         let (local, delta) = if inner {
@@ -478,7 +488,7 @@ fn move_vertices<T: Real>(
 /// and adds the move and its free residual to the measures.
 #[inline(always)]
 fn finish_vertex<T: Real>(
-    sys: &System<T>,
+    sys: &MembraneSystem<T>,
     k: usize,
     local: &LocalSystem<T>,
     delta: Vector3<T>,
@@ -492,11 +502,11 @@ fn finish_vertex<T: Real>(
         T::one()
     };
     let margin = sys.rest.vertices[k].half_thickness;
-    let free_move = sys.y[k] + delta * alpha;
+    let free_move = sys.points.y[k] + delta * alpha;
     *next = keep_out(
-        &sys.y[k],
+        &sys.points.y[k],
         free_move,
-        &sys.y_start[k],
+        &sys.points.y_start[k],
         &local.inverse,
         margin,
         options.colliders,
@@ -512,14 +522,14 @@ fn finish_vertex<T: Real>(
     // its projected position, else the extrapolation would push it along the contact past
     // what its friction cone allows (a resting cloth would creep).
     if let Some(w) = options.omega.filter(|_| *next == free_move) {
-        *next = (*next - sys.y_prev[k]) * w + sys.y_prev[k];
+        *next = (*next - sys.points.y_prev[k]) * w + sys.points.y_prev[k];
     }
     let free_sq = free_residual(k, local, &collider_reaction, options).norm_squared();
     measures.add(
         k,
-        &sys.y[k],
+        &sys.points.y[k],
         next,
-        (*next - sys.y[k]).norm_squared(),
+        (*next - sys.points.y[k]).norm_squared(),
         free_sq,
     );
 }
@@ -527,8 +537,8 @@ fn finish_vertex<T: Real>(
 /// `inner` Jacobi sweeps on the linear system of eq. 25, `(M + h^2 L) delta = r` with `L` the
 /// bond Laplacian of weights `C_i + C_j`: `delta_k <- D_k^-1 (r_k + h^2 sum_j (C_k + C_j) delta_j)`.
 /// Leaves each vertex's system in `locals` and the result in `delta`.
-fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
-    let n = sys.y.len();
+fn inner_sweeps<T: Real>(sys: &mut MembraneSystem<T>, h2: T, inner: usize) {
+    let n = sys.points.y.len();
     let mut locals = std::mem::take(&mut sys.locals);
     let mut delta = std::mem::take(&mut sys.delta);
     let mut scratch = std::mem::take(&mut sys.delta_next);
@@ -551,14 +561,14 @@ fn inner_sweeps<T: Real>(sys: &mut System<T>, h2: T, inner: usize) {
         .enumerate()
         .for_each(|(k, (local, d))| {
             *local = LocalSystem::of(sys_ref, k, h2);
-            *d = if sys_ref.pinned[k] {
+            *d = if sys_ref.points.pinned[k] {
                 Vector3::zeros()
             } else {
                 local.solve()
             };
         });
     for _ in 1..inner {
-        let (nb, response, pinned) = (&sys.nb, &sys.response, &sys.pinned);
+        let (nb, response, pinned) = (&sys.nb, &sys.response, &sys.points.pinned);
         scratch.par_iter_mut().enumerate().for_each(|(k, out)| {
             if pinned[k] {
                 *out = Vector3::zeros();
@@ -680,17 +690,17 @@ pub(super) fn free_residual<T: Real>(
 /// `keep_out(y + delta) - (y + delta)`, the `c` of [`free_residual`].
 #[inline]
 pub(super) fn whole_move_reaction<T: Real>(
-    sys: &System<T>,
+    sys: &MembraneSystem<T>,
     k: usize,
     local: &LocalSystem<T>,
     delta: &Vector3<T>,
     colliders: &[ColliderModel<T>],
 ) -> Vector3<T> {
-    let whole = sys.y[k] + delta;
+    let whole = sys.points.y[k] + delta;
     keep_out(
-        &sys.y[k],
+        &sys.points.y[k],
         whole,
-        &sys.y_start[k],
+        &sys.points.y_start[k],
         &local.inverse,
         sys.rest.vertices[k].half_thickness,
         colliders,
@@ -731,21 +741,21 @@ mod tests {
                 .collect();
             body.set_positions(bumped).unwrap();
             body.pin(&[3, 140], None).unwrap();
-            let mut sys = System::<T>::build(&[&mut body], true).unwrap();
-            sys.load(&[&mut body]);
-            let n = sys.y_start.len();
-            sys.y = sys.y_start.clone();
+            let mut sys = MembraneSystem::<T>::build(&[&mut body], true).unwrap();
+            sys.points.load(&[&mut body]);
+            let n = sys.points.y_start.len();
+            sys.points.y = sys.points.y_start.clone();
             // Targets far past the rest positions: at a bump the inertial pull and the
             // elastic force agree, and the full move would release more than the elastic
             // energy there is, so the step length cuts.
-            for (k, star) in sys.y_star.iter_mut().enumerate() {
-                if !sys.pinned[k] {
-                    *star = rest[k] + (rest[k] - sys.y_start[k]) * T::of(1000.0);
+            for (k, star) in sys.points.y_star.iter_mut().enumerate() {
+                if !sys.points.pinned[k] {
+                    *star = rest[k] + (rest[k] - sys.points.y_start[k]) * T::of(1000.0);
                 }
             }
-            sys.y_star[77] = Vector3::repeat(T::of(f64::NAN));
+            sys.points.y_star[77] = Vector3::repeat(T::of(f64::NAN));
             let last_move = Vector3::new(0.0, 0.0, -1e-5).map(T::of);
-            sys.y_prev = sys.y.iter().map(|y| y - last_move).collect();
+            sys.points.y_prev = sys.points.y.iter().map(|y| y - last_move).collect();
             evaluate(&mut sys, Preconditioner::Paper);
             let h2 = T::of(1e-6);
             let cut = (0..n)
@@ -792,7 +802,7 @@ mod tests {
                         T::NAME
                     );
                 }
-                assert_eq!(packed[3], sys.y[3], "a pinned vertex stays");
+                assert_eq!(packed[3], sys.points.y[3], "a pinned vertex stays");
                 assert_eq!(a.first_bad, Some(77));
                 assert_eq!(
                     (a.moved.to_bits(), a.residual.to_bits(), a.first_bad),

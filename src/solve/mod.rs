@@ -1,16 +1,21 @@
 //! Time stepping: implicit Euler solved by the semi-implicit successive substitution method.
 
+pub(crate) mod body;
 mod clock;
+mod collider_passes;
 mod contact_step;
 mod descent;
 mod evaluate;
+mod family;
 mod jacobi;
+pub(crate) mod membrane_system;
 mod params;
+mod points;
 mod reaction;
 mod sissm;
 mod stats;
-pub(crate) mod system;
 
+pub use body::{Body, BodyMut};
 pub use clock::Clock;
 pub use params::{Acceleration, Method, SolverParams};
 pub use sissm::Solver;

@@ -27,16 +27,17 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::contact::{out_of_colliders, Collider, ColliderModel, MoveStart, MovingCollider, Pose};
+use crate::contact::{Collider, ColliderModel, MovingCollider, Pose};
 use crate::error::{invalid, Error, Result};
-use crate::membrane::{Membrane, Preconditioner};
+use crate::membrane::Preconditioner;
 use crate::real::Real;
 
+use super::body::{BodyMut, ByKind};
+use super::collider_passes::{extrapolate_local_step, keep_feasible, project_colliders};
 use super::contact_step::ContactState;
 use super::descent::{descent_iteration, DescentState, LineSearch};
-use super::evaluate::{evaluate, inertial_energy, total_energy};
-use super::jacobi::{jacobi_update, MoveOptions, Update};
-use super::system::System;
+use super::family::{Families, Family};
+use super::jacobi::{MoveOptions, Update};
 use super::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
 
 /// Steps a set of membranes in time.
@@ -44,7 +45,8 @@ pub struct Solver<T: Real> {
     params: SolverParams,
     colliders: Vec<MovingCollider>,
     pool: Option<rayon::ThreadPool>,
-    system: Option<System<T>>,
+    /// The families of the current body list (built on the first step with it).
+    families: Option<Families<T>>,
     /// Contact topology of the current body list (built on the first step with contact).
     contact: Option<ContactState<T>>,
     /// The descent method's working set (built on the first descent step).
@@ -74,7 +76,7 @@ impl<T: Real> Solver<T> {
             params,
             colliders: Vec::new(),
             pool,
-            system: None,
+            families: None,
             contact: None,
             descent: None,
             clock: Clock::default(),
@@ -159,8 +161,9 @@ impl<T: Real> Solver<T> {
     }
 
     /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
-    /// [`Error::Diverged`] names the first non-finite vertex.
-    pub fn step(&mut self, bodies: &mut [&mut Membrane]) -> Result<StepStats> {
+    /// [`Error::Diverged`] names the first non-finite point (the body by its index in
+    /// `bodies`).
+    pub fn step(&mut self, bodies: &mut [BodyMut<'_>]) -> Result<StepStats> {
         match self.pool.take() {
             Some(pool) => {
                 let out = pool.install(|| self.step_in_pool(bodies));
@@ -171,16 +174,17 @@ impl<T: Real> Solver<T> {
         }
     }
 
-    fn step_in_pool(&mut self, bodies: &mut [&mut Membrane]) -> Result<StepStats> {
+    fn step_in_pool(&mut self, bodies: &mut [BodyMut<'_>]) -> Result<StepStats> {
         let started = Instant::now();
         let params = self.params;
-        if !self.system.as_ref().is_some_and(|s| s.matches(bodies)) {
-            self.system = Some(System::build(bodies, true)?);
+        let mut by_kind = ByKind::sort(bodies);
+        if !self.families.as_ref().is_some_and(|f| f.matches(&by_kind)) {
+            self.families = Some(Families::build(&by_kind, true)?);
             self.contact = None;
             self.descent = None;
         }
         if params.method == Method::Descent && self.descent.is_none() {
-            self.descent = Some(DescentState::new(bodies)?);
+            self.descent = Some(DescentState::new(&by_kind.membranes)?);
         }
         let step_end = self.clock.time + params.dt;
         let colliders: Vec<ColliderModel<T>> = self
@@ -188,22 +192,23 @@ impl<T: Real> Solver<T> {
             .iter()
             .map(|c| c.during_step(self.clock.time, step_end))
             .collect();
-        let sys = self.system.as_mut().expect("built above");
+        let families = self.families.as_mut().expect("built above");
         let h = T::of(params.dt);
         let gravity = Vector3::from(params.gravity).map(T::of);
 
-        for body in bodies.iter_mut() {
-            body.sync()?;
-        }
-        sys.load(bodies);
-        if params.contact.is_some() {
+        by_kind.sync()?;
+        families.load(&by_kind);
+        if let (Some(sys), true) = (families.membranes.as_mut(), params.contact.is_some()) {
             let contact = self
                 .contact
-                .get_or_insert_with(|| ContactState::new(bodies, sys));
-            contact.start_step(bodies, sys);
+                .get_or_insert_with(|| ContactState::new(&by_kind.membranes, sys));
+            contact.start_step(&by_kind.membranes, sys);
         }
-        predict(sys, h, gravity);
-        let mut energy = initial_guess(sys, h, params.preconditioner, &colliders);
+        let mut energy = 0.0;
+        for family in families.each() {
+            family.points_mut().predict(h, gravity);
+            energy += initial_guess(family, h, params.preconditioner, &colliders);
+        }
         let mut timings = Timings {
             predict: millis(started),
             ..Timings::default()
@@ -221,9 +226,16 @@ impl<T: Real> Solver<T> {
             ..StepStats::default()
         };
         let accelerated = params.acceleration != Acceleration::None;
-        if accelerated && sys.y_prev.len() != sys.y.len() {
-            sys.y_prev = sys.y.clone();
+        if accelerated {
+            for family in families.each() {
+                let points = family.points_mut();
+                if points.y_prev.len() != points.y.len() {
+                    points.y_prev = points.y.clone();
+                }
+            }
         }
+        let list_indices = by_kind.list_indices();
+        let mut updates = Vec::with_capacity(list_indices.len());
         let mut search = LineSearch::new(energy);
         let mut omega = 1.0;
         // Iteration at which the Chebyshev sequence (re)started: 0, or after a descent trial
@@ -235,19 +247,20 @@ impl<T: Real> Solver<T> {
                 .acceleration
                 .omega(iteration - chebyshev_origin, omega);
             omega = extrapolation.unwrap_or(1.0);
-            let contact_reaction = self
+            // Per family, in the order of `Families::each`: the membrane contact reactions.
+            let contact_reactions = [self
                 .contact
                 .as_ref()
                 .map(ContactState::reaction)
-                .unwrap_or_default();
+                .unwrap_or_default()];
             // With contact, the first iterate of a step has not been through a local step: its
             // residual says nothing of the contacts, so it cannot decide convergence.
-            let decisive = params.contact.is_none() || !contact_reaction.is_empty();
+            let decisive = params.contact.is_none() || !contact_reactions[0].is_empty();
             let converges =
                 |update: &Update| decisive && params.tol > 0.0 && update.residual < params.tol;
             // With contact the extrapolation follows the local step (see
             // [`extrapolate_local_step`]), not the global step.
-            let options = MoveOptions {
+            let options = |contact_reaction| MoveOptions {
                 step_length: params.step_length,
                 inner_iters: params.inner_iters,
                 omega: extrapolation
@@ -256,76 +269,97 @@ impl<T: Real> Solver<T> {
                 colliders: &colliders,
                 contact_reaction,
             };
-            let mut update = match params.method {
+            updates.clear();
+            match params.method {
                 Method::Sissm => {
                     if iteration > 0 {
                         let t = Instant::now();
-                        evaluate(sys, params.preconditioner);
+                        for family in families.each() {
+                            family.evaluate(params.preconditioner);
+                        }
                         timings.kernel += millis(t);
                         if params.record_energy {
-                            energy = total_energy(sys, h);
+                            energy = families.each().map(|f| f.total_energy(h)).sum();
                         }
                     }
                     if params.record_energy {
                         stats.energies.push(energy);
                     }
-                    jacobi_update(sys, h, &options)
+                    for (family, reaction) in families.each().zip(contact_reactions) {
+                        updates.push(family.global_move(h, &options(reaction)));
+                    }
                 }
                 Method::Descent => {
                     if params.record_energy {
                         stats.energies.push(search.energy);
                     }
                     let state = self.descent.as_mut().expect("built above");
-                    let update = descent_iteration(
-                        sys,
-                        state,
-                        h,
-                        params.preconditioner,
-                        &options,
-                        &mut search,
-                    );
+                    if let Some(sys) = families.membranes.as_mut() {
+                        updates.push(descent_iteration(
+                            sys,
+                            state,
+                            h,
+                            params.preconditioner,
+                            &options(contact_reactions[0]),
+                            &mut search,
+                        ));
+                    }
                     if search.restarted {
                         chebyshev_origin = iteration + 1;
                         omega = 1.0;
                     }
-                    update
                 }
             };
             timings.global += millis(t);
             if params.method == Method::Sissm && !colliders.is_empty() {
                 let t = Instant::now();
-                let projected = project_colliders(sys, &colliders);
-                update = Update {
-                    residual: update.residual,
-                    ..Update::merge(update, projected)
-                };
-                update.moved = projected.moved;
+                for (family, update) in families.each().zip(updates.iter_mut()) {
+                    let projected = project_colliders(family.points_mut(), &colliders);
+                    *update = Update {
+                        residual: update.residual,
+                        ..Update::merge(*update, projected)
+                    };
+                    update.moved = projected.moved;
+                }
                 timings.colliders += millis(t);
             }
-            if let Some(vertex) = update.first_bad {
-                let (body, vertex) = sys.locate(vertex);
-                return Err(Error::Diverged {
-                    step: self.clock.steps,
-                    iteration,
-                    body,
-                    vertex,
-                });
+            for ((family, update), indices) in families.each().zip(&updates).zip(list_indices) {
+                if let Some(point) = update.first_bad {
+                    let (body, vertex) = family.points().locate(point);
+                    return Err(Error::Diverged {
+                        step: self.clock.steps,
+                        iteration,
+                        body: indices[body],
+                        vertex,
+                    });
+                }
             }
-            if let (Some(state), Some(contact_params)) = (self.contact.as_mut(), &params.contact) {
+            let mut update = updates.iter().copied().fold(Update::NONE, Update::merge);
+            if let (Some(state), Some(contact_params), Some(sys)) = (
+                self.contact.as_mut(),
+                &params.contact,
+                families.membranes.as_mut(),
+            ) {
                 let (moved, figures) =
                     state.local_step(sys, h, contact_params, params.tol, &colliders);
-                update.moved = moved;
+                updates[0].moved = moved;
+                update = updates.iter().copied().fold(Update::NONE, Update::merge);
                 stats.contact.accumulate(&figures);
                 // The iteration the step stops at is not extrapolated: it ends on `z`.
                 let last = iteration + 1 == params.max_iters || converges(&update);
                 if let Some(w) = extrapolation.filter(|_| !last) {
-                    extrapolate_local_step(sys, T::of(w), &colliders);
+                    for family in families.each() {
+                        extrapolate_local_step(family.points_mut(), T::of(w), &colliders);
+                    }
                 }
             }
-            if accelerated {
-                std::mem::swap(&mut sys.y_prev, &mut sys.y);
+            for family in families.each() {
+                let points = family.points_mut();
+                if accelerated {
+                    std::mem::swap(&mut points.y_prev, &mut points.y);
+                }
+                std::mem::swap(&mut points.y, &mut points.y_next);
             }
-            std::mem::swap(&mut sys.y, &mut sys.y_next);
             stats.iterations = iteration + 1;
             stats.residuals.push(update.moved);
             stats.error_estimates.push(update.residual);
@@ -338,10 +372,13 @@ impl<T: Real> Solver<T> {
         if params.record_energy {
             let t = Instant::now();
             let last = match params.method {
-                Method::Sissm => {
-                    evaluate(sys, params.preconditioner);
-                    total_energy(sys, h)
-                }
+                Method::Sissm => families
+                    .each()
+                    .map(|f| {
+                        f.evaluate(params.preconditioner);
+                        f.total_energy(h)
+                    })
+                    .sum(),
                 Method::Descent => search.energy,
             };
             stats.energies.push(last);
@@ -349,8 +386,11 @@ impl<T: Real> Solver<T> {
         }
 
         let t = Instant::now();
-        finish(sys, h);
-        sys.store(bodies);
+        for family in families.each() {
+            family.points_mut().finish(h);
+            family.end_step()?;
+        }
+        families.store(&mut by_kind);
         timings.finish = millis(t);
         for c in &mut self.colliders {
             c.finish_step(step_end);
@@ -361,18 +401,6 @@ impl<T: Real> Solver<T> {
         stats.timings = timings;
         Ok(stats)
     }
-}
-
-/// `y* = y_t + h v_t + h^2 g` for free vertices; the initial iterate is `y*` (Algorithm 1, line 2).
-fn predict<T: Real>(sys: &mut System<T>, h: T, gravity: Vector3<T>) {
-    let (y_start, velocity, pinned) = (&sys.y_start, &sys.velocity, &sys.pinned);
-    let kick = gravity * (h * h);
-    sys.y_star.par_iter_mut().enumerate().for_each(|(i, star)| {
-        if !pinned[i] {
-            *star = y_start[i] + velocity[i] * h + kick;
-        }
-    });
-    sys.y.copy_from_slice(&sys.y_star);
 }
 
 /// Starts the iteration from whichever of the inertial prediction `y*` (Algorithm 1, line 2) and
@@ -386,115 +414,33 @@ fn predict<T: Real>(sys: &mut System<T>, h: T, gravity: Vector3<T>) {
 /// `E(y_t) >= m |y_t - y*|^2 / (2 h^2)`, so `y_t` is evaluated only when `U(y*)` exceeds that
 /// inertial term: most dynamic steps cost one kernel pass here, not two.
 fn initial_guess<T: Real>(
-    sys: &mut System<T>,
+    family: &mut dyn Family<T>,
     h: T,
     mode: Preconditioner,
     colliders: &[ColliderModel<T>],
 ) -> f64 {
-    keep_feasible(sys, colliders);
-    evaluate(sys, mode);
-    let at_prediction = total_energy(sys, h);
-    let inertia_of_previous = inertial_energy(sys, h, true);
+    keep_feasible(family.points_mut(), colliders);
+    family.evaluate(mode);
+    let at_prediction = family.total_energy(h);
+    let inertia_of_previous = family.inertial_energy_at_start(h);
     if at_prediction <= inertia_of_previous {
         return at_prediction;
     }
-    let (y_start, y_star, pinned) = (&sys.y_start, &sys.y_star, &sys.pinned);
-    sys.y.par_iter_mut().enumerate().for_each(|(i, y)| {
+    let points = family.points_mut();
+    let (y_start, y_star, pinned) = (&points.y_start, &points.y_star, &points.pinned);
+    points.y.par_iter_mut().enumerate().for_each(|(i, y)| {
         *y = if pinned[i] { y_star[i] } else { y_start[i] };
     });
-    keep_feasible(sys, colliders);
-    evaluate(sys, mode);
-    let at_previous = total_energy(sys, h);
+    keep_feasible(points, colliders);
+    family.evaluate(mode);
+    let at_previous = family.total_energy(h);
     if at_previous < at_prediction {
         at_previous
     } else {
-        sys.y.copy_from_slice(&sys.y_star);
-        keep_feasible(sys, colliders);
-        evaluate(sys, mode);
+        let points = family.points_mut();
+        points.y.copy_from_slice(&points.y_star);
+        keep_feasible(points, colliders);
+        family.evaluate(mode);
         at_prediction
     }
-}
-
-/// Projects the free vertices of the iterate `y` out of the colliders (a start outside every
-/// collider, so that the residual there measures a feasible state), on the side of each that
-/// the vertex was on at the start of the step (`y_t`, carried by the collider's motion).
-fn keep_feasible<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>]) {
-    if colliders.is_empty() {
-        return;
-    }
-    let (pinned, rest, start) = (&sys.pinned, &sys.rest, &sys.y_start);
-    sys.y.par_iter_mut().enumerate().for_each(|(k, y)| {
-        if !pinned[k] {
-            let from = MoveStart::OfStep(start[k]);
-            *y = out_of_colliders(colliders, from, *y, rest.vertices[k].half_thickness, None);
-        }
-    });
-}
-
-/// Projects the free vertices of `y_next` out of the colliders and measures the move from `y`.
-fn project_colliders<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>]) -> Update {
-    let (y, pinned, rest) = (&sys.y, &sys.pinned, &sys.rest);
-    sys.y_next
-        .par_iter_mut()
-        .enumerate()
-        .map(|(k, next)| {
-            if !pinned[k] {
-                let (from, margin) = (MoveStart::Now(y[k]), rest.vertices[k].half_thickness);
-                *next = out_of_colliders(colliders, from, *next, margin, None);
-            }
-            Update::of(k, &y[k], next)
-        })
-        .reduce(|| Update::NONE, Update::merge)
-}
-
-/// Chebyshev's extrapolation with contact: `y^{k+1} = w (z - y^{k-1}) + y^{k-1}` on the local
-/// step's result `z` (in `y_next`; `y^{k-1}` in `y_prev`), so that it extrapolates the whole
-/// iteration, global and local step, as the semi-iterative method asks. The extrapolated
-/// iterate is only where the next global step evaluates the forces: the local step keeps its
-/// own safe positions (`z`, intersection-free) and runs its CCD from them, and the solver
-/// does not extrapolate the iteration it stops at, so every step still ends on a local step's
-/// result. A vertex that the extrapolation could take into a collider (its signed distance at
-/// `z`, beyond its half thickness, no more than the extrapolation's move) keeps `z`: the global
-/// step's collider projection starts from outside, and friction does not see an extrapolated
-/// slide.
-fn extrapolate_local_step<T: Real>(sys: &mut System<T>, w: T, colliders: &[ColliderModel<T>]) {
-    let (y_prev, pinned, rest) = (&sys.y_prev, &sys.pinned, &sys.rest);
-    sys.y_next.par_iter_mut().enumerate().for_each(|(k, z)| {
-        if !pinned[k] {
-            let margin = rest.vertices[k].half_thickness;
-            *z = extrapolated(z, &y_prev[k], w, margin, colliders);
-        }
-    });
-}
-
-/// One vertex of [`extrapolate_local_step`]: `w (z - previous) + previous`, or `z` where
-/// that move could reach into a collider (within `margin`, m, of its surface).
-pub(super) fn extrapolated<T: Real>(
-    z: &Vector3<T>,
-    previous: &Vector3<T>,
-    w: T,
-    margin: T,
-    colliders: &[ColliderModel<T>],
-) -> Vector3<T> {
-    let moved = (z - previous) * w + previous;
-    let reach = (moved - z).norm() + margin;
-    if colliders.iter().all(|c| c.signed_distance(z) > reach) {
-        moved
-    } else {
-        *z
-    }
-}
-
-/// `v_{t+1} = (y_{t+1} - y_t) / h`, `y_t <- y_{t+1}`.
-fn finish<T: Real>(sys: &mut System<T>, h: T) {
-    let inv_h = T::one() / h;
-    let y = &sys.y;
-    sys.velocity
-        .par_iter_mut()
-        .zip(sys.y_start.par_iter_mut())
-        .enumerate()
-        .for_each(|(i, (v, start))| {
-            *v = (y[i] - *start) * inv_h;
-            *start = y[i];
-        });
 }

@@ -55,7 +55,7 @@ fn free_fall_is_implicit_euler() {
     let mut solver = Solver::<f64>::new(params, None).unwrap();
     let g = Vector3::from(params.gravity);
     for n in 1..=20u32 {
-        solver.step(&mut [&mut body]).unwrap();
+        solver.step(&mut [(&mut body).into()]).unwrap();
         let drop = g * (params.dt * params.dt * (n * (n + 1)) as f64 / 2.0);
         for (y, x) in body.positions().iter().zip(&x0) {
             assert!((y - (x + drop)).norm() < 1e-12, "step {n}");
@@ -87,7 +87,7 @@ fn one_and_two_threads_agree_bit_for_bit() {
             ))
             .unwrap();
         for _ in 0..15 {
-            solver.step(&mut [&mut body]).unwrap();
+            solver.step(&mut [(&mut body).into()]).unwrap();
         }
         body.positions().to_vec()
     };
@@ -137,7 +137,7 @@ fn a_far_collider_changes_no_bit_of_the_move() {
         }
         let mut measures = Vec::new();
         for _ in 0..6 {
-            let stats = solver.step(&mut [&mut body]).unwrap();
+            let stats = solver.step(&mut [(&mut body).into()]).unwrap();
             measures.push(stats.error_estimate().to_bits());
             measures.extend(stats.residuals.iter().map(|r| r.to_bits()));
         }
@@ -184,7 +184,7 @@ fn avx2_and_portable_copies_agree_bit_for_bit() {
             ))
             .unwrap();
         for _ in 0..8 {
-            solver.step(&mut [&mut body]).unwrap();
+            solver.step(&mut [(&mut body).into()]).unwrap();
         }
         let mut state = body.positions().to_vec();
         state.extend_from_slice(body.velocities());
@@ -222,7 +222,7 @@ fn zero_tolerance_runs_every_iteration() {
         None,
     )
     .unwrap();
-    let stats = solver.step(&mut [&mut body]).unwrap();
+    let stats = solver.step(&mut [(&mut body).into()]).unwrap();
     assert_eq!(
         (stats.iterations, stats.residuals.len(), stats.converged),
         (13, 13, false)
@@ -234,12 +234,12 @@ fn zero_tolerance_runs_every_iteration() {
 fn divergence_leaves_the_last_good_state() {
     let mut body = cloth(5);
     let mut solver = Solver::<f64>::new(SolverParams::default(), None).unwrap();
-    solver.step(&mut [&mut body]).unwrap();
+    solver.step(&mut [(&mut body).into()]).unwrap();
     let mut v = body.velocities().to_vec();
     v[3] = Vector3::new(1e307, -1e307, 1e307);
     body.set_velocities(v).unwrap();
     let (x, v) = (body.positions().to_vec(), body.velocities().to_vec());
-    let err = solver.step(&mut [&mut body]).unwrap_err();
+    let err = solver.step(&mut [(&mut body).into()]).unwrap_err();
     assert!(matches!(err, crate::error::Error::Diverged { .. }), "{err}");
     assert_eq!(body.positions(), &x[..]);
     assert_eq!(body.velocities(), &v[..]);
@@ -260,7 +260,7 @@ fn hanging_step(params: SolverParams) -> (Vec<Vector3<f64>>, super::StepStats) {
         None,
     )
     .unwrap();
-    let stats = solver.step(&mut [&mut body]).unwrap();
+    let stats = solver.step(&mut [(&mut body).into()]).unwrap();
     (body.positions().to_vec(), stats)
 }
 
@@ -365,7 +365,7 @@ fn a_sheet_on_a_slope_obeys_coulomb_friction() {
             .unwrap();
         let along = (g.norm() * (theta.sin() - mu * theta.cos())).max(0.0);
         for n in 1..=10 {
-            assert!(solver.step(&mut [&mut body]).unwrap().converged);
+            assert!(solver.step(&mut [(&mut body).into()]).unwrap().converged);
             for (v, y) in body.velocities().iter().zip(body.positions()) {
                 let expected = down_slope * (along * params.dt * n as f64);
                 assert!(
@@ -421,7 +421,9 @@ fn contact_keeps_a_falling_sheet_above_a_resting_one() {
             .unwrap();
         let mut active = 0;
         for _ in 0..20 {
-            let stats = solver.step(&mut [&mut lower, &mut upper]).unwrap();
+            let stats = solver
+                .step(&mut [(&mut lower).into(), (&mut upper).into()])
+                .unwrap();
             active = active.max(stats.contact.active_pairs);
             let margin = lower.params().thickness / 2.0;
             for p in lower.positions().iter().chain(upper.positions()) {
@@ -489,7 +491,7 @@ fn the_extrapolation_keeps_a_vertex_that_could_reach_into_a_collider() {
     // From 5 mm up towards the ground by 2 mm, extrapolated by a further 1 mm: 2 mm up, clear.
     let (previous, z) = (Vector3::new(0.1, 0.2, 7e-3), Vector3::new(0.1, 0.2, 5e-3));
     let grounds = std::slice::from_ref(&ground);
-    let far = super::sissm::extrapolated(&z, &previous, w, margin, grounds);
+    let far = super::collider_passes::extrapolated(&z, &previous, w, margin, grounds);
     assert!(
         (far - Vector3::new(0.1, 0.2, 4e-3)).norm() < 1e-15,
         "{far:?}"
@@ -499,10 +501,10 @@ fn the_extrapolation_keeps_a_vertex_that_could_reach_into_a_collider() {
         Vector3::new(0.0, 0.0, 3.8e-3),
         Vector3::new(1e-3, 0.0, 1.8e-3),
     );
-    let near = super::sissm::extrapolated(&z, &previous, w, margin, grounds);
+    let near = super::collider_passes::extrapolated(&z, &previous, w, margin, grounds);
     assert_eq!(near, z);
     // With no collider the same vertex is extrapolated.
-    let free = super::sissm::extrapolated(&z, &previous, w, margin, &[]);
+    let free = super::collider_passes::extrapolated(&z, &previous, w, margin, &[]);
     assert!(
         (free - Vector3::new(1.5e-3, 0.0, 0.8e-3)).norm() < 1e-15,
         "{free:?}"
@@ -532,7 +534,7 @@ fn friction_carries_a_sheet_on_a_moving_plate() {
         .add_collider(Collider::new(plate, 1.0, [0.3, 0.0, 0.0]).unwrap())
         .unwrap();
     for _ in 0..5 {
-        solver.step(&mut [&mut body]).unwrap();
+        solver.step(&mut [(&mut body).into()]).unwrap();
     }
     for v in body.velocities() {
         assert!((v - Vector3::new(0.3, 0.0, 0.0)).norm() < 1e-7, "v = {v}");
@@ -612,7 +614,7 @@ fn descent_energy_never_rises_on_a_stiff_cloth() {
             None,
         )
         .unwrap();
-        let stats = solver.step(&mut [&mut body]).unwrap();
+        let stats = solver.step(&mut [(&mut body).into()]).unwrap();
         let e = &stats.energies;
         for pair in e.windows(2) {
             assert!(

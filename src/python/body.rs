@@ -1,0 +1,77 @@
+//! The Python side of the body seam: a body of any kind that `Solver.add` takes, and the lock
+//! a step holds on each body's core while it advances them.
+
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use pyo3::exceptions::PyTypeError;
+use pyo3::prelude::*;
+
+use crate::membrane::Membrane;
+use crate::solve::BodyMut;
+
+use super::membrane::PyMembrane;
+
+/// A body a solver steps, by kind.
+pub enum PyBody {
+    Membrane(Py<PyMembrane>),
+}
+
+/// The core of a [`PyBody`], shared with its Python object.
+pub enum SharedBody {
+    Membrane(Arc<Mutex<Membrane>>),
+}
+
+/// A [`SharedBody`] locked for a step.
+pub enum LockedBody<'a> {
+    Membrane(MutexGuard<'a, Membrane>),
+}
+
+impl PyBody {
+    /// The body `object` is, or a `TypeError` naming what it is instead.
+    pub fn extract(object: &Bound<'_, PyAny>) -> PyResult<Self> {
+        if let Ok(membrane) = object.cast::<PyMembrane>() {
+            return Ok(Self::Membrane(membrane.clone().unbind()));
+        }
+        Err(PyTypeError::new_err(format!(
+            "Solver.add takes a body (peridyn.Membrane), got {}",
+            object.get_type().name()?
+        )))
+    }
+
+    pub fn shared(&self, py: Python<'_>) -> SharedBody {
+        match self {
+            Self::Membrane(m) => SharedBody::Membrane(m.borrow(py).inner.clone()),
+        }
+    }
+
+    pub fn object(&self, py: Python<'_>) -> Py<PyAny> {
+        match self {
+            Self::Membrane(m) => m.clone_ref(py).into_any(),
+        }
+    }
+}
+
+impl SharedBody {
+    /// Whether both share one core (the same body added twice).
+    pub fn same(&self, other: &Self) -> bool {
+        match (self, other) {
+            (Self::Membrane(a), Self::Membrane(b)) => Arc::ptr_eq(a, b),
+        }
+    }
+
+    /// Locks the core (a lock poisoned by a panic elsewhere still gives the body: every
+    /// step leaves it in a consistent state).
+    pub fn lock(&self) -> LockedBody<'_> {
+        match self {
+            Self::Membrane(m) => LockedBody::Membrane(m.lock().unwrap_or_else(|p| p.into_inner())),
+        }
+    }
+}
+
+impl LockedBody<'_> {
+    pub fn body_mut(&mut self) -> BodyMut<'_> {
+        match self {
+            Self::Membrane(m) => BodyMut::Membrane(&mut **m),
+        }
+    }
+}

@@ -1,0 +1,111 @@
+//! What a body kind plugs into the time step: a family holds the points of every body of its
+//! kind ([`Points`]) with their rest data, and computes what the shared step asks of it.
+//!
+//! The step ([`super::sissm`]) runs its phases over every family: predict and finish on the
+//! points, the global step through [`Family::evaluate`] and [`Family::global_move`], colliders
+//! on the points, then the kind's own end-of-step work ([`Family::end_step`]). Membranes are
+//! the first family ([`MembraneSystem`]); a new kind implements this trait and adds a field to
+//! [`Families`].
+
+use crate::error::Result;
+use crate::membrane::Preconditioner;
+use crate::real::Real;
+
+use super::body::ByKind;
+use super::evaluate::{evaluate, inertial_energy, total_energy};
+use super::jacobi::{jacobi_update, MoveOptions, Update};
+use super::membrane_system::MembraneSystem;
+use super::points::Points;
+
+/// A body kind's part of the time step.
+pub(crate) trait Family<T: Real>: Send {
+    fn points(&self) -> &Points<T>;
+    fn points_mut(&mut self) -> &mut Points<T>;
+    /// The per-element kernel at the current iterate `y`: the forces, elastic energies and
+    /// preconditioner blocks that the next [`Self::global_move`] and
+    /// [`Self::total_energy`] read (`mode` picks the membrane kernel's preconditioner).
+    fn evaluate(&mut self, mode: Preconditioner);
+    /// `E(y) = sum_i m_i |y_i - y*_i|^2 / (2 h^2) + U(y)` (J; Lu et al. 2023, eq. 2 without
+    /// the barrier) from the last [`Self::evaluate`], `h` in s.
+    fn total_energy(&mut self, h: T) -> f64;
+    /// The inertial term of [`Self::total_energy`] at `y_t` (J).
+    fn inertial_energy_at_start(&mut self, h: T) -> f64 {
+        inertial_energy(self.points_mut(), h, true)
+    }
+    /// One preconditioned global move `y -> y_next` (eq. 25 in residual form, with the step
+    /// length of eq. 31-33, colliders in the system metric and Chebyshev extrapolation as
+    /// `options` ask), and its measures.
+    fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update;
+    /// Work at the end of a converged or finished step, after `finish` and before the state
+    /// goes back to the bodies: where plasticity updates rest shapes and neighbourhoods are
+    /// rebuilt. Nothing for membranes.
+    fn end_step(&mut self) -> Result<()> {
+        Ok(())
+    }
+}
+
+impl<T: Real> Family<T> for MembraneSystem<T> {
+    fn points(&self) -> &Points<T> {
+        &self.points
+    }
+    fn points_mut(&mut self) -> &mut Points<T> {
+        &mut self.points
+    }
+    fn evaluate(&mut self, mode: Preconditioner) {
+        evaluate(self, mode);
+    }
+    fn total_energy(&mut self, h: T) -> f64 {
+        total_energy(self, h)
+    }
+    fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update {
+        jacobi_update(self, h, options)
+    }
+}
+
+/// The families of one body list.
+pub(crate) struct Families<T: Real> {
+    pub membranes: Option<MembraneSystem<T>>,
+}
+
+impl<T: Real> Families<T> {
+    /// The families of `bodies`, their rest data in SIMD packs for the host kernel when
+    /// `packed` (the CPU solver), else plain (for upload to a GPU).
+    pub fn build(bodies: &ByKind<'_>, packed: bool) -> Result<Self> {
+        let membranes = if bodies.membranes.is_empty() {
+            None
+        } else {
+            Some(MembraneSystem::build(&bodies.membranes, packed)?)
+        };
+        Ok(Self { membranes })
+    }
+
+    /// True when the families were built from exactly these bodies.
+    pub fn matches(&self, bodies: &ByKind<'_>) -> bool {
+        match &self.membranes {
+            Some(m) => m.points.matches(&bodies.membranes),
+            None => bodies.membranes.is_empty(),
+        }
+    }
+
+    /// Copies the bodies' positions, velocities and pins into their families.
+    pub fn load(&mut self, bodies: &ByKind<'_>) {
+        if let Some(m) = &mut self.membranes {
+            m.points.load(&bodies.membranes);
+        }
+    }
+
+    /// Copies the families' state back into the bodies (in f64).
+    pub fn store(&self, bodies: &mut ByKind<'_>) {
+        if let Some(m) = &self.membranes {
+            m.points.store(&mut bodies.membranes);
+        }
+    }
+
+    /// Every family, in a fixed order.
+    pub fn each(&mut self) -> impl Iterator<Item = &mut dyn Family<T>> {
+        self.membranes
+            .as_mut()
+            .map(|m| m as &mut dyn Family<T>)
+            .into_iter()
+    }
+}

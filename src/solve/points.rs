@@ -1,0 +1,151 @@
+//! The state every body family steps: the points of a family's bodies concatenated into one
+//! range, in the simulation's precision, and the phases of a step that act on points alone
+//! (predict and finish, Lu et al. 2023, Algorithm 1 lines 2 and 16).
+
+use std::ops::Range;
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use crate::real::Real;
+
+use super::body::Body;
+
+/// The points of one family's bodies: identities and ranges, state and iterates.
+pub(crate) struct Points<T: Real> {
+    /// Identity of each body, to detect a changed body list.
+    pub ids: Vec<u64>,
+    /// Point range of each body.
+    pub ranges: Vec<Range<usize>>,
+    /// Lumped mass of each point (kg).
+    pub mass: Vec<T>,
+    /// How far each point keeps from a collider's surface (m): a membrane vertex's half
+    /// thickness.
+    pub margin: Vec<T>,
+    /// Positions at the start of the step, y_t (m).
+    pub y_start: Vec<Vector3<T>>,
+    /// Velocities v_t (m/s).
+    pub velocity: Vec<Vector3<T>>,
+    /// Inertial target y* (m; pinned points: their target).
+    pub y_star: Vec<Vector3<T>>,
+    /// Current iterate and the next one (m).
+    pub y: Vec<Vector3<T>>,
+    pub y_next: Vec<Vector3<T>>,
+    /// The iterate before `y`, kept only while Chebyshev acceleration needs it (else empty).
+    pub y_prev: Vec<Vector3<T>>,
+    pub pinned: Vec<bool>,
+    /// Partial sums of the energy reductions (reused).
+    pub energy_chunks: Vec<f64>,
+}
+
+impl<T: Real> Points<T> {
+    /// Room for the points of `bodies`, with each point's mass (kg) and collider margin (m);
+    /// the state is loaded by [`Self::load`].
+    pub fn new<B: Body>(bodies: &[&mut B], mass: Vec<T>, margin: Vec<T>) -> Self {
+        let mut ids = Vec::with_capacity(bodies.len());
+        let mut ranges = Vec::with_capacity(bodies.len());
+        let mut start = 0;
+        for body in bodies {
+            let n = body.num_points();
+            ids.push(body.id());
+            ranges.push(start..start + n);
+            start += n;
+        }
+        debug_assert!(mass.len() == start && margin.len() == start);
+        let zeros = vec![Vector3::zeros(); start];
+        Self {
+            ids,
+            ranges,
+            mass,
+            margin,
+            y_start: zeros.clone(),
+            velocity: zeros.clone(),
+            y_star: zeros.clone(),
+            y: zeros.clone(),
+            y_next: zeros,
+            y_prev: Vec::new(),
+            pinned: vec![false; start],
+            energy_chunks: Vec::new(),
+        }
+    }
+
+    /// True when the points were laid out for exactly these bodies.
+    pub fn matches<B: Body>(&self, bodies: &[&mut B]) -> bool {
+        self.ids.len() == bodies.len() && self.ids.iter().zip(bodies).all(|(id, b)| *id == b.id())
+    }
+
+    /// Copies the bodies' positions, velocities and pins in; pinned points get their target
+    /// as inertial target.
+    pub fn load<B: Body>(&mut self, bodies: &[&mut B]) {
+        for (body, range) in bodies.iter().zip(&self.ranges) {
+            let base = range.start;
+            for (k, (x, v)) in body.positions().iter().zip(body.velocities()).enumerate() {
+                self.y_start[base + k] = x.map(T::of);
+                self.velocity[base + k] = v.map(T::of);
+            }
+        }
+        self.load_pins(bodies);
+    }
+
+    /// Copies the bodies' pins in: the flags, and their targets into `y_star`.
+    pub fn load_pins<B: Body>(&mut self, bodies: &[&mut B]) {
+        self.pinned.fill(false);
+        for (body, range) in bodies.iter().zip(&self.ranges) {
+            for (&i, target) in body.pins() {
+                self.pinned[range.start + i as usize] = true;
+                self.y_star[range.start + i as usize] = target.map(T::of);
+            }
+        }
+    }
+
+    /// Copies the state back into the bodies (in f64).
+    pub fn store<B: Body>(&self, bodies: &mut [&mut B]) {
+        for (body, range) in bodies.iter_mut().zip(&self.ranges) {
+            let (x, v) = body.state_mut();
+            for (k, i) in range.clone().enumerate() {
+                x[k] = self.y_start[i].map(|c| c.to_f64());
+                v[k] = self.velocity[i].map(|c| c.to_f64());
+            }
+        }
+    }
+
+    /// The body and local point index of a point.
+    pub fn locate(&self, point: usize) -> (usize, usize) {
+        let body = self
+            .ranges
+            .iter()
+            .position(|r| r.contains(&point))
+            .unwrap_or(0);
+        (body, point - self.ranges.get(body).map_or(0, |r| r.start))
+    }
+
+    /// `y* = y_t + h v_t + h^2 g` for free points (h in s, g in m/s^2); the initial iterate is
+    /// `y*` (Algorithm 1, line 2).
+    pub fn predict(&mut self, h: T, gravity: Vector3<T>) {
+        let (y_start, velocity, pinned) = (&self.y_start, &self.velocity, &self.pinned);
+        let kick = gravity * (h * h);
+        self.y_star
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, star)| {
+                if !pinned[i] {
+                    *star = y_start[i] + velocity[i] * h + kick;
+                }
+            });
+        self.y.copy_from_slice(&self.y_star);
+    }
+
+    /// `v_{t+1} = (y_{t+1} - y_t) / h`, `y_t <- y_{t+1}` (Algorithm 1, line 16).
+    pub fn finish(&mut self, h: T) {
+        let inv_h = T::one() / h;
+        let y = &self.y;
+        self.velocity
+            .par_iter_mut()
+            .zip(self.y_start.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (v, start))| {
+                *v = (y[i] - *start) * inv_h;
+                *start = y[i];
+            });
+    }
+}
