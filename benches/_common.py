@@ -1,4 +1,5 @@
-"""Shared helpers for the Python benchmarks in benches/: machine record, scenes, JSON output.
+"""Shared helpers for the Python benchmarks in benches/: machine record, scenes, JSON output,
+builds run in fresh processes.
 
 Every benchmark records, next to its numbers, what the machine was doing (``os.getloadavg()``
 before and after, CPU count and affinity), which peridyn it measured (version, git commit,
@@ -8,6 +9,7 @@ whether the work tree was dirty) and the exact command that produced the file.
 from __future__ import annotations
 
 import datetime as _dt
+import hashlib
 import json
 import os
 import platform
@@ -15,6 +17,7 @@ import shlex
 import subprocess
 import sys
 import time
+import zipfile
 from pathlib import Path
 from typing import Any, Dict, Optional
 
@@ -48,7 +51,10 @@ def command_line() -> str:
 
 
 def machine(extra: Optional[Dict[str, Any]] = None) -> Dict[str, Any]:
-    import peridyn
+    try:
+        import peridyn
+    except ImportError:  # a parent that runs builds in their own processes (build_dir)
+        peridyn = None
 
     info = {
         "utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
@@ -138,6 +144,52 @@ def _jsonable(x: Any) -> Any:
     if isinstance(x, float) and not np.isfinite(x):
         return None if np.isnan(x) else ("inf" if x > 0 else "-inf")
     return x
+
+
+def build_dir(build: str, scratch: Path, name: str) -> Path:
+    """A directory to put first on ``PYTHONPATH`` for ``build`` (a wheel, a directory holding
+    one wheel, or a directory holding the ``peridyn`` package); a wheel is unpacked into
+    ``scratch / name``."""
+    path = Path(build)
+    if path.is_dir() and not (path / "peridyn").is_dir():
+        wheels = sorted(path.glob("peridyn-*.whl"))
+        if len(wheels) != 1:
+            raise SystemExit(f"--build {name}={build}: expected one peridyn wheel there, "
+                             f"found {len(wheels)}")
+        path = wheels[0]
+    if path.is_dir():
+        return path
+    if path.suffix != ".whl" or not path.is_file():
+        raise SystemExit(f"--build {name}={build}: not a wheel or a directory")
+    target = scratch / name
+    with zipfile.ZipFile(path) as wheel:
+        wheel.extractall(target)
+    return target
+
+
+def core_digest(where: Path) -> str:
+    """The SHA-256 of the build's compiled core (``peridyn/_core*.so`` or ``.pyd``)."""
+    cores = sorted((where / "peridyn").glob("_core*.so")) + sorted(
+        (where / "peridyn").glob("_core*.pyd"))
+    if len(cores) != 1:
+        raise SystemExit(f"{where}: expected one compiled core in peridyn/, found {len(cores)}")
+    return hashlib.sha256(cores[0].read_bytes()).hexdigest()
+
+
+def run_in_build(name: str, where: Path, argv: list) -> Dict[str, Any]:
+    """Runs ``python ARGV`` in a fresh process that imports peridyn from ``where`` (first on
+    ``PYTHONPATH``, see :func:`build_dir`) and returns the JSON object of its last line of
+    output, which must give ``"module"``: the ``peridyn.__file__`` it imported (checked to lie
+    in ``where``)."""
+    env = dict(os.environ, PYTHONPATH=str(where))
+    done = subprocess.run([sys.executable, *map(str, argv)], env=env, capture_output=True,
+                          text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"build {name} failed:\n{done.stderr[-4000:]}")
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    if not Path(result["module"]).resolve().is_relative_to(Path(where).resolve()):
+        raise SystemExit(f"build {name} imported peridyn from {result['module']}, not {where}")
+    return result
 
 
 def solver_supports(**kwargs: Any) -> bool:

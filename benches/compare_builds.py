@@ -45,10 +45,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -84,49 +82,12 @@ def worker(args) -> None:
     print(json.dumps({"module": peridyn.__file__, "first_step": first, "rows": rows}), flush=True)
 
 
-def unpacked(build: str, scratch: Path, name: str) -> Path:
-    """A directory to put first on ``PYTHONPATH`` for ``build`` (a wheel, a directory holding
-    one wheel, or a directory holding the ``peridyn`` package)."""
-    path = Path(build)
-    if path.is_dir() and not (path / "peridyn").is_dir():
-        wheels = sorted(path.glob("peridyn-*.whl"))
-        if len(wheels) != 1:
-            raise SystemExit(f"--build {name}={build}: expected one peridyn wheel there, "
-                             f"found {len(wheels)}")
-        path = wheels[0]
-    if path.is_dir():
-        return path
-    if path.suffix != ".whl" or not path.is_file():
-        raise SystemExit(f"--build {name}={build}: not a wheel or a directory")
-    target = scratch / name
-    with zipfile.ZipFile(path) as wheel:
-        wheel.extractall(target)
-    return target
-
-
-def core_digest(where: Path) -> str:
-    """The SHA-256 of the build's compiled core (``peridyn/_core*.so`` or ``.pyd``)."""
-    import hashlib
-
-    cores = sorted((where / "peridyn").glob("_core*.so")) + sorted(
-        (where / "peridyn").glob("_core*.pyd"))
-    if len(cores) != 1:
-        raise SystemExit(f"{where}: expected one compiled core in peridyn/, found {len(cores)}")
-    return hashlib.sha256(cores[0].read_bytes()).hexdigest()
-
-
 def run_build(name, where, args, scratch, index):
     positions = scratch / f"positions_{name}_{index}.npy"
-    env = dict(os.environ, PYTHONPATH=str(where))
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", "--run", args.run,
-           "--state", args.state, "--steps", str(args.steps), "--positions-out", str(positions)]
     before = os.getloadavg()
-    done = subprocess.run(cmd, env=env, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise SystemExit(f"build {name} failed:\n{done.stderr[-4000:]}")
-    result = json.loads(done.stdout.strip().splitlines()[-1])
-    if not Path(result["module"]).resolve().is_relative_to(Path(where).resolve()):
-        raise SystemExit(f"build {name} imported peridyn from {result['module']}, not {where}")
+    result = C.run_in_build(name, where, [
+        Path(__file__).resolve(), "--worker", "--run", args.run, "--state", args.state,
+        "--steps", args.steps, "--positions-out", positions])
     result.update(build=name, loadavg_before=list(before), loadavg_after=list(os.getloadavg()))
     return result, np.load(positions)
 
@@ -192,8 +153,8 @@ def main(argv=None):
     runs, final_positions = [], {name: [] for name in names}
     with tempfile.TemporaryDirectory(prefix="peridyn_builds_") as tmp:
         scratch = Path(tmp)
-        where = {name: unpacked(build, scratch, name) for name, build in builds.items()}
-        digests = {name: core_digest(path) for name, path in where.items()}
+        where = {name: C.build_dir(build, scratch, name) for name, build in builds.items()}
+        digests = {name: C.core_digest(path) for name, path in where.items()}
         same = [name for name in names[1:] if digests[name] in
                 [digests[earlier] for earlier in names[:names.index(name)]]]
         if same:
