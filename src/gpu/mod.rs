@@ -12,8 +12,10 @@
 
 mod device;
 mod layout;
+mod pass;
 mod pipelines;
 mod solver;
+mod working_set;
 
 pub use device::{gpu_info, GpuInfo};
 pub use layout::GpuReal;

@@ -71,7 +71,7 @@ impl SharedBody {
 impl LockedBody<'_> {
     pub fn body_mut(&mut self) -> BodyMut<'_> {
         match self {
-            Self::Membrane(m) => BodyMut::Membrane(&mut **m),
+            Self::Membrane(m) => BodyMut::Membrane(m),
         }
     }
 }

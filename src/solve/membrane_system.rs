@@ -35,7 +35,7 @@ pub(crate) struct MembraneSystem<T: Real> {
 
 impl<T: Real> MembraneSystem<T> {
     /// Concatenates the bodies' rest data, computed here a vertex (or a pack) at a time
-    /// (state is loaded by [`MembraneSystem::load`]).
+    /// (state is loaded by [`Points::load`]).
     ///
     /// With `packed`, frames and bonds go into SIMD packs for the host kernel (the CPU solver)
     /// and `rest` keeps only the per-vertex constants; without, everything goes into `rest`
