@@ -384,26 +384,26 @@ class StepStats:
     @property
     def iterations(self) -> int: ...
     @property
-    def residual(self) -> float:
+    def last_move(self) -> float:
         """The last iteration's max_i |y_i^k - y_i^(k-1)| in m (the convergence measure of
-        Algorithm 1): the last of ``residuals``."""
+        Algorithm 1): the last of ``moves``."""
     @property
     def converged(self) -> bool:
-        """True when ``error_estimate`` fell below ``tol`` (always False when tol == 0)."""
+        """True when ``residual`` fell below ``tol`` (always False when tol == 0)."""
     @property
-    def residuals(self) -> np.ndarray:
+    def moves(self) -> np.ndarray:
         """Largest vertex move of each iteration (m)."""
     @property
-    def error_estimate(self) -> float:
+    def residual(self) -> float:
         """max_i |r_i| / m_i (m) for the residual r = m (y* - y) + h^2 f at the last evaluated
         iterate, without the contact reactions (the colliders' reaction to the vertex's Jacobi
         move, normal and Coulomb friction within the cone, and the part of the contact local
         step's move that its barrier push and the normals of the colliders the vertex rests on
         explain): an upper bound on the mass-weighted RMS distance to the exact implicit Euler
-        solution where the energy is convex. The last of ``error_estimates``."""
+        solution where the energy is convex. The last of ``residuals``."""
     @property
-    def error_estimates(self) -> np.ndarray:
-        """``error_estimate`` after each iteration (m): whether a step that ran to max_iters was
+    def residuals(self) -> np.ndarray:
+        """``residual`` after each iteration (m): whether a step that ran to max_iters was
         still converging or had stalled. With contact the first one measures the whole
         residual (no local step has run before it) and cannot decide convergence."""
     @property
@@ -444,7 +444,7 @@ class Solver:
     ----------
     dt : time step h in s (> 0).
     gravity : acceleration (m/s^2).
-    tol : stop when the error bound ``StepStats.error_estimate`` < tol (m): the mass-weighted RMS
+    tol : stop when the error bound ``StepStats.residual`` < tol (m): the mass-weighted RMS
         distance to the exact implicit Euler solution is then below tol; 0 runs exactly
         ``max_iters`` iterations.
     max_iters : cap on global iterations per step (>= 1).
@@ -458,7 +458,7 @@ class Solver:
         it amplifies round-off near the precision floor). With contact (method "sissm" only)
         it extrapolates the local step's result; the local step keeps the intersection-free
         positions and a step always ends on them. Pick rho near the plain iteration's
-        per-iteration decay of ``StepStats.error_estimates`` (about 0.8 on stacked layers
+        per-iteration decay of ``StepStats.residuals`` (about 0.8 on stacked layers
         landing, where rho = 0.85 saved a fifth of the iterations).
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).

@@ -514,30 +514,30 @@ impl PyStepStats {
     fn iterations(&self) -> usize {
         self.inner.iterations
     }
-    /// The last iteration's max_i |y_i^k - y_i^(k-1)| (m): the last of ``residuals``.
+    /// The last iteration's max_i |y_i^k - y_i^(k-1)| (m): the last of ``moves``.
+    #[getter]
+    fn last_move(&self) -> f64 {
+        self.inner.last_move()
+    }
+    /// Estimated distance (m) from the result to the exact implicit Euler solution: the last of
+    /// ``residuals``.
     #[getter]
     fn residual(&self) -> f64 {
         self.inner.residual()
-    }
-    /// Estimated distance (m) from the result to the exact implicit Euler solution: the last of
-    /// ``error_estimates``.
-    #[getter]
-    fn error_estimate(&self) -> f64 {
-        self.inner.error_estimate()
     }
     #[getter]
     fn converged(&self) -> bool {
         self.inner.converged
     }
-    /// Residual after each iteration (m).
+    /// Largest vertex move of each iteration (m).
+    #[getter]
+    fn moves<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(py, self.inner.moves.clone())
+    }
+    /// The convergence measure ``residual`` after each iteration (m).
     #[getter]
     fn residuals<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         to_numpy_1d(py, self.inner.residuals.clone())
-    }
-    /// The error estimate after each iteration (m).
-    #[getter]
-    fn error_estimates<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        to_numpy_1d(py, self.inner.error_estimates.clone())
     }
     /// Total variational energy E(y^k) (J) of every iterate k = 0..iterations (empty unless the
     /// solver was built with record_energy=True).
@@ -610,10 +610,10 @@ impl PyStepStats {
     }
     fn __repr__(&self) -> String {
         format!(
-            "StepStats(step={}, iterations={}, residual={:.3e}, converged={}, total_ms={:.3})",
+            "StepStats(step={}, iterations={}, last_move={:.3e}, converged={}, total_ms={:.3})",
             self.inner.step,
             self.inner.iterations,
-            self.inner.residual(),
+            self.inner.last_move(),
             self.inner.converged,
             self.inner.timings.total
         )
