@@ -171,6 +171,14 @@ def test_write_mesh_is_read_back_by_trimesh(tmp_path, suffix):
 # Solver.run and RunSummary
 
 
+def test_the_package_exports_every_public_name_of_the_core():
+    """``peridyn`` names its exports; a class the core gains must be added to the list."""
+    core = {name for name in dir(_core) if not name.startswith("_")}
+    assert core <= set(peridyn.__all__), sorted(core - set(peridyn.__all__))
+    assert all(hasattr(peridyn, name) for name in peridyn.__all__)
+    assert len(set(peridyn.__all__)) == len(peridyn.__all__)
+
+
 def test_solver_subclass_passes_keyword_arguments():
     s = peridyn.Solver(dt=2.5e-3, gravity=(0.0, -1.0, 0.0), tol=1e-5, max_iters=7, threads=1)
     assert isinstance(s, _core.Solver) and isinstance(s, peridyn.Solver)
