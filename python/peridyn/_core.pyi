@@ -6,13 +6,24 @@ inputs accept any float or integer dtype and any array-like that numpy can conve
 Bad input raises ``ValueError`` naming the offending index and value.
 """
 
-from typing import Any, Optional, Sequence, Tuple, Union
+from typing import Any, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
 
 ArrayLike = npt.ArrayLike
 Vec3 = Union[Sequence[float], npt.ArrayLike]
+
+# The option strings the core accepts (src/python/options.rs maps them to core values; any
+# other string is a ValueError naming the accepted ones).
+Method = Literal["sissm", "descent"]
+Preconditioner = Literal["tangent", "paper"]
+# "none" is a synonym of None (plain iterations); the getter returns None.
+Acceleration = Literal["chebyshev", "none"]
+Backend = Literal["cpu", "gpu"]
+Precision = Literal["f32", "f64"]
+DescentStep = Literal["curvature", "uniform"]
+ProximalMetric = Literal["jacobi", "identity"]
 
 __version__: str
 
@@ -337,13 +348,13 @@ class Contact:
         eps: float = 0.1,
         weight: float = 1.0,
         max_iters: int = 32,
-        step: str = "curvature",
+        step: DescentStep = "curvature",
         toi_threshold: float = 0.1,
         ccd_s: float = 0.1,
         ccd_t_c: float = 0.95,
         warm_start: bool = True,
         parallel_angle: Optional[float] = None,
-        proximal: str = "jacobi",
+        proximal: ProximalMetric = "jacobi",
     ) -> None: ...
     @property
     def thickness(self) -> float: ...
@@ -356,13 +367,13 @@ class Contact:
     @property
     def max_iters(self) -> int: ...
     @property
-    def step(self) -> str: ...
+    def step(self) -> DescentStep: ...
     @property
     def toi_threshold(self) -> float: ...
     @property
     def warm_start(self) -> bool: ...
     @property
-    def proximal(self) -> str: ...
+    def proximal(self) -> ProximalMetric: ...
     @property
     def parallel_angle(self) -> float: ...
     @property
@@ -489,15 +500,15 @@ class Solver:
         max_iters: int = 100,
         threads: Optional[int] = None,
         step_length: bool = True,
-        precision: Optional[str] = None,
-        preconditioner: str = "tangent",
-        acceleration: Optional[str] = None,
+        precision: Optional[Precision] = None,
+        preconditioner: Preconditioner = "tangent",
+        acceleration: Optional[Acceleration] = None,
         chebyshev_rho: float = 0.99,
         chebyshev_delay: int = 3,
         record_energy: bool = False,
-        method: str = "sissm",
+        method: Method = "sissm",
         inner_iters: int = 1,
-        backend: str = "cpu",
+        backend: Backend = "cpu",
         contact: Optional[Contact] = None,
     ) -> None: ...
     def add(self, body: Membrane) -> None: ...
@@ -534,7 +545,7 @@ class Solver:
     @property
     def max_iters(self) -> int: ...
     @property
-    def backend(self) -> str: ...
+    def backend(self) -> Backend: ...
     @property
     def threads(self) -> int: ...
     @property
@@ -543,15 +554,15 @@ class Solver:
     @property
     def step_length(self) -> bool: ...
     @property
-    def precision(self) -> str: ...
+    def precision(self) -> Precision: ...
     @property
-    def preconditioner(self) -> str: ...
+    def preconditioner(self) -> Preconditioner: ...
     @property
-    def acceleration(self) -> Optional[str]: ...
+    def acceleration(self) -> Optional[Literal["chebyshev"]]: ...
     @property
     def record_energy(self) -> bool: ...
     @property
-    def method(self) -> str: ...
+    def method(self) -> Method: ...
     @property
     def inner_iters(self) -> int: ...
     @property
