@@ -108,7 +108,7 @@ def child(layers: int, n: int, steps: int, warmup: int, until_contact: bool, max
             "broad_phase_builds": c["broad_phase_builds"], "cache_repairs": c["cache_repairs"],
             "cached_pairs": c["cached_pairs"], "live_refreshes": c["live_refreshes"],
             "sweeps": c["sweeps"],
-            "clamped": c["clamped"], "error_estimate": st.error_estimate,
+            "clamped": c["clamped"], "residual": st.residual,
             "converged": st.converged, "wall": wall,
             "cpu": (time.process_time() - c0) * 1e3,
         })

@@ -130,9 +130,9 @@ def run_scene(args, scene: str, rec: C.Record):
         out["references"][rname] = {
             "kwargs": rkw, "iterations": ref.iterations, "E_final": float(e_ref[-1]),
             "E_min": float(np.min(e_ref)), "E0": float(e_ref[0]),
-            "error_estimate": ref.error_estimate, "residual": ref.residual, "wall_ms": ref_wall,
+            "residual": ref.residual, "last_move": ref.last_move, "wall_ms": ref_wall,
             "dE_over_last_100": float(e_ref[-101] - e_ref[-1]) if len(e_ref) > 101 else None}
-        print(f"      E_final {e_ref[-1]:.10g} J, error estimate {ref.error_estimate:.2e} m", flush=True)
+        print(f"      E_final {e_ref[-1]:.10g} J, residual {ref.residual:.2e} m", flush=True)
 
     runs = {}
     for name, kw in variants(args):
@@ -150,13 +150,13 @@ def run_scene(args, scene: str, rec: C.Record):
         runs[name] = {
             "kwargs": kw,
             "energies": np.asarray(st.energies, float),
-            "residuals": np.asarray(st.residuals, float),
+            "moves": np.asarray(st.moves, float),
             "iterations": st.iterations,
-            "error_estimate": st.error_estimate,
+            "residual": st.residual,
             "converged_flag": st.converged,
             "ms_step_all": [], "ms_global_all": [],
         }
-        print(f"   {name:28s} {st.iterations} it, err est {st.error_estimate:.2e}", flush=True)
+        print(f"   {name:28s} {st.iterations} it, residual {st.residual:.2e}", flush=True)
 
     # Timing: rounds over all variants (interleaved, so a burst of load on the shared machine
     # hits every variant alike), without energy recording; medians over the rounds.
@@ -241,14 +241,14 @@ def plot(data, path):
             ls = "--" if "descent" in name else (":" if "paper" in name else "-")
             axes[row, 0].semilogy(k, eta, ls, label=name, color=col)
             axes[row, 1].semilogy(k * r["ms_per_iteration"], eta, ls, label=name, color=col)
-            res = np.asarray(r["residuals"], float)
-            axes[row, 2].semilogy(np.arange(1, len(res) + 1), np.clip(res, 1e-16, None), ls, label=name, color=col)
+            moves = np.asarray(r["moves"], float)
+            axes[row, 2].semilogy(np.arange(1, len(moves) + 1), np.clip(moves, 1e-16, None), ls, label=name, color=col)
         axes[row, 0].set(xlabel="iteration k", ylabel="eta_k = (E_k - E*) / (E_0 - E*)",
                          title=f"{scene}: relative energy error vs iterations")
         axes[row, 1].set(xlabel="wall time (ms, median of repeats)", ylabel="eta_k",
                          title=f"{scene}: relative energy error vs wall time")
         axes[row, 2].set(xlabel="iteration k", ylabel="largest vertex move (m)",
-                         title=f"{scene}: residual (move per iteration)")
+                         title=f"{scene}: largest move per iteration")
         for ax in axes[row]:
             ax.grid(True, which="both", alpha=0.3)
         axes[row, 0].legend(fontsize=7)

@@ -6,7 +6,7 @@ checks the promises of the contact local step with :mod:`peridyn.checks`: no two
 triangles intersect (exact test, ipctk), the smallest distance between non-adjacent primitives
 (looked for up to ``4 xi``; the local step keeps it above ``eps xi``), and how deep the deepest
 vertex is inside a collider. Per step it records ms (the solver's own timing), iterations,
-the convergence measure after each iteration (``error_estimates``, m), the contact figures
+the convergence measure after each iteration (``residuals``, m), the contact figures
 (candidate and box triangle pairs, live and active primitive pairs, CCD queries, broad-phase
 builds and repairs, clamped vertices, ms by phase), the lowest and highest vertex and how
 many vertices touch a collider (within ``2 xi`` of its surface).
@@ -226,7 +226,7 @@ def main(argv=None):
             near |= c.signed_distance((x - translation) @ rotation) < 2 * contact.thickness
         row = {"step": k, "time_s": st.time, "ms": st.timings["total"],
                "iterations": st.iterations, "converged": bool(st.converged),
-               "error_estimates": [float(e) for e in st.error_estimates],
+               "residuals": [float(e) for e in st.residuals],
                "lowest_z": float(x[:, 2].min()), "highest_z": float(x[:, 2].max()),
                "touching_collider": int(near.sum()),
                **{f: st.contact[f] for f in CONTACT_FIGURES}}

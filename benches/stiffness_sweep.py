@@ -19,7 +19,7 @@ Each case passes when no position is NaN or infinite unless the solver raised Di
 (which is saying so), the total energy (kinetic + elastic + gravitational) stays below
 ``E(0) + 5 %`` (+1 uJ) at every step (pins are set where the vertices start, so nothing else
 adds energy: implicit Euler only dissipates), and
-every step's ``converged`` flag equals ``error_estimate < tol`` (it says when it has not
+every step's ``converged`` flag equals ``residual < tol`` (it says when it has not
 converged).
 
 Default (about a minute):  python benches/stiffness_sweep.py
@@ -77,8 +77,8 @@ def sweep(args, kw):
                     break
                 its.append(st.iterations)
                 conv.append(bool(st.converged))
-                err.append(st.error_estimate)
-            rows.append({"s0": s0, "h": h, "iterations": its, "converged": conv, "error_estimates": err,
+                err.append(st.residual)
+            rows.append({"s0": s0, "h": h, "iterations": its, "converged": conv, "residuals": err,
                          "median_iterations": C.median(its), "max_iterations": max(its) if its else None,
                          "converged_fraction": float(np.mean(conv)) if conv else 0.0,
                          "failed": failed, "wall_s": time.perf_counter() - t0,
@@ -132,10 +132,10 @@ def matrix_case(args, s0, h, t, scenario, rng):
             silent_nan = True
             break
         energies.append(total_energy(cloth))
-        ok = bool(st.converged) == bool(st.error_estimate < solver.tol)
+        ok = bool(st.converged) == bool(st.residual < solver.tol)
         flags_ok &= ok
         steps.append({"iterations": st.iterations, "converged": bool(st.converged),
-                      "error_estimate": st.error_estimate})
+                      "residual": st.residual})
     e = np.asarray(energies)
     if len(e) >= 2 and np.all(np.isfinite(e)):
         ref = e[0]
@@ -153,7 +153,7 @@ def matrix_case(args, s0, h, t, scenario, rng):
             "converged_flags_consistent": flags_ok,
             "converged_fraction": float(np.mean(conv)) if conv else 0.0,
             "max_iterations": max((s["iterations"] for s in steps), default=None),
-            "max_error_estimate": max((s["error_estimate"] for s in steps), default=None),
+            "max_residual": max((s["residual"] for s in steps), default=None),
             "pass": bool(passed)}
 
 

@@ -312,13 +312,13 @@ def test_solver_properties_and_step_stats(grid44):
         assert st.step == k
         assert st.time == pytest.approx((k + 1) * 0.01, rel=1e-12)
         assert 1 <= st.iterations <= 42
-        assert st.iterations == len(st.residuals)
-        assert st.residual == st.residuals[-1]
-        assert st.converged == (st.error_estimate < 1e-7)
+        assert st.iterations == len(st.moves)
+        assert st.last_move == st.moves[-1]
+        assert st.converged == (st.residual < 1e-7)
         # The measure after each iteration: the step stopped at the first one below tol.
-        assert len(st.error_estimates) == st.iterations
-        assert st.error_estimates[-1] == st.error_estimate
-        assert np.all(st.error_estimates[:-1] >= 1e-7)
+        assert len(st.residuals) == st.iterations
+        assert st.residuals[-1] == st.residual
+        assert np.all(st.residuals[:-1] >= 1e-7)
         assert {"predict", "global", "colliders", "finish", "total"} <= set(st.timings)
         assert all(val >= 0 for val in st.timings.values())
     assert s.steps_taken == 3 and s.time == pytest.approx(0.03, rel=1e-12)

@@ -117,7 +117,7 @@ def test_draping_cloth_matches_cpu_over_100_steps(gpu, material, precision):
 @pytest.mark.parametrize("precision, material, rtol", [("f32", "a3", 1e-3),
                                                       ("f64", "neo_hookean", 1e-9)])
 def test_fixed_iterations_and_energies_match_cpu(gpu, precision, material, rtol):
-    """tol = 0: both run exactly max_iters; the recorded energies, residuals and error estimates
+    """tol = 0: both run exactly max_iters; the recorded energies, moves and residuals
     agree to the precision once the sheet has deformed (f32 with A3, whose energy is accurate in
     f32 at small strain; f64 with neo-Hookean, whose energy needs ln(1 + u) in f64)."""
     gpu_precision(gpu, precision)
@@ -133,10 +133,10 @@ def test_fixed_iterations_and_energies_match_cpu(gpu, precision, material, rtol)
         sol.add(m)
         stats = [sol.step() for _ in range(30)]
         assert all(s.iterations == 12 and not s.converged for s in stats)
-        assert all(len(s.residuals) == 12 and len(s.energies) == 13 for s in stats)
-        assert all(len(s.error_estimates) == 12 for s in stats)
-        out[backend] = (m.positions, stats[-1].energies, stats[-1].residuals,
-                        stats[-1].error_estimates)
+        assert all(len(s.moves) == 12 and len(s.energies) == 13 for s in stats)
+        assert all(len(s.residuals) == 12 for s in stats)
+        out[backend] = (m.positions, stats[-1].energies, stats[-1].moves,
+                        stats[-1].residuals)
     assert np.abs(out["gpu"][0] - out["cpu"][0]).max() < 1e-2 * rtol
     np.testing.assert_allclose(out["gpu"][1], out["cpu"][1], rtol=rtol)
     np.testing.assert_allclose(out["gpu"][2], out["cpu"][2], rtol=10 * rtol, atol=1e-4 * rtol)
@@ -425,7 +425,7 @@ def test_rising_sphere_lifts_the_cloth_as_on_cpu(gpu, precision):
 # leaves the positions within 4 machine epsilons of the cloth's 0.5 m in both precisions
 # (measured on lavapipe over these scenes: 2.4e-7 m in f32, 4.4e-16 m in f64); the bound is 16.
 # Where the stopping test, within rounding of tol, stops one side an iteration later (2 of the
-# rising sphere's 100 steps in f32, 4e-6 m apart), both iterates are within the error estimate
+# rising sphere's 100 steps in f32, 4e-6 m apart), both iterates are within the residual bound
 # tol of the step's solution, so within 2 tol of each other; at most 5 % of steps may do so.
 STEP_TOLERANCE = {p: 16 * np.finfo(p.replace("f", "float")).eps * 0.5 for p in ("f32", "f64")}
 

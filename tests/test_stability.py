@@ -47,8 +47,8 @@ def run_checked(m, *, dt, steps, tol=1e-4, max_iters=100, pins=(0, 9), check_bou
         assert np.all(np.isfinite(y)) and np.all(np.isfinite(v))
         # honest flags: converged iff the reported error bound is below tol; not converged means
         # the iteration cap was hit
-        assert st.converged == (st.error_estimate < tol)
-        assert st.iterations == len(st.residuals)
+        assert st.converged == (st.residual < tol)
+        assert st.iterations == len(st.moves)
         assert 1 <= st.iterations <= max_iters
         if not st.converged:
             assert st.iterations == max_iters

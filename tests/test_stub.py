@@ -1,7 +1,10 @@
 """The type stub `_core.pyi` describes exactly what the compiled module exposes."""
 
 import ast
+import re
 from pathlib import Path
+
+import pytest
 
 import peridyn._core as core
 
@@ -51,3 +54,46 @@ def test_every_public_class_and_member_of_the_module_is_in_the_stub():
         assert name in stub, f"module class {name} is missing from the stub"
         undocumented = public(obj) - stub[name]
         assert not undocumented, f"{name}: {sorted(undocumented)} missing from the stub"
+
+
+def stub_literals():
+    """The stub's module-level ``Literal`` aliases: name -> the strings they allow."""
+    out = {}
+    for node in ast.parse(STUB.read_text()).body:
+        value = getattr(node, "value", None)
+        if (isinstance(node, ast.Assign) and isinstance(value, ast.Subscript)
+                and isinstance(value.value, ast.Name) and value.value.id == "Literal"):
+            elements = value.slice.elts if isinstance(value.slice, ast.Tuple) else [value.slice]
+            out[node.targets[0].id] = {e.value for e in elements}
+    return out
+
+
+#: Each option alias of the stub: the keyword that takes it and the class of that keyword.
+OPTIONS = {
+    "Method": ("method", lambda **kw: core.Solver(dt=1e-3, **kw)),
+    "Preconditioner": ("preconditioner", lambda **kw: core.Solver(dt=1e-3, **kw)),
+    "Acceleration": ("acceleration", lambda **kw: core.Solver(dt=1e-3, **kw)),
+    "Backend": ("backend", lambda **kw: core.Solver(dt=1e-3, **kw)),
+    "Precision": ("precision", lambda **kw: core.Solver(dt=1e-3, **kw)),
+    "DescentStep": ("step", core.Contact),
+    "ProximalMetric": ("proximal", core.Contact),
+}
+
+
+@pytest.mark.parametrize("name", sorted(OPTIONS))
+def test_the_stub_literals_are_the_strings_the_core_accepts(name):
+    """A bad string's ValueError offers exactly the stub's strings ("none" is a quiet synonym
+    of None), and each of them is accepted and read back by the getter of the same name (the
+    GPU backend needs an adapter: not tried)."""
+    allowed = stub_literals()[name]
+    keyword, make = OPTIONS[name]
+    with pytest.raises(ValueError) as bad:
+        make(**{keyword: "bogus"})
+    offered = set(re.findall(r"'([^']*)'", str(bad.value).split(", got")[0]))
+    assert offered == allowed - {"none"}, str(bad.value)
+    for value in sorted(allowed - {"gpu"}):
+        assert getattr(make(**{keyword: value}), keyword) == (None if value == "none" else value)
+
+
+def test_every_option_alias_of_the_stub_is_tested():
+    assert set(stub_literals()) == set(OPTIONS)

@@ -415,7 +415,7 @@ def test_free_fall_follows_implicit_euler_exactly(rng):
 
 
 def test_tol_zero_runs_exactly_max_iters():
-    """tol = 0 => exactly max_iters iterations, converged False, one residual per iteration."""
+    """tol = 0 => exactly max_iters iterations, converged False, one move per iteration."""
     v, t = make_grid(6, 6, 1.0, 1.0)
     m = membrane(v, t)
     m.pin([0, 5])
@@ -425,11 +425,11 @@ def test_tol_zero_runs_exactly_max_iters():
         st = sol.step()
         assert st.iterations == 7
         assert st.converged is False
-        assert len(st.residuals) == 7
+        assert len(st.moves) == 7
 
 
 def test_converged_flag_is_honest():
-    """converged == (residual < tol); iterations == len(residuals); if not converged then
+    """converged == (last move < tol); iterations == len(moves); if not converged then
     iterations == max_iters (a stiff sheet at a big step cannot converge in 3 iterations)."""
     v, t = make_grid(8, 8, 1.0, 1.0)
     m = membrane(v, t, s0=5e6)
@@ -439,8 +439,8 @@ def test_converged_flag_is_honest():
     seen_unconverged = False
     for _ in range(5):
         st = sol.step()
-        assert st.converged == (st.residual < 1e-9)
-        assert st.iterations == len(st.residuals)
+        assert st.converged == (st.last_move < 1e-9)
+        assert st.iterations == len(st.moves)
         if not st.converged:
             seen_unconverged = True
             assert st.iterations == 3

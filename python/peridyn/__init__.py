@@ -11,14 +11,19 @@ All quantities are SI: metres, kilograms, seconds, pascals, joules.
 
 from . import _core
 from ._core import (
+    Box,
+    Capsule,
+    Collider,
     Contact,
     DivergenceError,
     Membrane,
+    MeshCollider,
     NeoHookean,
     Plane,
     Sphere,
     StepStats,
     StretchA3,
+    contact,
     gpu_info,
 )
 from .io import FrameRecorder, load_state, save_state, write_mesh
@@ -32,16 +37,21 @@ from .solver import RunSummary, Solver
 __version__: str = _core.__version__
 
 __all__ = [
-    # Rust core
+    # Rust core (peridyn._core; Solver is its subclass with a Python run loop)
+    "Box",
+    "Capsule",
+    "Collider",
     "Contact",
     "DivergenceError",
     "Membrane",
+    "MeshCollider",
     "NeoHookean",
     "Plane",
     "Solver",
     "Sphere",
     "StepStats",
     "StretchA3",
+    "contact",
     "gpu_info",
     # Python layer
     "FrameRecorder",
@@ -62,11 +72,3 @@ __all__ = [
     "write_mesh",
     "__version__",
 ]
-
-# Anything else the core makes public is re-exported too (the core may grow faster than this list).
-_name = ""
-for _name in dir(_core):
-    if not _name.startswith("_") and _name not in globals():
-        globals()[_name] = getattr(_core, _name)
-        __all__.append(_name)
-del _name

@@ -6,13 +6,24 @@ inputs accept any float or integer dtype and any array-like that numpy can conve
 Bad input raises ``ValueError`` naming the offending index and value.
 """
 
-from typing import Any, Optional, Sequence, Tuple, Union
+from typing import Any, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
 
 ArrayLike = npt.ArrayLike
 Vec3 = Union[Sequence[float], npt.ArrayLike]
+
+# The option strings the core accepts (src/python/options.rs maps them to core values; any
+# other string is a ValueError naming the accepted ones).
+Method = Literal["sissm", "descent"]
+Preconditioner = Literal["tangent", "paper"]
+# "none" is a synonym of None (plain iterations); the getter returns None.
+Acceleration = Literal["chebyshev", "none"]
+Backend = Literal["cpu", "gpu"]
+Precision = Literal["f32", "f64"]
+DescentStep = Literal["curvature", "uniform"]
+ProximalMetric = Literal["jacobi", "identity"]
 
 __version__: str
 
@@ -337,13 +348,13 @@ class Contact:
         eps: float = 0.1,
         weight: float = 1.0,
         max_iters: int = 32,
-        step: str = "curvature",
+        step: DescentStep = "curvature",
         toi_threshold: float = 0.1,
         ccd_s: float = 0.1,
         ccd_t_c: float = 0.95,
         warm_start: bool = True,
         parallel_angle: Optional[float] = None,
-        proximal: str = "jacobi",
+        proximal: ProximalMetric = "jacobi",
     ) -> None: ...
     @property
     def thickness(self) -> float: ...
@@ -356,13 +367,13 @@ class Contact:
     @property
     def max_iters(self) -> int: ...
     @property
-    def step(self) -> str: ...
+    def step(self) -> DescentStep: ...
     @property
     def toi_threshold(self) -> float: ...
     @property
     def warm_start(self) -> bool: ...
     @property
-    def proximal(self) -> str: ...
+    def proximal(self) -> ProximalMetric: ...
     @property
     def parallel_angle(self) -> float: ...
     @property
@@ -384,26 +395,26 @@ class StepStats:
     @property
     def iterations(self) -> int: ...
     @property
-    def residual(self) -> float:
+    def last_move(self) -> float:
         """The last iteration's max_i |y_i^k - y_i^(k-1)| in m (the convergence measure of
-        Algorithm 1): the last of ``residuals``."""
+        Algorithm 1): the last of ``moves``."""
     @property
     def converged(self) -> bool:
-        """True when ``error_estimate`` fell below ``tol`` (always False when tol == 0)."""
+        """True when ``residual`` fell below ``tol`` (always False when tol == 0)."""
     @property
-    def residuals(self) -> np.ndarray:
+    def moves(self) -> np.ndarray:
         """Largest vertex move of each iteration (m)."""
     @property
-    def error_estimate(self) -> float:
+    def residual(self) -> float:
         """max_i |r_i| / m_i (m) for the residual r = m (y* - y) + h^2 f at the last evaluated
         iterate, without the contact reactions (the colliders' reaction to the vertex's Jacobi
         move, normal and Coulomb friction within the cone, and the part of the contact local
         step's move that its barrier push and the normals of the colliders the vertex rests on
         explain): an upper bound on the mass-weighted RMS distance to the exact implicit Euler
-        solution where the energy is convex. The last of ``error_estimates``."""
+        solution where the energy is convex. The last of ``residuals``."""
     @property
-    def error_estimates(self) -> np.ndarray:
-        """``error_estimate`` after each iteration (m): whether a step that ran to max_iters was
+    def residuals(self) -> np.ndarray:
+        """``residual`` after each iteration (m): whether a step that ran to max_iters was
         still converging or had stalled. With contact the first one measures the whole
         residual (no local step has run before it) and cannot decide convergence."""
     @property
@@ -444,7 +455,7 @@ class Solver:
     ----------
     dt : time step h in s (> 0).
     gravity : acceleration (m/s^2).
-    tol : stop when the error bound ``StepStats.error_estimate`` < tol (m): the mass-weighted RMS
+    tol : stop when the error bound ``StepStats.residual`` < tol (m): the mass-weighted RMS
         distance to the exact implicit Euler solution is then below tol; 0 runs exactly
         ``max_iters`` iterations.
     max_iters : cap on global iterations per step (>= 1).
@@ -458,7 +469,7 @@ class Solver:
         it amplifies round-off near the precision floor). With contact (method "sissm" only)
         it extrapolates the local step's result; the local step keeps the intersection-free
         positions and a step always ends on them. Pick rho near the plain iteration's
-        per-iteration decay of ``StepStats.error_estimates`` (about 0.8 on stacked layers
+        per-iteration decay of ``StepStats.residuals`` (about 0.8 on stacked layers
         landing, where rho = 0.85 saved a fifth of the iterations).
     chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
     chebyshev_delay : plain iterations before extrapolating (>= 1).
@@ -489,15 +500,15 @@ class Solver:
         max_iters: int = 100,
         threads: Optional[int] = None,
         step_length: bool = True,
-        precision: Optional[str] = None,
-        preconditioner: str = "tangent",
-        acceleration: Optional[str] = None,
+        precision: Optional[Precision] = None,
+        preconditioner: Preconditioner = "tangent",
+        acceleration: Optional[Acceleration] = None,
         chebyshev_rho: float = 0.99,
         chebyshev_delay: int = 3,
         record_energy: bool = False,
-        method: str = "sissm",
+        method: Method = "sissm",
         inner_iters: int = 1,
-        backend: str = "cpu",
+        backend: Backend = "cpu",
         contact: Optional[Contact] = None,
     ) -> None: ...
     def add(self, body: Membrane) -> None: ...
@@ -534,7 +545,7 @@ class Solver:
     @property
     def max_iters(self) -> int: ...
     @property
-    def backend(self) -> str: ...
+    def backend(self) -> Backend: ...
     @property
     def threads(self) -> int: ...
     @property
@@ -543,15 +554,15 @@ class Solver:
     @property
     def step_length(self) -> bool: ...
     @property
-    def precision(self) -> str: ...
+    def precision(self) -> Precision: ...
     @property
-    def preconditioner(self) -> str: ...
+    def preconditioner(self) -> Preconditioner: ...
     @property
-    def acceleration(self) -> Optional[str]: ...
+    def acceleration(self) -> Optional[Literal["chebyshev"]]: ...
     @property
     def record_energy(self) -> bool: ...
     @property
-    def method(self) -> str: ...
+    def method(self) -> Method: ...
     @property
     def inner_iters(self) -> int: ...
     @property

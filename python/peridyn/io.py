@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Union
+from typing import Any, Dict, List, Literal, Optional, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -98,7 +98,7 @@ class FrameRecorder:
         self,
         directory: PathLike,
         *,
-        fmt: Optional[str] = "ply",
+        fmt: Optional[Literal["ply", "obj"]] = "ply",
         every: int = 1,
         npz_name: str = "frames.npz",
     ) -> None:

@@ -7,7 +7,7 @@ positions in metres, ``F`` an ``int64`` array of shape (M, 3) with vertex indice
 from __future__ import annotations
 
 import os
-from typing import Tuple, Union
+from typing import Literal, Tuple, Union
 
 import numpy as np
 
@@ -21,7 +21,7 @@ def grid(
     ny: int,
     size: Tuple[float, float] = (1.0, 1.0),
     *,
-    diagonal: str = "uniform",
+    diagonal: Literal["uniform", "alternate"] = "uniform",
 ) -> Tuple[np.ndarray, np.ndarray]:
     """A flat rectangular sheet of ``nx`` x ``ny`` vertices in the ``z = 0`` plane.
 

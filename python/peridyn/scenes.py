@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, Literal, Optional, Tuple
 
 import numpy as np
 
@@ -66,7 +66,7 @@ def default_scene(
     tol: float = 1e-4,
     max_iters: int = 100,
     threads: Optional[int] = None,
-    backend: str = "cpu",
+    backend: Literal["cpu", "gpu"] = "cpu",
 ) -> Scene:
     """A square cloth, pinned along one edge, swings down under gravity onto a sphere.
 

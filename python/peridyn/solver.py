@@ -36,15 +36,16 @@ class RunSummary:
     max_iterations : int
         Largest number of global iterations in one step.
     converged_fraction : float
-        Fraction of steps whose residual fell below the solver's ``tol``.
-    final_residual : float
-        Residual of the last step in m (max vertex displacement of its last iteration).
+        Fraction of steps whose residual (``StepStats.residual``) fell below the solver's ``tol``.
+    final_move : float
+        Last move of the last step in m (``StepStats.last_move``: the largest vertex move of its
+        last iteration).
     time : float
         Simulation time at the end of the call in s.
     iterations : numpy.ndarray
         (steps,) int64 global iterations of each step.
-    residuals : numpy.ndarray
-        (steps,) float64 final residual of each step in m.
+    moves : numpy.ndarray
+        (steps,) float64 last move of each step in m (``StepStats.last_move``).
     ms_per_step : numpy.ndarray
         (steps,) float64 wall-clock milliseconds of each ``step()`` call.
     """
@@ -57,10 +58,10 @@ class RunSummary:
     mean_iterations: float
     max_iterations: int
     converged_fraction: float
-    final_residual: float
+    final_move: float
     time: float
     iterations: np.ndarray = field(repr=False, compare=False)
-    residuals: np.ndarray = field(repr=False, compare=False)
+    moves: np.ndarray = field(repr=False, compare=False)
     ms_per_step: np.ndarray = field(repr=False, compare=False)
 
     @property
@@ -77,7 +78,7 @@ class RunSummary:
             f"ms per step      {self.ms_per_step_median:.2f} median, {self.ms_per_step_mean:.2f} mean",
             f"iterations/step  {self.mean_iterations:.2f} mean, {self.max_iterations} max",
             f"converged        {100.0 * self.converged_fraction:.1f} % of steps",
-            f"final residual   {self.final_residual:.3g} m",
+            f"final move       {self.final_move:.3g} m",
         ]
         return "\n".join(lines)
 
@@ -97,7 +98,7 @@ class Solver(_core.Solver):
     gravity : (3,) float
         Acceleration in m/s^2; default ``(0, 0, -9.81)``.
     tol : float
-        Convergence tolerance in m on the error bound ``StepStats.error_estimate`` (largest
+        Convergence tolerance in m on the error bound ``StepStats.residual`` (largest
         residual over mass); 0 always runs ``max_iters`` iterations. Default 1e-4.
     max_iters : int
         Cap on global iterations per step. Default 100.
@@ -154,7 +155,7 @@ class Solver(_core.Solver):
             raise ValueError(f"Solver.run: steps must be an integer >= 0, got {steps!r}")
         steps = int(steps)
         iterations = np.zeros(steps, dtype=np.int64)
-        residuals = np.zeros(steps, dtype=np.float64)
+        moves = np.zeros(steps, dtype=np.float64)
         converged = np.zeros(steps, dtype=bool)
         ms = np.zeros(steps, dtype=np.float64)
 
@@ -178,7 +179,7 @@ class Solver(_core.Solver):
                 stats = self.step()
                 ms[k] = 1e3 * (_time.perf_counter() - t0)
                 iterations[k] = stats.iterations
-                residuals[k] = stats.residual
+                moves[k] = stats.last_move
                 converged[k] = stats.converged
                 done = k + 1
                 if bar is not None:
@@ -193,7 +194,7 @@ class Solver(_core.Solver):
                 bar.close()
         wall = _time.perf_counter() - t_start
 
-        iterations, residuals, converged, ms = iterations[:done], residuals[:done], converged[:done], ms[:done]
+        iterations, moves, converged, ms = iterations[:done], moves[:done], converged[:done], ms[:done]
         nan = float("nan")
         return RunSummary(
             steps=done,
@@ -204,9 +205,9 @@ class Solver(_core.Solver):
             mean_iterations=float(iterations.mean()) if done else nan,
             max_iterations=int(iterations.max()) if done else 0,
             converged_fraction=float(converged.mean()) if done else nan,
-            final_residual=float(residuals[-1]) if done else nan,
+            final_move=float(moves[-1]) if done else nan,
             time=float(self.time),
             iterations=iterations,
-            residuals=residuals,
+            moves=moves,
             ms_per_step=ms,
         )

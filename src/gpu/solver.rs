@@ -264,8 +264,8 @@ impl<T: GpuReal> GpuSolver<T> {
         let history = state.finish_step(&self.ctx, encoder, bodies, params.max_iters)?;
         for k in 0..iterations {
             let [moved, residual, _, _] = history[1 + k];
-            stats.residuals.push(moved.to_f64());
-            stats.error_estimates.push(residual.to_f64());
+            stats.moves.push(moved.to_f64());
+            stats.residuals.push(residual.to_f64());
         }
         if params.record_energy {
             let [previous, prediction, _, _] = history[0];

@@ -11,12 +11,12 @@ use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use crate::contact::distance::{edge_edge_closest, point_triangle_closest, Closest};
 use crate::contact::{
     closest_primitive_distance, default_parallel_angle, BroadPhase, ContactMesh, ContactParams,
-    DescentStep, ProximalMetric,
 };
 use crate::error::check_param;
 
 use super::arrays::{self, to_numpy, to_numpy_1d, vec3s};
 use super::errors::IntoPyResult;
+use super::options::{DESCENT_STEP, PROXIMAL_METRIC};
 
 /// Four (n, 3) arrays as n quadruples of points.
 fn quadruples(args: [(&Bound<'_, PyAny>, &str); 4]) -> PyResult<Vec<[Vector3<f64>; 4]>> {
@@ -293,7 +293,7 @@ impl PyContact {
             eps,
             weight,
             max_iters: iteration_cap(max_iters)?,
-            step: step_rule(step)?,
+            step: DESCENT_STEP.parse(step)?,
             toi_threshold,
             ccd: AdditiveCcd {
                 s: ccd_s,
@@ -302,7 +302,7 @@ impl PyContact {
             },
             warm_start,
             parallel_angle: parallel_angle.unwrap_or_else(default_parallel_angle),
-            proximal: proximal_metric(proximal)?,
+            proximal: PROXIMAL_METRIC.parse(proximal)?,
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -332,10 +332,7 @@ impl PyContact {
     /// The descent's step rule: "curvature" or "uniform".
     #[getter]
     fn step(&self) -> &'static str {
-        match self.inner.step {
-            DescentStep::Curvature => "curvature",
-            DescentStep::Uniform => "uniform",
-        }
+        DESCENT_STEP.name(self.inner.step)
     }
     #[getter]
     fn toi_threshold(&self) -> f64 {
@@ -349,10 +346,7 @@ impl PyContact {
     /// The metric of eq. 47's proximal term: "jacobi" or "identity".
     #[getter]
     fn proximal(&self) -> &'static str {
-        match self.inner.proximal {
-            ProximalMetric::Jacobi => "jacobi",
-            ProximalMetric::Identity => "identity",
-        }
+        PROXIMAL_METRIC.name(self.inner.proximal)
     }
     /// Fade angle of nearly parallel edge-edge pairs (radians).
     #[getter]
@@ -390,13 +384,13 @@ impl PyContact {
                 "eps" => p.eps = value.extract()?,
                 "weight" => p.weight = value.extract()?,
                 "max_iters" => p.max_iters = iteration_cap(value.extract()?)?,
-                "step" => p.step = step_rule(&value.extract::<String>()?)?,
+                "step" => p.step = DESCENT_STEP.parse(&value.extract::<String>()?)?,
                 "toi_threshold" => p.toi_threshold = value.extract()?,
                 "ccd_s" => p.ccd.s = value.extract()?,
                 "ccd_t_c" => p.ccd.t_c = value.extract()?,
                 "warm_start" => p.warm_start = value.extract()?,
                 "parallel_angle" => p.parallel_angle = value.extract()?,
-                "proximal" => p.proximal = proximal_metric(&value.extract::<String>()?)?,
+                "proximal" => p.proximal = PROXIMAL_METRIC.parse(&value.extract::<String>()?)?,
                 other => {
                     return Err(PyTypeError::new_err(format!(
                         "Contact.replace() got an unexpected keyword argument {other:?}"
@@ -433,28 +427,6 @@ impl PyContact {
 fn iteration_cap(max_iters: i64) -> PyResult<usize> {
     usize::try_from(max_iters)
         .map_err(|_| PyValueError::new_err(format!("max_iters must be >= 1, got {max_iters}")))
-}
-
-/// The descent step rule named `step`, or a ValueError naming the two.
-fn step_rule(step: &str) -> PyResult<DescentStep> {
-    match step {
-        "curvature" => Ok(DescentStep::Curvature),
-        "uniform" => Ok(DescentStep::Uniform),
-        other => Err(PyValueError::new_err(format!(
-            "contact step must be 'curvature' or 'uniform', got {other:?}"
-        ))),
-    }
-}
-
-/// The proximal metric named `proximal`, or a ValueError naming the two.
-fn proximal_metric(proximal: &str) -> PyResult<ProximalMetric> {
-    match proximal {
-        "jacobi" => Ok(ProximalMetric::Jacobi),
-        "identity" => Ok(ProximalMetric::Identity),
-        other => Err(PyValueError::new_err(format!(
-            "contact proximal must be 'jacobi' or 'identity', got {other:?}"
-        ))),
-    }
 }
 
 /// The `contact` submodule.

@@ -9,6 +9,7 @@ mod errors;
 mod gpu;
 mod material;
 mod membrane;
+mod options;
 mod solver;
 
 use pyo3::prelude::*;

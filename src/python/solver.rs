@@ -7,14 +7,16 @@ use pyo3::types::PyDict;
 use crate::contact::{Collider, MovingCollider, Pose};
 use crate::error::Result;
 use crate::gpu::GpuSolver;
-use crate::membrane::Preconditioner;
-use crate::solve::{Acceleration, BodyMut, Clock, Method, Solver, SolverParams, StepStats};
+use crate::solve::{Acceleration, BodyMut, Clock, Solver, SolverParams, StepStats};
 
 use super::arrays::{to_numpy, to_numpy_1d, vec3, vec3s};
 use super::body::{LockedBody, PyBody, SharedBody};
 use super::collider;
 use super::contact::PyContact;
 use super::errors::{guard, IntoPyResult};
+use super::options::{
+    AccelerationKind, Backend, Float, ACCELERATION, BACKEND, METHOD, PRECISION, PRECONDITIONER,
+};
 
 /// The core solver, on the CPU or the GPU, in the precision the user chose.
 enum Precision {
@@ -33,16 +35,16 @@ impl Precision {
             Self::Gpu64(s) => s.step(bodies),
         }
     }
-    fn name(&self) -> &'static str {
+    fn float(&self) -> Float {
         match self {
-            Self::F64(_) | Self::Gpu64(_) => "f64",
-            Self::F32(_) | Self::Gpu32(_) => "f32",
+            Self::F64(_) | Self::Gpu64(_) => Float::F64,
+            Self::F32(_) | Self::Gpu32(_) => Float::F32,
         }
     }
-    fn backend(&self) -> &'static str {
+    fn backend(&self) -> Backend {
         match self {
-            Self::F64(_) | Self::F32(_) => "cpu",
-            Self::Gpu32(_) | Self::Gpu64(_) => "gpu",
+            Self::F64(_) | Self::F32(_) => Backend::Cpu,
+            Self::Gpu32(_) | Self::Gpu64(_) => Backend::Gpu,
         }
     }
     /// Worker threads of the CPU backend; the GPU backend drives the device from one thread.
@@ -101,23 +103,15 @@ impl PySolver {
         backend: &str,
         contact: Option<PyRef<'_, PyContact>>,
     ) -> PyResult<Self> {
-        let method = match method {
-            "sissm" => Method::Sissm,
-            "descent" => Method::Descent,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "method must be 'sissm' or 'descent', got {other:?}"
-                )))
-            }
-        };
+        let method = METHOD.parse(method)?;
         if inner_iters < 1 {
             return Err(PyValueError::new_err(format!(
                 "inner_iters must be >= 1, got {inner_iters}"
             )));
         }
-        let acceleration = match acceleration {
-            None | Some("none") => Acceleration::None,
-            Some("chebyshev") => Acceleration::Chebyshev {
+        let acceleration = match ACCELERATION.parse_optional(acceleration)? {
+            AccelerationKind::Plain => Acceleration::None,
+            AccelerationKind::Chebyshev => Acceleration::Chebyshev {
                 rho: chebyshev_rho,
                 delay: usize::try_from(chebyshev_delay).map_err(|_| {
                     PyValueError::new_err(format!(
@@ -125,11 +119,6 @@ impl PySolver {
                     ))
                 })?,
             },
-            Some(other) => {
-                return Err(PyValueError::new_err(format!(
-                    "acceleration must be None or 'chebyshev', got {other:?}"
-                )))
-            }
         };
         let gravity = gravity
             .map(|g| vec3(g, "gravity"))
@@ -155,45 +144,31 @@ impl PySolver {
             tol,
             max_iters: max_iters as usize,
             step_length,
-            preconditioner: match preconditioner {
-                "tangent" => Preconditioner::Tangent,
-                "paper" => Preconditioner::Paper,
-                other => {
-                    return Err(PyValueError::new_err(format!(
-                        "preconditioner must be 'tangent' or 'paper', got {other:?}"
-                    )))
-                }
-            },
+            preconditioner: PRECONDITIONER.parse(preconditioner)?,
             acceleration,
             method,
             inner_iters: inner_iters as usize,
             record_energy,
             contact: contact.map(|c| c.inner),
         };
+        let backend = BACKEND.parse(backend)?;
+        let precision = precision.map(|p| PRECISION.parse(p)).transpose()?;
         let core = match (backend, precision) {
-            ("cpu", None | Some("f64")) => Precision::F64(Solver::new(params, threads).py()?),
-            ("cpu", Some("f32")) => Precision::F32(Solver::new(params, threads).py()?),
-            ("gpu", precision @ (None | Some("f32") | Some("f64"))) => {
+            (Backend::Cpu, None | Some(Float::F64)) => {
+                Precision::F64(Solver::new(params, threads).py()?)
+            }
+            (Backend::Cpu, Some(Float::F32)) => Precision::F32(Solver::new(params, threads).py()?),
+            (Backend::Gpu, precision) => {
                 if threads.is_some() {
                     return Err(PyValueError::new_err(
                         "threads applies to backend='cpu' only; the GPU backend takes threads=None",
                     ));
                 }
-                if precision == Some("f64") {
+                if precision == Some(Float::F64) {
                     Precision::Gpu64(Box::new(GpuSolver::new(params).py()?))
                 } else {
                     Precision::Gpu32(Box::new(GpuSolver::new(params).py()?))
                 }
-            }
-            ("cpu" | "gpu", Some(other)) => {
-                return Err(PyValueError::new_err(format!(
-                    "precision must be 'f32' or 'f64', got {other:?}"
-                )))
-            }
-            (other, _) => {
-                return Err(PyValueError::new_err(format!(
-                    "backend must be 'cpu' or 'gpu', got {other:?}"
-                )))
             }
         };
         Ok(Self {
@@ -364,18 +339,17 @@ impl PySolver {
     }
     #[getter]
     fn preconditioner(&self) -> &'static str {
-        match with_solver!(&self.core, s => s.params().preconditioner) {
-            Preconditioner::Tangent => "tangent",
-            Preconditioner::Paper => "paper",
-        }
+        PRECONDITIONER.name(with_solver!(&self.core, s => s.params().preconditioner))
     }
     /// None or "chebyshev".
     #[getter]
     fn acceleration(&self) -> Option<&'static str> {
-        match with_solver!(&self.core, s => s.params().acceleration) {
-            Acceleration::None => None,
-            Acceleration::Chebyshev { .. } => Some("chebyshev"),
-        }
+        ACCELERATION.name_optional(
+            match with_solver!(&self.core, s => s.params().acceleration) {
+                Acceleration::None => AccelerationKind::Plain,
+                Acceleration::Chebyshev { .. } => AccelerationKind::Chebyshev,
+            },
+        )
     }
     /// The contact parameters, or None when contact is off. Settable to another `Contact`
     /// between steps (a `Contact` is frozen: build a new one), but contact cannot be switched
@@ -406,10 +380,7 @@ impl PySolver {
     /// "sissm" or "descent".
     #[getter]
     fn method(&self) -> &'static str {
-        match with_solver!(&self.core, s => s.params().method) {
-            Method::Sissm => "sissm",
-            Method::Descent => "descent",
-        }
+        METHOD.name(with_solver!(&self.core, s => s.params().method))
     }
     /// Jacobi sweeps per global iteration.
     #[getter]
@@ -422,12 +393,12 @@ impl PySolver {
     }
     #[getter]
     fn precision(&self) -> &'static str {
-        self.core.name()
+        PRECISION.name(self.core.float())
     }
     /// "cpu" or "gpu".
     #[getter]
     fn backend(&self) -> &'static str {
-        self.core.backend()
+        BACKEND.name(self.core.backend())
     }
     #[getter]
     fn threads(&self) -> usize {
@@ -471,7 +442,7 @@ impl PySolver {
             let p = s.params();
             format!(
                 "Solver(dt={}, gravity={:?}, tol={}, max_iters={}, backend='{}', precision='{}', threads={}, bodies={}, colliders={}, time={})",
-                p.dt, p.gravity, p.tol, p.max_iters, self.core.backend(), self.core.name(), self.core.threads(), self.bodies.len(), self.colliders.len(), s.clock().time
+                p.dt, p.gravity, p.tol, p.max_iters, self.backend(), self.precision(), self.core.threads(), self.bodies.len(), self.colliders.len(), s.clock().time
             )
         })
     }
@@ -504,30 +475,30 @@ impl PyStepStats {
     fn iterations(&self) -> usize {
         self.inner.iterations
     }
-    /// The last iteration's max_i |y_i^k - y_i^(k-1)| (m): the last of ``residuals``.
+    /// The last iteration's max_i |y_i^k - y_i^(k-1)| (m): the last of ``moves``.
+    #[getter]
+    fn last_move(&self) -> f64 {
+        self.inner.last_move()
+    }
+    /// Estimated distance (m) from the result to the exact implicit Euler solution: the last of
+    /// ``residuals``.
     #[getter]
     fn residual(&self) -> f64 {
         self.inner.residual()
-    }
-    /// Estimated distance (m) from the result to the exact implicit Euler solution: the last of
-    /// ``error_estimates``.
-    #[getter]
-    fn error_estimate(&self) -> f64 {
-        self.inner.error_estimate()
     }
     #[getter]
     fn converged(&self) -> bool {
         self.inner.converged
     }
-    /// Residual after each iteration (m).
+    /// Largest vertex move of each iteration (m).
+    #[getter]
+    fn moves<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(py, self.inner.moves.clone())
+    }
+    /// The convergence measure ``residual`` after each iteration (m).
     #[getter]
     fn residuals<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         to_numpy_1d(py, self.inner.residuals.clone())
-    }
-    /// The error estimate after each iteration (m).
-    #[getter]
-    fn error_estimates<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        to_numpy_1d(py, self.inner.error_estimates.clone())
     }
     /// Total variational energy E(y^k) (J) of every iterate k = 0..iterations (empty unless the
     /// solver was built with record_energy=True).
@@ -600,10 +571,10 @@ impl PyStepStats {
     }
     fn __repr__(&self) -> String {
         format!(
-            "StepStats(step={}, iterations={}, residual={:.3e}, converged={}, total_ms={:.3})",
+            "StepStats(step={}, iterations={}, last_move={:.3e}, converged={}, total_ms={:.3})",
             self.inner.step,
             self.inner.iterations,
-            self.inner.residual(),
+            self.inner.last_move(),
             self.inner.converged,
             self.inner.timings.total
         )

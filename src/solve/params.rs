@@ -12,7 +12,7 @@ pub struct SolverParams {
     /// Gravitational acceleration (m/s^2).
     pub gravity: [f64; 3],
     /// Convergence threshold on the error bound `max_i |r_i| / m_i` (m, see
-    /// [`super::StepStats::error_estimate`]); 0 runs `max_iters` iterations.
+    /// [`super::StepStats::residual`]); 0 runs `max_iters` iterations.
     pub tol: f64,
     /// Cap on global iterations per step.
     pub max_iters: usize,

@@ -216,8 +216,8 @@ impl<T: Real> Solver<T> {
 
         let mut stats = StepStats {
             step: self.clock.steps,
+            moves: Vec::with_capacity(params.max_iters.min(4096)),
             residuals: Vec::with_capacity(params.max_iters.min(4096)),
-            error_estimates: Vec::with_capacity(params.max_iters.min(4096)),
             energies: Vec::with_capacity(if params.record_energy {
                 params.max_iters.min(4096) + 1
             } else {
@@ -361,8 +361,8 @@ impl<T: Real> Solver<T> {
                 std::mem::swap(&mut points.y, &mut points.y_next);
             }
             stats.iterations = iteration + 1;
-            stats.residuals.push(update.moved);
-            stats.error_estimates.push(update.residual);
+            stats.moves.push(update.moved);
+            stats.residuals.push(update.residual);
             if converges(&update) {
                 stats.converged = true;
                 break;

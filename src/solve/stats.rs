@@ -30,7 +30,7 @@ pub struct StepStats {
     pub time: f64,
     /// Global iterations performed.
     pub iterations: usize,
-    /// Whether [`StepStats::error_estimate`] fell below `tol` (never when `tol == 0`).
+    /// Whether [`StepStats::residual`] fell below `tol` (never when `tol == 0`).
     pub converged: bool,
     /// The convergence measure after each iteration (m): `max_i |r_i| / m_i` at the iterate
     /// the kernel evaluated, without the contact reactions (colliders, and the barrier push of
@@ -38,9 +38,9 @@ pub struct StepStats {
     /// implicit Euler solution where the energy is convex. How it fell, or stalled. With
     /// contact, the first iteration's measures the whole residual, contacts included (no local
     /// step has run before it), and does not decide convergence.
-    pub error_estimates: Vec<f64>,
-    /// `max_i |y_i^k - y_i^(k-1)|` after each iteration `k` (m).
     pub residuals: Vec<f64>,
+    /// `max_i |y_i^k - y_i^(k-1)|` after each iteration `k` (m).
+    pub moves: Vec<f64>,
     /// Total variational energy `E(y^k)` of eq. 2 without the barrier (J) for `k = 0..=iterations`,
     /// when the solver records it (else empty).
     pub energies: Vec<f64>,
@@ -54,13 +54,13 @@ pub struct StepStats {
 
 impl StepStats {
     /// The last iteration's `max_i |y_i^k - y_i^(k-1)|` (m; 0 before any iteration).
-    pub fn residual(&self) -> f64 {
-        self.residuals.last().copied().unwrap_or(0.0)
+    pub fn last_move(&self) -> f64 {
+        self.moves.last().copied().unwrap_or(0.0)
     }
 
-    /// The last iteration's convergence measure (m; see [`StepStats::error_estimates`]; 0
-    /// before any iteration).
-    pub fn error_estimate(&self) -> f64 {
-        self.error_estimates.last().copied().unwrap_or(0.0)
+    /// The last iteration's convergence measure (m; see [`StepStats::residuals`]; 0 before any
+    /// iteration).
+    pub fn residual(&self) -> f64 {
+        self.residuals.last().copied().unwrap_or(0.0)
     }
 }
