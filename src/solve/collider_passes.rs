@@ -7,8 +7,8 @@ use rayon::prelude::*;
 use crate::contact::{out_of_colliders, ColliderModel, MoveStart};
 use crate::real::Real;
 
-use super::jacobi::Update;
 use super::points::Points;
+use super::update::Update;
 
 /// Projects the free points of the iterate `y` out of the colliders (a start outside every
 /// collider, so that the residual there measures a feasible state), on the side of each that

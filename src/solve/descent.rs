@@ -17,7 +17,7 @@
 //! elastic Hessian is negative only where the energy is non-convex along that axis (a
 //! compressed or buckling neighbourhood); it is floored at zero, so `P_k >= m_k I > 0` and the
 //! move is a descent direction of `E` wherever `r != 0`. (SISSM's `D` of
-//! [`super::jacobi::LocalSystem`] bounds the energy's curvature, the coupling to the
+//! [`super::point_system::PointSystem`] bounds the energy's curvature, the coupling to the
 //! neighbours included; this diagonal does not, so a unit step can overshoot, and the line
 //! search is what keeps the iteration stable.)
 //!
@@ -41,10 +41,10 @@ use crate::real::Real;
 use crate::symmetric::SymmetricMatrix3;
 
 use super::evaluate::{evaluate, total_energy};
-use super::jacobi::{
-    free_residual, keep_out, whole_move_reaction, LocalSystem, MoveOptions, Update,
-};
+use super::jacobi::{free_residual, keep_out, whole_move_reaction};
 use super::membrane_system::MembraneSystem;
+use super::point_system::PointSystem;
+use super::update::{MoveOptions, Update};
 
 /// Halvings of the step length tried before the iterate is kept unchanged (`2^-40`: far below
 /// any step that can still lower an f64 energy).
@@ -129,21 +129,21 @@ pub(super) fn descent_iteration<T: Real>(
         &mut state.bond_blocks,
         &mut state.self_blocks,
     );
-    if sys.locals.len() != n {
-        let zero = LocalSystem::new(
+    if sys.point_systems.len() != n {
+        let zero = PointSystem::new(
             T::one(),
             SymmetricMatrix3::zeros(),
             Vector3::zeros(),
             Vector3::zeros(),
             T::zero(),
         );
-        sys.locals = vec![zero; n];
+        sys.point_systems = vec![zero; n];
         sys.delta = vec![Vector3::zeros(); n];
     }
-    let mut locals = std::mem::take(&mut sys.locals);
+    let mut point_systems = std::mem::take(&mut sys.point_systems);
     let mut direction = std::mem::take(&mut sys.delta);
     let (sys_ref, state_ref) = (&*sys, &*state);
-    let residual = locals
+    let residual = point_systems
         .par_iter_mut()
         .zip(direction.par_iter_mut())
         .enumerate()
@@ -191,7 +191,7 @@ pub(super) fn descent_iteration<T: Real>(
                     &y[k],
                     y[k] + direction[k] * alpha,
                     &y_start[k],
-                    &locals[k].inverse,
+                    &point_systems[k].inverse,
                     margin,
                     options.colliders,
                 );
@@ -226,7 +226,7 @@ pub(super) fn descent_iteration<T: Real>(
         evaluate(sys, mode);
         update = Update::NONE;
     }
-    sys.locals = locals;
+    sys.point_systems = point_systems;
     sys.delta = direction;
     Update { residual, ..update }
 }
@@ -239,12 +239,12 @@ fn jacobi_system<T: Real>(
     state: &DescentState,
     k: usize,
     h2: T,
-) -> LocalSystem<T> {
+) -> PointSystem<T> {
     let mass = sys.rest.vertices[k].mass;
     let force_h2 = internal_force(k, &sys.nb, &sys.bond_grad) * h2;
     let residual = (sys.points.y_star[k] - sys.points.y[k]) * mass + force_h2;
     let block = hessian_diagonal_block(k, &sys.nb, &state.bond_blocks, &state.self_blocks);
     let stiffness =
         SymmetricMatrix3::from_diagonal(&block.diagonal().map(|x| T::of(x.max(0.0)))) * h2;
-    LocalSystem::new(mass, stiffness, residual, force_h2, T::zero())
+    PointSystem::new(mass, stiffness, residual, force_h2, T::zero())
 }

@@ -13,9 +13,10 @@ use crate::real::Real;
 
 use super::body::ByKind;
 use super::evaluate::{evaluate, inertial_energy, total_energy};
-use super::jacobi::{jacobi_update, MoveOptions, Update};
+use super::jacobi::jacobi_update;
 use super::membrane_system::MembraneSystem;
 use super::points::Points;
+use super::update::{MoveOptions, Update};
 
 /// A body kind's part of the time step.
 pub(crate) trait Family<T: Real>: Send {

@@ -13,94 +13,8 @@ use crate::real::{Lanes, Real};
 use crate::symmetric::SymmetricMatrix3;
 
 use super::membrane_system::MembraneSystem;
-
-/// Per-vertex outcome of an update, reduced over vertices.
-#[derive(Clone, Copy)]
-pub(super) struct Update {
-    /// Largest move `|y_i^{k+1} - y_i^k|` (m).
-    pub moved: f64,
-    /// Largest `|r_i| / m_i` at `y^k` (m), contact reactions removed: the convergence measure.
-    pub residual: f64,
-    /// Lowest vertex that became non-finite.
-    pub first_bad: Option<usize>,
-}
-
-impl Update {
-    pub fn of<T: Real>(vertex: usize, before: &Vector3<T>, after: &Vector3<T>) -> Self {
-        let finite = after.x.is_finite() & after.y.is_finite() & after.z.is_finite();
-        // The square root in f64, as the per-chunk maxima of the move take it.
-        let moved = (after - before).norm_squared().to_f64().sqrt();
-        Self {
-            moved: if finite { moved } else { 0.0 },
-            residual: 0.0,
-            first_bad: (!finite).then_some(vertex),
-        }
-    }
-
-    /// Associative and commutative, so the reduction is the same for any thread count.
-    pub fn merge(a: Self, b: Self) -> Self {
-        let first_bad = match (a.first_bad, b.first_bad) {
-            (Some(x), Some(y)) => Some(x.min(y)),
-            (x, y) => x.or(y),
-        };
-        Self {
-            moved: a.moved.max(b.moved),
-            residual: a.residual.max(b.residual),
-            first_bad,
-        }
-    }
-
-    /// The largest move and residual from the largest of their squares (m^2), square roots in
-    /// f64 (`sqrt` is monotonic, so this is the largest norm).
-    pub fn from_squares<T: Real>(moved_sq: T, residual_sq: T) -> Self {
-        Self {
-            moved: moved_sq.to_f64().sqrt(),
-            residual: residual_sq.to_f64().sqrt(),
-            first_bad: None,
-        }
-    }
-
-    pub const NONE: Self = Self {
-        moved: 0.0,
-        residual: 0.0,
-        first_bad: None,
-    };
-}
-
-/// What the move of one global iteration is asked to do.
-#[derive(Clone, Copy)]
-pub(super) struct MoveOptions<'a, T: Real> {
-    /// Apply the step length of eq. 31-33.
-    pub step_length: bool,
-    /// Jacobi sweeps on the linear system of eq. 25 (1: the paper's default).
-    pub inner_iters: usize,
-    /// Chebyshev extrapolation weight of this iteration, if any.
-    pub omega: Option<T>,
-    pub colliders: &'a [ColliderModel<T>],
-    /// Per vertex: the contact reaction the last local step realised at the current iterate
-    /// (m; see [`free_residual`]), or empty when contact is off or no local step ran yet this
-    /// step.
-    pub contact_reaction: &'a [Vector3<T>],
-}
-
-/// The linear system of vertex `k` at the current iterate: `D delta = r` with
-/// `D = m I + h^2 (n_k C_k + sum_j C_j)` and `r = m (y* - y) + h^2 f`; of one vertex (`S` a
-/// [`Real`]) or of a SIMD pack of vertices, one per lane (`S` a [`Real::Pack`], every lane
-/// bit-identical to the scalar system of its vertex).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct LocalSystem<S: Lanes> {
-    pub mass: S,
-    pub residual: Vector3<S>,
-    /// `D` (kg).
-    pub system: SymmetricMatrix3<S>,
-    /// `D^-1` (1/kg), or `I / m` where `det D` is zero or its reciprocal overflows (see
-    /// [`LocalSystem::new`]).
-    pub inverse: SymmetricMatrix3<S>,
-    /// `h^2 f`.
-    pub force_h2: Vector3<S>,
-    /// `h^2` times the elastic energy of the vertices whose neighbourhood holds `k`.
-    pub energy_h2: S,
-}
+use super::point_system::PointSystem;
+use super::update::{MoveOptions, Update};
 
 /// What vertex `k`'s system is assembled from, read from the responses of the last evaluation.
 #[derive(Clone, Copy, Default)]
@@ -142,7 +56,7 @@ fn gathered_response<T: Real>(sys: &MembraneSystem<T>, k: usize) -> GatheredResp
 }
 
 /// Vertex `k`'s Jacobi block `D_k = m_k I + h^2 (n_k C_k + sum_j C_j)` (kg) of eq. 25 from
-/// the responses of the last evaluation: the `system` of [`LocalSystem::of`] without its
+/// the responses of the last evaluation: the `system` of [`PointSystem::of`] without its
 /// residual, for the metric of the contact local step's proximal term
 /// ([`crate::contact::ProximalMetric::Jacobi`]).
 pub(super) fn jacobi_block<T: Real>(
@@ -153,7 +67,7 @@ pub(super) fn jacobi_block<T: Real>(
     (gathered_response(sys, k).precond() * h2).plus_identity(sys.rest.vertices[k].mass)
 }
 
-impl<T: Real> LocalSystem<T> {
+impl<T: Real> PointSystem<T> {
     /// Assembles vertex `k`'s system from the responses of the last evaluation.
     #[inline(always)]
     pub fn of(sys: &MembraneSystem<T>, k: usize, h2: T) -> Self {
@@ -168,101 +82,6 @@ impl<T: Real> LocalSystem<T> {
         )
     }
 }
-
-impl<S: Lanes> LocalSystem<S> {
-    /// `D = m I + h^2 C`, `r = m (y* - y) + h^2 f` from the gathered sums `C` (N/m) and `E` (J).
-    #[inline(always)]
-    fn assemble(
-        mass: S,
-        to_prediction: Vector3<S>,
-        force_h2: Vector3<S>,
-        precond: SymmetricMatrix3<S>,
-        energy: S,
-        h2: S,
-    ) -> Self {
-        Self::new(
-            mass,
-            precond * h2,
-            to_prediction * mass + force_h2,
-            force_h2,
-            energy * h2,
-        )
-    }
-
-    /// `D = m I + stiffness` and its inverse. `D` is symmetric positive definite for a mass
-    /// `m > 0` and a positive semi-definite `stiffness` (kg); should round-off still make it
-    /// singular (`det D` zero, or so small that its reciprocal overflows), the inverse falls
-    /// back to `I / m`, the explicit move `r / m`. A non-finite stiffness gives a non-finite
-    /// inverse, and the move is then caught as divergence.
-    #[inline(always)]
-    pub fn new(
-        mass: S,
-        stiffness: SymmetricMatrix3<S>,
-        residual: Vector3<S>,
-        force_h2: Vector3<S>,
-        energy_h2: S,
-    ) -> Self {
-        let system = stiffness.plus_identity(mass);
-        let inverse = system.inverse_or(S::one() / mass);
-        Self {
-            mass,
-            residual,
-            system,
-            inverse,
-            force_h2,
-            energy_h2,
-        }
-    }
-
-    /// One Jacobi solve, `D^-1 r`.
-    #[inline(always)]
-    pub fn solve(&self) -> Vector3<S> {
-        self.inverse.mul_vector(&self.residual)
-    }
-
-    /// The step length of eq. 31-33 for the move `delta`: `alpha = E / (h^2 f . delta)` where
-    /// the linearised elastic energy would drop below zero, else 1. The cut applies only when
-    /// that elastic release is a sizeable part of the move's inertial cost,
-    /// `h^2 f . delta > STEP_LENGTH_SIGNIFICANCE m |delta|^2`: below it the release is either
-    /// harmless or round-off (a vertex at rest has `E` and `f` at round-off level, and cutting
-    /// there would freeze it).
-    #[inline(always)]
-    pub fn step_length(&self, delta: &Vector3<S>) -> S {
-        let descent = self.force_h2.dot(delta);
-        let significant =
-            descent.simd_gt(S::lit(STEP_LENGTH_SIGNIFICANCE) * self.mass * delta.norm_squared());
-        let cut = descent.simd_gt(self.energy_h2) & significant;
-        (self.energy_h2.simd_max(S::zero()) / descent).select(cut, S::one())
-    }
-
-    /// The system of lane `l`.
-    #[inline(always)]
-    fn lane(&self, l: usize) -> LocalSystem<S::Scalar> {
-        let vector = |v: &Vector3<S>| Vector3::new(v.x.extract(l), v.y.extract(l), v.z.extract(l));
-        let matrix = |m: &SymmetricMatrix3<S>| SymmetricMatrix3 {
-            diagonal: m.diagonal.map(|x| x.extract(l)),
-            upper: m.upper.map(|x| x.extract(l)),
-        };
-        LocalSystem {
-            mass: self.mass.extract(l),
-            residual: vector(&self.residual),
-            system: matrix(&self.system),
-            inverse: matrix(&self.inverse),
-            force_h2: vector(&self.force_h2),
-            energy_h2: self.energy_h2.extract(l),
-        }
-    }
-
-    /// The residual per unit mass, `r / m` (m): the convergence measure of a vertex touching
-    /// neither a collider nor another membrane (see [`free_residual`]).
-    #[inline(always)]
-    fn residual_per_mass(&self) -> Vector3<S> {
-        self.residual * (S::one() / self.mass)
-    }
-}
-
-/// See [`LocalSystem::step_length`].
-const STEP_LENGTH_SIGNIFICANCE: f64 = 0.1;
 
 /// The move of one SISSM iteration from the responses of the last evaluation, written to
 /// `y_next`.
@@ -393,7 +212,7 @@ fn move_packs<T: Real>(
             )
         };
         let precond = |e: usize| lanes_of(gathered, |g| g.responses.precond().entry(e));
-        let local = LocalSystem::assemble(
+        let local = PointSystem::assemble(
             lanes_of(gathered, |g| g.mass),
             vector(|g| g.to_prediction),
             vector(|g| g.force_h2),
@@ -473,9 +292,9 @@ fn move_vertices<T: Real>(
             continue;
         }
         let (local, delta) = if inner {
-            (sys.locals[k], sys.delta[k])
+            (sys.point_systems[k], sys.delta[k])
         } else {
-            let local = LocalSystem::of(sys, k, h2);
+            let local = PointSystem::of(sys, k, h2);
             (local, local.solve())
         };
         finish_vertex(sys, k, &local, delta, options, next, &mut measures);
@@ -490,7 +309,7 @@ fn move_vertices<T: Real>(
 fn finish_vertex<T: Real>(
     sys: &MembraneSystem<T>,
     k: usize,
-    local: &LocalSystem<T>,
+    local: &PointSystem<T>,
     delta: Vector3<T>,
     options: &MoveOptions<'_, T>,
     next: &mut Vector3<T>,
@@ -536,31 +355,31 @@ fn finish_vertex<T: Real>(
 
 /// `inner` Jacobi sweeps on the linear system of eq. 25, `(M + h^2 L) delta = r` with `L` the
 /// bond Laplacian of weights `C_i + C_j`: `delta_k <- D_k^-1 (r_k + h^2 sum_j (C_k + C_j) delta_j)`.
-/// Leaves each vertex's system in `locals` and the result in `delta`.
+/// Leaves each vertex's system in `point_systems` and the result in `delta`.
 fn inner_sweeps<T: Real>(sys: &mut MembraneSystem<T>, h2: T, inner: usize) {
     let n = sys.points.y.len();
-    let mut locals = std::mem::take(&mut sys.locals);
+    let mut point_systems = std::mem::take(&mut sys.point_systems);
     let mut delta = std::mem::take(&mut sys.delta);
     let mut scratch = std::mem::take(&mut sys.delta_next);
-    if locals.len() != n {
-        let zero = LocalSystem::new(
+    if point_systems.len() != n {
+        let zero = PointSystem::new(
             T::one(),
             SymmetricMatrix3::zeros(),
             Vector3::zeros(),
             Vector3::zeros(),
             T::zero(),
         );
-        locals = vec![zero; n];
+        point_systems = vec![zero; n];
         delta = vec![Vector3::zeros(); n];
         scratch = vec![Vector3::zeros(); n];
     }
     let sys_ref = &*sys;
-    locals
+    point_systems
         .par_iter_mut()
         .zip(delta.par_iter_mut())
         .enumerate()
         .for_each(|(k, (local, d))| {
-            *local = LocalSystem::of(sys_ref, k, h2);
+            *local = PointSystem::of(sys_ref, k, h2);
             *d = if sys_ref.points.pinned[k] {
                 Vector3::zeros()
             } else {
@@ -583,13 +402,13 @@ fn inner_sweeps<T: Real>(sys: &mut MembraneSystem<T>, h2: T, inner: usize) {
                     .mul_vector(&delta[j as usize]);
             }
             let coupling = (response[k].precond().mul_vector(&sum) + weighted) * h2;
-            *out = locals[k]
+            *out = point_systems[k]
                 .inverse
-                .mul_vector(&(locals[k].residual + coupling));
+                .mul_vector(&(point_systems[k].residual + coupling));
         });
         std::mem::swap(&mut delta, &mut scratch);
     }
-    sys.locals = locals;
+    sys.point_systems = point_systems;
     sys.delta = delta;
     sys.delta_next = scratch;
 }
@@ -675,7 +494,7 @@ pub(super) fn keep_out<T: Real>(
 #[inline]
 pub(super) fn free_residual<T: Real>(
     k: usize,
-    local: &LocalSystem<T>,
+    local: &PointSystem<T>,
     collider_reaction: &Vector3<T>,
     options: &MoveOptions<'_, T>,
 ) -> Vector3<T> {
@@ -692,7 +511,7 @@ pub(super) fn free_residual<T: Real>(
 pub(super) fn whole_move_reaction<T: Real>(
     sys: &MembraneSystem<T>,
     k: usize,
-    local: &LocalSystem<T>,
+    local: &PointSystem<T>,
     delta: &Vector3<T>,
     colliders: &[ColliderModel<T>],
 ) -> Vector3<T> {
@@ -760,7 +579,7 @@ mod tests {
             let h2 = T::of(1e-6);
             let cut = (0..n)
                 .filter(|&k| {
-                    let local = LocalSystem::of(&sys, k, h2);
+                    let local = PointSystem::of(&sys, k, h2);
                     local.step_length(&local.solve()) < T::one()
                 })
                 .count();
@@ -827,7 +646,7 @@ mod tests {
             let (mut x, mut late_move) = (0.5f64, 0.0f64);
             for k in 0..60 {
                 let r = Vector3::new((x - 2.0) * (x - 2.0) - x, 0.0, 0.0);
-                let local = LocalSystem::new(
+                let local = PointSystem::new(
                     1.0,
                     SymmetricMatrix3::from_diagonal(&Vector3::repeat(a)),
                     r,
@@ -861,7 +680,7 @@ mod tests {
         let f = Vector3::new(2.0f64, 0.0, 0.0);
         let r = Vector3::new(4.0, 0.0, 0.0);
         let local =
-            |force, energy| LocalSystem::new(1.0, SymmetricMatrix3::zeros(), r, force, energy);
+            |force, energy| PointSystem::new(1.0, SymmetricMatrix3::zeros(), r, force, energy);
         assert_eq!(local(f, 100.0).step_length(&r), 1.0);
         let limited = r * local(f, 2.0).step_length(&r);
         assert!((2.0 - f.dot(&limited)).abs() < 1e-15);

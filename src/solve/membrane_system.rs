@@ -9,7 +9,7 @@ use crate::mesh::Neighborhood;
 use crate::real::Real;
 use crate::symmetric::SymmetricMatrix3;
 
-use super::jacobi::LocalSystem;
+use super::point_system::PointSystem;
 use super::points::Points;
 
 /// The membrane family's working set: its bodies' points, and their rest data and kernel
@@ -28,7 +28,7 @@ pub(crate) struct MembraneSystem<T: Real> {
     pub response: Vec<GatheredResponse<T>>,
     /// Per-vertex linear systems and moves, kept only when inner sweeps or the descent method
     /// need them (else empty).
-    pub locals: Vec<LocalSystem<T>>,
+    pub point_systems: Vec<PointSystem<T>>,
     pub delta: Vec<Vector3<T>>,
     pub delta_next: Vec<Vector3<T>>,
 }
@@ -79,7 +79,7 @@ impl<T: Real> MembraneSystem<T> {
             rest,
             packed: packs,
             response: vec![zero_response; start],
-            locals: Vec::new(),
+            point_systems: Vec::new(),
             delta: Vec::new(),
             delta_next: Vec::new(),
         })

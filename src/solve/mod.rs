@@ -10,10 +10,12 @@ mod family;
 mod jacobi;
 pub(crate) mod membrane_system;
 mod params;
+mod point_system;
 mod points;
 mod reaction;
 mod sissm;
 mod stats;
+mod update;
 
 pub use body::{Body, BodyMut};
 pub use clock::Clock;

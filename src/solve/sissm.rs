@@ -37,7 +37,7 @@ use super::collider_passes::{extrapolate_local_step, keep_feasible, project_coll
 use super::contact_step::ContactState;
 use super::descent::{descent_iteration, DescentState, LineSearch};
 use super::family::{Families, Family};
-use super::jacobi::{MoveOptions, Update};
+use super::update::{MoveOptions, Update};
 use super::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
 
 /// Steps a set of membranes in time.
