@@ -4,6 +4,7 @@
 
 pub mod barrier;
 mod barrier_push;
+mod bounds;
 pub mod broad_phase;
 pub mod ccd;
 mod collider;

@@ -93,12 +93,13 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::bounds::{bounding_box, box_gap, nan_max, round_down};
 use super::broad_phase::{BroadPhase, ContactMesh};
 use super::distance_order::DistanceOrder;
 use super::patches::Patches;
-use super::primitive_pairs::{close_primitive_pairs, nan_max, Owners, Pair};
-use super::regions::{bounding_box, box_gap, Regions};
-use super::sweep::{displacements, round_down, Sweep, SweptPair, NO_BODY};
+use super::primitive_pairs::{close_primitive_pairs, Owners, Pair};
+use super::regions::Regions;
+use super::sweep::{displacements, Sweep, SweptPair, NO_BODY};
 use super::vertex_index::index_by_vertex;
 
 /// The primitive pairs of the last build and their distances at its reference positions.

@@ -14,7 +14,7 @@
 
 use nalgebra::Vector3;
 
-use super::primitive_pairs::nan_max;
+use super::bounds::nan_max;
 use super::vertex_index::{index_by_vertex, index_incidences};
 
 /// The most vertices in a patch: smaller patches give tighter radii, larger ones fewer
