@@ -24,11 +24,11 @@ mod sweep;
 mod vertex_index;
 
 pub use broad_phase::{BroadPhase, ContactMesh};
-pub use collider::{out_of_colliders, Collider, ColliderModel, MoveStart, Shape, ShapeModel};
+pub use collider::{push_out_of_colliders, Collider, ColliderModel, MoveStart, Shape, ShapeModel};
 pub(crate) use collider::{TOUCH_DISTANCE, TRACE_STEPS, TRACE_TOLERANCE};
 pub use local_step::{
-    project, ContactParams, ContactStats, DescentStep, KeepOut, ProximalMetric, ProximalWeights,
-    Workspace,
+    resolve_contacts, ContactParams, ContactStats, DescentStep, ProximalMetric, ProximalWeights,
+    PushOut, Workspace,
 };
 pub use motion::MovingCollider;
 pub use parallel_fade::default_parallel_angle;

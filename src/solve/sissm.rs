@@ -11,7 +11,7 @@
 //! per-vertex step length of eq. 31-33, `alpha_i = min(E_i / (f_i . delta_i), 1)`, where `E_i`
 //! is the elastic energy of the vertices whose neighbourhood holds `i` (zero elastic energy is a
 //! lower bound the linearised energy may not cross). Colliders project the result, then the
-//! contact local step (Algorithm 2, [`crate::contact::project`]) when contact is on.
+//! contact local step (Algorithm 2, [`crate::contact::resolve_contacts`]) when contact is on.
 //!
 //! The iteration starts from the lower-energy of `y*` and `y_t` ([`initial_guess`]) and stops
 //! when `max_i |r_i| / m_i < tol` for the residual `r = m (y* - y) + h^2 f` (without the
@@ -27,7 +27,9 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::contact::{out_of_colliders, Collider, ColliderModel, MoveStart, MovingCollider, Pose};
+use crate::contact::{
+    push_out_of_colliders, Collider, ColliderModel, MoveStart, MovingCollider, Pose,
+};
 use crate::error::{invalid, Error, Result};
 use crate::membrane::{Membrane, Preconditioner};
 use crate::real::Real;
@@ -426,7 +428,7 @@ fn keep_feasible<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>]) {
     sys.y.par_iter_mut().enumerate().for_each(|(k, y)| {
         if !pinned[k] {
             let from = MoveStart::OfStep(start[k]);
-            *y = out_of_colliders(colliders, from, *y, rest.vertices[k].half_thickness, None);
+            *y = push_out_of_colliders(colliders, from, *y, rest.vertices[k].half_thickness, None);
         }
     });
 }
@@ -440,7 +442,7 @@ fn project_colliders<T: Real>(sys: &mut System<T>, colliders: &[ColliderModel<T>
         .map(|(k, next)| {
             if !pinned[k] {
                 let (from, margin) = (MoveStart::Now(y[k]), rest.vertices[k].half_thickness);
-                *next = out_of_colliders(colliders, from, *next, margin, None);
+                *next = push_out_of_colliders(colliders, from, *next, margin, None);
             }
             Update::of(k, &y[k], next)
         })

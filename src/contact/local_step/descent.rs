@@ -14,7 +14,7 @@ use super::super::parallel_fade::sin2_limit;
 use super::super::primitive_pairs::Pair;
 use super::guarantee::guarantee;
 use super::live_pairs::FIRST_ALLOWANCE;
-use super::moves::{compliance_bound, damped_move, proximal_pull, settle_or_move, KeepOut, Move};
+use super::moves::{compliance_bound, damped_move, proximal_pull, settle_or_move, Move, PushOut};
 use super::params::{ContactParams, DescentStep, ProximalWeights, SETTLED_SHARE};
 use super::stats::ContactStats;
 use super::workspace::Workspace;
@@ -52,14 +52,14 @@ pub(super) fn vertex_toi(pairs: &[Pair], toi: &[Option<f64>], t: &mut Vec<f64>, 
 /// metric of eq. 47's proximal term ([`ProximalWeights`]; `None`: the identity, see
 /// [`ProximalMetric`]), kept in `work` ([`Workspace::weights`]). `tol` is the solver's
 /// tolerance (m; 0: none), which bounds the stopping distance
-/// ([`ContactParams::stop_distance`]). `keep_out`
-/// ([`KeepOut`]) takes a vertex out of the colliders after every descent move, in the move's
+/// ([`ContactParams::stop_distance`]). `push_out`
+/// ([`PushOut`]) takes a vertex out of the colliders after every descent move, in the move's
 /// metric, so the barrier cannot push a membrane into a collider. (The final clamp moves a
 /// vertex back towards its safe position along a straight line, which can cut into a curved
 /// collider by the sagitta of that chord, `L^2 / 8R` for a chord of length `L` on a ball of
 /// radius `R`.) `work` holds the buffers between calls.
 #[allow(clippy::too_many_arguments)]
-pub fn project(
+pub fn resolve_contacts(
     safe: &[Vector3<f64>],
     positions: &mut [Vector3<f64>],
     fixed: &[bool],
@@ -67,7 +67,7 @@ pub fn project(
     mesh: &ContactMesh,
     params: &ContactParams,
     tol: f64,
-    keep_out: &KeepOut,
+    push_out: &PushOut,
     work: &mut Workspace,
 ) -> ContactStats {
     let mut stats = ContactStats::default();
@@ -135,7 +135,7 @@ pub fn project(
                 }
                 let before = *zi;
                 *zi += offset;
-                keep_out(i, &before, zi, None);
+                push_out(i, &before, zi, None);
                 *di = (*zi - before).norm();
                 *ei = *di;
             });
@@ -329,7 +329,7 @@ pub fn project(
                     None => (step, Some(longest)),
                 };
                 let take = |damp: f64| {
-                    damped_move(i, &before, &proposed, metric.as_ref(), cap, damp, keep_out)
+                    damped_move(i, &before, &proposed, metric.as_ref(), cap, damp, push_out)
                 };
                 let step = match settle_or_move(&before, take, settled, last, damp) {
                     Move::Settled(length) => return length,

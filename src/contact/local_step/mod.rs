@@ -74,8 +74,8 @@ mod workspace;
 
 use std::time::Instant;
 
-pub use descent::project;
-pub use moves::KeepOut;
+pub use descent::resolve_contacts;
+pub use moves::PushOut;
 pub use params::{
     ContactParams, DescentStep, ProximalMetric, ProximalWeights, CLAMP_PASSES, SETTLED_SHARE,
     STOP_FRACTION, TOL_SHARE,

@@ -7,15 +7,15 @@ use nalgebra::Vector3;
 use crate::symmetric::SymmetricMatrix3;
 
 /// Keeps vertex `i` out of the colliders after a move from `from` (outside them) to `z_i`:
-/// `keep_out(i, from, z_i, metric)` keeps `z_i` on the side of each collider the move came
+/// `push_out(i, from, z_i, metric)` keeps `z_i` on the side of each collider the move came
 /// from, moves it back to their surfaces by the shortest move in the metric whose inverse is
 /// `metric` (symmetric positive definite; `None`: the identity, a normal projection), and then
 /// onto them wherever the surface's curvature left it inside.
-pub type KeepOut<'a> =
+pub type PushOut<'a> =
     dyn Fn(usize, &Vector3<f64>, &mut Vector3<f64>, Option<&SymmetricMatrix3<f64>>) + Sync + 'a;
 
 /// The proximal term's pull on vertex `i`, `W_i (y_i^k - z_i)` (m) for `to_target =
-/// y_i^k - z_i` (`weights`: see [`project`]).
+/// y_i^k - z_i` (`weights`: see [`super::resolve_contacts`]).
 #[inline]
 pub(super) fn proximal_pull(
     weights: Option<&[SymmetricMatrix3<f64>]>,
@@ -92,16 +92,16 @@ pub(super) fn damped_move(
     metric: Option<&SymmetricMatrix3<f64>>,
     longest: Option<f64>,
     damp: f64,
-    keep_out: &KeepOut,
+    push_out: &PushOut,
 ) -> Vector3<f64> {
     let mut at = before + proposed * damp;
-    keep_out(i, before, &mut at, metric);
+    push_out(i, before, &mut at, metric);
     if let Some(longest) = longest {
         let (slide, limit) = (at - before, longest * damp);
         let length = slide.norm();
         if length > limit {
             at = before + slide * (limit / length);
-            keep_out(i, before, &mut at, None);
+            push_out(i, before, &mut at, None);
         }
     }
     at

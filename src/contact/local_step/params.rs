@@ -106,7 +106,7 @@ pub struct ContactParams {
     /// degrees), is IPC's.
     pub parallel_angle: f64,
     /// The metric of eq. 47's proximal term. Read by the solver, which computes the weights
-    /// and passes them to [`project`].
+    /// and passes them to [`super::resolve_contacts`].
     pub proximal: ProximalMetric,
 }
 
@@ -230,6 +230,6 @@ pub const CLAMP_PASSES: usize = 16;
 
 /// Writes the metric `W_i` of eq. 47's proximal term into its argument, one per vertex
 /// (dimensionless, symmetric positive definite; a vertex whose `W_i` cannot be inverted stays).
-/// Called by [`project`] only when some pair is within the barrier's reach (a scene with
+/// Called by [`super::resolve_contacts`] only when some pair is within the barrier's reach (a scene with
 /// nothing near pays nothing for it).
 pub type ProximalWeights<'a> = dyn Fn(&mut Vec<SymmetricMatrix3<f64>>) + Sync + 'a;

@@ -15,17 +15,17 @@ use super::*;
 use crate::symmetric::SymmetricMatrix3;
 
 /// No colliders to keep out of.
-const FREE: &KeepOut = &|_, _, _, _| {};
+const FREE: &PushOut = &|_, _, _, _| {};
 
 /// No solver tolerance: the local step stops at [`STOP_FRACTION`] `eps xi`.
 const NO_TOL: f64 = 0.0;
 
-/// A [`KeepOut`] for `colliders`: every move from where the vertex is, to their surfaces.
-fn keeping_out_of(
+/// A [`PushOut`] for `colliders`: every move from where the vertex is, to their surfaces.
+fn pushing_out_of(
     colliders: &[super::super::ColliderModel<f64>],
 ) -> impl Fn(usize, &Vector3<f64>, &mut Vector3<f64>, Option<&SymmetricMatrix3<f64>>) + Sync + '_ {
     move |_, from, zi, metric| {
-        *zi = super::super::out_of_colliders(
+        *zi = super::super::push_out_of_colliders(
             colliders,
             super::super::MoveStart::Now(*from),
             *zi,
@@ -71,7 +71,7 @@ fn a_crossing_move_is_stopped_and_the_pair_kept_apart() {
     let mut z = target.clone();
     let fixed = vec![false; 6];
     let mut work = Workspace::default();
-    let stats = project(
+    let stats = resolve_contacts(
         &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
     );
     assert_eq!(stats.candidate_pairs, 1);
@@ -89,7 +89,7 @@ fn a_crossing_move_is_stopped_and_the_pair_kept_apart() {
         ..mesh
     };
     let mut z = target.clone();
-    let stats = project(
+    let stats = resolve_contacts(
         &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
     );
     assert_eq!(stats.candidate_pairs, 0);
@@ -115,7 +115,7 @@ fn a_reused_workspace_gives_the_fresh_result() {
             body: &[0, 1],
             self_contact: &[true, true],
         };
-        let stats = project(
+        let stats = resolve_contacts(
             &safe,
             &mut z,
             &[false; 6],
@@ -161,7 +161,7 @@ fn pressed_triangle(
 /// [`pressed_triangle`] with the proximal term in the metric `W` at every vertex (`None`:
 /// the identity): the minimum solves `W (z - y) = -mu B'(h - xi) e_z`, so `z - y` is
 /// `W^-1 e_z` times `-mu B'`, and its height `h` solves `h - y_z = -(W^-1)_zz mu B'(h - xi)`
-/// (the root returned). `tol` is the solver's tolerance passed to [`project`].
+/// (the root returned). `tol` is the solver's tolerance passed to [`resolve_contacts`].
 fn pressed_triangle_in(
     metric: Option<SymmetricMatrix3<f64>>,
     params: &ContactParams,
@@ -186,7 +186,7 @@ fn pressed_triangle_in(
     };
     let fill = |w: &mut Vec<SymmetricMatrix3<f64>>| w.extend(metric.into_iter().cycle().take(6));
     let weights = metric.is_some().then_some(&fill as &ProximalWeights);
-    let stats = project(
+    let stats = resolve_contacts(
         &safe, &mut z, &fixed, weights, &mesh, params, tol, FREE, work,
     );
     assert_eq!(stats.active_pairs, 3);
@@ -253,7 +253,7 @@ fn pressed_grids(offset: f64, params: &ContactParams) -> (usize, f64) {
     };
     let mut z = target.clone();
     let mut work = Workspace::default();
-    let stats = project(
+    let stats = resolve_contacts(
         &safe, &mut z, &fixed, None, &mesh, params, NO_TOL, FREE, &mut work,
     );
     let longest = (n..2 * n)
@@ -299,7 +299,7 @@ fn shifted_local_step(side: u32, strays: usize) -> (ContactStats, bool) {
     let mut first = safe.clone();
     for _ in 0..2 {
         let mut next = target.clone();
-        project(
+        resolve_contacts(
             &first, &mut next, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
         );
         first = next;
@@ -315,7 +315,7 @@ fn shifted_local_step(side: u32, strays: usize) -> (ContactStats, bool) {
         })
         .collect();
     let mut kept = moved.clone();
-    let stats = project(
+    let stats = resolve_contacts(
         &first, &mut kept, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
     );
     assert!(stats.active_pairs > 0);
@@ -325,7 +325,7 @@ fn shifted_local_step(side: u32, strays: usize) -> (ContactStats, bool) {
     }
     assert_push_from_every_pair(&mesh, &first, &kept, &params, &work);
     let mut fresh = moved.clone();
-    project(
+    resolve_contacts(
         &first,
         &mut fresh,
         &fixed,
@@ -725,7 +725,7 @@ fn local_steps_that_refresh_their_pairs_keep_exact_closest_points() {
             .map(|(p, jitter)| p + rng.vector() * jitter)
             .collect();
         let mut work = Workspace::default();
-        let stats = project(
+        let stats = resolve_contacts(
             &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
         );
         assert!(
@@ -782,7 +782,7 @@ fn a_settled_vertex_clamped_mid_descent_has_its_pairs_measured_again() {
     const THROW: usize = 5;
     const THROWS: [usize; 2] = [THROW, 4 * THROW];
     let calls = AtomicUsize::new(0);
-    let lower_then_throw: &KeepOut = &|i, before, zi, _| {
+    let lower_then_throw: &PushOut = &|i, before, zi, _| {
         if i != P {
             return;
         }
@@ -796,7 +796,7 @@ fn a_settled_vertex_clamped_mid_descent_has_its_pairs_measured_again() {
         }
     };
     let mut work = Workspace::default();
-    let stats = project(
+    let stats = resolve_contacts(
         &safe,
         &mut z,
         &fixed,
@@ -854,10 +854,10 @@ fn a_triangle_pressed_onto_a_collider_by_a_slanted_roof_slides_to_the_balance() 
         body: &[0, 1],
         self_contact: &[false, false],
     };
-    let keep_out = keeping_out_of(&floors);
+    let push_out = pushing_out_of(&floors);
     let mut work = Workspace::default();
-    let stats = project(
-        &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, &keep_out, &mut work,
+    let stats = resolve_contacts(
+        &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, &push_out, &mut work,
     );
     assert_eq!(stats.active_pairs, 3);
     // About 7 moves of `eps xi` along the floor, then the approach (14 here).
@@ -888,12 +888,12 @@ fn a_move_cut_along_a_ball_ends_on_its_surface() {
     let radius = 0.01;
     let ball = Shape::sphere([0.0; 3], radius).unwrap();
     let balls = [MovingCollider::new(Collider::fixed(ball.clone())).during_step::<f64>(0.0, 1.0)];
-    let keep_out = keeping_out_of(&balls);
+    let push_out = pushing_out_of(&balls);
     let before = Vector3::new(0.0, 0.0, radius);
     let proposed = Vector3::new(0.005, 0.0, -0.002);
     let longest = 2e-4;
     for damp in [1.0, 0.5] {
-        let end = damped_move(0, &before, &proposed, None, Some(longest), damp, &keep_out);
+        let end = damped_move(0, &before, &proposed, None, Some(longest), damp, &push_out);
         let depth = ball.signed_distance(&end);
         assert!(
             depth.abs() < 1e-12,
@@ -1125,7 +1125,7 @@ fn a_local_step_holds_the_fades_of_its_safe_positions() {
         self_contact: &[false, false],
     };
     let mut work = Workspace::default();
-    project(
+    resolve_contacts(
         &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
     );
     let (_, every) = super::super::pair_cache::tests::brute_force_pairs(&mesh, &safe);
@@ -1183,7 +1183,7 @@ fn a_sheet_pushed_by_the_descent_alone_feels_the_sheet_below() {
     let fixed = [true, true, true, false, false, false, false, false, false];
     let mut z = target.clone();
     let mut work = Workspace::default();
-    project(
+    resolve_contacts(
         &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
     );
     assert_push_from_every_pair(&mesh, &safe, &z, &params, &work);
@@ -1251,7 +1251,7 @@ fn sheets_falling_through_each_other_keep_every_pair_within_reach_live() {
     let mut z = target.clone();
     let mut work = Workspace::default();
     let fixed = vec![false; safe.len()];
-    let stats = project(
+    let stats = resolve_contacts(
         &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
     );
     assert!(stats.active_pairs > 0, "{stats:?}");
@@ -1271,7 +1271,7 @@ fn sheets_falling_through_each_other_keep_every_pair_within_reach_live() {
     // positions differ a little: a refresh restarts the CCD, whose additive steps can
     // report a time for pairs it would otherwise have skipped.)
     let mut again = target.clone();
-    let second = project(
+    let second = resolve_contacts(
         &safe, &mut again, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
     );
     assert!(
@@ -1323,7 +1323,7 @@ fn the_guarantee_pass_keeps_out_a_move_from_within_the_threshold_and_measures_it
     let mut work = Workspace::default();
     for refreshes in [2, 0] {
         let mut z = target.clone();
-        let stats = project(
+        let stats = resolve_contacts(
             &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
         );
         assert_eq!(stats.iterations, 1, "{stats:?}");
@@ -1352,7 +1352,7 @@ fn far_apart_bodies_are_left_alone() {
         d_hat: 2e-3,
         ..ContactParams::default()
     };
-    project(
+    resolve_contacts(
         &safe,
         &mut z,
         &[false; 6],

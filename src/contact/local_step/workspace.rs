@@ -42,23 +42,23 @@ pub struct Workspace {
     /// Per vertex: `|y_i^k - z_i^{k-1}|` (m), how far the global step took it from safety.
     pub(super) motion: Vec<f64>,
     /// Per vertex: the barrier push of eq. 49 at the current iterate (m), at the returned
-    /// positions once [`project`] returns (see [`Workspace::push`]).
+    /// positions once [`super::resolve_contacts`] returns (see [`Workspace::push`]).
     pub(super) push: Vec<Vector3<f64>>,
     /// Per vertex: the warm start of the next local step ([`ContactParams::warm_start`]), m.
     pub(super) warm: Vec<Vector3<f64>>,
     /// Per vertex: the last descent move of this local step that it took (m).
     pub(super) last_move: Vec<Vector3<f64>>,
-    /// Per vertex: the factor on its descent moves, halved at each reversal (see [`project`]).
+    /// Per vertex: the factor on its descent moves, halved at each reversal (see [`super::resolve_contacts`]).
     pub(super) damping: Vec<f64>,
     /// The barrier's terms per pair and their sums per vertex, kept between iterations.
     pub(super) barrier_push: BarrierPush,
-    /// Per vertex: the metric `W_i` of the last [`project`] ([`ProximalWeights`]).
+    /// Per vertex: the metric `W_i` of the last [`super::resolve_contacts`] ([`ProximalWeights`]).
     pub(super) weights: Vec<SymmetricMatrix3<f64>>,
 }
 
 impl Workspace {
     /// Per vertex, the barrier push `p_i = -mu sum_c m_c B'(f(d_c) - xi) alpha_c^i n_c` (m) of
-    /// eq. 49 at the positions the last [`project`] returned: where the descent has converged,
+    /// eq. 49 at the positions the last [`super::resolve_contacts`] returned: where the descent has converged,
     /// `W_i (z_i - y_i^k) = p_i`, so `W_i^-1 p_i` is the displacement by which contact holds
     /// each vertex back from the global step's target (zero away from contact; empty before
     /// any call).
@@ -66,7 +66,7 @@ impl Workspace {
         &self.push
     }
 
-    /// Per vertex, the metric `W_i` the last [`project`] used (`None`: the identity, or no pair
+    /// Per vertex, the metric `W_i` the last [`super::resolve_contacts`] used (`None`: the identity, or no pair
     /// was within reach and nothing moved).
     pub fn weights(&self) -> Option<&[SymmetricMatrix3<f64>]> {
         (!self.weights.is_empty()).then_some(&self.weights[..])
