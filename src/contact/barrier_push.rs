@@ -42,7 +42,7 @@ pub(super) struct BarrierPush {
 /// What a pair that feels the barrier adds to the sums of its vertices, in one record: a
 /// vertex's sum gathers the terms of its pairs from lists of millions of pairs, one cache miss
 /// per record (the closest points, the fades and the pairs themselves, read at each pair's
-/// place, took one each).
+/// place, would take one each).
 #[derive(Clone, Copy)]
 struct Term {
     /// `n_c = d_c / |d_c|`, the unit separation.

@@ -10,8 +10,8 @@
 //! regions whose halos hold the two sides ([`Patches::of_side`]) and `dev_i` bounds `|u_i -
 //! c_G|` for every region `G` whose halo holds `i`. Measured from its region's mean, a skirt
 //! swinging down as a whole deviates little, where from its body's mean (the whole cloth, its
-//! middle at rest on the ball) it deviates by the swing: on three 200 x 200 cloths draping
-//! over the ball the body-mean skins kept 40M candidate triangle pairs and 15 GB.
+//! middle at rest on the ball) it deviates by the swing, and body-mean skins keep candidate
+//! pairs all over the skirt.
 //!
 //! What the regions cost instead is a skin per pair of regions, `S_PQ` (m), that
 //! `T_PQ = max_{tau} |c_P(tau) - c_Q(tau)|` must stay below until the next build, for *every*

@@ -11,22 +11,19 @@ use super::super::primitive_pairs::Pair;
 use super::refill;
 use super::stats::ContactStats;
 
-/// The first allowance `A_i` of every vertex (see [`super::pair_cache`]), in descent moves of
-/// `eps xi`: the live pairs cover iterates within it of the global step's result, and are
-/// refreshed (the allowance raised by the deviation) when a vertex goes further. A cost
-/// trade-off only: two primitives that keep their places relative to each other stay out of
-/// the live list while their distance exceeds the reach by twice the allowance (a flat sheet
-/// of the paper's cloth at 200 x 200 keeps its own diagonal pairs 0.87 mm beyond the reach,
-/// about six moves of `eps xi`), and a vertex the descent moves `k` times brings about
-/// `log2 k` refreshes.
+/// The first allowance `A_i` of every vertex (see [`super::super::pair_cache`]), in descent
+/// moves of `eps xi`: the live pairs cover iterates within it of the global step's result,
+/// and are refreshed (the allowance raised by the deviation) when a vertex goes further. A
+/// cost trade-off only: two primitives that keep their places relative to each other stay
+/// out of the live list while their distance exceeds the reach by twice the allowance (a
+/// flat sheet's own pairs lie a few moves of `eps xi` beyond the reach), and a vertex the
+/// descent moves `k` times brings about `log2 k` refreshes.
 pub(super) const FIRST_ALLOWANCE: f64 = 1.0;
 
 /// The allowance a vertex starts a local step with, in deviations it reached in the last one
-/// (see [`LivePairs::start`]). A cost trade-off only: with 1, cloth folding on the floor at
-/// 200 x 200 (steps 472-474 from a saved state, alternating runs) refreshed the live list 55-64
-/// times per step, most of them growing the same hundred vertices again, each local step;
-/// with 2, 27-30 times, and the steps took 7.3 s instead of 8.6-10.6 s. Draping over the ball
-/// (steps 402-404) is unchanged.
+/// (see [`LivePairs::start`]). A cost trade-off only: with 1, a vertex whose deviation keeps
+/// growing from one local step to the next (cloth folding on the floor) refreshes the live
+/// list in each of them; 2 leaves it room to grow.
 const CARRIED_DEVIATION: f64 = 2.0;
 
 /// The largest shift of a vertex's safe position or target since the last filter, as a share
@@ -35,12 +32,12 @@ const CARRIED_DEVIATION: f64 = 2.0;
 const REUSE_SHIFT: f64 = 0.5;
 
 /// The largest share of the vertices that may shift by more than [`REUSE_SHIFT`] of their
-/// allowance for a local step to keep the live pairs, adding those vertices' pairs: on the three
-/// layers over the ball, a few to a hundred of their 120K vertices stop the reuse of the late
-/// global iterations' local steps otherwise.
+/// allowance for a local step to keep the live pairs, adding those vertices' pairs: in the
+/// late global iterations of a step a few vertices still shift while the rest are settled,
+/// and with no room for strays they would stop the reuse.
 const REUSE_STRAYS: f64 = 0.01;
 
-/// The live pairs of a local step and the motion they cover (see [`super::pair_cache`]).
+/// The live pairs of a local step and the motion they cover (see [`super::super::pair_cache`]).
 #[derive(Default)]
 pub(super) struct LivePairs {
     pub(super) cache: PairCache,
@@ -94,8 +91,7 @@ impl LivePairs {
     /// `e'_i = (1 - tau) (s_i - s_i^f) + tau (y_i - y_i^f) + e_i`, so `|e'_i| <= shift_i + E_i`:
     /// the pairs cover it while `E_i + shift_i <= A_i`, which [`LivePairs::cover`] checks. The
     /// late global iterations of a step move the vertices by micrometres, against allowances
-    /// of `eps xi`: their local steps then skip the filter (about 0.3 s of each local step on
-    /// three layers of 200 x 200 on the ball).
+    /// of `eps xi`: their local steps then skip the filter.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn start(
         &mut self,

@@ -42,8 +42,8 @@
 //!    the barrier's curvature along the contact normals, but the closest points of nearly
 //!    parallel edges jump along them as the edges move (stacked cloth layers are full of such
 //!    pairs), and so does the push on their vertices: without
-//!    the halving a few of them go back and forth for good, and every local step ran to its
-//!    cap (640 local iterations in a step of the three layers over the ball, 103 with it).
+//!    the halving a few of them go back and forth for good, and every local step runs to its
+//!    iteration cap.
 //!    The halving damps such a jump but cannot remove it: the measure then stalls at about
 //!    the jump (a micrometre), which the fade of nearly parallel pairs (`m_c` above) removes.
 //!    By default the descent starts from the global step's result plus the last local step's

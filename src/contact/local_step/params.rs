@@ -100,7 +100,7 @@ pub struct ContactParams {
     /// Fade angle `theta_0` (radians, in `[0, pi/2)`): an edge-edge pair whose edges are
     /// closer to parallel than this at the local step's safe positions enters the barrier
     /// with the weight `r (2 - r)`, `r = sin^2 theta / sin^2 theta_0`, 0 for parallel edges
-    /// (IPC's edge-edge mollifier, not in the paper; see [`super::parallel_fade`]). Without it
+    /// (IPC's edge-edge mollifier, not in the paper; see [`super::super::parallel_fade`]). Without it
     /// (0) the local step's measure stalls at about a micrometre on stacked layers, as the
     /// closest points of nearly parallel edges jump. The default, `asin(sqrt(1e-3))` (1.8
     /// degrees), is IPC's.
@@ -199,30 +199,21 @@ pub const STOP_FRACTION: f64 = 1e-2;
 /// The share of the solver's tolerance `tol` that bounds the local step's stopping distance.
 /// The local step's result is only as exact as its stopping test, and an error of its size
 /// enters every global iteration: with a stop above about `tol / 2` the global iteration can
-/// go on at `tol` without converging. Three 16 x 16 layers of 0.5 m over the ball at `tol =
-/// 1e-6 m` (`xi = 1.5 mm`, so `STOP_FRACTION eps xi = 1.5 um`), steps of 500 run to the cap
-/// of 200 iterations: 36 with the stop at 1.5 um, 11 at `tol`, 2 at `0.5 tol`, none at
-/// `0.3 tol` (at most 11 iterations) or `0.15 tol` (at most 6). At the paper scenes' `tol =
-/// 1e-4 m` the fraction of `eps xi` is the smaller one, so they are not affected. The cost of
-/// a tight `tol`: more local iterations (19 per step median against 11 above), fewer settled
-/// vertices ([`SETTLED_SHARE`] follows the stop, which it must not exceed), and where the
+/// go on at `tol` without converging; `tol / 5` leaves a margin below that. At the paper
+/// scenes' `tol = 1e-4 m` the fraction of `eps xi` is the smaller one. The cost of a tight
+/// `tol`: more local iterations, fewer settled vertices ([`SETTLED_SHARE`] follows the stop,
+/// which it must not exceed), and where the
 /// local step's measure cannot fall below `tol / 5` (nearly parallel edges without the fade,
 /// see [`ContactParams::parallel_angle`]) every local step runs to `max_iters`.
 pub const TOL_SHARE: f64 = 0.2;
 
 /// A descent move shorter than this share of the stopping distance is not taken: the vertex
-/// stays, and
-/// the pairs none of whose vertices moved keep their closest points and barrier terms, so an
-/// iteration's distances and terms cost what its moving vertices' pairs cost (not in the
-/// paper). The stopping test still counts such a move. A cost trade-off: late in a local step
-/// most vertices of stacked layers move by less, though each by a few nanometres (six layers
-/// of 200 x 200 landing on the floor, step 459 from a saved state: of the 122K vertices in
-/// contact, 90-100K move by more than [`STOP_FRACTION`] `eps xi` in the first local step's
-/// tenth iteration, 5-20K in the later local steps'; the step's descent took 147 s before,
-/// 101 s with this and the kept sums of [`super::barrier_push`], one run each).
-/// With the stopping distance itself the vertices that slide by small moves stop short (a
-/// triangle pressed along a floor by a slanted roof keeps 1.5 times the imbalance its test
-/// allows).
+/// stays, and the pairs none of whose vertices moved keep their closest points and barrier
+/// terms, so an iteration's distances and terms cost what its moving vertices' pairs cost
+/// (not in the paper). The stopping test still counts such a move. A cost trade-off: late in
+/// a local step most vertices of stacked layers still move, each by a few nanometres. A
+/// share rather than the stopping distance itself: at the full distance the vertices that
+/// slide by small moves stop short of the balance their test allows.
 pub const SETTLED_SHARE: f64 = 0.25;
 
 /// Passes of the final clamp before the remaining colliding vertices fall back to safety.

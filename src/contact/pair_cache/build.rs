@@ -21,16 +21,11 @@ impl PairCache {
     /// [`Regions::set_skins`] with `K_PQ = M |c_P^g - c_Q^g| + reach / 4`, `M` =
     /// [`SKIN_MOVES`]: room for several more moves like the build's (for the vertex and the
     /// ones around it, so that motion spreading through a sheet does not force a build at
-    /// once) and a quarter reach of slow drift. (With skins from the bodies' means, `M` = 8
-    /// rather than 2 on 3 x 90^2 cloths draping over the ball, 110 steps: builds 21 -> 10,
-    /// broad phase 14.8 -> 8.6 s, 33 % more candidates, peak memory 302 -> 357 MB; 16: 7
-    /// builds, 7.5 s, 54 % more candidates. With skins from the regions', 4 rather than 8 on
-    /// 3 x 115^2, 300 steps: builds 38 -> 63, broad phase 121 -> 131 s, the largest cache
-    /// 2.9M -> 1.6M candidates, peak 33 -> 20 KB per vertex: memory is what limits the
-    /// paper's six layers, and cheaper filtering pays for the builds.) A vertex moving with the vertices around it keeps
-    /// a small skin. A larger skin is reused longer but keeps more pairs (all those within the
-    /// limit on a sheet: their number grows with the square of `limit / l`, `l` the edge
-    /// length), each filtered at every local step.
+    /// once) and a quarter reach of slow drift. A vertex moving with the vertices around it
+    /// keeps a small skin. A larger skin is reused longer but keeps more pairs (all those
+    /// within the limit on a sheet: their number grows with the square of `limit / l`, `l` the
+    /// edge length), each filtered at every local step, and memory is what limits the largest
+    /// scenes: `M` = 4 trades a few more builds for a smaller cache and cheaper filters.
     pub(super) fn build(
         &mut self,
         safe: &[Vector3<f64>],

@@ -104,10 +104,9 @@ impl PairCache {
     /// filter measured (they still hold), and a pair that the filter left out without a look
     /// (beyond its horizon `reach + 2 D + max T`, no vertex beyond `D`, which a filter
     /// afresh might now set larger) has a grown vertex if its bound has fallen below
-    /// `reach`, so the index finds it. On the paper's six
-    /// layers landing on the floor (steps 476-478 from a saved state), a local step's
-    /// allowances outgrew the build six times in a row, and each full filter looked again at
-    /// all 76M cached pairs (about 2 s each) for a repair that itself took 10 ms.
+    /// `reach`, so the index finds it. A local step's allowances can outgrow the build several
+    /// times in a row, and a full filter each time would look again at every cached pair for
+    /// a repair that costs a small fraction of that.
     pub fn extend_live(
         &mut self,
         allowance: &[f64],
@@ -348,22 +347,20 @@ impl PairCache {
 
 /// The most vertices, as a share of all, whose deviations a filter's horizon may leave out
 /// (see [`PairCache::outlying`]; the module doc, "Skip"). A cost trade-off only: the filter
-/// looks at every pair of such a vertex by the index by vertex (about 1300 pairs per vertex
-/// on the paper's six layers landing, so 1/512 of the vertices cost a few percent of a
-/// sweep), and where the deviations of a few vertices reach centimetres (strays hitting the
-/// floor) the horizon from the rest is several times nearer.
+/// looks at every pair of such a vertex by the index by vertex (on stacked layers a vertex
+/// has about a thousand, so 1/512 of the vertices cost a few percent of a sweep), and where
+/// the deviations of a few vertices reach centimetres (strays hitting the floor) the horizon
+/// from the rest is several times nearer.
 pub(super) const OUTLYING_SHARE: f64 = 1.0 / 512.0;
 
 /// The largest share of a sweep's pairs that were not live that a filter looks at again
-/// before it sweeps instead (a cost trade-off only: on the paper's cloth draping over the ball
-/// at 200 x 200, 13M near pairs, the first filter of a time step looked at 23 % of them again,
-/// 400 ms, and so did the eight after it, against a sweep of 1 s and then 12 ms each).
+/// before it sweeps instead (a cost trade-off only: once a filter looks at a large share again,
+/// so does every filter after it until the next sweep, which would have cost a few of them
+/// and made the next filters cheap).
 const REFILTER_SHARE: f64 = 1.0 / 16.0;
 
 /// The costs of a refilter's patch and pair tests ([`Sweep::patch_fall`],
 /// [`Sweep::pair_fall`]) in fresh bounds (a sweep costs one per near pair), for its rent (a
-/// cost trade-off only): measured with `perf` on the three layers of 200 x 200 over the ball
-/// (steps 510-512, where the refilters made 20M patch tests, 3M pair tests and 2M fresh
-/// bounds each, 480 ms, and did so 20 times per step).
+/// cost trade-off only): their measured run times relative to a fresh bound.
 const PATCH_TEST_COST: f64 = 0.055;
 const PAIR_TEST_COST: f64 = 0.55;

@@ -50,15 +50,11 @@
 //!   their skins (a vertex at rest in a region falling past it, say), the build is repaired
 //!   instead of made afresh ([`PairCache::repair`]): their skins are raised, and the pairs
 //!   that the raised limits reach are added, found by a search around those vertices'
-//!   triangles only. On the paper's six layers over the ball (steps 138-146 from a saved
-//!   state) each of the four builds after the first was forced by one to three of the 240K
-//!   vertices, by at most 0.21 mm. There repairs defer the build by one or two steps (steps
-//!   127-133 and 153-155 of a later run): then some region pairs outgrow their skins (by at
-//!   most 0.26 mm), which only a build puts right. The pairs a repair adds (hundreds) go
-//!   after the build's (20M there), which keep their order, index and sweep, and every
-//!   filter looks at each of them: arranging and indexing all the pairs afresh made a repair
-//!   cost 1.3-2 s, a third of a build (steps 153 and 154 from a saved state, with one and two
-//!   repairs: broad phase 1.9 and 1.0 s, against 5.6 and 6.8 s before).
+//!   triangles only. A build is often forced by a handful of vertices straying by a fraction
+//!   of a millimetre; a repair defers it until some region pair outgrows its skin, which only
+//!   a build puts right. The pairs a repair adds (few) go after the build's (millions), which
+//!   keep their order, index and sweep, and every filter looks at each of them: arranging
+//!   and indexing all the pairs afresh would make a repair cost a good part of a build.
 //! - **Skip**: the pair's distance at every such `x` is at least
 //!   `d_r - max_{a in A, b in B} max(|w_a - w_b|, |g_a - g_b|) - max_A A - max_B A` (A, B the
 //!   two primitives; [`Pair::relative_distance_bound`]): only the primitives' motion relative
@@ -85,10 +81,9 @@
 //!   again only at the pairs whose bound may have fallen below the reach since (see
 //!   [`super::sweep`]), and at every pair repairs added. A
 //!   filter sweeps afresh once the filters since the last sweep have cost as much as a sweep
-//!   (ski rental): as a sweep's positions fall behind, its filters cost more and more, and on
-//!   the three layers of 200 x 200 the first global iterations of each step move the
-//!   layers' parts millimetres apart, so that each of the 20 filters of a step looked again
-//!   at 2M of 25M near pairs (480 ms each) when only a sweep's share rule decided.
+//!   (ski rental): as a sweep's positions fall behind, its filters cost more and more (the
+//!   first global iterations of a step can move a body's parts millimetres apart, so that
+//!   every later filter of the step looks again at a large share of the near pairs).
 
 mod build;
 mod filter;
@@ -143,8 +138,8 @@ pub(super) struct PairCache {
     /// Where the distance buckets of `pairs[..arranged]` end.
     order: DistanceOrder,
     /// How many of `pairs` the build arranged in `order`; every filter looks at each of the
-    /// others (hundreds on the paper's six layers: only the pairs of the at most
-    /// [`MOST_RAISED`] of the vertices whose skins repairs raised).
+    /// others (few: only the pairs of the at most [`repair::MOST_RAISED`] of the vertices
+    /// whose skins repairs raised).
     arranged: usize,
     /// Per vertex: `dev_i = max_G max(|w_i - c_G^w|, |g_i - c_G^g|) + A_i` (m) over the
     /// regions `G` whose halos hold it, how far it may stray from their common motions (NaN

@@ -127,7 +127,7 @@ impl PairCache {
         );
         // Appended after the arranged pairs, which keep their places, their order, their
         // index by vertex and the sweep's record of them: arranging the build's millions
-        // afresh cost 1.3-2 s for a few hundred pairs on the paper's six layers.
+        // afresh would cost a good part of a build for a few hundred pairs.
         self.pairs.extend(chunks.into_iter().flatten());
         self.is_live.resize(self.pairs.len(), false);
         true
@@ -138,4 +138,4 @@ impl PairCache {
 /// [`PairCache::repair`] before it is built afresh instead (a cost trade-off only: a repair
 /// costs what the raised vertices' triangles cost, a build what the whole mesh costs, and
 /// every raised skin keeps more pairs, each looked at by every filter until the next build).
-const MOST_RAISED: f64 = 1.0 / 64.0;
+pub(super) const MOST_RAISED: f64 = 1.0 / 64.0;
