@@ -1,6 +1,6 @@
-//! Contact handling (Lu et al. 2023, section 6): colliders (analytic shapes and meshes as
-//! signed distance grids, with motion and friction), primitive distances, additive CCD, the barrier, the broad phase and the contact
-//! local step of Algorithm 2.
+//! Contact handling (Lu et al. 2023, section 6): colliders (analytic shapes and meshes as signed
+//! distance grids, with motion and friction), primitive distances, additive CCD, the barrier, the
+//! broad phase and the contact local step of Algorithm 2.
 
 pub mod barrier;
 mod barrier_push;

@@ -50,7 +50,7 @@ pub(super) fn vertex_toi(pairs: &[Pair], toi: &[Option<f64>], t: &mut Vec<f64>, 
 /// Runs the local step: `positions` holds `y^k` on entry and `z` on return; `safe` is
 /// `z^{k-1}`, free of intersections; `fixed` vertices are never moved; `weights` gives the
 /// metric of eq. 47's proximal term ([`ProximalWeights`]; `None`: the identity, see
-/// [`ProximalMetric`]), kept in `work` ([`Workspace::weights`]). `tol` is the solver's
+/// [`super::ProximalMetric`]), kept in `work` ([`Workspace::weights`]). `tol` is the solver's
 /// tolerance (m; 0: none), which bounds the stopping distance
 /// ([`ContactParams::stop_distance`]). `push_out`
 /// ([`PushOut`]) takes a vertex out of the colliders after every descent move, in the move's

@@ -46,7 +46,7 @@ pub(super) struct LivePairs {
     /// Per pair: distance at the safe positions `z^{k-1}` (m).
     pub(super) start: Vec<f64>,
     /// Per pair: its fade at the safe positions, held through the local step (1, or a nearly
-    /// parallel edge-edge pair's, see [`super::parallel_fade`]).
+    /// parallel edge-edge pair's, see [`super::super::parallel_fade`]).
     pub(super) fade: Vec<f64>,
     /// `sin^2` of the fade angle the fades are for.
     pub(super) sin2_limit: f64,

@@ -97,13 +97,12 @@ pub struct ContactParams {
     /// as the iteration is, not only to its stopping test. The offset is a move like a descent
     /// move (drift, deviation, CCD from the safe positions), so every guarantee holds.
     pub warm_start: bool,
-    /// Fade angle `theta_0` (radians, in `[0, pi/2)`): an edge-edge pair whose edges are
-    /// closer to parallel than this at the local step's safe positions enters the barrier
-    /// with the weight `r (2 - r)`, `r = sin^2 theta / sin^2 theta_0`, 0 for parallel edges
-    /// (IPC's edge-edge mollifier, not in the paper; see [`super::super::parallel_fade`]). Without it
-    /// (0) the local step's measure stalls at about a micrometre on stacked layers, as the
-    /// closest points of nearly parallel edges jump. The default, `asin(sqrt(1e-3))` (1.8
-    /// degrees), is IPC's.
+    /// Fade angle `theta_0` (radians, in `[0, pi/2)`): an edge-edge pair whose edges are closer to
+    /// parallel than this at the local step's safe positions enters the barrier with the weight `r
+    /// (2 - r)`, `r = sin^2 theta / sin^2 theta_0`, 0 for parallel edges (IPC's edge-edge
+    /// mollifier, not in the paper; see [`super::super::parallel_fade`]). Without it (0) the local
+    /// step's measure stalls at about a micrometre on stacked layers, as the closest points of
+    /// nearly parallel edges jump. The default, `asin(sqrt(1e-3))` (1.8 degrees), is IPC's.
     pub parallel_angle: f64,
     /// The metric of eq. 47's proximal term. Read by the solver, which computes the weights
     /// and passes them to [`super::resolve_contacts`].
@@ -221,6 +220,6 @@ pub const CLAMP_PASSES: usize = 16;
 
 /// Writes the metric `W_i` of eq. 47's proximal term into its argument, one per vertex
 /// (dimensionless, symmetric positive definite; a vertex whose `W_i` cannot be inverted stays).
-/// Called by [`super::resolve_contacts`] only when some pair is within the barrier's reach (a scene with
-/// nothing near pays nothing for it).
+/// Called by [`super::resolve_contacts`] only when some pair is within the barrier's reach (a scene
+/// with nothing near pays nothing for it).
 pub type ProximalWeights<'a> = dyn Fn(&mut Vec<SymmetricMatrix3<f64>>) + Sync + 'a;

@@ -3,7 +3,7 @@
 /// What one local step did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ContactStats {
-    /// Candidate triangle pairs of the broad phase's last build (see [`super::pair_cache`]).
+    /// Candidate triangle pairs of the broad phase's last build (see [`super::super::pair_cache`]).
     pub candidate_pairs: usize,
     /// Triangle pairs of that build whose inflated boxes overlap (before the distance test
     /// that leaves the candidates).
@@ -18,7 +18,7 @@ pub struct ContactStats {
     /// Broad phase builds (the others reused the last build's pairs).
     pub broad_phase_builds: usize,
     /// Repairs of the last build for a few vertices that strayed beyond their skins (see
-    /// [`super::pair_cache`]), each instead of a build.
+    /// [`super::super::pair_cache`]), each instead of a build.
     pub cache_repairs: usize,
     /// Filterings of the cached pairs into the live list and additions to it (at the start of
     /// a local step unless the list is kept (`LivePairs::start`), and each time a vertex
@@ -26,7 +26,7 @@ pub struct ContactStats {
     pub live_refreshes: usize,
     /// Those of the filterings that were sweeps: each looked at every cached pair near
     /// enough afresh; the others looked again only at the pairs whose bound may have fallen
-    /// below the reach since the last sweep (see [`super::sweep`]).
+    /// below the reach since the last sweep (see [`super::super::sweep`]).
     pub sweeps: usize,
     /// Primitive pairs within the barrier's reach at the end (faded ones included).
     pub active_pairs: usize,

@@ -19,7 +19,7 @@ pub struct Workspace {
     pub(super) drift: Vec<f64>,
     /// Per vertex: `sum_c |alpha_c^i|` of eq. 53.
     pub(super) alpha: Vec<f64>,
-    /// Per vertex: the barrier curvature `K_i` of [`DescentStep::Curvature`].
+    /// Per vertex: the barrier curvature `K_i` of [`super::DescentStep::Curvature`].
     pub(super) curvature: Vec<SymmetricMatrix3<f64>>,
     /// Per vertex: moved since the last CCD.
     pub(super) changed: Vec<bool>,
@@ -44,30 +44,32 @@ pub struct Workspace {
     /// Per vertex: the barrier push of eq. 49 at the current iterate (m), at the returned
     /// positions once [`super::resolve_contacts`] returns (see [`Workspace::push`]).
     pub(super) push: Vec<Vector3<f64>>,
-    /// Per vertex: the warm start of the next local step ([`ContactParams::warm_start`]), m.
+    /// Per vertex: the warm start of the next local step ([`super::ContactParams::warm_start`]), m.
     pub(super) warm: Vec<Vector3<f64>>,
     /// Per vertex: the last descent move of this local step that it took (m).
     pub(super) last_move: Vec<Vector3<f64>>,
-    /// Per vertex: the factor on its descent moves, halved at each reversal (see [`super::resolve_contacts`]).
+    /// Per vertex: the factor on its descent moves, halved at each reversal (see
+    /// [`super::resolve_contacts`]).
     pub(super) damping: Vec<f64>,
     /// The barrier's terms per pair and their sums per vertex, kept between iterations.
     pub(super) barrier_push: BarrierPush,
-    /// Per vertex: the metric `W_i` of the last [`super::resolve_contacts`] ([`ProximalWeights`]).
+    /// Per vertex: the metric `W_i` of the last [`super::resolve_contacts`]
+    /// ([`super::ProximalWeights`]).
     pub(super) weights: Vec<SymmetricMatrix3<f64>>,
 }
 
 impl Workspace {
-    /// Per vertex, the barrier push `p_i = -mu sum_c m_c B'(f(d_c) - xi) alpha_c^i n_c` (m) of
-    /// eq. 49 at the positions the last [`super::resolve_contacts`] returned: where the descent has converged,
-    /// `W_i (z_i - y_i^k) = p_i`, so `W_i^-1 p_i` is the displacement by which contact holds
-    /// each vertex back from the global step's target (zero away from contact; empty before
+    /// Per vertex, the barrier push `p_i = -mu sum_c m_c B'(f(d_c) - xi) alpha_c^i n_c` (m) of eq.
+    /// 49 at the positions the last [`super::resolve_contacts`] returned: where the descent has
+    /// converged, `W_i (z_i - y_i^k) = p_i`, so `W_i^-1 p_i` is the displacement by which contact
+    /// holds each vertex back from the global step's target (zero away from contact; empty before
     /// any call).
     pub fn push(&self) -> &[Vector3<f64>] {
         &self.push
     }
 
-    /// Per vertex, the metric `W_i` the last [`super::resolve_contacts`] used (`None`: the identity, or no pair
-    /// was within reach and nothing moved).
+    /// Per vertex, the metric `W_i` the last [`super::resolve_contacts`] used (`None`: the
+    /// identity, or no pair was within reach and nothing moved).
     pub fn weights(&self) -> Option<&[SymmetricMatrix3<f64>]> {
         (!self.weights.is_empty()).then_some(&self.weights[..])
     }

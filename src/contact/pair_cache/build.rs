@@ -153,7 +153,7 @@ impl PairCache {
 
 /// The limit of a build (m) for the primitive pair `p`: `reach + max_A R + max_B R + S_PQ`,
 /// with the vertex skins `skin` (m) over its sides `A`, `B` and the skin `S_PQ` (m) of their
-/// regions `P`, `Q` (see [`super::regions`]).
+/// regions `P`, `Q` (see [`super::super::regions`]).
 pub(super) fn limit(skin: &[f64], regions: &Regions, reach: f64, p: &Pair) -> f64 {
     let (a, b) = p.sides();
     reach + p.spread(skin) + regions.skin(regions.of_side(a), regions.of_side(b))

@@ -159,7 +159,7 @@ impl PairCache {
     }
 
     /// Filters the cached pairs `..near` afresh for the path from `safe` to `target` and the
-    /// allowances `allowance` (m) and records the sweep (see [`super::sweep`]): returns the
+    /// allowances `allowance` (m) and records the sweep (see [`super::super::sweep`]): returns the
     /// pairs that may come within `reach` (m), increasing.
     fn sweep(
         &mut self,
@@ -195,16 +195,16 @@ impl PairCache {
         found
     }
 
-    /// Filters the cached pairs `..near` for the allowances `allowance` (m) looking again only
-    /// at those whose bound may have fallen below `reach` (m) since the sweep, by at most
-    /// `fall` (m) for every pair and by at most [`Sweep::patch_fall`] and
-    /// [`Sweep::pair_fall`] for each (see [`super::sweep`]; the cheaper test first), and at
-    /// those beyond the sweep's: the pairs that may come within `reach`, increasing, or `None`
-    /// (and nothing done) when, beyond the pairs within reach at the sweep, more than
-    /// [`REFILTER_SHARE`] of the others would be looked at again: the sweep's positions are
-    /// then far enough behind that every filter until the next sweep would look at that many,
-    /// and a sweep afresh costs a few of them. Adds the filter's work beyond what it costs
-    /// right after the sweep (a look at each pair within reach there) to the sweep's rent.
+    /// Filters the cached pairs `..near` for the allowances `allowance` (m) looking again only at
+    /// those whose bound may have fallen below `reach` (m) since the sweep, by at most `fall` (m)
+    /// for every pair and by at most [`super::super::sweep::Sweep::patch_fall`] and
+    /// [`super::super::sweep::Sweep::pair_fall`] for each (see [`super::super::sweep`]; the cheaper
+    /// test first), and at those beyond the sweep's: the pairs that may come within `reach`,
+    /// increasing, or `None` (and nothing done) when, beyond the pairs within reach at the sweep,
+    /// more than [`REFILTER_SHARE`] of the others would be looked at again: the sweep's positions
+    /// are then far enough behind that every filter until the next sweep would look at that many,
+    /// and a sweep afresh costs a few of them. Adds the filter's work beyond what it costs right
+    /// after the sweep (a look at each pair within reach there) to the sweep's rent.
     fn refilter(
         &mut self,
         near: usize,
@@ -359,8 +359,8 @@ pub(super) const OUTLYING_SHARE: f64 = 1.0 / 512.0;
 /// and made the next filters cheap).
 const REFILTER_SHARE: f64 = 1.0 / 16.0;
 
-/// The costs of a refilter's patch and pair tests ([`Sweep::patch_fall`],
-/// [`Sweep::pair_fall`]) in fresh bounds (a sweep costs one per near pair), for its rent (a
-/// cost trade-off only): their measured run times relative to a fresh bound.
+/// The costs of a refilter's patch and pair tests ([`super::super::sweep::Sweep::patch_fall`],
+/// [`super::super::sweep::Sweep::pair_fall`]) in fresh bounds (a sweep costs one per near pair),
+/// for its rent (a cost trade-off only): their measured run times relative to a fresh bound.
 const PATCH_TEST_COST: f64 = 0.055;
 const PAIR_TEST_COST: f64 = 0.55;

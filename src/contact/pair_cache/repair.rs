@@ -20,21 +20,21 @@ impl PairCache {
         self.repair(mesh, reach) && self.regions.hold() && self.covers(allowance)
     }
 
-    /// Repairs the build where the motion still fits every region pair's skin but a few
-    /// vertices strayed beyond their own (`dev_i > R_i`, as [`PairCache::covers`] last
-    /// measured): raises their skins to `R_i = 2 dev_i + reach / 4` (room for as much stray
-    /// again, and a quarter reach) or less, so that every far region pair keeps half its
-    /// slack ([`Regions::most_raised_skin`]), lowers the far region pairs' skins to match
-    /// ([`Regions::raise`]) and adds the primitive pairs that the raised limits now reach.
-    /// Such a pair has a side with a raised vertex, so its owner ([`Owners`]) is a pair of a
-    /// triangle of that vertex with another whose box overlaps: the build's box for a
-    /// triangle without a raised vertex, and among the triangles of raised vertices (of this
-    /// repair and the ones before it since the build) the boxes with their raised padding.
-    /// It keeps the pairs within their new limit and not within their old one (the cache
-    /// holds those already). Returns false where the build must be made afresh instead: a NaN
-    /// or infinite stray, one beyond the skin the far region pairs leave room for, or more
-    /// raised vertices since the build than [`MOST_RAISED`] allows (then the skins may have
-    /// changed and only a build puts them right).
+    /// Repairs the build where the motion still fits every region pair's skin but a few vertices
+    /// strayed beyond their own (`dev_i > R_i`, as [`PairCache::covers`] last measured): raises
+    /// their skins to `R_i = 2 dev_i + reach / 4` (room for as much stray again, and a quarter
+    /// reach) or less, so that every far region pair keeps half its slack
+    /// ([`super::super::regions::Regions::most_raised_skin`]), lowers the far region pairs' skins
+    /// to match ([`super::super::regions::Regions::raise`]) and adds the primitive pairs that the
+    /// raised limits now reach. Such a pair has a side with a raised vertex, so its owner
+    /// ([`super::super::primitive_pairs::Owners`]) is a pair of a triangle of that vertex with
+    /// another whose box overlaps: the build's box for a triangle without a raised vertex, and
+    /// among the triangles of raised vertices (of this repair and the ones before it since the
+    /// build) the boxes with their raised padding. It keeps the pairs within their new limit and
+    /// not within their old one (the cache holds those already). Returns false where the build must
+    /// be made afresh instead: a NaN or infinite stray, one beyond the skin the far region pairs
+    /// leave room for, or more raised vertices since the build than [`MOST_RAISED`] allows (then
+    /// the skins may have changed and only a build puts them right).
     pub(super) fn repair(&mut self, mesh: &ContactMesh, reach: f64) -> bool {
         let strayed: Vec<u32> = (0..self.skin.len() as u32)
             .filter(|&i| self.deviation[i as usize] > self.skin[i as usize])
