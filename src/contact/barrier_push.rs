@@ -223,7 +223,7 @@ fn pair_term(c: &Closest, m: f64, barrier: &Barrier, mu: f64, reach: f64) -> Opt
 pub(super) mod tests {
     use super::super::broad_phase::ContactMesh;
     use super::super::distance::tests::Rng;
-    use super::super::pair_cache::tests::{brute_force_pairs, spiral};
+    use super::super::test_meshes::{brute_force_pairs, spiral};
     use super::*;
 
     /// Asserts that the sums `a` and `b` are the same to the bit, naming the first vertex

@@ -21,6 +21,8 @@ mod primitive_pairs;
 mod regions;
 mod sdf;
 mod sweep;
+#[cfg(test)]
+mod test_meshes;
 mod vertex_index;
 
 pub use broad_phase::{BroadPhase, ContactMesh};

@@ -167,7 +167,7 @@ impl Patches {
 #[cfg(test)]
 mod tests {
     use super::super::distance::tests::Rng;
-    use super::super::pair_cache::tests::spiral;
+    use super::super::test_meshes::spiral;
     use super::*;
 
     /// On a rolled sheet: every vertex of a triangle is in a patch of at most

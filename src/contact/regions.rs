@@ -359,7 +359,7 @@ fn infinite_if_nan(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::super::distance::tests::Rng;
-    use super::super::pair_cache::tests::{spiral, two_copies};
+    use super::super::test_meshes::{spiral, two_copies};
     use super::*;
 
     /// On two rolled-up grids (two bodies, 0.3 m apart) moving apart with jitter: every

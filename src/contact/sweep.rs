@@ -340,7 +340,7 @@ fn largest_apart(common: &CommonMotion) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::super::distance::tests::Rng;
-    use super::super::pair_cache::tests::spiral;
+    use super::super::test_meshes::spiral;
     use super::*;
 
     /// Random sweeps and later paths over two bodies: no pair's relative distance bound falls

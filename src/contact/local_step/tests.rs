@@ -242,7 +242,7 @@ fn pressed_grids(offset: f64, params: &ContactParams) -> (usize, f64) {
         .copied()
         .chain(grid(offset, xi + 0.3 * d_hat).map(|p| p + rng.vector() * 3e-4))
         .collect();
-    use super::super::pair_cache::tests::{grid_triangles, two_copies};
+    use super::super::test_meshes::{grid_triangles, two_copies};
     let (triangles, body) = two_copies(&grid_triangles(side), side * side);
     let n = lower.len();
     let fixed: Vec<bool> = (0..2 * n).map(|v| v < n).collect();
@@ -285,7 +285,7 @@ fn shifted_local_step(side: u32, strays: usize) -> (ContactStats, bool) {
     let target: Vec<_> = grid(0.0)
         .chain(grid(xi + 0.3 * d_hat).map(|p| p + rng.vector() * 3e-4))
         .collect();
-    use super::super::pair_cache::tests::{grid_triangles, two_copies};
+    use super::super::test_meshes::{grid_triangles, two_copies};
     let (triangles, body) = two_copies(&grid_triangles(side), side * side);
     let n = safe.len() / 2;
     let fixed: Vec<bool> = (0..2 * n).map(|v| v < n).collect();
@@ -368,7 +368,7 @@ fn a_local_step_after_a_small_shift_keeps_the_live_pairs() {
 /// nearest positions the step may look at is live.
 #[test]
 fn a_kept_list_counts_the_shift_since_its_filter_against_the_allowance() {
-    use super::super::pair_cache::tests::{brute_force_pairs, grid_triangles, two_copies};
+    use super::super::test_meshes::{brute_force_pairs, grid_triangles, two_copies};
     let (side, spacing, reach, a) = (6_u32, 0.01, 0.005, 0.002);
     let grid = |height: f64| flat_grid(side, spacing, 0.3, height);
     let gap = reach + 1.02 * a;
@@ -697,7 +697,7 @@ pub(super) fn assert_as_if_evaluated_afresh(
 /// [`the_guarantee_pass_keeps_out_a_move_from_within_the_threshold_and_measures_its_push`].)
 #[test]
 fn local_steps_that_refresh_their_pairs_keep_exact_closest_points() {
-    use super::super::pair_cache::tests::{grid_triangles, two_copies};
+    use super::super::test_meshes::{grid_triangles, two_copies};
     let params = ContactParams::default();
     let (xi, d_hat) = (params.thickness, params.d_hat);
     let side = 8_u32;
@@ -1048,7 +1048,7 @@ fn assert_push_from_every_pair(
     params: &ContactParams,
     work: &Workspace,
 ) {
-    let (_, every) = super::super::pair_cache::tests::brute_force_pairs(mesh, safe);
+    let (_, every) = super::super::test_meshes::brute_force_pairs(mesh, safe);
     let nearest = every
         .iter()
         .map(|p| p.closest(z).separation.norm())
@@ -1128,7 +1128,7 @@ fn a_local_step_holds_the_fades_of_its_safe_positions() {
     resolve_contacts(
         &safe, &mut z, &fixed, None, &mesh, &params, NO_TOL, FREE, &mut work,
     );
-    let (_, every) = super::super::pair_cache::tests::brute_force_pairs(&mesh, &safe);
+    let (_, every) = super::super::test_meshes::brute_force_pairs(&mesh, &safe);
     let (held, at_result) = (
         brute_force_push(&every, &z, &safe, &params),
         brute_force_push(&every, &z, &z, &params),

@@ -89,7 +89,7 @@ mod build;
 mod filter;
 mod repair;
 #[cfg(test)]
-pub(super) mod tests;
+mod tests;
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
