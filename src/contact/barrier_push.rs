@@ -42,7 +42,7 @@ pub(super) struct BarrierPush {
 /// What a pair that feels the barrier adds to the sums of its vertices, in one record: a
 /// vertex's sum gathers the terms of its pairs from lists of millions of pairs, one cache miss
 /// per record (the closest points, the fades and the pairs themselves, read at each pair's
-/// place, took one each).
+/// place, would take one each).
 #[derive(Clone, Copy)]
 struct Term {
     /// `n_c = d_c / |d_c|`, the unit separation.
@@ -223,7 +223,7 @@ fn pair_term(c: &Closest, m: f64, barrier: &Barrier, mu: f64, reach: f64) -> Opt
 pub(super) mod tests {
     use super::super::broad_phase::ContactMesh;
     use super::super::distance::tests::Rng;
-    use super::super::pair_cache::tests::{brute_force_pairs, spiral};
+    use super::super::test_meshes::{brute_force_pairs, spiral};
     use super::*;
 
     /// Asserts that the sums `a` and `b` are the same to the bit, naming the first vertex

@@ -391,7 +391,7 @@ impl<T: Real> MoveStart<T> {
 /// back to each surface by the shortest move in the metric whose inverse is `inverse`
 /// ([`ColliderModel::push_out`]; `None`: the identity), then onto it wherever the surface's
 /// curvature left `x` inside (for `None`, the normal projection alone).
-pub fn out_of_colliders<T: Real>(
+pub fn push_out_of_colliders<T: Real>(
     colliders: &[ColliderModel<T>],
     from: MoveStart<T>,
     mut x: Vector3<T>,

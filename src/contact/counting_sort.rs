@@ -1,9 +1,9 @@
 //! A stable counting sort by small integer keys, run in parallel by key ranges: each task owns
 //! a range of keys and their places in the output, reads every item and counts (then writes)
 //! only its own. Reading is cheap next to the scattered writes, which the ranges share out, and
-//! the result does not depend on the number of tasks. It indexes a pair cache's 20M pairs by
-//! vertex (see [`super::vertex_index`]) and groups them by distance (see
-//! [`super::distance_order`]); serial, both kept one core busy while the others waited.
+//! the result does not depend on the number of tasks. It indexes a pair cache's millions of
+//! pairs by vertex (see [`super::vertex_index`]) and groups them by distance (see
+//! [`super::distance_order`]); a serial sort would keep one core busy while the others wait.
 
 use rayon::prelude::*;
 

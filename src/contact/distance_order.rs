@@ -1,8 +1,8 @@
 //! Items grouped by a distance (m) into [`BUCKETS`] buckets, NaN first, so that every item
 //! closer than a horizon lies among the leading ones: a counting sort where a full sort is
 //! not needed. (The broad phase's cache orders its primitive pairs so that a filter looks only
-//! at those near enough; at full size, 17M pairs, sorting them by distance took a third of a
-//! build.)
+//! at those near enough; a full sort of millions of pairs by distance would cost a good part
+//! of a build.)
 //!
 //! A bucket is the distance's `f32` sign, exponent and first seven mantissa bits: 128 buckets
 //! to a factor of two, from 2^-24 m (and everything below) to 2^8 m (and everything above),

@@ -7,9 +7,9 @@
 //! total push on each edge is continuous, its split between the edge's two vertices is not.
 //! Eq. 47 then has no smooth minimum there, and the local step's moves jump back and forth by
 //! about the jump. Stacked cloth layers are full of such pairs (an edge of one layer lying
-//! along the edge below it): on two layers of 12 x 12 over the ball at `tol = 1e-6` m, every
-//! step from the layers' contact on ran to its iteration cap, the convergence measure frozen
-//! at 1.5 micrometres. The pair's barrier term is therefore scaled by its fade `m`, which falls to 0
+//! along the edge below it): once layers touch, every step runs to its iteration cap, the
+//! convergence measure frozen at about the jump (a micrometre or so). The pair's barrier
+//! term is therefore scaled by its fade `m`, which falls to 0
 //! as the edges become parallel; there the point-triangle pairs of the same two triangles
 //! (each edge's vertices against the other edge's triangles) carry the contact.
 //!

@@ -14,7 +14,7 @@
 
 use nalgebra::Vector3;
 
-use super::primitive_pairs::nan_max;
+use super::bounds::nan_max;
 use super::vertex_index::{index_by_vertex, index_incidences};
 
 /// The most vertices in a patch: smaller patches give tighter radii, larger ones fewer
@@ -167,7 +167,7 @@ impl Patches {
 #[cfg(test)]
 mod tests {
     use super::super::distance::tests::Rng;
-    use super::super::pair_cache::tests::spiral;
+    use super::super::test_meshes::spiral;
     use super::*;
 
     /// On a rolled sheet: every vertex of a triangle is in a patch of at most

@@ -5,12 +5,11 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::bounds::{bounding_box, box_gap, nan_max, round_down};
 use super::broad_phase::ContactMesh;
 use super::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use super::distance::{edge_edge_closest, point_triangle_closest, Closest};
 use super::parallel_fade::edge_edge_fade;
-use super::regions::{bounding_box, box_gap};
-use super::sweep::round_down;
 use super::vertex_index::index_by_vertex;
 
 /// A primitive pair: point-triangle `[p, t0, t1, t2]` or edge-edge `[a0, a1, b0, b1]`.
@@ -137,15 +136,6 @@ impl Pair {
         } else {
             point_triangle_ccd(&a, &b, min, ccd)
         }
-    }
-}
-
-/// The larger of `m` and `x`, NaN if either is.
-pub(super) fn nan_max(m: f64, x: f64) -> f64 {
-    if x.is_nan() || x > m {
-        x
-    } else {
-        m
     }
 }
 

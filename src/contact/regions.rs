@@ -10,8 +10,8 @@
 //! regions whose halos hold the two sides ([`Patches::of_side`]) and `dev_i` bounds `|u_i -
 //! c_G|` for every region `G` whose halo holds `i`. Measured from its region's mean, a skirt
 //! swinging down as a whole deviates little, where from its body's mean (the whole cloth, its
-//! middle at rest on the ball) it deviates by the swing: on three 200 x 200 cloths draping
-//! over the ball the body-mean skins kept 40M candidate triangle pairs and 15 GB.
+//! middle at rest on the ball) it deviates by the swing, and body-mean skins keep candidate
+//! pairs all over the skirt.
 //!
 //! What the regions cost instead is a skin per pair of regions, `S_PQ` (m), that
 //! `T_PQ = max_{tau} |c_P(tau) - c_Q(tau)|` must stay below until the next build, for *every*
@@ -30,8 +30,8 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::bounds::{bounding_box, box_gap, nan_max};
 use super::patches::Patches;
-use super::primitive_pairs::nan_max;
 
 /// The most vertices per region on meshes of up to 64K vertices (more on larger ones, see
 /// [`region_size`]): smaller regions follow the motion more closely (smaller skins, fewer
@@ -340,42 +340,6 @@ impl Regions {
     }
 }
 
-/// The axis-aligned box `(lo, hi)` of `points` (m, at least one), or the whole space where a
-/// point is not finite, so that its [`box_gap`] to any box is 0: a gap from the finite
-/// points' bounds would bound nothing there (an infinite coordinate can leave it finite and
-/// large, while distances to the point are NaN), and callers then keep what a gap would
-/// have left out.
-pub(super) fn bounding_box<'a>(
-    points: impl IntoIterator<Item = &'a Vector3<f64>>,
-) -> (Vector3<f64>, Vector3<f64>) {
-    let mut points = points.into_iter();
-    let first = *points.next().expect("a box of at least one point");
-    let not_finite = |q: &Vector3<f64>| !q.iter().all(|c| c.is_finite());
-    let everywhere = (
-        Vector3::repeat(f64::NEG_INFINITY),
-        Vector3::repeat(f64::INFINITY),
-    );
-    if not_finite(&first) {
-        return everywhere;
-    }
-    let mut bounds = (first, first);
-    for q in points {
-        if not_finite(q) {
-            return everywhere;
-        }
-        bounds = (bounds.0.inf(q), bounds.1.sup(q));
-    }
-    bounds
-}
-
-/// The distance (m) between the boxes `(lo, hi)` `a` and `b` (0 where they overlap): at most
-/// the distance between any of their points. A NaN corner counts as no bound (`sup` passes
-/// NaN over); [`bounding_box`] gives none.
-pub(super) fn box_gap(a: (Vector3<f64>, Vector3<f64>), b: (Vector3<f64>, Vector3<f64>)) -> f64 {
-    let ((alo, ahi), (blo, bhi)) = (a, b);
-    (blo - ahi).sup(&(alo - bhi)).sup(&Vector3::zeros()).norm()
-}
-
 /// The skin `S_PQ = gap - reach - (R_P + R_Q)` (m) of two far regions whose halo boxes are
 /// `gap` (m) apart, with the largest vertex skins `pr`, `qr` (m) over their halos: a pair's
 /// limit then stays within the gap. (`pr + qr` first keeps it symmetric to the bit.)
@@ -395,7 +359,7 @@ fn infinite_if_nan(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::super::distance::tests::Rng;
-    use super::super::pair_cache::tests::{spiral, two_copies};
+    use super::super::test_meshes::{spiral, two_copies};
     use super::*;
 
     /// On two rolled-up grids (two bodies, 0.3 m apart) moving apart with jitter: every
@@ -533,35 +497,5 @@ mod tests {
         regions.measure(&wild);
         assert!(!regions.hold());
         assert!(regions.most_raised_skin(0).is_nan() || regions.most_raised_skin(0) < skin[0]);
-    }
-
-    /// The box of points is their exact bounds, and the whole space, 0 away from any box, as
-    /// soon as one point is not finite (first or last, infinite or NaN), where a gap from the
-    /// finite points' bounds would come out finite.
-    #[test]
-    fn a_box_is_the_whole_space_where_a_point_is_not_finite() {
-        let points = [
-            Vector3::new(0.0, 2.0, -1.0),
-            Vector3::new(1.0, -3.0, 0.5),
-            Vector3::new(-0.5, 0.0, 4.0),
-        ];
-        let (lo, hi) = bounding_box(&points);
-        assert_eq!(lo, Vector3::new(-0.5, -3.0, -1.0));
-        assert_eq!(hi, Vector3::new(1.0, 2.0, 4.0));
-        let far = (Vector3::repeat(10.0), Vector3::repeat(11.0));
-        assert!((box_gap((lo, hi), far) - (81.0_f64 + 64.0 + 36.0).sqrt()).abs() < 1e-12);
-        for bad in [f64::INFINITY, f64::NEG_INFINITY, f64::NAN] {
-            for k in [0, 2] {
-                let mut with_bad = points;
-                with_bad[k].y = bad;
-                let (lo, hi) = bounding_box(&with_bad);
-                assert!(
-                    lo.iter().all(|&c| c == f64::NEG_INFINITY)
-                        && hi.iter().all(|&c| c == f64::INFINITY),
-                    "{bad} at {k}"
-                );
-                assert_eq!(box_gap((lo, hi), far), 0.0);
-            }
-        }
     }
 }

@@ -44,8 +44,9 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::bounds::nan_max;
 use super::patches::Patches;
-use super::primitive_pairs::{nan_max, Pair};
+use super::primitive_pairs::Pair;
 
 /// Per body: the mean `[c_B^w, c_B^g]` of its vertices' displacements (m), `None` for a body
 /// without triangles.
@@ -336,24 +337,10 @@ fn largest_apart(common: &CommonMotion) -> f64 {
     apart
 }
 
-/// `x` as an `f32` no larger than it (NaN stays NaN): a slack rounded down stays a lower bound.
-pub(super) fn round_down(x: f64) -> f32 {
-    let f = x as f32;
-    if f.is_nan() || f64::from(f) <= x {
-        f
-    } else if f == 0.0 {
-        -f32::from_bits(1)
-    } else if f > 0.0 {
-        f32::from_bits(f.to_bits() - 1)
-    } else {
-        f32::from_bits(f.to_bits() + 1)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::super::distance::tests::Rng;
-    use super::super::pair_cache::tests::spiral;
+    use super::super::test_meshes::spiral;
     use super::*;
 
     /// Random sweeps and later paths over two bodies: no pair's relative distance bound falls
@@ -517,24 +504,5 @@ mod tests {
             }
         }
         assert!(tighter > 3000, "{tighter} of 4000 pairs");
-    }
-
-    #[test]
-    fn rounding_down_keeps_a_lower_bound() {
-        for x in [
-            0.1,
-            -0.1,
-            1e-300,
-            -1e-300,
-            3.0,
-            1e300,
-            -1e300,
-            f64::INFINITY,
-        ] {
-            let f = round_down(x);
-            assert!(f64::from(f) <= x, "{x} -> {f}");
-        }
-        assert!(round_down(f64::NAN).is_nan());
-        assert_eq!(round_down(0.5), 0.5);
     }
 }

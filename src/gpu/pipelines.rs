@@ -118,3 +118,8 @@ impl Pipelines {
         }
     }
 }
+
+/// Workgroups of `size` invocations that cover `count` items (at least one).
+pub(super) fn groups(count: u32, size: u32) -> u32 {
+    count.div_ceil(size).max(1)
+}

@@ -49,10 +49,6 @@ fn millis(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-pub(super) fn groups(count: u32, size: u32) -> u32 {
-    count.div_ceil(size).max(1)
-}
-
 impl<T: GpuReal> GpuSolver<T> {
     /// A solver on the adapter [`super::gpu_info`] describes; fails with [`Error::Gpu`] when
     /// there is none (or it lacks f64 for `T = f64`), and builds every pipeline now, so a

@@ -16,8 +16,7 @@ use crate::solve::{Acceleration, SolverParams};
 use super::device::GpuContext;
 use super::layout::{self, GpuReal, IterValues, ParamValues};
 use super::pass::{Pass, RECORD_FIRST_ITERATION, RECORD_PREDICTION};
-use super::pipelines::{Pipelines, BINDINGS, REDUCE_GROUP, VERTEX_GROUP};
-use super::solver::groups;
+use super::pipelines::{groups, Pipelines, BINDINGS, REDUCE_GROUP, VERTEX_GROUP};
 
 /// Identities of the device working sets, unique in the process.
 static NEXT_STATE: AtomicU64 = AtomicU64::new(1);

@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::contact::{out_of_colliders, ColliderModel, MoveStart};
+use crate::contact::{push_out_of_colliders, ColliderModel, MoveStart};
 use crate::real::Real;
 
 use super::points::Points;
@@ -21,7 +21,7 @@ pub(super) fn keep_feasible<T: Real>(points: &mut Points<T>, colliders: &[Collid
     points.y.par_iter_mut().enumerate().for_each(|(k, y)| {
         if !pinned[k] {
             let from = MoveStart::OfStep(start[k]);
-            *y = out_of_colliders(colliders, from, *y, margin[k], None);
+            *y = push_out_of_colliders(colliders, from, *y, margin[k], None);
         }
     });
 }
@@ -39,7 +39,7 @@ pub(super) fn project_colliders<T: Real>(
         .map(|(k, next)| {
             if !pinned[k] {
                 let from = MoveStart::Now(y[k]);
-                *next = out_of_colliders(colliders, from, *next, margin[k], None);
+                *next = push_out_of_colliders(colliders, from, *next, margin[k], None);
             }
             Update::of(k, &y[k], next)
         })

@@ -8,8 +8,8 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::contact::{
-    out_of_colliders, project, ColliderModel, ContactMesh, ContactParams, ContactStats, MoveStart,
-    ProximalMetric, ProximalWeights, Workspace,
+    push_out_of_colliders, resolve_contacts, ColliderModel, ContactMesh, ContactParams,
+    ContactStats, MoveStart, ProximalMetric, ProximalWeights, Workspace,
 };
 use crate::membrane::Membrane;
 use crate::real::Real;
@@ -108,7 +108,7 @@ impl<T: Real> ContactState<T> {
             ProximalMetric::Identity => None,
             ProximalMetric::Jacobi => Some(&jacobi as &ProximalWeights),
         };
-        let keep_out = |i: usize,
+        let push_out = |i: usize,
                         from: &Vector3<f64>,
                         zi: &mut Vector3<f64>,
                         metric: Option<&SymmetricMatrix3<f64>>| {
@@ -117,10 +117,10 @@ impl<T: Real> ContactState<T> {
                 MoveStart::Now(from.map(T::of)),
                 rest.vertices[i].half_thickness,
             );
-            *zi = out_of_colliders(colliders, from, zi.map(T::of), margin, inverse.as_ref())
+            *zi = push_out_of_colliders(colliders, from, zi.map(T::of), margin, inverse.as_ref())
                 .map(|c| c.to_f64());
         };
-        let stats = project(
+        let stats = resolve_contacts(
             &self.safe,
             &mut z,
             &sys.points.pinned,
@@ -128,7 +128,7 @@ impl<T: Real> ContactState<T> {
             &mesh,
             params,
             tol,
-            &keep_out,
+            &push_out,
             &mut self.work,
         );
         let y = &sys.points.y;

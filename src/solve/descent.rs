@@ -31,7 +31,7 @@
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use crate::contact::{out_of_colliders, MoveStart};
+use crate::contact::{push_out_of_colliders, MoveStart};
 use crate::error::Result;
 use crate::membrane::{
     hessian_diagonal_block, internal_force, vertex_hessian_blocks, Membrane, Preconditioner,
@@ -198,8 +198,13 @@ pub(super) fn descent_iteration<T: Real>(
                 if let Some(w) = omega {
                     *next = (*next - y_prev[k]) * w + y_prev[k];
                 }
-                *next =
-                    out_of_colliders(options.colliders, MoveStart::Now(y[k]), *next, margin, None);
+                *next = push_out_of_colliders(
+                    options.colliders,
+                    MoveStart::Now(y[k]),
+                    *next,
+                    margin,
+                    None,
+                );
                 Update::of(k, &y[k], next)
             })
             .reduce(|| Update::NONE, Update::merge);

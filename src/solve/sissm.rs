@@ -11,7 +11,7 @@
 //! per-vertex step length of eq. 31-33, `alpha_i = min(E_i / (f_i . delta_i), 1)`, where `E_i`
 //! is the elastic energy of the vertices whose neighbourhood holds `i` (zero elastic energy is a
 //! lower bound the linearised energy may not cross). Colliders project the result, then the
-//! contact local step (Algorithm 2, [`crate::contact::project`]) when contact is on.
+//! contact local step (Algorithm 2, [`crate::contact::resolve_contacts`]) when contact is on.
 //!
 //! The iteration starts from the lower-energy of `y*` and `y_t` ([`initial_guess`]) and stops
 //! when `max_i |r_i| / m_i < tol` for the residual `r = m (y* - y) + h^2 f` (without the

@@ -1,0 +1,76 @@
+//! The local step's buffers, kept between calls so that a local step at the scene's size
+//! allocates nothing.
+
+use nalgebra::Vector3;
+
+use super::super::barrier_push::BarrierPush;
+use super::super::distance::Closest;
+use super::live_pairs::LivePairs;
+use crate::symmetric::SymmetricMatrix3;
+
+/// The local step's buffers, owned by the caller and kept between calls (one per body list):
+/// once they have grown to the scene's size, a local step allocates nothing.
+#[derive(Default)]
+pub struct Workspace {
+    pub(super) live: LivePairs,
+    /// `y^k`, the target of the proximal term.
+    pub(super) target: Vec<Vector3<f64>>,
+    /// Per vertex: total distance moved by the descent (m).
+    pub(super) drift: Vec<f64>,
+    /// Per vertex: `sum_c |alpha_c^i|` of eq. 53.
+    pub(super) alpha: Vec<f64>,
+    /// Per vertex: the barrier curvature `K_i` of [`super::DescentStep::Curvature`].
+    pub(super) curvature: Vec<SymmetricMatrix3<f64>>,
+    /// Per vertex: moved since the last CCD.
+    pub(super) changed: Vec<bool>,
+    /// Per vertex: moved since its pairs' closest points were last evaluated.
+    pub(super) unmeasured: Vec<bool>,
+    /// Per pair: its closest points were evaluated afresh at the last evaluation.
+    pub(super) fresh: Vec<bool>,
+    /// Per vertex: smallest time of impact.
+    pub(super) vertex_toi: Vec<f64>,
+    /// Per vertex: clamped by the final guarantee pass.
+    pub(super) clamped: Vec<bool>,
+    /// Per pair: time of impact.
+    pub(super) toi: Vec<Option<f64>>,
+    /// Per pair: within `(1 + 4 eps) xi` at the last distance evaluation.
+    pub(super) near: Vec<bool>,
+    /// Per pair: closest points.
+    pub(super) closest: Vec<Closest>,
+    /// Per pair: separation floor of the guarantee pass (m), 0 where it needs no CCD.
+    pub(super) floors: Vec<f64>,
+    /// Per vertex: `|y_i^k - z_i^{k-1}|` (m), how far the global step took it from safety.
+    pub(super) motion: Vec<f64>,
+    /// Per vertex: the barrier push of eq. 49 at the current iterate (m), at the returned
+    /// positions once [`super::resolve_contacts`] returns (see [`Workspace::push`]).
+    pub(super) push: Vec<Vector3<f64>>,
+    /// Per vertex: the warm start of the next local step ([`super::ContactParams::warm_start`]), m.
+    pub(super) warm: Vec<Vector3<f64>>,
+    /// Per vertex: the last descent move of this local step that it took (m).
+    pub(super) last_move: Vec<Vector3<f64>>,
+    /// Per vertex: the factor on its descent moves, halved at each reversal (see
+    /// [`super::resolve_contacts`]).
+    pub(super) damping: Vec<f64>,
+    /// The barrier's terms per pair and their sums per vertex, kept between iterations.
+    pub(super) barrier_push: BarrierPush,
+    /// Per vertex: the metric `W_i` of the last [`super::resolve_contacts`]
+    /// ([`super::ProximalWeights`]).
+    pub(super) weights: Vec<SymmetricMatrix3<f64>>,
+}
+
+impl Workspace {
+    /// Per vertex, the barrier push `p_i = -mu sum_c m_c B'(f(d_c) - xi) alpha_c^i n_c` (m) of eq.
+    /// 49 at the positions the last [`super::resolve_contacts`] returned: where the descent has
+    /// converged, `W_i (z_i - y_i^k) = p_i`, so `W_i^-1 p_i` is the displacement by which contact
+    /// holds each vertex back from the global step's target (zero away from contact; empty before
+    /// any call).
+    pub fn push(&self) -> &[Vector3<f64>] {
+        &self.push
+    }
+
+    /// Per vertex, the metric `W_i` the last [`super::resolve_contacts`] used (`None`: the
+    /// identity, or no pair was within reach and nothing moved).
+    pub fn weights(&self) -> Option<&[SymmetricMatrix3<f64>]> {
+        (!self.weights.is_empty()).then_some(&self.weights[..])
+    }
+}
