@@ -6,13 +6,13 @@
 //   D   = m I + h^2 (n_k C_k + sum_j C_j)            (kg)
 //   delta = D^-1 r, scaled by alpha = E h^2 / (h^2 f . delta) where the linearised elastic
 //           energy E = E_k + sum_j E_j would drop below zero and the release is significant
-//   y_next = keep_out(y + delta) in the D-metric with friction, then Chebyshev where no
+//   y_next = push_out_with_friction(y + delta) in the D-metric, then Chebyshev where no
 //            collider acted: y_next = omega (y_next - y_prev) + y_prev
 //
 // and measure.residual = |r + D c| / m (m) with c the colliders' reaction to the whole move
 // y + D^-1 r.
 
-// See jacobi_step in src/solve/sissm.rs.
+// See PointSystem::step_length in src/solve/point_system.rs.
 const STEP_LENGTH_SIGNIFICANCE: real = 0.1;
 
 // D^-1 by cofactors; 1/m I if D is singular.
@@ -29,14 +29,14 @@ fn inverse_or(d: mat3x3<real>, mass: real) -> mat3x3<real> {
 }
 
 // Keeps a move from `origin` (the iterate, outside) to `moved` out of the colliders in the
-// metric of D, with Coulomb friction (keep_out in src/solve/jacobi.rs); a move that would cross
+// metric of D, with Coulomb friction (push_out_with_friction in src/collider/friction.rs); a move that would cross
 // a collider ends on the side it came from (collider_keep_side). Where y ends closer than
 // `margin` to a collider it moves along D^-1 n by the normal reaction
 // lambda = -gap / (n . D^-1 n) (N s^2). With friction, the slip of the
 // vertex relative to the collider over the step, s = (y - y_t) - displacement, tangential part
 // s_t, is removed when the reaction that takes, k |s_t| with k = |s_t|^2 / (s_t . D^-1 s_t),
 // is within friction * lambda (sticking), and shortened by friction * lambda / k otherwise.
-fn keep_out(origin: vec3<real>, moved: vec3<real>, start: vec3<real>, inverse: mat3x3<real>, margin: real) -> vec3<real> {
+fn push_out_with_friction(origin: vec3<real>, moved: vec3<real>, start: vec3<real>, inverse: mat3x3<real>, margin: real) -> vec3<real> {
     var y = moved;
     for (var c = 0u; c < params.n_colliders; c++) {
         let k = colliders[c];
@@ -115,12 +115,12 @@ fn jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let start = y_start[k].xyz;
     let free_move = yk + delta;
-    var next = keep_out(yk, free_move, start, inverse, c.half_thickness);
+    var next = push_out_with_friction(yk, free_move, start, inverse, c.half_thickness);
     // The colliders' reaction to the whole move counts as balancing the residual
     // (free_residual in src/solve/jacobi.rs).
     var reaction = next - free_move;
     if any(delta != whole) {
-        reaction = keep_out(yk, yk + whole, start, inverse, c.half_thickness) - (yk + whole);
+        reaction = push_out_with_friction(yk, yk + whole, start, inverse, c.half_thickness) - (yk + whole);
     }
     let free = residual + system * reaction;
     if iter.extrapolate != 0u && all(next == free_move) {

@@ -8,8 +8,10 @@
 // (`.cargo/config.toml`), so a public item's doc may link to a private one.
 #![allow(rustdoc::private_intra_doc_links)]
 
+pub mod collider;
 pub mod contact;
 pub mod error;
+pub mod geometry;
 pub mod gpu;
 pub mod isa;
 pub mod material;

@@ -1,7 +1,7 @@
 //! The floating-point types the solver runs in: one generic code path for `f32` (the fast
 //! path) and `f64` (the reference).
 
-use nalgebra::RealField;
+use nalgebra::{RealField, Vector3};
 
 /// A scalar the simulation can run in (`f32` or `f64`).
 pub trait Real: RealField + Copy + Send + Sync + Default + std::fmt::Debug + 'static {
@@ -131,4 +131,14 @@ pub fn array_from_fn<T: Copy + Default, const N: usize>(mut f: impl FnMut(usize)
         *x = f(i);
     }
     out
+}
+
+/// `a` in the lanes where `mask` holds, else `b`.
+#[inline(always)]
+pub fn select<S: Lanes>(mask: S::SimdBool, a: Vector3<S>, b: Vector3<S>) -> Vector3<S> {
+    Vector3::new(
+        a.x.select(mask, b.x),
+        a.y.select(mask, b.y),
+        a.z.select(mask, b.z),
+    )
 }

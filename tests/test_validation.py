@@ -1,7 +1,7 @@
 """Physical validation of the membrane model and the implicit Euler / SISSM solver.
 
 Every expected value is derived in the docstring or comment next to it; tolerances are stated
-with the assert.  Model (Lu et al. 2023 + DESIGN.md s.4): per vertex F_i = T_i (+) n N^T,
+with the assert.  Model (Lu et al. 2023, as docs/model.md states it): per vertex F_i = T_i (+) n N^T,
 E = sum_i V_i Psi(stretches_i) + bending + hourglass, f = -grad E.
 """
 

@@ -10,9 +10,9 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::barrier::Barrier;
-use super::distance::Closest;
 use super::primitive_pairs::Pair;
-use super::vertex_index::index_incidences;
+use crate::geometry::distance::Closest;
+use crate::geometry::vertex_index::index_incidences;
 use crate::symmetric::SymmetricMatrix3;
 
 /// Per vertex of the local step, the sums of eq. 49 and 53 over its live pairs, and what they
@@ -222,9 +222,9 @@ fn pair_term(c: &Closest, m: f64, barrier: &Barrier, mu: f64, reach: f64) -> Opt
 #[cfg(test)]
 pub(super) mod tests {
     use super::super::broad_phase::ContactMesh;
-    use super::super::distance::tests::Rng;
     use super::super::test_meshes::{brute_force_pairs, spiral};
     use super::*;
+    use crate::geometry::distance::tests::Rng;
 
     /// Asserts that the sums `a` and `b` are the same to the bit, naming the first vertex
     /// where they differ.

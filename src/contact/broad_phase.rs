@@ -252,8 +252,8 @@ impl BroadPhase {
 
 #[cfg(test)]
 mod tests {
-    use super::super::distance::tests::Rng;
     use super::*;
+    use crate::geometry::distance::tests::Rng;
 
     /// The grid finds exactly the pairs a brute-force box test finds.
     #[test]

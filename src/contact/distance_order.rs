@@ -10,7 +10,7 @@
 //! lies. Rounding to `f32` is
 //! monotone, so an item closer than the horizon is in its bucket or an earlier one.
 
-use super::counting_sort::counting_sort;
+use crate::geometry::counting_sort::counting_sort;
 
 /// Buckets of an order: the NaN bucket, then 32 factors of two from 2^-24 m.
 pub(super) const BUCKETS: usize = 1 + 32 * 128;
@@ -69,8 +69,8 @@ fn bucket(d: f64) -> usize {
 
 #[cfg(test)]
 mod tests {
-    use super::super::distance::tests::Rng;
     use super::*;
+    use crate::geometry::distance::tests::Rng;
 
     /// Random distances (some NaN, some far beyond the rest): the arranged items are the same
     /// items, each bucket keeps their order, and for any horizon the leading

@@ -14,8 +14,8 @@
 
 use nalgebra::Vector3;
 
-use super::bounds::nan_max;
-use super::vertex_index::{index_by_vertex, index_incidences};
+use crate::geometry::bounds::nan_max;
+use crate::geometry::vertex_index::{index_by_vertex, index_incidences};
 
 /// The most vertices in a patch: smaller patches give tighter radii, larger ones fewer
 /// patches to measure at every filter (a cost trade-off only; any partition is correct).
@@ -166,9 +166,9 @@ impl Patches {
 
 #[cfg(test)]
 mod tests {
-    use super::super::distance::tests::Rng;
     use super::super::test_meshes::spiral;
     use super::*;
+    use crate::geometry::distance::tests::Rng;
 
     /// On a rolled sheet: every vertex of a triangle is in a patch of at most
     /// [`PATCH_SIZE`] vertices, every triangle lies in the halo of each of its vertices'

@@ -5,12 +5,12 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::bounds::{bounding_box, box_gap, nan_max, round_down};
 use super::broad_phase::ContactMesh;
 use super::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
-use super::distance::{edge_edge_closest, point_triangle_closest, Closest};
 use super::parallel_fade::edge_edge_fade;
-use super::vertex_index::index_by_vertex;
+use crate::geometry::bounds::{bounding_box, box_gap, nan_max, round_down};
+use crate::geometry::distance::{edge_edge_closest, point_triangle_closest, Closest};
+use crate::geometry::vertex_index::index_by_vertex;
 
 /// A primitive pair: point-triangle `[p, t0, t1, t2]` or edge-edge `[a0, a1, b0, b1]`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -410,8 +410,8 @@ pub(super) fn close_primitive_pairs(
 
 #[cfg(test)]
 mod tests {
-    use super::super::distance::tests::Rng;
     use super::*;
+    use crate::geometry::distance::tests::Rng;
 
     /// For triangles on either side of a plane (so they do not cross), the closest primitive
     /// distance is the smallest distance between their points: never above the distance of

@@ -30,8 +30,8 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::bounds::{bounding_box, box_gap, nan_max};
 use super::patches::Patches;
+use crate::geometry::bounds::{bounding_box, box_gap, nan_max};
 
 /// The most vertices per region on meshes of up to 64K vertices (more on larger ones, see
 /// [`region_size`]): smaller regions follow the motion more closely (smaller skins, fewer
@@ -358,9 +358,9 @@ fn infinite_if_nan(x: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::distance::tests::Rng;
     use super::super::test_meshes::{spiral, two_copies};
     use super::*;
+    use crate::geometry::distance::tests::Rng;
 
     /// On two rolled-up grids (two bodies, 0.3 m apart) moving apart with jitter: every
     /// vertex's deviation bounds its distance from the common motion of every region whose

@@ -44,9 +44,9 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::bounds::nan_max;
 use super::patches::Patches;
 use super::primitive_pairs::Pair;
+use crate::geometry::bounds::nan_max;
 
 /// Per body: the mean `[c_B^w, c_B^g]` of its vertices' displacements (m), `None` for a body
 /// without triangles.
@@ -339,9 +339,9 @@ fn largest_apart(common: &CommonMotion) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::distance::tests::Rng;
     use super::super::test_meshes::spiral;
     use super::*;
+    use crate::geometry::distance::tests::Rng;
 
     /// Random sweeps and later paths over two bodies: no pair's relative distance bound falls
     /// by more than its own [`Sweep::pair_fall`], which is at most [`Sweep::fall`]; a common

@@ -3,8 +3,8 @@
 use nalgebra::Vector3;
 
 use super::broad_phase::ContactMesh;
-use super::distance::tests::Rng;
 use super::primitive_pairs::{close_primitive_pairs, Pair};
+use crate::geometry::distance::tests::Rng;
 
 /// Brute force: every triangle pair of `mesh` that may touch, and every primitive pair
 /// they hold (whatever their distance at `positions`).

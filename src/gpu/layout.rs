@@ -5,7 +5,7 @@
 use bytemuck::Pod;
 use nalgebra::{Matrix3, Vector3};
 
-use crate::contact::{ColliderModel, ShapeModel};
+use crate::collider::{ColliderModel, ShapeModel};
 use crate::material::MaterialModel;
 use crate::membrane::{BondRest, Frame, VertexConstants};
 use crate::real::Real;

@@ -46,7 +46,7 @@ pub(super) struct Pipelines {
 /// The sphere-tracing constants of the crossing check in colliders.wgsl, written from the
 /// CPU's (`contact::collider::crossing`), so that the two traces cannot drift apart.
 fn trace_constants() -> String {
-    use crate::contact::{TOUCH_DISTANCE, TRACE_STEPS, TRACE_TOLERANCE};
+    use crate::collider::{TOUCH_DISTANCE, TRACE_STEPS, TRACE_TOLERANCE};
     format!(
         "const TRACE_STEPS: u32 = {TRACE_STEPS}u;\n\
          const TRACE_TOLERANCE: real = {TRACE_TOLERANCE:?};\n\

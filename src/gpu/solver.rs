@@ -14,7 +14,7 @@
 
 use std::time::Instant;
 
-use crate::contact::{Collider, ColliderModel, MovingCollider, Shape};
+use crate::collider::{Collider, ColliderModel, MovingCollider, Shape};
 use crate::error::{invalid, Error, Result};
 use crate::solve::body::ByKind;
 use crate::solve::BodyMut;

@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 
-use crate::contact::{Collider, Shape};
+use crate::collider::{Collider, Shape};
 use crate::material::Material;
 use crate::membrane::{Membrane, MembraneParams};
 use crate::mesh::TriangleMesh;

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use crate::contact::ColliderModel;
+use crate::collider::ColliderModel;
 use crate::error::{invalid, Error, Result};
 use crate::membrane::{DeviceCopy, Fetch, Membrane, Preconditioner};
 use crate::solve::membrane_system::MembraneSystem;

@@ -32,7 +32,7 @@
 //!
 //! `dE_i/d(y_j - y_i) = beta_j1 g_1 + beta_j2 g_2 + d_j`, with `g_k = dE_i/da_k` and
 //! `d_j = F^-T W_j q_j`, `W_j q = kappa_t (q - nc (q . nc)) + nc (c_j . h)` (the explicit bending
-//! term of eq. 43 with `F^-T`, see DESIGN.md). The
+//! term of eq. 43 with `F^-T`, see docs/model.md). The
 //! stretch part is `g_k = V_i sum_m P_m u_m v_mk` (`T = U diag(sigma) V^T`, eq. 19); the
 //! non-affine part adds `-(sum_j d_j (F^-1 e_j)^T) t_k` and the director term
 //! `a2 x p`, `p x a1` with `p = (I - n n^T) h / |a1 x a2|`, `h = -(sum_j d_j (F^-1 e_j)^T) nc`.
@@ -45,7 +45,8 @@
 
 use nalgebra::{SimdBool, Vector3};
 
-use crate::real::{array_from_fn, Lanes, Real};
+use crate::geometry::any_orthogonal_unit;
+use crate::real::{array_from_fn, select, Lanes, Real};
 use crate::symmetric::SymmetricMatrix3;
 
 use super::{Stencil, VertexConstants};
@@ -129,16 +130,6 @@ impl<T: Real> std::ops::AddAssign for GatheredResponse<T> {
     fn add_assign(&mut self, rhs: Self) {
         T::add_eight(&mut self.values, &rhs.values);
     }
-}
-
-/// `a` in the lanes where `mask` holds, else `b`.
-#[inline(always)]
-fn select<S: Lanes>(mask: S::SimdBool, a: Vector3<S>, b: Vector3<S>) -> Vector3<S> {
-    Vector3::new(
-        a.x.select(mask, b.x),
-        a.y.select(mask, b.y),
-        a.z.select(mask, b.z),
-    )
 }
 
 /// The local deformation of a vertex: `T = [a1 a2] = U diag(sigma) V^T`, director `n`.
@@ -384,16 +375,4 @@ fn stretch_stiffness<S: Lanes>(
             ]
         }
     }
-}
-
-/// A unit vector orthogonal to the unit vector `n`, chosen deterministically.
-/// (The cross product with the coordinate axis along which `n` is smallest.)
-pub fn any_orthogonal_unit<S: Lanes>(n: &Vector3<S>) -> Vector3<S> {
-    let (x, y, z) = (n.x.simd_abs(), n.y.simd_abs(), n.z.simd_abs());
-    let axis = select(
-        x.simd_le(y) & x.simd_le(z),
-        Vector3::x(),
-        select(y.simd_le(z), Vector3::y(), Vector3::z()),
-    );
-    n.cross(&axis).normalize()
 }

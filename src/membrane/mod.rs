@@ -12,8 +12,7 @@ pub use body::{internal_force, EnergyTerms, Membrane, MembraneParams};
 pub use device_copy::{DeviceCopy, Fetch};
 pub use hessian::{hessian_diagonal_block, vertex_hessian_blocks};
 pub use kernel::{
-    any_orthogonal_unit, bond_vectors, vertex_kernel, Deformation, GatheredResponse,
-    Preconditioner, VertexResponse,
+    bond_vectors, vertex_kernel, Deformation, GatheredResponse, Preconditioner, VertexResponse,
 };
 pub use packed::{evaluate_vertices, PackedRest};
 pub use rest::{BondRest, Frame, RestData, RestSource, Stencil, VertexConstants, VertexRest};

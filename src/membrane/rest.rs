@@ -9,8 +9,8 @@ use crate::material::MaterialModel;
 use crate::mesh::{angle_weighted_normals, vertex_areas, Neighborhood, TriangleMesh};
 use crate::real::Real;
 
-use super::kernel::any_orthogonal_unit;
 use super::MembraneParams;
+use crate::geometry::any_orthogonal_unit;
 
 /// Rest frame of a vertex: `t1`, `t2` span the plane on which the deformation gradient does not
 /// depend on the virtual bond; `nc` completes a right-handed orthonormal frame (the rest

@@ -6,7 +6,7 @@ use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-use crate::contact::{Collider, Shape};
+use crate::collider::{Collider, Shape};
 
 use super::arrays::{to_numpy, to_numpy_1d, triangles, vec3, vec3s};
 use super::errors::{guard, IntoPyResult};
@@ -402,7 +402,10 @@ impl PyMeshCollider {
 }
 
 /// `f` of a MeshCollider's grid.
-fn grid_of<R>(slf: &PyRef<'_, PyMeshCollider>, f: impl FnOnce(&crate::contact::SdfGrid) -> R) -> R {
+fn grid_of<R>(
+    slf: &PyRef<'_, PyMeshCollider>,
+    f: impl FnOnce(&crate::collider::SdfGrid) -> R,
+) -> R {
     match &slf.as_super().inner.shape {
         Shape::Mesh(grid) => f(grid),
         _ => unreachable!("a MeshCollider holds a mesh"),

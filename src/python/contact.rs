@@ -8,11 +8,11 @@ use pyo3::types::PyDict;
 use rayon::prelude::*;
 
 use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
-use crate::contact::distance::{edge_edge_closest, point_triangle_closest, Closest};
 use crate::contact::{
     closest_primitive_distance, default_parallel_angle, BroadPhase, ContactMesh, ContactParams,
 };
 use crate::error::check_param;
+use crate::geometry::distance::{edge_edge_closest, point_triangle_closest, Closest};
 
 use super::arrays::{self, to_numpy, to_numpy_1d, vec3s};
 use super::errors::IntoPyResult;

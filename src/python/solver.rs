@@ -4,7 +4,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::contact::{Collider, MovingCollider, Pose};
+use crate::collider::{Collider, MovingCollider, Pose};
 use crate::error::Result;
 use crate::gpu::GpuSolver;
 use crate::solve::{Acceleration, BodyMut, Clock, Solver, SolverParams, StepStats};

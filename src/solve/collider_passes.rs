@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::contact::{push_out_of_colliders, ColliderModel, MoveStart};
+use crate::collider::{push_out_of_colliders, ColliderModel, MoveStart};
 use crate::real::Real;
 
 use super::points::Points;
@@ -13,7 +13,10 @@ use super::update::Update;
 /// Projects the free points of the iterate `y` out of the colliders (a start outside every
 /// collider, so that the residual there measures a feasible state), on the side of each that
 /// the point was on at the start of the step (`y_t`, carried by the collider's motion).
-pub(super) fn keep_feasible<T: Real>(points: &mut Points<T>, colliders: &[ColliderModel<T>]) {
+pub(super) fn push_iterate_out_of_colliders<T: Real>(
+    points: &mut Points<T>,
+    colliders: &[ColliderModel<T>],
+) {
     if colliders.is_empty() {
         return;
     }
@@ -27,7 +30,7 @@ pub(super) fn keep_feasible<T: Real>(points: &mut Points<T>, colliders: &[Collid
 }
 
 /// Projects the free points of `y_next` out of the colliders and measures the move from `y`.
-pub(super) fn project_colliders<T: Real>(
+pub(super) fn push_next_out_of_colliders<T: Real>(
     points: &mut Points<T>,
     colliders: &[ColliderModel<T>],
 ) -> Update {

@@ -7,9 +7,10 @@ use std::cell::OnceCell;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use crate::collider::{push_out_of_colliders, ColliderModel, MoveStart};
 use crate::contact::{
-    push_out_of_colliders, resolve_contacts, ColliderModel, ContactMesh, ContactParams,
-    ContactStats, MoveStart, ProximalMetric, ProximalWeights, Workspace,
+    resolve_contacts, ContactMesh, ContactParams, ContactStats, ProximalMetric, ProximalWeights,
+    Workspace,
 };
 use crate::membrane::Membrane;
 use crate::real::Real;

@@ -31,7 +31,7 @@
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use crate::contact::{push_out_of_colliders, MoveStart};
+use crate::collider::{push_out_of_colliders, MoveStart};
 use crate::error::Result;
 use crate::membrane::{
     hessian_diagonal_block, internal_force, vertex_hessian_blocks, Membrane, Preconditioner,
@@ -41,10 +41,11 @@ use crate::real::Real;
 use crate::symmetric::SymmetricMatrix3;
 
 use super::evaluate::{evaluate, total_energy};
-use super::jacobi::{free_residual, keep_out, whole_move_reaction};
+use super::jacobi::{free_residual, whole_move_reaction};
 use super::membrane_system::MembraneSystem;
 use super::point_system::PointSystem;
 use super::update::{MoveOptions, Update};
+use crate::collider::push_out_with_friction;
 
 /// Halvings of the step length tried before the iterate is kept unchanged (`2^-40`: far below
 /// any step that can still lower an f64 energy).
@@ -187,7 +188,7 @@ pub(super) fn descent_iteration<T: Real>(
                     return Update::NONE;
                 }
                 let margin = rest.vertices[k].half_thickness;
-                *next = keep_out(
+                *next = push_out_with_friction(
                     &y[k],
                     y[k] + direction[k] * alpha,
                     &y_start[k],

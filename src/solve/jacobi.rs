@@ -5,7 +5,7 @@
 use nalgebra::{SimdValue, Vector3};
 use rayon::prelude::*;
 
-use crate::contact::ColliderModel;
+use crate::collider::{push_out_with_friction, ColliderModel};
 use crate::isa;
 use crate::membrane::{internal_force, GatheredResponse};
 use crate::parallel::GRAIN;
@@ -322,7 +322,7 @@ fn finish_vertex<T: Real>(
     };
     let margin = sys.rest.vertices[k].half_thickness;
     let free_move = sys.points.y[k] + delta * alpha;
-    *next = keep_out(
+    *next = push_out_with_friction(
         &sys.points.y[k],
         free_move,
         &sys.points.y_start[k],
@@ -413,56 +413,6 @@ fn inner_sweeps<T: Real>(sys: &mut MembraneSystem<T>, h2: T, inner: usize) {
     sys.delta_next = scratch;
 }
 
-/// Keeps a move from `from` (the iterate, outside the colliders) to `y` out of the colliders
-/// in the metric of its system matrix `D`, with Coulomb friction.
-///
-/// A move that would cross a collider ends on the side it came from instead
-/// ([`ColliderModel::keep_side`]). Where `y` would end inside a collider (closer than `margin`), it moves along `D^-1 n`
-/// instead of `n` ([`ColliderModel::push_out`]): it solves `min 1/2 d^T D d - r^T d` on the
-/// tangent plane of the contact, with the normal reaction `lambda = -gap / (n . D^-1 n)`
-/// (N s^2). A Euclidean projection
-/// with an anisotropic `D` would leave a tangential residual `lambda (D n)_t` at its fixed
-/// point: frictionless contact would stick.
-///
-/// Friction: the slip `s_t` of the vertex relative to the collider over the whole step
-/// (from `start`, the collider's material point under `y` moving by its displacement) is removed when the reaction that
-/// takes, `k |s_t|` with `k = |s_t|^2 / (s_t . D^-1 s_t)` the stiffness along it, is within
-/// the Coulomb cone `friction * lambda` (sticking), and shortened by `friction * lambda / k`
-/// otherwise (sliding).
-#[inline]
-pub(super) fn keep_out<T: Real>(
-    from: &Vector3<T>,
-    mut y: Vector3<T>,
-    start: &Vector3<T>,
-    inverse: &SymmetricMatrix3<T>,
-    margin: T,
-    colliders: &[ColliderModel<T>],
-) -> Vector3<T> {
-    for c in colliders {
-        let (end, distance) = c.keep_side(from, y);
-        y = end;
-        let Some((n, reaction)) = c.push_out(&mut y, distance, inverse, margin) else {
-            continue;
-        };
-        if c.friction > T::zero() {
-            let slip = (y - start) - c.displacement(&y);
-            let slip_t = slip - n * n.dot(&slip);
-            let compliance = slip_t.dot(&inverse.mul_vector(&slip_t));
-            if compliance > T::zero() {
-                let needed = slip_t.norm_squared() * slip_t.norm() / compliance;
-                let budget = c.friction * reaction;
-                y -= slip_t
-                    * if needed <= budget {
-                        T::one()
-                    } else {
-                        budget / needed
-                    };
-            }
-        }
-    }
-    y
-}
-
 /// The convergence measure of vertex `k`, `r_free / m` (m; its norm is compared with `tol`): its
 /// residual `r` at the current iterate `y` with the reactions of the contacts it is in added.
 ///
@@ -481,7 +431,7 @@ pub(super) fn keep_out<T: Real>(
 /// convergence, see [`super::sissm`]).
 ///
 /// Colliders in the global step: their reaction to the whole Jacobi move,
-/// `c = keep_out(y + D^-1 r) - (y + D^-1 r)` (m; [`keep_out`] gives it its normal and Coulomb
+/// `c = push_out_with_friction(y + D^-1 r) - (y + D^-1 r)` (m; [`push_out_with_friction`] gives it its normal and Coulomb
 /// friction parts, within the cone by construction), counts the same way. (The whole move,
 /// not the one the step length cuts: where a collider takes all of it, a cut move leaves
 /// `(1 - alpha) r` that no motion of the vertex can release.) What is
@@ -506,7 +456,7 @@ pub(super) fn free_residual<T: Real>(
 }
 
 /// The colliders' reaction to vertex `k`'s whole Jacobi move `delta` (m):
-/// `keep_out(y + delta) - (y + delta)`, the `c` of [`free_residual`].
+/// `push_out_with_friction(y + delta) - (y + delta)`, the `c` of [`free_residual`].
 #[inline]
 pub(super) fn whole_move_reaction<T: Real>(
     sys: &MembraneSystem<T>,
@@ -516,7 +466,7 @@ pub(super) fn whole_move_reaction<T: Real>(
     colliders: &[ColliderModel<T>],
 ) -> Vector3<T> {
     let whole = sys.points.y[k] + delta;
-    keep_out(
+    push_out_with_friction(
         &sys.points.y[k],
         whole,
         &sys.points.y_start[k],
@@ -529,7 +479,7 @@ pub(super) fn whole_move_reaction<T: Real>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::{Collider, MovingCollider, Shape};
+    use crate::collider::{Collider, MovingCollider, Shape};
     use crate::membrane::{Membrane, Preconditioner};
     use crate::mesh::TriangleMesh;
     use crate::solve::evaluate::evaluate;

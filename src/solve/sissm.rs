@@ -27,13 +27,15 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::contact::{Collider, ColliderModel, MovingCollider, Pose};
+use crate::collider::{Collider, ColliderModel, MovingCollider, Pose};
 use crate::error::{invalid, Error, Result};
 use crate::membrane::Preconditioner;
 use crate::real::Real;
 
 use super::body::{BodyMut, ByKind};
-use super::collider_passes::{extrapolate_local_step, keep_feasible, project_colliders};
+use super::collider_passes::{
+    extrapolate_local_step, push_iterate_out_of_colliders, push_next_out_of_colliders,
+};
 use super::contact_step::ContactState;
 use super::descent::{descent_iteration, DescentState, LineSearch};
 use super::family::{Families, Family};
@@ -314,7 +316,7 @@ impl<T: Real> Solver<T> {
             if params.method == Method::Sissm && !colliders.is_empty() {
                 let t = Instant::now();
                 for (family, update) in families.each().zip(updates.iter_mut()) {
-                    let projected = project_colliders(family.points_mut(), &colliders);
+                    let projected = push_next_out_of_colliders(family.points_mut(), &colliders);
                     *update = Update {
                         residual: update.residual,
                         ..Update::merge(*update, projected)
@@ -419,7 +421,7 @@ fn initial_guess<T: Real>(
     mode: Preconditioner,
     colliders: &[ColliderModel<T>],
 ) -> f64 {
-    keep_feasible(family.points_mut(), colliders);
+    push_iterate_out_of_colliders(family.points_mut(), colliders);
     family.evaluate(mode);
     let at_prediction = family.total_energy(h);
     let inertia_of_previous = family.inertial_energy_at_start(h);
@@ -431,7 +433,7 @@ fn initial_guess<T: Real>(
     points.y.par_iter_mut().enumerate().for_each(|(i, y)| {
         *y = if pinned[i] { y_star[i] } else { y_start[i] };
     });
-    keep_feasible(points, colliders);
+    push_iterate_out_of_colliders(points, colliders);
     family.evaluate(mode);
     let at_previous = family.total_energy(h);
     if at_previous < at_prediction {
@@ -439,7 +441,7 @@ fn initial_guess<T: Real>(
     } else {
         let points = family.points_mut();
         points.y.copy_from_slice(&points.y_star);
-        keep_feasible(points, colliders);
+        push_iterate_out_of_colliders(points, colliders);
         family.evaluate(mode);
         at_prediction
     }

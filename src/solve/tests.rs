@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 
-use crate::contact::{Collider, Shape};
+use crate::collider::{Collider, Shape};
 use crate::isa::Isa;
 use crate::material::Material;
 use crate::membrane::{Membrane, MembraneParams, Preconditioner};
@@ -482,7 +482,7 @@ fn contact_keeps_a_falling_sheet_above_a_resting_one() {
 /// margin of 1 mm): the global step's collider projection needs an iterate outside them.
 #[test]
 fn the_extrapolation_keeps_a_vertex_that_could_reach_into_a_collider() {
-    use crate::contact::MovingCollider;
+    use crate::collider::MovingCollider;
     let ground = MovingCollider::new(Collider::fixed(
         Shape::plane([0.0; 3], [0.0, 0.0, 1.0]).unwrap(),
     ))

@@ -2,7 +2,7 @@
 
 use nalgebra::Vector3;
 
-use crate::contact::ColliderModel;
+use crate::collider::ColliderModel;
 use crate::real::Real;
 
 /// Per-vertex outcome of an update, reduced over vertices.

@@ -15,7 +15,7 @@
 
 use nalgebra::Vector3;
 
-use crate::contact::distance::{edge_edge_distance_squared, point_triangle_distance_squared};
+use crate::geometry::distance::{edge_edge_distance_squared, point_triangle_distance_squared};
 
 /// Parameters of the additive CCD.
 #[derive(Debug, Clone, Copy, PartialEq)]

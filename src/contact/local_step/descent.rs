@@ -9,7 +9,6 @@ use rayon::prelude::*;
 
 use super::super::barrier_push::VertexSums;
 use super::super::broad_phase::ContactMesh;
-use super::super::distance::Closest;
 use super::super::parallel_fade::sin2_limit;
 use super::super::primitive_pairs::Pair;
 use super::guarantee::{guarantee, vertex_toi};
@@ -19,6 +18,7 @@ use super::params::{ContactParams, DescentStep, ProximalWeights, SETTLED_SHARE};
 use super::stats::ContactStats;
 use super::workspace::Workspace;
 use super::{millis, refill};
+use crate::geometry::distance::Closest;
 use crate::symmetric::SymmetricMatrix3;
 
 /// Forgets every pair's time of impact and nearness, and marks every vertex moved, so that the

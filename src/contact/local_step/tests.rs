@@ -5,13 +5,13 @@ use nalgebra::Vector3;
 use super::super::barrier::Barrier;
 use super::super::barrier_push::tests::{assert_same_sums, sums_from_scratch, Sums};
 use super::super::broad_phase::ContactMesh;
-use super::super::distance::Closest;
 use super::super::parallel_fade::{default_parallel_angle, sin2_limit};
 use super::super::primitive_pairs::Pair;
 use super::descent::closest_within;
 use super::live_pairs::LivePairs;
 use super::moves::{damped_move, settle_or_move, Move};
 use super::*;
+use crate::geometry::distance::Closest;
 use crate::symmetric::SymmetricMatrix3;
 
 /// No colliders to keep out of.
@@ -22,12 +22,12 @@ const NO_TOL: f64 = 0.0;
 
 /// A [`PushOut`] for `colliders`: every move from where the vertex is, to their surfaces.
 fn pushing_out_of(
-    colliders: &[super::super::ColliderModel<f64>],
+    colliders: &[crate::collider::ColliderModel<f64>],
 ) -> impl Fn(usize, &Vector3<f64>, &mut Vector3<f64>, Option<&SymmetricMatrix3<f64>>) + Sync + '_ {
     move |_, from, zi, metric| {
-        *zi = super::super::push_out_of_colliders(
+        *zi = crate::collider::push_out_of_colliders(
             colliders,
-            super::super::MoveStart::Now(*from),
+            crate::collider::MoveStart::Now(*from),
             *zi,
             0.0,
             metric,
@@ -825,7 +825,7 @@ fn a_settled_vertex_clamped_mid_descent_has_its_pairs_measured_again() {
 /// move taken, points against the last move (every iteration here).
 #[test]
 fn a_triangle_pressed_onto_a_collider_by_a_slanted_roof_slides_to_the_balance() {
-    use super::super::{Collider, MovingCollider, Shape};
+    use crate::collider::{Collider, MovingCollider, Shape};
     let params = pressing(DescentStep::Curvature, 32);
     let eps_xi = params.eps * params.thickness;
     let floor = MovingCollider::new(Collider::fixed(
@@ -884,7 +884,7 @@ fn a_triangle_pressed_onto_a_collider_by_a_slanted_roof_slides_to_the_balance() 
 /// would end inside.
 #[test]
 fn a_move_cut_along_a_ball_ends_on_its_surface() {
-    use super::super::{Collider, MovingCollider, Shape};
+    use crate::collider::{Collider, MovingCollider, Shape};
     let radius = 0.01;
     let ball = Shape::sphere([0.0; 3], radius).unwrap();
     let balls = [MovingCollider::new(Collider::fixed(ball.clone())).during_step::<f64>(0.0, 1.0)];

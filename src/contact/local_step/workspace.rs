@@ -4,8 +4,8 @@
 use nalgebra::Vector3;
 
 use super::super::barrier_push::BarrierPush;
-use super::super::distance::Closest;
 use super::live_pairs::LivePairs;
+use crate::geometry::distance::Closest;
 use crate::symmetric::SymmetricMatrix3;
 
 /// The local step's buffers, owned by the caller and kept between calls (one per body list):

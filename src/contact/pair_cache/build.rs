@@ -4,14 +4,14 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::super::bounds::{bounding_box, box_gap, nan_max};
 use super::super::broad_phase::ContactMesh;
 use super::super::patches::Patches;
 use super::super::primitive_pairs::{close_primitive_pairs, Pair};
 use super::super::regions::Regions;
 use super::super::sweep::NO_BODY;
-use super::super::vertex_index::index_by_vertex;
 use super::{below, PairCache};
+use crate::geometry::bounds::{bounding_box, box_gap, nan_max};
+use crate::geometry::vertex_index::index_by_vertex;
 
 impl PairCache {
     /// Builds the lists at `r = safe`. The skins are a cost trade-off only (any that pass the

@@ -4,11 +4,11 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::super::bounds::round_down;
 use super::super::broad_phase::ContactMesh;
 use super::super::primitive_pairs::Pair;
 use super::super::sweep::SweptPair;
 use super::{below, PairCache, Renewal};
+use crate::geometry::bounds::round_down;
 
 impl PairCache {
     /// Writes into `live` the pairs that may come within `reach` (m) at the positions the

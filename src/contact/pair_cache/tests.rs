@@ -2,12 +2,12 @@
 
 use nalgebra::Vector3;
 
-use super::super::distance::tests::Rng;
 use super::super::primitive_pairs::close_primitive_pairs;
 use super::super::test_meshes::{brute_force_pairs, grid_triangles, spiral, two_copies};
 use super::build::{limit, SKIN_MOVES, SKIN_RINGS};
 use super::filter::OUTLYING_SHARE;
 use super::*;
+use crate::geometry::distance::tests::Rng;
 
 /// One local step's moves: the safe positions, the global step's result, per vertex the
 /// clamp factor `t_i` in `[0, 1]` (1: not clamped) and the allowance `A_i` (m), at least

@@ -12,7 +12,7 @@ use nalgebra::Vector3;
 use crate::error::{invalid, Result};
 use crate::mesh::{angle_weighted_normals, TriangleMesh};
 
-use super::nearest::Nearest;
+use crate::collider::sdf::nearest::Nearest;
 
 /// A validated closed surface, oriented with its normals pointing out of the solid.
 #[derive(Debug, Clone)]

@@ -6,7 +6,7 @@
 
 use nalgebra::Vector3;
 
-use crate::contact::distance::{point_triangle_closest, Closest};
+use crate::geometry::distance::{point_triangle_closest, Closest};
 
 /// Triangles per leaf.
 const LEAF_SIZE: usize = 4;
@@ -168,7 +168,7 @@ fn build(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::distance::point_triangle_distance_squared;
+    use crate::geometry::distance::point_triangle_distance_squared;
     use crate::test_rng::Rng;
 
     /// The tree finds the same nearest distance as checking every triangle, for random

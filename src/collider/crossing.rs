@@ -7,7 +7,7 @@
 
 use nalgebra::Vector3;
 
-use super::ShapeModel;
+use crate::collider::ShapeModel;
 use crate::real::Real;
 
 /// At most this many sphere-tracing steps along a path. A path still short of the surface
@@ -147,8 +147,8 @@ impl<T: Real> ShapeModel<T> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::Shape;
     use super::*;
+    use crate::collider::Shape;
     use crate::test_rng::Rng;
 
     /// Thin shapes, each with the half-width (m) of its flat part where it has a rim within
@@ -176,7 +176,7 @@ mod tests {
                 "mesh slab",
                 {
                     let (vertices, triangles) =
-                        crate::contact::sdf::tests::box_mesh([0.45, 0.45, 0.02]);
+                        crate::collider::sdf::tests::box_mesh([0.45, 0.45, 0.02]);
                     Shape::mesh(vertices, triangles, 90, None).unwrap()
                 },
                 Some(0.45),
@@ -280,7 +280,7 @@ mod tests {
     /// a tenth of a millimetre of the corner.
     #[test]
     fn a_trace_into_a_mesh_corner_on_a_grid_node_stops_outside() {
-        let (vertices, triangles) = crate::contact::sdf::tests::box_mesh([0.1; 3]);
+        let (vertices, triangles) = crate::collider::sdf::tests::box_mesh([0.1; 3]);
         // Cells of 1 cm and a margin of three cells: the corners are grid nodes.
         let cube = Shape::mesh(vertices, triangles, 20, Some(0.03))
             .unwrap()

@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 
 /// The larger of `m` and `x`, NaN if either is.
-pub(super) fn nan_max(m: f64, x: f64) -> f64 {
+pub(crate) fn nan_max(m: f64, x: f64) -> f64 {
     if x.is_nan() || x > m {
         x
     } else {
@@ -17,7 +17,7 @@ pub(super) fn nan_max(m: f64, x: f64) -> f64 {
 /// points' bounds would bound nothing there (an infinite coordinate can leave it finite and
 /// large, while distances to the point are NaN), and callers then keep what a gap would
 /// have left out.
-pub(super) fn bounding_box<'a>(
+pub(crate) fn bounding_box<'a>(
     points: impl IntoIterator<Item = &'a Vector3<f64>>,
 ) -> (Vector3<f64>, Vector3<f64>) {
     let mut points = points.into_iter();
@@ -43,13 +43,13 @@ pub(super) fn bounding_box<'a>(
 /// The distance (m) between the boxes `(lo, hi)` `a` and `b` (0 where they overlap): at most
 /// the distance between any of their points. A NaN corner counts as no bound (`sup` passes
 /// NaN over); [`bounding_box`] gives none.
-pub(super) fn box_gap(a: (Vector3<f64>, Vector3<f64>), b: (Vector3<f64>, Vector3<f64>)) -> f64 {
+pub(crate) fn box_gap(a: (Vector3<f64>, Vector3<f64>), b: (Vector3<f64>, Vector3<f64>)) -> f64 {
     let ((alo, ahi), (blo, bhi)) = (a, b);
     (blo - ahi).sup(&(alo - bhi)).sup(&Vector3::zeros()).norm()
 }
 
 /// `x` as an `f32` no larger than it (NaN stays NaN): a slack rounded down stays a lower bound.
-pub(super) fn round_down(x: f64) -> f32 {
+pub(crate) fn round_down(x: f64) -> f32 {
     let f = x as f32;
     if f.is_nan() || f64::from(f) <= x {
         f

@@ -6,8 +6,8 @@
 //! target (friction sees each material point's own displacement, so a turning collider drags
 //! a membrane around); afterwards the velocity carries it on from there.
 
-use super::collider::{Collider, ColliderModel};
-use super::pose::Pose;
+use crate::collider::pose::Pose;
+use crate::collider::{Collider, ColliderModel};
 use crate::real::Real;
 
 /// A collider and its pose over time.
@@ -73,7 +73,7 @@ mod tests {
     use nalgebra::Vector3;
 
     use super::*;
-    use crate::contact::Shape;
+    use crate::collider::Shape;
 
     /// A collider turning about z by 0.1 rad in one step: a point at radius r on it moves by
     /// about `0.1 r` tangentially; with a velocity as well the target holds, and the velocity

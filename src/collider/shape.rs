@@ -1,10 +1,7 @@
 //! Colliders: a shape (a signed distance field: analytic, or a mesh sampled on a grid), a
 //! constant velocity and a Coulomb friction coefficient. After each global iteration every
-//! free vertex is kept at least half the membrane thickness outside every collider.
-
-mod crossing;
-
-pub(crate) use crossing::{TOUCH_DISTANCE, TRACE_STEPS, TRACE_TOLERANCE};
+//! free point is kept at least its margin (a membrane vertex: half the thickness) outside
+//! every collider.
 
 use std::sync::Arc;
 
@@ -171,7 +168,7 @@ impl Shape {
 
 /// A collider: a shape moving at a constant `velocity` (m/s) from its pose at time 0, with
 /// Coulomb `friction` (dimensionless, >= 0) against the membranes it touches. A solver may
-/// move it further by poses ([`super::MovingCollider`]).
+/// move it further by poses ([`crate::collider::MovingCollider`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Collider {
     pub shape: Shape,
@@ -496,7 +493,7 @@ impl<T: Real> ShapeModel<T> {
                 if d.norm() > T::zero() {
                     d.normalize()
                 } else {
-                    crate::membrane::any_orthogonal_unit(&unit_or_z(b - a))
+                    crate::geometry::any_orthogonal_unit(&unit_or_z(b - a))
                 }
             }
             Self::Mesh(ref grid) => grid.normal(&wide(x)).map(T::of),
@@ -613,7 +610,7 @@ mod tests {
         let margin = 0.01;
         for shape in shapes() {
             let is_plane = matches!(shape, Shape::Plane { .. });
-            let model = super::super::MovingCollider::new(Collider::fixed(shape.clone()))
+            let model = crate::collider::MovingCollider::new(Collider::fixed(shape.clone()))
                 .during_step::<f64>(0.0, 1.0);
             let (mut inside, mut outside) = (0, 0);
             for _ in 0..300 {

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use nalgebra::Vector3;
 
 use super::*;
-use crate::contact::distance::point_triangle_distance_squared;
+use crate::geometry::distance::point_triangle_distance_squared;
 use crate::test_rng::Rng;
 
 /// Closed box mesh of half extents `h` at the origin (12 triangles, outward).

@@ -1,16 +1,16 @@
 //! A stable counting sort by small integer keys, run in parallel by key ranges: each task owns
 //! a range of keys and their places in the output, reads every item and counts (then writes)
 //! only its own. Reading is cheap next to the scattered writes, which the ranges share out, and
-//! the result does not depend on the number of tasks. It indexes a pair cache's millions of
-//! pairs by vertex (see [`super::vertex_index`]) and groups them by distance (see
-//! [`super::distance_order`]); a serial sort would keep one core busy while the others wait.
+//! the result does not depend on the number of tasks. The contact pair cache indexes its millions
+//! of pairs by vertex with it (see [`crate::geometry::vertex_index`]) and groups them by
+//! distance; a serial sort would keep one core busy while the others wait.
 
 use rayon::prelude::*;
 
 /// Writes into `sorted` the values of `items`, `(key, value)` with every key below `keys`, by
 /// increasing key and in the order of `items` within a key, and into `start` where each key's
 /// values begin: those of key `k` are `sorted[start[k]..start[k + 1]]` (`keys + 1` entries).
-pub(super) fn counting_sort<T: Copy + Send + Sync>(
+pub(crate) fn counting_sort<T: Copy + Send + Sync>(
     items: impl Iterator<Item = (usize, T)> + Clone + Sync,
     keys: usize,
     start: &mut Vec<u32>,
