@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 use crate::collider::ColliderModel;
 use crate::error::{invalid, Error, Result};
 use crate::membrane::{DeviceCopy, Fetch, Membrane, Preconditioner};
-use crate::solve::membrane_system::MembraneSystem;
+use crate::solve::membranes::MembraneSystem;
 use crate::solve::{Acceleration, SolverParams};
 
 use super::device::GpuContext;

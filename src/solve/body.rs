@@ -94,7 +94,7 @@ impl<'l> ByKind<'l> {
     }
 
     /// Each family's body indices in the step's list, in the order of
-    /// [`Families::each`](super::family::Families::each).
+    /// [`Families::each`](super::families::Families::each).
     pub fn list_indices(&self) -> [&[usize]; 1] {
         [&self.membrane_indices]
     }

@@ -13,7 +13,7 @@ use super::update::Update;
 /// Projects the free points of the iterate `y` out of the colliders (a start outside every
 /// collider, so that the residual there measures a feasible state), on the side of each that
 /// the point was on at the start of the step (`y_t`, carried by the collider's motion).
-pub(super) fn push_iterate_out_of_colliders<T: Real>(
+pub(crate) fn push_iterate_out_of_colliders<T: Real>(
     points: &mut Points<T>,
     colliders: &[ColliderModel<T>],
 ) {
@@ -30,7 +30,7 @@ pub(super) fn push_iterate_out_of_colliders<T: Real>(
 }
 
 /// Projects the free points of `y_next` out of the colliders and measures the move from `y`.
-pub(super) fn push_next_out_of_colliders<T: Real>(
+pub(crate) fn push_next_out_of_colliders<T: Real>(
     points: &mut Points<T>,
     colliders: &[ColliderModel<T>],
 ) -> Update {
@@ -59,7 +59,7 @@ pub(super) fn push_next_out_of_colliders<T: Real>(
 /// `z`, beyond its margin, no more than the extrapolation's move) keeps `z`: the global
 /// step's collider projection starts from outside, and friction does not see an extrapolated
 /// slide.
-pub(super) fn extrapolate_local_step<T: Real>(
+pub(crate) fn extrapolate_local_step<T: Real>(
     points: &mut Points<T>,
     w: T,
     colliders: &[ColliderModel<T>],
@@ -74,7 +74,7 @@ pub(super) fn extrapolate_local_step<T: Real>(
 
 /// One point of [`extrapolate_local_step`]: `w (z - previous) + previous`, or `z` where
 /// that move could reach into a collider (within `margin`, m, of its surface).
-pub(super) fn extrapolated<T: Real>(
+pub(crate) fn extrapolated<T: Real>(
     z: &Vector3<T>,
     previous: &Vector3<T>,
     w: T,

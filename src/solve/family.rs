@@ -4,17 +4,14 @@
 //! The step ([`super::sissm`]) runs its phases over every family: predict and finish on the
 //! points, the global step through [`Family::evaluate`] and [`Family::global_move`], colliders
 //! on the points, then the kind's own end-of-step work ([`Family::end_step`]). Membranes are
-//! the first family ([`MembraneSystem`]); a new kind implements this trait and adds a field to
-//! [`Families`].
+//! the first family ([`MembraneSystem`](super::membranes::MembraneSystem)); a new kind
+//! implements this trait and adds a field to [`Families`](super::families::Families).
 
 use crate::error::Result;
 use crate::membrane::Preconditioner;
 use crate::real::Real;
 
-use super::body::ByKind;
-use super::evaluate::{evaluate, inertial_energy, total_energy};
-use super::jacobi::jacobi_update;
-use super::membrane_system::MembraneSystem;
+use super::energy::inertial_energy;
 use super::points::Points;
 use super::update::{MoveOptions, Update};
 
@@ -42,71 +39,5 @@ pub(crate) trait Family<T: Real>: Send {
     /// rebuilt. Nothing for membranes.
     fn end_step(&mut self) -> Result<()> {
         Ok(())
-    }
-}
-
-impl<T: Real> Family<T> for MembraneSystem<T> {
-    fn points(&self) -> &Points<T> {
-        &self.points
-    }
-    fn points_mut(&mut self) -> &mut Points<T> {
-        &mut self.points
-    }
-    fn evaluate(&mut self, mode: Preconditioner) {
-        evaluate(self, mode);
-    }
-    fn total_energy(&mut self, h: T) -> f64 {
-        total_energy(self, h)
-    }
-    fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update {
-        jacobi_update(self, h, options)
-    }
-}
-
-/// The families of one body list.
-pub(crate) struct Families<T: Real> {
-    pub membranes: Option<MembraneSystem<T>>,
-}
-
-impl<T: Real> Families<T> {
-    /// The families of `bodies`, their rest data in SIMD packs for the host kernel when
-    /// `packed` (the CPU solver), else plain (for upload to a GPU).
-    pub fn build(bodies: &ByKind<'_>, packed: bool) -> Result<Self> {
-        let membranes = if bodies.membranes.is_empty() {
-            None
-        } else {
-            Some(MembraneSystem::build(&bodies.membranes, packed)?)
-        };
-        Ok(Self { membranes })
-    }
-
-    /// True when the families were built from exactly these bodies.
-    pub fn matches(&self, bodies: &ByKind<'_>) -> bool {
-        match &self.membranes {
-            Some(m) => m.points.matches(&bodies.membranes),
-            None => bodies.membranes.is_empty(),
-        }
-    }
-
-    /// Copies the bodies' positions, velocities and pins into their families.
-    pub fn load(&mut self, bodies: &ByKind<'_>) {
-        if let Some(m) = &mut self.membranes {
-            m.points.load(&bodies.membranes);
-        }
-    }
-
-    /// Copies the families' state back into the bodies (in f64).
-    pub fn store(&self, bodies: &mut ByKind<'_>) {
-        if let Some(m) = &self.membranes {
-            m.points.store(&mut bodies.membranes);
-        }
-    }
-
-    /// Every family, in a fixed order.
-    pub fn each(&mut self) -> impl Iterator<Item = &mut dyn Family<T>> {
-        self.membranes
-            .as_mut()
-            .map(|m| m as &mut dyn Family<T>)
-            .into_iter()
     }
 }

@@ -3,19 +3,16 @@
 pub(crate) mod body;
 mod clock;
 mod collider_passes;
-mod contact_step;
-mod descent;
-mod evaluate;
-mod family;
-mod jacobi;
-pub(crate) mod membrane_system;
+pub(crate) mod energy;
+pub(crate) mod families;
+pub(crate) mod family;
+pub(crate) mod membranes;
 mod params;
-mod point_system;
-mod points;
-mod reaction;
+pub(crate) mod point_system;
+pub(crate) mod points;
 mod sissm;
 mod stats;
-mod update;
+pub(crate) mod update;
 
 pub use body::{Body, BodyMut};
 pub use clock::Clock;

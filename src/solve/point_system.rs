@@ -30,7 +30,7 @@ pub(crate) struct PointSystem<S: Lanes> {
 impl<S: Lanes> PointSystem<S> {
     /// `D = m I + h^2 C`, `r = m (y* - y) + h^2 f` from the gathered sums `C` (N/m) and `E` (J).
     #[inline(always)]
-    pub(super) fn assemble(
+    pub(crate) fn assemble(
         mass: S,
         to_prediction: Vector3<S>,
         force_h2: Vector3<S>,
@@ -95,7 +95,7 @@ impl<S: Lanes> PointSystem<S> {
 
     /// The system of lane `l`.
     #[inline(always)]
-    pub(super) fn lane(&self, l: usize) -> PointSystem<S::Scalar> {
+    pub(crate) fn lane(&self, l: usize) -> PointSystem<S::Scalar> {
         let vector = |v: &Vector3<S>| Vector3::new(v.x.extract(l), v.y.extract(l), v.z.extract(l));
         let matrix = |m: &SymmetricMatrix3<S>| SymmetricMatrix3 {
             diagonal: m.diagonal.map(|x| x.extract(l)),
@@ -112,9 +112,9 @@ impl<S: Lanes> PointSystem<S> {
     }
 
     /// The residual per unit mass, `r / m` (m): the convergence measure of a vertex touching
-    /// neither a collider nor another membrane (see [`super::jacobi::free_residual`]).
+    /// neither a collider nor another membrane (see [`super::membranes::jacobi::free_residual`]).
     #[inline(always)]
-    pub(super) fn residual_per_mass(&self) -> Vector3<S> {
+    pub(crate) fn residual_per_mass(&self) -> Vector3<S> {
         self.residual * (S::one() / self.mass)
     }
 }

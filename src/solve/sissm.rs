@@ -16,7 +16,7 @@
 //! The iteration starts from the lower-energy of `y*` and `y_t` ([`initial_guess`]) and stops
 //! when `max_i |r_i| / m_i < tol` for the residual `r = m (y* - y) + h^2 f` (without the
 //! reactions of the colliders and of the membrane contacts the vertex is in, see
-//! [`super::jacobi::free_residual`]; with contact, not before the first local step). Where the energy is convex its Hessian `H` satisfies
+//! [`super::membranes::jacobi::free_residual`]; with contact, not before the first local step). Where the energy is convex its Hessian `H` satisfies
 //! `H >= M`, so the error `e = H^-1 r` obeys `|e|_M <= |r|_(M^-1)`: the test bounds the
 //! mass-weighted RMS distance to the exact implicit Euler solution. Algorithm 1 tests the last
 //! move `max_i |y_i^{k+1} - y_i^k|` instead, which declares slowly converging (stiff, fine)
@@ -36,9 +36,10 @@ use super::body::{BodyMut, ByKind};
 use super::collider_passes::{
     extrapolate_local_step, push_iterate_out_of_colliders, push_next_out_of_colliders,
 };
-use super::contact_step::ContactState;
-use super::descent::{descent_iteration, DescentState, LineSearch};
-use super::family::{Families, Family};
+use super::families::Families;
+use super::family::Family;
+use super::membranes::contact_step::ContactState;
+use super::membranes::descent::{descent_iteration, DescentState, LineSearch};
 use super::update::{MoveOptions, Update};
 use super::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
 

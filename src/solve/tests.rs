@@ -13,7 +13,7 @@ use crate::real::Real;
 use super::{Acceleration, Solver, SolverParams};
 
 /// The paper's stiff neo-Hookean cloth material (Fig. 13), 1 mm thick.
-pub(super) fn stiff_params() -> MembraneParams {
+pub(crate) fn stiff_params() -> MembraneParams {
     MembraneParams {
         thickness: 1e-3,
         density: 300.0,

@@ -7,7 +7,7 @@ use crate::real::Real;
 
 /// Per-vertex outcome of an update, reduced over vertices.
 #[derive(Clone, Copy)]
-pub(super) struct Update {
+pub(crate) struct Update {
     /// Largest move `|y_i^{k+1} - y_i^k|` (m).
     pub moved: f64,
     /// Largest `|r_i| / m_i` at `y^k` (m), contact reactions removed: the convergence measure.
@@ -60,7 +60,7 @@ impl Update {
 
 /// What the move of one global iteration is asked to do.
 #[derive(Clone, Copy)]
-pub(super) struct MoveOptions<'a, T: Real> {
+pub(crate) struct MoveOptions<'a, T: Real> {
     /// Apply the step length of eq. 31-33.
     pub step_length: bool,
     /// Jacobi sweeps on the linear system of eq. 25 (1: the paper's default).
@@ -69,7 +69,7 @@ pub(super) struct MoveOptions<'a, T: Real> {
     pub omega: Option<T>,
     pub colliders: &'a [ColliderModel<T>],
     /// Per vertex: the contact reaction the last local step realised at the current iterate
-    /// (m; see [`super::jacobi::free_residual`]), or empty when contact is off or no local step ran yet this
+    /// (m; see [`super::membranes::jacobi::free_residual`]), or empty when contact is off or no local step ran yet this
     /// step.
     pub contact_reaction: &'a [Vector3<T>],
 }

@@ -17,7 +17,7 @@
 //! elastic Hessian is negative only where the energy is non-convex along that axis (a
 //! compressed or buckling neighbourhood); it is floored at zero, so `P_k >= m_k I > 0` and the
 //! move is a descent direction of `E` wherever `r != 0`. (SISSM's `D` of
-//! [`super::point_system::PointSystem`] bounds the energy's curvature, the coupling to the
+//! [`crate::solve::point_system::PointSystem`] bounds the energy's curvature, the coupling to the
 //! neighbours included; this diagonal does not, so a unit step can overshoot, and the line
 //! search is what keeps the iteration stable.)
 //!
@@ -42,10 +42,10 @@ use crate::symmetric::SymmetricMatrix3;
 
 use super::evaluate::{evaluate, total_energy};
 use super::jacobi::{free_residual, whole_move_reaction};
-use super::membrane_system::MembraneSystem;
-use super::point_system::PointSystem;
-use super::update::{MoveOptions, Update};
+use super::system::MembraneSystem;
 use crate::collider::push_out_with_friction;
+use crate::solve::point_system::PointSystem;
+use crate::solve::update::{MoveOptions, Update};
 
 /// Halvings of the step length tried before the iterate is kept unchanged (`2^-40`: far below
 /// any step that can still lower an f64 energy).
@@ -58,7 +58,7 @@ const ENERGY_ROUND_OFF: f64 = 1e-12;
 
 /// State of the line search within a time step.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct LineSearch {
+pub(crate) struct LineSearch {
     /// Current step length (starts at 1 each time step, only halves).
     pub alpha: f64,
     /// Variational energy of the current iterate (J).
@@ -81,7 +81,7 @@ impl LineSearch {
 /// Working set of the descent method, built only when `method = descent`: the rest data in
 /// f64 with its bonds (the Hessian is differenced in f64 whatever the solver's precision), the
 /// iterate in f64, and the per-vertex Hessian blocks.
-pub(super) struct DescentState {
+pub(crate) struct DescentState {
     rest: RestData<f64>,
     y: Vec<Vector3<f64>>,
     bond_blocks: Vec<Matrix3<f64>>,
@@ -110,7 +110,7 @@ impl DescentState {
 /// accepted when `E` does not rise beyond round-off, else `alpha` halves and the trial is
 /// redone without extrapolation. Leaves the accepted trial in `y_next` (or `y` itself when no
 /// step length lowers the energy), the responses evaluated there, and its energy in `search`.
-pub(super) fn descent_iteration<T: Real>(
+pub(crate) fn descent_iteration<T: Real>(
     sys: &mut MembraneSystem<T>,
     state: &mut DescentState,
     h: T,

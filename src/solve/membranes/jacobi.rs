@@ -12,9 +12,9 @@ use crate::parallel::GRAIN;
 use crate::real::{Lanes, Real};
 use crate::symmetric::SymmetricMatrix3;
 
-use super::membrane_system::MembraneSystem;
-use super::point_system::PointSystem;
-use super::update::{MoveOptions, Update};
+use super::system::MembraneSystem;
+use crate::solve::point_system::PointSystem;
+use crate::solve::update::{MoveOptions, Update};
 
 /// What vertex `k`'s system is assembled from, read from the responses of the last evaluation.
 #[derive(Clone, Copy, Default)]
@@ -59,7 +59,7 @@ fn gathered_response<T: Real>(sys: &MembraneSystem<T>, k: usize) -> GatheredResp
 /// the responses of the last evaluation: the `system` of [`PointSystem::of`] without its
 /// residual, for the metric of the contact local step's proximal term
 /// ([`crate::contact::ProximalMetric::Jacobi`]).
-pub(super) fn jacobi_block<T: Real>(
+pub(crate) fn jacobi_block<T: Real>(
     sys: &MembraneSystem<T>,
     k: usize,
     h2: T,
@@ -85,7 +85,7 @@ impl<T: Real> PointSystem<T> {
 
 /// The move of one SISSM iteration from the responses of the last evaluation, written to
 /// `y_next`.
-pub(super) fn jacobi_update<T: Real>(
+pub(crate) fn jacobi_update<T: Real>(
     sys: &mut MembraneSystem<T>,
     h: T,
     options: &MoveOptions<'_, T>,
@@ -428,7 +428,7 @@ fn inner_sweeps<T: Real>(sys: &mut MembraneSystem<T>, h2: T, inner: usize) {
 /// clamp) stays in the measure; and the measure vanishes only where the local step's push and
 /// the global step's pull balance, not merely where a pair is close. The first iteration of a
 /// step, before any local step, has no `q` and measures the whole residual (and cannot decide
-/// convergence, see [`super::sissm`]).
+/// convergence, see [`crate::solve::sissm`]).
 ///
 /// Colliders in the global step: their reaction to the whole Jacobi move,
 /// `c = push_out_with_friction(y + D^-1 r) - (y + D^-1 r)` (m; [`push_out_with_friction`] gives it its normal and Coulomb
@@ -442,7 +442,7 @@ fn inner_sweeps<T: Real>(sys: &mut MembraneSystem<T>, h2: T, inner: usize) {
 /// local step's push can hold a vertex micrometres off a collider that carries it, and a slip
 /// of micrometres since the step's start has no reliable direction.
 #[inline]
-pub(super) fn free_residual<T: Real>(
+pub(crate) fn free_residual<T: Real>(
     k: usize,
     local: &PointSystem<T>,
     collider_reaction: &Vector3<T>,
@@ -458,7 +458,7 @@ pub(super) fn free_residual<T: Real>(
 /// The colliders' reaction to vertex `k`'s whole Jacobi move `delta` (m):
 /// `push_out_with_friction(y + delta) - (y + delta)`, the `c` of [`free_residual`].
 #[inline]
-pub(super) fn whole_move_reaction<T: Real>(
+pub(crate) fn whole_move_reaction<T: Real>(
     sys: &MembraneSystem<T>,
     k: usize,
     local: &PointSystem<T>,
@@ -482,7 +482,7 @@ mod tests {
     use crate::collider::{Collider, MovingCollider, Shape};
     use crate::membrane::{Membrane, Preconditioner};
     use crate::mesh::TriangleMesh;
-    use crate::solve::evaluate::evaluate;
+    use crate::solve::membranes::evaluate::evaluate;
     use crate::solve::tests::stiff_params;
 
     /// [`move_packs`] and [`move_vertices`] on the same state give the same positions and the

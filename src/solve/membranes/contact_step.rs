@@ -17,8 +17,8 @@ use crate::real::Real;
 use crate::symmetric::SymmetricMatrix3;
 
 use super::jacobi::jacobi_block;
-use super::membrane_system::MembraneSystem;
 use super::reaction::realised_reaction;
+use super::system::MembraneSystem;
 
 /// How close to a collider's surface (m, beyond the vertex's half thickness) a vertex counts as
 /// resting on it: the local step leaves the vertices it keeps out on the surface, up to
@@ -26,7 +26,7 @@ use super::reaction::realised_reaction;
 const TOUCHING: f64 = 1e-6;
 
 /// Contact topology (built once per body list) and the state of the current time step.
-pub(super) struct ContactState<T: Real> {
+pub(crate) struct ContactState<T: Real> {
     triangles: Vec<[u32; 3]>,
     body: Vec<u32>,
     self_contact: Vec<bool>,

@@ -13,7 +13,7 @@ use nalgebra::{Matrix3, Vector3};
 /// of its positive coefficients, so the fit on every subset of linearly independent
 /// directions whose coefficients all come out non-negative is tried, and the closest kept (a
 /// vertex has a handful of directions: one for the push, one per collider it touches).
-pub(super) fn realised_reaction(moved: &Vector3<f64>, directions: &[Vector3<f64>]) -> Vector3<f64> {
+pub(crate) fn realised_reaction(moved: &Vector3<f64>, directions: &[Vector3<f64>]) -> Vector3<f64> {
     if let [u] = directions {
         return u * u.dot(moved).max(0.0);
     }

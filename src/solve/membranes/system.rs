@@ -9,8 +9,8 @@ use crate::mesh::Neighborhood;
 use crate::real::Real;
 use crate::symmetric::SymmetricMatrix3;
 
-use super::point_system::PointSystem;
-use super::points::Points;
+use crate::solve::point_system::PointSystem;
+use crate::solve::points::Points;
 
 /// The membrane family's working set: its bodies' points, and their rest data and kernel
 /// scratch concatenated in the same vertex order.
