@@ -18,11 +18,10 @@ of the velocities, and the iterations of every step. It prints a table, writes J
 1 when any of them differs between builds or between the runs of one build, 0 when all are
 equal.
 
-One thread, because at 39bf02c the contact drop does not repeat itself on more: on 2 threads
-about one run in five ends with other positions (1e-16 m apart from step 19 on, the same
-iterations), and 1 thread ends apart from 2, 3 or 4; the default scene repeats on any count.
-``--repeat`` shows whether a build repeats itself, so that a difference between builds is
-not taken for a change of the code.
+One thread by default, so that builds from before the contact local step's sums were made
+independent of the thread count (they varied from run to run on several threads from the
+first contact on, by 1e-16 m) compare too; ``--repeat`` shows whether a build repeats
+itself, so that a difference between builds is not taken for a change of the code.
 
 Wheels of two commits (see ``compare_builds.py --help`` on building an older commit in a
 worktree), then from the repository root:

@@ -1,5 +1,7 @@
-//! Energy reductions over points, the same for any thread count: sums in fixed chunks
-//! combined in order, and the inertial term of the variational energy (Lu et al. 2023, eq. 2).
+//! Sums over points that are the same for any thread count (fixed chunks, combined in order:
+//! a rayon `reduce` groups its additions as the work happens to be split, which varies with
+//! the thread count and with work stealing), and the inertial term of the variational energy
+//! (Lu et al. 2023, eq. 2).
 
 use rayon::prelude::*;
 
@@ -7,8 +9,7 @@ use crate::real::Real;
 
 use super::points::Points;
 
-/// Vertices per partial sum of the energy reductions: fixed, so that the sums do not depend
-/// on the number of threads.
+/// Points per partial sum: fixed, so that the sums do not depend on the number of threads.
 const ENERGY_CHUNK: usize = 4096;
 
 /// `sum_i term(i)` for `i < n`, summed in fixed chunks (the same for any thread count) whose

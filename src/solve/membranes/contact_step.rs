@@ -14,6 +14,7 @@ use crate::contact::{
 };
 use crate::membrane::Membrane;
 use crate::real::Real;
+use crate::solve::energy::chunked_sum;
 use crate::symmetric::SymmetricMatrix3;
 
 use super::jacobi::jacobi_block;
@@ -209,12 +210,15 @@ fn jacobi_weights<T: Real>(
         .into_par_iter()
         .map(|k| jacobi_block(sys, k, h2).map(|x| x.to_f64()))
         .collect_into_vec(weights);
-    let (sum, free) = weights
-        .par_iter()
-        .zip(&sys.points.pinned)
-        .filter(|(_, &pinned)| !pinned)
-        .map(|(d, _)| (d.diagonal.iter().sum::<f64>() / 3.0, 1usize))
-        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    let pinned = &sys.points.pinned;
+    let free = pinned.iter().filter(|&&p| !p).count();
+    let sum = chunked_sum(weights.len(), &mut Vec::new(), |k| {
+        if pinned[k] {
+            0.0
+        } else {
+            weights[k].diagonal.iter().sum::<f64>() / 3.0
+        }
+    });
     let scale = if free > 0 { free as f64 / sum } else { 0.0 };
     weights.par_iter_mut().for_each(|w| {
         *w = if scale > 0.0 {
