@@ -695,7 +695,7 @@ fn three_layers_over_ball(threads: usize, steps: usize) -> Vec<Vec<Vector3<f64>>
                 mesh.triangles().iter().map(|t| t.map(i64::from)).collect(),
             )
             .unwrap();
-            Membrane::new(mesh, params.clone()).unwrap()
+            Membrane::new(mesh, params).unwrap()
         })
         .collect();
     let contact = ContactParams {
