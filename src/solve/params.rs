@@ -60,24 +60,15 @@ pub enum Acceleration {
 }
 
 impl Acceleration {
-    /// Default spectral-radius estimate: the fastest of 0.9 / 0.95 / 0.99 / 0.999 on the
-    /// moderate cloth of `benches/convergence.py` (25 iterations to eta < 1e-3 against 223
-    /// without acceleration).
+    /// Default spectral-radius estimate: the fastest of 0.9 / 0.95 / 0.99 / 0.999 to
+    /// `eta < 1e-3` on the moderate cloth of `benches/convergence.py`.
     ///
     /// Chebyshev is not the solver's default although it wins on iterations to a tight
-    /// tolerance (a stiff 40x40 cloth at h = 1e-3 s and tol = 1e-6 m: 25 iterations per step
-    /// against 117):
-    /// - with a small fixed budget it is worse: a 120x120 cloth (s0 = 1e6 Pa, 10 iterations per
-    ///   step, `benches/peer_newton.py`) ends its steps with an error bound of 7e-4 m in f64
-    ///   (plain: 9e-5 m), and in f32 it sags 9 mm instead of the 21 mm of f64 (plain f32: 21 mm);
-    /// - with membrane contact it extrapolates the local step's result, global and local step
-    ///   together (see `extrapolate_local_step` in `sissm.rs`), and the safe positions stay the
-    ///   local step's: on six 80 x 80 layers landing (steps 391-395 from a saved state, tol =
-    ///   1e-4 m) plain iterations converge at about 0.8 per iteration and take 17-28
-    ///   iterations; with `rho = 0.85`, 13-23 (98 against 78 in all);
-    /// - at a tolerance it stops elsewhere than plain iterations (a hanging strip at rest,
-    ///   tol = 1e-6 m: 5e-4 m from its exact equilibrium against 3e-4 m), and f32 follows f64
-    ///   less closely (7e-5 m against 8e-6 m).
+    /// tolerance: with a small fixed budget of iterations it ends a step farther from the
+    /// solution than plain iterations (and amplifies f32 round-off); with membrane contact
+    /// the best `rho` is lower, near the plain iteration's decay per iteration; and at a
+    /// tolerance it stops elsewhere than plain iterations. docs/performance.md ("Chebyshev:
+    /// when it helps") has the figures.
     pub const DEFAULT_RHO: f64 = 0.99;
     /// Default number of plain iterations before extrapolating.
     pub const DEFAULT_DELAY: usize = 3;
