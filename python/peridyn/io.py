@@ -187,92 +187,396 @@ class FrameRecorder:
         )
 
 
-def save_state(path: PathLike, solver: Any) -> Path:
-    """Saves everything that a solver's next steps depend on to a compressed ``.npz`` file.
+# ---------------------------------------------------------------------------------------------
+# State files
+# ---------------------------------------------------------------------------------------------
 
-    That is each body's positions, velocities, pinned vertices and pin targets, each collider's
-    motion (the pose its velocity carries on from and a pose set with
-    ``Solver.set_collider_pose`` for the next step, if any) and the solver's clock.
-    :func:`load_state` into a solver set up the same way (same bodies, parameters and colliders)
-    then continues the simulation bit for bit.
+#: The version of the state file format :func:`save_state` writes (its ``format_version`` entry).
+#: 0 is the format before versions (no ``format_version``, ``dt`` or ``self_contact_<b>``);
+#: :func:`load_state` reads versions 0 and 1.
+STATE_FORMAT_VERSION = 1
+
+
+class _StateError(ValueError):
+    """A file that is not a valid peridyn state (for this solver); a ``ValueError``."""
+
+
+def _invalid(path: Any, why: str) -> _StateError:
+    return _StateError(f"load_state: {str(path)!r} is not a valid peridyn state file: {why}")
+
+
+def _unfit(path: Any, why: str) -> _StateError:
+    return _StateError(f"load_state: {str(path)!r} is not a valid peridyn state for this solver: {why}")
+
+
+class _BodyState:
+    """What one body's next steps depend on."""
+
+    __slots__ = ("positions", "velocities", "pinned", "pin_targets", "self_contact")
+
+    def __init__(self, positions: np.ndarray, velocities: np.ndarray, pinned: np.ndarray,
+                 pin_targets: np.ndarray, self_contact: Optional[bool]) -> None:
+        self.positions = positions
+        self.velocities = velocities
+        self.pinned = pinned
+        self.pin_targets = pin_targets
+        self.self_contact = self_contact
+
+
+class _State:
+    """What a solver's next steps depend on, as far as the Python API reaches it."""
+
+    __slots__ = ("time", "steps_taken", "dt", "bodies", "colliders")
+
+    def __init__(self, time: float, steps_taken: int, dt: Optional[float],
+                 bodies: List[_BodyState], colliders: List[Any]) -> None:
+        self.time = time
+        self.steps_taken = steps_taken
+        self.dt = dt
+        self.bodies = bodies
+        # per collider: ((base_rotation, base_translation), target or None)
+        self.colliders = colliders
+
+
+def _capture(solver: Any) -> _State:
+    """The solver's state now (copies)."""
+    bodies = []
+    for body in solver.bodies:
+        pinned = np.asarray(body.pinned, dtype=np.int64)
+        bodies.append(_BodyState(
+            np.array(body.positions, dtype=np.float64),
+            np.array(body.velocities, dtype=np.float64),
+            pinned,
+            np.array(body.pin_targets, dtype=np.float64).reshape(len(pinned), 3),
+            bool(body.self_contact),
+        ))
+    colliders = []
+    for c in range(len(solver.colliders)):
+        (base_r, base_t), target = solver.collider_motion(c)
+        base = (np.array(base_r, dtype=np.float64), np.array(base_t, dtype=np.float64))
+        if target is not None:
+            target = (np.array(target[0], dtype=np.float64), np.array(target[1], dtype=np.float64))
+        colliders.append((base, target))
+    return _State(float(solver.time), int(solver.steps_taken), float(solver.dt), bodies, colliders)
+
+
+def _apply(solver: Any, state: _State) -> None:
+    """Sets ``state`` into ``solver`` (checked against it beforehand)."""
+    if state.dt is not None:
+        solver.dt = state.dt
+    for body, b in zip(solver.bodies, state.bodies):
+        body.positions = b.positions
+        body.velocities = b.velocities
+        body.unpin()
+        if len(b.pinned):
+            body.pin(b.pinned, b.pin_targets)
+        if b.self_contact is not None:
+            body.self_contact = b.self_contact
+    for c, (base, target) in enumerate(state.colliders):
+        extra = {}
+        if target is not None:
+            extra = dict(target_rotation=target[0], target_translation=target[1])
+        solver.set_collider_motion(c, base_rotation=base[0], base_translation=base[1], **extra)
+    solver.set_clock(state.time, state.steps_taken)
+
+
+def save_state(path: PathLike, solver: Any) -> Path:
+    """Saves everything that a solver's next steps depend on (as far as the Python API
+    reaches it) to a compressed ``.npz`` file at exactly ``path``.
+
+    That is the file format version, the solver's clock (``time``, ``steps_taken``) and time
+    step ``dt``; each body's positions, velocities, pinned vertices, pin targets and
+    ``self_contact`` switch; each collider's motion (the pose its velocity carries on from and
+    a pose set with ``Solver.set_collider_pose`` for the next step, if any). :func:`load_state`
+    into a solver set up the same way (same bodies, parameters and colliders, in order) then
+    continues the simulation bit for bit (without contact; see the notes of
+    :func:`load_state`).
+
+    The file is written to ``path`` as given (no ``.npz`` is appended), through a temporary
+    file in the same directory that replaces ``path`` only once complete: a failed save leaves
+    an earlier file at ``path`` intact.
 
     Parameters
     ----------
     path : str or os.PathLike
-        Destination ``.npz`` file.
+        Destination file (``.npz`` by convention); parent directories are created.
     solver : Solver
         The solver to save.
 
     Returns
     -------
     Path
-        The file written.
+        The file written: ``path``.
     """
+    import tempfile
+
     path = Path(path)
+    state = _capture(solver)
     arrays: Dict[str, np.ndarray] = {
-        "time": np.array(solver.time),
-        "steps_taken": np.array(solver.steps_taken),
-        "bodies": np.array(len(solver.bodies)),
+        "format_version": np.array(STATE_FORMAT_VERSION, dtype=np.int64),
+        "time": np.array(state.time, dtype=np.float64),
+        "steps_taken": np.array(state.steps_taken, dtype=np.uint64),
+        "dt": np.array(state.dt, dtype=np.float64),
+        "bodies": np.array(len(state.bodies), dtype=np.int64),
+        "colliders": np.array(len(state.colliders), dtype=np.int64),
     }
-    for b, body in enumerate(solver.bodies):
+    for b, body in enumerate(state.bodies):
         arrays[f"positions_{b}"] = body.positions
         arrays[f"velocities_{b}"] = body.velocities
         arrays[f"pinned_{b}"] = body.pinned
         arrays[f"pin_targets_{b}"] = body.pin_targets
-    arrays["colliders"] = np.array(len(solver.colliders))
-    for c in range(len(solver.colliders)):
-        (base_r, base_t), target = solver.collider_motion(c)
-        arrays[f"collider_base_rotation_{c}"] = np.asarray(base_r, dtype=np.float64)
-        arrays[f"collider_base_translation_{c}"] = np.asarray(base_t, dtype=np.float64)
+        arrays[f"self_contact_{b}"] = np.array(bool(body.self_contact))
+    for c, (base, target) in enumerate(state.colliders):
+        arrays[f"collider_base_rotation_{c}"] = base[0]
+        arrays[f"collider_base_translation_{c}"] = base[1]
         if target is not None:
-            arrays[f"collider_target_rotation_{c}"] = np.asarray(target[0], dtype=np.float64)
-            arrays[f"collider_target_translation_{c}"] = np.asarray(target[1], dtype=np.float64)
+            arrays[f"collider_target_rotation_{c}"] = target[0]
+            arrays[f"collider_target_translation_{c}"] = target[1]
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(path, **arrays)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez_compressed(f, **arrays)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
     return path
 
 
+def _read_npz(path: PathLike) -> Dict[str, np.ndarray]:
+    """Every entry of the ``.npz`` file at ``path``, as arrays; never unpickles. Raises
+    ``_StateError`` for anything but a well-formed archive of ``.npy`` arrays (an
+    ``OSError`` such as ``FileNotFoundError`` when the file cannot be opened)."""
+    import zipfile
+
+    fmt = np.lib.format
+    with open(path, "rb") as f:
+        try:
+            if f.read(4) != b"PK\x03\x04":
+                raise _invalid(path, "it is not an .npz (zip) archive")
+            f.seek(0)
+            entries: Dict[str, np.ndarray] = {}
+            with zipfile.ZipFile(f) as archive:
+                for info in archive.infolist():
+                    name = info.filename
+                    if not name.endswith(".npy"):
+                        raise _invalid(path, f"entry {name!r} is not an .npy array")
+                    key = name[: -len(".npy")]
+                    if key in entries:
+                        raise _invalid(path, f"entry {key!r} appears twice")
+                    with archive.open(info) as member:
+                        version = fmt.read_magic(member)
+                        if version == (1, 0):
+                            shape, fortran, dtype = fmt.read_array_header_1_0(member)
+                        elif version == (2, 0):
+                            shape, fortran, dtype = fmt.read_array_header_2_0(member)
+                        else:
+                            raise _invalid(path, f"entry {key!r} is an .npy file of version "
+                                                 f"{version}, which peridyn does not write")
+                        if dtype.hasobject:
+                            raise _invalid(path, f"entry {key!r} is an array of Python objects "
+                                                 f"(dtype {dtype}); state files hold numbers only")
+                        size = int(np.prod(shape, dtype=object)) * dtype.itemsize
+                        stored = info.file_size - member.tell()
+                        if size != stored:
+                            raise _invalid(path, f"entry {key!r} declares shape {shape} of "
+                                                 f"{dtype} ({size} bytes) but holds {stored} bytes")
+                    with archive.open(info) as member:
+                        array = fmt.read_array(member, allow_pickle=False)
+                    if not isinstance(array, np.ndarray):
+                        raise _invalid(path, f"entry {key!r} is not an array")
+                    entries[key] = array
+            return entries
+        except _StateError:
+            raise
+        except Exception as e:  # zipfile.BadZipFile, zlib.error, EOFError, ValueError, ...
+            raise _invalid(path, f"{type(e).__name__}: {e}") from e
+
+
+class _Entries:
+    """The entries of a state file, taken one by one with checks; reports leftovers."""
+
+    def __init__(self, path: Any, entries: Dict[str, np.ndarray], float_max: float) -> None:
+        self.path = path
+        self.entries = entries
+        self.float_max = float_max
+        self.taken: set = set()
+
+    def has(self, key: str) -> bool:
+        return key in self.entries
+
+    def _get(self, key: str) -> np.ndarray:
+        if key not in self.entries:
+            raise _invalid(self.path, f"entry {key!r} is missing")
+        self.taken.add(key)
+        return self.entries[key]
+
+    def _kind(self, key: str, value: np.ndarray, kinds: str, what: str) -> None:
+        if value.dtype.kind not in kinds:
+            raise _invalid(self.path, f"entry {key!r} has dtype {value.dtype}, expected {what}")
+
+    def integer(self, key: str, low: int = 0, high: int = 2**63 - 1) -> int:
+        value = self._get(key)
+        self._kind(key, value, "iu", "an integer")
+        if value.shape != ():
+            raise _invalid(self.path, f"entry {key!r} has shape {value.shape}, expected a scalar")
+        n = int(value)
+        if not low <= n <= high:
+            raise _invalid(self.path, f"entry {key!r} is {n}, outside [{low}, {high}]")
+        return n
+
+    def boolean(self, key: str) -> bool:
+        value = self._get(key)
+        self._kind(key, value, "b", "a bool")
+        if value.shape != ():
+            raise _invalid(self.path, f"entry {key!r} has shape {value.shape}, expected a scalar")
+        return bool(value)
+
+    def floats(self, key: str, shape: tuple, count: Optional[str] = None,
+               of_solver: bool = True) -> np.ndarray:
+        """A real float array of ``shape`` with finite values that the solver's precision
+        holds; ``count`` says what the solver has ``shape[0]`` of, for the message when the
+        file has a different number of them."""
+        value = self._get(key)
+        self._kind(key, value, "f", "real floats")
+        if value.shape != shape:
+            if count and value.ndim == len(shape) and value.shape[0] != shape[0]:
+                error = _unfit if of_solver else _invalid
+                raise error(self.path, f"{count} {shape[0]}, the file's {key!r} has "
+                                       f"{value.shape[0]} (shape {value.shape})")
+            expected = "() (a scalar)" if shape == () else str(shape)
+            raise _invalid(self.path, f"entry {key!r} has shape {value.shape}, expected {expected}")
+        value = value.astype(np.float64)
+        bad = ~np.isfinite(value)
+        if bad.any():
+            index = tuple(int(i) for i in np.argwhere(bad)[0])
+            raise _invalid(self.path, f"entry {key!r} holds {value[index]!r} at {index}, "
+                                      "not a finite number")
+        over = np.abs(value) > self.float_max
+        if over.any():
+            index = tuple(int(i) for i in np.argwhere(over)[0])
+            raise _unfit(self.path, f"entry {key!r} holds {value[index]!r} at {index}, beyond "
+                                    f"the largest number of the solver's precision ({self.float_max:g})")
+        return value
+
+    def scalar(self, key: str) -> float:
+        return float(self.floats(key, ()))
+
+    def indices(self, key: str, n: int) -> np.ndarray:
+        """Sorted distinct vertex indices in [0, n)."""
+        value = self._get(key)
+        self._kind(key, value, "iu", "integers")
+        if value.ndim != 1:
+            raise _invalid(self.path, f"entry {key!r} has shape {value.shape}, expected (P,)")
+        if len(value):
+            low, high = value.min(), value.max()
+            if low < 0 or high >= n:
+                bad = low if low < 0 else high
+                raise _unfit(self.path, f"entry {key!r} holds vertex {int(bad)}, outside [0, {n})")
+            if np.any(np.diff(value.astype(np.int64)) <= 0):
+                raise _invalid(self.path, f"entry {key!r} is not sorted without repeats")
+        return value.astype(np.int64)
+
+    def leftovers(self) -> None:
+        extra = sorted(set(self.entries) - self.taken)
+        if extra:
+            raise _invalid(self.path, f"unexpected entries {extra}")
+
+
+def _parse(path: Any, entries: Dict[str, np.ndarray], solver: Any) -> _State:
+    """The state held by ``entries``, checked in full against ``solver``."""
+    float_max = float(np.finfo(np.float32 if solver.precision == "f32" else np.float64).max)
+    e = _Entries(path, entries, float_max)
+    version = e.integer("format_version") if e.has("format_version") else 0
+    if version > STATE_FORMAT_VERSION:
+        raise _StateError(
+            f"load_state: {str(path)!r} has state format version {version}, newer than the "
+            f"versions this peridyn reads (0 to {STATE_FORMAT_VERSION}): update peridyn"
+        )
+    time = e.scalar("time")
+    steps_taken = e.integer("steps_taken", 0, 2**64 - 1)
+    dt = None
+    if version >= 1:
+        dt = e.scalar("dt")
+        if dt <= 0.0:
+            raise _invalid(path, f"entry 'dt' is {dt!r}, not a time step > 0 s")
+    solver_bodies = list(solver.bodies)
+    n_bodies = e.integer("bodies")
+    if n_bodies != len(solver_bodies):
+        raise _unfit(path, f"the file holds {n_bodies} bodies, the solver has {len(solver_bodies)}")
+    bodies = []
+    for b, body in enumerate(solver_bodies):
+        n = int(body.num_vertices)
+        positions = e.floats(f"positions_{b}", (n, 3), f"body {b} has {n} vertices,")
+        velocities = e.floats(f"velocities_{b}", (n, 3), f"body {b} has {n} vertices,")
+        pinned = e.indices(f"pinned_{b}", n)
+        targets = e.floats(f"pin_targets_{b}", (len(pinned), 3),
+                           f"the file's 'pinned_{b}' has {len(pinned)} vertices,", of_solver=False)
+        self_contact = e.boolean(f"self_contact_{b}") if version >= 1 else None
+        bodies.append(_BodyState(positions, velocities, pinned, targets, self_contact))
+    n_colliders = len(solver.colliders)
+    if version >= 1 or e.has("colliders"):
+        in_file = e.integer("colliders")
+        if in_file != n_colliders:
+            raise _unfit(path, f"the file holds {in_file} colliders, the solver has {n_colliders}")
+    else:  # files written before collider motion was saved
+        n_colliders = 0
+    colliders = []
+    for c in range(n_colliders):
+        base = (e.floats(f"collider_base_rotation_{c}", (3, 3)),
+                e.floats(f"collider_base_translation_{c}", (3,)))
+        has_r = e.has(f"collider_target_rotation_{c}")
+        has_t = e.has(f"collider_target_translation_{c}")
+        target = None
+        if has_r or has_t:
+            target = (e.floats(f"collider_target_rotation_{c}", (3, 3)),
+                      e.floats(f"collider_target_translation_{c}", (3,)))
+        colliders.append((base, target))
+    e.leftovers()
+    return _State(time, steps_taken, dt, bodies, colliders)
+
+
 def load_state(path: PathLike, solver: Any) -> None:
-    """Restores a state written by :func:`save_state` into ``solver`` (same bodies and
-    colliders, in order).
+    """Restores a state written by :func:`save_state` into ``solver``, set up the same way
+    (same bodies and colliders, in order; same parameters).
+
+    All or nothing: the whole file is read and checked against the solver (every entry
+    present, real numbers of the expected shapes, finite and within the solver's precision,
+    the counts of bodies, vertices, pins and colliders, the format version) before anything
+    changes; if the solver still refuses part of it (say a collider pose that is not a
+    rotation), what was set is undone and the solver is left exactly as before.
+
+    Files of format version 1 (:data:`STATE_FORMAT_VERSION`) also set the solver's ``dt`` and
+    each body's ``self_contact``; files without a ``format_version`` entry (version 0, written
+    by peridyn before versions) are read too and leave those as they are.
+
+    Not in the file, so not restored: what the Rust core keeps between steps that the Python
+    API does not expose, notably the contact solver's warm start (with ``contact=`` a
+    restored run is not bit-exact) and ``Solver.contact`` if it was replaced between steps.
 
     Raises
     ------
     ValueError
-        If the file holds a different number of bodies or colliders, or a body's vertex count
-        differs.
+        If the file is not a valid peridyn state (not an ``.npz``, truncated, corrupt, an entry
+        missing, unexpected, of the wrong dtype or shape, non-finite or out of range) or not
+        one for this solver (a different number of bodies, vertices or colliders), or has a
+        newer format version; the message says which and why.
+    OSError
+        If the file cannot be opened (``FileNotFoundError`` if it does not exist).
     """
-    with np.load(Path(path)) as data:
-        bodies = solver.bodies
-        if int(data["bodies"]) != len(bodies):
-            raise ValueError(
-                f"load_state: {path} holds {int(data['bodies'])} bodies, the solver has {len(bodies)}"
-            )
-        for b, body in enumerate(bodies):
-            positions = data[f"positions_{b}"]
-            if positions.shape != (body.num_vertices, 3):
-                raise ValueError(
-                    f"load_state: body {b} has {body.num_vertices} vertices, "
-                    f"the file has {positions.shape[0]}"
-                )
-        # files written before collider motion was saved hold no "colliders"
-        colliders = int(data["colliders"]) if "colliders" in data else 0
-        if "colliders" in data and colliders != len(solver.colliders):
-            raise ValueError(
-                f"load_state: {path} holds {colliders} colliders, the solver has {len(solver.colliders)}"
-            )
-        for b, body in enumerate(bodies):
-            body.positions = data[f"positions_{b}"]
-            body.velocities = data[f"velocities_{b}"]
-            body.unpin()
-            pinned = data[f"pinned_{b}"]
-            if len(pinned):
-                body.pin(pinned, data[f"pin_targets_{b}"])
-        for c in range(colliders):
-            target = {}
-            if f"collider_target_rotation_{c}" in data:
-                target = dict(target_rotation=data[f"collider_target_rotation_{c}"],
-                              target_translation=data[f"collider_target_translation_{c}"])
-            solver.set_collider_motion(c, base_rotation=data[f"collider_base_rotation_{c}"],
-                                       base_translation=data[f"collider_base_translation_{c}"], **target)
-        solver.set_clock(float(data["time"]), int(data["steps_taken"]))
+    entries = _read_npz(path)
+    state = _parse(path, entries, solver)
+    before = _capture(solver)
+    try:
+        _apply(solver, state)
+    except Exception as e:
+        _apply(solver, before)
+        if isinstance(e, ValueError):
+            raise _unfit(path, str(e)) from e
+        raise
