@@ -40,7 +40,10 @@ def write_mesh(path: PathLike, V: npt.ArrayLike, F: npt.ArrayLike) -> Path:
     Raises
     ------
     ValueError
-        If the suffix is not ``.ply`` or ``.obj``, or ``V`` / ``F`` do not have shape (., 3).
+        If the suffix is not ``.ply`` or ``.obj``, ``V`` / ``F`` do not have shape (., 3),
+        ``V`` holds anything but finite real numbers (for PLY, which stores float32: within
+        float32's range), or ``F`` anything but whole vertex indices in ``[0, N)`` (the
+        message names the first offending value).
     """
     import trimesh
 
@@ -48,15 +51,56 @@ def write_mesh(path: PathLike, V: npt.ArrayLike, F: npt.ArrayLike) -> Path:
     fmt = path.suffix.lower().lstrip(".")
     if fmt not in _FORMATS:
         raise ValueError(f"write_mesh: unsupported suffix {path.suffix!r} in {str(path)!r}; use .ply or .obj")
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F)
-    if V.ndim != 2 or V.shape[1] != 3:
-        raise ValueError(f"write_mesh: V must have shape (N, 3), got {V.shape}")
-    if F.ndim != 2 or F.shape[1] != 3:
-        raise ValueError(f"write_mesh: F must have shape (M, 3), got {F.shape}")
-    mesh = trimesh.Trimesh(vertices=V, faces=F.astype(np.int64), process=False, validate=False)
+    V = _mesh_vertices(V, "write_mesh: V")
+    F = _mesh_triangles(F, len(V), "write_mesh: F")
+    if fmt == "ply":  # trimesh writes float32 coordinates
+        beyond = (np.abs(V) > np.finfo(np.float32).max).any(axis=1)
+        if beyond.any():
+            i = int(np.flatnonzero(beyond)[0])
+            raise ValueError(
+                f"write_mesh: V: vertex {i} is {V[i].tolist()}, beyond the float32 range of a PLY "
+                "file (it would be written as inf)"
+            )
+    mesh = trimesh.Trimesh(vertices=V, faces=F, process=False, validate=False)
     mesh.export(str(path), file_type=fmt)
     return path
+
+
+def _mesh_vertices(V: npt.ArrayLike, name: str) -> np.ndarray:
+    """``V`` as an (N, 3) float64 array of finite real numbers, or a ``ValueError``."""
+    V = np.asarray(V)
+    if V.dtype.kind not in "fiu":
+        raise ValueError(f"{name} must hold real numbers, got dtype {V.dtype}")
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (N, 3), got {V.shape}")
+    V = V.astype(np.float64)
+    bad = ~np.isfinite(V).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"{name}: vertex {i} is not finite: {V[i].tolist()}")
+    return V
+
+
+def _mesh_triangles(F: npt.ArrayLike, n: int, name: str) -> np.ndarray:
+    """``F`` as an (M, 3) int64 array of vertex indices in [0, n), or a ``ValueError``: whole
+    numbers only (integer dtypes, or floats with integral values)."""
+    F = np.asarray(F)
+    if F.dtype.kind not in "fiu":
+        raise ValueError(f"{name} must hold integer vertex indices, got dtype {F.dtype}")
+    if F.ndim != 2 or F.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (M, 3), got {F.shape}")
+    if F.dtype.kind == "f":
+        fractional = ~(np.isfinite(F) & (F == np.floor(F)))
+        if fractional.any():
+            t = int(np.flatnonzero(fractional.any(axis=1))[0])
+            raise ValueError(f"{name}: triangle {t} holds {F[t].tolist()}, not whole vertex indices")
+    out = (F < 0) | (F >= n)
+    if out.any():
+        t = int(np.flatnonzero(out.any(axis=1))[0])
+        raise ValueError(
+            f"{name}: triangle {t} holds {F[t].tolist()}, vertex indices must be in [0, {n})"
+        )
+    return F.astype(np.int64)
 
 
 class FrameRecorder:
@@ -141,28 +185,53 @@ class FrameRecorder:
         bodies = list(solver.bodies)
         if not bodies:
             raise ValueError("FrameRecorder.record: the solver has no bodies")
+        positions = [np.array(body.positions, dtype=np.float64) for body in bodies]
         if not self._triangles:
-            self._triangles = [np.asarray(b.triangles, dtype=np.int64) for b in bodies]
-            self._positions = [[] for _ in bodies]
-        elif len(bodies) != len(self._triangles):
-            raise ValueError(
-                f"FrameRecorder.record: the solver now has {len(bodies)} bodies, "
-                f"the recording started with {len(self._triangles)}"
-            )
+            triangles = [np.asarray(body.triangles, dtype=np.int64) for body in bodies]
+        else:
+            # Every frame goes into one array per body in the .npz: check before recording.
+            if len(bodies) != len(self._triangles):
+                raise ValueError(
+                    f"FrameRecorder.record: the solver now has {len(bodies)} bodies, "
+                    f"the recording started with {len(self._triangles)}"
+                )
+            triangles = self._triangles
+            for b, (body, V) in enumerate(zip(bodies, positions)):
+                n = len(self._positions[b][0])
+                if len(V) != n:
+                    raise ValueError(
+                        f"FrameRecorder.record: body {b} now has {len(V)} vertices, "
+                        f"the recording started with {n}"
+                    )
+                if not np.array_equal(np.asarray(body.triangles), triangles[b]):
+                    raise ValueError(
+                        f"FrameRecorder.record: body {b} has other triangles than when the "
+                        "recording started"
+                    )
         frame = self.num_frames
-        for b, body in enumerate(bodies):
-            V = np.array(body.positions, dtype=np.float64)
-            self._positions[b].append(V)
-            if self.fmt is not None:
+        if self.fmt is not None:
+            for b, V in enumerate(positions):
                 stem = f"frame_{frame:05d}" if len(bodies) == 1 else f"body{b}_frame_{frame:05d}"
-                self.files.append(write_mesh(self.directory / f"{stem}.{self.fmt}", V, self._triangles[b]))
+                self.files.append(write_mesh(self.directory / f"{stem}.{self.fmt}", V, triangles[b]))
+        # The frame is recorded for the .npz only once everything above succeeded.
+        if not self._triangles:
+            self._triangles = triangles
+            self._positions = [[] for _ in bodies]
+        for b, V in enumerate(positions):
+            self._positions[b].append(V)
         self._times.append(float(solver.time))
         self._steps.append(int(solver.steps_taken))
         return frame
 
     def close(self) -> Path:
-        """Write the ``.npz`` archive (once) and return its path."""
+        """Write the ``.npz`` archive (once) and return its path.
+
+        The archive is written to a temporary file that replaces ``npz_path`` when complete;
+        if writing fails, the recorder stays open and ``close`` can be called again.
+        """
         if not self._closed:
+            import tempfile
+
             arrays = {
                 "times": np.asarray(self._times, dtype=np.float64),
                 "steps": np.asarray(self._steps, dtype=np.int64),
@@ -170,7 +239,18 @@ class FrameRecorder:
             for b, tris in enumerate(self._triangles):
                 arrays[f"positions_{b}"] = np.stack(self._positions[b])
                 arrays[f"triangles_{b}"] = tris
-            np.savez_compressed(self.npz_path, **arrays)
+            fd, tmp = tempfile.mkstemp(prefix=f".{self.npz_path.name}.", suffix=".tmp",
+                                       dir=self.npz_path.parent)
+            try:
+                with os.fdopen(fd, "wb") as f:
+                    np.savez_compressed(f, **arrays)
+                os.replace(tmp, self.npz_path)
+            except BaseException:
+                try:
+                    os.unlink(tmp)
+                except OSError:
+                    pass
+                raise
             self._closed = True
         return self.npz_path
 
