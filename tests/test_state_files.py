@@ -465,3 +465,71 @@ def test_the_file_is_a_plain_npz(tmp_path):
         expected |= {f"{k}_{b}" for k in ["positions", "velocities", "pinned", "pin_targets", "self_contact"]}
     expected |= {f"collider_{p}_{k}_0" for p in ["base", "target"] for k in ["rotation", "translation"]}
     assert keys == expected
+
+
+# ---------------------------------------------------------------------------------------------
+# internal state a solver exposes (the hook for what the core keeps between steps, such as
+# contact warm starts): saved, checked and restored with the rest, all or nothing
+
+
+class WithInternalState(peridyn.Solver):
+    """A solver that exposes some state of its own, as the core may (contact warm starts)."""
+
+    refuse = False
+
+    def internal_state(self):
+        return dict(getattr(self, "_internal", {}))
+
+    def set_internal_state(self, state):
+        if self.refuse and len(state.get("warm", ())) == 7:  # not its own current state
+            raise ValueError("set_internal_state: warm start of the wrong size")
+        self._internal = {k: np.array(v) for k, v in state.items()}
+
+
+def with_internal_state():
+    s = WithInternalState(dt=2e-3)
+    v, t = make_grid(5, 5)
+    s.add(peridyn.Membrane(v, t, thickness=1e-3, density=100.0, material=peridyn.StretchA3(s0=1e3)))
+    s._internal = {"warm": np.linspace(0.0, 1.0, 7), "active": np.array([True, False])}
+    return s
+
+
+def test_internal_state_is_saved_checked_and_restored_all_or_nothing(tmp_path):
+    s = with_internal_state()
+    s.step()
+    path = peridyn.save_state(tmp_path / "state.npz", s)
+    assert {"internal_warm", "internal_active"} <= set(entries(path))
+    fresh = with_internal_state()
+    fresh._internal = {}
+    peridyn.load_state(path, fresh)
+    assert fresh._internal.keys() == s._internal.keys()
+    assert all(np.array_equal(fresh._internal[k], s._internal[k]) for k in s._internal)
+    assert_same(snapshot(fresh), snapshot(s))
+
+    # a bad internal entry is refused before anything changes
+    s.step()
+    s._internal = {"warm": np.zeros(3)}
+    before, internal = snapshot(s), s.internal_state()
+    e = entries(path)
+    e["internal_warm"] = e["internal_warm"].copy()
+    e["internal_warm"][2] = np.nan
+    refused(write(tmp_path / "nan.npz", e), s, "'internal_warm'", "nan")
+    e["internal_warm"] = np.array([{"x": 1}], dtype=object)
+    refused(write(tmp_path / "object.npz", e, allow_pickle=True), s, "'internal_warm'", "object")
+    assert_same(snapshot(s), before)
+    # the solver refusing it undoes everything
+    s.refuse = True
+    refused(path, s, "wrong size")
+    assert_same(snapshot(s), before)
+    assert s.internal_state().keys() == internal.keys()
+    assert np.array_equal(s.internal_state()["warm"], internal["warm"])
+
+    # a solver without the hook refuses such a file; a file without internal state resets it
+    plain = peridyn.Solver(dt=2e-3)
+    v, t = make_grid(5, 5)
+    plain.add(peridyn.Membrane(v, t, thickness=1e-3, density=100.0, material=peridyn.StretchA3(s0=1e3)))
+    refused(path, plain, "unexpected entries", "internal_active")
+    peridyn.save_state(tmp_path / "plain.npz", plain)
+    s.refuse = False
+    peridyn.load_state(tmp_path / "plain.npz", s)
+    assert s.internal_state() == {}

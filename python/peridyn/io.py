@@ -306,16 +306,31 @@ class _BodyState:
 class _State:
     """What a solver's next steps depend on, as far as the Python API reaches it."""
 
-    __slots__ = ("time", "steps_taken", "dt", "bodies", "colliders")
+    __slots__ = ("time", "steps_taken", "dt", "bodies", "colliders", "internal")
 
     def __init__(self, time: float, steps_taken: int, dt: Optional[float],
-                 bodies: List[_BodyState], colliders: List[Any]) -> None:
+                 bodies: List[_BodyState], colliders: List[Any],
+                 internal: Optional[Dict[str, np.ndarray]] = None) -> None:
         self.time = time
         self.steps_taken = steps_taken
         self.dt = dt
         self.bodies = bodies
         # per collider: ((base_rotation, base_translation), target or None)
         self.colliders = colliders
+        # what the core keeps between steps beyond the above, if the solver exposes it
+        self.internal = internal
+
+
+#: Prefix of the entries that hold a solver's internal state (see :func:`save_state`).
+_INTERNAL = "internal_"
+
+
+def _internal_state(solver: Any) -> Optional[Dict[str, np.ndarray]]:
+    """``solver.internal_state()`` (copies), or None when the solver does not expose any."""
+    get = getattr(solver, "internal_state", None)
+    if get is None:
+        return None
+    return {str(k): np.array(v) for k, v in dict(get()).items()}
 
 
 def _capture(solver: Any) -> _State:
@@ -337,7 +352,8 @@ def _capture(solver: Any) -> _State:
         if target is not None:
             target = (np.array(target[0], dtype=np.float64), np.array(target[1], dtype=np.float64))
         colliders.append((base, target))
-    return _State(float(solver.time), int(solver.steps_taken), float(solver.dt), bodies, colliders)
+    return _State(float(solver.time), int(solver.steps_taken), float(solver.dt), bodies, colliders,
+                  _internal_state(solver))
 
 
 def _apply(solver: Any, state: _State) -> None:
@@ -357,6 +373,8 @@ def _apply(solver: Any, state: _State) -> None:
         if target is not None:
             extra = dict(target_rotation=target[0], target_translation=target[1])
         solver.set_collider_motion(c, base_rotation=base[0], base_translation=base[1], **extra)
+    if state.internal is not None:
+        solver.set_internal_state(state.internal)
     solver.set_clock(state.time, state.steps_taken)
 
 
@@ -371,6 +389,12 @@ def save_state(path: PathLike, solver: Any) -> Path:
     into a solver set up the same way (same bodies, parameters and colliders, in order) then
     continues the simulation bit for bit (without contact; see the notes of
     :func:`load_state`).
+
+    A solver that exposes more of what its steps depend on through two methods,
+    ``internal_state()`` returning a dict of name to numeric array and
+    ``set_internal_state(dict)`` restoring it (all or nothing, ``ValueError`` on a bad dict),
+    has that dict saved as entries ``internal_<name>`` and restored by :func:`load_state`
+    (with an empty dict for a file that holds none, for the solver to reset it).
 
     The file is written to ``path`` as given (no ``.npz`` is appended), through a temporary
     file in the same directory that replaces ``path`` only once complete: a failed save leaves
@@ -406,6 +430,8 @@ def save_state(path: PathLike, solver: Any) -> Path:
         arrays[f"pinned_{b}"] = body.pinned
         arrays[f"pin_targets_{b}"] = body.pin_targets
         arrays[f"self_contact_{b}"] = np.array(bool(body.self_contact))
+    for name, value in (state.internal or {}).items():
+        arrays[_INTERNAL + name] = value
     for c, (base, target) in enumerate(state.colliders):
         arrays[f"collider_base_rotation_{c}"] = base[0]
         arrays[f"collider_base_translation_{c}"] = base[1]
@@ -548,6 +574,16 @@ class _Entries:
     def scalar(self, key: str) -> float:
         return float(self.floats(key, ()))
 
+    def numbers(self, key: str) -> np.ndarray:
+        """An array of real numbers or bools of any shape, finite where floats."""
+        value = self._get(key)
+        self._kind(key, value, "biuf", "real numbers or bools")
+        if value.dtype.kind == "f" and not np.isfinite(value).all():
+            index = tuple(int(i) for i in np.argwhere(~np.isfinite(value))[0])
+            raise _invalid(self.path, f"entry {key!r} holds {value[index]!r} at {index}, "
+                                      "not a finite number")
+        return value
+
     def indices(self, key: str, n: int) -> np.ndarray:
         """Sorted distinct vertex indices in [0, n)."""
         value = self._get(key)
@@ -618,8 +654,12 @@ def _parse(path: Any, entries: Dict[str, np.ndarray], solver: Any) -> _State:
             target = (e.floats(f"collider_target_rotation_{c}", (3, 3)),
                       e.floats(f"collider_target_translation_{c}", (3,)))
         colliders.append((base, target))
+    internal = None
+    if hasattr(solver, "internal_state"):
+        internal = {key[len(_INTERNAL):]: e.numbers(key)
+                    for key in sorted(entries) if key.startswith(_INTERNAL)}
     e.leftovers()
-    return _State(time, steps_taken, dt, bodies, colliders)
+    return _State(time, steps_taken, dt, bodies, colliders, internal)
 
 
 def load_state(path: PathLike, solver: Any) -> None:
@@ -637,8 +677,10 @@ def load_state(path: PathLike, solver: Any) -> None:
     by peridyn before versions) are read too and leave those as they are.
 
     Not in the file, so not restored: what the Rust core keeps between steps that the Python
-    API does not expose, notably the contact solver's warm start (with ``contact=`` a
-    restored run is not bit-exact) and ``Solver.contact`` if it was replaced between steps.
+    API does not expose (see ``internal_state`` in :func:`save_state`), notably the contact
+    solver's warm start (with ``contact=`` a restored run is not bit-exact), and
+    ``Solver.contact`` if it was replaced between steps. Entries ``internal_<name>`` in a
+    file are refused by a solver without ``set_internal_state``.
 
     Raises
     ------
