@@ -117,29 +117,72 @@ def load_mesh(path: PathLike, *, merge_vertices: bool = True) -> Tuple[np.ndarra
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        If the file holds no triangles (for example a point cloud or a line drawing).
+        If the file cannot be read as a mesh (unknown format, truncated or corrupt), holds no
+        triangles (for example a point cloud or a line drawing), a vertex that is not finite
+        (NaN, inf, or a number too large for a float64) or a triangle whose vertex indices are
+        out of range. The message names the file.
     """
     import trimesh
 
     path = os.fspath(path)
     if not os.path.exists(path):
         raise FileNotFoundError(f"load_mesh: no such file: {path!r}")
-    loaded = trimesh.load(path, process=False, maintain_order=True)
-    if isinstance(loaded, trimesh.Scene):
-        meshes = [g for g in loaded.geometry.values() if isinstance(g, trimesh.Trimesh)]
-        if not meshes or all(len(g.faces) == 0 for g in meshes):
-            raise ValueError(f"load_mesh: {path!r} holds no triangles")
-        if hasattr(loaded, "to_mesh"):
-            loaded = loaded.to_mesh()
-        else:  # trimesh < 4.6
-            loaded = loaded.dump(concatenate=True)
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise ValueError(
-            f"load_mesh: {path!r} holds no triangles (trimesh read a {type(loaded).__name__})"
-        )
-    if merge_vertices:
-        loaded.merge_vertices(merge_tex=True, merge_norm=True)
-        loaded.remove_unreferenced_vertices()
-    V = np.ascontiguousarray(loaded.vertices, dtype=np.float64)
-    F = np.ascontiguousarray(loaded.faces, dtype=np.int64)
+    if os.path.isdir(path):
+        raise ValueError(f"load_mesh: {path!r} is a directory, not a mesh file")
+    try:
+        loaded = trimesh.load(path, process=False, maintain_order=True)
+        if isinstance(loaded, trimesh.Scene):
+            meshes = [g for g in loaded.geometry.values() if isinstance(g, trimesh.Trimesh)]
+            if not meshes or all(len(g.faces) == 0 for g in meshes):
+                raise _MeshError(f"load_mesh: {path!r} holds no triangles")
+            if hasattr(loaded, "to_mesh"):
+                loaded = loaded.to_mesh()
+            else:  # trimesh < 4.6
+                loaded = loaded.dump(concatenate=True)
+        if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+            raise _MeshError(
+                f"load_mesh: {path!r} holds no triangles (trimesh read a {type(loaded).__name__})"
+            )
+        V = np.asarray(loaded.vertices)
+        F = np.asarray(loaded.faces)
+        _check_mesh(path, V, F)
+        if merge_vertices:
+            loaded.merge_vertices(merge_tex=True, merge_norm=True)
+            loaded.remove_unreferenced_vertices()
+        V = np.ascontiguousarray(loaded.vertices, dtype=np.float64)
+        F = np.ascontiguousarray(loaded.faces, dtype=np.int64)
+    except _MeshError:
+        raise
+    except Exception as e:  # trimesh's loaders raise whatever a bad file leads them to
+        raise _MeshError(
+            f"load_mesh: {path!r} is not a readable mesh file ({type(e).__name__}: {e})"
+        ) from e
+    _check_mesh(path, V, F)
     return V, F
+
+
+class _MeshError(ValueError):
+    """A file that :func:`load_mesh` refuses (a ``ValueError`` naming the file)."""
+
+
+def _check_mesh(path: str, V: np.ndarray, F: np.ndarray) -> None:
+    """A ``ValueError`` naming ``path`` unless ``V`` is (N, 3) finite real and ``F`` (M, 3)
+    integer indices in [0, N)."""
+    if V.dtype.kind not in "fiu" or V.ndim != 2 or V.shape[1] != 3:
+        raise _MeshError(f"load_mesh: {path!r} gave vertices of shape {V.shape} and dtype {V.dtype}")
+    if F.dtype.kind not in "iu" or F.ndim != 2 or F.shape[1] != 3:
+        raise _MeshError(f"load_mesh: {path!r} gave triangles of shape {F.shape} and dtype {F.dtype}")
+    finite = np.isfinite(V).all(axis=1)
+    if not finite.all():
+        i = int(np.flatnonzero(~finite)[0])
+        raise _MeshError(
+            f"load_mesh: {path!r}: vertex {i} is not finite: {V[i].tolist()} (NaN, inf, or a "
+            "coordinate too large for a float64)"
+        )
+    out = (F < 0) | (F >= len(V))
+    if out.any():
+        t = int(np.flatnonzero(out.any(axis=1))[0])
+        raise _MeshError(
+            f"load_mesh: {path!r}: triangle {t} holds {F[t].tolist()}, vertex indices must be "
+            f"in [0, {len(V)})"
+        )
