@@ -440,7 +440,8 @@ class StepStats:
         'live_refreshes' (filterings of the cached pairs into the live list, summed),
         'sweeps' (those filterings that looked at every cached pair near enough afresh,
         summed; the others looked again only at the pairs that may have come nearer since the
-        last sweep), 'broad_phase_ms', 'ccd_ms', 'descent_ms'."""
+        last sweep), 'broad_phase_ms', 'ccd_ms', 'descent_ms', and 'barrier_energy' (J, the
+        barrier's energy d mu B / h^2 at the step's end)."""
     @property
     def time(self) -> float:
         """Simulation time after the step (s)."""

@@ -126,7 +126,8 @@ impl BarrierPush {
     /// vertex of such a pair, or of every vertex where no pair is unchanged (the sums may have
     /// been reset, or the list lost pairs). The other sums are kept: none of their pairs
     /// changed. `fades` holds each
-    /// pair's fade `m_c` (see [`super::parallel_fade`]), `barrier` and `mu` the barrier of
+    /// pair's fade `m_c` (see [`super::parallel_fade`]), `scales` each pair's barrier scale `s_c`
+    /// from its rest gap (empty: all 1; see [`pair_term`]), `barrier` and `mu` the barrier of
     /// eq. 47 and its weight.
     #[allow(clippy::too_many_arguments)]
     pub fn update(
@@ -134,7 +135,7 @@ impl BarrierPush {
         pairs: &[Pair],
         (version, unchanged): (u64, usize),
         closest: &[Closest],
-        fades: &[f64],
+        (fades, scales): (&[f64], &[f64]),
         fresh: &[bool],
         barrier: &Barrier,
         mu: f64,
@@ -163,9 +164,11 @@ impl BarrierPush {
             .zip(closest)
             .zip(fades)
             .zip(fresh)
-            .for_each(|((((term, felt), c), &m), &fresh)| {
+            .enumerate()
+            .for_each(|(k, ((((term, felt), c), &m), &fresh))| {
                 if fresh {
-                    let evaluated = pair_term(c, m, barrier, mu, reach);
+                    let s = scales.get(k).copied().unwrap_or(1.0);
+                    let evaluated = pair_term(c, (m, s), barrier, mu, reach);
                     *felt = evaluated.is_some();
                     *term = evaluated.unwrap_or(STALE);
                 }
@@ -199,24 +202,63 @@ impl BarrierPush {
     }
 }
 
-/// A pair's [`Term`] at its closest points `c`, with its fade `m`: none beyond the barrier's
-/// `reach` (m), at a zero distance (no normal) and for a faded-out pair.
-fn pair_term(c: &Closest, m: f64, barrier: &Barrier, mu: f64, reach: f64) -> Option<Term> {
+/// A pair's [`Term`] at its closest points `c`, with its fade `m` and its barrier scale `s` (1,
+/// or its rest gap over the reach, see `local_step/rest_gaps.rs`): the barrier in lengths
+/// scaled by `s`, `s^2 B(f(d / s) - xi)` (m^2), whose slope is `s B'` and whose curvature
+/// `B'' f'` at `d / s` (eq. 3, 49, 51). None beyond the scaled `reach` (m), at a zero distance
+/// (no normal) and for a faded-out pair.
+fn pair_term(c: &Closest, (m, s): (f64, f64), barrier: &Barrier, mu: f64, reach: f64) -> Option<Term> {
     let d = c.separation.norm();
-    if d >= reach || d == 0.0 || m == 0.0 {
+    if d >= s * reach || d == 0.0 || m == 0.0 {
         return None;
     }
-    let gap = barrier.gap(d);
+    let scaled = d / s;
+    let gap = barrier.gap(scaled);
     // The slope's rate of change with d; the row sum `sum_j |alpha_c^j|` makes `k_i` a
     // Gershgorin bound of the pair's Hessian `B'' f' (alpha n)(alpha n)^T`.
     let rows: f64 = c.weights.iter().map(|w| w.abs()).sum();
     Some(Term {
         normal: c.separation / d,
-        slope: -mu * m * barrier.derivative(gap),
-        stiffness: mu * m * barrier.second_derivative(gap) * barrier.rescale_derivative(d) * rows,
+        slope: -mu * m * s * barrier.derivative(gap),
+        stiffness: mu
+            * m
+            * barrier.second_derivative(gap)
+            * barrier.rescale_derivative(scaled)
+            * rows,
         fade: m,
         weights: c.weights,
     })
+}
+
+/// The barrier energy `mu sum_c m_c s_c^2 B(f(d_c / s_c) - xi)` (m^2) of the pairs with closest
+/// points `closest`, fades `fades` and barrier scales `scales` (empty: all 1), as [`pair_term`]
+/// weighs them (eq. 47's second term).
+pub fn barrier_energy(
+    closest: &[Closest],
+    (fades, scales): (&[f64], &[f64]),
+    barrier: &Barrier,
+    mu: f64,
+) -> f64 {
+    let reach = barrier.reach();
+    let term = |k: usize| {
+        let (c, m) = (&closest[k], fades[k]);
+        let s = scales.get(k).copied().unwrap_or(1.0);
+        let d = c.separation.norm();
+        if d >= s * reach || m == 0.0 {
+            return 0.0;
+        }
+        mu * m * s * s * barrier.value(barrier.gap(d / s))
+    };
+    // Fixed chunks summed in order: the same sum for any thread count.
+    let chunks: Vec<f64> = (0..closest.len().div_ceil(crate::parallel::GRAIN))
+        .into_par_iter()
+        .map(|chunk| {
+            let start = chunk * crate::parallel::GRAIN;
+            let end = (start + crate::parallel::GRAIN).min(closest.len());
+            (start..end).map(term).sum::<f64>()
+        })
+        .collect();
+    chunks.iter().sum()
 }
 
 #[cfg(test)]
@@ -260,7 +302,7 @@ pub(super) mod tests {
             pairs,
             (0, 0),
             closest,
-            fades,
+            (fades, &[]),
             &vec![true; pairs.len()],
             barrier,
             mu,
@@ -318,7 +360,7 @@ pub(super) mod tests {
                 pairs,
                 version,
                 &closest,
-                &fades[..pairs.len()],
+                (&fades[..pairs.len()], &[]),
                 fresh,
                 &barrier,
                 MU,

@@ -13,7 +13,7 @@ use crate::geometry::distance::{edge_edge_closest, point_triangle_closest, Close
 use crate::geometry::vertex_index::index_by_vertex;
 
 /// A primitive pair: point-triangle `[p, t0, t1, t2]` or edge-edge `[a0, a1, b0, b1]`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub(super) struct Pair {
     pub edge_edge: bool,
     pub v: [u32; 4],

@@ -537,7 +537,8 @@ impl PyStepStats {
     /// `live_refreshes` (filterings of the cached pairs into the live list, summed), `sweeps`
     /// (those filterings that looked at every cached pair near enough afresh, summed; the
     /// others looked again only at the pairs that may have come nearer since the last
-    /// sweep), and milliseconds `broad_phase_ms`, `ccd_ms`, `descent_ms`.
+    /// sweep), milliseconds `broad_phase_ms`, `ccd_ms`, `descent_ms`, and `barrier_energy`
+    /// (J, the barrier's energy `d mu B / h^2` at the step's end, see docs/model.md).
     #[getter]
     fn contact<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let c = &self.inner.contact;
@@ -557,6 +558,7 @@ impl PyStepStats {
         d.set_item("broad_phase_ms", c.broad_phase_ms)?;
         d.set_item("ccd_ms", c.ccd_ms)?;
         d.set_item("descent_ms", c.descent_ms)?;
+        d.set_item("barrier_energy", c.barrier_energy)?;
         Ok(d)
     }
     /// Simulation time after the step (s).

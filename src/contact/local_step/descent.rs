@@ -7,7 +7,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::super::barrier_push::VertexSums;
+use super::super::barrier_push::{barrier_energy, VertexSums};
 use super::super::broad_phase::ContactMesh;
 use super::super::parallel_fade::sin2_limit;
 use super::super::primitive_pairs::Pair;
@@ -76,6 +76,17 @@ pub fn resolve_contacts(
         sin2_limit(params.parallel_angle),
         &mut stats,
     );
+    // The rest gaps: seeded from the pairs at the step's start (the safe positions of its
+    // first local step) once the solver has armed them, and the scales taken again whenever
+    // the gaps or the reach changed.
+    if work.live.gaps.pending() {
+        let live = &mut work.live;
+        live.gaps.seed(&live.pairs, &live.start, mesh, reach);
+    }
+    work.live.gaps.set_reach(reach);
+    if work.live.gaps.take_changed() {
+        work.live.rescale(0);
+    }
     stats.broad_phase_ms += millis(t);
     refill(&mut work.push, n, Vector3::zeros());
     work.weights.clear();
@@ -244,7 +255,7 @@ pub fn resolve_contacts(
             &live.pairs,
             (live.version, measured),
             closest,
-            &live.fade,
+            (&live.fade, &live.scale),
             fresh,
             &barrier,
             mu,
@@ -368,16 +379,24 @@ pub fn resolve_contacts(
         &mut work.closest,
         &mut work.fresh,
     );
+    let scales = &work.live.scale;
     stats.active_pairs = work
         .closest
         .par_iter()
-        .filter(|c| c.separation.norm() < reach)
+        .enumerate()
+        .filter(|(k, c)| c.separation.norm() < scales.get(*k).copied().unwrap_or(1.0) * reach)
         .count();
+    stats.barrier = barrier_energy(
+        &work.closest,
+        (&work.live.fade, &work.live.scale),
+        &barrier,
+        mu,
+    );
     work.barrier_push.update(
         &work.live.pairs,
         (work.live.version, measured),
         &work.closest,
-        &work.live.fade,
+        (&work.live.fade, &work.live.scale),
         &work.fresh,
         &barrier,
         mu,

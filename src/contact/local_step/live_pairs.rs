@@ -9,6 +9,7 @@ use super::super::broad_phase::ContactMesh;
 use super::super::pair_cache::{PairCache, Renewal};
 use super::super::primitive_pairs::Pair;
 use super::refill;
+use super::rest_gaps::RestGaps;
 use super::stats::ContactStats;
 
 /// The first allowance `A_i` of every vertex (see [`super::super::pair_cache`]), in descent
@@ -48,6 +49,11 @@ pub(super) struct LivePairs {
     /// Per pair: its fade at the safe positions, held through the local step (1, or a nearly
     /// parallel edge-edge pair's, see [`super::super::parallel_fade`]).
     pub(super) fade: Vec<f64>,
+    /// Per pair: the scale `s` of its barrier from its rest gap (see [`RestGaps`]); empty
+    /// where no pair has one (every scale 1).
+    pub(super) scale: Vec<f64>,
+    /// The rest gaps of the pairs that started within the barrier's reach.
+    pub(super) gaps: RestGaps,
     /// `sin^2` of the fade angle the fades are for.
     pub(super) sin2_limit: f64,
     /// Per vertex: the allowance `A_i` (m) the pairs were filtered for, around the path
@@ -282,6 +288,24 @@ impl LivePairs {
                 .map(|p| p.distance_and_fade(safe, sin2_limit)),
         );
         (self.start, self.fade) = measured;
+        self.rescale(new);
+    }
+
+    /// Writes the barrier scales of the pairs from `new` on from their rest gaps, keeping
+    /// those before it (none where no pair has a rest gap).
+    pub(super) fn rescale(&mut self, new: usize) {
+        if self.gaps.is_empty() {
+            self.scale.clear();
+            return;
+        }
+        if self.scale.len() < new {
+            // The scales were not kept (no gaps then): the pairs before `new` have scale 1.
+            self.scale.resize(new, 1.0);
+        }
+        self.scale.truncate(new);
+        let gaps = &self.gaps;
+        self.scale
+            .par_extend(self.pairs[new..].par_iter().map(|p| gaps.scale(p)));
     }
 
     /// Counts the cached and live pairs in `stats` (the largest of the step).

@@ -67,6 +67,7 @@ mod guarantee;
 mod live_pairs;
 mod moves;
 mod params;
+mod rest_gaps;
 mod stats;
 #[cfg(test)]
 mod tests;

@@ -32,6 +32,13 @@ pub struct ContactStats {
     pub active_pairs: usize,
     /// Descent iterations.
     pub iterations: usize,
+    /// The barrier term of eq. 47 at the end, `mu sum_c m_c s_c^2 B(f(d_c / s_c) - xi)` (m^2;
+    /// `m_c` the fade, `s_c` the rest-gap scale).
+    pub barrier: f64,
+    /// The barrier's energy at the end (J): [`ContactStats::barrier`] times `d / h^2`, with
+    /// `d` the mass scale of the proximal metric (kg; see [`super::ProximalMetric`]). Set
+    /// by the solver.
+    pub barrier_energy: f64,
     /// Vertices clamped by the final guarantee pass.
     pub clamped: usize,
     /// Milliseconds in the broad phase (with the live pairs' distances at the safe positions,
@@ -56,6 +63,8 @@ impl ContactStats {
         self.live_refreshes += other.live_refreshes;
         self.sweeps += other.sweeps;
         self.active_pairs = other.active_pairs;
+        self.barrier = other.barrier;
+        self.barrier_energy = other.barrier_energy;
         self.iterations += other.iterations;
         self.clamped += other.clamped;
         self.broad_phase_ms += other.broad_phase_ms;

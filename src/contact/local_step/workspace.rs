@@ -59,6 +59,13 @@ pub struct Workspace {
 }
 
 impl Workspace {
+    /// At the start of a time step, with the start positions `y_t` (m): arms the rest gaps
+    /// of the pairs within the barrier's reach on the first call, ratchets them on later ones
+    /// (see `rest_gaps.rs`; the start is taken as the rest gap, so it holds no barrier energy).
+    pub fn start_step(&mut self, start: &[Vector3<f64>]) {
+        self.live.gaps.start_step(start);
+    }
+
     /// Per vertex, the barrier push `p_i = -mu sum_c m_c B'(f(d_c) - xi) alpha_c^i n_c` (m) of eq.
     /// 49 at the positions the last [`super::resolve_contacts`] returned: where the descent has
     /// converged, `W_i (z_i - y_i^k) = p_i`, so `W_i^-1 p_i` is the displacement by which contact

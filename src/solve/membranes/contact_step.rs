@@ -79,6 +79,7 @@ impl<T: Real> ContactState<T> {
         for (safe, start) in self.safe.iter_mut().zip(&sys.points.y_start) {
             *safe = start.map(|c| c.to_f64());
         }
+        self.work.start_step(&self.safe);
     }
 
     /// Runs the local step on `sys.points.y_next` (the global step's result, after colliders), keeping
@@ -105,7 +106,12 @@ impl<T: Real> ContactState<T> {
             self_contact: &self.self_contact,
         };
         let rest = &sys.rest;
-        let jacobi = |weights: &mut Vec<SymmetricMatrix3<f64>>| jacobi_weights(sys, h, weights);
+        // `d` of the Jacobi metric (kg), for the barrier's energy `d mu B / h^2`.
+        let scale = std::sync::OnceLock::new();
+        let jacobi = |weights: &mut Vec<SymmetricMatrix3<f64>>| {
+            let d = jacobi_weights(sys, h, weights);
+            let _ = scale.set(d);
+        };
         let weights = match params.proximal {
             ProximalMetric::Identity => None,
             ProximalMetric::Jacobi => Some(&jacobi as &ProximalWeights),
@@ -122,7 +128,7 @@ impl<T: Real> ContactState<T> {
             *zi = push_out_of_colliders(colliders, from, zi.map(T::of), margin, inverse.as_ref())
                 .map(|c| c.to_f64());
         };
-        let stats = resolve_contacts(
+        let mut stats = resolve_contacts(
             &self.safe,
             &mut z,
             &sys.points.pinned,
@@ -133,6 +139,11 @@ impl<T: Real> ContactState<T> {
             &push_out,
             &mut self.work,
         );
+        if stats.barrier > 0.0 {
+            let d = scale.get().copied().unwrap_or_else(|| mass_scale(sys, h));
+            let h = h.to_f64();
+            stats.barrier_energy = d * stats.barrier / (h * h);
+        }
         let y = &sys.points.y;
         let (push, weights) = (self.work.push(), self.work.weights());
         self.reaction.clear();
@@ -197,14 +208,23 @@ impl<T: Real> ContactState<T> {
     }
 }
 
+/// `d`, the mean of `trace(D_i) / 3` over the free vertices (kg; 1 if none is free), with `D_i`
+/// the Jacobi block of eq. 25 at the current iterate: the barrier's energy is `d mu B / h^2`
+/// (J) whatever the proximal metric (see [`ProximalMetric::Jacobi`]).
+fn mass_scale<T: Real>(sys: &MembraneSystem<T>, h: T) -> f64 {
+    let mut weights = Vec::new();
+    jacobi_weights(sys, h, &mut weights)
+}
+
 /// Writes into `weights` the metric of [`ProximalMetric::Jacobi`] for every vertex, `W_i = D_i /
 /// d` with `D_i` its Jacobi block of eq. 25 at the current iterate (kg) and `d` the mean of
-/// `trace(D_i) / 3` over the free vertices (the identity everywhere if none is free).
+/// `trace(D_i) / 3` over the free vertices (the identity everywhere if none is free), and
+/// returns `d` (kg; 1 if none is free).
 fn jacobi_weights<T: Real>(
     sys: &MembraneSystem<T>,
     h: T,
     weights: &mut Vec<SymmetricMatrix3<f64>>,
-) {
+) -> f64 {
     let h2 = h * h;
     (0..sys.points.y.len())
         .into_par_iter()
@@ -227,4 +247,9 @@ fn jacobi_weights<T: Real>(
             SymmetricMatrix3::zeros().plus_identity(1.0)
         }
     });
+    if scale > 0.0 {
+        1.0 / scale
+    } else {
+        1.0
+    }
 }
