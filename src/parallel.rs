@@ -1,5 +1,7 @@
 //! Deterministic data parallelism over vertices.
 
+use rayon::prelude::*;
+
 /// Vertices handled by one task; large enough to amortise scheduling, small enough to balance.
 pub const GRAIN: usize = 512;
 
@@ -92,6 +94,30 @@ fn split<B, R, S, F>(
         || split(offsets, start, blocks.start..mid_block, bonds_lo, out_lo, f),
         || split(offsets, start, mid_block..blocks.end, bonds_hi, out_hi, f),
     );
+}
+
+/// Terms per partial sum of [`chunked_sum`]: fixed, so that the sums do not depend on the
+/// number of threads.
+const SUM_CHUNK: usize = 4096;
+
+/// `sum_i term(i)` for `i < n`, summed in fixed chunks combined in order, whose partial sums
+/// go to the reused `scratch`: the same sum for any thread count (a rayon `reduce` groups its
+/// additions as the work happens to be split, which varies with the thread count and with
+/// work stealing).
+pub(crate) fn chunked_sum(
+    n: usize,
+    scratch: &mut Vec<f64>,
+    term: impl Fn(usize) -> f64 + Sync,
+) -> f64 {
+    (0..n.div_ceil(SUM_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            (c * SUM_CHUNK..((c + 1) * SUM_CHUNK).min(n))
+                .map(&term)
+                .sum::<f64>()
+        })
+        .collect_into_vec(scratch);
+    scratch.iter().sum()
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@ numpy reads back with ``np.load``.
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 from typing import Any, Dict, List, Literal, Optional, Union
 
@@ -230,8 +231,6 @@ class FrameRecorder:
         if writing fails, the recorder stays open and ``close`` can be called again.
         """
         if not self._closed:
-            import tempfile
-
             arrays = {
                 "times": np.asarray(self._times, dtype=np.float64),
                 "steps": np.asarray(self._steps, dtype=np.int64),
@@ -239,18 +238,7 @@ class FrameRecorder:
             for b, tris in enumerate(self._triangles):
                 arrays[f"positions_{b}"] = np.stack(self._positions[b])
                 arrays[f"triangles_{b}"] = tris
-            fd, tmp = tempfile.mkstemp(prefix=f".{self.npz_path.name}.", suffix=".tmp",
-                                       dir=self.npz_path.parent)
-            try:
-                with os.fdopen(fd, "wb") as f:
-                    np.savez_compressed(f, **arrays)
-                os.replace(tmp, self.npz_path)
-            except BaseException:
-                try:
-                    os.unlink(tmp)
-                except OSError:
-                    pass
-                raise
+            _write_npz(self.npz_path, arrays)
             self._closed = True
         return self.npz_path
 
@@ -412,8 +400,6 @@ def save_state(path: PathLike, solver: Any) -> Path:
     Path
         The file written: ``path``.
     """
-    import tempfile
-
     path = Path(path)
     state = _capture(solver)
     arrays: Dict[str, np.ndarray] = {
@@ -439,6 +425,14 @@ def save_state(path: PathLike, solver: Any) -> Path:
             arrays[f"collider_target_rotation_{c}"] = target[0]
             arrays[f"collider_target_translation_{c}"] = target[1]
     path.parent.mkdir(parents=True, exist_ok=True)
+    _write_npz(path, arrays)
+    return path
+
+
+def _write_npz(path: Path, arrays: Dict[str, np.ndarray]) -> None:
+    """Writes ``arrays`` as a compressed ``.npz`` at exactly ``path``, through a temporary file
+    in the same directory that replaces it once complete and on disk: a failed write leaves
+    an earlier file at ``path`` intact."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as f:
@@ -452,7 +446,6 @@ def save_state(path: PathLike, solver: Any) -> Path:
         except OSError:
             pass
         raise
-    return path
 
 
 def _read_npz(path: PathLike) -> Dict[str, np.ndarray]:

@@ -13,6 +13,7 @@ use super::barrier::Barrier;
 use super::primitive_pairs::Pair;
 use crate::geometry::distance::Closest;
 use crate::geometry::vertex_index::index_incidences;
+use crate::parallel::chunked_sum;
 use crate::symmetric::SymmetricMatrix3;
 
 /// Per vertex of the local step, the sums of eq. 49 and 53 over its live pairs, and what they
@@ -207,7 +208,13 @@ impl BarrierPush {
 /// scaled by `s`, `s^2 B(f(d / s) - xi)` (m^2), whose slope is `s B'` and whose curvature
 /// `B'' f'` at `d / s` (eq. 3, 49, 51). None beyond the scaled `reach` (m), at a zero distance
 /// (no normal) and for a faded-out pair.
-fn pair_term(c: &Closest, (m, s): (f64, f64), barrier: &Barrier, mu: f64, reach: f64) -> Option<Term> {
+fn pair_term(
+    c: &Closest,
+    (m, s): (f64, f64),
+    barrier: &Barrier,
+    mu: f64,
+    reach: f64,
+) -> Option<Term> {
     let d = c.separation.norm();
     if d >= s * reach || d == 0.0 || m == 0.0 {
         return None;
@@ -249,16 +256,7 @@ pub fn barrier_energy(
         }
         mu * m * s * s * barrier.value(barrier.gap(d / s))
     };
-    // Fixed chunks summed in order: the same sum for any thread count.
-    let chunks: Vec<f64> = (0..closest.len().div_ceil(crate::parallel::GRAIN))
-        .into_par_iter()
-        .map(|chunk| {
-            let start = chunk * crate::parallel::GRAIN;
-            let end = (start + crate::parallel::GRAIN).min(closest.len());
-            (start..end).map(term).sum::<f64>()
-        })
-        .collect();
-    chunks.iter().sum()
+    chunked_sum(closest.len(), &mut Vec::new(), term)
 }
 
 #[cfg(test)]

@@ -97,7 +97,13 @@ impl RestGaps {
 
     /// Seeds the gaps from `pairs` and their `distances` (m) at the step's start: every pair
     /// closer than `reach` (m) gets its distance as its rest gap.
-    pub(super) fn seed(&mut self, pairs: &[Pair], distances: &[f64], mesh: &ContactMesh, reach: f64) {
+    pub(super) fn seed(
+        &mut self,
+        pairs: &[Pair],
+        distances: &[f64],
+        mesh: &ContactMesh,
+        reach: f64,
+    ) {
         self.pending = false;
         self.seeded = true;
         self.changed = true;
@@ -179,9 +185,18 @@ mod tests {
             Vector3::new(1.0, 0.0, 3e-3),
             Vector3::new(0.0, 1.0, 3e-3),
         ]);
-        let between = Pair { edge_edge: false, v: [3, 0, 1, 2] };
-        let own = Pair { edge_edge: false, v: [6, 0, 1, 2] };
-        let ee = Pair { edge_edge: true, v: [1, 0, 4, 3] };
+        let between = Pair {
+            edge_edge: false,
+            v: [3, 0, 1, 2],
+        };
+        let own = Pair {
+            edge_edge: false,
+            v: [6, 0, 1, 2],
+        };
+        let ee = Pair {
+            edge_edge: true,
+            v: [1, 0, 4, 3],
+        };
         let reach = 5e-3;
         let mut gaps = RestGaps::default();
         gaps.start_step(&x);
@@ -192,9 +207,19 @@ mod tests {
             .collect();
         gaps.seed(&[between, own, ee], &distances, &mesh, reach);
         assert!(gaps.take_changed() && !gaps.take_changed());
-        let permuted = Pair { edge_edge: false, v: [3, 2, 0, 1] };
+        let permuted = Pair {
+            edge_edge: false,
+            v: [3, 2, 0, 1],
+        };
         assert!((gaps.scale(&permuted) - 0.4).abs() < 1e-12);
-        assert!((gaps.scale(&Pair { edge_edge: true, v: [3, 4, 0, 1] }) - 0.4).abs() < 1e-12);
+        assert!(
+            (gaps.scale(&Pair {
+                edge_edge: true,
+                v: [3, 4, 0, 1]
+            }) - 0.4)
+                .abs()
+                < 1e-12
+        );
         assert!((gaps.scale(&own) - 0.6).abs() < 1e-12);
         // Apart by 4 mm, then 6 mm: the gaps between bodies follow, then go; body 0's stays.
         for (lift, scale) in [(2e-3, 0.8), (4e-3, 1.0)] {

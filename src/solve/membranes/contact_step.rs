@@ -13,8 +13,8 @@ use crate::contact::{
     Workspace,
 };
 use crate::membrane::Membrane;
+use crate::parallel::chunked_sum;
 use crate::real::Real;
-use crate::solve::energy::chunked_sum;
 use crate::symmetric::SymmetricMatrix3;
 
 use super::jacobi::jacobi_block;

@@ -5,7 +5,8 @@ use crate::membrane::{evaluate_vertices, Preconditioner};
 use crate::real::Real;
 
 use super::system::MembraneSystem;
-use crate::solve::energy::{chunked_sum, inertial_energy};
+use crate::parallel::chunked_sum;
+use crate::solve::energy::inertial_energy;
 
 /// The vertex kernel at every vertex of the current iterate `y`: per-bond gradients and
 /// per-vertex responses (energy, preconditioner block), a SIMD pack of vertices at a time.
