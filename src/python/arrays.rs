@@ -178,7 +178,7 @@ pub fn rotation_rows(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[[f64; 3]; 
         .max();
     // Within the core's own tolerance (1e-9) the matrix is kept bit for bit: a pose read back
     // and set again (a restored simulation) must not change.
-    if deviation < 1e-9 || deviation >= ROTATION_TOLERANCE || r.determinant() <= 0.0 {
+    if !(1e-9..ROTATION_TOLERANCE).contains(&deviation) || r.determinant() <= 0.0 {
         return Ok(rows);
     }
     let svd = r.svd(true, true);
