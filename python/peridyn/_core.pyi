@@ -2,8 +2,13 @@
 
 Every quantity is in SI units: metres, kilograms, seconds, pascals, joules.
 Arrays are returned as new numpy arrays (``float64`` for real values, ``int64`` for indices);
-inputs accept any float or integer dtype and any array-like that numpy can convert.
-Bad input raises ``ValueError`` naming the offending index and value.
+inputs accept any float or integer dtype and any array-like of numbers that numpy can convert.
+Bad input raises ``ValueError`` naming the offending argument, index and value; refused rather than
+converted with a loss: complex values or dtypes (their imaginary parts), bool where a number is
+meant, strings (even ``"1.5"``), and integers that do not fit in 64 bits or are out of range
+(never truncated). Rotation matrices orthonormal within 1e-6 (``|R^T R - I|``, entry by entry;
+e.g. rounded to float32) are accepted; beyond the core's 1e-9 they are re-orthonormalised (to the
+nearest orthonormal matrix).
 """
 
 from typing import Any, Literal, Optional, Sequence, Tuple, Union
@@ -29,6 +34,12 @@ __version__: str
 
 class DivergenceError(RuntimeError):
     """A time step produced non-finite positions; the solver state is left at the last good step."""
+
+class PrecisionWarning(UserWarning):
+    """The solver's precision cannot hold what the simulation asks of it: a body so far from the
+    origin that the motion gravity gives it in one step (``|g| dt^2``) is below its coordinates'
+    resolution (``|x| * epsilon`` of f32 or f64). Warned by ``Solver.add``, and by
+    ``Solver.step`` on the CPU backend."""
 
 class StretchA3:
     """Stretching model of Lu et al. 2023, eq. 39-41: ``Psi = s0 * sum_m A3(lambda_m)``.
@@ -228,8 +239,8 @@ class Box(Collider):
     """Solid oriented box collider (m)."""
 
     def __init__(self, *, center: Vec3, half_extents: Vec3, rotation: Optional[ArrayLike] = None, friction: float = 0.0, velocity: Vec3 = (0.0, 0.0, 0.0)) -> None:
-        """``rotation``: 3x3 rotation matrix (orthonormal, det +1) whose columns are the box axes
-        (default: axis-aligned)."""
+        """``rotation``: 3x3 rotation matrix (orthonormal within 1e-6, re-orthonormalised; det +1)
+        whose columns are the box axes (default: axis-aligned)."""
     @property
     def center(self) -> np.ndarray: ...
     @property
@@ -271,7 +282,8 @@ class MeshCollider(Collider):
         knob (the default 64 gives about 78^3 = 475K nodes; measured build cost about 4 CPU-s
         per million nodes for a 5K-triangle mesh, 9 for 20K triangles, spread over the
         threads). ``margin`` (m, >= 0): how far the grid reaches beyond the mesh's bounding box
-        (default max(0.1 longest side, 2 cells)); keep the membranes' reach within it."""
+        (default max(0.1 longest side, 2 cells)); keep the membranes' reach within it. A grid of
+        more than 2^27 nodes (1 GiB) is a ValueError naming the resolution and the margin."""
     @property
     def cell_size(self) -> float:
         """Grid node spacing h (m)."""
@@ -454,13 +466,15 @@ class Solver:
 
     Parameters
     ----------
-    dt : time step h in s (> 0).
+    dt : time step h in s (> 0), such that ``dt^2`` is a normal number and ``1/dt`` finite in the
+        chosen precision (f32: about 1.1e-19 s <= dt <= 1.8e19 s; f64: 1.5e-154 s to 1.3e154 s);
+        ValueError otherwise, here and in the ``dt`` setter.
     gravity : acceleration (m/s^2).
     tol : stop when the error bound ``StepStats.residual`` < tol (m): the mass-weighted RMS
         distance to the exact implicit Euler solution is then below tol; 0 runs exactly
         ``max_iters`` iterations.
     max_iters : cap on global iterations per step (>= 1).
-    threads : worker threads (None: all cores). Results are bit-identical for any count.
+    threads : worker threads, 1 to 1024 (None: all cores). Results are bit-identical for any count.
     step_length : apply the per-vertex step length of eq. 31-33.
     precision : "f64" (reference) or "f32" (fast path); None: "f64" on the CPU, "f32" on the GPU.
     preconditioner : "tangent" (curvature bounds of the energy: convergent at any stiffness and
@@ -516,7 +530,8 @@ class Solver:
     def add_collider(self, collider: Collider) -> None: ...
     def set_collider_pose(self, index: int, *, rotation: Optional[ArrayLike] = None, translation: Optional[Vec3] = None) -> None:
         """Sets the pose collider ``index`` (in the order added) reaches at the end of the next
-        step: its geometry as given, turned by ``rotation`` (3x3, orthonormal, det +1; default
+        step: its geometry as given, turned by ``rotation`` (3x3, orthonormal within 1e-6,
+        re-orthonormalised; det +1; default
         identity) and moved by ``translation`` (m; default 0). During the step it moves rigidly
         from its pose at the start; friction drags each contact along with the collider's own
         material point there, so a turning collider carries a membrane around. Afterwards a

@@ -11,6 +11,8 @@ from typing import Literal, Tuple, Union
 
 import numpy as np
 
+from ._validate import real
+
 __all__ = ["grid", "load_mesh"]
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -59,7 +61,7 @@ def grid(
     nx, ny = int(nx), int(ny)
     if len(size) != 2:
         raise ValueError(f"grid: size must be a pair (a, b) in m, got {size!r}")
-    a, b = float(size[0]), float(size[1])
+    a, b = real("grid", "size[0]", size[0]), real("grid", "size[1]", size[1])
     for name, value in (("size[0]", a), ("size[1]", b)):
         if not np.isfinite(value) or value <= 0.0:
             raise ValueError(f"grid: {name} must be a positive length in m, got {value!r}")

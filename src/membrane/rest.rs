@@ -145,7 +145,7 @@ impl<'a> RestSource<'a> {
             k += xi * xi.transpose();
             sum2 += xi.norm_squared();
         }
-        let k_inv = invert_shape_tensor(i, &k)?;
+        let k_inv = invert_shape_tensor(i, &k, half)?;
         let nc = (k_inv * x_perp).normalize();
         let t1 = any_orthogonal_unit(&nc);
         let t2 = nc.cross(&t1);
@@ -314,11 +314,34 @@ fn curvature_fit(bonds: &mut [BondRest<f64>], area_rigidity: f64) -> f64 {
     outer.symmetric_eigen().eigenvalues.max()
 }
 
-/// `K^-1`, refusing shape tensors too ill-conditioned to invert reliably.
-fn invert_shape_tensor(i: usize, k: &Matrix3<f64>) -> Result<Matrix3<f64>> {
+/// Smallest ratio of the shape tensor's eigenvalues that is inverted.
+const SHAPE_TENSOR_CONDITION: f64 = 1e-14;
+
+/// `K^-1`, refusing shape tensors too ill-conditioned to invert reliably. The normal
+/// direction's eigenvalue is `half^2` (the virtual bond, `half` = thickness / 2), so a
+/// thickness far below the bond lengths alone makes `K` ill-conditioned: that is named as such.
+fn invert_shape_tensor(i: usize, k: &Matrix3<f64>, half: f64) -> Result<Matrix3<f64>> {
     let eig = k.symmetric_eigen().eigenvalues;
     let (lo, hi) = (eig.min(), eig.max());
-    if lo.is_nan() || lo <= 1e-14 * hi {
+    let in_plane = eig
+        .iter()
+        .filter(|&&l| l > lo)
+        .fold(f64::INFINITY, |a, &l| a.min(l));
+    let thin = half > 0.0
+        && half * half <= SHAPE_TENSOR_CONDITION * hi
+        && in_plane > SHAPE_TENSOR_CONDITION * hi;
+    if thin && lo <= SHAPE_TENSOR_CONDITION * hi {
+        return Err(invalid!(
+            "vertex {i}: thickness {:e} m is too small for the mesh's bond lengths (up to about \
+             {:e} m): thickness / 2 must exceed {SHAPE_TENSOR_CONDITION:e}^(1/2) = 1e-7 times \
+             the bonds' size for the shape tensor (eigenvalues {lo:e}..{hi:e}) to be inverted \
+             reliably; use thickness > {:e} m, or a finer mesh",
+            2.0 * half,
+            hi.sqrt(),
+            2.0 * (SHAPE_TENSOR_CONDITION * hi).sqrt()
+        ));
+    }
+    if lo.is_nan() || lo <= SHAPE_TENSOR_CONDITION * hi {
         return Err(invalid!(
             "vertex {i}: its neighbourhood does not span a plane (shape tensor eigenvalues {lo:e}..{hi:e}); \
              check for collinear neighbours or a thickness of zero"

@@ -1,20 +1,35 @@
-//! numpy in and out. Inputs of any real or integer dtype (and nested sequences) are converted
-//! by numpy itself; shapes are checked here with messages that name the argument.
+//! numpy in and out. Inputs of any real or integer dtype (and nested sequences of numbers) are
+//! converted by numpy itself; everything else is refused with a `ValueError` naming the argument
+//! and the dtype, before numpy could convert it with a loss: complex (imaginary parts dropped),
+//! bool, strings (numpy parses "1.5"), objects; integers that do not fit in 64 bits are refused
+//! with their value, never wrapped. Shapes are checked here with messages that name the argument.
 
 use nalgebra::Vector3;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-/// `numpy.ascontiguousarray(obj, dtype)`.
-fn as_contiguous<'py>(
-    obj: &Bound<'py, PyAny>,
-    name: &str,
-    dtype: &str,
-) -> PyResult<Bound<'py, PyAny>> {
+/// `obj` as a float64 contiguous array, refusing every dtype that is not real or integer.
+pub fn real_array<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyAny>> {
     let np = obj.py().import("numpy")?;
-    np.call_method1("ascontiguousarray", (obj, dtype))
-        .map_err(|e| PyValueError::new_err(format!("{name} must be a numeric array: {e}")))
+    let arr = np
+        .call_method1("asarray", (obj,))
+        .map_err(|e| PyValueError::new_err(format!("{name} must be a numeric array: {e}")))?;
+    let kind: String = arr.getattr("dtype")?.getattr("kind")?.extract()?;
+    if !matches!(kind.as_str(), "f" | "i" | "u") {
+        let dtype = arr.getattr("dtype")?.str()?.to_string();
+        let why = match kind.as_str() {
+            "c" => " (complex: the imaginary parts would be lost)",
+            "b" => " (bool)",
+            "U" | "S" => " (strings are not parsed as numbers)",
+            "O" => " (objects: mixed types, None, or integers beyond 64 bits)",
+            _ => "",
+        };
+        return Err(PyValueError::new_err(format!(
+            "{name} must hold real numbers, got dtype {dtype}{why}"
+        )));
+    }
+    np.call_method1("ascontiguousarray", (arr, "float64"))
 }
 
 /// An (n, 3) real array (n checked when given) as vectors.
@@ -23,7 +38,7 @@ pub fn vec3s(
     name: &str,
     rows: Option<usize>,
 ) -> PyResult<Vec<Vector3<f64>>> {
-    let arr = as_contiguous(obj, name, "float64")?;
+    let arr = real_array(obj, name)?;
     let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
     let ok = shape.len() == 2 && shape[1] == 3 && rows.is_none_or(|n| shape[0] == n);
     if !ok {
@@ -42,7 +57,7 @@ pub fn vec3s(
 
 /// A 3-vector parameter (tuple, list or array), finite.
 pub fn vec3(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[f64; 3]> {
-    let arr = as_contiguous(obj, name, "float64")?;
+    let arr = real_array(obj, name)?;
     let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
     if shape != [3] {
         return Err(PyValueError::new_err(format!(
@@ -54,13 +69,35 @@ pub fn vec3(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[f64; 3]> {
     Ok([s[0], s[1], s[2]])
 }
 
-/// Checks that an array holds integers (any width or signedness) and returns it as int64.
+/// Checks that an array holds integers (any width or signedness) that fit in int64 and
+/// returns it as int64; the message of one that does not fit names it and its position.
 fn integers<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyAny>> {
     let np = obj.py().import("numpy")?;
-    let arr = np.call_method1("asarray", (obj,))?;
+    let arr = np
+        .call_method1("asarray", (obj,))
+        .map_err(|e| PyValueError::new_err(format!("{name} must be an integer array: {e}")))?;
     let kind: String = arr.getattr("dtype")?.getattr("kind")?.extract()?;
     let size: usize = arr.getattr("size")?.extract()?;
-    if !(kind == "i" || kind == "u" || size == 0) {
+    let flat = || arr.call_method1("reshape", (-1,));
+    if kind == "O" {
+        // Python ints beyond 64 bits make an object array: name the first that does not fit.
+        for (k, item) in flat()?.try_iter()?.enumerate() {
+            if let Err(why) = super::scalars::int(&item?)? {
+                return Err(PyValueError::new_err(format!(
+                    "{name} must hold 64-bit integers: entry {k} {why}"
+                )));
+            }
+        }
+    } else if kind == "u" && size > 0 {
+        let max: u64 = arr.call_method0("max")?.extract()?;
+        if max > i64::MAX as u64 {
+            let k: usize = arr.call_method0("argmax")?.extract()?;
+            return Err(PyValueError::new_err(format!(
+                "{name} must hold 64-bit signed integers: entry {k} is {max}, which does not fit"
+            )));
+        }
+    }
+    if !(kind == "i" || kind == "u" || kind == "O" || size == 0) {
         return Err(PyValueError::new_err(format!(
             "{name} must hold integers, got dtype {}",
             arr.getattr("dtype")?.str()?
@@ -119,4 +156,35 @@ pub fn to_numpy<'py>(
 /// Scalars as a new 1-D array.
 pub fn to_numpy_1d<'py, T: numpy::Element>(py: Python<'py>, values: Vec<T>) -> Bound<'py, PyAny> {
     PyArray1::from_vec(py, values).into_any()
+}
+
+/// How far (entry by entry, `|R^T R - I|`) a rotation matrix given by the user may be from
+/// orthonormal: rotations rounded to float32 (about 1e-7) or printed with 7 digits pass and are
+/// re-orthonormalised; anything further is left to the core, which refuses it.
+pub const ROTATION_TOLERANCE: f64 = 1e-6;
+
+/// A (3, 3) rotation matrix by rows: one orthonormal within [`ROTATION_TOLERANCE`] but not
+/// within the core's 1e-9 is replaced by the nearest orthonormal matrix (the orthogonal factor of its polar decomposition); the
+/// core checks the result (finite, orthonormal, det +1) and names what is wrong.
+pub fn rotation_rows(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[[f64; 3]; 3]> {
+    let m = vec3s(obj, name, Some(3))?;
+    let rows = [0, 1, 2].map(|k| [m[k].x, m[k].y, m[k].z]);
+    let r = nalgebra::Matrix3::from_row_slice(&rows.concat());
+    if !r.iter().all(|c| c.is_finite()) {
+        return Ok(rows);
+    }
+    let deviation = (r.transpose() * r - nalgebra::Matrix3::identity())
+        .abs()
+        .max();
+    // Within the core's own tolerance (1e-9) the matrix is kept bit for bit: a pose read back
+    // and set again (a restored simulation) must not change.
+    if !(1e-9..ROTATION_TOLERANCE).contains(&deviation) || r.determinant() <= 0.0 {
+        return Ok(rows);
+    }
+    let svd = r.svd(true, true);
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return Ok(rows);
+    };
+    let q = u * v_t;
+    Ok([0, 1, 2].map(|i| [q[(i, 0)], q[(i, 1)], q[(i, 2)]]))
 }

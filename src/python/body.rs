@@ -44,6 +44,20 @@ impl PyBody {
         }
     }
 
+    /// The largest coordinate magnitude (m) of the body now (read back from the device after
+    /// a GPU step).
+    pub fn extent(&self, py: Python<'_>) -> PyResult<f64> {
+        match self {
+            Self::Membrane(m) => Ok(m
+                .borrow(py)
+                .state()?
+                .positions()
+                .iter()
+                .map(|p| p.amax())
+                .fold(0.0, f64::max)),
+        }
+    }
+
     pub fn object(&self, py: Python<'_>) -> Py<PyAny> {
         match self {
             Self::Membrane(m) => m.clone_ref(py).into_any(),

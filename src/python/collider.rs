@@ -8,8 +8,9 @@ use pyo3::prelude::*;
 
 use crate::collider::{Collider, Shape};
 
-use super::arrays::{to_numpy, to_numpy_1d, triangles, vec3, vec3s};
+use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, triangles, vec3, vec3s};
 use super::errors::{guard, IntoPyResult};
+use super::scalars::{Int, Real};
 
 /// Base of every collider: a solid shape, a Coulomb `friction` coefficient (>= 0) and a
 /// constant `velocity` (m/s) from the pose given at time 0.
@@ -22,13 +23,14 @@ impl PyCollider {
     /// The base part of a collider of `shape` with the keyword arguments every collider takes.
     fn new(
         shape: crate::error::Result<Shape>,
-        friction: f64,
+        friction: Real,
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let velocity = velocity
             .map(|v| vec3(v, "velocity"))
             .transpose()?
             .unwrap_or([0.0; 3]);
+        let friction = friction.get("friction")?;
         Ok(Self {
             inner: Collider::new(shape.py()?, friction, velocity).py()?,
         })
@@ -48,12 +50,18 @@ impl PyCollider {
         self.inner.velocity.as_slice().to_vec()
     }
     /// Signed distances (m, positive outside) of (n, 3) points at `time` (s).
-    #[pyo3(signature = (points, time = 0.0))]
+    #[pyo3(signature = (points, time = Real::of(0.0)))]
     fn signed_distance<'py>(
         &self,
         points: &Bound<'py, PyAny>,
-        time: f64,
+        time: Real,
     ) -> PyResult<Bound<'py, PyAny>> {
+        let time = time.get("time")?;
+        if !time.is_finite() {
+            return Err(PyValueError::new_err(format!(
+                "time must be finite (s), got {time}"
+            )));
+        }
         let p = vec3s(points, "points", None)?;
         Ok(to_numpy_1d(
             points.py(),
@@ -76,11 +84,11 @@ pub struct PyPlane;
 #[pymethods]
 impl PyPlane {
     #[new]
-    #[pyo3(signature = (*, point = None, normal = None, friction = 0.0, velocity = None))]
+    #[pyo3(signature = (*, point = None, normal = None, friction = Real::of(0.0), velocity = None))]
     fn new(
         point: Option<&Bound<'_, PyAny>>,
         normal: Option<&Bound<'_, PyAny>>,
-        friction: f64,
+        friction: Real,
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyClassInitializer<Self>> {
         let point = point
@@ -134,15 +142,15 @@ pub struct PySphere;
 #[pymethods]
 impl PySphere {
     #[new]
-    #[pyo3(signature = (*, center, radius, friction = 0.0, velocity = None))]
+    #[pyo3(signature = (*, center, radius, friction = Real::of(0.0), velocity = None))]
     fn new(
         center: &Bound<'_, PyAny>,
-        radius: f64,
-        friction: f64,
+        radius: Real,
+        friction: Real,
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyClassInitializer<Self>> {
         Ok(PyClassInitializer::from(PyCollider::new(
-            Shape::sphere(vec3(center, "center")?, radius),
+            Shape::sphere(vec3(center, "center")?, radius.get("radius")?),
             friction,
             velocity,
         )?)
@@ -179,24 +187,17 @@ pub struct PyBox;
 #[pymethods]
 impl PyBox {
     #[new]
-    #[pyo3(signature = (*, center, half_extents, rotation = None, friction = 0.0, velocity = None))]
+    #[pyo3(signature = (*, center, half_extents, rotation = None, friction = Real::of(0.0), velocity = None))]
     fn new(
         center: &Bound<'_, PyAny>,
         half_extents: &Bound<'_, PyAny>,
         rotation: Option<&Bound<'_, PyAny>>,
-        friction: f64,
+        friction: Real,
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyClassInitializer<Self>> {
         let rows = match rotation {
             None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-            Some(r) => {
-                let m = vec3s(r, "rotation", Some(3))?;
-                [
-                    [m[0].x, m[0].y, m[0].z],
-                    [m[1].x, m[1].y, m[1].z],
-                    [m[2].x, m[2].y, m[2].z],
-                ]
-            }
+            Some(r) => rotation_rows(r, "rotation")?,
         };
         let cuboid = Shape::cuboid(
             vec3(center, "center")?,
@@ -257,15 +258,15 @@ pub struct PyCapsule;
 #[pymethods]
 impl PyCapsule {
     #[new]
-    #[pyo3(signature = (*, a, b, radius, friction = 0.0, velocity = None))]
+    #[pyo3(signature = (*, a, b, radius, friction = Real::of(0.0), velocity = None))]
     fn new(
         a: &Bound<'_, PyAny>,
         b: &Bound<'_, PyAny>,
-        radius: f64,
-        friction: f64,
+        radius: Real,
+        friction: Real,
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyClassInitializer<Self>> {
-        let capsule = Shape::capsule(vec3(a, "a")?, vec3(b, "b")?, radius);
+        let capsule = Shape::capsule(vec3(a, "a")?, vec3(b, "b")?, radius.get("radius")?);
         Ok(
             PyClassInitializer::from(PyCollider::new(capsule, friction, velocity)?)
                 .add_subclass(Self),
@@ -316,15 +317,15 @@ impl PyMeshCollider {
     /// `vertices` and `faces`) alone; `resolution` cells along the mesh's longest side;
     /// `margin` (m) padding of the grid around the mesh.
     #[new]
-    #[pyo3(signature = (vertices, triangles = None, *, resolution = 64, margin = None,
-                        friction = 0.0, velocity = None))]
+    #[pyo3(signature = (vertices, triangles = None, *, resolution = Int::of(64), margin = None,
+                        friction = Real::of(0.0), velocity = None))]
     fn new(
         py: Python<'_>,
         vertices: &Bound<'_, PyAny>,
         triangles: Option<&Bound<'_, PyAny>>,
-        resolution: i64,
-        margin: Option<f64>,
-        friction: f64,
+        resolution: Int,
+        margin: Option<Real>,
+        friction: Real,
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyClassInitializer<Self>> {
         let (vertices, faces) = match triangles {
@@ -343,11 +344,14 @@ impl PyMeshCollider {
             .map(|x| (*x).into())
             .collect();
         let t = self::triangles(&faces, "triangles")?;
+        let margin = margin.map(|m| m.get("margin")).transpose()?;
+        let resolution = resolution.get("resolution")?;
         let resolution = usize::try_from(resolution).map_err(|_| {
             PyValueError::new_err(format!(
                 "resolution (cells along the mesh's longest side) must be >= 2, got {resolution}"
             ))
         })?;
+        check_grid_size(&v, resolution, margin)?;
         let mesh =
             py.detach(|| guard("MeshCollider", || Ok(Shape::mesh(v, t, resolution, margin))))?;
         Ok(PyClassInitializer::from(PyCollider::new(mesh, friction, velocity)?).add_subclass(Self))
@@ -399,6 +403,47 @@ impl PyMeshCollider {
             )
         })
     }
+}
+
+/// The most nodes a MeshCollider's grid may have (the core's limit, 8 bytes each).
+const MAX_GRID_NODES: f64 = (1u64 << 27) as f64;
+
+/// Refuses a grid whose node count (counted in f64, so that no size overflows) is beyond
+/// [`MAX_GRID_NODES`], naming the resolution and the margin, before the core sizes it. Inputs
+/// the core refuses with its own message (non-finite vertices, a resolution below 2, a bad
+/// margin, a mesh of no extent) pass through to it.
+fn check_grid_size(v: &[[f64; 3]], resolution: usize, margin: Option<f64>) -> PyResult<()> {
+    if resolution < 2
+        || v.is_empty()
+        || !v.iter().flatten().all(|c| c.is_finite())
+        || margin.is_some_and(|m| !(m.is_finite() && m >= 0.0))
+    {
+        return Ok(());
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in v {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let longest = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    if !(longest > 0.0 && longest.is_finite()) {
+        return Ok(());
+    }
+    let cell = longest / resolution as f64;
+    let margin = margin.unwrap_or((0.1 * longest).max(2.0 * cell));
+    let dims = [0, 1, 2].map(|k| ((hi[k] - lo[k] + 2.0 * margin) / cell).ceil() + 1.0);
+    let nodes = dims[0] * dims[1] * dims[2];
+    if nodes.is_finite() && nodes <= MAX_GRID_NODES {
+        return Ok(());
+    }
+    Err(PyValueError::new_err(format!(
+        "MeshCollider: the grid would have {nodes:.3e} nodes ({:.3e} x {:.3e} x {:.3e} of \
+         {cell:e} m), more than {MAX_GRID_NODES}: lower the resolution ({resolution}) or the \
+         margin ({margin:e} m)",
+        dims[0], dims[1], dims[2]
+    )))
 }
 
 /// `f` of a MeshCollider's grid.

@@ -17,6 +17,7 @@ use crate::geometry::distance::{edge_edge_closest, point_triangle_closest, Close
 use super::arrays::{self, to_numpy, to_numpy_1d, vec3s};
 use super::errors::IntoPyResult;
 use super::options::{DESCENT_STEP, PROXIMAL_METRIC};
+use super::scalars::{Int, Real};
 
 /// Four (n, 3) arrays as n quadruples of points.
 fn quadruples(args: [(&Bound<'_, PyAny>, &str); 4]) -> PyResult<Vec<[Vector3<f64>; 4]>> {
@@ -30,8 +31,7 @@ fn quadruples(args: [(&Bound<'_, PyAny>, &str); 4]) -> PyResult<Vec<[Vector3<f64
 
 /// An (n, 4, 3) array as n quadruples of points.
 fn stacked(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[Vector3<f64>; 4]>> {
-    let np = obj.py().import("numpy")?;
-    let arr = np.call_method1("asarray", (obj, "float64"))?;
+    let arr = arrays::real_array(obj, name)?;
     let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
     if !(shape.len() == 3 && shape[1] == 4 && shape[2] == 3) {
         return Err(PyValueError::new_err(format!(
@@ -102,8 +102,9 @@ fn edge_edge_distance<'py>(
 fn near_triangle_pairs<'py>(
     positions: &Bound<'py, PyAny>,
     triangles: &Bound<'py, PyAny>,
-    reach: f64,
+    reach: Real,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let reach = reach.get("reach")?;
     if !(reach > 0.0 && reach.is_finite()) {
         return Err(PyValueError::new_err(format!(
             "reach must be a finite distance > 0 m, got {reach}"
@@ -167,11 +168,16 @@ type Ccd = fn(&[Vector3<f64>; 4], &[Vector3<f64>; 4], f64, &AdditiveCcd) -> Opti
 fn ccd<'py>(
     start: &Bound<'py, PyAny>,
     end: &Bound<'py, PyAny>,
-    min_distance: f64,
-    s: f64,
-    t_c: f64,
+    min_distance: Real,
+    s: Real,
+    t_c: Real,
     query: Ccd,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let (min_distance, s, t_c) = (
+        min_distance.get("min_distance")?,
+        s.get("s")?,
+        t_c.get("t_c")?,
+    );
     if !(min_distance >= 0.0 && min_distance.is_finite()) {
         return Err(PyValueError::new_err(format!(
             "min_distance must be a finite distance >= 0 m, got {min_distance}"
@@ -211,13 +217,14 @@ fn ccd<'py>(
 /// point, then the triangle's vertices). Returns `(hit, toi)`: whether the distance reaches
 /// `min_distance` (m) within the step, and a lower bound of that time (1 where no hit).
 #[pyfunction]
-#[pyo3(signature = (start, end, min_distance = 0.0, *, s = 0.1, t_c = 0.95))]
+#[pyo3(signature = (start, end, min_distance = Real::of(0.0), *, s = Real::of(0.1),
+                    t_c = Real::of(0.95)))]
 fn point_triangle_ccd_additive<'py>(
     start: &Bound<'py, PyAny>,
     end: &Bound<'py, PyAny>,
-    min_distance: f64,
-    s: f64,
-    t_c: f64,
+    min_distance: Real,
+    s: Real,
+    t_c: Real,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     ccd(start, end, min_distance, s, t_c, point_triangle_ccd)
 }
@@ -225,13 +232,14 @@ fn point_triangle_ccd_additive<'py>(
 /// Additive CCD of n edge-edge pairs (each (n, 4, 3): `a0, a1, b0, b1`); see
 /// `point_triangle_ccd_additive`.
 #[pyfunction]
-#[pyo3(signature = (start, end, min_distance = 0.0, *, s = 0.1, t_c = 0.95))]
+#[pyo3(signature = (start, end, min_distance = Real::of(0.0), *, s = Real::of(0.1),
+                    t_c = Real::of(0.95)))]
 fn edge_edge_ccd_additive<'py>(
     start: &Bound<'py, PyAny>,
     end: &Bound<'py, PyAny>,
-    min_distance: f64,
-    s: f64,
-    t_c: f64,
+    min_distance: Real,
+    s: Real,
+    t_c: Real,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     ccd(start, end, min_distance, s, t_c, edge_edge_ccd)
 }
@@ -268,25 +276,35 @@ pub struct PyContact {
 #[pymethods]
 impl PyContact {
     #[new]
-    #[pyo3(signature = (*, thickness = 1.5e-3, d_hat = None, eps = 0.1, weight = 1.0,
-                        max_iters = 32, step = "curvature", toi_threshold = 0.1, ccd_s = 0.1,
-                        ccd_t_c = 0.95, warm_start = true, parallel_angle = None,
+    #[pyo3(signature = (*, thickness = Real::of(1.5e-3), d_hat = None, eps = Real::of(0.1),
+                        weight = Real::of(1.0), max_iters = Int::of(32), step = "curvature",
+                        toi_threshold = Real::of(0.1), ccd_s = Real::of(0.1),
+                        ccd_t_c = Real::of(0.95), warm_start = true, parallel_angle = None,
                         proximal = "jacobi"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
-        thickness: f64,
-        d_hat: Option<f64>,
-        eps: f64,
-        weight: f64,
-        max_iters: i64,
+        thickness: Real,
+        d_hat: Option<Real>,
+        eps: Real,
+        weight: Real,
+        max_iters: Int,
         step: &str,
-        toi_threshold: f64,
-        ccd_s: f64,
-        ccd_t_c: f64,
+        toi_threshold: Real,
+        ccd_s: Real,
+        ccd_t_c: Real,
         warm_start: bool,
-        parallel_angle: Option<f64>,
+        parallel_angle: Option<Real>,
         proximal: &str,
     ) -> PyResult<Self> {
+        let thickness = thickness.get("thickness")?;
+        let d_hat = d_hat.map(|d| d.get("d_hat")).transpose()?;
+        let (eps, weight) = (eps.get("eps")?, weight.get("weight")?);
+        let max_iters = max_iters.get("max_iters")?;
+        let toi_threshold = toi_threshold.get("toi_threshold")?;
+        let (ccd_s, ccd_t_c) = (ccd_s.get("ccd_s")?, ccd_t_c.get("ccd_t_c")?);
+        let parallel_angle = parallel_angle
+            .map(|a| a.get("parallel_angle"))
+            .transpose()?;
         let inner = ContactParams {
             thickness,
             d_hat: d_hat.unwrap_or(4.0 * thickness),
@@ -366,8 +384,14 @@ impl PyContact {
     /// The local step's stopping distance (m) under a solver tolerance `tol` (m; 0 for a
     /// fixed iteration count): `eps * xi / 100`, or `tol / 5` where that is smaller (see
     /// `ContactParams::stop_distance`). The local step's result is only this exact.
-    fn stop_distance(&self, tol: f64) -> PyResult<f64> {
-        let tol = check_param("tol", tol, |v| v >= 0.0, "a finite distance >= 0 m").py()?;
+    fn stop_distance(&self, tol: Real) -> PyResult<f64> {
+        let tol = check_param(
+            "tol",
+            tol.get("tol")?,
+            |v| v >= 0.0,
+            "a finite distance >= 0 m",
+        )
+        .py()?;
         Ok(self.inner.stop_distance(tol))
     }
     /// A copy with the parameters named by keyword (the constructor's names) changed and the
@@ -378,18 +402,21 @@ impl PyContact {
         let mut p = self.inner;
         for (key, value) in changes.into_iter().flatten() {
             let key: String = key.extract()?;
+            let real = |name: &str| value.extract::<Real>()?.get(name);
             match key.as_str() {
-                "thickness" => p.thickness = value.extract()?,
-                "d_hat" => p.d_hat = value.extract()?,
-                "eps" => p.eps = value.extract()?,
-                "weight" => p.weight = value.extract()?,
-                "max_iters" => p.max_iters = iteration_cap(value.extract()?)?,
+                "thickness" => p.thickness = real("thickness")?,
+                "d_hat" => p.d_hat = real("d_hat")?,
+                "eps" => p.eps = real("eps")?,
+                "weight" => p.weight = real("weight")?,
+                "max_iters" => {
+                    p.max_iters = iteration_cap(value.extract::<Int>()?.get("max_iters")?)?
+                }
                 "step" => p.step = DESCENT_STEP.parse(&value.extract::<String>()?)?,
-                "toi_threshold" => p.toi_threshold = value.extract()?,
-                "ccd_s" => p.ccd.s = value.extract()?,
-                "ccd_t_c" => p.ccd.t_c = value.extract()?,
+                "toi_threshold" => p.toi_threshold = real("toi_threshold")?,
+                "ccd_s" => p.ccd.s = real("ccd_s")?,
+                "ccd_t_c" => p.ccd.t_c = real("ccd_t_c")?,
                 "warm_start" => p.warm_start = value.extract()?,
-                "parallel_angle" => p.parallel_angle = value.extract()?,
+                "parallel_angle" => p.parallel_angle = real("parallel_angle")?,
                 "proximal" => p.proximal = PROXIMAL_METRIC.parse(&value.extract::<String>()?)?,
                 other => {
                     return Err(PyTypeError::new_err(format!(

@@ -1,6 +1,6 @@
 //! Core errors as Python exceptions, in one place.
 
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyRuntimeError, PyUserWarning, PyValueError};
 use pyo3::PyErr;
 
 use crate::error::Error;
@@ -10,6 +10,14 @@ pyo3::create_exception!(
     DivergenceError,
     PyRuntimeError,
     "A time step produced non-finite positions; the bodies were left at their last good state."
+);
+
+pyo3::create_exception!(
+    _core,
+    PrecisionWarning,
+    PyUserWarning,
+    "The solver's floating-point precision cannot hold what the simulation asks of it: \
+     coordinates so far from the origin that the motion of one step is below their resolution."
 );
 
 /// Maps a core error to its Python exception type.

@@ -6,6 +6,7 @@ use pyo3::prelude::*;
 use crate::material::Material;
 
 use super::errors::IntoPyResult;
+use super::scalars::Real;
 
 /// Evaluates `f` on every row of a (..., 3) array of principal stretches.
 fn per_row<'py>(
@@ -14,7 +15,7 @@ fn per_row<'py>(
     f: impl Fn([f64; 3]) -> Vec<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let np = stretches.py().import("numpy")?;
-    let arr = np.call_method1("ascontiguousarray", (stretches, "float64"))?;
+    let arr = super::arrays::real_array(stretches, "stretches")?;
     let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
     if shape.last() != Some(&3) {
         return Err(PyValueError::new_err(format!(
@@ -92,18 +93,18 @@ pub struct PyStretchA3 {
 material_class!(PyStretchA3, {
     #[new]
     #[pyo3(signature = (*, s0))]
-    fn new(s0: f64) -> PyResult<Self> {
+    fn new(s0: Real) -> PyResult<Self> {
         Ok(Self {
-            inner: Material::stretch_a3(s0).py()?,
+            inner: Material::stretch_a3(s0.get("s0")?).py()?,
         })
     }
     /// From the sheet's Young's modulus E (Pa): s0 = E / 2. A3 has no Poisson coupling, so nu must be 0.
     #[staticmethod]
-    #[pyo3(signature = (E, nu = 0.0))]
+    #[pyo3(signature = (E, nu = Real::of(0.0)))]
     #[allow(non_snake_case)]
-    fn from_young(E: f64, nu: f64) -> PyResult<Self> {
+    fn from_young(E: Real, nu: Real) -> PyResult<Self> {
         Ok(Self {
-            inner: Material::stretch_a3_from_young(E, nu).py()?,
+            inner: Material::stretch_a3_from_young(E.get("E")?, nu.get("nu")?).py()?,
         })
     }
     /// Stiffness (Pa).
@@ -129,18 +130,18 @@ pub struct PyNeoHookean {
 material_class!(PyNeoHookean, {
     #[new]
     #[pyo3(signature = (*, s0, s1))]
-    fn new(s0: f64, s1: f64) -> PyResult<Self> {
+    fn new(s0: Real, s1: Real) -> PyResult<Self> {
         Ok(Self {
-            inner: Material::neo_hookean(s0, s1).py()?,
+            inner: Material::neo_hookean(s0.get("s0")?, s1.get("s1")?).py()?,
         })
     }
     /// From the sheet's in-plane (plane-stress) Young's modulus E (Pa) and Poisson ratio nu:
     /// s0 = E / (4 (1 + nu)), s1 = E nu / (2 (1 - nu^2)).
     #[staticmethod]
     #[allow(non_snake_case)]
-    fn from_young(E: f64, nu: f64) -> PyResult<Self> {
+    fn from_young(E: Real, nu: Real) -> PyResult<Self> {
         Ok(Self {
-            inner: Material::neo_hookean_from_young(E, nu).py()?,
+            inner: Material::neo_hookean_from_young(E.get("E")?, nu.get("nu")?).py()?,
         })
     }
     #[getter]

@@ -13,6 +13,7 @@ use crate::mesh::TriangleMesh;
 use super::arrays::{indices, to_numpy, to_numpy_1d, triangles, vec3s};
 use super::errors::{guard, IntoPyResult};
 use super::material;
+use super::scalars::{Int, Real};
 
 /// A thin hyperelastic membrane (triangle mesh) simulated by projective peridynamics.
 #[pyclass(module = "peridyn._core", name = "Membrane")]
@@ -32,6 +33,21 @@ impl PyMembrane {
     }
 }
 
+/// Refuses a vertex index outside `[0, n)`, naming its entry and its true value (the core
+/// keeps vertex indices in 32 bits: 2**32 must not become vertex 0).
+fn vertex_range(indices: &[i64], n: usize) -> PyResult<()> {
+    match indices
+        .iter()
+        .position(|&i| usize::try_from(i).map_or(true, |i| i >= n))
+    {
+        None => Ok(()),
+        Some(k) => Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "indices[{k}] = {} is not a vertex index: the membrane has {n} vertices, [0, {n})",
+            indices[k]
+        ))),
+    }
+}
+
 fn synced_or_not(inner: &Mutex<Membrane>) -> MutexGuard<'_, Membrane> {
     inner
         .lock()
@@ -48,22 +64,28 @@ fn synced(inner: &Mutex<Membrane>) -> PyResult<MutexGuard<'_, Membrane>> {
 #[pymethods]
 impl PyMembrane {
     #[new]
-    #[pyo3(signature = (vertices, triangles, *, thickness, density, material, bending = 0.0,
-                        hourglass = MembraneParams::DEFAULT_HOURGLASS, neighbors = 1,
-                        self_contact = true))]
+    #[pyo3(signature = (vertices, triangles, *, thickness, density, material,
+                        bending = Real::of(0.0),
+                        hourglass = Real::of(MembraneParams::DEFAULT_HOURGLASS),
+                        neighbors = Int::of(1), self_contact = true))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         vertices: &Bound<'_, PyAny>,
         triangles: &Bound<'_, PyAny>,
-        thickness: f64,
-        density: f64,
+        thickness: Real,
+        density: Real,
         material: &Bound<'_, PyAny>,
-        bending: f64,
-        hourglass: f64,
-        neighbors: i64,
+        bending: Real,
+        hourglass: Real,
+        neighbors: Int,
         self_contact: bool,
     ) -> PyResult<Self> {
+        let thickness = thickness.get("thickness")?;
+        let density = density.get("density")?;
+        let bending = bending.get("bending")?;
+        let hourglass = hourglass.get("hourglass")?;
+        let neighbors = neighbors.get("neighbors")?;
         let v: Vec<[f64; 3]> = vec3s(vertices, "vertices", None)?
             .iter()
             .map(|p| [p.x, p.y, p.z])
@@ -203,13 +225,19 @@ impl PyMembrane {
         let targets = targets
             .map(|t| vec3s(t, "targets", Some(idx.len())))
             .transpose()?;
-        self.state()?.pin(&idx, targets.as_deref()).py()
+        let mut m = self.state()?;
+        vertex_range(&idx, m.num_vertices())?;
+        m.pin(&idx, targets.as_deref()).py()
     }
     /// Releases the given pinned vertices (all when None).
     #[pyo3(signature = (indices = None))]
     fn unpin(&self, indices: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
         let idx = indices.map(|i| self::indices(i, "indices")).transpose()?;
-        self.lock().unpin(idx.as_deref()).py()
+        let mut m = self.lock();
+        if let Some(idx) = &idx {
+            vertex_range(idx, m.num_vertices())?;
+        }
+        m.unpin(idx.as_deref()).py()
     }
     /// Sorted indices of the pinned vertices (int64).
     #[getter]

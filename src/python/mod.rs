@@ -10,6 +10,7 @@ mod gpu;
 mod material;
 mod membrane;
 mod options;
+mod scalars;
 mod solver;
 
 use pyo3::prelude::*;
@@ -20,6 +21,10 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add(
         "DivergenceError",
         m.py().get_type::<errors::DivergenceError>(),
+    )?;
+    m.add(
+        "PrecisionWarning",
+        m.py().get_type::<errors::PrecisionWarning>(),
     )?;
     m.add_class::<material::PyStretchA3>()?;
     m.add_class::<material::PyNeoHookean>()?;

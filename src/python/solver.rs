@@ -9,14 +9,18 @@ use crate::error::Result;
 use crate::gpu::GpuSolver;
 use crate::solve::{Acceleration, BodyMut, Clock, Solver, SolverParams, StepStats};
 
-use super::arrays::{to_numpy, to_numpy_1d, vec3, vec3s};
+use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, vec3};
 use super::body::{LockedBody, PyBody, SharedBody};
 use super::collider;
 use super::contact::PyContact;
-use super::errors::{guard, IntoPyResult};
+use super::errors::{guard, IntoPyResult, PrecisionWarning};
 use super::options::{
     AccelerationKind, Backend, Float, ACCELERATION, BACKEND, METHOD, PRECISION, PRECONDITIONER,
 };
+use super::scalars::{Int, Real};
+
+/// Most worker threads a CPU solver may start (each is an OS thread with its own stack).
+const MAX_THREADS: i64 = 1024;
 
 /// The core solver, on the CPU or the GPU, in the precision the user chose.
 enum Precision {
@@ -79,30 +83,39 @@ pub struct PySolver {
 #[pymethods]
 impl PySolver {
     #[new]
-    #[pyo3(signature = (*, dt, gravity = None, tol = 1e-4, max_iters = 100, threads = None,
-                        step_length = true, precision = None, preconditioner = "tangent",
-                        acceleration = None, chebyshev_rho = Acceleration::DEFAULT_RHO,
-                        chebyshev_delay = Acceleration::DEFAULT_DELAY as i64, record_energy = false,
-                        method = "sissm", inner_iters = 1, backend = "cpu", contact = None))]
+    #[pyo3(signature = (*, dt, gravity = None, tol = Real::of(1e-4), max_iters = Int::of(100),
+                        threads = None, step_length = true, precision = None,
+                        preconditioner = "tangent", acceleration = None,
+                        chebyshev_rho = Real::of(Acceleration::DEFAULT_RHO),
+                        chebyshev_delay = Int::of(Acceleration::DEFAULT_DELAY as i64),
+                        record_energy = false, method = "sissm", inner_iters = Int::of(1),
+                        backend = "cpu", contact = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
-        dt: f64,
+        dt: Real,
         gravity: Option<&Bound<'_, PyAny>>,
-        tol: f64,
-        max_iters: i64,
-        threads: Option<i64>,
+        tol: Real,
+        max_iters: Int,
+        threads: Option<Int>,
         step_length: bool,
         precision: Option<&str>,
         preconditioner: &str,
         acceleration: Option<&str>,
-        chebyshev_rho: f64,
-        chebyshev_delay: i64,
+        chebyshev_rho: Real,
+        chebyshev_delay: Int,
         record_energy: bool,
         method: &str,
-        inner_iters: i64,
+        inner_iters: Int,
         backend: &str,
         contact: Option<PyRef<'_, PyContact>>,
     ) -> PyResult<Self> {
+        let dt = dt.get("dt")?;
+        let tol = tol.get("tol")?;
+        let max_iters = max_iters.get("max_iters")?;
+        let threads = threads.map(|t| t.get("threads")).transpose()?;
+        let chebyshev_rho = chebyshev_rho.get("chebyshev_rho")?;
+        let chebyshev_delay = chebyshev_delay.get("chebyshev_delay")?;
+        let inner_iters = inner_iters.get("inner_iters")?;
         let method = METHOD.parse(method)?;
         if inner_iters < 1 {
             return Err(PyValueError::new_err(format!(
@@ -131,10 +144,10 @@ impl PySolver {
         }
         let threads = match threads {
             None => None,
-            Some(n) if n >= 1 => Some(n as usize),
+            Some(n) if (1..=MAX_THREADS).contains(&n) => Some(n as usize),
             Some(n) => {
                 return Err(PyValueError::new_err(format!(
-                    "threads must be >= 1 or None, got {n}"
+                    "threads must be in [1, {MAX_THREADS}] or None, got {n}"
                 )))
             }
         };
@@ -153,6 +166,13 @@ impl PySolver {
         };
         let backend = BACKEND.parse(backend)?;
         let precision = precision.map(|p| PRECISION.parse(p)).transpose()?;
+        check_dt(
+            dt,
+            precision.unwrap_or(match backend {
+                Backend::Cpu => Float::F64,
+                Backend::Gpu => Float::F32,
+            }),
+        )?;
         let core = match (backend, precision) {
             (Backend::Cpu, None | Some(Float::F64)) => {
                 Precision::F64(Solver::new(params, threads).py()?)
@@ -189,6 +209,7 @@ impl PySolver {
                 body.get_type().name()?
             )));
         }
+        self.warn_resolution(py, &new)?;
         self.bodies.push(new);
         Ok(())
     }
@@ -207,7 +228,7 @@ impl PySolver {
     #[pyo3(signature = (index, *, rotation = None, translation = None))]
     fn set_collider_pose(
         &mut self,
-        index: i64,
+        index: Int,
         rotation: Option<&Bound<'_, PyAny>>,
         translation: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
@@ -222,7 +243,7 @@ impl PySolver {
 
     /// The current pose of collider `index`: (rotation (3, 3), translation (3,) in m), such that
     /// a point `b` of the geometry as given is now at `rotation @ b + translation`.
-    fn collider_pose<'py>(&self, py: Python<'py>, index: i64) -> PyResult<PoseArrays<'py>> {
+    fn collider_pose<'py>(&self, py: Python<'py>, index: Int) -> PyResult<PoseArrays<'py>> {
         let index = self.collider_index(index)?;
         let pose = match &self.core {
             Precision::F64(s) => s.collider_pose(index).py()?,
@@ -244,7 +265,7 @@ impl PySolver {
     fn collider_motion<'py>(
         &self,
         py: Python<'py>,
-        index: i64,
+        index: Int,
     ) -> PyResult<(PoseArrays<'py>, Option<PoseArrays<'py>>)> {
         let index = self.collider_index(index)?;
         let (base, target) = match &self.core {
@@ -261,7 +282,7 @@ impl PySolver {
                         target_translation = None))]
     fn set_collider_motion(
         &mut self,
-        index: i64,
+        index: Int,
         base_rotation: &Bound<'_, PyAny>,
         base_translation: &Bound<'_, PyAny>,
         target_rotation: Option<&Bound<'_, PyAny>>,
@@ -297,6 +318,11 @@ impl PySolver {
                 "the solver has no bodies: call solver.add(membrane) first",
             ));
         }
+        if self.core.backend() == Backend::Cpu {
+            for body in &self.bodies {
+                self.warn_resolution(py, body)?;
+            }
+        }
         let shared: Vec<SharedBody> = self.bodies.iter().map(|b| b.shared(py)).collect();
         let core = &mut self.core;
         let stats = py.detach(move || {
@@ -315,7 +341,9 @@ impl PySolver {
         with_solver!(&self.core, s => s.params().dt)
     }
     #[setter]
-    fn set_dt(&mut self, dt: f64) -> PyResult<()> {
+    fn set_dt(&mut self, dt: Real) -> PyResult<()> {
+        let dt = dt.get("dt")?;
+        check_dt(dt, self.core.float())?;
         with_solver!(&mut self.core, s => {
             let p = SolverParams { dt, ..*s.params() };
             s.set_params(p).py()
@@ -424,7 +452,12 @@ impl PySolver {
         with_solver!(&self.core, s => s.clock().steps)
     }
     /// Sets the simulation time (s) and step count, e.g. when restoring a saved state.
-    fn set_clock(&mut self, time: f64, steps_taken: u64) -> PyResult<()> {
+    fn set_clock(&mut self, time: Real, steps_taken: Int) -> PyResult<()> {
+        let time = time.get("time")?;
+        let steps_taken = steps_taken.get("steps_taken")?;
+        let steps_taken = u64::try_from(steps_taken).map_err(|_| {
+            PyValueError::new_err(format!("steps_taken must be >= 0, got {steps_taken}"))
+        })?;
         let clock = Clock::at(time, steps_taken).py()?;
         with_solver!(&mut self.core, s => s.set_clock(clock));
         Ok(())
@@ -449,8 +482,42 @@ impl PySolver {
 }
 
 impl PySolver {
+    /// Warns (`peridyn.PrecisionWarning`) when `body` is so far from the origin that the motion
+    /// gravity gives it in one step from rest, `|g| dt^2`, is below the resolution of its
+    /// coordinates in the solver's precision (`|x| * epsilon`): the step would round it away.
+    /// Checked when a body is added, and before each step on the CPU backend (the GPU backend
+    /// keeps positions on the device: only when added).
+    fn warn_resolution(&self, py: Python<'_>, body: &PyBody) -> PyResult<()> {
+        let coordinate = body.extent(py)?;
+        let (dt, gravity) = with_solver!(&self.core, s => (s.params().dt, s.params().gravity));
+        let g = gravity.iter().map(|c| c * c).sum::<f64>().sqrt();
+        let expected = g * dt * dt;
+        let (name, epsilon) = match self.core.float() {
+            Float::F32 => ("f32", f64::from(f32::EPSILON)),
+            Float::F64 => ("f64", f64::EPSILON),
+        };
+        let resolution = coordinate * epsilon;
+        if !(expected > 0.0 && expected < resolution) {
+            return Ok(());
+        }
+        let message = format!(
+            "a body has coordinates up to {coordinate:e} m, whose resolution in precision \
+             '{name}' is {resolution:e} m, but the motion gravity gives it in one step from \
+             rest, |g| dt^2 = {expected:e} m, is smaller: the step rounds it away and the body \
+             will not fall as it should; move the scene near the origin{}",
+            if name == "f32" {
+                " or use precision='f64'"
+            } else {
+                ""
+            }
+        );
+        let category = py.get_type::<PrecisionWarning>();
+        PyErr::warn(py, &category, &std::ffi::CString::new(message)?, 1)
+    }
+
     /// `index` checked against the colliders added.
-    fn collider_index(&self, index: i64) -> PyResult<usize> {
+    fn collider_index(&self, index: Int) -> PyResult<usize> {
+        let index = index.get("collider index")?;
         usize::try_from(index)
             .ok()
             .filter(|i| *i < self.colliders.len())
@@ -602,16 +669,61 @@ fn pose_arg(
 ) -> PyResult<Pose> {
     let rows = match rotation {
         None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        Some(r) => {
-            let m = vec3s(r, "rotation", Some(3))?;
-            [0, 1, 2].map(|k| [m[k].x, m[k].y, m[k].z])
-        }
+        Some(r) => rotation_rows(r, "rotation")?,
     };
     let translation = translation
         .map(|t| vec3(t, "translation"))
         .transpose()?
         .unwrap_or([0.0; 3]);
     Pose::new(rows, translation).py()
+}
+
+/// Refuses a time step `dt` (s) the precision `float` cannot step with: `h^2` (the gravity
+/// kick and the inertia weights) must stay a normal number and `1/h` (the velocities) finite,
+/// or every step would produce non-finite or zero velocities. `dt` not finite or not > 0 is
+/// left to the core, which names it.
+fn check_dt(dt: f64, float: Float) -> PyResult<()> {
+    if !(dt.is_finite() && dt > 0.0) {
+        return Ok(());
+    }
+    let (name, ok, smallest, largest) = match float {
+        Float::F32 => {
+            let h = dt as f32;
+            let ok = (h * h).is_normal() && (1.0 / h).is_finite();
+            ("f32", ok, f64::from(f32::MIN_POSITIVE), f64::from(f32::MAX))
+        }
+        Float::F64 => {
+            let ok = (dt * dt).is_normal() && (1.0 / dt).is_finite();
+            ("f64", ok, f64::MIN_POSITIVE, f64::MAX)
+        }
+    };
+    if ok {
+        return Ok(());
+    }
+    let (lo, hi) = (
+        smallest.sqrt() * (1.0 + 1e-6),
+        largest.sqrt() * (1.0 - 1e-6),
+    );
+    let what = if dt < 1.0 {
+        format!(
+            "dt^2 = {:e} underflows (the smallest normal {name} is {smallest:e})",
+            dt * dt
+        )
+    } else {
+        format!(
+            "dt^2 = {:e} overflows (the largest {name} is {largest:e})",
+            dt * dt
+        )
+    };
+    let other = if name == "f32" {
+        " or precision='f64'"
+    } else {
+        ""
+    };
+    Err(PyValueError::new_err(format!(
+        "dt = {dt:e} s cannot be stepped in precision '{name}': {what}, so the velocities \
+         (y - x) / dt would not be finite; use {lo:.3e} s <= dt <= {hi:.3e} s{other}"
+    )))
 }
 
 fn no_gpu_poses() -> PyErr {

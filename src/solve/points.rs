@@ -135,6 +135,18 @@ impl<T: Real> Points<T> {
         self.y.copy_from_slice(&self.y_star);
     }
 
+    /// The first point whose new velocity `(y_{t+1} - y_t) / h` would not be finite (finite
+    /// positions can still overflow there), checked before [`finish`](Self::finish) changes
+    /// anything, so that a diverged step leaves the bodies at their last good state.
+    pub fn first_bad_velocity(&self, h: T) -> Option<usize> {
+        let inv_h = T::one() / h;
+        (0..self.y.len()).into_par_iter().find_first(|&i| {
+            !((self.y[i] - self.y_start[i]) * inv_h)
+                .iter()
+                .all(|c| c.to_f64().is_finite())
+        })
+    }
+
     /// `v_{t+1} = (y_{t+1} - y_t) / h`, `y_t <- y_{t+1}` (Algorithm 1, line 16).
     pub fn finish(&mut self, h: T) {
         let inv_h = T::one() / h;

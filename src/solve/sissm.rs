@@ -389,6 +389,17 @@ impl<T: Real> Solver<T> {
         }
 
         let t = Instant::now();
+        for (family, indices) in families.each().zip(list_indices) {
+            if let Some(point) = family.points().first_bad_velocity(h) {
+                let (body, vertex) = family.points().locate(point);
+                return Err(Error::Diverged {
+                    step: self.clock.steps,
+                    iteration: stats.iterations,
+                    body: indices[body],
+                    vertex,
+                });
+            }
+        }
         for family in families.each() {
             family.points_mut().finish(h);
             family.end_step()?;
