@@ -131,7 +131,7 @@ mod tests {
         let all = morton([MAX_COORD; 3]);
         assert_eq!(all, (1u128 << 126) - 1);
         // A naive interleave agrees on arbitrary coordinates.
-        let c = [0x2_1234_5678_9u64, 0x3_ffff_0000_1, 0x1_0f0f_0f0f_0];
+        let c = [0x0021_2345_6789_u64, 0x003f_fff0_0001, 0x0010_f0f0_f0f0];
         let mut naive = 0u128;
         for bit in 0..AXIS_BITS {
             for (k, v) in c.iter().enumerate() {

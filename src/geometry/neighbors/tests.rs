@@ -58,7 +58,7 @@ fn uniform(n: usize, seed: u64) -> Vec<Vector3<f64>> {
 fn clustered(n: usize, seed: u64) -> Vec<Vector3<f64>> {
     let mut rng = Rng::new(seed);
     let centres: Vec<(Vector3<f64>, f64)> = (0..5)
-        .map(|k| (rng.vector() * 3.0, 10f64.powi(-(k as i32))))
+        .map(|k| (rng.vector() * 3.0, 10f64.powi(-k)))
         .collect();
     (0..n)
         .map(|i| {
@@ -168,8 +168,8 @@ fn results_do_not_depend_on_the_input_order() {
     for (k, &i) in perm.iter().enumerate() {
         inverse[i] = k as u32;
     }
-    for k in 0..y.len() {
-        let mut mapped: Vec<u32> = h.of(perm[k]).iter().map(|&i| inverse[i as usize]).collect();
+    for (k, &i) in perm.iter().enumerate() {
+        let mut mapped: Vec<u32> = h.of(i).iter().map(|&i| inverse[i as usize]).collect();
         mapped.sort_unstable();
         assert_eq!(g.of(k), &mapped[..], "point {k}");
     }

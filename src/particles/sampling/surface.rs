@@ -63,13 +63,13 @@ pub fn sample_surface(
         .collect();
     let total: f64 = layouts.iter().map(|l| l.count as f64).sum();
     let area: f64 = layouts.iter().map(|l| l.area).sum();
-    if !(total <= MAX_SURFACE_CANDIDATES as f64) {
+    if total > MAX_SURFACE_CANDIDATES as f64 {
         return Err(invalid!(
             "sampling the surface needs {total:.3e} candidate points (area {area} m^2), more than {MAX_SURFACE_CANDIDATES}: use a larger spacing ({spacing} m)"
         ));
     }
     let expected = area / (spacing * spacing);
-    if !(expected <= MAX_PARTICLES as f64) {
+    if expected > MAX_PARTICLES as f64 {
         return Err(invalid!(
             "sampling would give about {expected:.3e} particles (area / spacing^2), more than {MAX_PARTICLES}: use a larger spacing ({spacing} m)"
         ));

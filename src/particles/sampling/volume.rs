@@ -28,7 +28,7 @@ impl Lattice {
     pub fn over(lo: Vector3<f64>, hi: Vector3<f64>, spacing: f64, cap: f64) -> Result<Self> {
         let counts = [0, 1, 2].map(|k| ((hi[k] - lo[k]) / spacing).ceil().max(1.0));
         let sites = counts[0] * counts[1] * counts[2];
-        if !(sites <= cap) {
+        if sites > cap {
             return Err(invalid!(
                 "the sampling lattice would have {sites:.3e} sites ({:?} along x, y, z), more than {cap:.3e}: use a larger spacing ({spacing} m)",
                 counts
@@ -94,7 +94,7 @@ pub fn sample_volume(
     )?;
     let mesh = MeshDistance::new(vertices, triangles)?;
     let expected = mesh.volume() / spacing.powi(3);
-    if !(expected <= MAX_PARTICLES as f64) {
+    if expected > MAX_PARTICLES as f64 {
         return Err(invalid!(
             "sampling would give about {expected:.3e} particles (volume {} m^3 / spacing^3), more than {MAX_PARTICLES}: use a larger spacing ({spacing} m)",
             mesh.volume()
