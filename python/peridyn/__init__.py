@@ -25,6 +25,8 @@ from ._core import (
     StretchA3,
     contact,
     gpu_info,
+    sample_surface,
+    sample_volume,
 )
 from .io import FrameRecorder, load_state, save_state, write_mesh
 from .materials import plate_bending_stiffness
@@ -53,6 +55,8 @@ __all__ = [
     "StretchA3",
     "contact",
     "gpu_info",
+    "sample_surface",
+    "sample_volume",
     # Python layer
     "FrameRecorder",
     "RunSummary",
