@@ -36,6 +36,8 @@ pub(super) struct CellGrid {
     lo_half: [f64; 3],
     /// Half the cell side (m).
     cell_half: f64,
+    /// Cells along each axis (the highest point's coordinates plus one).
+    pub dims: [u64; 3],
 }
 
 impl CellGrid {
@@ -77,10 +79,14 @@ impl CellGrid {
         let across = (half_extent / (0.5 * delta)).min((1u64 << (AXIS_BITS + 1)) as f64);
         let eta = 1e-9 + 8.0 * f64::EPSILON * (across + 1.0);
         let widest = half_extent / (1u64 << (AXIS_BITS - 1)) as f64;
-        Self {
+        let mut grid = Self {
             lo_half,
             cell_half: (0.5 * delta * (1.0 + eta)).max(widest),
-        }
+            dims: [0; 3],
+        };
+        // Cell coordinates grow with the position, so the highest corner has the highest.
+        grid.dims = grid.coords(&hi).map(|c| c + 1);
+        grid
     }
 
     /// Cell coordinates of the point `p` of the set, each in `0..=MAX_COORD`.

@@ -6,16 +6,18 @@
 //! cubic cell (side just above `delta`, [`cells::CellGrid`]); the points are sorted by the
 //! Morton code of their cell (ties by index), so each cell's points are contiguous and cells
 //! near in space are mostly near in memory; each point's candidates are the points of the 27
-//! cells around its own (found by binary search among the occupied cells' codes, so empty
-//! space costs nothing). Cells are processed in parallel (rayon), each point's list computed
-//! alone, so the result is the same on any number of threads and for any input order.
+//! cells around its own (found in a dense table of the box's cells when it has at most about
+//! four per point, else by binary search among the occupied cells' codes, so empty space
+//! costs nothing). Runs of whole cells are processed in parallel (rayon), each point's list
+//! computed alone, so the result is the same on any number of threads and for any input order.
 //!
 //! Cost: `O(N log N)` for the sort and `O(N k)` for the tests with `k` candidates per point
 //! (`k ~ 27 / (4 pi / 3) ~ 6.4` times the neighbours in a uniform cloud; `O(N)` expected
 //! for a bounded density, `O(N^2)` at worst when everything sits in one cell). Memory: the
 //! result's `4 (N + 1)` bytes of offsets, `4 B` bytes of indices (`B` bonds) and `4 N` of
-//! order; transiently `44 N` bytes (f64 positions, sort keys) and another `4 B` (the lists in
-//! sorted order before they are put back in input order).
+//! order; transiently about `60 N` bytes (f64 positions, sort keys, the cell table) and
+//! another `8 B` (the lists in sorted order, per run and joined, before they are put back in
+//! input order).
 
 mod cells;
 
@@ -23,7 +25,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::error::{invalid, Result};
-use crate::parallel::{for_each_block, for_each_vertex};
+use crate::parallel::{for_each_vertex, GRAIN};
 use crate::real::Real;
 
 use cells::{morton, within, CellGrid, MAX_COORD};
@@ -118,61 +120,61 @@ pub fn find_horizons<T: Real>(positions: &[Vector3<T>], delta: f64) -> Result<Ho
     }
     starts.push(n as u32);
     drop(keys);
+    // Occupied cells by coordinates: a dense table when the box has few cells per point,
+    // else binary search among the codes.
+    let [dx, dy, dz] = grid.dims;
+    let box_cells = dx.saturating_mul(dy).saturating_mul(dz);
+    let table = if box_cells <= 4 * n as u64 + 4096 {
+        let mut table = vec![u32::MAX; box_cells as usize];
+        for (c, &s) in starts[..codes.len()].iter().enumerate() {
+            let [x, y, z] = grid.coords(&sorted[s as usize]);
+            table[(x + dx * (y + dy * z)) as usize] = c as u32;
+        }
+        table
+    } else {
+        Vec::new()
+    };
     let cells = Cells {
         grid,
         codes: &codes,
+        table: &table,
         starts: &starts,
         sorted: &sorted,
         delta2,
     };
 
-    // Pass 1: neighbour counts, in sorted order.
-    let no_bonds = vec![0u32; n + 1];
-    let mut counts = vec![0u32; n];
-    for_each_block(
-        &no_bonds,
-        &starts,
-        &mut [] as &mut [()],
-        &mut counts,
-        &|blocks, first, _, out| {
-            for cell in blocks {
+    // One pass over runs of whole cells of about `GRAIN` points (fixed by the cells, not by
+    // the threads): each run's counts and lists (input indices, increasing), in sorted order.
+    let mut runs = vec![0usize];
+    for c in 1..codes.len() {
+        if (starts[c] - starts[*runs.last().expect("one run")]) as usize >= GRAIN {
+            runs.push(c);
+        }
+    }
+    runs.push(codes.len());
+    let parts: Vec<(Vec<u32>, Vec<u32>)> = runs
+        .par_windows(2)
+        .map(|w| {
+            let (mut counts, mut lists) = (Vec::new(), Vec::new());
+            for cell in w[0]..w[1] {
                 let around = cells.around(cell);
                 for r in cells.points(cell) {
-                    let mut count = 0;
-                    cells.each_neighbour(r, &around, |_| count += 1);
-                    out[r - first] = count;
+                    let first = lists.len();
+                    cells.each_neighbour(r, &around, |s| lists.push(order[s]));
+                    lists[first..].sort_unstable();
+                    counts.push((lists.len() - first) as u32);
                 }
             }
-        },
-    );
-    drop(no_bonds);
+            (counts, lists)
+        })
+        .collect();
+    let counts: Vec<u32> = parts.iter().flat_map(|p| p.0.iter().copied()).collect();
     let sorted_offsets = prefix_sum(counts.iter().copied())?;
-
-    // Pass 2: the lists, in sorted order, as input indices in increasing order.
-    let mut sorted_indices = vec![0u32; *sorted_offsets.last().expect("n + 1") as usize];
+    let mut sorted_indices = Vec::with_capacity(*sorted_offsets.last().expect("n + 1") as usize);
+    for (_, lists) in parts {
+        sorted_indices.extend_from_slice(&lists);
+    }
     let mut done = vec![(); n];
-    for_each_block(
-        &sorted_offsets,
-        &starts,
-        &mut sorted_indices,
-        &mut done,
-        &|blocks, first, bonds, _| {
-            let base = sorted_offsets[first] as usize;
-            for cell in blocks {
-                let around = cells.around(cell);
-                for r in cells.points(cell) {
-                    let list =
-                        &mut bonds[sorted_offsets[r] as usize - base..][..counts[r] as usize];
-                    let mut next = 0;
-                    cells.each_neighbour(r, &around, |s| {
-                        list[next] = order[s];
-                        next += 1;
-                    });
-                    list.sort_unstable();
-                }
-            }
-        },
-    );
 
     // Back to input order.
     let mut rank = vec![0u32; n];
@@ -215,6 +217,8 @@ struct Cells<'a> {
     grid: CellGrid,
     /// Morton codes of the occupied cells, increasing.
     codes: &'a [u128],
+    /// Cell index by `x + nx (y + ny z)` (`u32::MAX` where empty), or empty: search `codes`.
+    table: &'a [u32],
     /// Cell `c` holds the sorted points `starts[c]..starts[c + 1]`.
     starts: &'a [u32],
     /// Positions in sorted order (m).
@@ -245,7 +249,7 @@ impl Cells<'_> {
         for z in near(c[2]) {
             for y in near(c[1]) {
                 for x in near(c[0]) {
-                    if let Ok(k) = self.codes.binary_search(&morton([x, y, z])) {
+                    if let Some(k) = self.find([x, y, z]) {
                         out.ranges[out.count] = (self.starts[k], self.starts[k + 1]);
                         out.count += 1;
                     }
@@ -253,6 +257,20 @@ impl Cells<'_> {
             }
         }
         out
+    }
+
+    /// The occupied cell at coordinates `c`.
+    #[inline]
+    fn find(&self, c: [u64; 3]) -> Option<usize> {
+        if self.table.is_empty() {
+            return self.codes.binary_search(&morton(c)).ok();
+        }
+        let [nx, ny, nz] = self.grid.dims;
+        if c[0] >= nx || c[1] >= ny || c[2] >= nz {
+            return None;
+        }
+        let k = self.table[(c[0] + nx * (c[1] + ny * c[2])) as usize];
+        (k != u32::MAX).then_some(k as usize)
     }
 
     /// Calls `f(s)` for every sorted point `s != r` within the horizon of the sorted point `r`.

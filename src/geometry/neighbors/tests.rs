@@ -135,20 +135,22 @@ fn lattices_exclude_pairs_exactly_at_the_horizon() {
 
 #[test]
 fn results_do_not_depend_on_the_thread_count() {
-    let x = clustered(20_000, 3);
-    let runs: Vec<Horizons> = [1, 2, 4]
-        .iter()
-        .map(|&threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| find_horizons(&x, 0.05).unwrap())
-        })
-        .collect();
-    assert!(runs[0].indices.len() > 100_000);
-    assert_eq!(runs[0], runs[1]);
-    assert_eq!(runs[0], runs[2]);
+    // Clustered: cells found by binary search; uniform: in the dense table.
+    for (x, delta) in [(clustered(20_000, 3), 0.05), (uniform(20_000, 3), 0.15)] {
+        let runs: Vec<Horizons> = [1, 2, 4]
+            .iter()
+            .map(|&threads| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| find_horizons(&x, delta).unwrap())
+            })
+            .collect();
+        assert!(runs[0].indices.len() > 100_000);
+        assert_eq!(runs[0], runs[1]);
+        assert_eq!(runs[0], runs[2]);
+    }
 }
 
 #[test]
