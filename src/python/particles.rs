@@ -23,8 +23,11 @@ fn real_dtype(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<()> {
     }
 }
 
+/// Vertices (m) and triangles of a mesh.
+type Mesh = (Vec<[f64; 3]>, Vec<[i64; 3]>);
+
 /// The mesh argument as vertices (m) and triangles, validated by shape and dtype.
-fn mesh_of(mesh: &Bound<'_, PyAny>, what: &str) -> PyResult<(Vec<[f64; 3]>, Vec<[i64; 3]>)> {
+fn mesh_of(mesh: &Bound<'_, PyAny>, what: &str) -> PyResult<Mesh> {
     let (v, f) = if mesh.hasattr("vertices")? && mesh.hasattr("faces")? {
         (mesh.getattr("vertices")?, mesh.getattr("faces")?)
     } else {
