@@ -18,6 +18,7 @@ pub mod material;
 pub mod membrane;
 pub mod mesh;
 pub mod parallel;
+pub mod particles;
 pub mod real;
 pub mod solve;
 pub mod symmetric;

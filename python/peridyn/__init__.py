@@ -26,6 +26,8 @@ from ._core import (
     StretchA3,
     contact,
     gpu_info,
+    sample_surface,
+    sample_volume,
 )
 from .io import FrameRecorder, load_state, save_state, write_mesh
 from .materials import plate_bending_stiffness
@@ -55,6 +57,8 @@ __all__ = [
     "StretchA3",
     "contact",
     "gpu_info",
+    "sample_surface",
+    "sample_volume",
     # Python layer
     "FrameRecorder",
     "RunSummary",

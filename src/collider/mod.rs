@@ -15,5 +15,5 @@ pub(crate) use crossing::{TOUCH_DISTANCE, TRACE_STEPS, TRACE_TOLERANCE};
 pub use friction::push_out_with_friction;
 pub use motion::MovingCollider;
 pub use pose::{rotation_matrix, Pose};
-pub use sdf::SdfGrid;
+pub use sdf::{MeshDistance, SdfGrid};
 pub use shape::{push_out_of_colliders, Collider, ColliderModel, MoveStart, Shape, ShapeModel};

@@ -10,6 +10,7 @@ mod gpu;
 mod material;
 mod membrane;
 mod options;
+mod particles;
 mod scalars;
 mod solver;
 
@@ -40,5 +41,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<contact::PyContact>()?;
     m.add_submodule(&contact::module(m.py())?)?;
     m.add_function(wrap_pyfunction!(gpu::gpu_info, m)?)?;
+    m.add_function(wrap_pyfunction!(particles::sample_volume, m)?)?;
+    m.add_function(wrap_pyfunction!(particles::sample_surface, m)?)?;
     Ok(())
 }

@@ -18,6 +18,7 @@
 //! measured error against the exact distance.
 
 mod closed_surface;
+mod exact;
 mod nearest;
 
 use nalgebra::Vector3;
@@ -26,6 +27,7 @@ use rayon::prelude::*;
 use crate::error::{invalid, Result};
 
 use closed_surface::ClosedSurface;
+pub use exact::MeshDistance;
 use nearest::TriangleTree;
 
 /// Most grid nodes a field may have (8 bytes each).

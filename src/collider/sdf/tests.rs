@@ -32,7 +32,7 @@ pub(crate) fn box_mesh(h: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[i64; 3]>) {
 }
 
 /// Icosphere of `radius` with `subdivisions` midpoint refinements (20 * 4^k triangles).
-fn icosphere(subdivisions: usize, radius: f64) -> (Vec<[f64; 3]>, Vec<[i64; 3]>) {
+pub(crate) fn icosphere(subdivisions: usize, radius: f64) -> (Vec<[f64; 3]>, Vec<[i64; 3]>) {
     let g = (1.0 + 5f64.sqrt()) / 2.0;
     let mut v: Vec<Vector3<f64>> = [
         [-1.0, g, 0.0],
