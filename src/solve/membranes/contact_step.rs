@@ -19,6 +19,7 @@ use crate::symmetric::SymmetricMatrix3;
 use super::jacobi::jacobi_block;
 use super::reaction::realised_reaction;
 use super::system::MembraneSystem;
+use crate::solve::energy::chunked_sum;
 
 /// How close to a collider's surface (m, beyond the vertex's half thickness) a vertex counts as
 /// resting on it: the local step leaves the vertices it keeps out on the surface, up to
@@ -227,12 +228,17 @@ fn jacobi_weights<T: Real>(
         .into_par_iter()
         .map(|k| jacobi_block(sys, k, h2).map(|x| x.to_f64()))
         .collect_into_vec(weights);
-    let (sum, free) = weights
-        .par_iter()
-        .zip(&sys.points.pinned)
-        .filter(|(_, &pinned)| !pinned)
-        .map(|(d, _)| (d.diagonal.iter().sum::<f64>() / 3.0, 1usize))
-        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    // In fixed chunks, so that the sum does not depend on how rayon splits the work (a
+    // `reduce` adds in an order that work stealing decides: runs would differ by round-off).
+    let pinned = &sys.points.pinned;
+    let sum = chunked_sum(weights.len(), &mut Vec::new(), |i| {
+        if pinned[i] {
+            0.0
+        } else {
+            weights[i].diagonal.iter().sum::<f64>() / 3.0
+        }
+    });
+    let free = pinned.iter().filter(|&&p| !p).count();
     let scale = if free > 0 { free as f64 / sum } else { 0.0 };
     weights.par_iter_mut().for_each(|w| {
         *w = if scale > 0.0 {
