@@ -192,7 +192,8 @@ def save_state(path: PathLike, solver: Any) -> Path:
 
     That is each body's positions, velocities, pinned vertices and pin targets, each collider's
     motion (the pose its velocity carries on from and a pose set with
-    ``Solver.set_collider_pose`` for the next step, if any) and the solver's clock.
+    ``Solver.set_collider_pose`` for the next step, if any), the solver's clock and the state
+    its contact carries from one step to the next (``Solver.contact_warm_start``).
     :func:`load_state` into a solver set up the same way (same bodies, parameters and colliders)
     then continues the simulation bit for bit.
 
@@ -227,9 +228,21 @@ def save_state(path: PathLike, solver: Any) -> Path:
         if target is not None:
             arrays[f"collider_target_rotation_{c}"] = np.asarray(target[0], dtype=np.float64)
             arrays[f"collider_target_translation_{c}"] = np.asarray(target[1], dtype=np.float64)
+    arrays.update(_solver_state(solver))
     path.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(path, **arrays)
     return path
+
+
+def _solver_state(solver: Any, data: Any = None) -> Dict[str, np.ndarray]:
+    """The solver's own state that its next steps depend on, as ``.npz`` entries (``data``
+    None), or restores it from ``data`` (a file without it: none, as in a fresh solver);
+    raises ``ValueError`` on a bad entry."""
+    if data is None:
+        return {"contact_warm_start": np.asarray(solver.contact_warm_start(), dtype=np.float64)}
+    warm = data["contact_warm_start"] if "contact_warm_start" in data else np.zeros((0, 3))
+    solver.set_contact_warm_start(warm)
+    return {}
 
 
 def load_state(path: PathLike, solver: Any) -> None:
@@ -261,6 +274,7 @@ def load_state(path: PathLike, solver: Any) -> None:
             raise ValueError(
                 f"load_state: {path} holds {colliders} colliders, the solver has {len(solver.colliders)}"
             )
+        _solver_state(solver, data)
         for b, body in enumerate(bodies):
             body.positions = data[f"positions_{b}"]
             body.velocities = data[f"velocities_{b}"]
