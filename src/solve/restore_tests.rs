@@ -167,6 +167,7 @@ fn the_unsaved_cross_step_state_is_a_cache() {
         Forget::Workspace(Piece::LiveList),
         Forget::Workspace(Piece::Allowances),
         Forget::Workspace(Piece::PairCache),
+        Forget::Contact,
         Forget::Families,
     ];
     for what in pieces {

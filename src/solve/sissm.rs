@@ -482,9 +482,10 @@ impl<T: Real> Solver<T> {
 #[cfg(test)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Forget {
-    /// The families' working sets (with the Chebyshev history `y_prev`).
+    /// The families' working sets (with the Chebyshev history `y_prev`), and the contact
+    /// state and descent working set built with them (the saved state kept).
     Families,
-    /// The contact state, the local step's workspace with it.
+    /// The contact state, the local step's workspace with it (the saved state kept).
     Contact,
     /// The descent method's working set.
     Descent,
@@ -496,13 +497,20 @@ pub(crate) enum Forget {
 impl<T: Real> Solver<T> {
     /// Drops `what` as if this solver had never held it.
     pub(crate) fn forget(&mut self, what: Forget) {
+        // Dropping the contact state drops the warm start with it: that is saved state, handed
+        // back as a restore would.
+        let saved = self.saved_state();
         match what {
             Forget::Families => {
                 self.families = None;
                 self.contact = None;
                 self.descent = None;
+                self.restored = Some(saved);
             }
-            Forget::Contact => self.contact = None,
+            Forget::Contact => {
+                self.contact = None;
+                self.restored = Some(saved);
+            }
             Forget::Descent => self.descent = None,
             Forget::Workspace(piece) => {
                 if let Some(contact) = &mut self.contact {
