@@ -1,6 +1,8 @@
 """Save, restore and continue with contact: three layers of cloth on a ball, saved mid-fall,
 restored into a fresh solver set up the same way, continue bit for bit (issue 43)."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -69,3 +71,44 @@ def test_the_warm_start_is_saved_and_checked(tmp_path):
     for bad in (warm[:10], np.full_like(warm, np.nan)):
         with pytest.raises(ValueError, match="warm start"):
             fresh.set_contact_warm_start(bad)
+
+
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+def test_restored_gpu_layers_continue_bit_for_bit(tmp_path, precision):
+    """The GPU backend has no contact (its warm start is empty): three layers falling onto the
+    ball (passing through each other), saved, restored and continued, bit for bit."""
+    try:
+        info = peridyn.gpu_info()
+    except RuntimeError as e:
+        if os.environ.get("PERIDYN_REQUIRE_GPU") == "1":
+            pytest.fail(f"PERIDYN_REQUIRE_GPU=1 but no GPU adapter: {e}")
+        pytest.skip(f"no GPU adapter: {e}")
+    if precision == "f64" and not info["f64"]:
+        pytest.skip(f"{info['name']} lacks SHADER_F64")
+
+    def gpu_scene():
+        solver = peridyn.Solver(dt=2e-3, max_iters=30, precision=precision, backend="gpu",
+                                acceleration="chebyshev")
+        layers = []
+        for k in range(3):
+            v, t = make_grid(12, 12, 0.3, 0.3)
+            v = v + np.array([-0.15 + 0.004 * k, -0.15 + 0.003 * k, 0.104 + 0.005 * k])
+            m = peridyn.Membrane(v, t, thickness=1e-3, density=300.0,
+                                 material=peridyn.StretchA3(s0=1e4), bending=1e-5)
+            solver.add(m)
+            layers.append(m)
+        solver.add_collider(peridyn.Sphere(center=(0.0, 0.0, 0.0), radius=0.1))
+        return solver, layers
+
+    solver, layers = gpu_scene()
+    for _ in range(SAVED_AT):
+        solver.step()
+    assert solver.contact_warm_start().shape == (0, 3)
+    path = peridyn.save_state(tmp_path / "state.npz", solver)
+    for _ in range(AFTER):
+        solver.step()
+    restored, restored_layers = gpu_scene()
+    peridyn.load_state(path, restored)
+    for _ in range(AFTER):
+        restored.step()
+    assert_same(state(restored_layers), state(layers))
