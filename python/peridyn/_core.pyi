@@ -549,6 +549,16 @@ class Solver:
     def set_collider_motion(self, index: int, *, base_rotation: ArrayLike, base_translation: Vec3, target_rotation: Optional[ArrayLike] = None, target_translation: Optional[Vec3] = None) -> None:
         """Restores a motion read with :meth:`collider_motion` (both parts of the target, or
         neither)."""
+    def contact_warm_start(self) -> np.ndarray:
+        """What the next step depends on besides the bodies, the clock and the colliders'
+        motion, for saving a simulation (:func:`peridyn.save_state`): per membrane vertex (the
+        bodies in order, each in its vertex order), the warm start of the next step's first
+        contact local step, (N, 3) in m; (0, 3) when there is none (no contact, no contact step
+        yet, or the GPU backend)."""
+    def set_contact_warm_start(self, warm: ArrayLike) -> None:
+        """Restores a warm start read with :meth:`contact_warm_start` into a solver set up the
+        same way (same bodies in the same order, parameters and colliders); the next step takes
+        it. ``warm``: (N, 3) finite, N the membranes' total vertex count, or (0, 3) for none."""
     def step(self) -> StepStats: ...
     @property
     def dt(self) -> float: ...

@@ -56,6 +56,8 @@ struct Term {
     fade: f64,
     /// `alpha_c^j`, the closest points' weights of its four vertices.
     weights: [f64; 4],
+    /// The pair, the order its term is summed in (see [`BarrierPush::update`]).
+    pair: Pair,
 }
 
 const STALE: Term = Term {
@@ -64,6 +66,10 @@ const STALE: Term = Term {
     stiffness: 0.0,
     fade: 0.0,
     weights: [0.0; 4],
+    pair: Pair {
+        edge_edge: false,
+        v: [0; 4],
+    },
 };
 
 /// The vertices of a pair: its entry in vertex `v`'s row is `SLOTS k + s`, with `v` in slot `s`
@@ -165,50 +171,64 @@ impl BarrierPush {
             .zip(closest)
             .zip(fades)
             .zip(fresh)
+            .zip(pairs)
             .enumerate()
-            .for_each(|(k, ((((term, felt), c), &m), &fresh))| {
+            .for_each(|(k, (((((term, felt), c), &m), &fresh), pair))| {
                 if fresh {
                     let s = scales.get(k).copied().unwrap_or(1.0);
-                    let evaluated = pair_term(c, (m, s), barrier, mu, reach);
+                    let evaluated = pair_term(pair, c, (m, s), barrier, mu, reach);
                     *felt = evaluated.is_some();
                     *term = evaluated.unwrap_or(STALE);
                 }
             });
         let (head_rows, tail_rows) = (&self.head_rows, &self.tail_rows);
         let (felt, terms) = (&self.felt, &self.terms);
+        // Each vertex sums its terms in the order of the pairs themselves, not of their places
+        // in the list: the list's order depends on its history (when the pair cache was built,
+        // what extended it since), the pairs and their terms do not, and a sum of floats
+        // depends on its order. So a simulation restored into a fresh solver (fresh caches)
+        // continues bit for bit.
         sums.push
             .par_iter_mut()
             .zip(sums.alpha.par_iter_mut())
             .zip(sums.curvature.par_iter_mut())
             .enumerate()
-            .for_each(|(v, ((push, alpha), curvature))| {
-                // The head's pairs come before the tail's: in increasing order.
-                let slots = head_rows.of(v).chain(tail_rows.of(v));
-                if !all && !slots.clone().any(|(k, _)| fresh[k]) {
-                    return;
-                }
-                (*push, *alpha, *curvature) = (Vector3::zeros(), 0.0, SymmetricMatrix3::zeros());
-                for (k, slot) in slots {
-                    debug_assert_eq!(pairs[k].v[slot] as usize, v, "pair {k}'s slot {slot}");
-                    if !felt[k] {
-                        continue;
+            .for_each_init(
+                Vec::<(&Term, usize)>::new,
+                |felt_here, (v, ((push, alpha), curvature))| {
+                    let slots = head_rows.of(v).chain(tail_rows.of(v));
+                    if !all && !slots.clone().any(|(k, _)| fresh[k]) {
+                        return;
                     }
-                    let term = &terms[k];
-                    let w = term.weights[slot];
-                    *push += term.normal * (term.slope * w);
-                    *alpha += term.fade * w.abs();
-                    *curvature += SymmetricMatrix3::outer(&term.normal, term.stiffness * w.abs());
-                }
-            });
+                    (*push, *alpha, *curvature) =
+                        (Vector3::zeros(), 0.0, SymmetricMatrix3::zeros());
+                    felt_here.clear();
+                    felt_here.extend(slots.filter(|&(k, _)| felt[k]).map(|(k, slot)| {
+                        debug_assert_eq!(pairs[k].v[slot] as usize, v, "pair {k}'s slot {slot}");
+                        (&terms[k], slot)
+                    }));
+                    if felt_here.len() > 1 {
+                        felt_here.sort_unstable_by(|a, b| a.0.pair.cmp(&b.0.pair));
+                    }
+                    for &(term, slot) in felt_here.iter() {
+                        let w = term.weights[slot];
+                        *push += term.normal * (term.slope * w);
+                        *alpha += term.fade * w.abs();
+                        *curvature +=
+                            SymmetricMatrix3::outer(&term.normal, term.stiffness * w.abs());
+                    }
+                },
+            );
     }
 }
 
-/// A pair's [`Term`] at its closest points `c`, with its fade `m` and its barrier scale `s` (1,
-/// or its rest gap over the reach, see `local_step/rest_gaps.rs`): the barrier in lengths
-/// scaled by `s`, `s^2 B(f(d / s) - xi)` (m^2), whose slope is `s B'` and whose curvature
-/// `B'' f'` at `d / s` (eq. 3, 49, 51). None beyond the scaled `reach` (m), at a zero distance
-/// (no normal) and for a faded-out pair.
+/// The [`Term`] of `pair` at its closest points `c`, with its fade `m` and its barrier scale
+/// `s` (1, or its rest gap over the reach, see `local_step/rest_gaps.rs`): the barrier in
+/// lengths scaled by `s`, `s^2 B(f(d / s) - xi)` (m^2), whose slope is `s B'` and whose
+/// curvature `B'' f'` at `d / s` (eq. 3, 49, 51). None beyond the scaled `reach` (m), at a zero
+/// distance (no normal) and for a faded-out pair.
 fn pair_term(
+    pair: &Pair,
     c: &Closest,
     (m, s): (f64, f64),
     barrier: &Barrier,
@@ -234,6 +254,7 @@ fn pair_term(
             * rows,
         fade: m,
         weights: c.weights,
+        pair: *pair,
     })
 }
 
@@ -515,6 +536,41 @@ pub(super) mod tests {
         }
         assert!(pushed > n / 4, "{pushed} of {n} vertices feel the barrier");
     }
+    /// The sums do not depend on the order of the pairs in the list, to the bit (the list's
+    /// order depends on its history, and a restored simulation, with a fresh list, must
+    /// continue bit for bit): the pairs of a rolled-up grid, reversed and rotated.
+    #[test]
+    fn the_sums_do_not_depend_on_the_order_of_the_pairs() {
+        let mut rng = Rng::new(5);
+        let (x, triangles) = spiral(10, 0.006, &mut rng);
+        let body = vec![0; triangles.len()];
+        let mesh = ContactMesh {
+            triangles: &triangles,
+            body: &body,
+            self_contact: &[true],
+        };
+        let barrier = Barrier {
+            thickness: 1.5e-3,
+            d_hat: 6e-3,
+            eps: 0.1,
+        };
+        let (_, pairs) = brute_force_pairs(&mesh, &x);
+        let sums_in = |order: &[usize]| {
+            let pairs: Vec<Pair> = order.iter().map(|&k| pairs[k]).collect();
+            let closest: Vec<Closest> = pairs.iter().map(|p| p.closest(&x)).collect();
+            let fades = vec![1.0; pairs.len()];
+            sums_from_scratch(&pairs, &closest, &fades, x.len(), (&barrier, MU))
+        };
+        let listed: Vec<usize> = (0..pairs.len()).collect();
+        let reversed: Vec<usize> = listed.iter().rev().copied().collect();
+        let mut rotated = listed.clone();
+        rotated.rotate_left(pairs.len() / 3);
+        let sums = sums_in(&listed);
+        assert!(sums.1.iter().filter(|&&a| a > 0.0).count() > x.len() / 4);
+        assert_same_sums(&sums, &sums_in(&reversed));
+        assert_same_sums(&sums, &sums_in(&rotated));
+    }
+
     /// The push of a lone pair against central differences of its barrier energy
     /// `E(x) = mu B(f(d(x)) - xi)` (eq. 47, fade 1), on random point-triangle and edge-edge
     /// pairs set at distances across the barrier's range: beyond the rescale (`d > (1 + 2 eps)

@@ -7,9 +7,9 @@ use pyo3::types::PyDict;
 use crate::collider::{Collider, MovingCollider, Pose};
 use crate::error::Result;
 use crate::gpu::GpuSolver;
-use crate::solve::{Acceleration, BodyMut, Clock, Solver, SolverParams, StepStats};
+use crate::solve::{Acceleration, BodyMut, Clock, Solver, SolverParams, SolverState, StepStats};
 
-use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, vec3};
+use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, vec3, vec3s};
 use super::body::{LockedBody, PyBody, SharedBody};
 use super::collider;
 use super::contact::PyContact;
@@ -307,6 +307,54 @@ impl PySolver {
                     Err(no_gpu_poses())
                 }
             }
+        }
+    }
+
+    /// What the next step depends on besides the bodies, the clock and the colliders' motion,
+    /// for saving a simulation (:func:`peridyn.save_state`): per membrane vertex (the bodies in
+    /// order, each in its vertex order), the warm start of the next step's first contact local
+    /// step, (N, 3) in m; (0, 3) when there is none (no contact, or no contact step yet, or the
+    /// GPU backend).
+    fn contact_warm_start<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let state = match &self.core {
+            Precision::F64(s) => s.saved_state(),
+            Precision::F32(s) => s.saved_state(),
+            Precision::Gpu32(_) | Precision::Gpu64(_) => SolverState::default(),
+        };
+        to_numpy(py, state.contact_warm_start.into_iter())
+    }
+
+    /// Restores a warm start read with `contact_warm_start` into a solver set up the same way
+    /// (same bodies in the same order, parameters and colliders); the next step takes it.
+    /// `warm`: (N, 3) finite, N the membranes' total vertex count, or (0, 3) for none.
+    fn set_contact_warm_start(&mut self, py: Python<'_>, warm: &Bound<'_, PyAny>) -> PyResult<()> {
+        let warm = vec3s(warm, "contact warm start", None)?;
+        let vertices: usize = self
+            .bodies
+            .iter()
+            .map(|b| match b.shared(py).lock() {
+                LockedBody::Membrane(m) => m.num_vertices(),
+            })
+            .sum();
+        if !warm.is_empty() && warm.len() != vertices {
+            return Err(PyValueError::new_err(format!(
+                "the contact warm start must have shape (0, 3) or ({vertices}, 3) for the \
+                 membranes' {vertices} vertices, got ({}, 3)",
+                warm.len()
+            )));
+        }
+        let state = SolverState {
+            contact_warm_start: warm,
+        };
+        match &mut self.core {
+            Precision::F64(s) => s.restore_state(state).py(),
+            Precision::F32(s) => s.restore_state(state).py(),
+            Precision::Gpu32(_) | Precision::Gpu64(_) if state.contact_warm_start.is_empty() => {
+                Ok(())
+            }
+            Precision::Gpu32(_) | Precision::Gpu64(_) => Err(PyValueError::new_err(
+                "the GPU backend has no contact: its contact warm start is empty",
+            )),
         }
     }
 

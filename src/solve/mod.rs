@@ -17,8 +17,12 @@ pub(crate) mod update;
 pub use body::{Body, BodyMut};
 pub use clock::Clock;
 pub use params::{Acceleration, Method, SolverParams};
-pub use sissm::Solver;
+#[cfg(test)]
+pub(crate) use sissm::Forget;
+pub use sissm::{Solver, SolverState};
 pub use stats::{StepStats, Timings};
 
+#[cfg(test)]
+mod restore_tests;
 #[cfg(test)]
 mod tests;

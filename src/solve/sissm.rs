@@ -54,7 +54,24 @@ pub struct Solver<T: Real> {
     contact: Option<ContactState<T>>,
     /// The descent method's working set (built on the first descent step).
     descent: Option<DescentState>,
+    /// A state given to [`Self::restore_state`], taken by the next step.
+    restored: Option<SolverState>,
     clock: Clock,
+}
+
+/// What a solver carries from one step to the next, besides its bodies' state, its clock and
+/// its colliders' motion, that changes the results of the steps to come: with those, all a
+/// saved simulation needs to continue bit for bit in a solver set up the same way (same
+/// bodies in the same order, parameters and colliders). Everything else the solver keeps
+/// between steps is a cache (the families' working sets, the contact pairs and their index, the
+/// Chebyshev history, the descent method's working set): results do not depend on it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SolverState {
+    /// Per membrane vertex (the membranes in the order of the body list, each in its vertex
+    /// order), the warm start of the first contact local step of the next step
+    /// ([`crate::contact::ContactParams::warm_start`], m): the last local step's move where
+    /// the barrier pushed. Empty: none (no contact yet, or contact off).
+    pub contact_warm_start: Vec<Vector3<f64>>,
 }
 
 fn millis(since: Instant) -> f64 {
@@ -82,6 +99,7 @@ impl<T: Real> Solver<T> {
             families: None,
             contact: None,
             descent: None,
+            restored: None,
             clock: Clock::default(),
         })
     }
@@ -163,6 +181,39 @@ impl<T: Real> Solver<T> {
         self.clock = clock;
     }
 
+    /// The state the next steps depend on beyond the bodies, the clock and the colliders'
+    /// motion (see [`SolverState`]).
+    pub fn saved_state(&self) -> SolverState {
+        if let Some(restored) = &self.restored {
+            return restored.clone();
+        }
+        SolverState {
+            contact_warm_start: self
+                .contact
+                .as_ref()
+                .map(|c| c.warm_start().to_vec())
+                .unwrap_or_default(),
+        }
+    }
+
+    /// Restores a state read with [`Self::saved_state`] (from a solver set up the same way),
+    /// replacing this solver's own; the next step takes it. Its warm start must hold a finite
+    /// move for every membrane vertex of that step's body list, or be empty.
+    pub fn restore_state(&mut self, state: SolverState) -> Result<()> {
+        if let Some(i) = state
+            .contact_warm_start
+            .iter()
+            .position(|w| !w.iter().all(|c| c.is_finite()))
+        {
+            return Err(invalid!(
+                "the contact warm start of vertex {i} is not finite: {:?}",
+                state.contact_warm_start[i]
+            ));
+        }
+        self.restored = Some(state);
+        Ok(())
+    }
+
     /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
     /// [`Error::Diverged`] names the first non-finite point (the body by its index in
     /// `bodies`).
@@ -186,6 +237,22 @@ impl<T: Real> Solver<T> {
             self.contact = None;
             self.descent = None;
         }
+        // A restored state (checked before anything changes), applied once the contact state
+        // is there.
+        let vertices = by_kind
+            .membranes
+            .iter()
+            .map(|m| m.num_vertices())
+            .sum::<usize>();
+        let warm = self
+            .restored
+            .as_ref()
+            .map_or(0, |r| r.contact_warm_start.len());
+        if warm != 0 && warm != vertices {
+            return Err(invalid!(
+                "the restored contact warm start holds {warm} vertices, the membranes {vertices}"
+            ));
+        }
         if params.method == Method::Descent && self.descent.is_none() {
             self.descent = Some(DescentState::new(&by_kind.membranes)?);
         }
@@ -201,11 +268,15 @@ impl<T: Real> Solver<T> {
 
         by_kind.sync()?;
         families.load(&by_kind);
+        let restored = self.restored.take();
         if let (Some(sys), true) = (families.membranes.as_mut(), params.contact.is_some()) {
             let contact = self
                 .contact
                 .get_or_insert_with(|| ContactState::new(&by_kind.membranes, sys));
             contact.start_step(&by_kind.membranes, sys);
+        }
+        if let (Some(restored), Some(contact)) = (restored, &mut self.contact) {
+            contact.set_warm_start(&restored.contact_warm_start);
         }
         let mut energy = 0.0;
         for family in families.each() {
@@ -414,6 +485,50 @@ impl<T: Real> Solver<T> {
         stats.time = self.clock.time;
         stats.timings = timings;
         Ok(stats)
+    }
+}
+
+/// A piece of the state a [`Solver`] carries from one step to the next, for the tests that
+/// tell the caches from the state that results depend on ([`Solver::forget`]).
+#[cfg(test)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Forget {
+    /// The families' working sets (with the Chebyshev history `y_prev`), and the contact
+    /// state and descent working set built with them (the saved state kept).
+    Families,
+    /// The contact state, the local step's workspace with it (the saved state kept).
+    Contact,
+    /// The descent method's working set.
+    Descent,
+    /// One piece of the local step's workspace.
+    Workspace(crate::contact::local_step::Piece),
+}
+
+#[cfg(test)]
+impl<T: Real> Solver<T> {
+    /// Drops `what` as if this solver had never held it.
+    pub(crate) fn forget(&mut self, what: Forget) {
+        // Dropping the contact state drops the warm start with it: that is saved state, handed
+        // back as a restore would.
+        let saved = self.saved_state();
+        match what {
+            Forget::Families => {
+                self.families = None;
+                self.contact = None;
+                self.descent = None;
+                self.restored = Some(saved);
+            }
+            Forget::Contact => {
+                self.contact = None;
+                self.restored = Some(saved);
+            }
+            Forget::Descent => self.descent = None,
+            Forget::Workspace(piece) => {
+                if let Some(contact) = &mut self.contact {
+                    contact.work_mut().forget(piece);
+                }
+            }
+        }
     }
 }
 

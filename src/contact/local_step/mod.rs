@@ -82,6 +82,8 @@ pub use params::{
     STOP_FRACTION, TOL_SHARE,
 };
 pub use stats::ContactStats;
+#[cfg(test)]
+pub use workspace::Piece;
 pub use workspace::Workspace;
 
 /// Sets `v` to `n` copies of `value`, reusing its allocation.

@@ -80,4 +80,58 @@ impl Workspace {
     pub fn weights(&self) -> Option<&[SymmetricMatrix3<f64>]> {
         (!self.weights.is_empty()).then_some(&self.weights[..])
     }
+
+    /// Per vertex, the warm start the next [`super::resolve_contacts`] takes
+    /// ([`super::ContactParams::warm_start`], m; empty: none). Unlike the rest of the
+    /// workspace it changes the next local step's result: a saved simulation keeps it.
+    pub fn warm_start(&self) -> &[Vector3<f64>] {
+        &self.warm
+    }
+
+    /// Replaces the warm start (see [`Workspace::warm_start`]; empty: none).
+    pub fn set_warm_start(&mut self, warm: &[Vector3<f64>]) {
+        self.warm.clear();
+        self.warm.extend_from_slice(warm);
+    }
+}
+
+/// A piece of the state a [`Workspace`] carries from one local step to the next (and from one
+/// time step to the next), for the tests that tell the caches from the state that results
+/// depend on ([`Workspace::forget`]).
+#[cfg(test)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Piece {
+    /// The warm start of the next local step ([`super::ContactParams::warm_start`]).
+    WarmStart,
+    /// The live pairs and the positions they were filtered for: the next local step filters
+    /// afresh (from the cached pairs, with the carried allowances).
+    LiveList,
+    /// The live pairs and the deviations the next local step's allowances are carried from.
+    Allowances,
+    /// The cached pairs, and with them the live ones: the next local step builds afresh.
+    PairCache,
+    /// The barrier's terms and their index by vertex.
+    BarrierIndex,
+}
+
+#[cfg(test)]
+impl Workspace {
+    /// Drops `piece` as if this workspace had never held it.
+    pub fn forget(&mut self, piece: Piece) {
+        match piece {
+            Piece::WarmStart => self.warm.clear(),
+            Piece::LiveList => self.live.filtered_safe.clear(),
+            Piece::Allowances => {
+                self.live.filtered_safe.clear();
+                self.live.deviation.clear();
+            }
+            Piece::PairCache => {
+                // The version keeps counting, so that no index is taken for the new list.
+                let version = self.live.version + 1;
+                self.live = LivePairs::default();
+                self.live.version = version;
+            }
+            Piece::BarrierIndex => self.barrier_push = BarrierPush::default(),
+        }
+    }
 }

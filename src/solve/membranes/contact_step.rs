@@ -206,6 +206,24 @@ impl<T: Real> ContactState<T> {
     pub fn reaction(&self) -> &[Vector3<T>] {
         &self.reaction
     }
+
+    /// Per vertex, the warm start of the next local step (m; empty: none), in the system's
+    /// global vertex numbering: the only part of this state carried from one time step to the
+    /// next that changes results (the rest are caches or set anew each step).
+    pub fn warm_start(&self) -> &[Vector3<f64>] {
+        self.work.warm_start()
+    }
+
+    /// Replaces the warm start of the next local step (see [`Self::warm_start`]).
+    pub fn set_warm_start(&mut self, warm: &[Vector3<f64>]) {
+        self.work.set_warm_start(warm);
+    }
+
+    /// The local step's buffers, for the tests that drop a piece of them.
+    #[cfg(test)]
+    pub fn work_mut(&mut self) -> &mut Workspace {
+        &mut self.work
+    }
 }
 
 /// `d`, the mean of `trace(D_i) / 3` over the free vertices (kg; 1 if none is free), with `D_i`
