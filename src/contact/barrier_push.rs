@@ -208,7 +208,7 @@ impl BarrierPush {
                         (&terms[k], slot)
                     }));
                     if felt_here.len() > 1 {
-                        felt_here.sort_unstable_by(|a, b| a.0.pair.cmp(&b.0.pair));
+                        felt_here.sort_unstable_by_key(|t| t.0.pair);
                     }
                     for &(term, slot) in felt_here.iter() {
                         let w = term.weights[slot];
