@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, Optional
+from typing import Any, Callable, Optional
 
 import numpy as np
 
@@ -120,21 +120,6 @@ class Solver(_core.Solver):
     properties come from the Rust core. It defines no ``__init__``: the core's constructor
     receives the keyword arguments directly.
     """
-
-    def internal_state(self) -> Dict[str, np.ndarray]:
-        """What the core carries from one step to the next that changes results, beyond the
-        bodies, the clock and the colliders' motion (the contact warm start, see
-        :meth:`contact_warm_start`), as arrays for :func:`peridyn.save_state`."""
-        return {"contact_warm_start": np.asarray(self.contact_warm_start())}
-
-    def set_internal_state(self, state: Dict[str, np.ndarray]) -> None:
-        """Restores :meth:`internal_state` (for :func:`peridyn.load_state`); an empty dict
-        resets it. Raises ``ValueError`` for an unknown entry or a warm start that does not fit
-        the bodies, changing nothing."""
-        unknown = sorted(set(state) - {"contact_warm_start"})
-        if unknown:
-            raise ValueError(f"set_internal_state: unknown entries {unknown}")
-        self.set_contact_warm_start(state.get("contact_warm_start", np.zeros((0, 3))))
 
     def run(
         self,

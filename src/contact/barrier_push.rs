@@ -308,7 +308,7 @@ pub(super) mod tests {
     pub(in crate::contact) fn sums_from_scratch(
         pairs: &[Pair],
         closest: &[Closest],
-        fades: &[f64],
+        (fades, scales): (&[f64], &[f64]),
         n: usize,
         (barrier, mu): (&Barrier, f64),
     ) -> Sums {
@@ -321,7 +321,7 @@ pub(super) mod tests {
             pairs,
             (0, 0),
             closest,
-            (fades, &[]),
+            (fades, scales),
             &vec![true; pairs.len()],
             barrier,
             mu,
@@ -395,7 +395,7 @@ pub(super) mod tests {
             let scratch = sums_from_scratch(
                 pairs,
                 &closest,
-                &fades[..pairs.len()],
+                (&fades[..pairs.len()], &[]),
                 x.len(),
                 (&barrier, MU),
             );
@@ -519,7 +519,7 @@ pub(super) mod tests {
             felt[0] > 50 && felt[1] > 50,
             "{felt:?} point-triangle, edge-edge pairs felt"
         );
-        let gathered = sums_from_scratch(&pairs, &closest, &fades, n, (&barrier, MU));
+        let gathered = sums_from_scratch(&pairs, &closest, (&fades, &[]), n, (&barrier, MU));
         let mut pushed = 0;
         for v in 0..n {
             let (push, alpha) = (scattered.0[v], scattered.1[v]);
@@ -559,7 +559,7 @@ pub(super) mod tests {
             let pairs: Vec<Pair> = order.iter().map(|&k| pairs[k]).collect();
             let closest: Vec<Closest> = pairs.iter().map(|p| p.closest(&x)).collect();
             let fades = vec![1.0; pairs.len()];
-            sums_from_scratch(&pairs, &closest, &fades, x.len(), (&barrier, MU))
+            sums_from_scratch(&pairs, &closest, (&fades, &[]), x.len(), (&barrier, MU))
         };
         let listed: Vec<usize> = (0..pairs.len()).collect();
         let reversed: Vec<usize> = listed.iter().rev().copied().collect();
@@ -620,7 +620,7 @@ pub(super) mod tests {
             if (d - rescale_end).abs() < 1e-5 || edges_parallel || d >= barrier.reach() - 1e-5 {
                 continue;
             }
-            let sums = sums_from_scratch(&[pair], &[c], &[1.0], 4, (&barrier, MU));
+            let sums = sums_from_scratch(&[pair], &[c], (&[1.0], &[]), 4, (&barrier, MU));
             let energy = |x: &[Vector3<f64>]| {
                 MU * barrier.value(barrier.gap(pair.closest(x).separation.norm()))
             };

@@ -680,7 +680,13 @@ pub(super) fn assert_as_if_evaluated_afresh(
             "pair {k}: kept {kept:?}, afresh {afresh:?}"
         );
     }
-    let sums = sums_from_scratch(&live.pairs, &every, &live.fade, z.len(), (barrier, mu));
+    let sums = sums_from_scratch(
+        &live.pairs,
+        &every,
+        (&live.fade, &live.scale),
+        z.len(),
+        (barrier, mu),
+    );
     let kept = (push.to_vec(), alpha.to_vec(), curvature.to_vec());
     assert_same_sums(&kept, &sums);
 }
@@ -1087,7 +1093,13 @@ fn barrier_terms(
     n: usize,
     params: &ContactParams,
 ) -> Sums {
-    sums_from_scratch(pairs, closest, fades, n, (&params.barrier(), params.weight))
+    sums_from_scratch(
+        pairs,
+        closest,
+        (fades, &[]),
+        n,
+        (&params.barrier(), params.weight),
+    )
 }
 
 /// A triangle lying parallel over another of the same shape (1 cm legs) and pressed into
