@@ -12,9 +12,12 @@ from conftest import make_grid
 SAVED_AT, AFTER = 30, 10
 
 
-def scene(precision, acceleration=None):
-    solver = peridyn.Solver(dt=2e-3, max_iters=30, precision=precision, threads=2,
-                            acceleration=acceleration, contact=peridyn.Contact(thickness=1.5e-3))
+def scene(precision, acceleration=None, **options):
+    """Three 12 x 12 layers 5 mm apart over a ball; `options` replace the solver's threads and
+    contact (e.g. ``backend="gpu", contact=None``)."""
+    settings = {"threads": 2, "contact": peridyn.Contact(thickness=1.5e-3), **options}
+    solver = peridyn.Solver(dt=2e-3, max_iters=30, precision=precision,
+                            acceleration=acceleration, **settings)
     layers = []
     for k in range(3):
         v, t = make_grid(12, 12, 0.3, 0.3)
@@ -97,18 +100,7 @@ def test_restored_gpu_layers_continue_bit_for_bit(tmp_path, precision):
         pytest.skip(f"{info['name']} lacks SHADER_F64")
 
     def gpu_scene():
-        solver = peridyn.Solver(dt=2e-3, max_iters=30, precision=precision, backend="gpu",
-                                acceleration="chebyshev")
-        layers = []
-        for k in range(3):
-            v, t = make_grid(12, 12, 0.3, 0.3)
-            v = v + np.array([-0.15 + 0.004 * k, -0.15 + 0.003 * k, 0.104 + 0.005 * k])
-            m = peridyn.Membrane(v, t, thickness=1e-3, density=300.0,
-                                 material=peridyn.StretchA3(s0=1e4), bending=1e-5)
-            solver.add(m)
-            layers.append(m)
-        solver.add_collider(peridyn.Sphere(center=(0.0, 0.0, 0.0), radius=0.1))
-        return solver, layers
+        return scene(precision, "chebyshev", backend="gpu", threads=None, contact=None)
 
     solver, layers = gpu_scene()
     for _ in range(SAVED_AT):

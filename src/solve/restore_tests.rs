@@ -9,8 +9,7 @@ use nalgebra::Vector3;
 use crate::collider::{Collider, Shape};
 use crate::contact::local_step::Piece;
 use crate::contact::ContactParams;
-use crate::material::Material;
-use crate::membrane::{Membrane, MembraneParams};
+use crate::membrane::Membrane;
 use crate::mesh::TriangleMesh;
 use crate::real::Real;
 
@@ -24,14 +23,7 @@ const N: usize = 8;
 /// Three 12 x 12 layers of soft cloth, 0.3 m wide, 5 mm apart and shifted against each other,
 /// just above a ball.
 fn layers() -> Vec<Membrane> {
-    let params = MembraneParams {
-        thickness: 1e-3,
-        density: 300.0,
-        material: Material::stretch_a3(1e4).unwrap(),
-        bending: 1e-5,
-        hourglass: 0.1,
-        neighbors: 1,
-    };
+    let params = super::tests::soft_params();
     (0..3)
         .map(|layer| {
             let mut m =

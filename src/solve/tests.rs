@@ -29,16 +29,20 @@ fn stiff_cloth(n: usize) -> Membrane {
     Membrane::new(TriangleMesh::grid(n, n, 0.5, 0.5).unwrap(), stiff_params()).unwrap()
 }
 
-fn cloth(n: usize) -> Membrane {
-    let params = MembraneParams {
+/// A soft cloth of 1 mm (StretchA3, s0 = 1e4 Pa, 300 kg/m^3, light bending).
+pub(super) fn soft_params() -> MembraneParams {
+    MembraneParams {
         thickness: 1e-3,
         density: 300.0,
         material: Material::stretch_a3(1e4).unwrap(),
         bending: 1e-5,
         hourglass: 0.1,
         neighbors: 1,
-    };
-    Membrane::new(TriangleMesh::grid(n, n, 0.5, 0.5).unwrap(), params).unwrap()
+    }
+}
+
+fn cloth(n: usize) -> Membrane {
+    Membrane::new(TriangleMesh::grid(n, n, 0.5, 0.5).unwrap(), soft_params()).unwrap()
 }
 
 /// With no pins and no colliders every vertex follows implicit Euler exactly:
