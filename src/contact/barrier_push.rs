@@ -465,13 +465,10 @@ pub(super) mod tests {
         assert_from_scratch(&sums, &fewer, &x);
     }
 
-    /// The sums gathered by vertex (each vertex's slot in each pair taken from the index, the
-    /// pairs that feel no barrier skipped) equal a plain scatter of every pair's terms onto
-    /// its four vertices, on a rolled-up grid (turns 6 mm apart within the 7.5 mm reach, some
-    /// pairs faded, some out): pairs of each kind, vertices in every slot.
-    #[test]
-    fn the_gathered_sums_equal_a_scatter_of_each_pairs_terms() {
-        let mut rng = Rng::new(11);
+    /// A rolled-up grid (turns 6 mm apart, seeded jitter `seed`), its primitive pairs within a
+    /// 7.5 mm reach and that barrier.
+    fn rolled_up_grid(seed: u64) -> (Vec<Vector3<f64>>, Vec<Pair>, Barrier) {
+        let mut rng = Rng::new(seed);
         let (x, triangles) = spiral(10, 0.006, &mut rng);
         let body = vec![0; triangles.len()];
         let mesh = ContactMesh {
@@ -485,6 +482,16 @@ pub(super) mod tests {
             eps: 0.1,
         };
         let (_, pairs) = brute_force_pairs(&mesh, &x);
+        (x, pairs, barrier)
+    }
+
+    /// The sums gathered by vertex (each vertex's slot in each pair taken from the index, the
+    /// pairs that feel no barrier skipped) equal a plain scatter of every pair's terms onto
+    /// its four vertices, on a rolled-up grid (turns 6 mm apart within the 7.5 mm reach, some
+    /// pairs faded, some out): pairs of each kind, vertices in every slot.
+    #[test]
+    fn the_gathered_sums_equal_a_scatter_of_each_pairs_terms() {
+        let (x, pairs, barrier) = rolled_up_grid(11);
         let fades: Vec<f64> = (0..pairs.len())
             .map(|k| [1.0, 0.75, 1.0, 0.0, 0.25][k % 5])
             .collect();
@@ -541,20 +548,7 @@ pub(super) mod tests {
     /// continue bit for bit): the pairs of a rolled-up grid, reversed and rotated.
     #[test]
     fn the_sums_do_not_depend_on_the_order_of_the_pairs() {
-        let mut rng = Rng::new(5);
-        let (x, triangles) = spiral(10, 0.006, &mut rng);
-        let body = vec![0; triangles.len()];
-        let mesh = ContactMesh {
-            triangles: &triangles,
-            body: &body,
-            self_contact: &[true],
-        };
-        let barrier = Barrier {
-            thickness: 1.5e-3,
-            d_hat: 6e-3,
-            eps: 0.1,
-        };
-        let (_, pairs) = brute_force_pairs(&mesh, &x);
+        let (x, pairs, barrier) = rolled_up_grid(5);
         let sums_in = |order: &[usize]| {
             let pairs: Vec<Pair> = order.iter().map(|&k| pairs[k]).collect();
             let closest: Vec<Closest> = pairs.iter().map(|p| p.closest(&x)).collect();

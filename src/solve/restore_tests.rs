@@ -158,27 +158,41 @@ fn a_restored_solver_continues_bit_for_bit() {
 /// Every piece of the state the solver carries over that is not saved is a cache: dropping it
 /// changes no bit of the results.
 #[test]
-#[should_panic(expected = "changes the positions")]
 fn the_unsaved_cross_step_state_is_a_cache() {
     let pieces = [
         Forget::Workspace(Piece::BarrierIndex),
         Forget::Workspace(Piece::LiveList),
         Forget::Workspace(Piece::Allowances),
-        Forget::Workspace(Piece::PairCache),
-        Forget::Contact,
-        Forget::Families,
     ];
     for what in pieces {
         assert_same::<f64>(params(PLAIN, Method::Sissm), Interrupt::Forget(what));
     }
-    assert_same::<f32>(
-        params(CHEBYSHEV, Method::Sissm),
-        Interrupt::Forget(Forget::Families),
-    );
     assert_same::<f64>(
         params(PLAIN, Method::Descent),
         Interrupt::Forget(Forget::Descent),
     );
+}
+
+/// Known defect (issue 43, see the note above): dropping the pair cache, the contact state or
+/// the families re-seeds the rest gaps, which are not saved, so each of these still changes the
+/// results (by round-off here, by 1e-4 m in the Python restore test). Each piece is checked on
+/// its own, so the one that stops differing shows; then it moves to the test above.
+#[test]
+fn dropping_the_state_that_holds_the_rest_gaps_still_changes_results() {
+    for what in [
+        Forget::Workspace(Piece::PairCache),
+        Forget::Contact,
+        Forget::Families,
+    ] {
+        let differs = std::panic::catch_unwind(|| {
+            assert_same::<f64>(params(PLAIN, Method::Sissm), Interrupt::Forget(what))
+        })
+        .is_err();
+        assert!(
+            differs,
+            "{what:?} no longer changes the results: move it to the cache test"
+        );
+    }
 }
 
 /// The experiment behind the two tests above, printed: how far each piece moves the results
