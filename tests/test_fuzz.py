@@ -12,7 +12,7 @@ divergence and state files"):
 - the bodies' positions and velocities are finite after every call, whether it succeeded or
   raised (a diverging step leaves the last good state);
 - save, continue, then load into a freshly built identical solver and continue the same
-  steps: the two runs end bit for bit equal (without contact, for now: issue 43).
+  steps: the two runs end bit for bit equal.
 
 The examples are derandomised (the same ones on every run) and bounded so that the module
 runs in about a minute on two cores.
@@ -21,7 +21,7 @@ runs in about a minute on two cores.
 import numpy as np
 import pytest
 import trimesh
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import peridyn
@@ -161,9 +161,6 @@ def test_random_call_sequences_raise_only_documented_errors_and_stay_finite(scen
 @FUZZ
 @given(scene=scenes(), before=st.integers(0, 3), after=st.integers(1, 3))
 def test_save_continue_and_restore_are_bit_exact(scene, before, after, tmp_path_factory):
-    # The state file does not carry the contact warm start and rest gaps yet (issue 43, see
-    # tests/test_restore_with_contact.py): with contact this property does not hold.
-    assume(not scene["contact"])
     path = tmp_path_factory.mktemp("fuzz") / "state.npz"
     solver, cloth = build(scene)
     try:

@@ -40,15 +40,6 @@ def assert_same(a, b):
         assert np.array_equal(va, vb), f"velocities differ by up to {np.abs(va - vb).max():.3g} m/s"
 
 
-#: save_state does not yet carry what a contact step depends on across steps: the contact
-#: local step's warm start (Solver.contact_warm_start exists, io's internal_state hook does not
-#: call it yet) and the rest gaps of the pairs that started within the barrier's reach (issue
-#: 41, not exposed). Issue 43 stays open until these pass; strict, so a fix shows.
-UNSAVED_CONTACT_STATE = pytest.mark.xfail(
-    strict=True, reason="contact warm start and rest gaps are not in the state file yet (issue 43)")
-
-
-@UNSAVED_CONTACT_STATE
 @pytest.mark.parametrize("precision,acceleration",
                          [("f64", None), ("f32", None), ("f64", "chebyshev")])
 def test_restored_layers_on_a_ball_continue_bit_for_bit(tmp_path, precision, acceleration):
@@ -68,22 +59,49 @@ def test_restored_layers_on_a_ball_continue_bit_for_bit(tmp_path, precision, acc
     assert (restored.time, restored.steps_taken) == (solver.time, solver.steps_taken)
 
 
-@UNSAVED_CONTACT_STATE
-def test_the_warm_start_is_saved_and_checked(tmp_path):
+def test_the_internal_state_is_saved_and_checked(tmp_path):
+    """The warm start and the rest gaps (the layers start inside the barrier's reach) are in the
+    state file; a fresh solver takes them back exactly and refuses bad ones, naming the entry."""
     solver, _ = scene("f64")
-    assert solver.contact_warm_start().shape == (0, 3)  # none before the first step
+    before = solver.internal_state()
+    assert before["contact_warm_start"].shape == (0, 3)  # nothing before the first step
+    assert not before["contact_rest_gaps_seeded"]
     for _ in range(SAVED_AT):
         solver.step()
-    warm = solver.contact_warm_start()
-    assert warm.shape == (3 * 144, 3) and np.abs(warm).max() > 0.0
+    internal = solver.internal_state()
+    assert internal["contact_warm_start"].shape == (3 * 144, 3)
+    assert np.abs(internal["contact_warm_start"]).max() > 0.0
+    assert internal["contact_rest_gaps_seeded"]
+    gaps = internal["contact_rest_gap_vertices"]
+    assert gaps.shape[1] == 4 and len(gaps) > 0, "the layers start within the reach"
+    distances = internal["contact_rest_gap_distances"]
+    assert 0.0 < distances.min() and distances.max() < internal["contact_rest_gap_reach"]
     with np.load(peridyn.save_state(tmp_path / "state.npz", solver)) as data:
-        assert np.array_equal(data["contact_warm_start"], warm)
+        for name, value in internal.items():
+            assert np.array_equal(data["internal_" + name], value), name
     fresh, _ = scene("f64")
-    fresh.set_contact_warm_start(warm)
-    assert np.array_equal(fresh.contact_warm_start(), warm)  # held for the next step
-    for bad in (warm[:10], np.full_like(warm, np.nan)):
-        with pytest.raises(ValueError, match="warm start"):
-            fresh.set_contact_warm_start(bad)
+    fresh.set_internal_state(internal)
+    for name, value in fresh.internal_state().items():  # held for the next step
+        assert np.array_equal(value, internal[name]), name
+
+    def bad(name, value, needle):
+        with pytest.raises(ValueError, match=needle):
+            fresh.set_internal_state({**internal, name: value})
+
+    warm = internal["contact_warm_start"]
+    bad("contact_warm_start", warm[:10], "warm start holds 10 vertices")
+    bad("contact_warm_start", np.full_like(warm, np.nan), "warm start of vertex 0")
+    bad("contact_warm_start", warm.astype(complex), "complex")
+    out_of_range = gaps.copy()
+    out_of_range[3, 1] = 3 * 144
+    bad("contact_rest_gap_vertices", out_of_range, r"contact_rest_gap_vertices\[3\]")
+    bad("contact_rest_gap_distances", distances[:-1], "same gaps")
+    bad("contact_rest_gap_distances", -distances, "gap 0")
+    bad("contact_rest_gaps_seeded", np.array(0.5), "boolean")
+    with pytest.raises(ValueError, match="missing.*contact_rest_gap_reach"):
+        fresh.set_internal_state({k: v for k, v in internal.items() if k != "contact_rest_gap_reach"})
+    for name, value in fresh.internal_state().items():  # the refusals changed nothing
+        assert np.array_equal(value, internal[name]), name
 
 
 @pytest.mark.parametrize("precision", ["f32", "f64"])
@@ -105,7 +123,7 @@ def test_restored_gpu_layers_continue_bit_for_bit(tmp_path, precision):
     solver, layers = gpu_scene()
     for _ in range(SAVED_AT):
         solver.step()
-    assert solver.contact_warm_start().shape == (0, 3)
+    assert solver.internal_state()["contact_warm_start"].shape == (0, 3)
     path = peridyn.save_state(tmp_path / "state.npz", solver)
     for _ in range(AFTER):
         solver.step()

@@ -1,6 +1,7 @@
 """State files (``save_state`` / ``load_state``): the path written is the path returned, a
 malformed file of any kind is refused with a ``ValueError`` that says why, loading is all or
-nothing, the format carries a version, and a restored run continues bit for bit (no contact)."""
+nothing, the format carries a version, and a restored run continues bit for bit (with contact:
+tests/test_restore_with_contact.py)."""
 
 import zipfile
 
@@ -130,7 +131,7 @@ def test_saving_over_a_file_replaces_it(tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------
-# restore and continue: bit for bit without contact
+# restore and continue: bit for bit
 
 
 @pytest.mark.parametrize("precision", ["f32", "f64"])
@@ -312,7 +313,11 @@ def test_every_missing_entry_is_named(saved, tmp_path):
     before = snapshot(s)
     for key in e:
         spoilt = {k: v for k, v in e.items() if k != key}
-        refused(write(tmp_path / "missing.npz", spoilt), s, repr(key) if key != "format_version" else "")
+        # the solver names its internal entries without the file's prefix
+        needle = "" if key == "format_version" else repr(key)
+        if key.startswith("internal_"):
+            needle = f'missing ["{key[len("internal_"):]}"]'
+        refused(write(tmp_path / "missing.npz", spoilt), s, needle)
     assert_same(snapshot(s), before)
 
 
@@ -464,16 +469,18 @@ def test_the_file_is_a_plain_npz(tmp_path):
     for b in range(2):
         expected |= {f"{k}_{b}" for k in ["positions", "velocities", "pinned", "pin_targets", "self_contact"]}
     expected |= {f"collider_{p}_{k}_0" for p in ["base", "target"] for k in ["rotation", "translation"]}
+    expected |= {f"internal_{name}" for name in s.internal_state()}
     assert keys == expected
 
 
 # ---------------------------------------------------------------------------------------------
-# internal state a solver exposes (the hook for what the core keeps between steps, such as
-# contact warm starts): saved, checked and restored with the rest, all or nothing
+# internal state a solver exposes (the hook for what the core keeps between steps: contact warm
+# starts and rest gaps, tests/test_restore_with_contact.py): saved, checked and restored with
+# the rest, all or nothing
 
 
 class WithInternalState(peridyn.Solver):
-    """A solver that exposes some state of its own, as the core may (contact warm starts)."""
+    """A solver that exposes internal state of its own kind (io's hook is generic)."""
 
     refuse = False
 
@@ -524,12 +531,15 @@ def test_internal_state_is_saved_checked_and_restored_all_or_nothing(tmp_path):
     assert s.internal_state().keys() == internal.keys()
     assert np.array_equal(s.internal_state()["warm"], internal["warm"])
 
-    # a solver without the hook refuses such a file; a file without internal state resets it
+    # the core solver refuses internal state that is not its own, naming the entries; a file
+    # without internal state resets it
     plain = peridyn.Solver(dt=2e-3)
     v, t = make_grid(5, 5)
     plain.add(peridyn.Membrane(v, t, thickness=1e-3, density=100.0, material=peridyn.StretchA3(s0=1e3)))
-    refused(path, plain, "unexpected entries", "internal_active")
-    peridyn.save_state(tmp_path / "plain.npz", plain)
+    refused(path, plain, 'unknown ["active", "warm"]', 'missing ["contact_warm_start"')
+    e = entries(path)
+    for key in [k for k in e if k.startswith("internal_")]:
+        del e[key]
     s.refuse = False
-    peridyn.load_state(tmp_path / "plain.npz", s)
+    peridyn.load_state(write(tmp_path / "none.npz", e), s)
     assert s.internal_state() == {}

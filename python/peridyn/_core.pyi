@@ -11,7 +11,7 @@ e.g. rounded to float32) are accepted; beyond the core's 1e-9 they are re-orthon
 nearest orthonormal matrix).
 """
 
-from typing import Any, Literal, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -549,16 +549,20 @@ class Solver:
     def set_collider_motion(self, index: int, *, base_rotation: ArrayLike, base_translation: Vec3, target_rotation: Optional[ArrayLike] = None, target_translation: Optional[Vec3] = None) -> None:
         """Restores a motion read with :meth:`collider_motion` (both parts of the target, or
         neither)."""
-    def contact_warm_start(self) -> np.ndarray:
-        """What the next step depends on besides the bodies, the clock and the colliders'
-        motion, for saving a simulation (:func:`peridyn.save_state`): per membrane vertex (the
-        bodies in order, each in its vertex order), the warm start of the next step's first
-        contact local step, (N, 3) in m; (0, 3) when there is none (no contact, no contact step
-        yet, or the GPU backend)."""
-    def set_contact_warm_start(self, warm: ArrayLike) -> None:
-        """Restores a warm start read with :meth:`contact_warm_start` into a solver set up the
-        same way (same bodies in the same order, parameters and colliders); the next step takes
-        it. ``warm``: (N, 3) finite, N the membranes' total vertex count, or (0, 3) for none."""
+    def internal_state(self) -> Dict[str, np.ndarray]:
+        """What the next steps depend on besides the bodies, the clock, ``dt`` and the
+        colliders' motion, as named arrays (:func:`peridyn.save_state` saves them as entries
+        ``internal_<name>``): ``contact_warm_start`` (N, 3) m, the contact local step's warm
+        start per membrane vertex (the bodies in order; (0, 3) before the first contact step);
+        the rest gaps of the contact pairs that started within the barrier's reach:
+        ``contact_rest_gaps_seeded`` (bool), ``contact_rest_gap_reach`` (m),
+        ``contact_rest_gap_vertices`` (G, 4) int64, ``contact_rest_gap_edge_edge`` (G,) bool,
+        ``contact_rest_gap_distances`` (G,) m. The GPU backend has no contact: all empty."""
+    def set_internal_state(self, state: Dict[str, ArrayLike]) -> None:
+        """Restores a dict read with :meth:`internal_state` into a solver set up the same way
+        (same bodies in the same order, parameters and colliders); the next step takes it.
+        Checked whole before anything changes (``ValueError`` naming the entry); an empty dict
+        resets it (the next contact step starts afresh)."""
     def step(self) -> StepStats: ...
     @property
     def dt(self) -> float: ...

@@ -362,7 +362,11 @@ def _apply(solver: Any, state: _State) -> None:
             extra = dict(target_rotation=target[0], target_translation=target[1])
         solver.set_collider_motion(c, base_rotation=base[0], base_translation=base[1], **extra)
     if state.internal is not None:
-        solver.set_internal_state(state.internal)
+        try:
+            solver.set_internal_state(state.internal)
+        except ValueError as e:
+            raise ValueError(f"the solver refuses its internal state (entries "
+                             f"'{_INTERNAL}<name>'): {e}") from e
     solver.set_clock(state.time, state.steps_taken)
 
 
@@ -375,8 +379,7 @@ def save_state(path: PathLike, solver: Any) -> Path:
     ``self_contact`` switch; each collider's motion (the pose its velocity carries on from and
     a pose set with ``Solver.set_collider_pose`` for the next step, if any). :func:`load_state`
     into a solver set up the same way (same bodies, parameters and colliders, in order) then
-    continues the simulation bit for bit (without contact; see the notes of
-    :func:`load_state`).
+    continues the simulation bit for bit, with and without contact.
 
     A solver that exposes more of what its steps depend on through two methods,
     ``internal_state()`` returning a dict of name to numeric array and
@@ -669,11 +672,13 @@ def load_state(path: PathLike, solver: Any) -> None:
     each body's ``self_contact``; files without a ``format_version`` entry (version 0, written
     by peridyn before versions) are read too and leave those as they are.
 
-    Not in the file, so not restored: what the Rust core keeps between steps that the Python
-    API does not expose (see ``internal_state`` in :func:`save_state`), notably the contact
-    solver's warm start (with ``contact=`` a restored run is not bit-exact), and
-    ``Solver.contact`` if it was replaced between steps. Entries ``internal_<name>`` in a
-    file are refused by a solver without ``set_internal_state``.
+    The solver's internal state (``Solver.internal_state``: the contact local step's warm
+    start and the rest gaps of the pairs that started within the barrier's reach) is in the
+    file as entries ``internal_<name>``, so a run with contact continues bit for bit too; a
+    file without them (written before they were saved) resets it, and the next contact step
+    starts afresh. Not in the file: the solver's parameters (``Solver.contact`` included), which
+    the solver it is loaded into must share. Entries ``internal_<name>`` in a file are refused
+    by a solver without ``set_internal_state``.
 
     Raises
     ------

@@ -108,18 +108,23 @@ fn integers<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyA
 
 /// An (m, 3) integer array.
 pub fn triangles(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[i64; 3]>> {
+    integer_rows::<3>(obj, name)
+}
+
+/// An (m, K) integer array, by rows.
+pub fn integer_rows<const K: usize>(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[i64; K]>> {
     let arr = integers(obj, name)?;
     let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
-    if !(shape.len() == 2 && shape[1] == 3) {
+    if !(shape.len() == 2 && shape[1] == K) {
         return Err(PyValueError::new_err(format!(
-            "{name} must have shape (M, 3), got {shape:?}"
+            "{name} must have shape (M, {K}), got {shape:?}"
         )));
     }
     let arr: PyReadonlyArray2<i64> = arr.extract()?;
     Ok(arr
         .as_array()
         .outer_iter()
-        .map(|r| [r[0], r[1], r[2]])
+        .map(|r| std::array::from_fn(|k| r[k]))
         .collect())
 }
 

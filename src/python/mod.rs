@@ -13,6 +13,7 @@ mod options;
 mod particles;
 mod scalars;
 mod solver;
+mod solver_state;
 
 use pyo3::prelude::*;
 

@@ -9,7 +9,7 @@ use crate::error::Result;
 use crate::gpu::GpuSolver;
 use crate::solve::{Acceleration, BodyMut, Clock, Solver, SolverParams, SolverState, StepStats};
 
-use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, vec3, vec3s};
+use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, vec3};
 use super::body::{LockedBody, PyBody, SharedBody};
 use super::collider;
 use super::contact::PyContact;
@@ -18,6 +18,7 @@ use super::options::{
     AccelerationKind, Backend, Float, ACCELERATION, BACKEND, METHOD, PRECISION, PRECONDITIONER,
 };
 use super::scalars::{Int, Real};
+use super::solver_state;
 
 /// Most worker threads a CPU solver may start (each is an OS thread with its own stack).
 const MAX_THREADS: i64 = 1024;
@@ -310,25 +311,28 @@ impl PySolver {
         }
     }
 
-    /// What the next step depends on besides the bodies, the clock and the colliders' motion,
-    /// for saving a simulation (:func:`peridyn.save_state`): per membrane vertex (the bodies in
-    /// order, each in its vertex order), the warm start of the next step's first contact local
-    /// step, (N, 3) in m; (0, 3) when there is none (no contact, or no contact step yet, or the
-    /// GPU backend).
-    fn contact_warm_start<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+    /// What the next steps depend on besides the bodies, the clock, ``dt`` and the colliders'
+    /// motion, as a dict of named arrays (:func:`peridyn.save_state` saves it as entries
+    /// ``internal_<name>``): the contact local step's warm start per membrane vertex
+    /// (``contact_warm_start``, (N, 3) m; (0, 3) before the first contact step) and the rest
+    /// gaps of the contact pairs that started within the barrier's reach (whether they were
+    /// seeded, the reach in m, and per gap its pair's four vertices, whether it is edge-edge,
+    /// and its distance in m). The GPU backend has no contact: its arrays are empty.
+    fn internal_state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let state = match &self.core {
             Precision::F64(s) => s.saved_state(),
             Precision::F32(s) => s.saved_state(),
             Precision::Gpu32(_) | Precision::Gpu64(_) => SolverState::default(),
         };
-        to_numpy(py, state.contact_warm_start.into_iter())
+        solver_state::to_dict(py, state)
     }
 
-    /// Restores a warm start read with `contact_warm_start` into a solver set up the same way
-    /// (same bodies in the same order, parameters and colliders); the next step takes it.
-    /// `warm`: (N, 3) finite, N the membranes' total vertex count, or (0, 3) for none.
-    fn set_contact_warm_start(&mut self, py: Python<'_>, warm: &Bound<'_, PyAny>) -> PyResult<()> {
-        let warm = vec3s(warm, "contact warm start", None)?;
+    /// Restores a dict read with ``internal_state`` into a solver set up the same way (same
+    /// bodies in the same order, parameters and colliders); the next step takes it. Checked
+    /// whole before anything changes (every entry, of the right dtype and shape, finite,
+    /// vertex indices within the membranes); an empty dict resets the state (the next contact
+    /// step starts afresh).
+    fn set_internal_state(&mut self, py: Python<'_>, state: &Bound<'_, PyDict>) -> PyResult<()> {
         let vertices: usize = self
             .bodies
             .iter()
@@ -336,24 +340,14 @@ impl PySolver {
                 LockedBody::Membrane(m) => m.num_vertices(),
             })
             .sum();
-        if !warm.is_empty() && warm.len() != vertices {
-            return Err(PyValueError::new_err(format!(
-                "the contact warm start must have shape (0, 3) or ({vertices}, 3) for the \
-                 membranes' {vertices} vertices, got ({}, 3)",
-                warm.len()
-            )));
-        }
-        let state = SolverState {
-            contact_warm_start: warm,
-        };
+        let state = solver_state::from_dict(state, vertices)?;
         match &mut self.core {
             Precision::F64(s) => s.restore_state(state).py(),
             Precision::F32(s) => s.restore_state(state).py(),
-            Precision::Gpu32(_) | Precision::Gpu64(_) if state.contact_warm_start.is_empty() => {
-                Ok(())
-            }
+            Precision::Gpu32(_) | Precision::Gpu64(_) if state == SolverState::default() => Ok(()),
             Precision::Gpu32(_) | Precision::Gpu64(_) => Err(PyValueError::new_err(
-                "the GPU backend has no contact: its contact warm start is empty",
+                "the GPU backend has no contact: its internal state holds no contact warm start \
+                 or rest gaps",
             )),
         }
     }

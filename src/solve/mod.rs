@@ -11,6 +11,7 @@ mod params;
 pub(crate) mod point_system;
 pub(crate) mod points;
 mod sissm;
+mod state;
 mod stats;
 pub(crate) mod update;
 
@@ -19,7 +20,8 @@ pub use clock::Clock;
 pub use params::{Acceleration, Method, SolverParams};
 #[cfg(test)]
 pub(crate) use sissm::Forget;
-pub use sissm::{Solver, SolverState};
+pub use sissm::Solver;
+pub use state::SolverState;
 pub use stats::{StepStats, Timings};
 
 #[cfg(test)]

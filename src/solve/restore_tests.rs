@@ -138,14 +138,10 @@ fn assert_same<T: Real>(params: SolverParams, interrupt: Interrupt) {
 const PLAIN: Acceleration = Acceleration::None;
 const CHEBYSHEV: Acceleration = Acceleration::Chebyshev { rho: 0.9, delay: 2 };
 
-/// A fresh solver given the bodies, clock, collider motion and the solver's saved state
-/// continues the run bit for bit, in f64 and f32, with and without Chebyshev.
-// Known defect (issue 43): the rest gaps of the pairs that start within the barrier's reach
-// (issue 41, local_step/rest_gaps.rs) are cross-step state that SolverState does not carry
-// yet, so a restored solver re-seeds them from the restored positions and drifts. These tests
-// expect that failure until the gaps are saved; then the should_panic goes.
+/// A fresh solver given the bodies, clock, collider motion and the solver's saved state (the
+/// contact warm start and rest gaps) continues the run bit for bit, in f64 and f32, with and
+/// without Chebyshev.
 #[test]
-#[should_panic(expected = "changes the positions")]
 fn a_restored_solver_continues_bit_for_bit() {
     for acceleration in [PLAIN, CHEBYSHEV] {
         let params = params(acceleration, Method::Sissm);
@@ -163,6 +159,9 @@ fn the_unsaved_cross_step_state_is_a_cache() {
         Forget::Workspace(Piece::BarrierIndex),
         Forget::Workspace(Piece::LiveList),
         Forget::Workspace(Piece::Allowances),
+        Forget::Workspace(Piece::PairCache),
+        Forget::Contact,
+        Forget::Families,
     ];
     for what in pieces {
         assert_same::<f64>(params(PLAIN, Method::Sissm), Interrupt::Forget(what));
@@ -171,28 +170,6 @@ fn the_unsaved_cross_step_state_is_a_cache() {
         params(PLAIN, Method::Descent),
         Interrupt::Forget(Forget::Descent),
     );
-}
-
-/// Known defect (issue 43, see the note above): dropping the pair cache, the contact state or
-/// the families re-seeds the rest gaps, which are not saved, so each of these still changes the
-/// results (by round-off here, by 1e-4 m in the Python restore test). Each piece is checked on
-/// its own, so the one that stops differing shows; then it moves to the test above.
-#[test]
-fn dropping_the_state_that_holds_the_rest_gaps_still_changes_results() {
-    for what in [
-        Forget::Workspace(Piece::PairCache),
-        Forget::Contact,
-        Forget::Families,
-    ] {
-        let differs = std::panic::catch_unwind(|| {
-            assert_same::<f64>(params(PLAIN, Method::Sissm), Interrupt::Forget(what))
-        })
-        .is_err();
-        assert!(
-            differs,
-            "{what:?} no longer changes the results: move it to the cache test"
-        );
-    }
 }
 
 /// The experiment behind the two tests above, printed: how far each piece moves the results

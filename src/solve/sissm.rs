@@ -41,7 +41,7 @@ use super::family::Family;
 use super::membranes::contact_step::ContactState;
 use super::membranes::descent::{descent_iteration, DescentState, LineSearch};
 use super::update::{MoveOptions, Update};
-use super::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
+use super::{Acceleration, Clock, Method, SolverParams, SolverState, StepStats, Timings};
 
 /// Steps a set of membranes in time.
 pub struct Solver<T: Real> {
@@ -57,21 +57,6 @@ pub struct Solver<T: Real> {
     /// A state given to [`Self::restore_state`], taken by the next step.
     restored: Option<SolverState>,
     clock: Clock,
-}
-
-/// What a solver carries from one step to the next, besides its bodies' state, its clock and
-/// its colliders' motion, that changes the results of the steps to come: with those, all a
-/// saved simulation needs to continue bit for bit in a solver set up the same way (same
-/// bodies in the same order, parameters and colliders). Everything else the solver keeps
-/// between steps is a cache (the families' working sets, the contact pairs and their index, the
-/// Chebyshev history, the descent method's working set): results do not depend on it.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct SolverState {
-    /// Per membrane vertex (the membranes in the order of the body list, each in its vertex
-    /// order), the warm start of the first contact local step of the next step
-    /// ([`crate::contact::ContactParams::warm_start`], m): the last local step's move where
-    /// the barrier pushed. Empty: none (no contact yet, or contact off).
-    pub contact_warm_start: Vec<Vector3<f64>>,
 }
 
 fn millis(since: Instant) -> f64 {
@@ -187,29 +172,18 @@ impl<T: Real> Solver<T> {
         if let Some(restored) = &self.restored {
             return restored.clone();
         }
+        let contact = self.contact.as_ref();
         SolverState {
-            contact_warm_start: self
-                .contact
-                .as_ref()
-                .map(|c| c.warm_start().to_vec())
-                .unwrap_or_default(),
+            contact_warm_start: contact.map(|c| c.warm_start().to_vec()).unwrap_or_default(),
+            contact_rest_gaps: contact.and_then(|c| c.rest_gaps()),
         }
     }
 
     /// Restores a state read with [`Self::saved_state`] (from a solver set up the same way),
-    /// replacing this solver's own; the next step takes it. Its warm start must hold a finite
-    /// move for every membrane vertex of that step's body list, or be empty.
+    /// replacing this solver's own; the next step takes it, after checking it against its
+    /// bodies (see [`SolverState::check_against`]).
     pub fn restore_state(&mut self, state: SolverState) -> Result<()> {
-        if let Some(i) = state
-            .contact_warm_start
-            .iter()
-            .position(|w| !w.iter().all(|c| c.is_finite()))
-        {
-            return Err(invalid!(
-                "the contact warm start of vertex {i} is not finite: {:?}",
-                state.contact_warm_start[i]
-            ));
-        }
+        state.validate()?;
         self.restored = Some(state);
         Ok(())
     }
@@ -244,14 +218,10 @@ impl<T: Real> Solver<T> {
             .iter()
             .map(|m| m.num_vertices())
             .sum::<usize>();
-        let warm = self
-            .restored
-            .as_ref()
-            .map_or(0, |r| r.contact_warm_start.len());
-        if warm != 0 && warm != vertices {
-            return Err(invalid!(
-                "the restored contact warm start holds {warm} vertices, the membranes {vertices}"
-            ));
+        if let Some(restored) = &self.restored {
+            restored.check_against(vertices)?;
+            // The contact state restarts from what was restored (its caches are rebuilt).
+            self.contact = None;
         }
         if params.method == Method::Descent && self.descent.is_none() {
             self.descent = Some(DescentState::new(&by_kind.membranes)?);
@@ -273,6 +243,9 @@ impl<T: Real> Solver<T> {
             let contact = self
                 .contact
                 .get_or_insert_with(|| ContactState::new(&by_kind.membranes, sys));
+            if let Some(gaps) = restored.as_ref().and_then(|r| r.contact_rest_gaps.as_ref()) {
+                contact.set_rest_gaps(gaps);
+            }
             contact.start_step(&by_kind.membranes, sys);
         }
         if let (Some(restored), Some(contact)) = (restored, &mut self.contact) {

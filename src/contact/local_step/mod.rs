@@ -81,6 +81,7 @@ pub use params::{
     ContactParams, DescentStep, ProximalMetric, ProximalWeights, CLAMP_PASSES, SETTLED_SHARE,
     STOP_FRACTION, TOL_SHARE,
 };
+pub use rest_gaps::{SavedRestGap, SavedRestGaps};
 pub use stats::ContactStats;
 #[cfg(test)]
 pub use workspace::Piece;

@@ -27,6 +27,28 @@ use nalgebra::Vector3;
 use super::super::broad_phase::ContactMesh;
 use super::super::primitive_pairs::Pair;
 
+/// A pair's rest gap as a saved simulation holds it (see [`RestGaps::saved`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SavedRestGap {
+    /// An edge-edge pair (`vertices`: the two ends of one edge, then of the other), or a
+    /// point-triangle pair (the point, then the triangle's corners).
+    pub edge_edge: bool,
+    /// The pair's vertices, in the solver's global numbering of the membranes' vertices.
+    pub vertices: [u32; 4],
+    /// The distance (m) at which its barrier starts.
+    pub distance: f64,
+}
+
+/// The rest gaps as a saved simulation holds them: what a solver needs to continue with the
+/// same barriers (see [`RestGaps::saved`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SavedRestGaps {
+    /// The reach `R` (m) of the last local step, by which the gaps are scaled.
+    pub reach: f64,
+    /// The gaps, in the order of their pairs (sorted, so a save is the same for the same gaps).
+    pub gaps: Vec<SavedRestGap>,
+}
+
 /// A pair's rest gap.
 #[derive(Debug, Clone, Copy)]
 struct Gap {
@@ -70,6 +92,21 @@ fn canonical(p: &Pair) -> Pair {
     }
 }
 
+/// Per vertex of `mesh`'s triangles, the index of its body.
+fn body_of_vertices(mesh: &ContactMesh) -> Vec<u32> {
+    let mut body_of = Vec::new();
+    for (t, &b) in mesh.triangles.iter().zip(mesh.body) {
+        for &v in t {
+            let v = v as usize;
+            if body_of.len() <= v {
+                body_of.resize(v + 1, u32::MAX);
+            }
+            body_of[v] = b;
+        }
+    }
+    body_of
+}
+
 impl RestGaps {
     /// At the start of a time step, with the positions `y_t` (m): the first call arms the
     /// seeding by the next local step; later calls raise every gap between bodies to the
@@ -108,16 +145,7 @@ impl RestGaps {
         self.seeded = true;
         self.changed = true;
         self.reach = reach;
-        let mut body_of = Vec::new();
-        for (t, &b) in mesh.triangles.iter().zip(mesh.body) {
-            for &v in t {
-                let v = v as usize;
-                if body_of.len() <= v {
-                    body_of.resize(v + 1, u32::MAX);
-                }
-                body_of[v] = b;
-            }
-        }
+        let body_of = body_of_vertices(mesh);
         for (pair, &d) in pairs.iter().zip(distances) {
             if d < reach {
                 let own = body_of[pair.v[0] as usize] == body_of[pair.v[2] as usize];
@@ -130,6 +158,50 @@ impl RestGaps {
                 self.gaps.insert(canonical(pair), gap);
             }
         }
+    }
+
+    /// The gaps to save with a simulation; `None` before they are seeded (a solver restored
+    /// with `None` seeds them at its next step, as this one would).
+    pub(super) fn saved(&self) -> Option<SavedRestGaps> {
+        if !self.seeded {
+            return None;
+        }
+        let mut gaps: Vec<SavedRestGap> = self
+            .gaps
+            .iter()
+            .map(|(pair, gap)| SavedRestGap {
+                edge_edge: pair.edge_edge,
+                vertices: pair.v,
+                distance: gap.distance,
+            })
+            .collect();
+        gaps.sort_unstable_by_key(|g| (g.edge_edge, g.vertices));
+        Some(SavedRestGaps {
+            reach: self.reach,
+            gaps,
+        })
+    }
+
+    /// Replaces the gaps by saved ones, as seeded, for the triangles of `mesh` (whose bodies
+    /// tell a body's own pairs, kept for good, from the pairs between bodies). Every vertex of a
+    /// saved pair must be a vertex of `mesh`.
+    pub(super) fn restore(&mut self, saved: &SavedRestGaps, mesh: &ContactMesh) {
+        let body_of = body_of_vertices(mesh);
+        self.gaps.clear();
+        for gap in &saved.gaps {
+            let pair = canonical(&Pair {
+                edge_edge: gap.edge_edge,
+                v: gap.vertices,
+            });
+            let body = |v: u32| body_of.get(v as usize).copied();
+            let own = body(pair.v[0]) == body(pair.v[2]);
+            let distance = gap.distance;
+            self.gaps.insert(pair, Gap { distance, own });
+        }
+        self.reach = saved.reach;
+        self.pending = false;
+        self.seeded = true;
+        self.changed = true;
     }
 
     /// Notes the reach `R` (m) of this local step.

@@ -4,7 +4,9 @@
 use nalgebra::Vector3;
 
 use super::super::barrier_push::BarrierPush;
+use super::super::broad_phase::ContactMesh;
 use super::live_pairs::LivePairs;
+use super::rest_gaps::SavedRestGaps;
 use crate::geometry::distance::Closest;
 use crate::symmetric::SymmetricMatrix3;
 
@@ -93,6 +95,19 @@ impl Workspace {
         self.warm.clear();
         self.warm.extend_from_slice(warm);
     }
+
+    /// The rest gaps of the pairs that started within the barrier's reach (see
+    /// `rest_gaps.rs`; `None` before the first local step seeds them). Like the warm start they
+    /// change the results of the steps to come: a saved simulation keeps them.
+    pub fn rest_gaps(&self) -> Option<SavedRestGaps> {
+        self.live.gaps.saved()
+    }
+
+    /// Replaces the rest gaps by saved ones (see [`Workspace::rest_gaps`]) for the triangles of
+    /// `mesh`; every vertex of a saved pair must be one of `mesh`'s.
+    pub fn set_rest_gaps(&mut self, saved: &SavedRestGaps, mesh: &ContactMesh) {
+        self.live.gaps.restore(saved, mesh);
+    }
 }
 
 /// A piece of the state a [`Workspace`] carries from one local step to the next (and from one
@@ -108,7 +123,8 @@ pub enum Piece {
     LiveList,
     /// The live pairs and the deviations the next local step's allowances are carried from.
     Allowances,
-    /// The cached pairs, and with them the live ones: the next local step builds afresh.
+    /// The cached pairs, and with them the live ones: the next local step builds afresh (the
+    /// rest gaps kept).
     PairCache,
     /// The barrier's terms and their index by vertex.
     BarrierIndex,
@@ -126,10 +142,13 @@ impl Workspace {
                 self.live.deviation.clear();
             }
             Piece::PairCache => {
-                // The version keeps counting, so that no index is taken for the new list.
+                // The version keeps counting, so that no index is taken for the new list; the
+                // rest gaps are state, not cache, and stay.
                 let version = self.live.version + 1;
+                let gaps = std::mem::take(&mut self.live.gaps);
                 self.live = LivePairs::default();
                 self.live.version = version;
+                self.live.gaps = gaps;
             }
             Piece::BarrierIndex => self.barrier_push = BarrierPush::default(),
         }

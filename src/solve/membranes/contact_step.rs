@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use crate::collider::{push_out_of_colliders, ColliderModel, MoveStart};
 use crate::contact::{
     resolve_contacts, ContactMesh, ContactParams, ContactStats, ProximalMetric, ProximalWeights,
-    Workspace,
+    SavedRestGaps, Workspace,
 };
 use crate::membrane::Membrane;
 use crate::parallel::chunked_sum;
@@ -217,6 +217,24 @@ impl<T: Real> ContactState<T> {
     /// Replaces the warm start of the next local step (see [`Self::warm_start`]).
     pub fn set_warm_start(&mut self, warm: &[Vector3<f64>]) {
         self.work.set_warm_start(warm);
+    }
+
+    /// The rest gaps of the pairs that started within the barrier's reach, in the system's
+    /// global vertex numbering (`None` before the first local step seeds them): carried from
+    /// one time step to the next, and changing results, like the warm start.
+    pub fn rest_gaps(&self) -> Option<SavedRestGaps> {
+        self.work.rest_gaps()
+    }
+
+    /// Replaces the rest gaps (see [`Self::rest_gaps`]); every vertex of a saved pair must be
+    /// one of the system's.
+    pub fn set_rest_gaps(&mut self, saved: &SavedRestGaps) {
+        let mesh = ContactMesh {
+            triangles: &self.triangles,
+            body: &self.body,
+            self_contact: &self.self_contact,
+        };
+        self.work.set_rest_gaps(saved, &mesh);
     }
 
     /// The local step's buffers, for the tests that drop a piece of them.
