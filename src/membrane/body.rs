@@ -306,13 +306,15 @@ impl Membrane {
         match indices {
             None => self.pins.clear(),
             Some(list) => {
+                let mut vertices = Vec::with_capacity(list.len());
                 for (k, &i) in list.iter().enumerate() {
-                    if i < 0 || !self.pins.contains_key(&(i as u32)) {
-                        return Err(invalid!("vertex {i} (entry {k}) is not pinned"));
+                    match u32::try_from(i) {
+                        Ok(v) if self.pins.contains_key(&v) => vertices.push(v),
+                        _ => return Err(invalid!("vertex {i} (entry {k}) is not pinned")),
                     }
                 }
-                for &i in list {
-                    self.pins.remove(&(i as u32));
+                for v in vertices {
+                    self.pins.remove(&v);
                 }
             }
         }

@@ -177,3 +177,21 @@ fn affine_stretch_reproduces_the_continuum_stress() {
         );
     }
 }
+
+/// Pin indices are never truncated on the way in: an unpin of vertex 2^32 is refused, naming
+/// it, and leaves vertex 0 pinned (it would wrap to 0 in 32 bits).
+#[test]
+fn unpin_refuses_indices_beyond_32_bits_without_wrapping() {
+    let mut m = Membrane::new(
+        TriangleMesh::grid(3, 3, 1.0, 1.0).unwrap(),
+        params(Material::stretch_a3(1e4).unwrap(), 0.0, 0.0, 1),
+    )
+    .unwrap();
+    m.pin(&[0, 4], None).unwrap();
+    let error = m.unpin(Some(&[4, 1 << 32])).unwrap_err().to_string();
+    assert!(error.contains("4294967296"), "{error}");
+    assert_eq!(m.pins().len(), 2, "a refused unpin changes nothing");
+    assert!(m.unpin(Some(&[-1])).is_err());
+    m.unpin(Some(&[0])).unwrap();
+    assert_eq!(m.pins().keys().collect::<Vec<_>>(), [&4]);
+}
