@@ -78,7 +78,8 @@ use std::time::Instant;
 pub use descent::resolve_contacts;
 pub use moves::PushOut;
 pub use params::{
-    ContactParams, DescentStep, ProximalMetric, ProximalWeights, CLAMP_PASSES, SETTLED_SHARE,
+    ContactParams, DescentStep, ProximalMetric, ProximalWeights, CLAMP_PASSES, D_HAT_PER_THICKNESS,
+    SETTLED_SHARE,
     STOP_FRACTION, TOL_SHARE,
 };
 pub use stats::ContactStats;
