@@ -116,6 +116,9 @@ class Membrane:
         1-ring deformation gradient, vanishes under mesh refinement for smooth motion.
     neighbors : k of the k-ring neighbourhood (1 = mesh 1-ring, as in the paper).
     self_contact : whether a solver with contact keeps this membrane's own triangles apart.
+    friction : Coulomb friction coefficient against membranes (itself included), >= 0 (default
+        0, frictionless); a pair of primitives takes the geometric mean of its two bodies'
+        coefficients. Static and kinetic, in the contact local step (CPU solver only).
     """
 
     def __init__(
@@ -130,11 +133,16 @@ class Membrane:
         hourglass: float = 0.5,
         neighbors: int = 1,
         self_contact: bool = True,
+        friction: float = 0.0,
     ) -> None: ...
     @property
     def self_contact(self) -> bool: ...
     @self_contact.setter
     def self_contact(self, value: bool) -> None: ...
+    @property
+    def friction(self) -> float: ...
+    @friction.setter
+    def friction(self, value: float) -> None: ...
     @property
     def num_vertices(self) -> int: ...
     @property

@@ -63,6 +63,7 @@
 //! pairs that were `eps xi` apart stay so.
 
 mod descent;
+mod friction;
 mod guarantee;
 mod live_pairs;
 mod moves;
@@ -79,8 +80,7 @@ pub use descent::resolve_contacts;
 pub use moves::PushOut;
 pub use params::{
     ContactParams, DescentStep, ProximalMetric, ProximalWeights, CLAMP_PASSES, D_HAT_PER_THICKNESS,
-    SETTLED_SHARE,
-    STOP_FRACTION, TOL_SHARE,
+    SETTLED_SHARE, STOP_FRACTION, TOL_SHARE,
 };
 pub use stats::ContactStats;
 #[cfg(test)]
