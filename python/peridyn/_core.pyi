@@ -315,7 +315,8 @@ class Contact:
     ----------
     thickness : contact thickness xi in m (> 0): mid-surfaces stay about xi apart, never closer
         than eps * xi.
-    d_hat : barrier range in m on the gap f(d) - xi (None: thickness / 2; Table 1 has 4 * thickness). Layers at rest lie about thickness + d_hat apart.
+    d_hat : barrier range in m on the gap f(d) - xi (None: thickness / 2; Table 1 has
+        4 * thickness). Layers at rest on one another lie about thickness + d_hat apart.
     eps : minimal separation multiplier of eq. 51 in (0, 1); also the largest descent move per
         iteration in units of xi.
     weight : barrier weight mu of eq. 47 (> 0; with proximal="jacobi" in units of the mean
