@@ -116,6 +116,9 @@ class Membrane:
         1-ring deformation gradient, vanishes under mesh refinement for smooth motion.
     neighbors : k of the k-ring neighbourhood (1 = mesh 1-ring, as in the paper).
     self_contact : whether a solver with contact keeps this membrane's own triangles apart.
+    friction : Coulomb friction coefficient against membranes (itself included), >= 0 (default
+        0, frictionless); a pair of primitives takes the geometric mean of its two bodies'
+        coefficients. Static and kinetic, in the contact local step (CPU solver only).
     """
 
     def __init__(
@@ -130,11 +133,16 @@ class Membrane:
         hourglass: float = 0.5,
         neighbors: int = 1,
         self_contact: bool = True,
+        friction: float = 0.0,
     ) -> None: ...
     @property
     def self_contact(self) -> bool: ...
     @self_contact.setter
     def self_contact(self, value: bool) -> None: ...
+    @property
+    def friction(self) -> float: ...
+    @friction.setter
+    def friction(self, value: float) -> None: ...
     @property
     def num_vertices(self) -> int: ...
     @property
@@ -307,7 +315,8 @@ class Contact:
     ----------
     thickness : contact thickness xi in m (> 0): mid-surfaces stay about xi apart, never closer
         than eps * xi.
-    d_hat : barrier range in m on the gap f(d) - xi (None: 4 * thickness, as in Table 1).
+    d_hat : barrier range in m on the gap f(d) - xi (None: thickness / 2; Table 1 has
+        4 * thickness). Layers at rest on one another lie about thickness + d_hat apart.
     eps : minimal separation multiplier of eq. 51 in (0, 1); also the largest descent move per
         iteration in units of xi.
     weight : barrier weight mu of eq. 47 (> 0; with proximal="jacobi" in units of the mean

@@ -44,17 +44,28 @@ pub fn push_out_with_friction<T: Real>(
             let slip = (y - start) - c.displacement(&y);
             let slip_t = slip - n * n.dot(&slip);
             let compliance = slip_t.dot(&inverse.mul_vector(&slip_t));
-            if compliance > T::zero() {
-                let needed = slip_t.norm_squared() * slip_t.norm() / compliance;
-                let budget = c.friction * reaction;
-                y -= slip_t
-                    * if needed <= budget {
-                        T::one()
-                    } else {
-                        budget / needed
-                    };
-            }
+            y -= slip_t * coulomb_share(&slip_t, compliance, c.friction * reaction);
         }
     }
     y
+}
+
+/// The share (in `[0, 1]`) of a tangential slip `slip_t` (m) that Coulomb friction removes:
+/// removing all of it takes the reaction `k |slip_t|`, with `k = |slip_t|^2 / compliance` the
+/// stiffness along it and `compliance = slip_t . C slip_t` (m^2 times the compliance `C`, the
+/// inverse of the metric the move is taken in); 1 where that is within `budget` (the friction
+/// coefficient times the normal reaction, in the units of `k |slip_t|`: sticking), else
+/// `budget / (k |slip_t|)` (sliding, the slip shortened by the cone's reach); 0 where
+/// `compliance` is not positive (no slip, or a vertex that cannot move).
+#[inline]
+pub fn coulomb_share<T: Real>(slip_t: &Vector3<T>, compliance: T, budget: T) -> T {
+    if compliance <= T::zero() {
+        return T::zero();
+    }
+    let needed = slip_t.norm_squared() * slip_t.norm() / compliance;
+    if needed <= budget {
+        T::one()
+    } else {
+        budget / needed
+    }
 }

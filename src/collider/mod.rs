@@ -12,7 +12,7 @@ pub(crate) mod sdf;
 mod shape;
 
 pub(crate) use crossing::{TOUCH_DISTANCE, TRACE_STEPS, TRACE_TOLERANCE};
-pub use friction::push_out_with_friction;
+pub use friction::{coulomb_share, push_out_with_friction};
 pub use motion::MovingCollider;
 pub use pose::{rotation_matrix, Pose};
 pub use sdf::{MeshDistance, SdfGrid};

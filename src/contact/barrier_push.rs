@@ -45,19 +45,19 @@ pub(super) struct BarrierPush {
 /// per record (the closest points, the fades and the pairs themselves, read at each pair's
 /// place, would take one each).
 #[derive(Clone, Copy)]
-struct Term {
+pub(super) struct Term {
     /// `n_c = d_c / |d_c|`, the unit separation.
-    normal: Vector3<f64>,
+    pub(super) normal: Vector3<f64>,
     /// `s_c = -mu m_c B'(f(d_c) - xi)` (m), its slope.
-    slope: f64,
+    pub(super) slope: f64,
     /// `k_c = mu m_c B''(f(d_c) - xi) f'(d_c) sum_j |alpha_c^j|` (dimensionless), its stiffness.
-    stiffness: f64,
+    pub(super) stiffness: f64,
     /// `m_c`, its fade (see [`super::parallel_fade`]).
-    fade: f64,
+    pub(super) fade: f64,
     /// `alpha_c^j`, the closest points' weights of its four vertices.
-    weights: [f64; 4],
+    pub(super) weights: [f64; 4],
     /// The pair, the order its term is summed in (see [`BarrierPush::update`]).
-    pair: Pair,
+    pub(super) pair: Pair,
 }
 
 const STALE: Term = Term {
@@ -202,14 +202,10 @@ impl BarrierPush {
                     }
                     (*push, *alpha, *curvature) =
                         (Vector3::zeros(), 0.0, SymmetricMatrix3::zeros());
-                    felt_here.clear();
-                    felt_here.extend(slots.filter(|&(k, _)| felt[k]).map(|(k, slot)| {
-                        debug_assert_eq!(pairs[k].v[slot] as usize, v, "pair {k}'s slot {slot}");
-                        (&terms[k], slot)
-                    }));
-                    if felt_here.len() > 1 {
-                        felt_here.sort_unstable_by_key(|t| t.0.pair);
-                    }
+                    gather_felt(slots, felt, terms, felt_here);
+                    debug_assert!(felt_here
+                        .iter()
+                        .all(|(t, slot)| t.pair.v[*slot] as usize == v));
                     for &(term, slot) in felt_here.iter() {
                         let w = term.weights[slot];
                         *push += term.normal * (term.slope * w);
@@ -219,6 +215,35 @@ impl BarrierPush {
                     }
                 },
             );
+    }
+}
+
+impl BarrierPush {
+    /// Writes into `out` vertex `v`'s terms of the pairs that felt the barrier at their last
+    /// [`BarrierPush::update`], each with `v`'s slot in it, in the order of the pairs (the
+    /// order the sums take them in).
+    pub(super) fn felt_terms<'a>(&'a self, v: usize, out: &mut Vec<(&'a Term, usize)>) {
+        let slots = self.head_rows.of(v).chain(self.tail_rows.of(v));
+        gather_felt(slots, &self.felt, &self.terms, out);
+    }
+}
+
+/// Writes into `out` the terms of the pairs among `slots` (a vertex's pairs and its slot in
+/// each) that `felt` the barrier, sorted by pair.
+fn gather_felt<'a>(
+    slots: impl Iterator<Item = (usize, usize)>,
+    felt: &[bool],
+    terms: &'a [Term],
+    out: &mut Vec<(&'a Term, usize)>,
+) {
+    out.clear();
+    out.extend(
+        slots
+            .filter(|&(k, _)| felt[k])
+            .map(|(k, slot)| (&terms[k], slot)),
+    );
+    if out.len() > 1 {
+        out.sort_unstable_by_key(|t| t.0.pair);
     }
 }
 

@@ -20,7 +20,7 @@ mod test_meshes;
 pub use broad_phase::{BroadPhase, ContactMesh};
 pub use local_step::{
     resolve_contacts, ContactParams, ContactStats, DescentStep, ProximalMetric, ProximalWeights,
-    PushOut, SavedRestGap, SavedRestGaps, Workspace,
+    PushOut, SavedRestGap, SavedRestGaps, Workspace, D_HAT_PER_THICKNESS,
 };
 pub use parallel_fade::default_parallel_angle;
 pub use primitive_pairs::closest_primitive_distance;

@@ -103,6 +103,8 @@ pub struct Membrane {
     velocities: Vec<Vector3<f64>>,
     pins: BTreeMap<u32, Vector3<f64>>,
     self_contact: bool,
+    /// Coulomb friction coefficient against other membranes (dimensionless, >= 0).
+    friction: f64,
     /// The copy of `positions` and `velocities` a GPU step left on its device, if any.
     device: Option<DeviceCopy>,
 }
@@ -130,6 +132,7 @@ impl Membrane {
             velocities,
             pins: BTreeMap::new(),
             self_contact: true,
+            friction: 0.0,
             device: None,
         })
     }
@@ -142,6 +145,20 @@ impl Membrane {
 
     pub fn set_self_contact(&mut self, on: bool) {
         self.self_contact = on;
+    }
+
+    /// The Coulomb friction coefficient of this membrane against membranes (itself included) in
+    /// the contact local step (dimensionless; default 0, frictionless). A pair of primitives
+    /// takes the geometric mean of its two bodies' coefficients (see
+    /// `contact::local_step::friction`).
+    pub fn friction(&self) -> f64 {
+        self.friction
+    }
+
+    /// Sets [`Self::friction`]; fails, naming the value, unless it is finite and `>= 0`.
+    pub fn set_friction(&mut self, mu: f64) -> Result<()> {
+        self.friction = check_param("friction", mu, |m| m >= 0.0, "a finite coefficient >= 0")?;
+        Ok(())
     }
 
     /// A process-unique identity, so a solver can tell whether its cached rest data still match.

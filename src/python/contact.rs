@@ -10,6 +10,7 @@ use rayon::prelude::*;
 use crate::contact::ccd::{edge_edge_ccd, point_triangle_ccd, AdditiveCcd};
 use crate::contact::{
     closest_primitive_distance, default_parallel_angle, BroadPhase, ContactMesh, ContactParams,
+    D_HAT_PER_THICKNESS,
 };
 use crate::error::check_param;
 use crate::geometry::distance::{edge_edge_closest, point_triangle_closest, Closest};
@@ -247,7 +248,9 @@ fn edge_edge_ccd_additive<'py>(
 /// Contact between and within membranes: the local step of Algorithm 2 (Lu et al. 2023).
 ///
 /// `thickness` xi (m): primitives keep their mid-surfaces about xi apart, never closer than
-/// `eps * xi`; `d_hat` (m, default 4 xi as in Table 1): barrier range on the gap `f(d) - xi`;
+/// `eps * xi`; `d_hat` (m, default xi / 2; the paper's Table 1 has 4 xi): barrier range on the
+/// gap `f(d) - xi`, and layers at rest on one another lie about `xi + d_hat` apart (see
+/// `D_HAT_PER_THICKNESS`);
 /// `eps` (default 0.1): minimal separation multiplier of eq. 51, also the largest descent move
 /// per iteration in units of xi; `weight` mu (default 1): barrier weight of eq. 47;
 /// `max_iters` (default 32): descent iterations per local step, which stops earlier once its
@@ -307,7 +310,7 @@ impl PyContact {
             .transpose()?;
         let inner = ContactParams {
             thickness,
-            d_hat: d_hat.unwrap_or(4.0 * thickness),
+            d_hat: d_hat.unwrap_or(D_HAT_PER_THICKNESS * thickness),
             eps,
             weight,
             max_iters: iteration_cap(max_iters)?,

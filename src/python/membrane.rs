@@ -67,7 +67,8 @@ impl PyMembrane {
     #[pyo3(signature = (vertices, triangles, *, thickness, density, material,
                         bending = Real::of(0.0),
                         hourglass = Real::of(MembraneParams::DEFAULT_HOURGLASS),
-                        neighbors = Int::of(1), self_contact = true))]
+                        neighbors = Int::of(1), self_contact = true,
+                        friction = Real::of(0.0)))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -80,7 +81,9 @@ impl PyMembrane {
         hourglass: Real,
         neighbors: Int,
         self_contact: bool,
+        friction: Real,
     ) -> PyResult<Self> {
+        let friction = friction.get("friction")?;
         let thickness = thickness.get("thickness")?;
         let density = density.get("density")?;
         let bending = bending.get("bending")?;
@@ -110,6 +113,7 @@ impl PyMembrane {
                 params.validate()?;
                 let mut membrane = Membrane::new(TriangleMesh::new(v, t)?, params)?;
                 membrane.set_self_contact(self_contact);
+                membrane.set_friction(friction)?;
                 Ok(membrane)
             })
         })?;
@@ -126,6 +130,17 @@ impl PyMembrane {
     #[setter]
     fn set_self_contact(&self, on: bool) {
         self.lock().set_self_contact(on);
+    }
+    /// Coulomb friction coefficient against membranes (>= 0; a pair takes the geometric mean
+    /// of its two bodies' coefficients).
+    #[getter]
+    fn friction(&self) -> f64 {
+        self.lock().friction()
+    }
+    #[setter]
+    fn set_friction(&self, mu: Real) -> PyResult<()> {
+        let mu = mu.get("friction")?;
+        self.lock().set_friction(mu).py()
     }
     #[getter]
     fn num_vertices(&self) -> usize {

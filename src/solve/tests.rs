@@ -670,8 +670,9 @@ fn descent_iterates_differ_from_sissm() {
 
 /// A three-layer contact drop like `peridyn.paper_scenes.cloths_over_ball(layers=3, n=16,
 /// size=0.5, dt=2e-3, drop=2e-3)`: the layers touch each other (and the contact local step's
-/// Jacobi metric comes into play) from about step 19 on. The positions after every step, on a
-/// pool of `threads` threads.
+/// Jacobi metric comes into play) from about step 19 on, with friction 0.4 between them (so the
+/// local step's friction pass runs too). The positions after every step, on a pool of `threads`
+/// threads.
 fn three_layers_over_ball(threads: usize, steps: usize) -> Vec<Vec<Vector3<f64>>> {
     use crate::contact::ContactParams;
     let (n, size, xi, radius, drop) = (16usize, 0.5, 1.5e-3, 0.15, 2e-3);
@@ -699,7 +700,9 @@ fn three_layers_over_ball(threads: usize, steps: usize) -> Vec<Vec<Vector3<f64>>
                 mesh.triangles().iter().map(|t| t.map(i64::from)).collect(),
             )
             .unwrap();
-            Membrane::new(mesh, params).unwrap()
+            let mut body = Membrane::new(mesh, params).unwrap();
+            body.set_friction(0.4).unwrap();
+            body
         })
         .collect();
     let contact = ContactParams {

@@ -11,6 +11,7 @@ use super::super::barrier_push::{barrier_energy, VertexSums};
 use super::super::broad_phase::ContactMesh;
 use super::super::parallel_fade::sin2_limit;
 use super::super::primitive_pairs::Pair;
+use super::friction::{friction_moves, Friction};
 use super::guarantee::{guarantee, vertex_toi};
 use super::live_pairs::FIRST_ALLOWANCE;
 use super::moves::{compliance_bound, damped_move, proximal_pull, settle_or_move, Move, PushOut};
@@ -357,6 +358,57 @@ pub fn resolve_contacts(
         if moved < stop {
             break;
         }
+    }
+
+    // Coulomb friction between membranes (see `friction.rs`): a move like a descent move, out
+    // of the colliders, counted as drift and deviation (and refreshing the live pairs).
+    work.friction_move.clear();
+    if work.step_start.len() == n {
+        let t = Instant::now();
+        let friction = Friction {
+            coefficient: &work.friction,
+            start: &work.step_start,
+        };
+        let moves = &mut work.friction_move;
+        if friction_moves(
+            &friction,
+            &work.barrier_push,
+            (z, &work.push),
+            weights,
+            fixed,
+            moves,
+        ) {
+            z.par_iter_mut()
+                .zip(&mut work.friction_move[..])
+                .zip(&mut work.drift[..])
+                .zip(&mut work.live.deviation[..])
+                .zip(&mut work.changed[..])
+                .zip(&mut work.unmeasured[..])
+                .enumerate()
+                .for_each(|(i, (((((zi, m), di), ei), ci), ui))| {
+                    if *m == Vector3::zeros() {
+                        return;
+                    }
+                    let before = *zi;
+                    *zi += *m;
+                    push_out(i, &before, zi, None);
+                    *m = *zi - before;
+                    let length = m.norm();
+                    (*di, *ei, *ci, *ui) = (*di + length, *ei + length, true, true);
+                });
+            if let Some(kept) = work.live.cover(safe, &work.target, mesh, reach, &mut stats) {
+                restart_ccd(
+                    work.live.pairs.len(),
+                    &mut work.toi,
+                    &mut work.near,
+                    &mut work.changed,
+                );
+                measured = measured.min(kept);
+            }
+        } else {
+            work.friction_move.clear();
+        }
+        stats.descent_ms += millis(t);
     }
 
     if let Some(kept) = guarantee(safe, z, fixed, mesh, params, work, &mut stats) {

@@ -63,6 +63,7 @@
 //! pairs that were `eps xi` apart stay so.
 
 mod descent;
+mod friction;
 mod guarantee;
 mod live_pairs;
 mod moves;
@@ -78,8 +79,8 @@ use std::time::Instant;
 pub use descent::resolve_contacts;
 pub use moves::PushOut;
 pub use params::{
-    ContactParams, DescentStep, ProximalMetric, ProximalWeights, CLAMP_PASSES, SETTLED_SHARE,
-    STOP_FRACTION, TOL_SHARE,
+    ContactParams, DescentStep, ProximalMetric, ProximalWeights, CLAMP_PASSES, D_HAT_PER_THICKNESS,
+    SETTLED_SHARE, STOP_FRACTION, TOL_SHARE,
 };
 pub use rest_gaps::{SavedRestGap, SavedRestGaps};
 pub use stats::ContactStats;

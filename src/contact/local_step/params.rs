@@ -65,8 +65,21 @@ pub enum ProximalMetric {
     Jacobi,
 }
 
+/// The Python API's default barrier range per contact thickness, `d_hat = xi / 2` (the paper's
+/// Table 1 has `4 xi`, which [`ContactParams::default`] keeps).
+///
+/// Layers rest where the barrier's push carries their weight, and that push is
+/// `d mu |B'(x)| / h^2` (N; `d` the Jacobi mass scale, kg, `h` the time step, s): it balances a
+/// vertex's weight `m g` at `|B'(x)| ~ g h^2` (m; 40 um at `h = 2 ms`), and near the range
+/// `|B'(x)| ~ 3 (d_hat - x)^2 / d_hat`, so the gap `x` stays within about
+/// `sqrt(g h^2 d_hat / 3)` (0.1 mm for `d_hat = 0.5 mm`) of `d_hat`: stacked layers rest with
+/// their mid-surfaces `xi + d_hat` apart, whatever they weigh. With the paper's `4 xi` a cloth
+/// of 1 mm floats 4 mm above the one below it (issue 41, item 3); with `xi / 2`, 0.5 mm.
+pub const D_HAT_PER_THICKNESS: f64 = 0.5;
+
 /// Contact parameters (SI units). Defaults follow Table 1 of the paper (cloths over a ball):
-/// `xi = 1.5 mm`, `d_hat = 4 xi`, `eps = 0.1`.
+/// `xi = 1.5 mm`, `d_hat = 4 xi`, `eps = 0.1` (the Python API's `d_hat` default is
+/// [`D_HAT_PER_THICKNESS`] `xi`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactParams {
     /// Contact thickness `xi` (m): mid-surfaces of two primitives stay at least `xi` apart in

@@ -58,14 +58,36 @@ pub struct Workspace {
     /// Per vertex: the metric `W_i` of the last [`super::resolve_contacts`]
     /// ([`super::ProximalWeights`]).
     pub(super) weights: Vec<SymmetricMatrix3<f64>>,
+    /// Per vertex: its position at the start of the time step (m), for friction.
+    pub(super) step_start: Vec<Vector3<f64>>,
+    /// Per vertex: its body's friction coefficient; empty where every body is frictionless.
+    pub(super) friction: Vec<f64>,
+    /// Per vertex: the friction move of the last [`super::resolve_contacts`] (m; see
+    /// `friction.rs`), empty where none moved.
+    pub(super) friction_move: Vec<Vector3<f64>>,
 }
 
 impl Workspace {
     /// At the start of a time step, with the start positions `y_t` (m): arms the rest gaps
     /// of the pairs within the barrier's reach on the first call, ratchets them on later ones
     /// (see `rest_gaps.rs`; the start is taken as the rest gap, so it holds no barrier energy).
-    pub fn start_step(&mut self, start: &[Vector3<f64>]) {
+    /// `friction` holds each vertex's friction coefficient against membranes (see
+    /// `friction.rs`): where one is positive, the local steps of the time step apply
+    /// Coulomb friction to the slips since `start`.
+    pub fn start_step(&mut self, start: &[Vector3<f64>], friction: &[f64]) {
         self.live.gaps.start_step(start);
+        self.friction.clear();
+        self.step_start.clear();
+        if friction.iter().any(|&mu| mu > 0.0) {
+            self.friction.extend_from_slice(friction);
+            self.step_start.extend_from_slice(start);
+        }
+    }
+
+    /// Per vertex, the friction move the last [`super::resolve_contacts`] made (m; empty where
+    /// none moved): a contact reaction like the barrier's push.
+    pub fn friction_move(&self) -> &[Vector3<f64>] {
+        &self.friction_move
     }
 
     /// Per vertex, the barrier push `p_i = -mu sum_c m_c B'(f(d_c) - xi) alpha_c^i n_c` (m) of eq.

@@ -42,6 +42,8 @@ pub(crate) struct ContactState<T: Real> {
     /// on ([`realised_reaction`]): the contact reaction it realised (m; zero away from contact;
     /// empty before the first local step of a time step).
     reaction: Vec<Vector3<T>>,
+    /// Per vertex, its body's friction coefficient against membranes (set each step).
+    friction: Vec<f64>,
 }
 
 impl<T: Real> ContactState<T> {
@@ -66,20 +68,25 @@ impl<T: Real> ContactState<T> {
             next: vec![Vector3::zeros(); n],
             work: Workspace::default(),
             reaction: Vec::with_capacity(n),
+            friction: Vec::with_capacity(n),
         }
     }
 
-    /// Takes the bodies' current self-contact switches, and the start-of-step positions `y_t`
-    /// as the first safe positions.
+    /// Takes the bodies' current self-contact switches and friction coefficients, and the
+    /// start-of-step positions `y_t` as the first safe positions.
     pub fn start_step(&mut self, bodies: &[&mut Membrane], sys: &MembraneSystem<T>) {
         self.reaction.clear();
         self.self_contact.clear();
         self.self_contact
             .extend(bodies.iter().map(|b| b.self_contact()));
+        self.friction.clear();
+        for (b, range) in bodies.iter().zip(&sys.points.ranges) {
+            self.friction.resize(range.end, b.friction());
+        }
         for (safe, start) in self.safe.iter_mut().zip(&sys.points.y_start) {
             *safe = start.map(|c| c.to_f64());
         }
-        self.work.start_step(&self.safe);
+        self.work.start_step(&self.safe, &self.friction);
     }
 
     /// Runs the local step on `sys.points.y_next` (the global step's result, after colliders), keeping
@@ -146,6 +153,7 @@ impl<T: Real> ContactState<T> {
         }
         let y = &sys.points.y;
         let (push, weights) = (self.work.push(), self.work.weights());
+        let friction = self.work.friction_move();
         self.reaction.clear();
         self.reaction.resize(z.len(), Vector3::zeros());
         let moved = sys
@@ -159,7 +167,10 @@ impl<T: Real> ContactState<T> {
                 // The local step's move as far as the barrier's push and the colliders the
                 // vertex ends on explain it: the realised contact reaction. In the local step's
                 // metric a force `f` moves the vertex along `W_i^-1 f`.
-                let local_move = *zi - next.map(|c| c.to_f64());
+                // The friction move is a reaction within its cone by construction (see
+                // `contact::local_step::friction`), counted whole; the rest as below.
+                let friction = friction.get(i).copied().unwrap_or_else(Vector3::zeros);
+                let local_move = *zi - next.map(|c| c.to_f64()) - friction;
                 // `W_i^-1`, taken once for all of the vertex's directions, and only for a
                 // vertex that has one (most have none).
                 let metric_inverse = OnceCell::new();
@@ -183,14 +194,16 @@ impl<T: Real> ContactState<T> {
                     .filter(|c| c.signed_distance(&at) <= touching)
                     .filter_map(|c| moves_along(c.normal(&at).map(|x| x.to_f64())))
                     .collect();
-                *reaction = match (directions.is_empty(), push_direction) {
-                    (true, None) => Vector3::zeros(),
-                    (true, Some(u)) => realised_reaction(&local_move, &[u]).map(T::of),
-                    (false, _) => {
-                        directions.extend(push_direction);
-                        realised_reaction(&local_move, &directions).map(T::of)
-                    }
-                };
+                *reaction = (friction
+                    + match (directions.is_empty(), push_direction) {
+                        (true, None) => Vector3::zeros(),
+                        (true, Some(u)) => realised_reaction(&local_move, &[u]),
+                        (false, _) => {
+                            directions.extend(push_direction);
+                            realised_reaction(&local_move, &directions)
+                        }
+                    })
+                .map(T::of);
                 *next = zi.map(T::of);
                 // The safe positions are the ones the solver holds (rounded in f32).
                 *zi = next.map(|c| c.to_f64());

@@ -315,7 +315,17 @@ fn finish_vertex<T: Real>(
     next: &mut Vector3<T>,
     measures: &mut Measures<T>,
 ) {
-    let alpha = if options.step_length {
+    // The step length is not applied where the last local step realised a contact reaction
+    // (see `free_residual`): there the local step takes the move back, and its reaction
+    // balances only the move it was given. A cut move `alpha D^-1 r` would leave `(1 - alpha) r`
+    // in the measure at the fixed point, which no motion of the vertex releases: a cloth resting
+    // on another, held slightly strained by the barrier (its linearised elastic energy crosses
+    // zero along the move), would never converge (issue 41, item 3).
+    let held = options
+        .contact_reaction
+        .get(k)
+        .is_some_and(|q| *q != Vector3::zeros());
+    let alpha = if options.step_length && !held {
         local.step_length(&delta)
     } else {
         T::one()
