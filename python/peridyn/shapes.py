@@ -1,6 +1,6 @@
 """Colliders as triangle meshes, for drawing them (pictures, animations, notebook views, USD).
 
-One tessellation per collider kind, shared by :mod:`peridyn.render`, :mod:`peridyn.show` and
+One tessellation per collider kind, shared by :mod:`peridyn.render`, :mod:`peridyn.view` and
 :mod:`peridyn.usd`, so every view draws a collider the same way. Positions in m.
 """
 
