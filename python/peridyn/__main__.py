@@ -122,7 +122,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         from peridyn.animation import animate
 
         movie = animate(recorder, out / "animation.mp4", field=None if args.color == "none" else args.color,
-                        progress=not args.no_progress)
+                        fps=10.0, progress=not args.no_progress)
     usd = None
     if args.usd:
         from peridyn.usd import write_usd

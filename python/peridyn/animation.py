@@ -16,7 +16,7 @@ from typing import Any, Callable, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from .recording import FIELDS, Recording, as_recording
+from .recording import FIELDS, Recording, _robust_range, as_recording
 from .render import _MESH_COLORS, _bounds, _draw_body, _draw_collider, _set_view
 
 __all__ = ["animate"]
@@ -94,7 +94,8 @@ def animate(
         Matplotlib colour map of the field.
     clim : (float, float), optional
         Field values at the ends of the colour map (in the field's unit); default: the
-        field's range over the whole run, so colours mean the same in every frame.
+        field's minimum to its 99th percentile over the whole run, so colours mean the same
+        in every frame and a few outliers do not wash them out.
     fps : float
         Video frames per second (> 0).
     elev, azim : float
@@ -139,7 +140,7 @@ def animate(
         values = [[rec.field(field, f, b) for b in range(len(rec.bodies))] for f in range(rec.num_frames)]
         if clim is None:
             flat = np.concatenate([v for frame in values for v in frame])
-            clim = (float(flat.min()), float(flat.max())) if len(flat) else (0.0, 1.0)
+            clim = _robust_range(flat)
         norm = Normalize(*clim)
     colormap = colormaps[cmap]
 

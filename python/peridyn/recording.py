@@ -33,6 +33,15 @@ FIELDS = {
 }
 
 
+def _robust_range(values: np.ndarray) -> tuple:
+    """Default colour limits of a field: its minimum to its 99th percentile, so that a few
+    outliers (a whipping corner) do not wash out the colours of the rest; (0, 1) if empty."""
+    if len(values) == 0:
+        return 0.0, 1.0
+    lo, hi = float(values.min()), float(np.percentile(values, 99.0))
+    return (lo, hi) if hi > lo else (lo, lo + 1.0)
+
+
 def body_triangles(body: Any) -> Optional[np.ndarray]:
     """The body's triangles (M, 3) as int64, or None for a body without faces (particles)."""
     for name in ("triangles", "faces"):

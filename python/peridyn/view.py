@@ -14,7 +14,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from .recording import FIELDS, Recording, as_recording
+from .recording import FIELDS, Recording, _robust_range, as_recording
 from .render import _COLLIDER_COLOR, _MESH_COLORS, _bounds
 
 __all__ = ["show"]
@@ -75,7 +75,8 @@ def show(
     cmap : str
         A plotly colour scale name.
     clim : (float, float), optional
-        Field values at the ends of the colour scale; default: the range over the run.
+        Field values at the ends of the colour scale; default: the minimum to the 99th
+        percentile over the shown frames.
     every : int
         Show every ``every``-th recorded frame (>= 1; the last frame is always shown).
     height : int
@@ -113,7 +114,7 @@ def show(
                   for f in range(rec.num_frames)]
         if clim is None:
             flat = np.concatenate([v for f in shown for v in values[f]])
-            clim = (float(flat.min()), float(flat.max())) if len(flat) else (0.0, 1.0)
+            clim = _robust_range(flat)
         label = FIELDS.get(field, "field") if isinstance(field, str) else "field"
         style = {"colorscale": cmap, "cmin": clim[0], "cmax": clim[1], "colorbar": {"title": {"text": label}}}
 
