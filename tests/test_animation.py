@@ -5,7 +5,6 @@ cloth's colour following the field (at rest everything is at the bottom of the c
 and the motion (the first and last frames differ).
 """
 
-import warnings
 
 import imageio.v3 as iio
 import numpy as np

@@ -6,7 +6,6 @@ simulations; the solver is deterministic, so every backend must return the very 
 as a call in this process.
 """
 
-import numpy as np
 import pytest
 
 import peridyn

@@ -17,7 +17,7 @@ from typing import Any, Callable, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .recording import FIELDS, Recording, _robust_range, as_recording
-from .render import _MESH_COLORS, _bounds, _draw_body, _draw_collider, _set_view
+from .render import _MESH_COLORS, _draw_body, _draw_collider, _run_view_box, _set_view
 
 __all__ = ["animate"]
 
@@ -144,11 +144,7 @@ def animate(
         norm = Normalize(*clim)
     colormap = colormaps[cmap]
 
-    everything = [(t.positions.reshape(-1, 3), None) for t in rec.bodies]
-    lo, hi = _bounds(everything, rec.colliders)
-    center, half = 0.5 * (lo + hi), 0.5 * float(np.max(hi - lo))
-    if not half > 0.0:
-        half = 0.5
+    center, half = _run_view_box(rec)
 
     fig = Figure(figsize=(width / dpi, height / dpi), dpi=dpi)
     canvas = FigureCanvasAgg(fig)

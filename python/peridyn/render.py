@@ -98,6 +98,19 @@ def _bounds(meshes: List[Tuple[np.ndarray, np.ndarray]], colliders: Sequence[Any
     return lo, hi
 
 
+def _view_box(meshes: List[Tuple[np.ndarray, Any]], colliders: Sequence[Any]) -> Tuple[np.ndarray, float]:
+    """Centre (m) and half side (m, 0.5 for an empty or flat-to-a-point scene) of the cube a
+    view shows: it holds every mesh vertex and every solid collider."""
+    lo, hi = _bounds(meshes, colliders)
+    half = 0.5 * float(np.max(hi - lo))
+    return 0.5 * (lo + hi), half if half > 0.0 else 0.5
+
+
+def _run_view_box(rec: Any) -> Tuple[np.ndarray, float]:
+    """:func:`_view_box` of a whole recorded run: every body at every frame."""
+    return _view_box([(t.positions.reshape(-1, 3), None) for t in rec.bodies], rec.colliders)
+
+
 def draw_scene(
     ax: Any,
     meshes: Union[MeshLike, Sequence[MeshLike]],
@@ -131,11 +144,7 @@ def draw_scene(
     """
     mesh_list = _as_mesh_list(meshes)
     colliders = list(colliders)
-    lo, hi = _bounds(mesh_list, colliders)
-    center = 0.5 * (lo + hi)
-    half = 0.5 * float(np.max(hi - lo))
-    if not half > 0.0:
-        half = 0.5
+    center, half = _view_box(mesh_list, colliders)
 
     for c in colliders:
         _draw_collider(ax, c, center, half)

@@ -125,7 +125,7 @@ def write_usd(
     Returns
     -------
     pathlib.Path
-        The file written.
+        The stage file (binary crate for ``.usd`` / ``.usdc``, text for ``.usda``).
 
     Raises
     ------
@@ -135,7 +135,7 @@ def write_usd(
         For a recording without frames, a suffix USD does not write, or ``point_width <= 0``.
     """
     Gf, Sdf, Usd, UsdGeom, Vt = _pxr()
-    from .render import _bounds
+    from .render import _run_view_box
 
     path = Path(path)
     if path.suffix.lower() not in (".usd", ".usda", ".usdc"):
@@ -182,8 +182,7 @@ def write_usd(
 
     if rec.colliders:
         UsdGeom.Scope.Define(stage, "/World/Colliders")
-        lo, hi = _bounds([(t.positions.reshape(-1, 3), None) for t in rec.bodies], rec.colliders)
-        center, half = 0.5 * (lo + hi), max(0.5 * float(np.max(hi - lo)), 0.5)
+        center, half = _run_view_box(rec)
     for c, collider in enumerate(rec.colliders):
         where = f"/World/Colliders/collider_{c}"
         xform = UsdGeom.Xform.Define(stage, where)

@@ -15,7 +15,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .recording import FIELDS, Recording, _robust_range, as_recording
-from .render import _COLLIDER_COLOR, _MESH_COLORS, _bounds
+from .render import _COLLIDER_COLOR, _MESH_COLORS, _run_view_box
 
 __all__ = ["show"]
 
@@ -118,8 +118,7 @@ def show(
         label = FIELDS.get(field, "field") if isinstance(field, str) else "field"
         style = {"colorscale": cmap, "cmin": clim[0], "cmax": clim[1], "colorbar": {"title": {"text": label}}}
 
-    lo, hi = _bounds([(t.positions.reshape(-1, 3), None) for t in rec.bodies], rec.colliders)
-    center, half = 0.5 * (lo + hi), max(0.5 * float(np.max(hi - lo)), 0.5)
+    center, half = _run_view_box(rec)
     meshes = [collider_mesh(c, center, half) for c in rec.colliders]
 
     fig = go.Figure(data=_frame_traces(go, rec, shown[0], values, style, meshes))
