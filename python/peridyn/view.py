@@ -123,7 +123,7 @@ def show(
 
     fig = go.Figure(data=_frame_traces(go, rec, shown[0], values, style, meshes))
     scene = {"aspectmode": "data", "xaxis_title": "x (m)", "yaxis_title": "y (m)", "zaxis_title": "z (m)"}
-    fig.update_layout(scene=scene, height=height, margin={"l": 0, "r": 0, "t": 30, "b": 0},
+    fig.update_layout(scene=scene, height=height, margin={"l": 0, "r": 0, "t": 30, "b": 10},
                       title=f"t = {rec.times[shown[0]]:.3f} s")
     if len(shown) > 1:
         fig.frames = [go.Frame(data=_frame_traces(go, rec, f, values, style, meshes), name=str(f),
@@ -134,12 +134,14 @@ def show(
         fig.layout.scene.aspectmode = "cube"
         play = {"frame": {"duration": 80, "redraw": True}, "fromcurrent": True, "transition": {"duration": 0}}
         fig.update_layout(
-            updatemenus=[{"type": "buttons", "showactive": False, "x": 0.02, "y": 0.02,
-                          "xanchor": "left", "yanchor": "bottom",
+            legend={"x": 0.0, "xanchor": "left", "y": 1.0},  # clear of the colour bar on the right
+            updatemenus=[{"type": "buttons", "showactive": False, "direction": "left", "x": 0.0, "y": 0.0,
+                          "xanchor": "left", "yanchor": "top", "pad": {"t": 45, "r": 10},
                           "buttons": [{"label": "play", "method": "animate", "args": [None, play]},
                                       {"label": "pause", "method": "animate",
                                        "args": [[None], {"mode": "immediate", "frame": {"duration": 0}}]}]}],
             sliders=[{"currentvalue": {"prefix": "t = ", "suffix": " s"}, "pad": {"t": 10},
+                      "x": 0.18, "len": 0.78, "xanchor": "left", "y": 0.0, "yanchor": "top",
                       "steps": [{"label": f"{rec.times[f]:.3f}", "method": "animate",
                                  "args": [[str(f)], {"mode": "immediate", "frame": {"duration": 0, "redraw": True}}]}
                                 for f in shown]}],
