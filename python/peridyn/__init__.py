@@ -2,7 +2,9 @@
 
 The simulation runs in a compiled Rust core (:mod:`peridyn._core`); this package re-exports it
 and adds Python helpers: mesh building and loading (:mod:`peridyn.mesh`), output
-(:mod:`peridyn.io`), pictures (:mod:`peridyn.render`), a ``run`` loop with progress bar
+(:mod:`peridyn.io`), pictures (:mod:`peridyn.render`), animations (:mod:`peridyn.animation`),
+notebook views (:mod:`peridyn.view`), USD stages (:mod:`peridyn.usd`), parameter sweeps
+(:mod:`peridyn.sweeps`), a ``run`` loop with progress bar
 (:class:`peridyn.Solver`) and ready-made scenes (:mod:`peridyn.scenes`, and the paper's
 contact scenes in :mod:`peridyn.paper_scenes`).
 
@@ -29,13 +31,18 @@ from ._core import (
     sample_surface,
     sample_volume,
 )
+from .animation import animate
 from .io import FrameRecorder, load_state, save_state, write_mesh
 from .materials import plate_bending_stiffness
 from .mesh import grid, load_mesh
 from .render import draw_scene, render_png
 from .paper_scenes import antependium, cloths_over_ball, shooting_shell
+from .recording import Recording, load_recording
 from .scenes import Scene, colliding_sheets, default_scene
+from .view import show
 from .solver import RunSummary, Solver
+from .sweeps import SweepResult, sweep
+from .usd import write_usd
 
 __version__: str = _core.__version__
 
@@ -61,8 +68,11 @@ __all__ = [
     "sample_volume",
     # Python layer
     "FrameRecorder",
+    "Recording",
     "RunSummary",
+    "SweepResult",
     "Scene",
+    "animate",
     "antependium",
     "cloths_over_ball",
     "colliding_sheets",
@@ -70,11 +80,15 @@ __all__ = [
     "draw_scene",
     "grid",
     "load_mesh",
+    "load_recording",
     "load_state",
     "plate_bending_stiffness",
     "render_png",
     "save_state",
     "shooting_shell",
+    "show",
+    "sweep",
     "write_mesh",
+    "write_usd",
     "__version__",
 ]

@@ -1,7 +1,9 @@
 """``python -m peridyn``: run the default scene (a cloth draping onto a sphere) and save it.
 
-Writes one PLY per recorded frame, ``frames.npz`` with every recorded frame, and
-``final.png``, a picture of the last frame; then prints a summary.
+Writes one PLY per recorded frame, ``frames.npz`` with every recorded frame, ``final.png``, a
+picture of the last frame, and ``animation.mp4`` of the run (``animation.gif`` where no MP4
+encoder is available); with ``--usd`` also ``scene.usd``, the run as one USD stage. Then prints
+a summary.
 """
 
 from __future__ import annotations
@@ -37,8 +39,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m peridyn",
         description="Simulate the default scene: a square cloth pinned along one edge swings "
-        "down under gravity and drapes onto a sphere. Writes PLY frames, an .npz of all frames "
-        "and final.png to --out, then prints a summary.",
+        "down under gravity and drapes onto a sphere. Writes PLY frames, an .npz of all frames, "
+        "final.png and animation.mp4 (or .gif) to --out, then prints a summary.",
     )
     parser.add_argument("--steps", type=_nonnegative_int, default=None,
                         help="time steps to run (default: 1 s of simulated time)")
@@ -55,7 +57,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--backend", choices=("cpu", "gpu"), default="cpu",
                         help="'cpu' (Rust threads) or 'gpu' (wgpu compute shaders, f32; "
                         "see peridyn.gpu_info()) (default: cpu)")
-    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    parser.add_argument("--color", choices=("speed", "stretch", "contact", "height", "none"), default="speed",
+                        help="colour the animation's cloth by this per-vertex field (default: speed)")
+    parser.add_argument("--no-animation", action="store_true", help="do not write animation.mp4")
+    parser.add_argument("--usd", action="store_true",
+                        help='also write scene.usd, the run as one USD stage (pip install "peridyn[usd]")')
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     return parser
 
 
@@ -70,6 +77,12 @@ def main(argv: Optional[List[str]] = None) -> int:
     from peridyn.render import render_png
     from peridyn.scenes import default_scene
 
+    if args.usd:
+        try:
+            import pxr  # noqa: F401  (checked before a long run, not after)
+        except ImportError:
+            print('error: --usd needs usd-core: pip install "peridyn[usd]"', file=sys.stderr)
+            return 2
     if args.backend == "gpu" and args.threads is not None:
         print("error: --threads applies to --backend cpu only", file=sys.stderr)
         return 2
@@ -104,6 +117,17 @@ def main(argv: Optional[List[str]] = None) -> int:
     npz = recorder.close()
     png = render_png(out / "final.png", cloth, colliders=solver.colliders,
                      title=f"t = {solver.time:.3g} s")
+    movie = None
+    if not args.no_animation:
+        from peridyn.animation import animate
+
+        movie = animate(recorder, out / "animation.mp4", field=None if args.color == "none" else args.color,
+                        fps=10.0, progress=not args.no_progress)
+    usd = None
+    if args.usd:
+        from peridyn.usd import write_usd
+
+        usd = write_usd(out / "scene.usd", recorder)
 
     print()
     print(f"vertices           {cloth.num_vertices}")
@@ -118,6 +142,10 @@ def main(argv: Optional[List[str]] = None) -> int:
     print(f"  frames           {recorder.num_frames} x frame_NNNNN.ply")
     print(f"  all frames       {npz.name}")
     print(f"  picture          {png.name}")
+    if movie is not None:
+        print(f"  animation        {movie.name}")
+    if usd is not None:
+        print(f"  USD stage        {usd.name}")
     return 0
 
 

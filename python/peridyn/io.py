@@ -117,8 +117,12 @@ class FrameRecorder:
       has one body; ``body0_frame_00000.ply``, ``body1_frame_00000.ply``, ... when it has
       several. Frames are numbered 0, 1, 2, ... in the order recorded.
     - ``frames.npz`` (at :meth:`close`) with ``times`` (F,) in s, ``steps`` (F,) the number of
-      steps taken at each frame, and for each body ``b``: ``positions_b`` (F, N_b, 3) in m and
-      ``triangles_b`` (M_b, 3).
+      steps taken at each frame, and for each body ``b``: ``positions_b`` (F, N_b, 3) in m,
+      ``triangles_b`` (M_b, 3) (a membrane; none for a particle set), ``velocities_b``
+      (F, N_b, 3) in m/s and ``stretch_b`` (F, N_b), the largest in-plane principal stretch
+      (when the body has them); ``collider_rotations`` (F, C, 3, 3) and
+      ``collider_translations`` (F, C, 3) in m, each collider's pose
+      (``Solver.collider_pose``). :func:`peridyn.load_recording` reads it back.
 
     Parameters
     ----------
@@ -157,16 +161,14 @@ class FrameRecorder:
         self.every = int(every)
         self.npz_path = self.directory / npz_name
         self.files: List[Path] = []
-        self._positions: List[List[np.ndarray]] = []
-        self._triangles: List[np.ndarray] = []
-        self._times: List[float] = []
-        self._steps: List[int] = []
+        self._frames: List[Any] = []  # peridyn.recording.Frame, one per recorded frame
+        self._colliders: List[Any] = []
         self._closed = False
 
     @property
     def num_frames(self) -> int:
         """Number of frames recorded so far."""
-        return len(self._times)
+        return len(self._frames)
 
     def __call__(self, solver: Any, stats: Any) -> None:
         """Solver callback: record when ``stats.step + 1`` is a multiple of ``every``."""
@@ -174,55 +176,71 @@ class FrameRecorder:
             self.record(solver)
 
     def record(self, solver: Any) -> int:
-        """Record the current state of every body of ``solver`` now.
+        """Record the current state of every body of ``solver`` now (and its colliders' poses).
+
+        A body is anything with ``positions``; one with ``triangles`` is also written as a mesh
+        file, one without (a particle set) only to the ``.npz``.
 
         Returns
         -------
         int
             Index of the frame just recorded.
         """
+        from .recording import capture
+
         if self._closed:
             raise RuntimeError("FrameRecorder.record: the recorder is closed")
-        bodies = list(solver.bodies)
-        if not bodies:
+        if not list(solver.bodies):
             raise ValueError("FrameRecorder.record: the solver has no bodies")
-        positions = [np.array(body.positions, dtype=np.float64) for body in bodies]
-        if not self._triangles:
-            triangles = [np.asarray(body.triangles, dtype=np.int64) for body in bodies]
-        else:
+        frame_state = capture(solver)
+        positions, triangles = frame_state.positions, frame_state.triangles
+        if self._frames:
             # Every frame goes into one array per body in the .npz: check before recording.
-            if len(bodies) != len(self._triangles):
+            first = self._frames[0]
+            if len(positions) != len(first.positions):
                 raise ValueError(
-                    f"FrameRecorder.record: the solver now has {len(bodies)} bodies, "
-                    f"the recording started with {len(self._triangles)}"
+                    f"FrameRecorder.record: the solver now has {len(positions)} bodies, "
+                    f"the recording started with {len(first.positions)}"
                 )
-            triangles = self._triangles
-            for b, (body, V) in enumerate(zip(bodies, positions)):
-                n = len(self._positions[b][0])
+            for b, (V, tris) in enumerate(zip(positions, triangles)):
+                n = len(first.positions[b])
                 if len(V) != n:
                     raise ValueError(
                         f"FrameRecorder.record: body {b} now has {len(V)} vertices, "
                         f"the recording started with {n}"
                     )
-                if not np.array_equal(np.asarray(body.triangles), triangles[b]):
+                same = (tris is None) == (first.triangles[b] is None) and (
+                    tris is None or np.array_equal(tris, first.triangles[b]))
+                if not same:
                     raise ValueError(
                         f"FrameRecorder.record: body {b} has other triangles than when the "
                         "recording started"
                     )
+                frame_state.triangles[b] = first.triangles[b]
+            if len(frame_state.poses) != len(first.poses):
+                raise ValueError(
+                    f"FrameRecorder.record: the solver now has {len(frame_state.poses)} colliders, "
+                    f"the recording started with {len(first.poses)}"
+                )
         frame = self.num_frames
         if self.fmt is not None:
-            for b, V in enumerate(positions):
-                stem = f"frame_{frame:05d}" if len(bodies) == 1 else f"body{b}_frame_{frame:05d}"
-                self.files.append(write_mesh(self.directory / f"{stem}.{self.fmt}", V, triangles[b]))
+            meshes = [(b, V, tris) for b, (V, tris) in enumerate(zip(positions, triangles)) if tris is not None]
+            for b, V, tris in meshes:
+                stem = f"frame_{frame:05d}" if len(positions) == 1 else f"body{b}_frame_{frame:05d}"
+                self.files.append(write_mesh(self.directory / f"{stem}.{self.fmt}", V, tris))
         # The frame is recorded for the .npz only once everything above succeeded.
-        if not self._triangles:
-            self._triangles = triangles
-            self._positions = [[] for _ in bodies]
-        for b, V in enumerate(positions):
-            self._positions[b].append(V)
-        self._times.append(float(solver.time))
-        self._steps.append(int(solver.steps_taken))
+        if not self._frames:
+            self._colliders = list(getattr(solver, "colliders", ()))
+        self._frames.append(frame_state)
         return frame
+
+    def recording(self) -> Any:
+        """The frames recorded so far as a :class:`peridyn.recording.Recording` (with the
+        solver's collider objects), for :func:`peridyn.animate`, :func:`peridyn.show` and
+        :func:`peridyn.write_usd`."""
+        from .recording import stack
+
+        return stack(self._frames, self._colliders)
 
     def close(self) -> Path:
         """Write the ``.npz`` archive (once) and return its path.
@@ -231,13 +249,10 @@ class FrameRecorder:
         if writing fails, the recorder stays open and ``close`` can be called again.
         """
         if not self._closed:
-            arrays = {
-                "times": np.asarray(self._times, dtype=np.float64),
-                "steps": np.asarray(self._steps, dtype=np.int64),
-            }
-            for b, tris in enumerate(self._triangles):
-                arrays[f"positions_{b}"] = np.stack(self._positions[b])
-                arrays[f"triangles_{b}"] = tris
+            if self._frames:
+                arrays = self.recording().to_arrays()
+            else:
+                arrays = {"times": np.zeros(0), "steps": np.zeros(0, dtype=np.int64)}
             _write_npz(self.npz_path, arrays)
             self._closed = True
         return self.npz_path

@@ -16,94 +16,45 @@ import numpy as np
 __all__ = ["render_png", "draw_scene"]
 
 PathLike = Union[str, "os.PathLike[str]"]
-MeshLike = Any  # a (V, F) pair, or an object with ``positions`` and ``triangles`` (a Membrane)
+MeshLike = Any  # a (V, F) pair, or a body: ``positions`` and, for a membrane, ``triangles``
 
 _MESH_COLORS = ("#4c8bd6", "#d6784c", "#5fb35f", "#b35fb3", "#c9b23c")
 _COLLIDER_COLOR = "#8a8a8a"
 
 
-def _sphere_surface(ax: Any, c: np.ndarray, r: float) -> None:
-    u, v = np.meshgrid(np.linspace(0.0, 2.0 * np.pi, 40), np.linspace(0.0, np.pi, 20))
-    ax.plot_surface(
-        c[0] + r * np.cos(u) * np.sin(v), c[1] + r * np.sin(u) * np.sin(v), c[2] + r * np.cos(v),
-        color=_COLLIDER_COLOR, alpha=0.35, linewidth=0.2, edgecolor="#555555", shade=True,
-    )
+def _draw_collider(ax: Any, c: Any, center: np.ndarray, half: float, pose: Any = None) -> Any:
+    """Draws one collider (Sphere, Capsule, Box, MeshCollider or Plane) translucently, at
+    ``pose`` (``(rotation, translation)``) if given; returns the artist."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-
-def _frame(axis: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors orthogonal to the unit ``axis`` and to each other."""
-    t1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
-    t1 /= np.linalg.norm(t1)
-    return t1, np.cross(axis, t1)
-
-
-def _draw_collider(ax: Any, c: Any, center: np.ndarray, half: float) -> None:
-    """Draws one collider (Sphere, Capsule, Box, MeshCollider or Plane) translucently."""
     from . import _core
+    from .shapes import at_pose, collider_mesh
 
-    if isinstance(c, _core.Sphere):
-        _sphere_surface(ax, np.asarray(c.center, dtype=np.float64), float(c.radius))
-    elif isinstance(c, _core.Capsule):
-        a, b, r = np.asarray(c.a, dtype=np.float64), np.asarray(c.b, dtype=np.float64), float(c.radius)
-        _sphere_surface(ax, a, r)
-        _sphere_surface(ax, b, r)
-        length = np.linalg.norm(b - a)
-        if length > 0.0:
-            t1, t2 = _frame((b - a) / length)
-            u, s = np.meshgrid(np.linspace(0.0, 2.0 * np.pi, 40), [0.0, 1.0])
-            P = a[:, None, None] + (b - a)[:, None, None] * s + r * (
-                t1[:, None, None] * np.cos(u) + t2[:, None, None] * np.sin(u))
-            ax.plot_surface(P[0], P[1], P[2], color=_COLLIDER_COLOR, alpha=0.35, linewidth=0, shade=True)
-    elif isinstance(c, _core.Box):
-        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-        R = np.asarray(c.rotation, dtype=np.float64)
-        h = np.asarray(c.half_extents, dtype=np.float64)
-        o = np.asarray(c.center, dtype=np.float64)
-        corner = lambda sx, sy, sz: o + R @ (h * np.array([sx, sy, sz]))  # noqa: E731
-        faces = []
-        for axis in range(3):
-            for sign in (-1.0, 1.0):
-                quad = []
-                for s1, s2 in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-                    signs = [0.0, 0.0, 0.0]
-                    signs[axis] = sign
-                    signs[(axis + 1) % 3] = s1
-                    signs[(axis + 2) % 3] = s2
-                    quad.append(corner(*signs))
-                faces.append(quad)
-        ax.add_collection3d(Poly3DCollection(faces, facecolor=_COLLIDER_COLOR, alpha=0.35,
-                                             edgecolor="#555555", linewidth=0.3))
-    elif isinstance(c, _core.MeshCollider):
-        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-        V = np.asarray(c.vertices, dtype=np.float64)
-        F = np.asarray(c.triangles, dtype=np.int64)
-        ax.add_collection3d(Poly3DCollection(V[F], facecolor=_COLLIDER_COLOR, alpha=0.35,
-                                             edgecolor="#555555", linewidth=0.2))
-    elif isinstance(c, _core.Plane):
-        n = np.asarray(c.normal, dtype=np.float64)
-        n = n / np.linalg.norm(n)
-        p = np.asarray(c.point, dtype=np.float64)
-        t1, t2 = _frame(n)
-        origin = center - np.dot(center - p, n) * n  # the scene centre projected on the plane
-        s, t = np.meshgrid([-1.2 * half, 1.2 * half], [-1.2 * half, 1.2 * half])
-        X = origin[0] + s * t1[0] + t * t2[0]
-        Y = origin[1] + s * t1[1] + t * t2[1]
-        Z = origin[2] + s * t1[2] + t * t2[2]
-        ax.plot_surface(X, Y, Z, color=_COLLIDER_COLOR, alpha=0.2, linewidth=0, shade=False)
+    V, F = collider_mesh(c, center, half)
+    V = at_pose(V, pose)
+    alpha = 0.2 if isinstance(c, _core.Plane) else 0.35
+    edge = 0.0 if isinstance(c, (_core.Plane, _core.Sphere, _core.Capsule)) else 0.3
+    return ax.add_collection3d(Poly3DCollection(V[F], facecolor=_COLLIDER_COLOR, alpha=alpha,
+                                                edgecolor="#555555", linewidth=edge))
 
 
-def _as_mesh_list(meshes: Union[MeshLike, Sequence[MeshLike]]) -> List[Tuple[np.ndarray, np.ndarray]]:
-    def one(m: MeshLike) -> Tuple[np.ndarray, np.ndarray]:
-        if hasattr(m, "positions") and hasattr(m, "triangles"):
-            V, F = m.positions, m.triangles
+def _as_mesh_list(meshes: Union[MeshLike, Sequence[MeshLike]]) -> List[Tuple[np.ndarray, Optional[np.ndarray]]]:
+    """``(V, F)`` per body; ``F`` is None for a body without triangles (particles, as points)."""
+    from .recording import body_triangles
+
+    def one(m: MeshLike) -> Tuple[np.ndarray, Optional[np.ndarray]]:
+        if hasattr(m, "positions"):
+            V, F = m.positions, body_triangles(m)
         else:
             V, F = m
         V = np.asarray(V, dtype=np.float64)
+        if V.ndim != 2 or V.shape[1] != 3:
+            raise ValueError(f"render: a body needs positions V (N, 3), got {V.shape}")
+        if F is None:
+            return V, None
         F = np.asarray(F, dtype=np.int64)
-        if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
-            raise ValueError(f"render: a mesh needs V (N, 3) and F (M, 3), got {V.shape} and {F.shape}")
+        if F.ndim != 2 or F.shape[1] != 3:
+            raise ValueError(f"render: a mesh needs F (M, 3), got {F.shape}")
         return V, F
 
     if hasattr(meshes, "positions"):
@@ -147,6 +98,19 @@ def _bounds(meshes: List[Tuple[np.ndarray, np.ndarray]], colliders: Sequence[Any
     return lo, hi
 
 
+def _view_box(meshes: List[Tuple[np.ndarray, Any]], colliders: Sequence[Any]) -> Tuple[np.ndarray, float]:
+    """Centre (m) and half side (m, 0.5 for an empty or flat-to-a-point scene) of the cube a
+    view shows: it holds every mesh vertex and every solid collider."""
+    lo, hi = _bounds(meshes, colliders)
+    half = 0.5 * float(np.max(hi - lo))
+    return 0.5 * (lo + hi), half if half > 0.0 else 0.5
+
+
+def _run_view_box(rec: Any) -> Tuple[np.ndarray, float]:
+    """:func:`_view_box` of a whole recorded run: every body at every frame."""
+    return _view_box([(t.positions.reshape(-1, 3), None) for t in rec.bodies], rec.colliders)
+
+
 def draw_scene(
     ax: Any,
     meshes: Union[MeshLike, Sequence[MeshLike]],
@@ -163,7 +127,8 @@ def draw_scene(
     ax : mpl_toolkits.mplot3d.axes3d.Axes3D
         The axes to draw on.
     meshes : (V, F) pair, Membrane, or a sequence of them
-        Triangle meshes, positions in m, drawn as shaded surfaces.
+        Triangle meshes, positions in m, drawn as shaded surfaces; a body with ``positions``
+        but no ``triangles`` (a particle set) is drawn as points.
     colliders : sequence of Sphere, Capsule, Box, MeshCollider or Plane
         Solids are drawn (a MeshCollider as its triangles) as translucent surfaces; planes as a translucent square patch
         spanning the drawn meshes.
@@ -179,23 +144,36 @@ def draw_scene(
     """
     mesh_list = _as_mesh_list(meshes)
     colliders = list(colliders)
-    lo, hi = _bounds(mesh_list, colliders)
-    center = 0.5 * (lo + hi)
-    half = 0.5 * float(np.max(hi - lo))
-    if not half > 0.0:
-        half = 0.5
+    center, half = _view_box(mesh_list, colliders)
 
     for c in colliders:
         _draw_collider(ax, c, center, half)
 
     for k, (V, F) in enumerate(mesh_list):
-        if len(F) == 0:
-            continue
-        ax.plot_trisurf(
-            V[:, 0], V[:, 1], V[:, 2], triangles=F,
-            color=_MESH_COLORS[k % len(_MESH_COLORS)], linewidth=0.0, antialiased=False, shade=True,
-        )
+        _draw_body(ax, V, F, _MESH_COLORS[k % len(_MESH_COLORS)])
+    _set_view(ax, center, half, title, elev, azim)
+    return ax
 
+
+def _draw_body(ax: Any, V: np.ndarray, F: Optional[np.ndarray], color: Any,
+               values: Optional[np.ndarray] = None, cmap: Any = None, norm: Any = None) -> Any:
+    """Draws one body: a shaded surface, or points for a body without triangles; coloured by
+    per-vertex ``values`` through ``cmap`` and ``norm`` when given. Returns the artist."""
+    if F is None:
+        c = color if values is None else cmap(norm(values))
+        return ax.scatter(V[:, 0], V[:, 1], V[:, 2], s=4.0, c=c, depthshade=True)
+    if len(F) == 0:
+        return None
+    if values is None:
+        return ax.plot_trisurf(V[:, 0], V[:, 1], V[:, 2], triangles=F, color=color,
+                               linewidth=0.0, antialiased=False, shade=True)
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    face = cmap(norm(values[F].mean(axis=1)))
+    return ax.add_collection3d(Poly3DCollection(V[F], facecolors=face, linewidth=0.0, antialiased=False))
+
+
+def _set_view(ax: Any, center: np.ndarray, half: float, title: Optional[str], elev: float, azim: float) -> None:
     ax.set_xlim(center[0] - half, center[0] + half)
     ax.set_ylim(center[1] - half, center[1] + half)
     ax.set_zlim(center[2] - half, center[2] + half)
@@ -206,7 +184,6 @@ def draw_scene(
     ax.view_init(elev=elev, azim=azim)
     if title:
         ax.set_title(title)
-    return ax
 
 
 def render_png(
