@@ -6,7 +6,7 @@ and adds Python helpers: mesh building and loading (:mod:`peridyn.mesh`), output
 notebook views (:mod:`peridyn.view`), USD stages (:mod:`peridyn.usd`), parameter sweeps
 (:mod:`peridyn.sweeps`), a ``run`` loop with progress bar
 (:class:`peridyn.Solver`) and ready-made scenes (:mod:`peridyn.scenes`, and the paper's
-contact scenes in :mod:`peridyn.paper_scenes`).
+contact scenes in :mod:`peridyn.paper_scenes` and :mod:`peridyn.avatar_scenes`).
 
 All quantities are SI: metres, kilograms, seconds, pascals, joules.
 """
@@ -36,6 +36,7 @@ from .io import FrameRecorder, load_state, save_state, write_mesh
 from .materials import plate_bending_stiffness
 from .mesh import grid, load_mesh
 from .render import draw_scene, render_png
+from .avatar_scenes import dress, mannequin, skirt
 from .paper_scenes import antependium, cloths_over_ball, shooting_shell
 from .recording import Recording, load_recording
 from .scenes import Scene, colliding_sheets, default_scene
@@ -78,15 +79,18 @@ __all__ = [
     "colliding_sheets",
     "default_scene",
     "draw_scene",
+    "dress",
     "grid",
     "load_mesh",
     "load_recording",
     "load_state",
+    "mannequin",
     "plate_bending_stiffness",
     "render_png",
     "save_state",
     "shooting_shell",
     "show",
+    "skirt",
     "sweep",
     "write_mesh",
     "write_usd",
