@@ -113,6 +113,19 @@ def check_fig08_stretching(facts):
     assert runs[-1]["max_speed"] < 0.01
 
 
+def check_fig10_twisting_cylinder(facts):
+    """Fig. 10: turned 7.5 rad each way, the tube wrings into a rope (its middle third within
+    half its radius of the axis) with no triangle crossing another; the folds pack no closer
+    than eps * xi, and the thicker contact (xi = 3.2 mm) keeps its closest folds at least 1.5
+    times as far apart as the thinner one (1.6 mm)."""
+    thick, thin = (facts[k] for k in sorted(facts, key=float, reverse=True))
+    for f in (thick, thin):
+        assert f["middle_radius"] < 0.5 * f["radius"], f
+        assert f["crossing_triangles"] == 0, f
+        assert f["closest_triangles"] >= f["min_gap"], f
+    assert thick["closest_triangles"] > 1.5 * thin["closest_triangles"], (thick, thin)
+
+
 def check_fig11_shooting_shell(facts):
     """Fig. 11: the shell, shot down at 15 m/s, is stopped by the target and thrown back: at
     the end it moves up at more than a third of its initial speed, its centre above the
