@@ -144,6 +144,26 @@ def check_fig11_shooting_shell(facts):
         assert f["squash"] < 0.95, (s0, f["squash"])
 
 
+def check_fig12_garments(facts):
+    """Fig. 12: the skirt and the dress hang on the mannequin's hips. At the end each touches
+    the avatar (at least 10 vertices within 2 xi of it), at least 80 % of those between 0.85 m
+    and the waist (1.07 m); its waistband has not moved (1 nm); no triangle crosses another and
+    non-adjacent ones keep eps * xi apart; no vertex is inside the avatar or the ground (1 um);
+    its hem has come down under its weight (the skirt's by less than 10 cm: it stretches, it
+    does not slide off) and it stays around the mannequin (within 0.5 m of its axis)."""
+    assert sorted(facts) == ["dress", "skirt"]
+    for name, f in facts.items():
+        assert f["touching_hips"] >= 10 and f["touching_hips"] >= 0.8 * f["touching"], (name, f)
+        assert f["band_moved"] < 1e-9, (name, f["band_moved"])
+        assert f["crossing_triangles"] == 0, name
+        assert f["closest_triangles"] >= f["min_gap"], (name, f)
+        assert f["deepest_inside"] < 1e-6, (name, f["deepest_inside"])
+        assert f["hem"] < f["hem_rest"], (name, f)
+        assert f["farthest_from_axis"] < 0.5, (name, f)
+    assert facts["skirt"]["hem"] > facts["skirt"]["hem_rest"] - 0.1, facts["skirt"]
+    assert facts["skirt"]["max_speed"] < 1.5, facts["skirt"]
+
+
 def check_fig13_convergence(facts):
     """Fig. 13 and Fig. 6(a): every variant lowers the relative error below 0.2 in 20
     iterations and further by the end; Chebyshev acceleration ends at least 100 times lower
