@@ -13,9 +13,11 @@ SAVED_AT, AFTER = 30, 10
 
 
 def scene(precision, acceleration=None, **options):
-    """Three 12 x 12 layers 5 mm apart over a ball; `options` replace the solver's threads and
-    contact (e.g. ``backend="gpu", contact=None``)."""
-    settings = {"threads": 2, "contact": peridyn.Contact(thickness=1.5e-3), **options}
+    """Three 12 x 12 layers 5 mm apart over a ball, within the barrier's reach (Table 1's
+    ``d_hat = 4 xi``: 7.5 mm), so that they start with rest gaps; `options` replace the
+    solver's threads and contact (e.g. ``backend="gpu", contact=None``)."""
+    contact = peridyn.Contact(thickness=1.5e-3, d_hat=6e-3)
+    settings = {"threads": 2, "contact": contact, **options}
     solver = peridyn.Solver(dt=2e-3, max_iters=30, precision=precision,
                             acceleration=acceleration, **settings)
     layers = []

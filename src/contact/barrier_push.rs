@@ -87,7 +87,9 @@ pub(super) struct VertexSums<'a> {
 }
 
 /// Compressed rows of pair slots: the entries of vertex `v` are `entries[start[v]..start[v +
-/// 1]]`, each `SLOTS k + s` for the pair `k` that holds `v` in its slot `s`, by increasing `k`.
+/// 1]]`, each `SLOTS k + s` for the pair `k` that holds `v` in its slot `s`, in the order of
+/// the pairs themselves (the order a vertex sums its terms in, see [`BarrierPush::update`]):
+/// sorted once per index, not at every sum.
 #[derive(Default)]
 struct Rows {
     start: Vec<u32>,
@@ -110,6 +112,16 @@ impl Rows {
             &mut self.start,
             &mut self.entries,
         );
+        let mut rows = Vec::with_capacity(vertices);
+        let mut rest = &mut self.entries[..];
+        for v in 0..vertices {
+            let (row, tail) = rest.split_at_mut((self.start[v + 1] - self.start[v]) as usize);
+            rows.push(row);
+            rest = tail;
+        }
+        rows.into_par_iter()
+            .filter(|row| row.len() > 1)
+            .for_each(|row| row.sort_unstable_by_key(|&e| pairs[e as usize / SLOTS - first]));
     }
 
     /// Vertex `v`'s pairs and its slot in each.
@@ -229,7 +241,8 @@ impl BarrierPush {
 }
 
 /// Writes into `out` the terms of the pairs among `slots` (a vertex's pairs and its slot in
-/// each) that `felt` the barrier, sorted by pair.
+/// each: its head row, then its tail row, each sorted by pair) that `felt` the barrier, sorted
+/// by pair.
 fn gather_felt<'a>(
     slots: impl Iterator<Item = (usize, usize)>,
     felt: &[bool],
@@ -242,8 +255,10 @@ fn gather_felt<'a>(
             .filter(|&(k, _)| felt[k])
             .map(|(k, slot)| (&terms[k], slot)),
     );
+    // At most two sorted runs: a stable sort merges them in one pass, and checks a single
+    // run in one more.
     if out.len() > 1 {
-        out.sort_unstable_by_key(|t| t.0.pair);
+        out.sort_by_key(|t| t.0.pair);
     }
 }
 

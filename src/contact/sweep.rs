@@ -9,7 +9,9 @@
 //! max_B A^0`, with the ends of the path displaced from `s^0` by `u^0(0) = 0` and
 //! `u^0(1) = y^0 - s^0` and `A^0` the allowances (m): measured from positions of this local
 //! step, it is tight, so only the pairs that may come within reach on this step's path are
-//! live.
+//! live. (Any lower bound of `b^0` serves as well in what follows, at the cost of more pairs
+//! looked at again: a sweep records the cheaper bound from the build's distance and the moves
+//! since it where that clears the reach by a margin, see `pair_cache/filter.rs`.)
 //!
 //! A later filter sees safe positions `s` and targets `y`, ends `u(0) = s - s^0` and
 //! `u(1) = y - s^0`, and allowances `A`. For either new end `tau` and any old end `sigma`

@@ -305,6 +305,11 @@ pub fn resolve_contacts(
                 }
                 let before = *zi;
                 let direction = push[i] + proximal_pull(weights, i, &(target[i] - *zi));
+                // No push and at its target (most vertices of a draping cloth): no move. The
+                // global step left its target out of the colliders.
+                if direction == Vector3::zeros() {
+                    return 0.0;
+                }
                 // The move is `M_i^-1` times the direction, taken in the metric `M_i^-1`:
                 // `M_i = W_i / lambda` for eq. 53's step, `W_i + K_i` for the curvature rule
                 // (None: the identity). `M_i` is positive definite unless `K_i` is not finite;

@@ -176,9 +176,20 @@ impl PairCache {
         (0..near)
             .into_par_iter()
             .map(|k| {
-                let (a, b) = this.pairs[k].0.sides();
+                let (pair, at_build) = &this.pairs[k];
+                let (a, b) = pair.sides();
+                // The bound from the build's distance and the moves since (`shift`, measured
+                // for this filter) costs no closest points; it is lower than the fresh bound,
+                // which is taken only where it might be needed.
+                let cheap =
+                    pair.relative_distance_bound(f64::from(*at_build), &this.shift, allowance);
+                let bound = if cheap - reach >= CHEAP_SLACK * reach {
+                    cheap
+                } else {
+                    this.fresh_bound(k, allowance)
+                };
                 SweptPair {
-                    slack: round_down(this.fresh_bound(k, allowance) - reach),
+                    slack: round_down(bound - reach),
                     patches: [a, b].map(|side| this.patches.of_side(side) as u32),
                 }
             })
@@ -344,6 +355,16 @@ impl PairCache {
         (typical, outlying)
     }
 }
+
+/// How far beyond the reach, as a share of it, a pair's bound from the build
+/// ([`PairCache::sweep`]: its distance at the reference positions and the moves since) must be
+/// for a sweep to record it instead of the bound from the pair's distance at the safe
+/// positions (its closest points). A cost trade-off only: any lower bound is a correct slack
+/// (see [`super::super::sweep`]), and a pair recorded with one looser than its fresh bound by
+/// more than a refilter's fall is looked at again by that refilter; the sweep's live pairs, all
+/// within the reach, always get the fresh bound. A flat sheet's own cached pairs lie a
+/// fraction of the reach beyond it and move little relative to each other between builds.
+const CHEAP_SLACK: f64 = 0.25;
 
 /// The most vertices, as a share of all, whose deviations a filter's horizon may leave out
 /// (see [`PairCache::outlying`]; the module doc, "Skip"). A cost trade-off only: the filter

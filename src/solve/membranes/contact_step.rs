@@ -171,39 +171,45 @@ impl<T: Real> ContactState<T> {
                 // `contact::local_step::friction`), counted whole; the rest as below.
                 let friction = friction.get(i).copied().unwrap_or_else(Vector3::zeros);
                 let local_move = *zi - next.map(|c| c.to_f64()) - friction;
-                // `W_i^-1`, taken once for all of the vertex's directions, and only for a
-                // vertex that has one (most have none).
-                let metric_inverse = OnceCell::new();
-                let moves_along = |f: Vector3<f64>| {
-                    let along = match weights {
-                        Some(w) if f != Vector3::zeros() => metric_inverse
-                            .get_or_init(|| w[i].try_inverse())
-                            .as_ref()?
-                            .mul_vector(&f),
-                        _ => f,
+                // A vertex the local step left where the global step put it (most of a
+                // draping cloth) realised no reaction beyond its friction move: its colliders
+                // and metric are not looked at.
+                let realised = if local_move == Vector3::zeros() {
+                    Vector3::zeros()
+                } else {
+                    // `W_i^-1`, taken once for all of the vertex's directions, and only for a
+                    // vertex that has one (most have none).
+                    let metric_inverse = OnceCell::new();
+                    let moves_along = |f: Vector3<f64>| {
+                        let along = match weights {
+                            Some(w) if f != Vector3::zeros() => metric_inverse
+                                .get_or_init(|| w[i].try_inverse())
+                                .as_ref()?
+                                .mul_vector(&f),
+                            _ => f,
+                        };
+                        let norm = along.norm();
+                        (norm > 0.0).then(|| along / norm)
                     };
-                    let norm = along.norm();
-                    (norm > 0.0).then(|| along / norm)
-                };
-                let push_direction = moves_along(push[i]);
-                let at = zi.map(T::of);
-                let touching = rest.vertices[i].half_thickness + T::of(TOUCHING);
-                // Empty (no allocation) unless the vertex rests on a collider.
-                let mut directions: Vec<Vector3<f64>> = colliders
-                    .iter()
-                    .filter(|c| c.signed_distance(&at) <= touching)
-                    .filter_map(|c| moves_along(c.normal(&at).map(|x| x.to_f64())))
-                    .collect();
-                *reaction = (friction
-                    + match (directions.is_empty(), push_direction) {
+                    let push_direction = moves_along(push[i]);
+                    let at = zi.map(T::of);
+                    let touching = rest.vertices[i].half_thickness + T::of(TOUCHING);
+                    // Empty (no allocation) unless the vertex rests on a collider.
+                    let mut directions: Vec<Vector3<f64>> = colliders
+                        .iter()
+                        .filter(|c| c.signed_distance(&at) <= touching)
+                        .filter_map(|c| moves_along(c.normal(&at).map(|x| x.to_f64())))
+                        .collect();
+                    match (directions.is_empty(), push_direction) {
                         (true, None) => Vector3::zeros(),
                         (true, Some(u)) => realised_reaction(&local_move, &[u]),
                         (false, _) => {
                             directions.extend(push_direction);
                             realised_reaction(&local_move, &directions)
                         }
-                    })
-                .map(T::of);
+                    }
+                };
+                *reaction = (friction + realised).map(T::of);
                 *next = zi.map(T::of);
                 // The safe positions are the ones the solver holds (rounded in f32).
                 *zi = next.map(|c| c.to_f64());
