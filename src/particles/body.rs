@@ -9,8 +9,9 @@ use crate::error::{check_param, Result};
 use crate::geometry::{find_horizons, Horizons};
 use crate::point_state::PointState;
 
+use super::calibration::Moduli;
+use super::deformation::check_shapes;
 use super::elastic::Elastic;
-use super::rest::ParticleRest;
 
 /// Physical parameters of a particle body (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,8 +35,18 @@ pub const DEFAULT_HORIZON: f64 = 2.2;
 impl ParticleParams {
     /// Checks every parameter, naming the first bad one.
     pub fn validate(&self) -> Result<()> {
-        check_param("spacing", self.spacing, |v| v > 0.0, "a finite length > 0 m")?;
-        check_param("density", self.density, |v| v > 0.0, "a finite density > 0 kg/m^3")?;
+        check_param(
+            "spacing",
+            self.spacing,
+            |v| v > 0.0,
+            "a finite length > 0 m",
+        )?;
+        check_param(
+            "density",
+            self.density,
+            |v| v > 0.0,
+            "a finite density > 0 kg/m^3",
+        )?;
         if let Some(h) = self.horizon {
             check_param(
                 "horizon",
@@ -62,8 +73,8 @@ pub struct Particles {
     reference: Vec<Vector3<f64>>,
     horizons: Horizons,
     params: ParticleParams,
-    /// The paper's `mu` and `lam` (Pa) the material resolved to.
-    moduli: (f64, f64),
+    /// What the material resolved to on this body's lattice.
+    moduli: Moduli,
     state: PointState,
 }
 
@@ -74,7 +85,18 @@ impl Particles {
     pub fn new(reference: Vec<Vector3<f64>>, params: ParticleParams) -> Result<Self> {
         params.validate()?;
         if reference.is_empty() {
-            return Err(crate::error::invalid!("a particle body needs at least one particle"));
+            return Err(crate::error::invalid!(
+                "a particle body needs at least one particle"
+            ));
+        }
+        if let Some(i) = reference
+            .iter()
+            .position(|x| !x.iter().all(|c| c.is_finite()))
+        {
+            return Err(crate::error::invalid!(
+                "positions of particle {i} are not finite: {:?}",
+                reference[i].as_slice()
+            ));
         }
         let delta = params.delta();
         let horizons = find_horizons(&reference, delta)?;
@@ -88,7 +110,7 @@ impl Particles {
             moduli,
             state,
         };
-        ParticleRest::<f64>::of_bodies(&[&body])?;
+        check_shapes(&body.reference, &body.horizons, delta)?;
         Ok(body)
     }
 
@@ -112,8 +134,8 @@ impl Particles {
     pub fn horizon(&self) -> f64 {
         self.params.delta()
     }
-    /// The paper's `(mu, lam)` (Pa).
-    pub fn moduli(&self) -> (f64, f64) {
+    /// The paper's `mu`, `lam` and the dilatation modulus `kappa` (Pa) of the body.
+    pub fn moduli(&self) -> Moduli {
         self.moduli
     }
     /// Volume of each particle, `spacing^3` (m^3).
@@ -142,13 +164,15 @@ impl Particles {
     }
     /// Replaces the positions (m); every value must be finite.
     pub fn set_positions(&mut self, positions: Vec<Vector3<f64>>) -> Result<()> {
-        self.state.check_field("positions", "particle", &positions)?;
+        self.state
+            .check_field("positions", "particle", &positions)?;
         self.state.positions = positions;
         Ok(())
     }
     /// Replaces the velocities (m/s); every value must be finite.
     pub fn set_velocities(&mut self, velocities: Vec<Vector3<f64>>) -> Result<()> {
-        self.state.check_field("velocities", "particle", &velocities)?;
+        self.state
+            .check_field("velocities", "particle", &velocities)?;
         self.state.velocities = velocities;
         Ok(())
     }

@@ -10,6 +10,13 @@
 //! `V_i V_j`) is `g = k_dev (Y - p_dev) + k_iso (Y - p_iso)` (N): `+g` acts on `i`, `-g` on
 //! `j`. The isotropic part is the exact gradient of its energy; the deviatoric part drops the
 //! derivative of `F_i` (eq. 9 -> 10: `Y* ~ Y`), so it is not a gradient of anything.
+//!
+//! **Dilatation (beyond the paper, as in state-based LPS, Silling et al. 2007).** Particle `i`
+//! stores `9 kappa V_i / 2 s_i^2` (J) more, with `s_i = sum_j a_j (|Y_j| - |xi_j|)` the
+//! weighted mean bond strain (`a_j = w V_j / (A_i |xi_j|)`, 1/m, `A_i = sum_j w V_j`; under
+//! a small affine strain `s_i = tr eps / 3`) and `kappa` (Pa) the modulus the calibration
+//! adds to `C11` and `C12` ([`super::calibration`]): the pressure `P = 9 kappa V_i s_i` (J)
+//! adds `P a_j dir Y` to each bond's force, the exact gradient of this energy.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -38,19 +45,28 @@ pub struct BondRest<T: Real> {
     /// `k_dev` and `k_iso` (N/m).
     pub k_dev: T,
     pub k_iso: T,
+    /// `a = w V_j / (A_i |xi|)` (1/m): the bond's share of the mean strain of its particle.
+    pub share: T,
 }
 
 /// The local step of one bond at `Y = y_j - y_i` with the particle's deformation gradient
-/// `f`: the bond's force on `i`, `g` (N), and its energy `e` (J).
+/// `f` and dilatation pressure `pressure` (J): the bond's force on `i`, `g` (N), and its
+/// spring energy `e` (J; the dilatation energy is the particle's, not the bond's).
 #[inline(always)]
-pub fn bond_force<T: Real>(bond: &BondRest<T>, f: &Matrix3<T>, y: &Vector3<T>) -> (Vector3<T>, T) {
+pub fn bond_force<T: Real>(
+    bond: &BondRest<T>,
+    f: &Matrix3<T>,
+    y: &Vector3<T>,
+    pressure: T,
+) -> (Vector3<T>, T) {
     let fxi = f * bond.xi;
     let rest_dir = bond.xi;
     // Without a direction (a collapsed bond), each projection takes the other's, then the rest
     // direction.
     let p_iso = projected(y, bond.length, projected(&fxi, bond.length, rest_dir));
     let p_dev = projected(&fxi, bond.length, p_iso);
-    let g = (y - p_dev) * bond.k_dev + (y - p_iso) * bond.k_iso;
+    let dilatation = p_iso * (pressure * bond.share / bond.length);
+    let g = (y - p_dev) * bond.k_dev + (y - p_iso) * bond.k_iso + dilatation;
     let half = T::of(0.5);
     let dev = fxi.norm() - bond.length;
     let iso = y.norm() - bond.length;

@@ -3,9 +3,12 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::error::Result;
+use crate::geometry::Horizons;
 use crate::real::Real;
 
 use super::bond::BondRest;
+use super::influence::influence;
 
 /// `F_i = (sum_j w V_j Y xi^T) K_i^-1` with `Y = y_j - y_i`: the rest data of particle `i`'s
 /// bonds (their `xi`, m, and weights `w V_j`, dimensionless), its neighbours `j`, the
@@ -46,6 +49,45 @@ pub fn uninverted<T: Real>(f: Matrix3<T>) -> Matrix3<T> {
     let k = svd.singular_values.imin();
     let s = svd.singular_values[k];
     f - u.column(k) * v_t.row(k) * (s + s)
+}
+
+/// `K^-1` (1/m^2) for a shape matrix `K` (m^2) that is safely invertible: its determinant
+/// above `1e-6` times that of the isotropic matrix of the same trace (so a flat or linear
+/// neighbourhood, whose `K` is singular up to round-off, is refused).
+pub fn shape_inverse(k: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let scale = k.trace() / 3.0;
+    if !(scale > 0.0) || k.determinant() <= 1e-6 * scale * scale * scale {
+        return None;
+    }
+    k.try_inverse()
+}
+
+/// The error for particle `i`, with `count` neighbours within the horizon `delta` (m), whose
+/// shape matrix is singular.
+pub fn flat_neighbourhood(i: usize, count: usize, delta: f64) -> crate::error::Error {
+    crate::error::invalid!(
+        "particle {i} has no three-dimensional neighbourhood ({count} neighbours within the \
+         horizon {delta} m): its shape matrix is singular; sample the body more densely or \
+         widen the horizon"
+    )
+}
+
+/// Checks that every particle of the reference positions `x` (m) with the `horizons` of
+/// radius `delta` (m) has an invertible shape matrix `K_i` (any positive weights give the
+/// same answer: `K_i` is singular exactly when the neighbours' bonds span less than 3D);
+/// fails naming the first that has not.
+pub fn check_shapes(x: &[Vector3<f64>], horizons: &Horizons, delta: f64) -> Result<()> {
+    for i in 0..x.len() {
+        let mut shape = Matrix3::<f64>::zeros();
+        for &j in horizons.of(i) {
+            let xi = x[j as usize] - x[i];
+            shape += xi * xi.transpose() * influence(xi.norm(), delta);
+        }
+        if shape_inverse(&shape).is_none() {
+            return Err(flat_neighbourhood(i, horizons.of(i).len(), delta));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -11,7 +11,8 @@ use super::deformation::deformation_gradient;
 use super::rest::ParticleRest;
 
 /// Particle `i`'s kernel at the positions `y` (m): writes the force `g` (N) of each of its
-/// bonds on `i` into `bond_out` and returns the energy of its bonds, `V_i Psi_i` (J; eq. 8).
+/// bonds on `i` into `bond_out` and returns its energy, `V_i Psi_i` (J; eq. 8, with the
+/// dilatation term of [`super::bond`]).
 #[inline]
 pub fn particle_kernel<T: Real>(
     i: usize,
@@ -23,9 +24,16 @@ pub fn particle_kernel<T: Real>(
     let neighbors = &rest.indices[row.clone()];
     let bonds = &rest.bonds[row];
     let f = deformation_gradient(i, neighbors, bonds, &rest.shape_inverse[i], y);
-    let mut energy = T::zero();
+    let strain = neighbors
+        .iter()
+        .zip(bonds)
+        .fold(T::zero(), |s, (&j, bond)| {
+            s + bond.share * ((y[j as usize] - y[i]).norm() - bond.length)
+        });
+    let pressure = rest.dilatation[i] * strain;
+    let mut energy = T::of(0.5) * pressure * strain;
     for ((&j, bond), out) in neighbors.iter().zip(bonds).zip(bond_out) {
-        let (g, e) = bond_force(bond, &f, &(y[j as usize] - y[i]));
+        let (g, e) = bond_force(bond, &f, &(y[j as usize] - y[i]), pressure);
         *out = g;
         energy += e;
     }

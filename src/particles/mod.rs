@@ -18,9 +18,9 @@ mod sampling;
 
 pub use body::{ParticleParams, Particles, DEFAULT_HORIZON};
 pub use bond::{bond_force, BondRest};
-pub use calibration::{lattice_moduli, LatticeModuli};
+pub use calibration::{calibrate, lattice_moduli, LatticeModuli, Moduli};
 pub use deformation::{deformation_gradient, uninverted};
-pub use elastic::Elastic;
+pub use elastic::{Elastic, POISSON_RANGE};
 pub use influence::influence;
 pub use kernel::{evaluate_particles, particle_force, particle_kernel};
 pub use rest::ParticleRest;

@@ -9,6 +9,7 @@ use crate::real::Real;
 
 use super::body::Particles;
 use super::bond::BondRest;
+use super::deformation::{flat_neighbourhood, shape_inverse};
 use super::influence::influence;
 
 /// The rest data of a list of particle bodies, concatenated in one particle range.
@@ -22,8 +23,12 @@ pub struct ParticleRest<T: Real> {
     pub bonds: Vec<BondRest<T>>,
     /// `K_i^-1 = (sum_j w V_j xi xi^T)^-1` (1/m^2).
     pub shape_inverse: Vec<Matrix3<T>>,
+    /// `9 kappa V_i` (J) per particle: the dilatation term's energy is half of it times the
+    /// square of the weighted mean bond strain ([`super::bond`]).
+    pub dilatation: Vec<T>,
     /// The global matrix `L` (eq. 12, `(M + h^2 L) y = M y* + h^2 b`): per bond its
-    /// off-diagonal weight `k_dev + k_iso` of the bond and of its reverse (N/m), per particle
+    /// off-diagonal weight `k_dev + k_iso` of the bond and of its reverse, with the dilatation
+    /// term's share (N/m), per particle
     /// the diagonal, the sum over its bonds (N/m). Constant while the bonds are.
     pub coupling: Vec<T>,
     pub stiffness: Vec<T>,
@@ -61,30 +66,53 @@ impl<T: Real> ParticleRest<T> {
     }
 
     /// Appends one body's particles and bonds (computed in f64, stored in `T`).
+    ///
+    /// With a surface correction (the moduli's `bulk_weight` `A`), particle `i` with the
+    /// weight sum `A_i = sum_j w V_j` over its bonds gets the factor `g_i = A / A_i` (1 in the
+    /// interior, about 2 on a flat face), and each bond's springs are scaled by
+    /// `(g_i + g_j) / 2`: under a uniform dilation every particle then stores the bulk's
+    /// energy density, so a thin body is not softer than a thick one.
     fn add(&mut self, body: &Particles) -> Result<()> {
         let base = self.len() as u32;
         let bond_base = self.indices.len() as u32;
         let horizons = body.horizons();
         let x = body.reference();
-        let (mu, lam) = body.moduli();
+        let moduli = body.moduli();
         let (volume, delta) = (body.volume(), body.horizon());
+        let weight = |i: usize, j: u32| influence((x[j as usize] - x[i]).norm(), delta) * volume;
+        let weight_sums: Vec<f64> = (0..x.len())
+            .map(|i| horizons.of(i).iter().map(|&j| weight(i, j)).sum())
+            .collect();
+        let factor = |i: usize| moduli.bulk_weight.map_or(1.0, |bulk| bulk / weight_sums[i]);
+        // The extra stiffness of the dilatation term in the global matrix (N/m per bond).
+        let mut matrix_extra = Vec::new();
         for i in 0..x.len() {
             let neighbors = horizons.of(i);
             let mut shape = Matrix3::<f64>::zeros();
             for &j in neighbors {
                 let xi = x[j as usize] - x[i];
                 let length = xi.norm();
-                let weight = influence(length, delta) * volume;
+                let weight = weight(i, j);
                 shape += xi * xi.transpose() * weight;
                 // V_i V_j w / |xi|^2 (m): times mu or lam (Pa), a stiffness in N/m.
-                let k = volume * weight / (length * length);
+                let k =
+                    volume * weight / (length * length) * (0.5 * (factor(i) + factor(j as usize)));
                 self.bonds.push(BondRest {
                     xi: xi.map(T::of),
                     length: T::of(length),
                     weight: T::of(weight),
-                    k_dev: T::of(2.0 * mu * k),
-                    k_iso: T::of(lam * k),
+                    k_dev: T::of(2.0 * moduli.mu * k),
+                    k_iso: T::of(moduli.lam * k),
+                    share: T::of(weight / (weight_sums[i] * length)),
                 });
+                // The dilatation term's Hessian is the rank-one `9 kappa V_i a a^T` over the
+                // bonds' extensions (`a_j = w V_j / (A_i |xi_j|)`); its bond-diagonal part
+                // scaled by `A_i / (w V_j)` bounds it from above (Jensen) and equals it
+                // under a uniform dilation. A negative `kappa` only softens: nothing added.
+                matrix_extra.push(
+                    9.0 * moduli.kappa.max(0.0) * volume * weight
+                        / (weight_sums[i] * length * length),
+                );
                 self.indices.push(j + base);
                 let back = horizons.of(j as usize).binary_search(&(i as u32));
                 let back = back.map_err(|_| invalid!("horizons are not symmetric"))?;
@@ -92,17 +120,11 @@ impl<T: Real> ParticleRest<T> {
                     .push(bond_base + horizons.offsets[j as usize] + back as u32);
             }
             self.offsets.push(self.indices.len() as u32);
-            let inverse = shape_inverse(&shape).ok_or_else(|| {
-                invalid!(
-                    "particle {i} has no three-dimensional neighbourhood ({} neighbours within \
-                     the horizon {delta} m): its shape matrix is singular; sample the body \
-                     more densely or widen the horizon",
-                    neighbors.len()
-                )
-            })?;
+            let inverse = shape_inverse(&shape)
+                .ok_or_else(|| flat_neighbourhood(i, neighbors.len(), delta))?;
             self.shape_inverse.push(inverse.map(T::of));
-            let mass = body.density() * volume;
-            self.mass.push(T::of(mass));
+            self.dilatation.push(T::of(9.0 * moduli.kappa * volume));
+            self.mass.push(T::of(body.density() * volume));
             self.margin.push(T::of(body.margin()));
         }
         // The global matrix's weights, once every reverse bond is there.
@@ -110,7 +132,9 @@ impl<T: Real> ParticleRest<T> {
         for b in first..self.bonds.len() {
             let r = self.reverse[b] as usize;
             let (a, c) = (&self.bonds[b], &self.bonds[r]);
-            self.coupling.push(a.k_dev + a.k_iso + c.k_dev + c.k_iso);
+            let extra = matrix_extra[b - first] + matrix_extra[r - first];
+            self.coupling
+                .push(a.k_dev + a.k_iso + c.k_dev + c.k_iso + T::of(extra));
         }
         for i in base as usize..self.len() {
             let row = self.row(i);
@@ -119,15 +143,4 @@ impl<T: Real> ParticleRest<T> {
         }
         Ok(())
     }
-}
-
-/// `K^-1` (1/m^2) for a shape matrix `K` (m^2) that is safely invertible: its determinant
-/// above `1e-6` times that of the isotropic matrix of the same trace (so a flat or linear
-/// neighbourhood, whose `K` is singular up to round-off, is refused).
-fn shape_inverse(k: &Matrix3<f64>) -> Option<Matrix3<f64>> {
-    let scale = k.trace() / 3.0;
-    if !(scale > 0.0) || k.determinant() <= 1e-6 * scale * scale * scale {
-        return None;
-    }
-    k.try_inverse()
 }

@@ -71,8 +71,14 @@ fn an_interior_particle_stores_the_lattice_sum_of_an_affine_strain() {
     let v = spacing.powi(3);
     let e = 1e-6;
     let cases = [
-        (Matrix3::new(e, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0.5 * unit.c11 * e * e),
-        (Matrix3::new(0.0, e, 0.0, e, 0.0, 0.0, 0.0, 0.0, 0.0), 2.0 * unit.c12 * e * e),
+        (
+            Matrix3::new(e, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+            0.5 * unit.c11 * e * e,
+        ),
+        (
+            Matrix3::new(0.0, e, 0.0, e, 0.0, 0.0, 0.0, 0.0, 0.0),
+            2.0 * unit.c12 * e * e,
+        ),
         (
             Matrix3::new(e, 0.0, 0.0, 0.0, -0.5 * e, 0.0, 0.0, 0.0, 0.0),
             0.5 * unit.c11 * 1.25 * e * e - unit.c12 * 0.5 * e * e,
@@ -118,7 +124,10 @@ fn rigid_motion_is_force_free() {
         .iter()
         .map(|f| f.norm())
         .fold(0.0, f64::max);
-    assert!(scale > 0.0 && worst < 1e-9 * scale, "{worst:e} against {scale:e}");
+    assert!(
+        scale > 0.0 && worst < 1e-9 * scale,
+        "{worst:e} against {scale:e}"
+    );
 }
 
 /// A smooth random-looking deformation (large, with an inverted corner): the internal forces
@@ -138,7 +147,10 @@ fn internal_forces_balance() {
     let f = b.internal_forces().unwrap();
     let total: Vector3<f64> = f.iter().sum();
     let size: f64 = f.iter().map(|f| f.norm()).sum();
-    assert!(size > 0.0 && total.norm() < 1e-12 * size, "{total:?} of {size:e}");
+    assert!(
+        size > 0.0 && total.norm() < 1e-12 * size,
+        "{total:?} of {size:e}"
+    );
 }
 
 /// The isotropic term's force is the exact negative gradient of its energy (`mu = 0`): central
@@ -186,7 +198,9 @@ fn single_precision_forces_match_double() {
     let (mut e64, mut e32) = (vec![0.0; y32.len()], vec![0.0f32; y32.len()]);
     evaluate_particles(&r64, b.positions(), &mut g64, &mut e64);
     evaluate_particles(&r32, &y32, &mut g32, &mut e32);
-    let f64s: Vec<_> = (0..y32.len()).map(|i| particle_force(i, &r64, &g64)).collect();
+    let f64s: Vec<_> = (0..y32.len())
+        .map(|i| particle_force(i, &r64, &g64))
+        .collect();
     let scale = f64s.iter().map(|f| f.amax()).fold(0.0, f64::max);
     for i in 0..y32.len() {
         let f32 = particle_force(i, &r32, &g32).map(f64::from);
@@ -207,3 +221,131 @@ fn a_flat_layer_is_refused_naming_a_particle() {
     assert!(err.to_string().contains("particle 0"), "{err}");
 }
 
+fn young_body(n: [usize; 3], spacing: f64, e: f64, nu: f64) -> Particles {
+    let params = ParticleParams {
+        spacing,
+        density: 1000.0,
+        horizon: None,
+        material: Elastic::Young { e, nu },
+    };
+    Particles::new(lattice(n, spacing), params).unwrap()
+}
+
+/// The elastic constants measured on the centre of a 9^3 block (a full horizon, every
+/// neighbour with a full one), from its energy under small affine strains: `C11` from a
+/// uniaxial strain, `C11 + C12` from an equal biaxial one, then Young's modulus and Poisson's
+/// ratio along the lattice axes. They match what `Elastic::Young` asked for within 1e-4
+/// (the issue asks 5 %) for nu from 0 to 0.45, through the dilatation term.
+#[test]
+fn the_bulk_has_the_asked_young_modulus_and_poisson_ratio() {
+    let (spacing, e_asked) = (0.01f64, 2e5);
+    let centre = 4 + 9 * 4 + 81 * 4;
+    let v = spacing.powi(3);
+    for nu in [0.0, 0.1, 0.25, 0.4, 0.45] {
+        let mut b = young_body([9, 9, 9], spacing, e_asked, nu);
+        let eps = 1e-6;
+        let mut density = |strain: Matrix3<f64>| {
+            let f = Matrix3::identity() + strain;
+            deformed(&mut b, |x| f * x);
+            b.particle_energies().unwrap()[centre] / v
+        };
+        let c11 = 2.0 * density(Matrix3::from_diagonal(&Vector3::new(eps, 0.0, 0.0))) / (eps * eps);
+        let biaxial = density(Matrix3::from_diagonal(&Vector3::new(eps, eps, 0.0))) / (eps * eps);
+        let c12 = biaxial - c11;
+        let young = (c11 - c12) * (c11 + 2.0 * c12) / (c11 + c12);
+        let poisson = c12 / (c11 + c12);
+        assert!((young / e_asked - 1.0).abs() < 1e-4, "nu {nu}: E {young:e}");
+        assert!((poisson - nu).abs() < 1e-4, "nu {nu}: measured {poisson}");
+    }
+}
+
+/// With the deviatoric springs taken out (`k_dev = 0`), the force of a calibrated body (its
+/// isotropic springs with the surface correction, and the dilatation term, nu = 0.4 and 0.1:
+/// `kappa` of either sign) is minus the gradient of its energy: central differences with a
+/// step of 1e-7 m agree to 1e-6 of the largest force component.
+#[test]
+fn the_dilatation_force_is_minus_the_gradient_of_its_energy() {
+    for nu in [0.4, 0.1] {
+        let b = young_body([5, 4, 4], 0.02, 1e5, nu);
+        assert!(b.moduli().kappa != 0.0);
+        let mut rest = ParticleRest::<f64>::of_bodies(&[&b]).unwrap();
+        for bond in &mut rest.bonds {
+            bond.k_dev = 0.0;
+        }
+        let n = b.num_particles();
+        let mut bonds = vec![Vector3::zeros(); rest.indices.len()];
+        let mut energy = vec![0.0; n];
+        let y0: Vec<_> = b
+            .reference()
+            .iter()
+            .map(|x| wavy(x) * 0.3 + x * 0.7)
+            .collect();
+        let mut at = |y: &[Vector3<f64>]| {
+            evaluate_particles(&rest, y, &mut bonds, &mut energy);
+            let f: Vec<_> = (0..n).map(|i| particle_force(i, &rest, &bonds)).collect();
+            (energy.iter().sum::<f64>(), f)
+        };
+        let (_, f) = at(&y0);
+        let scale = f.iter().map(|f| f.amax()).fold(0.0, f64::max);
+        let step = 1e-7;
+        for i in [0, 7, 23, 41, 79] {
+            for c in 0..3 {
+                let mut energy_at = |d: f64| {
+                    let mut y = y0.clone();
+                    y[i][c] += d;
+                    at(&y).0
+                };
+                let fd = -(energy_at(step) - energy_at(-step)) / (2.0 * step);
+                assert!(
+                    (fd - f[i][c]).abs() < 1e-6 * scale,
+                    "nu {nu}, particle {i}, axis {c}: {fd:e} against {:e}",
+                    f[i][c]
+                );
+            }
+        }
+    }
+}
+
+/// A calibrated body (dilatation term, surface correction) moved rigidly feels no force (1e-9
+/// of the forces of a 1 % stretch), and its forces balance under a large deformation (1e-12).
+#[test]
+fn a_calibrated_body_is_force_free_in_rigid_motion_and_balanced() {
+    let mut b = young_body([6, 5, 4], 0.02, 1e5, 0.4);
+    deformed(&mut b, |x| Vector3::new(1.01 * x.x, x.y, x.z));
+    let largest = |b: &Particles| {
+        let f = b.internal_forces().unwrap();
+        f.iter().map(|f| f.norm()).fold(0.0, f64::max)
+    };
+    let scale = largest(&b);
+    let rot = nalgebra::Rotation3::from_euler_angles(1.1, 0.4, -2.0);
+    deformed(&mut b, |x| rot * x + Vector3::new(3.0, -1.0, 0.5));
+    let worst = largest(&b);
+    assert!(
+        scale > 0.0 && worst < 1e-9 * scale,
+        "{worst:e} against {scale:e}"
+    );
+    deformed(&mut b, wavy);
+    let f = b.internal_forces().unwrap();
+    let total: Vector3<f64> = f.iter().sum();
+    let size: f64 = f.iter().map(|f| f.norm()).sum();
+    assert!(total.norm() < 1e-12 * size, "{total:?} of {size:e}");
+}
+
+/// Poisson ratios outside [0, 0.45] and a non-finite position are refused by name.
+#[test]
+fn bad_materials_and_positions_are_refused_by_name() {
+    for nu in [-0.1, 0.46, f64::NAN] {
+        let err = Elastic::Young { e: 1e5, nu }.validate().unwrap_err();
+        assert!(err.to_string().contains("nu"), "{err}");
+    }
+    let mut x = lattice([3, 3, 3], 0.01);
+    x[5].y = f64::INFINITY;
+    let params = ParticleParams {
+        spacing: 0.01,
+        density: 1000.0,
+        horizon: None,
+        material: Elastic::Young { e: 1e5, nu: 0.3 },
+    };
+    let err = Particles::new(x, params).unwrap_err();
+    assert!(err.to_string().contains("particle 5"), "{err}");
+}
