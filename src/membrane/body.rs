@@ -7,9 +7,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use nalgebra::Vector3;
 
 use crate::error::{check_param, invalid, Result};
-use crate::point_state::PointState;
 use crate::material::Material;
 use crate::mesh::{Neighborhood, TriangleMesh};
+use crate::point_state::PointState;
 
 use crate::parallel::for_each_vertex;
 use crate::symmetric::SymmetricMatrix3;
@@ -247,7 +247,8 @@ impl Membrane {
 
     /// Replaces the velocities (m/s); every value must be finite.
     pub fn set_velocities(&mut self, velocities: Vec<Vector3<f64>>) -> Result<()> {
-        self.state.check_field("velocities", "vertex", &velocities)?;
+        self.state
+            .check_field("velocities", "vertex", &velocities)?;
         self.sync()?;
         self.state.velocities = velocities;
         self.device = None;

@@ -58,7 +58,8 @@ impl DirectSolver {
                 }
             }
         }
-        let failed = |e: &dyn std::fmt::Debug| invalid!("the direct solver's factorisation failed: {e:?}");
+        let failed =
+            |e: &dyn std::fmt::Debug| invalid!("the direct solver's factorisation failed: {e:?}");
         let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets)
             .map_err(|e| failed(&e))?;
         let symbolic = factorize_symbolic_cholesky(

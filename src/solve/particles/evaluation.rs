@@ -58,16 +58,13 @@ impl<T: Real> Evaluation<T> {
     pub fn residual_merit(&mut self, points: &Points<T>, h2: T, chunks: &mut Vec<f64>) -> f64 {
         let (at, force) = (&self.at, &self.force);
         let (mass, star, pinned) = (&points.mass, &points.y_star, &points.pinned);
-        self.residual
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, r)| {
-                *r = if pinned[i] {
-                    Vector3::zeros()
-                } else {
-                    (star[i] - at[i]) * mass[i] + force[i] * h2
-                };
-            });
+        self.residual.par_iter_mut().enumerate().for_each(|(i, r)| {
+            *r = if pinned[i] {
+                Vector3::zeros()
+            } else {
+                (star[i] - at[i]) * mass[i] + force[i] * h2
+            };
+        });
         let residual = &self.residual;
         chunked_sum(residual.len(), chunks, |i| {
             residual[i].norm_squared().to_f64() / mass[i].to_f64()

@@ -1,12 +1,12 @@
 //! Particle bodies as a body family of the time step: what the shared step asks of them.
 
+use crate::error::Result;
 use crate::membrane::Preconditioner;
 use crate::real::Real;
 use crate::solve::energy::inertial_energy;
 use crate::solve::family::Family;
 use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
-use crate::error::Result;
 use crate::solve::{Acceleration, GlobalSolver, SolverParams};
 
 use super::step::{global_move, prepare_direct};

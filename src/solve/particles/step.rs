@@ -37,16 +37,19 @@ pub(crate) fn global_move<T: Real>(
     options: &MoveOptions<'_, T>,
 ) -> Update {
     let h2 = h * h;
-    let merit = sys
-        .current
-        .residual_merit(&sys.points, h2, &mut sys.chunks);
+    let merit = sys.current.residual_merit(&sys.points, h2, &mut sys.chunks);
     match options.global_solver {
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => jacobi(sys, h2, options.inner_iters),
         GlobalSolver::Position => position_averaging(sys, h2),
         GlobalSolver::Direct => {
             let (residual, points) = (&sys.current.residual, &sys.points);
             sys.scratch.par_iter_mut().enumerate().for_each(|(i, r)| {
-                *r = supported(&residual[i], &points.y[i], points.margin[i], options.colliders);
+                *r = supported(
+                    &residual[i],
+                    &points.y[i],
+                    points.margin[i],
+                    options.colliders,
+                );
             });
             let direct = sys.direct.as_mut().expect("factored by prepare_direct");
             direct.solve(&sys.scratch, &mut sys.delta);
@@ -62,7 +65,10 @@ pub(crate) fn global_move<T: Real>(
 
 /// Factors the direct solver's matrix for the time step `h` (s) and the current pins unless
 /// the factor at hand is for them (before the iterations, which then allocate nothing).
-pub(crate) fn prepare_direct<T: Real>(sys: &mut ParticleSystem<T>, h: f64) -> crate::error::Result<()> {
+pub(crate) fn prepare_direct<T: Real>(
+    sys: &mut ParticleSystem<T>,
+    h: f64,
+) -> crate::error::Result<()> {
     let pinned = &sys.points.pinned;
     if !sys.direct.as_ref().is_some_and(|d| d.matches(h, pinned)) {
         sys.direct = Some(DirectSolver::factor(&sys.rest, h, pinned)?);
@@ -130,7 +136,14 @@ fn finish<T: Real>(
             let inverse = SymmetricMatrix3::from_diagonal(&Vector3::repeat(T::one() / d));
             let margin = points.margin[i];
             let push = |to: Vector3<T>| {
-                push_out_with_friction(y, to, &points.y_start[i], &inverse, margin, options.colliders)
+                push_out_with_friction(
+                    y,
+                    to,
+                    &points.y_start[i],
+                    &inverse,
+                    margin,
+                    options.colliders,
+                )
             };
             let whole = y + sys_ref.delta[i];
             let free_move = y + sys_ref.delta[i] * alpha;
