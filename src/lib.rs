@@ -19,6 +19,7 @@ pub mod membrane;
 pub mod mesh;
 pub mod parallel;
 pub mod particles;
+pub mod point_state;
 pub mod real;
 pub mod solve;
 pub mod symmetric;

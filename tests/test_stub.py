@@ -75,6 +75,7 @@ OPTIONS = {
     "Acceleration": ("acceleration", lambda **kw: core.Solver(dt=1e-3, **kw)),
     "Backend": ("backend", lambda **kw: core.Solver(dt=1e-3, **kw)),
     "Precision": ("precision", lambda **kw: core.Solver(dt=1e-3, **kw)),
+    "GlobalSolver": ("global_solver", lambda **kw: core.Solver(dt=1e-3, **kw)),
     "DescentStep": ("step", core.Contact),
     "ProximalMetric": ("proximal", core.Contact),
 }

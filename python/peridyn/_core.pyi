@@ -26,6 +26,7 @@ Preconditioner = Literal["tangent", "paper"]
 # "none" is a synonym of None (plain iterations); the getter returns None.
 Acceleration = Literal["chebyshev", "none"]
 Backend = Literal["cpu", "gpu"]
+GlobalSolver = Literal["direct", "jacobi", "chebyshev", "position"]
 Precision = Literal["f32", "f64"]
 DescentStep = Literal["curvature", "uniform"]
 ProximalMetric = Literal["jacobi", "identity"]
@@ -96,6 +97,112 @@ class NeoHookean:
     def energy_density(self, stretches: ArrayLike) -> np.ndarray: ...
 
 Material = Union[StretchA3, NeoHookean]
+
+class Elastic:
+    """The elastic material of particle bodies (He, Wang and Wu 2017, eq. 8).
+
+    ``Elastic(mu=, lam=)`` takes the paper's parameters (Pa, >= 0, not both 0): ``mu`` weighs
+    the deviatoric term, ``lam`` the isotropic one. They are NOT Lame parameters: under an
+    affine deformation both terms are pair springs, so the paper's model has Poisson's ratio
+    1/4 whatever they are and Young's modulus about ``(2 mu + lam) / 6``. No surface
+    correction. ``Elastic.from_young(E, nu)`` gives bodies the Young's modulus ``E`` (Pa) and
+    Poisson ratio ``nu`` (in [0, 0.45]) along the axes of their sampling lattice: calibrated
+    by lattice sums for the body's spacing and horizon, with a dilatation term beyond the
+    paper (as in state-based LPS) and the bonds near free surfaces stiffened. ValueError
+    naming the bad parameter."""
+
+    def __init__(self, *, mu: float, lam: float) -> None: ...
+    @staticmethod
+    def from_young(E: float, nu: float) -> Elastic: ...
+    @property
+    def mu(self) -> Optional[float]:
+        """The paper's mu (Pa); None for ``from_young`` (see ``Particles.moduli``)."""
+    @property
+    def lam(self) -> Optional[float]:
+        """The paper's lam (Pa); None for ``from_young``."""
+    @property
+    def youngs_modulus(self) -> Optional[float]:
+        """E asked of ``from_young`` (Pa); None for the paper's parameters."""
+    @property
+    def poisson_ratio(self) -> Optional[float]:
+        """nu asked of ``from_young``; None for the paper's parameters (whose ratio is 1/4)."""
+
+class Particles:
+    """An elastic body of particles (He, Wang and Wu 2017) stepped by projective peridynamics.
+
+    Parameters
+    ----------
+    positions : (N, 3) reference positions (m), finite; e.g. from :func:`sample_volume`.
+    spacing : lattice spacing (m, > 0): each particle stands for a cube of this side (mass
+        ``density * spacing^3``) and keeps half of it from colliders.
+    density : kg/m^3 (> 0).
+    material : an :class:`Elastic`.
+    horizon : radius of each particle's neighbourhood (m, > spacing); None: 2.2 spacings (32
+        neighbours on a cubic lattice). Every particle needs a three-dimensional neighbourhood:
+        a flat or linear one is refused, naming the particle.
+    """
+
+    def __init__(
+        self,
+        positions: ArrayLike,
+        *,
+        spacing: float,
+        density: float,
+        material: Elastic,
+        horizon: Optional[float] = None,
+    ) -> None: ...
+    @property
+    def num_particles(self) -> int: ...
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, 3) current positions (m); settable (finite, same shape)."""
+    @positions.setter
+    def positions(self, value: ArrayLike) -> None: ...
+    @property
+    def velocities(self) -> np.ndarray:
+        """(N, 3) velocities (m/s); settable."""
+    @velocities.setter
+    def velocities(self, value: ArrayLike) -> None: ...
+    @property
+    def rest_positions(self) -> np.ndarray:
+        """(N, 3) reference positions (m)."""
+    @property
+    def spacing(self) -> float: ...
+    @property
+    def density(self) -> float: ...
+    @property
+    def horizon(self) -> float:
+        """Horizon radius (m)."""
+    @property
+    def material(self) -> Elastic: ...
+    @property
+    def moduli(self) -> Tuple[float, float, float]:
+        """``(mu, lam, kappa)`` (Pa) the material resolved to on this body's lattice: the
+        paper's mu and lam and the dilatation modulus (0 for ``Elastic(mu=, lam=)``)."""
+    @property
+    def particle_mass(self) -> float:
+        """Mass of each particle (kg)."""
+    def neighborhood(self) -> Tuple[np.ndarray, np.ndarray]:
+        """CSR ``(offsets, indices)`` (int64) of every particle's neighbours within the horizon."""
+    def pin(self, indices: ArrayLike, targets: Optional[ArrayLike] = None) -> None:
+        """Fixes particles at ``targets`` ((len(indices), 3) m; default: where they are)."""
+    def unpin(self, indices: Optional[ArrayLike] = None) -> None:
+        """Releases the given pinned particles (all when None)."""
+    @property
+    def pinned(self) -> np.ndarray:
+        """Sorted indices of the pinned particles (int64)."""
+    @property
+    def pin_targets(self) -> np.ndarray:
+        """(P, 3) targets of the pinned particles (m), in the order of ``pinned``; settable."""
+    @pin_targets.setter
+    def pin_targets(self, value: ArrayLike) -> None: ...
+    def elastic_energy(self) -> float:
+        """Elastic energy (J) at the current positions (eq. 8 with the dilatation term)."""
+    def internal_forces(self) -> np.ndarray:
+        """(N, 3) internal forces (N) at the current positions (eq. 12)."""
+    def kinetic_energy(self) -> float:
+        """Kinetic energy (J)."""
+
 
 class Membrane:
     """A thin hyperelastic membrane (triangle mesh) simulated by projective peridynamics.
@@ -511,6 +618,15 @@ class Solver:
         Chebyshev) with every collider (friction and motion included) and leaves the bodies'
         positions and velocities on the device until they are read; it refuses contact,
         method="descent" and inner_iters > 1 (ValueError).
+    global_solver : how particle bodies solve the linear system of their global step (He et
+        al. 2017, Fig. 7; membranes ignore it): "direct" (a sparse Cholesky factor of
+        ``M + h^2 L``, computed when dt or the pins change; exact solve per iteration; it does
+        not yet converge at collider contact), "jacobi" (``inner_iters`` Jacobi sweeps),
+        "chebyshev" (Jacobi with Chebyshev acceleration, ``chebyshev_rho`` when
+        ``acceleration="chebyshev"``, else 0.99) or "position" (position-based averaging over
+        bonds). Every one has the implicit Euler solution as its fixed point; each iteration's
+        step length is chosen by Armijo backtracking (eq. 13) on the residual of eq. 12.
+        ``method="descent"`` and the GPU backend refuse particle bodies.
     contact : a ``Contact`` to keep every body's triangles apart from the other bodies' (and
         its own, unless built with ``self_contact=False``); None: no contact between membranes.
     """
@@ -534,8 +650,9 @@ class Solver:
         inner_iters: int = 1,
         backend: Backend = "cpu",
         contact: Optional[Contact] = None,
+        global_solver: GlobalSolver = "chebyshev",
     ) -> None: ...
-    def add(self, body: Membrane) -> None: ...
+    def add(self, body: Union[Membrane, Particles]) -> None: ...
     def add_collider(self, collider: Collider) -> None: ...
     def set_collider_pose(self, index: int, *, rotation: Optional[ArrayLike] = None, translation: Optional[Vec3] = None) -> None:
         """Sets the pose collider ``index`` (in the order added) reaches at the end of the next
@@ -604,6 +721,9 @@ class Solver:
     def method(self) -> Method: ...
     @property
     def inner_iters(self) -> int: ...
+    @property
+    def global_solver(self) -> GlobalSolver:
+        """How particle bodies solve their global step."""
     @property
     def contact(self) -> Optional[Contact]:
         """The contact parameters, or None when contact is off. Settable to another Contact

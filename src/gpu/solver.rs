@@ -155,10 +155,16 @@ impl<T: GpuReal> GpuSolver<T> {
 
     /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
     /// [`Error::Diverged`] names the first non-finite vertex (the body by its index in
-    /// `bodies`). The GPU steps membranes; every body kind the solver knows is one.
+    /// `bodies`). The GPU steps membranes only: a particle body is refused, by its index.
     pub fn step(&mut self, bodies: &mut [BodyMut<'_>]) -> Result<StepStats> {
         let started = Instant::now();
         let mut by_kind = ByKind::sort(bodies);
+        if let Some(&body) = by_kind.particle_indices.first() {
+            return Err(crate::error::invalid!(
+                "the GPU backend steps membranes only; body {body} is a particle body \
+                 (use backend='cpu')"
+            ));
+        }
         let (bodies, list_indices) = (&mut by_kind.membranes[..], &by_kind.membrane_indices);
         let params = self.params;
         let records = params.max_iters + RECORD_FIRST_ITERATION;

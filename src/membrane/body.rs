@@ -9,6 +9,7 @@ use nalgebra::Vector3;
 use crate::error::{check_param, invalid, Result};
 use crate::material::Material;
 use crate::mesh::{Neighborhood, TriangleMesh};
+use crate::point_state::PointState;
 
 use crate::parallel::for_each_vertex;
 use crate::symmetric::SymmetricMatrix3;
@@ -99,9 +100,7 @@ pub struct Membrane {
     mesh: TriangleMesh,
     neighborhood: Neighborhood,
     params: MembraneParams,
-    positions: Vec<Vector3<f64>>,
-    velocities: Vec<Vector3<f64>>,
-    pins: BTreeMap<u32, Vector3<f64>>,
+    state: PointState,
     self_contact: bool,
     /// Coulomb friction coefficient against other membranes (dimensionless, >= 0).
     friction: f64,
@@ -121,16 +120,13 @@ impl Membrane {
             source.vertex(i)?;
         }
         drop(source);
-        let positions = mesh.vertices().to_vec();
-        let velocities = vec![Vector3::zeros(); positions.len()];
+        let state = PointState::at_rest(mesh.vertices().to_vec());
         Ok(Self {
             id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
             mesh,
             neighborhood,
             params,
-            positions,
-            velocities,
-            pins: BTreeMap::new(),
+            state,
             self_contact: true,
             friction: 0.0,
             device: None,
@@ -188,18 +184,18 @@ impl Membrane {
         self.volumes().iter().map(|v| density * v).collect()
     }
     pub fn num_vertices(&self) -> usize {
-        self.positions.len()
+        self.state.len()
     }
     /// Positions (m) as of the last [`Self::sync`] when a GPU step left newer ones on its
     /// device (the Python layer syncs before every access).
     pub fn positions(&self) -> &[Vector3<f64>] {
         debug_assert!(!self.is_pending(), "call Membrane::sync after a GPU step");
-        &self.positions
+        &self.state.positions
     }
     /// Velocities (m/s); see [`Self::positions`].
     pub fn velocities(&self) -> &[Vector3<f64>] {
         debug_assert!(!self.is_pending(), "call Membrane::sync after a GPU step");
-        &self.velocities
+        &self.state.velocities
     }
 
     /// Whether a GPU step left positions and velocities on its device that are newer than
@@ -214,8 +210,8 @@ impl Membrane {
         if let Some(fetch) = self.device.as_mut().and_then(|d| d.fetch.take()) {
             match fetch() {
                 Ok((positions, velocities)) => {
-                    self.positions = positions;
-                    self.velocities = velocities;
+                    self.state.positions = positions;
+                    self.state.velocities = velocities;
                 }
                 Err(e) => {
                     // still pending: a later sync may succeed
@@ -242,18 +238,19 @@ impl Membrane {
 
     /// Replaces the positions (m); every value must be finite.
     pub fn set_positions(&mut self, positions: Vec<Vector3<f64>>) -> Result<()> {
-        self.check_field("positions", &positions)?;
+        self.state.check_field("positions", "vertex", &positions)?;
         self.sync()?;
-        self.positions = positions;
+        self.state.positions = positions;
         self.device = None;
         Ok(())
     }
 
     /// Replaces the velocities (m/s); every value must be finite.
     pub fn set_velocities(&mut self, velocities: Vec<Vector3<f64>>) -> Result<()> {
-        self.check_field("velocities", &velocities)?;
+        self.state
+            .check_field("velocities", "vertex", &velocities)?;
         self.sync()?;
-        self.velocities = velocities;
+        self.state.velocities = velocities;
         self.device = None;
         Ok(())
     }
@@ -262,109 +259,32 @@ impl Membrane {
     /// the newest.
     pub(crate) fn state_mut(&mut self) -> (&mut [Vector3<f64>], &mut [Vector3<f64>]) {
         self.device = None;
-        (&mut self.positions, &mut self.velocities)
-    }
-
-    fn check_field(&self, name: &str, values: &[Vector3<f64>]) -> Result<()> {
-        if values.len() != self.num_vertices() {
-            return Err(invalid!(
-                "{name} must have shape ({}, 3), got ({}, 3)",
-                self.num_vertices(),
-                values.len()
-            ));
-        }
-        if let Some(i) = values.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
-            return Err(invalid!(
-                "{name} of vertex {i} is not finite: {:?}",
-                values[i].as_slice()
-            ));
-        }
-        Ok(())
+        (&mut self.state.positions, &mut self.state.velocities)
     }
 
     /// Pins vertices at `targets` (default: their current positions).
     pub fn pin(&mut self, indices: &[i64], targets: Option<&[Vector3<f64>]>) -> Result<()> {
-        let n = self.num_vertices();
-        if let Some(t) = targets {
-            if t.len() != indices.len() {
-                return Err(invalid!(
-                    "pin targets must have shape ({}, 3), got ({}, 3)",
-                    indices.len(),
-                    t.len()
-                ));
-            }
-            if let Some(k) = t.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
-                return Err(invalid!(
-                    "pin target {k} (vertex {}) is not finite: {:?}",
-                    indices[k],
-                    t[k].as_slice()
-                ));
-            }
-        }
-        for (k, &i) in indices.iter().enumerate() {
-            if i < 0 || i as usize >= n {
-                return Err(invalid!(
-                    "pin index {i} (entry {k}) is out of range [0, {n})"
-                ));
-            }
-        }
+        self.state.check_pins("vertex", indices, targets)?;
         if targets.is_none() {
             self.sync()?;
         }
-        for (k, &i) in indices.iter().enumerate() {
-            let target = targets.map_or(self.positions[i as usize], |t| t[k]);
-            self.pins.insert(i as u32, target);
-        }
+        self.state.insert_pins(indices, targets);
         Ok(())
     }
 
     /// Releases the given vertices (all when `None`); unknown indices are an error.
     pub fn unpin(&mut self, indices: Option<&[i64]>) -> Result<()> {
-        match indices {
-            None => self.pins.clear(),
-            Some(list) => {
-                let mut vertices = Vec::with_capacity(list.len());
-                for (k, &i) in list.iter().enumerate() {
-                    match u32::try_from(i) {
-                        Ok(v) if self.pins.contains_key(&v) => vertices.push(v),
-                        _ => return Err(invalid!("vertex {i} (entry {k}) is not pinned")),
-                    }
-                }
-                for v in vertices {
-                    self.pins.remove(&v);
-                }
-            }
-        }
-        Ok(())
+        self.state.unpin("vertex", indices)
     }
 
     /// Pinned vertices and their targets, in ascending vertex order.
     pub fn pins(&self) -> &BTreeMap<u32, Vector3<f64>> {
-        &self.pins
+        &self.state.pins
     }
 
     /// Moves the pinned vertices' targets (in ascending vertex order).
     pub fn set_pin_targets(&mut self, targets: &[Vector3<f64>]) -> Result<()> {
-        if targets.len() != self.pins.len() {
-            return Err(invalid!(
-                "pin_targets must have shape ({}, 3), got ({}, 3)",
-                self.pins.len(),
-                targets.len()
-            ));
-        }
-        if let Some(k) = targets
-            .iter()
-            .position(|v| !v.iter().all(|c| c.is_finite()))
-        {
-            return Err(invalid!(
-                "pin target {k} is not finite: {:?}",
-                targets[k].as_slice()
-            ));
-        }
-        for (slot, t) in self.pins.values_mut().zip(targets) {
-            *slot = *t;
-        }
-        Ok(())
+        self.state.set_pin_targets(targets)
     }
 
     /// Runs the vertex kernel on every vertex at the current positions, each vertex's rest

@@ -1,8 +1,30 @@
 //! Particle bodies (He, Wang and Wu 2017, "Projective Peridynamics for Modeling Versatile
-//! Elastoplastic Materials"): so far the sampling of particles from meshes, a volume on a
-//! regular lattice ([`sample_volume`]) and a single layer on a surface ([`sample_surface`]).
-//! Their horizons come from [`crate::geometry::find_horizons`].
+//! Elastoplastic Materials"): the body ([`Particles`]) with its horizons
+//! ([`crate::geometry::find_horizons`]) and elastic material ([`Elastic`]), the influence
+//! function, the deformation gradient with inversion handling, the per-bond local step and
+//! forces, the rest data the solver steps with, the lattice-sum calibration, and the sampling
+//! of particles from meshes ([`sample_volume`], [`sample_surface`]).
 
+mod body;
+mod bond;
+pub mod calibration;
+mod deformation;
+mod elastic;
+mod influence;
+mod kernel;
+mod measure;
+mod rest;
 mod sampling;
 
+pub use body::{ParticleParams, Particles, DEFAULT_HORIZON};
+pub use bond::{bond_force, BondRest};
+pub use calibration::{calibrate, lattice_moduli, LatticeModuli, Moduli};
+pub use deformation::{deformation_gradient, uninverted};
+pub use elastic::{Elastic, POISSON_RANGE};
+pub use influence::influence;
+pub use kernel::{evaluate_particles, particle_force, particle_kernel};
+pub use rest::ParticleRest;
 pub use sampling::{sample_surface, sample_volume, MAX_PARTICLES, MAX_SURFACE_CANDIDATES};
+
+#[cfg(test)]
+mod tests;

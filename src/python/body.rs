@@ -7,23 +7,28 @@ use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 
 use crate::membrane::Membrane;
+use crate::particles::Particles;
 use crate::solve::BodyMut;
 
 use super::membrane::PyMembrane;
+use super::particle_body::PyParticles;
 
 /// A body a solver steps, by kind.
 pub enum PyBody {
     Membrane(Py<PyMembrane>),
+    Particles(Py<PyParticles>),
 }
 
 /// The core of a [`PyBody`], shared with its Python object.
 pub enum SharedBody {
     Membrane(Arc<Mutex<Membrane>>),
+    Particles(Arc<Mutex<Particles>>),
 }
 
 /// A [`SharedBody`] locked for a step.
 pub enum LockedBody<'a> {
     Membrane(MutexGuard<'a, Membrane>),
+    Particles(MutexGuard<'a, Particles>),
 }
 
 impl PyBody {
@@ -32,8 +37,11 @@ impl PyBody {
         if let Ok(membrane) = object.cast::<PyMembrane>() {
             return Ok(Self::Membrane(membrane.clone().unbind()));
         }
+        if let Ok(particles) = object.cast::<PyParticles>() {
+            return Ok(Self::Particles(particles.clone().unbind()));
+        }
         Err(PyTypeError::new_err(format!(
-            "Solver.add takes a body (peridyn.Membrane), got {}",
+            "Solver.add takes a body (peridyn.Membrane or peridyn.Particles), got {}",
             object.get_type().name()?
         )))
     }
@@ -41,6 +49,7 @@ impl PyBody {
     pub fn shared(&self, py: Python<'_>) -> SharedBody {
         match self {
             Self::Membrane(m) => SharedBody::Membrane(m.borrow(py).inner.clone()),
+            Self::Particles(p) => SharedBody::Particles(p.borrow(py).inner.clone()),
         }
     }
 
@@ -55,12 +64,20 @@ impl PyBody {
                 .iter()
                 .map(|p| p.amax())
                 .fold(0.0, f64::max)),
+            Self::Particles(p) => Ok(p
+                .borrow(py)
+                .lock()
+                .positions()
+                .iter()
+                .map(|p| p.amax())
+                .fold(0.0, f64::max)),
         }
     }
 
     pub fn object(&self, py: Python<'_>) -> Py<PyAny> {
         match self {
             Self::Membrane(m) => m.clone_ref(py).into_any(),
+            Self::Particles(p) => p.clone_ref(py).into_any(),
         }
     }
 }
@@ -70,6 +87,8 @@ impl SharedBody {
     pub fn same(&self, other: &Self) -> bool {
         match (self, other) {
             (Self::Membrane(a), Self::Membrane(b)) => Arc::ptr_eq(a, b),
+            (Self::Particles(a), Self::Particles(b)) => Arc::ptr_eq(a, b),
+            _ => false,
         }
     }
 
@@ -78,6 +97,9 @@ impl SharedBody {
     pub fn lock(&self) -> LockedBody<'_> {
         match self {
             Self::Membrane(m) => LockedBody::Membrane(m.lock().unwrap_or_else(|p| p.into_inner())),
+            Self::Particles(p) => {
+                LockedBody::Particles(p.lock().unwrap_or_else(|p| p.into_inner()))
+            }
         }
     }
 }
@@ -86,6 +108,7 @@ impl LockedBody<'_> {
     pub fn body_mut(&mut self) -> BodyMut<'_> {
         match self {
             Self::Membrane(m) => BodyMut::Membrane(m),
+            Self::Particles(p) => BodyMut::Particles(p),
         }
     }
 }

@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 
 use crate::contact::{DescentStep, ProximalMetric};
 use crate::membrane::Preconditioner;
-use crate::solve::Method;
+use crate::solve::{GlobalSolver, Method};
 
 /// An option's accepted strings, each with the value it stands for.
 pub struct Choices<T: 'static> {
@@ -87,6 +87,19 @@ pub const METHOD: Choices<Method> = Choices {
     what: "method",
     none: None,
     names: &[("sissm", Method::Sissm), ("descent", Method::Descent)],
+};
+
+/// `Solver(global_solver=...)`: how particle bodies solve their global step (Fig. 7 of He
+/// et al. 2017).
+pub const GLOBAL_SOLVER: Choices<GlobalSolver> = Choices {
+    what: "global_solver",
+    none: None,
+    names: &[
+        ("direct", GlobalSolver::Direct),
+        ("jacobi", GlobalSolver::Jacobi),
+        ("chebyshev", GlobalSolver::Chebyshev),
+        ("position", GlobalSolver::Position),
+    ],
 };
 
 /// `Solver(preconditioner=...)`.

@@ -15,7 +15,8 @@ use super::collider;
 use super::contact::PyContact;
 use super::errors::{guard, IntoPyResult, PrecisionWarning};
 use super::options::{
-    AccelerationKind, Backend, Float, ACCELERATION, BACKEND, METHOD, PRECISION, PRECONDITIONER,
+    AccelerationKind, Backend, Float, ACCELERATION, BACKEND, GLOBAL_SOLVER, METHOD, PRECISION,
+    PRECONDITIONER,
 };
 use super::scalars::{Int, Real};
 use super::solver_state;
@@ -90,7 +91,7 @@ impl PySolver {
                         chebyshev_rho = Real::of(Acceleration::DEFAULT_RHO),
                         chebyshev_delay = Int::of(Acceleration::DEFAULT_DELAY as i64),
                         record_energy = false, method = "sissm", inner_iters = Int::of(1),
-                        backend = "cpu", contact = None))]
+                        backend = "cpu", contact = None, global_solver = "chebyshev"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: Real,
@@ -109,6 +110,7 @@ impl PySolver {
         inner_iters: Int,
         backend: &str,
         contact: Option<PyRef<'_, PyContact>>,
+        global_solver: &str,
     ) -> PyResult<Self> {
         let dt = dt.get("dt")?;
         let tol = tol.get("tol")?;
@@ -164,6 +166,7 @@ impl PySolver {
             inner_iters: inner_iters as usize,
             record_energy,
             contact: contact.map(|c| c.inner),
+            global_solver: GLOBAL_SOLVER.parse(global_solver)?,
         };
         let backend = BACKEND.parse(backend)?;
         let precision = precision.map(|p| PRECISION.parse(p)).transpose()?;
@@ -199,7 +202,7 @@ impl PySolver {
         })
     }
 
-    /// Adds a body (a Membrane); the solver steps it from now on.
+    /// Adds a body (a Membrane or Particles); the solver steps it from now on.
     fn add(&mut self, body: &Bound<'_, PyAny>) -> PyResult<()> {
         let py = body.py();
         let new = PyBody::extract(body)?;
@@ -338,6 +341,7 @@ impl PySolver {
             .iter()
             .map(|b| match b.shared(py).lock() {
                 LockedBody::Membrane(m) => m.num_vertices(),
+                LockedBody::Particles(_) => 0,
             })
             .sum();
         let state = solver_state::from_dict(state, vertices)?;
@@ -451,6 +455,12 @@ impl PySolver {
     #[getter]
     fn method(&self) -> &'static str {
         METHOD.name(with_solver!(&self.core, s => s.params().method))
+    }
+    /// How particle bodies solve their global step: "direct", "jacobi", "chebyshev" or
+    /// "position".
+    #[getter]
+    fn global_solver(&self) -> &'static str {
+        GLOBAL_SOLVER.name(with_solver!(&self.core, s => s.params().global_solver))
     }
     /// Jacobi sweeps per global iteration.
     #[getter]

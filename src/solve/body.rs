@@ -13,6 +13,7 @@ use nalgebra::Vector3;
 
 use crate::error::Result;
 use crate::membrane::Membrane;
+use crate::particles::Particles;
 
 /// What the solver reads and writes of a body of any kind: its points' state, in f64 and SI
 /// units.
@@ -39,6 +40,13 @@ pub trait Body {
 /// One body of the list a step advances, by kind.
 pub enum BodyMut<'a> {
     Membrane(&'a mut Membrane),
+    Particles(&'a mut Particles),
+}
+
+impl<'a> From<&'a mut Particles> for BodyMut<'a> {
+    fn from(particles: &'a mut Particles) -> Self {
+        Self::Particles(particles)
+    }
 }
 
 impl<'a> From<&'a mut Membrane> for BodyMut<'a> {
@@ -52,6 +60,7 @@ impl BodyMut<'_> {
     pub fn body(&self) -> &dyn Body {
         match self {
             Self::Membrane(m) => &**m,
+            Self::Particles(p) => &**p,
         }
     }
 
@@ -59,6 +68,7 @@ impl BodyMut<'_> {
     pub fn body_mut(&mut self) -> &mut dyn Body {
         match self {
             Self::Membrane(m) => &mut **m,
+            Self::Particles(p) => &mut **p,
         }
     }
 }
@@ -68,24 +78,31 @@ impl BodyMut<'_> {
 pub(crate) struct ByKind<'l> {
     pub membranes: Vec<&'l mut Membrane>,
     pub membrane_indices: Vec<usize>,
+    pub particles: Vec<&'l mut Particles>,
+    pub particle_indices: Vec<usize>,
 }
 
 impl<'l> ByKind<'l> {
     pub fn sort(bodies: &'l mut [BodyMut<'_>]) -> Self {
-        let mut membranes = Vec::new();
-        let mut membrane_indices = Vec::new();
+        let mut sorted = Self {
+            membranes: Vec::new(),
+            membrane_indices: Vec::new(),
+            particles: Vec::new(),
+            particle_indices: Vec::new(),
+        };
         for (i, body) in bodies.iter_mut().enumerate() {
             match body {
                 BodyMut::Membrane(m) => {
-                    membranes.push(&mut **m);
-                    membrane_indices.push(i);
+                    sorted.membranes.push(&mut **m);
+                    sorted.membrane_indices.push(i);
+                }
+                BodyMut::Particles(p) => {
+                    sorted.particles.push(&mut **p);
+                    sorted.particle_indices.push(i);
                 }
             }
         }
-        Self {
-            membranes,
-            membrane_indices,
-        }
+        sorted
     }
 
     /// Brings every body's host state up to date (see [`Body::sync`]).
@@ -93,10 +110,14 @@ impl<'l> ByKind<'l> {
         self.membranes.iter_mut().try_for_each(|m| m.sync())
     }
 
-    /// Each family's body indices in the step's list, in the order of
-    /// [`Families::each`](super::families::Families::each).
-    pub fn list_indices(&self) -> [&[usize]; 1] {
-        [&self.membrane_indices]
+    /// Each present family's body indices in the step's list, in the order of
+    /// [`Families::each`](super::families::Families::each) (membranes, then particles; a
+    /// family is present exactly when it has bodies).
+    pub fn list_indices(&self) -> Vec<&[usize]> {
+        [&self.membrane_indices[..], &self.particle_indices[..]]
+            .into_iter()
+            .filter(|l| !l.is_empty())
+            .collect()
     }
 }
 
@@ -121,5 +142,30 @@ impl Body for Membrane {
     }
     fn sync(&mut self) -> Result<()> {
         Membrane::sync(self)
+    }
+}
+
+impl Body for Particles {
+    fn id(&self) -> u64 {
+        Particles::id(self)
+    }
+    fn num_points(&self) -> usize {
+        self.num_particles()
+    }
+    fn positions(&self) -> &[Vector3<f64>] {
+        Particles::positions(self)
+    }
+    fn velocities(&self) -> &[Vector3<f64>] {
+        Particles::velocities(self)
+    }
+    fn pins(&self) -> &BTreeMap<u32, Vector3<f64>> {
+        Particles::pins(self)
+    }
+    fn state_mut(&mut self) -> (&mut [Vector3<f64>], &mut [Vector3<f64>]) {
+        Particles::state_mut(self)
+    }
+    /// Particles are stepped on the host only: their state is always current.
+    fn sync(&mut self) -> Result<()> {
+        Ok(())
     }
 }

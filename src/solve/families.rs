@@ -6,10 +6,13 @@ use crate::real::Real;
 use super::body::ByKind;
 use super::family::Family;
 use super::membranes::MembraneSystem;
+use super::particles::ParticleSystem;
 
-/// The families of one body list.
+/// The families of one body list: membranes first, then particles (the order of
+/// [`Self::each`], of [`ByKind::list_indices`], of the updates and of the contact reactions).
 pub(crate) struct Families<T: Real> {
     pub membranes: Option<MembraneSystem<T>>,
+    pub particles: Option<ParticleSystem<T>>,
 }
 
 impl<T: Real> Families<T> {
@@ -21,21 +24,37 @@ impl<T: Real> Families<T> {
         } else {
             Some(MembraneSystem::build(&bodies.membranes, packed)?)
         };
-        Ok(Self { membranes })
+        let particles = if bodies.particles.is_empty() {
+            None
+        } else {
+            Some(ParticleSystem::build(&bodies.particles)?)
+        };
+        Ok(Self {
+            membranes,
+            particles,
+        })
     }
 
     /// True when the families were built from exactly these bodies.
     pub fn matches(&self, bodies: &ByKind<'_>) -> bool {
-        match &self.membranes {
+        let membranes = match &self.membranes {
             Some(m) => m.points.matches(&bodies.membranes),
             None => bodies.membranes.is_empty(),
-        }
+        };
+        let particles = match &self.particles {
+            Some(p) => p.points.matches(&bodies.particles),
+            None => bodies.particles.is_empty(),
+        };
+        membranes && particles
     }
 
     /// Copies the bodies' positions, velocities and pins into their families.
     pub fn load(&mut self, bodies: &ByKind<'_>) {
         if let Some(m) = &mut self.membranes {
             m.points.load(&bodies.membranes);
+        }
+        if let Some(p) = &mut self.particles {
+            p.points.load(&bodies.particles);
         }
     }
 
@@ -44,13 +63,15 @@ impl<T: Real> Families<T> {
         if let Some(m) = &self.membranes {
             m.points.store(&mut bodies.membranes);
         }
+        if let Some(p) = &self.particles {
+            p.points.store(&mut bodies.particles);
+        }
     }
 
     /// Every family, in a fixed order.
     pub fn each(&mut self) -> impl Iterator<Item = &mut dyn Family<T>> {
-        self.membranes
-            .as_mut()
-            .map(|m| m as &mut dyn Family<T>)
-            .into_iter()
+        let membranes = self.membranes.as_mut().map(|m| m as &mut dyn Family<T>);
+        let particles = self.particles.as_mut().map(|p| p as &mut dyn Family<T>);
+        membranes.into_iter().chain(particles)
     }
 }

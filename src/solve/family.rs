@@ -14,6 +14,7 @@ use crate::real::Real;
 use super::energy::inertial_energy;
 use super::points::Points;
 use super::update::{MoveOptions, Update};
+use super::{Acceleration, SolverParams};
 
 /// A body kind's part of the time step.
 pub(crate) trait Family<T: Real>: Send {
@@ -34,6 +35,16 @@ pub(crate) trait Family<T: Real>: Send {
     /// length of eq. 31-33, colliders in the system metric and Chebyshev extrapolation as
     /// `options` ask), and its measures.
     fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update;
+    /// Work before the iterations of a step, once its state is loaded and predicted (the
+    /// particles factor their direct solver's matrix here). Nothing for membranes.
+    fn start_step(&mut self, _params: &SolverParams) -> Result<()> {
+        Ok(())
+    }
+    /// The acceleration this kind's moves use under `params` (see
+    /// [`super::GlobalSolver::acceleration`] for the particles).
+    fn acceleration(&self, params: &SolverParams) -> Acceleration {
+        params.acceleration
+    }
     /// Work at the end of a converged or finished step, after `finish` and before the state
     /// goes back to the bodies: where plasticity updates rest shapes and neighbourhoods are
     /// rebuilt. Nothing for membranes.

@@ -8,6 +8,7 @@ pub(crate) mod families;
 pub(crate) mod family;
 pub(crate) mod membranes;
 mod params;
+pub(crate) mod particles;
 pub(crate) mod point_system;
 pub(crate) mod points;
 mod sissm;
@@ -17,7 +18,7 @@ pub(crate) mod update;
 
 pub use body::{Body, BodyMut};
 pub use clock::Clock;
-pub use params::{Acceleration, Method, SolverParams};
+pub use params::{Acceleration, GlobalSolver, Method, SolverParams};
 #[cfg(test)]
 pub(crate) use sissm::Forget;
 pub use sissm::Solver;

@@ -31,6 +31,45 @@ pub struct SolverParams {
     pub record_energy: bool,
     /// Contact between and within membranes (the local step of Algorithm 2); `None`: off.
     pub contact: Option<ContactParams>,
+    /// How particle bodies solve the linear system of their global step (He et al. 2017,
+    /// Fig. 7); membranes ignore it.
+    pub global_solver: GlobalSolver,
+}
+
+/// The global solver of particle bodies (He et al. 2017, section 4.2, Fig. 7): how the move
+/// of each global iteration solves `(M + h^2 L) delta = r` (eq. 12 with the local step's
+/// projections held). Every one has the implicit Euler solution as its fixed point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GlobalSolver {
+    /// A sparse Cholesky factor of the constant matrix, computed when the time step or the
+    /// pins change: the exact solve of the linear system each iteration.
+    Direct,
+    /// `inner_iters` Jacobi sweeps.
+    Jacobi,
+    /// Jacobi sweeps with Chebyshev acceleration (the paper's default): the solver's
+    /// `acceleration` when it sets one, else Chebyshev with [`GlobalSolver::CHEBYSHEV_RHO`].
+    #[default]
+    Chebyshev,
+    /// Position-based averaging: each bond solves its own two-particle system and each
+    /// particle moves by the average of its bonds' moves.
+    Position,
+}
+
+impl GlobalSolver {
+    /// The spectral-radius estimate of the particles' Chebyshev acceleration when the solver
+    /// sets none.
+    pub const CHEBYSHEV_RHO: f64 = 0.99;
+
+    /// The acceleration particle bodies iterate with under `params`.
+    pub fn acceleration(self, params: &SolverParams) -> Acceleration {
+        match (self, params.acceleration) {
+            (Self::Chebyshev, Acceleration::None) => Acceleration::Chebyshev {
+                rho: Self::CHEBYSHEV_RHO,
+                delay: Acceleration::DEFAULT_DELAY,
+            },
+            (_, acceleration) => acceleration,
+        }
+    }
 }
 
 /// The global iteration.
@@ -104,6 +143,7 @@ impl Default for SolverParams {
             inner_iters: 1,
             record_energy: false,
             contact: None,
+            global_solver: GlobalSolver::default(),
         }
     }
 }

@@ -223,8 +223,16 @@ impl<T: Real> Solver<T> {
             // The contact state restarts from what was restored (its caches are rebuilt).
             self.contact = None;
         }
-        if params.method == Method::Descent && self.descent.is_none() {
-            self.descent = Some(DescentState::new(&by_kind.membranes)?);
+        if params.method == Method::Descent {
+            if let Some(&body) = by_kind.particle_indices.first() {
+                return Err(invalid!(
+                    "method='descent' steps membranes only; body {body} is a particle body \
+                     (use method='sissm')"
+                ));
+            }
+            if self.descent.is_none() {
+                self.descent = Some(DescentState::new(&by_kind.membranes)?);
+            }
         }
         let step_end = self.clock.time + params.dt;
         let colliders: Vec<ColliderModel<T>> = self
@@ -253,6 +261,7 @@ impl<T: Real> Solver<T> {
         }
         let mut energy = 0.0;
         for family in families.each() {
+            family.start_step(&params)?;
             family.points_mut().predict(h, gravity);
             energy += initial_guess(family, h, params.preconditioner, &colliders);
         }
@@ -272,15 +281,17 @@ impl<T: Real> Solver<T> {
             }),
             ..StepStats::default()
         };
-        let accelerated = params.acceleration != Acceleration::None;
-        if accelerated {
-            for family in families.each() {
-                let points = family.points_mut();
-                if points.y_prev.len() != points.y.len() {
-                    points.y_prev = points.y.clone();
-                }
+        // Per family (in the order of `Families::each`): its acceleration and the last
+        // extrapolation weight.
+        let accelerations: Vec<Acceleration> =
+            families.each().map(|f| f.acceleration(&params)).collect();
+        for (family, acceleration) in families.each().zip(&accelerations) {
+            let points = family.points_mut();
+            if *acceleration != Acceleration::None && points.y_prev.len() != points.y.len() {
+                points.y_prev = points.y.clone();
             }
         }
+        let mut omegas = vec![1.0; accelerations.len()];
         let list_indices = by_kind.list_indices();
         let mut updates = Vec::with_capacity(list_indices.len());
         let mut search = LineSearch::new(energy);
@@ -294,27 +305,37 @@ impl<T: Real> Solver<T> {
                 .acceleration
                 .omega(iteration - chebyshev_origin, omega);
             omega = extrapolation.unwrap_or(1.0);
-            // Per family, in the order of `Families::each`: the membrane contact reactions.
-            let contact_reactions = [self
+            // The membrane contact reactions (the particles' moves ignore them).
+            let contact_reaction = self
                 .contact
                 .as_ref()
                 .map(ContactState::reaction)
-                .unwrap_or_default()];
+                .unwrap_or_default();
             // With contact, the first iterate of a step has not been through a local step: its
             // residual says nothing of the contacts, so it cannot decide convergence.
-            let decisive = params.contact.is_none() || !contact_reactions[0].is_empty();
+            let decisive =
+                params.contact.is_none() || self.contact.is_none() || !contact_reaction.is_empty();
             let converges =
                 |update: &Update| decisive && params.tol > 0.0 && update.residual < params.tol;
+            // Each family's extrapolation weight this iteration.
+            let family_omegas: Vec<Option<f64>> = accelerations
+                .iter()
+                .zip(&mut omegas)
+                .map(|(a, previous)| {
+                    let w = a.omega(iteration - chebyshev_origin, *previous);
+                    *previous = w.unwrap_or(1.0);
+                    w
+                })
+                .collect();
             // With contact the extrapolation follows the local step (see
             // [`extrapolate_local_step`]), not the global step.
-            let options = |contact_reaction| MoveOptions {
+            let options = |contact_reaction, omega: Option<f64>| MoveOptions {
                 step_length: params.step_length,
                 inner_iters: params.inner_iters,
-                omega: extrapolation
-                    .filter(|_| params.contact.is_none())
-                    .map(T::of),
+                omega: omega.filter(|_| params.contact.is_none()).map(T::of),
                 colliders: &colliders,
                 contact_reaction,
+                global_solver: params.global_solver,
             };
             updates.clear();
             match params.method {
@@ -332,8 +353,8 @@ impl<T: Real> Solver<T> {
                     if params.record_energy {
                         stats.energies.push(energy);
                     }
-                    for (family, reaction) in families.each().zip(contact_reactions) {
-                        updates.push(family.global_move(h, &options(reaction)));
+                    for (family, w) in families.each().zip(&family_omegas) {
+                        updates.push(family.global_move(h, &options(contact_reaction, *w)));
                     }
                 }
                 Method::Descent => {
@@ -347,13 +368,14 @@ impl<T: Real> Solver<T> {
                             state,
                             h,
                             params.preconditioner,
-                            &options(contact_reactions[0]),
+                            &options(contact_reaction, extrapolation),
                             &mut search,
                         ));
                     }
                     if search.restarted {
                         chebyshev_origin = iteration + 1;
                         omega = 1.0;
+                        omegas.fill(1.0);
                     }
                 }
             };
@@ -370,7 +392,7 @@ impl<T: Real> Solver<T> {
                 }
                 timings.colliders += millis(t);
             }
-            for ((family, update), indices) in families.each().zip(&updates).zip(list_indices) {
+            for ((family, update), indices) in families.each().zip(&updates).zip(&list_indices) {
                 if let Some(point) = update.first_bad {
                     let (body, vertex) = family.points().locate(point);
                     return Err(Error::Diverged {
@@ -400,9 +422,9 @@ impl<T: Real> Solver<T> {
                     }
                 }
             }
-            for family in families.each() {
+            for (family, acceleration) in families.each().zip(&accelerations) {
                 let points = family.points_mut();
-                if accelerated {
+                if *acceleration != Acceleration::None {
                     std::mem::swap(&mut points.y_prev, &mut points.y);
                 }
                 std::mem::swap(&mut points.y, &mut points.y_next);
@@ -433,7 +455,7 @@ impl<T: Real> Solver<T> {
         }
 
         let t = Instant::now();
-        for (family, indices) in families.each().zip(list_indices) {
+        for (family, indices) in families.each().zip(&list_indices) {
             if let Some(point) = family.points().first_bad_velocity(h) {
                 let (body, vertex) = family.points().locate(point);
                 return Err(Error::Diverged {

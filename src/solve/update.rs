@@ -5,6 +5,8 @@ use nalgebra::Vector3;
 use crate::collider::ColliderModel;
 use crate::real::Real;
 
+use super::GlobalSolver;
+
 /// Per-vertex outcome of an update, reduced over vertices.
 #[derive(Clone, Copy)]
 pub(crate) struct Update {
@@ -72,4 +74,6 @@ pub(crate) struct MoveOptions<'a, T: Real> {
     /// (m; see [`super::membranes::jacobi::free_residual`]), or empty when contact is off or no local step ran yet this
     /// step.
     pub contact_reaction: &'a [Vector3<T>],
+    /// How particle bodies solve their global step (membranes ignore it).
+    pub global_solver: GlobalSolver,
 }

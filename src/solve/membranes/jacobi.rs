@@ -568,6 +568,7 @@ mod tests {
                     omega,
                     colliders,
                     contact_reaction,
+                    global_solver: Default::default(),
                 };
                 let mut packed = vec![Vector3::zeros(); n];
                 let mut per_vertex = vec![Vector3::zeros(); n];

@@ -1,0 +1,211 @@
+//! A particle body (He et al. 2017): reference positions and the horizons among them, the
+//! material, and the state (positions, velocities, pins).
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use nalgebra::Vector3;
+
+use crate::error::{check_param, Result};
+use crate::geometry::{find_horizons, Horizons};
+use crate::point_state::PointState;
+
+use super::calibration::Moduli;
+use super::deformation::check_shapes;
+use super::elastic::Elastic;
+
+/// Physical parameters of a particle body (SI units).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParticleParams {
+    /// Spacing of the sampling lattice (m): each particle stands for a cube of this side
+    /// (volume `spacing^3`) and keeps half of it from a collider's surface.
+    pub spacing: f64,
+    /// Density (kg/m^3).
+    pub density: f64,
+    /// Horizon radius `delta` (m): the bonds of a particle reach the particles strictly
+    /// closer than this in the reference configuration. `None`: [`DEFAULT_HORIZON`] spacings.
+    pub horizon: Option<f64>,
+    pub material: Elastic,
+}
+
+/// Default horizon in spacings: 32 neighbours on a cubic lattice (the distances 1, sqrt 2,
+/// sqrt 3 and 2 spacings; the next, sqrt 5 = 2.24, stays out with a margin for jitter), near
+/// the "about 30" of the paper.
+pub const DEFAULT_HORIZON: f64 = 2.2;
+
+impl ParticleParams {
+    /// Checks every parameter, naming the first bad one.
+    pub fn validate(&self) -> Result<()> {
+        check_param(
+            "spacing",
+            self.spacing,
+            |v| v > 0.0,
+            "a finite length > 0 m",
+        )?;
+        check_param(
+            "density",
+            self.density,
+            |v| v > 0.0,
+            "a finite density > 0 kg/m^3",
+        )?;
+        if let Some(h) = self.horizon {
+            check_param(
+                "horizon",
+                h,
+                |v| v > self.spacing,
+                &format!("a finite length above the spacing ({} m)", self.spacing),
+            )?;
+        }
+        self.material.validate()
+    }
+
+    /// The horizon radius (m).
+    pub fn delta(&self) -> f64 {
+        self.horizon.unwrap_or(DEFAULT_HORIZON * self.spacing)
+    }
+}
+
+static NEXT_ID: AtomicU64 = AtomicU64::new(1);
+
+/// A body of particles. Not `Clone`: its `id` is unique.
+#[derive(Debug)]
+pub struct Particles {
+    id: u64,
+    reference: Vec<Vector3<f64>>,
+    horizons: Horizons,
+    params: ParticleParams,
+    /// What the material resolved to on this body's lattice.
+    moduli: Moduli,
+    state: PointState,
+}
+
+impl Particles {
+    /// Particles at rest at their reference positions `reference` (m). Fails, naming the
+    /// culprit, on a bad parameter, a non-finite position, or a particle whose neighbourhood
+    /// within the horizon is not three-dimensional (its shape matrix `K_i` is singular).
+    pub fn new(reference: Vec<Vector3<f64>>, params: ParticleParams) -> Result<Self> {
+        params.validate()?;
+        if reference.is_empty() {
+            return Err(crate::error::invalid!(
+                "a particle body needs at least one particle"
+            ));
+        }
+        if let Some(i) = reference
+            .iter()
+            .position(|x| !x.iter().all(|c| c.is_finite()))
+        {
+            return Err(crate::error::invalid!(
+                "positions of particle {i} are not finite: {:?}",
+                reference[i].as_slice()
+            ));
+        }
+        let delta = params.delta();
+        let horizons = find_horizons(&reference, delta)?;
+        let moduli = params.material.resolve(params.spacing, delta)?;
+        let state = PointState::at_rest(reference.clone());
+        let body = Self {
+            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+            reference,
+            horizons,
+            params,
+            moduli,
+            state,
+        };
+        check_shapes(&body.reference, &body.horizons, delta)?;
+        Ok(body)
+    }
+
+    pub fn id(&self) -> u64 {
+        self.id
+    }
+    pub fn params(&self) -> &ParticleParams {
+        &self.params
+    }
+    pub fn num_particles(&self) -> usize {
+        self.reference.len()
+    }
+    /// Reference positions (m).
+    pub fn reference(&self) -> &[Vector3<f64>] {
+        &self.reference
+    }
+    pub fn horizons(&self) -> &Horizons {
+        &self.horizons
+    }
+    /// Horizon radius (m).
+    pub fn horizon(&self) -> f64 {
+        self.params.delta()
+    }
+    /// The paper's `mu`, `lam` and the dilatation modulus `kappa` (Pa) of the body.
+    pub fn moduli(&self) -> Moduli {
+        self.moduli
+    }
+    /// Volume of each particle, `spacing^3` (m^3).
+    pub fn volume(&self) -> f64 {
+        self.params.spacing.powi(3)
+    }
+    pub fn density(&self) -> f64 {
+        self.params.density
+    }
+    /// Mass of each particle (kg).
+    pub fn particle_mass(&self) -> f64 {
+        self.params.density * self.volume()
+    }
+    /// How far a particle keeps from a collider's surface: half the spacing (m).
+    pub fn margin(&self) -> f64 {
+        0.5 * self.params.spacing
+    }
+
+    /// Positions (m).
+    pub fn positions(&self) -> &[Vector3<f64>] {
+        &self.state.positions
+    }
+    /// Velocities (m/s).
+    pub fn velocities(&self) -> &[Vector3<f64>] {
+        &self.state.velocities
+    }
+    /// Replaces the positions (m); every value must be finite.
+    pub fn set_positions(&mut self, positions: Vec<Vector3<f64>>) -> Result<()> {
+        self.state
+            .check_field("positions", "particle", &positions)?;
+        self.state.positions = positions;
+        Ok(())
+    }
+    /// Replaces the velocities (m/s); every value must be finite.
+    pub fn set_velocities(&mut self, velocities: Vec<Vector3<f64>>) -> Result<()> {
+        self.state
+            .check_field("velocities", "particle", &velocities)?;
+        self.state.velocities = velocities;
+        Ok(())
+    }
+    /// Pins particles at `targets` (m; default: where they are).
+    pub fn pin(&mut self, indices: &[i64], targets: Option<&[Vector3<f64>]>) -> Result<()> {
+        self.state.check_pins("particle", indices, targets)?;
+        self.state.insert_pins(indices, targets);
+        Ok(())
+    }
+    /// Releases the given particles (all when `None`); unknown indices are an error.
+    pub fn unpin(&mut self, indices: Option<&[i64]>) -> Result<()> {
+        self.state.unpin("particle", indices)
+    }
+    /// Pinned particles and their targets (m), in ascending particle order.
+    pub fn pins(&self) -> &std::collections::BTreeMap<u32, Vector3<f64>> {
+        &self.state.pins
+    }
+    /// Moves the pinned particles' targets (m, in ascending particle order).
+    pub fn set_pin_targets(&mut self, targets: &[Vector3<f64>]) -> Result<()> {
+        self.state.set_pin_targets(targets)
+    }
+    /// Solver write-back of a finished step.
+    pub(crate) fn state_mut(&mut self) -> (&mut [Vector3<f64>], &mut [Vector3<f64>]) {
+        (&mut self.state.positions, &mut self.state.velocities)
+    }
+
+    /// Kinetic energy `sum m v^2 / 2` (J).
+    pub fn kinetic_energy(&self) -> f64 {
+        let m = self.particle_mass();
+        self.state
+            .velocities
+            .iter()
+            .map(|v| 0.5 * m * v.norm_squared())
+            .sum()
+    }
+}

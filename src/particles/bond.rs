@@ -1,0 +1,74 @@
+//! The per-bond local step and forces of the particle model (He et al. 2017, eq. 8-11 as
+//! corrected in DESIGN.md section 6).
+//!
+//! For the bond `xi = x_j - x_i` of particle `i` with `Y = y_j - y_i`, the energy of eq. 8
+//! (times the volumes `V_i V_j`) is
+//! `e = k_dev / 2 (|F_i xi| - |xi|)^2 + k_iso / 2 (|Y| - |xi|)^2` (J), with the constant bond
+//! stiffnesses `k_dev = 2 mu V_i V_j w / |xi|^2` and `k_iso = lam V_i V_j w / |xi|^2` (N/m).
+//! The local step projects each bond: `p_dev = |xi| dir(F_i xi)`, `p_iso = |xi| dir Y`
+//! (the "dim Y" of section 4.2 is `dir Y`), and the bond's force state (eq. 10-11, times
+//! `V_i V_j`) is `g = k_dev (Y - p_dev) + k_iso (Y - p_iso)` (N): `+g` acts on `i`, `-g` on
+//! `j`. The isotropic part is the exact gradient of its energy; the deviatoric part drops the
+//! derivative of `F_i` (eq. 9 -> 10: `Y* ~ Y`), so it is not a gradient of anything.
+//!
+//! **Dilatation (beyond the paper, as in state-based LPS, Silling et al. 2007).** Particle `i`
+//! stores `9 kappa V_i / 2 s_i^2` (J) more, with `s_i = sum_j a_j (|Y_j| - |xi_j|)` the
+//! weighted mean bond strain (`a_j = w V_j / (A_i |xi_j|)`, 1/m, `A_i = sum_j w V_j`; under
+//! a small affine strain `s_i = tr eps / 3`) and `kappa` (Pa) the modulus the calibration
+//! adds to `C11` and `C12` ([`super::calibration`]): the pressure `P = 9 kappa V_i s_i` (J)
+//! adds `P a_j dir Y` to each bond's force, the exact gradient of this energy.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::real::Real;
+
+/// `|len| dir(v)`: `v` scaled to the length `len` (m); `fallback` (already of length `len`)
+/// where `v` has no direction.
+#[inline(always)]
+fn projected<T: Real>(v: &Vector3<T>, len: T, fallback: Vector3<T>) -> Vector3<T> {
+    let norm = v.norm();
+    if norm > T::zero() {
+        v * (len / norm)
+    } else {
+        fallback
+    }
+}
+
+/// The rest data of one bond, in the simulation's precision.
+#[derive(Clone, Copy, Debug)]
+pub struct BondRest<T: Real> {
+    /// `xi = x_j - x_i` (m) and `|xi|` (m).
+    pub xi: Vector3<T>,
+    pub length: T,
+    /// `w V_j` (dimensionless): the bond's weight in `F_i` and `K_i`.
+    pub weight: T,
+    /// `k_dev` and `k_iso` (N/m).
+    pub k_dev: T,
+    pub k_iso: T,
+    /// `a = w V_j / (A_i |xi|)` (1/m): the bond's share of the mean strain of its particle.
+    pub share: T,
+}
+
+/// The local step of one bond at `Y = y_j - y_i` with the particle's deformation gradient
+/// `f` and dilatation pressure `pressure` (J): the bond's force on `i`, `g` (N), and its
+/// spring energy `e` (J; the dilatation energy is the particle's, not the bond's).
+#[inline(always)]
+pub fn bond_force<T: Real>(
+    bond: &BondRest<T>,
+    f: &Matrix3<T>,
+    y: &Vector3<T>,
+    pressure: T,
+) -> (Vector3<T>, T) {
+    let fxi = f * bond.xi;
+    let rest_dir = bond.xi;
+    // Without a direction (a collapsed bond), each projection takes the other's, then the rest
+    // direction.
+    let p_iso = projected(y, bond.length, projected(&fxi, bond.length, rest_dir));
+    let p_dev = projected(&fxi, bond.length, p_iso);
+    let dilatation = p_iso * (pressure * bond.share / bond.length);
+    let g = (y - p_dev) * bond.k_dev + (y - p_iso) * bond.k_iso + dilatation;
+    let half = T::of(0.5);
+    let dev = fxi.norm() - bond.length;
+    let iso = y.norm() - bond.length;
+    (g, half * (bond.k_dev * dev * dev + bond.k_iso * iso * iso))
+}

@@ -1,0 +1,69 @@
+//! The particle kernel: a particle's deformation gradient, its bonds' local step (forces and
+//! energy), and the gathered force on each particle (He et al. 2017, eq. 8-12).
+
+use nalgebra::Vector3;
+
+use crate::parallel::for_each_vertex;
+use crate::real::Real;
+
+use super::bond::bond_force;
+use super::deformation::deformation_gradient;
+use super::rest::ParticleRest;
+
+/// Particle `i`'s kernel at the positions `y` (m): writes the force `g` (N) of each of its
+/// bonds on `i` into `bond_out` and returns its energy, `V_i Psi_i` (J; eq. 8, with the
+/// dilatation term of [`super::bond`]).
+#[inline]
+pub fn particle_kernel<T: Real>(
+    i: usize,
+    rest: &ParticleRest<T>,
+    y: &[Vector3<T>],
+    bond_out: &mut [Vector3<T>],
+) -> T {
+    let row = rest.row(i);
+    let neighbors = &rest.indices[row.clone()];
+    let bonds = &rest.bonds[row];
+    let f = deformation_gradient(i, neighbors, bonds, &rest.shape_inverse[i], y);
+    let strain = neighbors
+        .iter()
+        .zip(bonds)
+        .fold(T::zero(), |s, (&j, bond)| {
+            s + bond.share * ((y[j as usize] - y[i]).norm() - bond.length)
+        });
+    let pressure = rest.dilatation[i] * strain;
+    let mut energy = T::of(0.5) * pressure * strain;
+    for ((&j, bond), out) in neighbors.iter().zip(bonds).zip(bond_out) {
+        let (g, e) = bond_force(bond, &f, &(y[j as usize] - y[i]), pressure);
+        *out = g;
+        energy += e;
+    }
+    energy
+}
+
+/// The kernel of every particle (in parallel, the same for any thread count): bond forces into
+/// `bond_force` (one per bond), bond energies per particle into `energy` (J).
+pub fn evaluate_particles<T: Real>(
+    rest: &ParticleRest<T>,
+    y: &[Vector3<T>],
+    bond_force: &mut [Vector3<T>],
+    energy: &mut [T],
+) {
+    for_each_vertex(&rest.offsets, bond_force, energy, &|i, out| {
+        particle_kernel(i, rest, y, out)
+    });
+}
+
+/// The internal force on particle `i` (N): its bonds' forces on it minus their reverses',
+/// `sum_j (g_ij - g_ji)` (eq. 12, `V_i sum_j V_j (T_i<xi> - T_j<-xi>)`).
+#[inline(always)]
+pub fn particle_force<T: Real>(
+    i: usize,
+    rest: &ParticleRest<T>,
+    bond_force: &[Vector3<T>],
+) -> Vector3<T> {
+    let mut f = Vector3::zeros();
+    for b in rest.row(i) {
+        f += bond_force[b] - bond_force[rest.reverse[b] as usize];
+    }
+    f
+}

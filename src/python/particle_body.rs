@@ -1,0 +1,236 @@
+//! Python wrapper of [`Particles`]. The body lives behind an `Arc<Mutex>` shared with the
+//! solvers it was added to, as a membrane does.
+
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use crate::particles::{ParticleParams, Particles};
+
+use super::arrays::{indices, to_numpy, to_numpy_1d, vec3s};
+use super::elastic::PyElastic;
+use super::errors::{guard, IntoPyResult};
+use super::scalars::Real;
+
+/// An elastic body of particles (He, Wang and Wu 2017) simulated by projective peridynamics.
+#[pyclass(module = "peridyn._core", name = "Particles")]
+pub struct PyParticles {
+    pub inner: Arc<Mutex<Particles>>,
+}
+
+impl PyParticles {
+    pub fn lock(&self) -> MutexGuard<'_, Particles> {
+        self.inner.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// Refuses a particle index outside `[0, n)`, naming its entry and its value.
+fn particle_range(indices: &[i64], n: usize) -> PyResult<()> {
+    match indices
+        .iter()
+        .position(|&i| usize::try_from(i).map_or(true, |i| i >= n))
+    {
+        None => Ok(()),
+        Some(k) => Err(PyValueError::new_err(format!(
+            "indices[{k}] = {} is not a particle index: the body has {n} particles, [0, {n})",
+            indices[k]
+        ))),
+    }
+}
+
+#[pymethods]
+impl PyParticles {
+    #[new]
+    #[pyo3(signature = (positions, *, spacing, density, material, horizon = None))]
+    fn new(
+        py: Python<'_>,
+        positions: &Bound<'_, PyAny>,
+        spacing: Real,
+        density: Real,
+        material: &Bound<'_, PyAny>,
+        horizon: Option<Real>,
+    ) -> PyResult<Self> {
+        let params = ParticleParams {
+            spacing: spacing.get("spacing")?,
+            density: density.get("density")?,
+            horizon: horizon.map(|h| h.get("horizon")).transpose()?,
+            material: material
+                .cast::<PyElastic>()
+                .map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "material must be a peridyn.Elastic, got {}",
+                        material
+                            .get_type()
+                            .name()
+                            .map_or("?".into(), |n| n.to_string())
+                    ))
+                })?
+                .get()
+                .inner,
+        };
+        let x = vec3s(positions, "positions", None)?;
+        let body = py.detach(|| guard("Particles()", || Particles::new(x, params)))?;
+        Ok(Self {
+            inner: Arc::new(Mutex::new(body)),
+        })
+    }
+
+    #[getter]
+    fn num_particles(&self) -> usize {
+        self.lock().num_particles()
+    }
+    /// (N, 3) current positions (m); settable.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_numpy(py, self.lock().positions().iter().copied())
+    }
+    #[setter]
+    fn set_positions(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut p = self.lock();
+        let n = p.num_particles();
+        p.set_positions(vec3s(value, "positions", Some(n))?).py()
+    }
+    /// (N, 3) velocities (m/s); settable.
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_numpy(py, self.lock().velocities().iter().copied())
+    }
+    #[setter]
+    fn set_velocities(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut p = self.lock();
+        let n = p.num_particles();
+        p.set_velocities(vec3s(value, "velocities", Some(n))?).py()
+    }
+    /// (N, 3) reference positions (m).
+    #[getter]
+    fn rest_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_numpy(py, self.lock().reference().iter().copied())
+    }
+    /// Lattice spacing (m).
+    #[getter]
+    fn spacing(&self) -> f64 {
+        self.lock().params().spacing
+    }
+    /// Density (kg/m^3).
+    #[getter]
+    fn density(&self) -> f64 {
+        self.lock().params().density
+    }
+    /// Horizon radius (m).
+    #[getter]
+    fn horizon(&self) -> f64 {
+        self.lock().horizon()
+    }
+    #[getter]
+    fn material(&self) -> PyElastic {
+        PyElastic {
+            inner: self.lock().params().material,
+        }
+    }
+    /// The resolved moduli (Pa): {'mu', 'lam', 'kappa'} (the paper's mu and lam, and the
+    /// dilatation modulus beyond the paper; 0 for `Elastic(mu=, lam=)`).
+    #[getter]
+    fn moduli(&self) -> (f64, f64, f64) {
+        let m = self.lock().moduli();
+        (m.mu, m.lam, m.kappa)
+    }
+    /// Mass of each particle (kg): density times spacing^3.
+    #[getter]
+    fn particle_mass(&self) -> f64 {
+        self.lock().particle_mass()
+    }
+    /// CSR (offsets, indices) of every particle's neighbours within the horizon (int64).
+    fn neighborhood<'py>(&self, py: Python<'py>) -> (Bound<'py, PyAny>, Bound<'py, PyAny>) {
+        let p = self.lock();
+        let h = p.horizons();
+        (
+            to_numpy_1d(py, h.offsets.iter().map(|&o| o as i64).collect()),
+            to_numpy_1d(py, h.indices.iter().map(|&o| o as i64).collect()),
+        )
+    }
+    /// Fixes particles at `targets` ((len(indices), 3) m; default: where they are now).
+    #[pyo3(signature = (indices, targets = None))]
+    fn pin(&self, indices: &Bound<'_, PyAny>, targets: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        let idx = self::indices(indices, "indices")?;
+        let targets = targets
+            .map(|t| vec3s(t, "targets", Some(idx.len())))
+            .transpose()?;
+        let mut p = self.lock();
+        particle_range(&idx, p.num_particles())?;
+        p.pin(&idx, targets.as_deref()).py()
+    }
+    /// Releases the given pinned particles (all when None).
+    #[pyo3(signature = (indices = None))]
+    fn unpin(&self, indices: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        let idx = indices.map(|i| self::indices(i, "indices")).transpose()?;
+        let mut p = self.lock();
+        if let Some(idx) = &idx {
+            particle_range(idx, p.num_particles())?;
+        }
+        p.unpin(idx.as_deref()).py()
+    }
+    /// Sorted indices of the pinned particles (int64).
+    #[getter]
+    fn pinned<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(py, self.lock().pins().keys().map(|&i| i as i64).collect())
+    }
+    /// (P, 3) targets of the pinned particles (m), in the order of `pinned`; settable.
+    #[getter]
+    fn pin_targets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let targets: Vec<_> = self.lock().pins().values().copied().collect();
+        to_numpy(py, targets.into_iter())
+    }
+    #[setter]
+    fn set_pin_targets(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut p = self.lock();
+        let n = p.pins().len();
+        p.set_pin_targets(&vec3s(value, "pin_targets", Some(n))?)
+            .py()
+    }
+    /// Elastic energy (J, eq. 8 with the dilatation term) at the current positions.
+    fn elastic_energy(&self, py: Python<'_>) -> PyResult<f64> {
+        let inner = self.inner.clone();
+        py.detach(move || {
+            guard("Particles.elastic_energy", || {
+                inner
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .elastic_energy()
+            })
+        })
+    }
+    /// (N, 3) internal forces (N) at the current positions (eq. 12).
+    fn internal_forces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let inner = self.inner.clone();
+        let f = py.detach(move || {
+            guard("Particles.internal_forces", || {
+                inner
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .internal_forces()
+            })
+        })?;
+        to_numpy(py, f.into_iter())
+    }
+    /// Kinetic energy (J).
+    fn kinetic_energy(&self) -> f64 {
+        self.lock().kinetic_energy()
+    }
+    fn __repr__(&self) -> String {
+        let p = self.lock();
+        let params = p.params();
+        format!(
+            "Particles(particles={}, spacing={}, density={}, horizon={}, material={}, pinned={})",
+            p.num_particles(),
+            params.spacing,
+            params.density,
+            p.horizon(),
+            PyElastic {
+                inner: params.material
+            }
+            .__repr__(),
+            p.pins().len()
+        )
+    }
+}

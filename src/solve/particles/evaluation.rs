@@ -1,0 +1,79 @@
+//! One evaluation of the particle kernel: where it was taken, its bond forces, per-particle
+//! energies and gathered forces, and the residual of eq. 12 with its merit.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use crate::parallel::chunked_sum;
+use crate::particles::{evaluate_particles, particle_force, ParticleRest};
+use crate::real::Real;
+use crate::solve::points::Points;
+
+/// The kernel evaluated at the positions `at`.
+pub(crate) struct Evaluation<T: Real> {
+    /// The positions (m) of the evaluation; the key that lets a later call at the same
+    /// positions skip the kernel.
+    pub at: Vec<Vector3<T>>,
+    pub valid: bool,
+    /// Per bond its force on its particle (N, [`crate::particles::bond_force`]).
+    pub bond_force: Vec<Vector3<T>>,
+    /// Per particle `V_i Psi_i` (J) and the internal force (N).
+    pub energy: Vec<T>,
+    pub force: Vec<Vector3<T>>,
+    /// Per particle the residual of eq. 12, `r = m (y* - y) + h^2 f` (kg m; zero at pins).
+    pub residual: Vec<Vector3<T>>,
+}
+
+impl<T: Real> Evaluation<T> {
+    pub fn new(particles: usize, bonds: usize) -> Self {
+        Self {
+            at: vec![Vector3::zeros(); particles],
+            valid: false,
+            bond_force: vec![Vector3::zeros(); bonds],
+            energy: vec![T::zero(); particles],
+            force: vec![Vector3::zeros(); particles],
+            residual: vec![Vector3::zeros(); particles],
+        }
+    }
+
+    /// Whether this evaluation was taken at `y`, bit for bit.
+    pub fn is_at(&self, y: &[Vector3<T>]) -> bool {
+        self.valid && self.at == y
+    }
+
+    /// Runs the kernel at `self.at` and gathers the forces.
+    pub fn run(&mut self, rest: &ParticleRest<T>) {
+        evaluate_particles(rest, &self.at, &mut self.bond_force, &mut self.energy);
+        let bond_force = &self.bond_force;
+        self.force
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, f)| *f = particle_force(i, rest, bond_force));
+        self.valid = true;
+    }
+
+    /// The residual of eq. 12 at `self.at` for the points' inertial targets, `h2 = h^2`
+    /// (s^2), into `self.residual`; returns the merit `sum_i |r_i|^2 / m_i` (kg m^2) summed
+    /// in fixed chunks (the same for any thread count).
+    pub fn residual_merit(&mut self, points: &Points<T>, h2: T, chunks: &mut Vec<f64>) -> f64 {
+        let (at, force) = (&self.at, &self.force);
+        let (mass, star, pinned) = (&points.mass, &points.y_star, &points.pinned);
+        self.residual.par_iter_mut().enumerate().for_each(|(i, r)| {
+            *r = if pinned[i] {
+                Vector3::zeros()
+            } else {
+                (star[i] - at[i]) * mass[i] + force[i] * h2
+            };
+        });
+        let residual = &self.residual;
+        chunked_sum(residual.len(), chunks, |i| {
+            residual[i].norm_squared().to_f64() / mass[i].to_f64()
+        })
+    }
+
+    /// `sum_i V_i Psi_i` (J) summed in fixed chunks.
+    pub fn elastic_energy(&self, chunks: &mut Vec<f64>) -> f64 {
+        let energy = &self.energy;
+        chunked_sum(energy.len(), chunks, |i| energy[i].to_f64())
+    }
+}

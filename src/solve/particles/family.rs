@@ -1,0 +1,46 @@
+//! Particle bodies as a body family of the time step: what the shared step asks of them.
+
+use crate::error::Result;
+use crate::membrane::Preconditioner;
+use crate::real::Real;
+use crate::solve::energy::inertial_energy;
+use crate::solve::family::Family;
+use crate::solve::points::Points;
+use crate::solve::update::{MoveOptions, Update};
+use crate::solve::{Acceleration, GlobalSolver, SolverParams};
+
+use super::step::{global_move, prepare_direct};
+use super::system::ParticleSystem;
+
+impl<T: Real> Family<T> for ParticleSystem<T> {
+    fn points(&self) -> &Points<T> {
+        &self.points
+    }
+    fn points_mut(&mut self) -> &mut Points<T> {
+        &mut self.points
+    }
+    /// The particle kernel at `y` (the membranes' preconditioner mode does not apply).
+    fn evaluate(&mut self, _mode: Preconditioner) {
+        ParticleSystem::evaluate(self);
+    }
+    /// `sum_i m_i |y_i - y*_i|^2 / (2 h^2) + sum_i V_i Psi_i(y)` (J; eq. 8 for the elastic
+    /// part, which the deviatoric force is not the gradient of: see
+    /// [`super::step`] for the merit the line search uses instead).
+    fn total_energy(&mut self, h: T) -> f64 {
+        inertial_energy(&mut self.points, h, false) + self.current.elastic_energy(&mut self.chunks)
+    }
+    fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update {
+        global_move(self, h, options)
+    }
+    /// Factors the direct solver's matrix when it is asked for and the time step or the pins
+    /// changed.
+    fn start_step(&mut self, params: &SolverParams) -> Result<()> {
+        if params.global_solver == GlobalSolver::Direct {
+            prepare_direct(self, params.dt)?;
+        }
+        Ok(())
+    }
+    fn acceleration(&self, params: &SolverParams) -> Acceleration {
+        params.global_solver.acceleration(params)
+    }
+}

@@ -1,0 +1,16 @@
+//! The particle family of the time step (He et al. 2017, section 4): every particle body's
+//! rest data beside its points ([`ParticleSystem`]), the kernel's evaluations, the global
+//! solvers of Fig. 7 (Jacobi, Jacobi + Chebyshev, position-based averaging, direct sparse
+//! Cholesky) and the Armijo line search of eq. 13 on the residual of eq. 12.
+
+mod direct;
+mod directions;
+mod evaluation;
+mod family;
+mod step;
+mod system;
+
+pub(crate) use system::ParticleSystem;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,65 @@
+//! The particle family's working set: every particle body's rest data and state concatenated
+//! into one particle range, the kernel's evaluations and the global step's buffers, all
+//! allocated once so that the iteration allocates nothing.
+
+use nalgebra::Vector3;
+
+use crate::error::Result;
+use crate::particles::{ParticleRest, Particles};
+use crate::real::Real;
+use crate::solve::points::Points;
+
+use super::direct::DirectSolver;
+use super::evaluation::Evaluation;
+
+/// The particle family's working set.
+pub(crate) struct ParticleSystem<T: Real> {
+    pub points: Points<T>,
+    pub rest: ParticleRest<T>,
+    /// The evaluation at the current iterate, and a line search's trial.
+    pub current: Evaluation<T>,
+    pub trial: Evaluation<T>,
+    /// The global step's move and a Jacobi sweep's scratch (m).
+    pub delta: Vec<Vector3<T>>,
+    pub scratch: Vec<Vector3<T>>,
+    /// The factored global matrix, once the direct solver was asked for.
+    pub direct: Option<DirectSolver>,
+    /// Partial sums of the merit (reused).
+    pub chunks: Vec<f64>,
+}
+
+impl<T: Real> ParticleSystem<T> {
+    /// The working set of `bodies`, their rest data computed here (state is loaded by
+    /// [`Points::load`]).
+    pub fn build(bodies: &[&mut Particles]) -> Result<Self> {
+        let shared: Vec<&Particles> = bodies.iter().map(|b| &**b).collect();
+        let rest = ParticleRest::<T>::of_bodies(&shared)?;
+        let (n, bonds) = (rest.len(), rest.indices.len());
+        Ok(Self {
+            points: Points::new(bodies, rest.mass.clone(), rest.margin.clone()),
+            rest,
+            current: Evaluation::new(n, bonds),
+            trial: Evaluation::new(n, bonds),
+            delta: vec![Vector3::zeros(); n],
+            scratch: vec![Vector3::zeros(); n],
+            direct: None,
+            chunks: Vec::new(),
+        })
+    }
+
+    /// The kernel at the current iterate `y`, unless the current evaluation is there already
+    /// (a line search's accepted trial).
+    pub fn evaluate(&mut self) {
+        if self.current.is_at(&self.points.y) {
+            return;
+        }
+        self.current.at.copy_from_slice(&self.points.y);
+        self.current.run(&self.rest);
+    }
+
+    /// The Jacobi diagonal `D_i = m_i + h^2 L_ii` (kg) of particle `i`.
+    #[inline(always)]
+    pub fn diagonal(&self, i: usize, h2: T) -> T {
+        self.rest.mass[i] + h2 * self.rest.stiffness[i]
+    }
+}
