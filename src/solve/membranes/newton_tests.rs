@@ -37,7 +37,7 @@ fn materials() -> [Material; 2] {
 }
 
 /// A 7 x 6 sheet mapped by `map` (rest positions in, deformed out).
-fn deformed(p: MembraneParams, map: impl Fn(Vector3<f64>) -> Vector3<f64>) -> Membrane {
+fn deformed(p: MembraneParams, mut map: impl FnMut(Vector3<f64>) -> Vector3<f64>) -> Membrane {
     let mut m = Membrane::new(TriangleMesh::grid(7, 6, 0.3, 0.25).unwrap(), p).unwrap();
     let y = m.positions().iter().map(|x| map(*x)).collect();
     m.set_positions(y).unwrap();
