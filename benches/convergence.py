@@ -16,7 +16,11 @@ paper's preconditioner (with and without Chebyshev), inner Jacobi sweeps 1/2/4 (
 and the descent baseline of Wang & Yang 2016 (``method="descent"``: Jacobi preconditioner from
 the diagonal of the energy's Hessian, step length halved on an energy rise, Chebyshev restarted
 then; with and without Chebyshev) when the installed build has them; variants the build lacks
-are listed in the JSON as skipped. The descent's wall time includes its Hessian diagonal, which
+are listed in the JSON as skipped. Newton (``method="newton"``, f64 and f32) runs
+``--newton-iters`` iterations (each a CG solve) and is one of the references, since on the
+stiff cloth the SISSM references do not converge. Besides iterations x mean ms/iteration, the
+time to eta 1e-2 / 1e-3 / 1e-4 is measured directly: the step rerun stopped at the first
+iteration that reaches it (``ms_to_eta_<thr>_measured``). ``--only`` picks variants by name. The descent's wall time includes its Hessian diagonal, which
 peridyn computes by central differences of the exact gradient (6 (n+1) kernel evaluations per
 vertex): it measures this implementation, not what an analytic diagonal would cost.
 
