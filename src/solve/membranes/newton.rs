@@ -38,8 +38,8 @@ use crate::parallel::{chunked_sum, for_each_vertex};
 use crate::real::Real;
 use crate::symmetric::SymmetricMatrix3;
 
-use super::evaluate::{evaluate, total_energy};
 use super::descent::{jacobi_moves, search_along, LineSearch};
+use super::evaluate::{evaluate, total_energy};
 use super::hessian_model::VertexModel;
 use super::system::MembraneSystem;
 use crate::solve::point_system::PointSystem;
@@ -106,17 +106,28 @@ impl<T: Real> NewtonState<T> {
     /// Every vertex's Hessian model at the positions `y` (m).
     pub fn build_models(&mut self, sys: &MembraneSystem<T>, y: &[Vector3<T>]) {
         let (nb, rest) = (&sys.nb, &self.rest);
-        for_each_vertex(&nb.offsets, &mut self.bonds, &mut self.models, &|i, edges| {
-            bond_vectors(i, y, nb.of(i), edges);
-            VertexModel::of(&rest.stencil(nb, i), edges)
-        });
+        for_each_vertex(
+            &nb.offsets,
+            &mut self.bonds,
+            &mut self.models,
+            &|i, edges| {
+                bond_vectors(i, y, nb.of(i), edges);
+                VertexModel::of(&rest.stencil(nb, i), edges)
+            },
+        );
     }
 }
 
 #[cfg(test)]
 impl<T: Real> NewtonState<T> {
     /// [`hessian_product`] with the models of the last [`Self::build_models`].
-    pub fn product(&mut self, sys: &MembraneSystem<T>, h2: T, x: &[Vector3<T>], out: &mut [Vector3<T>]) {
+    pub fn product(
+        &mut self,
+        sys: &MembraneSystem<T>,
+        h2: T,
+        x: &[Vector3<T>],
+        out: &mut [Vector3<T>],
+    ) {
         hessian_product(sys, &self.rest, &self.models, h2, x, &mut self.bonds, out);
     }
 }

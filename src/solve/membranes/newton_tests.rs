@@ -11,8 +11,8 @@ use super::system::MembraneSystem;
 use crate::collider::{Collider, Shape};
 use crate::contact::ContactParams;
 use crate::material::Material;
-use crate::membrane::{bond_vectors, vertex_kernel, Membrane, MembraneParams, Preconditioner};
 use crate::membrane::RestData;
+use crate::membrane::{bond_vectors, vertex_kernel, Membrane, MembraneParams, Preconditioner};
 use crate::mesh::TriangleMesh;
 use crate::real::Real;
 use crate::solve::{Acceleration, Method, Solver, SolverParams};
@@ -54,7 +54,10 @@ fn stretched(x: Vector3<f64>) -> Vector3<f64> {
 /// Per vertex of `m` at its positions: the model's product with random bond displacements
 /// `dx`, and the central difference of the exact bond gradient along `dx`; yields
 /// `(vertex, model, difference)` with the bond rows stacked.
-fn model_and_difference(m: &Membrane, rng: &mut Rng) -> Vec<(usize, Vec<Vector3<f64>>, Vec<Vector3<f64>>)> {
+fn model_and_difference(
+    m: &Membrane,
+    rng: &mut Rng,
+) -> Vec<(usize, Vec<Vector3<f64>>, Vec<Vector3<f64>>)> {
     let nb = m.neighborhood().clone();
     let mut rest = RestData::<f64>::empty();
     rest.extend_from(&m.rest_source().unwrap(), true).unwrap();
@@ -157,7 +160,10 @@ fn the_model_is_positive_semidefinite() {
                     let form: f64 = dx.iter().zip(&product).map(|(a, b)| a.dot(b)).sum();
                     let size: f64 = product.iter().map(|p| p.norm()).sum::<f64>()
                         * dx.iter().map(|d| d.norm()).fold(0.0, f64::max);
-                    assert!(form >= -1e-12 * size, "{material:?} x{scale} vertex {i}: {form:e}");
+                    assert!(
+                        form >= -1e-12 * size,
+                        "{material:?} x{scale} vertex {i}: {form:e}"
+                    );
                     // The exact second derivative along dx, by differences of the gradient.
                     let eps = 1e-6;
                     let gradient = |s: f64| {
@@ -178,7 +184,10 @@ fn the_model_is_positive_semidefinite() {
                 }
             }
             if scale < 1.0 {
-                assert!(indefinite > 0, "{material:?} x{scale}: exact Hessian never indefinite");
+                assert!(
+                    indefinite > 0,
+                    "{material:?} x{scale}: exact Hessian never indefinite"
+                );
             }
         }
     }
@@ -203,7 +212,13 @@ fn the_assembled_product_matches_differences_of_the_force() {
         state.build_models(&sys, &y);
         let n = y.len();
         let x: Vec<Vector3<f64>> = (0..n)
-            .map(|k| if k == 0 || k == 5 { Vector3::zeros() } else { rng.vector() * 0.01 })
+            .map(|k| {
+                if k == 0 || k == 5 {
+                    Vector3::zeros()
+                } else {
+                    rng.vector() * 0.01
+                }
+            })
             .collect();
         let h2 = 1e-4;
         let mut out = vec![Vector3::zeros(); n];
@@ -226,7 +241,10 @@ fn the_assembled_product_matches_differences_of_the_force() {
                 continue;
             }
             let error = (out[k] - reference[k]).amax();
-            assert!(error <= 1e-6 * scale, "{neighbors}-ring vertex {k}: {error:e} of {scale:e}");
+            assert!(
+                error <= 1e-6 * scale,
+                "{neighbors}-ring vertex {k}: {error:e} of {scale:e}"
+            );
         }
     }
 }
@@ -274,7 +292,10 @@ fn params_for(material: Material) -> MembraneParams {
 }
 
 fn gap(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
-    a.iter().zip(b).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max)
 }
 
 fn tight(method: Method) -> SolverParams {
@@ -303,9 +324,14 @@ fn newton_reaches_the_implicit_euler_solution_of_sissm() {
         (Material::neo_hookean(4.8e7, 1.2e7).unwrap(), 5e-3),
     ] {
         for collider in [false, true] {
-            let (reference, sissm) = hanging::<f64>(material, dt, tight(Method::Sissm), collider, None);
-            let (newton, stats) = hanging::<f64>(material, dt, tight(Method::Newton), collider, None);
-            assert!(sissm.converged && stats.converged, "{material:?} {collider}");
+            let (reference, sissm) =
+                hanging::<f64>(material, dt, tight(Method::Sissm), collider, None);
+            let (newton, stats) =
+                hanging::<f64>(material, dt, tight(Method::Newton), collider, None);
+            assert!(
+                sissm.converged && stats.converged,
+                "{material:?} {collider}"
+            );
             let gap = gap(&reference, &newton);
             assert!(
                 gap < 1e-9,
@@ -313,7 +339,12 @@ fn newton_reaches_the_implicit_euler_solution_of_sissm() {
                 sissm.iterations,
                 stats.iterations
             );
-            assert!(stats.iterations * 5 < sissm.iterations, "{} vs {}", stats.iterations, sissm.iterations);
+            assert!(
+                stats.iterations * 5 < sissm.iterations,
+                "{} vs {}",
+                stats.iterations,
+                sissm.iterations
+            );
         }
     }
 }
@@ -340,7 +371,12 @@ fn newton_energy_never_rises() {
         let e = &stats.energies;
         assert_eq!(e.len(), 16);
         for pair in e.windows(2) {
-            assert!(pair[1] <= pair[0] + 1e-12 * pair[0].abs(), "rose {} -> {}", pair[0], pair[1]);
+            assert!(
+                pair[1] <= pair[0] + 1e-12 * pair[0].abs(),
+                "rose {} -> {}",
+                pair[0],
+                pair[1]
+            );
         }
         assert!(e[15] < e[0] - 1e-3 * e[0].abs(), "{} -> {}", e[0], e[15]);
     }
@@ -409,7 +445,9 @@ fn newton_with_contact_reaches_sissms_solution() {
             .map(|p| p + Vector3::new(0.02, 0.03, 0.006))
             .collect();
         upper.set_positions(lifted).unwrap();
-        upper.set_velocities(vec![Vector3::new(0.0, 0.0, -1.0); 36]).unwrap();
+        upper
+            .set_velocities(vec![Vector3::new(0.0, 0.0, -1.0); 36])
+            .unwrap();
         let mut solver = Solver::<f64>::new(
             SolverParams {
                 dt: 2e-3,
@@ -424,11 +462,15 @@ fn newton_with_contact_reaches_sissms_solution() {
         )
         .unwrap();
         solver
-            .add_collider(Collider::fixed(Shape::plane([0.0; 3], [0.0, 0.0, 1.0]).unwrap()))
+            .add_collider(Collider::fixed(
+                Shape::plane([0.0; 3], [0.0, 0.0, 1.0]).unwrap(),
+            ))
             .unwrap();
         let mut active = 0;
         for _ in 0..6 {
-            let stats = solver.step(&mut [(&mut lower).into(), (&mut upper).into()]).unwrap();
+            let stats = solver
+                .step(&mut [(&mut lower).into(), (&mut upper).into()])
+                .unwrap();
             assert!(stats.converged, "{method:?}: {:?}", stats.residuals.last());
             active = active.max(stats.contact.active_pairs);
         }
