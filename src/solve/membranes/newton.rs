@@ -13,7 +13,10 @@
 //!    ([`super::hessian_model`]), positive semi-definite, so `K = M + h^2 sum_i G_i^T H_i G_i`
 //!    (with `G_i` the map from vertex displacements to vertex `i`'s bond vectors) is symmetric
 //!    positive definite on the free vertices;
-//! 3. solves `K d = r` approximately by conjugate gradients preconditioned with SISSM's blocks
+//!    A vertex that a collider or a membrane contact holds (the colliders push its Jacobi move
+//!    back, or the last local step pushed it) takes its Jacobi move `D_k^-1 r_k`, as in SISSM,
+//!    and is fixed in the solve below: the Newton system knows nothing of the contacts;
+//! 3. solves `K d = r` on the other free vertices approximately by conjugate gradients preconditioned with SISSM's blocks
 //!    `D_k^-1` (block Jacobi), matrix-free (the product gathers per-bond products as the force
 //!    does), from `d = 0`, until the preconditioned residual falls by [`FORCING`] or after
 //!    [`MAX_LINEAR_ITERS`] products;
@@ -41,6 +44,7 @@ use crate::symmetric::SymmetricMatrix3;
 use super::descent::{jacobi_moves, search_along, LineSearch};
 use super::evaluate::{evaluate, total_energy};
 use super::hessian_model::VertexModel;
+use super::jacobi::whole_move_reaction;
 use super::system::MembraneSystem;
 use crate::solve::point_system::PointSystem;
 use crate::solve::update::{MoveOptions, Update};
@@ -70,6 +74,10 @@ pub(crate) struct NewtonState<T: Real> {
     p: Vec<Vector3<T>>,
     q: Vec<Vector3<T>>,
     sums: Vec<f64>,
+    /// The vertices the CG moves: not pinned, and not held by a collider or a membrane
+    /// contact (those take their Jacobi move, kept in `held`, see [`newton_iteration`]).
+    free: Vec<bool>,
+    held: Vec<Vector3<T>>,
 }
 
 impl<T: Real> NewtonState<T> {
@@ -98,8 +106,10 @@ impl<T: Real> NewtonState<T> {
             r: vectors.clone(),
             z: vectors.clone(),
             p: vectors.clone(),
-            q: vectors,
+            q: vectors.clone(),
             sums: Vec::new(),
+            free: vec![true; n],
+            held: vectors,
         })
     }
 
@@ -128,16 +138,28 @@ impl<T: Real> NewtonState<T> {
         x: &[Vector3<T>],
         out: &mut [Vector3<T>],
     ) {
-        hessian_product(sys, &self.rest, &self.models, h2, x, &mut self.bonds, out);
+        self.free = sys.points.pinned.iter().map(|p| !p).collect();
+        hessian_product(
+            sys,
+            &self.rest,
+            &self.models,
+            &self.free,
+            h2,
+            x,
+            &mut self.bonds,
+            out,
+        );
     }
 }
 
-/// `out = K x` with `K = M + h^2 sum_i G_i^T H_i G_i` on the free vertices (pinned rows and
-/// columns dropped: `x` is zero there and so is `out`), kg m.
+/// `out = K x` with `K = M + h^2 sum_i G_i^T H_i G_i` on the `free` vertices (the other rows
+/// and columns dropped: `x` is zero there and so is `out`), kg m.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn hessian_product<T: Real>(
     sys: &MembraneSystem<T>,
     rest: &RestData<T>,
     models: &[VertexModel<T>],
+    free: &[bool],
     h2: T,
     x: &[Vector3<T>],
     bonds: &mut [Vector3<T>],
@@ -149,12 +171,12 @@ pub(crate) fn hessian_product<T: Real>(
         bond_vectors(i, x, nb.of(i), slots);
         models[i].apply(&rest.stencil(nb, i), slots);
     });
-    let (pinned, bonds) = (&sys.points.pinned, &*bonds);
+    let bonds = &*bonds;
     out.par_iter_mut().enumerate().for_each(|(k, o)| {
-        *o = if pinned[k] {
-            Vector3::zeros()
-        } else {
+        *o = if free[k] {
             x[k] * sys.rest.vertices[k].mass - internal_force(k, nb, bonds) * h2
+        } else {
+            Vector3::zeros()
         };
     });
 }
@@ -178,6 +200,7 @@ fn solve_newton_system<T: Real>(sys: &MembraneSystem<T>, state: &mut NewtonState
         p,
         q,
         sums,
+        free,
         ..
     } = state;
     d.par_iter_mut().for_each(|v| *v = Vector3::zeros());
@@ -186,7 +209,7 @@ fn solve_newton_system<T: Real>(sys: &MembraneSystem<T>, state: &mut NewtonState
     let stop = rz * FORCING * FORCING;
     let mut products = 0;
     while rz > stop && rz > 0.0 && products < MAX_LINEAR_ITERS {
-        hessian_product(sys, rest, models, h2, p, bonds, q);
+        hessian_product(sys, rest, models, free, h2, p, bonds, q);
         products += 1;
         let pq = dot(p, q, sums);
         if pq.is_nan() || pq <= 0.0 {
@@ -243,16 +266,49 @@ pub(crate) fn newton_iteration<T: Real>(
     let residual = jacobi_moves(sys, &mut state.metric, &mut state.z, options, |sys, k| {
         PointSystem::of(sys, k, h2)
     });
-    let (metric, r) = (&state.metric, &mut state.r);
-    r.par_iter_mut().enumerate().for_each(|(k, r)| {
-        *r = if sys.points.pinned[k] {
-            Vector3::zeros()
-        } else {
-            metric[k].residual
-        };
-    });
+    // A vertex a collider or a membrane contact holds (its Jacobi move is pushed back, or the
+    // last local step pushed it) takes its Jacobi move, as in SISSM; the CG moves the others
+    // with those held fixed. The Newton system knows nothing of the contacts, and a Newton move
+    // into a contact, cut by the projection, would not lower the energy.
+    let NewtonState {
+        metric,
+        r,
+        z,
+        free,
+        held,
+        ..
+    } = &mut *state;
+    let metric = &*metric;
+    r.par_iter_mut()
+        .zip(z.par_iter_mut())
+        .zip(free.par_iter_mut().zip(held.par_iter_mut()))
+        .enumerate()
+        .for_each(|(k, ((r, z), (free, kept)))| {
+            let touching = || {
+                options
+                    .contact_reaction
+                    .get(k)
+                    .is_some_and(|c| *c != Vector3::zeros())
+                    || (!options.colliders.is_empty()
+                        && whole_move_reaction(sys, k, &metric[k], z, options.colliders)
+                            != Vector3::zeros())
+            };
+            *free = !sys.points.pinned[k] && !touching();
+            if *free {
+                *kept = Vector3::zeros();
+                *r = metric[k].residual;
+            } else {
+                *kept = *z;
+                *r = Vector3::zeros();
+                *z = Vector3::zeros();
+            }
+        });
     state.build_models(sys, &sys.points.y);
     solve_newton_system(sys, state, h2);
+    let NewtonState { d, held: kept, .. } = &mut *state;
+    d.par_iter_mut()
+        .zip(kept.par_iter())
+        .for_each(|(d, k)| *d += k);
     search.alpha = 1.0;
     let update = search_along(sys, &state.metric, &state.d, h, mode, options, search);
     Update { residual, ..update }
