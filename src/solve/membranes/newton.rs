@@ -15,7 +15,8 @@
 //!    positive definite on the free vertices;
 //!    A vertex that a collider or a membrane contact holds (the colliders push its Jacobi move
 //!    back, or the last local step pushed it) takes its Jacobi move `D_k^-1 r_k`, as in SISSM,
-//!    and is fixed in the solve below: the Newton system knows nothing of the contacts;
+//!    and is fixed in the solve below: the Newton system knows nothing of the contacts. So does
+//!    a free vertex whose Newton move the colliders would push back;
 //! 3. solves `K d = r` on the other free vertices approximately by conjugate gradients preconditioned with SISSM's blocks
 //!    `D_k^-1` (block Jacobi), matrix-free (the product gathers per-bond products as the force
 //!    does), from `d = 0`, until the preconditioned residual falls by [`FORCING`] or after
@@ -75,7 +76,8 @@ pub(crate) struct NewtonState<T: Real> {
     q: Vec<Vector3<T>>,
     sums: Vec<f64>,
     /// The vertices the CG moves: not pinned, and not held by a collider or a membrane
-    /// contact (those take their Jacobi move, kept in `held`, see [`newton_iteration`]).
+    /// contact (those take their Jacobi move, kept in `held` for every vertex, see
+    /// [`newton_iteration`]).
     free: Vec<bool>,
     held: Vec<Vector3<T>>,
 }
@@ -294,21 +296,39 @@ pub(crate) fn newton_iteration<T: Real>(
                             != Vector3::zeros())
             };
             *free = !sys.points.pinned[k] && !touching();
+            *kept = *z;
             if *free {
-                *kept = Vector3::zeros();
                 *r = metric[k].residual;
             } else {
-                *kept = *z;
                 *r = Vector3::zeros();
                 *z = Vector3::zeros();
             }
         });
     state.build_models(sys, &sys.points.y);
     solve_newton_system(sys, state, h2);
-    let NewtonState { d, held: kept, .. } = &mut *state;
+    // Held vertices, and free ones whose Newton move a collider would push back, take their
+    // Jacobi move.
+    let NewtonState {
+        d,
+        held: jacobi,
+        free,
+        metric,
+        ..
+    } = &mut *state;
+    let metric = &*metric;
     d.par_iter_mut()
-        .zip(kept.par_iter())
-        .for_each(|(d, k)| *d += k);
+        .zip(jacobi.par_iter().zip(free.par_iter()))
+        .enumerate()
+        .for_each(|(k, (d, (jacobi, free)))| {
+            let pushed = || {
+                !options.colliders.is_empty()
+                    && whole_move_reaction(sys, k, &metric[k], d, options.colliders)
+                        != Vector3::zeros()
+            };
+            if !*free || pushed() {
+                *d = *jacobi;
+            }
+        });
     search.alpha = 1.0;
     let update = search_along(sys, &state.metric, &state.d, h, mode, options, search);
     Update { residual, ..update }
