@@ -21,7 +21,7 @@ Vec3 = Union[Sequence[float], npt.ArrayLike]
 
 # The option strings the core accepts (src/python/options.rs maps them to core values; any
 # other string is a ValueError naming the accepted ones).
-Method = Literal["sissm", "descent"]
+Method = Literal["sissm", "descent", "newton"]
 Preconditioner = Literal["tangent", "paper"]
 # "none" is a synonym of None (plain iterations); the getter returns None.
 Acceleration = Literal["chebyshev", "none"]
@@ -609,7 +609,11 @@ class Solver:
         2016: gradient descent preconditioned by the diagonal of the energy's Hessian, with a
         step length halved whenever the energy would rise and Chebyshev restarted then; the
         Hessian diagonal is taken by finite differences, so an iteration costs tens of SISSM
-        iterations).
+        iterations) or "newton" (Newton steps on the implicit Euler energy: a projected Hessian
+        solved by conjugate gradients preconditioned with SISSM's blocks, then a line search
+        that never lets the energy rise; colliders, contact and the convergence test as SISSM;
+        no Chebyshev, ValueError; for fine or stiff cloth asked to converge, see
+        docs/performance.md).
     inner_iters : Jacobi sweeps on the linear system of eq. 25 per global iteration (Fig. 6).
     backend : "cpu" (Rust, rayon threads) or "gpu" (wgpu compute shaders, state on the device;
         f32 by default, f64 where the adapter has SHADER_F64; raises RuntimeError naming what
@@ -617,7 +621,7 @@ class Solver:
         WGPU_BACKEND, WGPU_POWER_PREF and WGPU_ADAPTER_NAME. The GPU runs SISSM (optionally
         Chebyshev) with every collider (friction and motion included) and leaves the bodies'
         positions and velocities on the device until they are read; it refuses contact,
-        method="descent" and inner_iters > 1 (ValueError).
+        method="descent" or "newton" and inner_iters > 1 (ValueError).
     global_solver : how particle bodies solve the linear system of their global step (He et
         al. 2017, Fig. 7; membranes ignore it): "direct" (a sparse Cholesky factor of
         ``M + h^2 L``, computed when dt or the pins change; exact solve per iteration; it does

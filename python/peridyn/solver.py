@@ -111,8 +111,8 @@ class Solver(_core.Solver):
         device, in f32 (default) or f64 where the adapter has it (see :func:`peridyn.gpu_info`;
         RuntimeError when there is no adapter). A GPU step leaves the bodies' positions and
         velocities on the device; reading them (or anything that needs them) reads them back.
-        Every collider works on the GPU; contact, ``method="descent"`` and ``inner_iters > 1``
-        raise ValueError there.
+        Every collider works on the GPU; contact, ``method="descent"`` or ``"newton"`` and
+        ``inner_iters > 1`` raise ValueError there.
 
     Notes
     -----

@@ -86,7 +86,11 @@ impl<T: Copy + PartialEq> Choices<T> {
 pub const METHOD: Choices<Method> = Choices {
     what: "method",
     none: None,
-    names: &[("sissm", Method::Sissm), ("descent", Method::Descent)],
+    names: &[
+        ("sissm", Method::Sissm),
+        ("descent", Method::Descent),
+        ("newton", Method::Newton),
+    ],
 };
 
 /// `Solver(global_solver=...)`: how particle bodies solve their global step (Fig. 7 of He

@@ -451,7 +451,7 @@ impl PySolver {
             }
         })
     }
-    /// "sissm" or "descent".
+    /// "sissm", "descent" or "newton".
     #[getter]
     fn method(&self) -> &'static str {
         METHOD.name(with_solver!(&self.core, s => s.params().method))

@@ -22,7 +22,7 @@ pub struct SolverParams {
     pub preconditioner: Preconditioner,
     /// Optional acceleration of the global iteration.
     pub acceleration: Acceleration,
-    /// The iteration: SISSM, or the descent baseline.
+    /// The iteration: SISSM, the descent baseline, or Newton.
     pub method: Method,
     /// Jacobi sweeps on the linear system of eq. 25 per global iteration (Fig. 6; 1 in the paper).
     pub inner_iters: usize,
@@ -82,6 +82,10 @@ pub enum Method {
     /// Hessian, with a step length halved on every energy rise (Wang and Yang 2016), the
     /// baseline of the paper's Fig. 13; see `solve/descent.rs`.
     Descent,
+    /// Newton steps on the implicit Euler energy with a projected Hessian model, solved by
+    /// block-Jacobi preconditioned conjugate gradients, and an energy line search; see
+    /// `solve/membranes/newton.rs`.
+    Newton,
 }
 
 /// Acceleration of the global iteration.
@@ -163,6 +167,12 @@ impl SolverParams {
                     "chebyshev delay must be >= 1 iteration, got {delay}"
                 ));
             }
+        }
+        if self.method == Method::Newton && self.acceleration != Acceleration::None {
+            return Err(invalid!(
+                "chebyshev acceleration needs method='sissm' or 'descent': newton steps are \
+                 not a fixed-point iteration; use acceleration=None"
+            ));
         }
         if let Some(contact) = &self.contact {
             contact.validate()?;

@@ -1,4 +1,5 @@
-//! The SISSM time step (Lu et al. 2023, Algorithm 1 without the contact local step).
+//! The SISSM time step (Lu et al. 2023, Algorithm 1 without the contact local step), and the
+//! loop that the descent and Newton methods share with it.
 //!
 //! Implicit Euler asks for `m_i (y_i - y*_i) = h^2 f_i(y)` with `y* = y_t + h v_t + h^2 g`.
 //! Each global iteration takes, per vertex and independently (one Jacobi sweep of eq. 25),
@@ -40,6 +41,7 @@ use super::families::Families;
 use super::family::Family;
 use super::membranes::contact_step::ContactState;
 use super::membranes::descent::{descent_iteration, DescentState, LineSearch};
+use super::membranes::newton::{newton_iteration, start_iteration, NewtonState};
 use super::update::{MoveOptions, Update};
 use super::{Acceleration, Clock, Method, SolverParams, SolverState, StepStats, Timings};
 
@@ -54,6 +56,8 @@ pub struct Solver<T: Real> {
     contact: Option<ContactState<T>>,
     /// The descent method's working set (built on the first descent step).
     descent: Option<DescentState>,
+    /// The Newton method's working set (built on the first Newton step).
+    newton: Option<NewtonState<T>>,
     /// A state given to [`Self::restore_state`], taken by the next step.
     restored: Option<SolverState>,
     clock: Clock,
@@ -84,6 +88,7 @@ impl<T: Real> Solver<T> {
             families: None,
             contact: None,
             descent: None,
+            newton: None,
             restored: None,
             clock: Clock::default(),
         })
@@ -210,6 +215,7 @@ impl<T: Real> Solver<T> {
             self.families = Some(Families::build(&by_kind, true)?);
             self.contact = None;
             self.descent = None;
+            self.newton = None;
         }
         // A restored state (checked before anything changes), applied once the contact state
         // is there.
@@ -233,6 +239,9 @@ impl<T: Real> Solver<T> {
             if self.descent.is_none() {
                 self.descent = Some(DescentState::new(&by_kind.membranes)?);
             }
+        }
+        if params.method == Method::Newton && self.newton.is_none() {
+            self.newton = Some(NewtonState::new(&by_kind.membranes)?);
         }
         let step_end = self.clock.time + params.dt;
         let colliders: Vec<ColliderModel<T>> = self
@@ -378,6 +387,24 @@ impl<T: Real> Solver<T> {
                         omegas.fill(1.0);
                     }
                 }
+                Method::Newton => {
+                    let state = self.newton.as_mut().expect("built above");
+                    if let Some(sys) = families.membranes.as_mut() {
+                        let options = options(contact_reactions[0]);
+                        start_iteration(sys, h, params.preconditioner, &options, &mut search);
+                        if params.record_energy {
+                            stats.energies.push(search.energy);
+                        }
+                        updates.push(newton_iteration(
+                            sys,
+                            state,
+                            h,
+                            params.preconditioner,
+                            &options,
+                            &mut search,
+                        ));
+                    }
+                }
             };
             timings.global += millis(t);
             if params.method == Method::Sissm && !colliders.is_empty() {
@@ -448,7 +475,7 @@ impl<T: Real> Solver<T> {
                         f.total_energy(h)
                     })
                     .sum(),
-                Method::Descent => search.energy,
+                Method::Descent | Method::Newton => search.energy,
             };
             stats.energies.push(last);
             timings.global += millis(t);
@@ -511,6 +538,7 @@ impl<T: Real> Solver<T> {
                 self.families = None;
                 self.contact = None;
                 self.descent = None;
+                self.newton = None;
                 self.restored = Some(saved);
             }
             Forget::Contact => {

@@ -143,26 +143,68 @@ pub(crate) fn descent_iteration<T: Real>(
     }
     let mut point_systems = std::mem::take(&mut sys.point_systems);
     let mut direction = std::mem::take(&mut sys.delta);
-    let (sys_ref, state_ref) = (&*sys, &*state);
-    let residual = point_systems
+    let state_ref = &*state;
+    let residual = jacobi_moves(
+        sys,
+        &mut point_systems,
+        &mut direction,
+        options,
+        |sys, k| jacobi_system(sys, state_ref, k, h2),
+    );
+
+    let update = search_along(sys, &point_systems, &direction, h, mode, options, search);
+    sys.point_systems = point_systems;
+    sys.delta = direction;
+    Update { residual, ..update }
+}
+
+/// Every free vertex's Jacobi system `metric[k] = system_of(sys, k)` and move
+/// `moves[k] = metric[k]^-1 r_k` (pinned vertices: zero), from the responses evaluated at `y`;
+/// returns the convergence measure at `y`, the largest [`free_residual`] (m) with the
+/// colliders' reaction to that move.
+pub(crate) fn jacobi_moves<T: Real>(
+    sys: &MembraneSystem<T>,
+    metric: &mut [PointSystem<T>],
+    moves: &mut [Vector3<T>],
+    options: &MoveOptions<'_, T>,
+    system_of: impl Fn(&MembraneSystem<T>, usize) -> PointSystem<T> + Sync,
+) -> f64 {
+    metric
         .par_iter_mut()
-        .zip(direction.par_iter_mut())
+        .zip(moves.par_iter_mut())
         .enumerate()
         .map(|(k, (local, d))| {
-            if sys_ref.points.pinned[k] {
+            if sys.points.pinned[k] {
                 *d = Vector3::zeros();
                 return 0.0;
             }
-            *local = jacobi_system(sys_ref, state_ref, k, h2);
+            *local = system_of(sys, k);
             *d = local.solve();
-            let collider_reaction = whole_move_reaction(sys_ref, k, local, d, options.colliders);
+            let collider_reaction = whole_move_reaction(sys, k, local, d, options.colliders);
             free_residual(k, local, &collider_reaction, options)
                 .norm_squared()
                 .to_f64()
                 .sqrt()
         })
-        .reduce(|| 0.0, f64::max);
+        .reduce(|| 0.0, f64::max)
+}
 
+/// The line search of the descent and Newton methods along `direction` (m per vertex) from
+/// the responses evaluated at `y`: trial `y + alpha d` (kept out of colliders in the metric
+/// `metric[k].inverse`, Chebyshev-extrapolated by `options.omega` unless restarted), accepted
+/// when `E` does not rise beyond round-off, else `alpha` halves and the trial is redone
+/// without extrapolation. Leaves the accepted trial in `y_next` (or `y` itself when no step
+/// length lowers the energy), the responses evaluated there, and its energy in `search`;
+/// returns the move's measures (without the residual).
+pub(crate) fn search_along<T: Real>(
+    sys: &mut MembraneSystem<T>,
+    metric: &[PointSystem<T>],
+    direction: &[Vector3<T>],
+    h: T,
+    mode: Preconditioner,
+    options: &MoveOptions<'_, T>,
+    search: &mut LineSearch,
+) -> Update {
     let round_off = ENERGY_ROUND_OFF.max(16.0 * T::default_epsilon().to_f64());
     let mut omega = options.omega;
     search.restarted = false;
@@ -192,7 +234,7 @@ pub(crate) fn descent_iteration<T: Real>(
                     &y[k],
                     y[k] + direction[k] * alpha,
                     &y_start[k],
-                    &point_systems[k].inverse,
+                    &metric[k].inverse,
                     margin,
                     options.colliders,
                 );
@@ -232,9 +274,7 @@ pub(crate) fn descent_iteration<T: Real>(
         evaluate(sys, mode);
         update = Update::NONE;
     }
-    sys.point_systems = point_systems;
-    sys.delta = direction;
-    Update { residual, ..update }
+    update
 }
 
 /// Vertex `k`'s Jacobi system `P_k d = r_k` (see the module docs), with the residual and

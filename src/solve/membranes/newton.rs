@@ -1,0 +1,335 @@
+//! Newton's method on the implicit Euler energy: the global solver for fine, stiff membranes
+//! (issue 44), beside SISSM.
+//!
+//! Implicit Euler minimises `E(y) = sum_k m_k |y_k - y*_k|^2 / (2 h^2) + U(y)` (J; Lu et al.
+//! 2023, eq. 2 without the barrier). Scaled by `h^2`, its gradient is `-r` with
+//! `r_k = m_k (y*_k - y_k) + h^2 f_k(y)` (kg m) and its Hessian `H = M + h^2 d^2U/dy^2` (kg).
+//! One iteration:
+//!
+//! 1. measures the residual at `y` exactly as SISSM does (its Jacobi system `D_k` of eq. 25,
+//!    the colliders' reaction to the Jacobi move, the contact reactions; see
+//!    [`super::jacobi::free_residual`]), so the convergence test is the same;
+//! 2. builds the projected Hessian model of every vertex energy
+//!    ([`super::hessian_model`]), positive semi-definite, so `K = M + h^2 sum_i G_i^T H_i G_i`
+//!    (with `G_i` the map from vertex displacements to vertex `i`'s bond vectors) is symmetric
+//!    positive definite on the free vertices;
+//!    A vertex that a collider or a membrane contact holds (the colliders push its Jacobi move
+//!    back, or the last local step pushed it) takes its Jacobi move `D_k^-1 r_k`, as in SISSM,
+//!    and is fixed in the solve below: the Newton system knows nothing of the contacts. So does
+//!    a free vertex whose Newton move the colliders would push back;
+//! 3. solves `K d = r` on the other free vertices approximately by conjugate gradients preconditioned with SISSM's blocks
+//!    `D_k^-1` (block Jacobi), matrix-free (the product gathers per-bond products as the force
+//!    does), from `d = 0`, until the preconditioned residual falls by [`FORCING`] or after
+//!    [`MAX_LINEAR_ITERS`] products;
+//! 4. takes the step along `d` by the energy line search shared with the descent baseline
+//!    ([`search_along`]: `alpha` from 1, halved while `E` rises, colliders projected in each
+//!    trial), so no iteration increases the energy beyond round-off.
+//!
+//! `d` is a descent direction: CG from zero on a symmetric positive definite system gives
+//! `r . d > 0` after any number of steps. The contact local step (Algorithm 2) follows the
+//! global step in the solver as for every method; its move changes the energy, so an iteration
+//! after it starts by re-evaluating.
+//!
+//! Every reduction (the CG's dot products) sums in f64 in fixed chunks, and every other pass
+//! writes per vertex: results do not depend on the thread count.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use crate::error::Result;
+use crate::membrane::{bond_vectors, internal_force, Membrane, Preconditioner, RestData};
+use crate::parallel::{chunked_sum, for_each_vertex};
+use crate::real::Real;
+use crate::symmetric::SymmetricMatrix3;
+
+use super::descent::{jacobi_moves, search_along, LineSearch};
+use super::evaluate::{evaluate, total_energy};
+use super::hessian_model::VertexModel;
+use super::jacobi::whole_move_reaction;
+use super::system::MembraneSystem;
+use crate::solve::point_system::PointSystem;
+use crate::solve::update::{MoveOptions, Update};
+
+/// Relative fall of the preconditioned residual `sqrt(z . r)` at which the CG stops (the
+/// forcing term of an inexact Newton method).
+const FORCING: f64 = 0.05;
+
+/// Most Hessian products per Newton iteration.
+const MAX_LINEAR_ITERS: usize = 400;
+
+/// The Newton method's working set: the rest data with its bonds (the model needs the
+/// stencils, which the packed host kernel keeps only in SIMD packs), the Hessian models, and
+/// the CG's vectors.
+pub(crate) struct NewtonState<T: Real> {
+    rest: RestData<T>,
+    models: Vec<VertexModel<T>>,
+    /// Per-bond scratch of the Hessian product.
+    bonds: Vec<Vector3<T>>,
+    /// SISSM's Jacobi systems at `y` (the preconditioner and the colliders' metric).
+    metric: Vec<PointSystem<T>>,
+    /// CG: solution (the Newton direction), residual, preconditioned residual, search
+    /// direction and its product.
+    d: Vec<Vector3<T>>,
+    r: Vec<Vector3<T>>,
+    z: Vec<Vector3<T>>,
+    p: Vec<Vector3<T>>,
+    q: Vec<Vector3<T>>,
+    sums: Vec<f64>,
+    /// The vertices the CG moves: not pinned, and not held by a collider or a membrane
+    /// contact (those take their Jacobi move, kept in `held` for every vertex, see
+    /// [`newton_iteration`]).
+    free: Vec<bool>,
+    held: Vec<Vector3<T>>,
+}
+
+impl<T: Real> NewtonState<T> {
+    /// Concatenates the bodies' rest data (in the vertex and bond order of
+    /// [`MembraneSystem::build`]).
+    pub fn new(bodies: &[&mut Membrane]) -> Result<Self> {
+        let mut rest = RestData::empty();
+        for body in bodies {
+            rest.extend_from(&body.rest_source()?, true)?;
+        }
+        let (n, bonds) = (rest.vertices.len(), rest.bonds.len());
+        let zero = PointSystem::new(
+            T::one(),
+            SymmetricMatrix3::zeros(),
+            Vector3::zeros(),
+            Vector3::zeros(),
+            T::zero(),
+        );
+        let vectors = vec![Vector3::zeros(); n];
+        Ok(Self {
+            rest,
+            models: vec![VertexModel::default(); n],
+            bonds: vec![Vector3::zeros(); bonds],
+            metric: vec![zero; n],
+            d: vectors.clone(),
+            r: vectors.clone(),
+            z: vectors.clone(),
+            p: vectors.clone(),
+            q: vectors.clone(),
+            sums: Vec::new(),
+            free: vec![true; n],
+            held: vectors,
+        })
+    }
+
+    /// Every vertex's Hessian model at the positions `y` (m).
+    pub fn build_models(&mut self, sys: &MembraneSystem<T>, y: &[Vector3<T>]) {
+        let (nb, rest) = (&sys.nb, &self.rest);
+        for_each_vertex(
+            &nb.offsets,
+            &mut self.bonds,
+            &mut self.models,
+            &|i, edges| {
+                bond_vectors(i, y, nb.of(i), edges);
+                VertexModel::of(&rest.stencil(nb, i), edges)
+            },
+        );
+    }
+}
+
+#[cfg(test)]
+impl<T: Real> NewtonState<T> {
+    /// [`hessian_product`] with the models of the last [`Self::build_models`].
+    pub fn product(
+        &mut self,
+        sys: &MembraneSystem<T>,
+        h2: T,
+        x: &[Vector3<T>],
+        out: &mut [Vector3<T>],
+    ) {
+        self.free = sys.points.pinned.iter().map(|p| !p).collect();
+        hessian_product(
+            sys,
+            &self.rest,
+            &self.models,
+            &self.free,
+            h2,
+            x,
+            &mut self.bonds,
+            out,
+        );
+    }
+}
+
+/// `out = K x` with `K = M + h^2 sum_i G_i^T H_i G_i` on the `free` vertices (the other rows
+/// and columns dropped: `x` is zero there and so is `out`), kg m.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn hessian_product<T: Real>(
+    sys: &MembraneSystem<T>,
+    rest: &RestData<T>,
+    models: &[VertexModel<T>],
+    free: &[bool],
+    h2: T,
+    x: &[Vector3<T>],
+    bonds: &mut [Vector3<T>],
+    out: &mut [Vector3<T>],
+) {
+    let nb = &sys.nb;
+    let mut done = vec![(); x.len()];
+    for_each_vertex(&nb.offsets, bonds, &mut done, &|i, slots| {
+        bond_vectors(i, x, nb.of(i), slots);
+        models[i].apply(&rest.stencil(nb, i), slots);
+    });
+    let bonds = &*bonds;
+    out.par_iter_mut().enumerate().for_each(|(k, o)| {
+        *o = if free[k] {
+            x[k] * sys.rest.vertices[k].mass - internal_force(k, nb, bonds) * h2
+        } else {
+            Vector3::zeros()
+        };
+    });
+}
+
+/// `sum_k a_k . b_k` in f64, the same for any thread count.
+fn dot<T: Real>(a: &[Vector3<T>], b: &[Vector3<T>], sums: &mut Vec<f64>) -> f64 {
+    chunked_sum(a.len(), sums, |k| a[k].dot(&b[k]).to_f64())
+}
+
+/// Solves `K d = r` by conjugate gradients preconditioned with `metric[k].inverse`, from
+/// `d = 0`, with `z = D^-1 r` already in `state.z` (the Jacobi moves).
+fn solve_newton_system<T: Real>(sys: &MembraneSystem<T>, state: &mut NewtonState<T>, h2: T) {
+    let NewtonState {
+        rest,
+        models,
+        bonds,
+        metric,
+        d,
+        r,
+        z,
+        p,
+        q,
+        sums,
+        free,
+        ..
+    } = state;
+    d.par_iter_mut().for_each(|v| *v = Vector3::zeros());
+    p.copy_from_slice(z);
+    let mut rz = dot(r, z, sums);
+    let stop = rz * FORCING * FORCING;
+    let mut products = 0;
+    while rz > stop && rz > 0.0 && products < MAX_LINEAR_ITERS {
+        hessian_product(sys, rest, models, free, h2, p, bonds, q);
+        products += 1;
+        let pq = dot(p, q, sums);
+        if pq.is_nan() || pq <= 0.0 {
+            break;
+        }
+        let a = T::of(rz / pq);
+        let (p_ref, q_ref, metric) = (&*p, &*q, &*metric);
+        d.par_iter_mut()
+            .zip(r.par_iter_mut())
+            .zip(z.par_iter_mut())
+            .enumerate()
+            .for_each(|(k, ((d, r), z))| {
+                *d += p_ref[k] * a;
+                *r -= q_ref[k] * a;
+                *z = metric[k].inverse.mul_vector(r);
+            });
+        let rz_next = dot(r, z, sums);
+        let beta = T::of(rz_next / rz);
+        rz = rz_next;
+        let z_ref = &*z;
+        p.par_iter_mut()
+            .enumerate()
+            .for_each(|(k, p)| *p = z_ref[k] + *p * beta);
+    }
+}
+
+/// Before an iteration: after a contact local step (`options` carries its reactions) the
+/// iterate is not the one the line search evaluated, so its responses and energy are computed
+/// again.
+pub(crate) fn start_iteration<T: Real>(
+    sys: &mut MembraneSystem<T>,
+    h: T,
+    mode: Preconditioner,
+    options: &MoveOptions<'_, T>,
+    search: &mut LineSearch,
+) {
+    if !options.contact_reaction.is_empty() {
+        evaluate(sys, mode);
+        search.energy = total_energy(sys, h);
+    }
+}
+
+/// One Newton iteration from the responses evaluated at `y` (see the module docs). Leaves the
+/// accepted iterate in `y_next`, the responses evaluated there, and its energy in `search`.
+pub(crate) fn newton_iteration<T: Real>(
+    sys: &mut MembraneSystem<T>,
+    state: &mut NewtonState<T>,
+    h: T,
+    mode: Preconditioner,
+    options: &MoveOptions<'_, T>,
+    search: &mut LineSearch,
+) -> Update {
+    let h2 = h * h;
+    let residual = jacobi_moves(sys, &mut state.metric, &mut state.z, options, |sys, k| {
+        PointSystem::of(sys, k, h2)
+    });
+    // A vertex a collider or a membrane contact holds (its Jacobi move is pushed back, or the
+    // last local step pushed it) takes its Jacobi move, as in SISSM; the CG moves the others
+    // with those held fixed. The Newton system knows nothing of the contacts, and a Newton move
+    // into a contact, cut by the projection, would not lower the energy.
+    let NewtonState {
+        metric,
+        r,
+        z,
+        free,
+        held,
+        ..
+    } = &mut *state;
+    let metric = &*metric;
+    r.par_iter_mut()
+        .zip(z.par_iter_mut())
+        .zip(free.par_iter_mut().zip(held.par_iter_mut()))
+        .enumerate()
+        .for_each(|(k, ((r, z), (free, kept)))| {
+            let touching = || {
+                options
+                    .contact_reaction
+                    .get(k)
+                    .is_some_and(|c| *c != Vector3::zeros())
+                    || (!options.colliders.is_empty()
+                        && whole_move_reaction(sys, k, &metric[k], z, options.colliders)
+                            != Vector3::zeros())
+            };
+            *free = !sys.points.pinned[k] && !touching();
+            *kept = *z;
+            if *free {
+                *r = metric[k].residual;
+            } else {
+                *r = Vector3::zeros();
+                *z = Vector3::zeros();
+            }
+        });
+    state.build_models(sys, &sys.points.y);
+    solve_newton_system(sys, state, h2);
+    // Held vertices, and free ones whose Newton move a collider would push back, take their
+    // Jacobi move.
+    let NewtonState {
+        d,
+        held: jacobi,
+        free,
+        metric,
+        ..
+    } = &mut *state;
+    let metric = &*metric;
+    d.par_iter_mut()
+        .zip(jacobi.par_iter().zip(free.par_iter()))
+        .enumerate()
+        .for_each(|(k, (d, (jacobi, free)))| {
+            let pushed = || {
+                !options.colliders.is_empty()
+                    && whole_move_reaction(sys, k, &metric[k], d, options.colliders)
+                        != Vector3::zeros()
+            };
+            if !*free || pushed() {
+                *d = *jacobi;
+            }
+        });
+    search.alpha = 1.0;
+    let update = search_along(sys, &state.metric, &state.d, h, mode, options, search);
+    Update { residual, ..update }
+}

@@ -1,0 +1,64 @@
+"""Solver(method="newton") from Python: the method switch, and the same implicit Euler steps as
+SISSM on the validation scenes (docs/model.md; the Rust tests in
+src/solve/membranes/newton_tests.rs check the Hessian model, colliders, contact, threads and
+f32)."""
+
+import numpy as np
+import pytest
+
+import peridyn
+from conftest import G, make_grid, membrane
+
+
+def test_bad_method_names_the_choices():
+    with pytest.raises(ValueError, match=r"'sissm', 'descent' or 'newton'.*\"quasi\""):
+        peridyn.Solver(dt=1e-3, method="quasi")
+
+
+def test_newton_refuses_chebyshev():
+    with pytest.raises(ValueError, match=r"chebyshev.*newton"):
+        peridyn.Solver(dt=1e-3, method="newton", acceleration="chebyshev")
+    assert peridyn.Solver(dt=1e-3, method="newton").method == "newton"
+
+
+def steps(method, scene, n_steps):
+    """Positions after `n_steps` steps of a validation scene, every step converged to 1e-11 m."""
+    m, sol = scene(method)
+    for _ in range(n_steps):
+        st = sol.step()
+        assert st.converged, (method, st.iterations, st.residual)
+    return m.positions
+
+
+def hanging_strip(method):
+    """The A3 strip of test_validation's hanging tests (3 x 11, 1 m, pinned at the top), dt 0.03 s."""
+    v, t = make_grid(3, 11, 0.2, 1.0)
+    m = membrane(v, t, s0=1000.0 * G * 2.0, thickness=1e-3, density=1000.0, hourglass=0.5)
+    m.pin(np.where(np.isclose(v[:, 1], 1.0))[0])
+    return m, solver(m, method, dt=0.03, gravity=(0.0, -G, 0.0))
+
+
+def cantilever(method):
+    """The clamped neo-Hookean plate of test_validation's cantilever, with bending, dt 0.02 s."""
+    v, t = make_grid(9, 5, 0.5, 0.25)
+    m = membrane(v, t, s0=1e5, thickness=1e-3, density=100.0, bending=1.25)
+    m.pin(np.where(v[:, 0] < 1.5 * 0.5 / 8)[0])
+    return m, solver(m, method, dt=2e-2, gravity=(0.0, 0.0, -G))
+
+
+def solver(m, method, **kw):
+    extra = dict(acceleration="chebyshev", chebyshev_rho=0.99) if method == "sissm" else {}
+    sol = peridyn.Solver(tol=1e-11, max_iters=40000, method=method, **kw, **extra)
+    sol.add(m)
+    return sol
+
+
+@pytest.mark.parametrize("scene", [hanging_strip, cantilever])
+def test_newton_takes_the_same_implicit_euler_steps_as_sissm(scene):
+    """Five steps, each converged to the residual measure 1e-11 m: the positions agree within
+    1e-9 m (the steps move the bodies by millimetres to centimetres)."""
+    a = steps("sissm", scene, 5)
+    b = steps("newton", scene, 5)
+    m0, _ = scene("sissm")
+    assert np.abs(a - m0.positions).max() > 1e-3
+    assert np.abs(a - b).max() < 1e-9
