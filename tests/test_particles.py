@@ -165,7 +165,8 @@ def test_bad_state_and_pins_are_refused_by_name():
         body.unpin([5])
     body.unpin()
     assert len(body.pinned) == 0
-    with pytest.raises(ValueError, match="descent"):
-        s = pd.Solver(dt=0.01, method="descent")
+    for method in ("descent", "newton"):
+        s = pd.Solver(dt=0.01, method=method)
         s.add(body)
-        s.step()
+        with pytest.raises(ValueError, match=f"method='{method}' steps membranes only; body 0"):
+            s.step()

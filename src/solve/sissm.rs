@@ -229,13 +229,20 @@ impl<T: Real> Solver<T> {
             // The contact state restarts from what was restored (its caches are rebuilt).
             self.contact = None;
         }
-        if params.method == Method::Descent {
+        if params.method != Method::Sissm {
             if let Some(&body) = by_kind.particle_indices.first() {
+                let method = if params.method == Method::Descent {
+                    "descent"
+                } else {
+                    "newton"
+                };
                 return Err(invalid!(
-                    "method='descent' steps membranes only; body {body} is a particle body \
+                    "method='{method}' steps membranes only; body {body} is a particle body \
                      (use method='sissm')"
                 ));
             }
+        }
+        if params.method == Method::Descent {
             if self.descent.is_none() {
                 self.descent = Some(DescentState::new(&by_kind.membranes)?);
             }
@@ -390,7 +397,7 @@ impl<T: Real> Solver<T> {
                 Method::Newton => {
                     let state = self.newton.as_mut().expect("built above");
                     if let Some(sys) = families.membranes.as_mut() {
-                        let options = options(contact_reactions[0]);
+                        let options = options(contact_reaction, None);
                         start_iteration(sys, h, params.preconditioner, &options, &mut search);
                         if params.record_energy {
                             stats.energies.push(search.energy);
