@@ -56,7 +56,10 @@ pub fn uninverted<T: Real>(f: Matrix3<T>) -> Matrix3<T> {
 /// neighbourhood, whose `K` is singular up to round-off, is refused).
 pub fn shape_inverse(k: &Matrix3<f64>) -> Option<Matrix3<f64>> {
     let scale = k.trace() / 3.0;
-    if !(scale > 0.0) || k.determinant() <= 1e-6 * scale * scale * scale {
+    // NaN scales are refused too: `partial_cmp` is `None` for them.
+    if scale.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        || k.determinant() <= 1e-6 * scale * scale * scale
+    {
         return None;
     }
     k.try_inverse()

@@ -202,9 +202,9 @@ fn single_precision_forces_match_double() {
         .map(|i| particle_force(i, &r64, &g64))
         .collect();
     let scale = f64s.iter().map(|f| f.amax()).fold(0.0, f64::max);
-    for i in 0..y32.len() {
+    for (i, f64) in f64s.iter().enumerate() {
         let f32 = particle_force(i, &r32, &g32).map(f64::from);
-        assert!((f32 - f64s[i]).amax() < 1e-4 * scale, "particle {i}");
+        assert!((f32 - f64).amax() < 1e-4 * scale, "particle {i}");
     }
 }
 

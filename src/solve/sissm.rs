@@ -242,10 +242,8 @@ impl<T: Real> Solver<T> {
                 ));
             }
         }
-        if params.method == Method::Descent {
-            if self.descent.is_none() {
-                self.descent = Some(DescentState::new(&by_kind.membranes)?);
-            }
+        if params.method == Method::Descent && self.descent.is_none() {
+            self.descent = Some(DescentState::new(&by_kind.membranes)?);
         }
         if params.method == Method::Newton && self.newton.is_none() {
             self.newton = Some(NewtonState::new(&by_kind.membranes)?);
