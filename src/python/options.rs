@@ -82,7 +82,7 @@ impl<T: Copy + PartialEq> Choices<T> {
     }
 }
 
-/// `Solver(method=...)`: the paper's SISSM or the descent baseline.
+/// `Solver(method=...)`: the paper's SISSM, the descent baseline of Fig. 13 or Newton (issue 44).
 pub const METHOD: Choices<Method> = Choices {
     what: "method",
     none: None,
