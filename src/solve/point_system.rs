@@ -72,6 +72,18 @@ impl<S: Lanes> PointSystem<S> {
         }
     }
 
+    /// The system of a unit mass at rest (`D = I`, `r = 0`): the filler of a per-point buffer
+    /// before its first assembly.
+    pub fn unit() -> Self {
+        Self::new(
+            S::one(),
+            SymmetricMatrix3::zeros(),
+            Vector3::zeros(),
+            Vector3::zeros(),
+            S::zero(),
+        )
+    }
+
     /// One Jacobi solve, `D^-1 r`.
     #[inline(always)]
     pub fn solve(&self) -> Vector3<S> {

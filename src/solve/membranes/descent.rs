@@ -131,13 +131,7 @@ pub(crate) fn descent_iteration<T: Real>(
         &mut state.self_blocks,
     );
     if sys.point_systems.len() != n {
-        let zero = PointSystem::new(
-            T::one(),
-            SymmetricMatrix3::zeros(),
-            Vector3::zeros(),
-            Vector3::zeros(),
-            T::zero(),
-        );
+        let zero = PointSystem::unit();
         sys.point_systems = vec![zero; n];
         sys.delta = vec![Vector3::zeros(); n];
     }

@@ -372,13 +372,7 @@ fn inner_sweeps<T: Real>(sys: &mut MembraneSystem<T>, h2: T, inner: usize) {
     let mut delta = std::mem::take(&mut sys.delta);
     let mut scratch = std::mem::take(&mut sys.delta_next);
     if point_systems.len() != n {
-        let zero = PointSystem::new(
-            T::one(),
-            SymmetricMatrix3::zeros(),
-            Vector3::zeros(),
-            Vector3::zeros(),
-            T::zero(),
-        );
+        let zero = PointSystem::unit();
         point_systems = vec![zero; n];
         delta = vec![Vector3::zeros(); n];
         scratch = vec![Vector3::zeros(); n];

@@ -40,7 +40,6 @@ use crate::error::Result;
 use crate::membrane::{bond_vectors, internal_force, Membrane, Preconditioner, RestData};
 use crate::parallel::{chunked_sum, for_each_vertex};
 use crate::real::Real;
-use crate::symmetric::SymmetricMatrix3;
 
 use super::descent::{jacobi_moves, search_along, LineSearch};
 use super::evaluate::{evaluate, total_energy};
@@ -91,13 +90,7 @@ impl<T: Real> NewtonState<T> {
             rest.extend_from(&body.rest_source()?, true)?;
         }
         let (n, bonds) = (rest.vertices.len(), rest.bonds.len());
-        let zero = PointSystem::new(
-            T::one(),
-            SymmetricMatrix3::zeros(),
-            Vector3::zeros(),
-            Vector3::zeros(),
-            T::zero(),
-        );
+        let zero = PointSystem::unit();
         let vectors = vec![Vector3::zeros(); n];
         Ok(Self {
             rest,
