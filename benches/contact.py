@@ -28,6 +28,15 @@ local step (there is one local step per global iteration), ``--bp-steps`` timed 
 reported apart for the steps that built the pair cache and those that did not (a build costs
 several filterings, so a median over a few mixed steps says little about either).
 
+Builds side by side (``--build NAME=WHEEL_OR_DIR``, two or more, the first the reference): each
+case's landing is simulated once and saved under ``--state-dir`` (by the first build, kept for
+later runs); every build then continues it in a fresh process for ``--steps`` steps, the builds
+taking turns for ``--rounds`` rounds (in reverse order every other round). Each process reports
+the process CPU time per step besides wall time: with ``--threads 1`` that is the work per step,
+which a machine shared with other jobs inflates far less than wall time. The summary gives per
+case and build the median CPU and wall ms per step, and whether the builds computed the same
+thing (contact figures per step, final positions to the bit).
+
 Quick check (minutes):
     python benches/contact.py --sizes 1:30,3:17 --bp-sizes 30 --steps 2 --warmup 12 \\
         --max-warmup 600
@@ -80,17 +89,28 @@ def broad_phase_by_build(rows) -> dict:
 
 
 def child(layers: int, n: int, steps: int, warmup: int, until_contact: bool, max_warmup: int,
-          iters: int, tol: float, threads):
-    """Runs in the subprocess: prints one JSON line."""
+          iters: int, tol: float, threads, state_dir=None):
+    """Runs in the subprocess: prints one JSON line. With ``state_dir``, continues the landing
+    saved there for this case, or warms up and saves it there first."""
+    import hashlib
     import os
 
+    import peridyn
     from peridyn.paper_scenes import cloths_over_ball
 
     hwm0 = C.vm_kib("VmHWM")
     scene = cloths_over_ball(layers=layers, n=n, drop=1e-3, layer_gap=1.05, tol=tol,
                              max_iters=iters, threads=threads)
     solver = scene.solver
-    warmup_steps, warmup_active = warm_up(solver, warmup, until_contact, max_warmup)
+    state = Path(state_dir) / f"contact_{layers}x{n}.npz" if state_dir else None
+    if state is not None and state.exists():
+        peridyn.load_state(state, solver)
+        warmup_steps, warmup_active = solver.steps_taken, None
+    else:
+        warmup_steps, warmup_active = warm_up(solver, warmup, until_contact, max_warmup)
+        if state is not None:
+            state.parent.mkdir(parents=True, exist_ok=True)
+            peridyn.save_state(state, solver)
     rows = []
     for _ in range(steps):
         c0, t0 = time.process_time(), time.perf_counter()
@@ -119,6 +139,8 @@ def child(layers: int, n: int, steps: int, warmup: int, until_contact: bool, max
            for key in rows[0] if key != "converged"}
     nv = layers * n * n
     print(json.dumps({
+        "module": peridyn.__file__,
+        "positions_sha256": hashlib.sha256(np.ascontiguousarray(x).tobytes()).hexdigest(),
         "layers": layers, "n": n, "vertices": nv, "threads": solver.threads,
         "warmup_steps": warmup_steps, "active_pairs_after_warmup": warmup_active,
         "median": med, "steps": rows,
@@ -175,13 +197,75 @@ def plot(data, path):
     print(f"wrote {path}")
 
 
-def run_case(args, layers: int, n: int, steps: int):
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(layers), str(n),
-           "--steps", str(steps), "--warmup", str(args.warmup), "--max-warmup",
-           str(args.max_warmup), "--iters", str(args.iters), "--tol", str(args.tol),
-           "--until-contact" if args.until_contact else "--no-until-contact"]
+def child_argv(args, layers: int, n: int, steps: int) -> list:
+    """The arguments of a case's subprocess (after the interpreter)."""
+    argv = [str(Path(__file__).resolve()), "--child", str(layers), str(n),
+            "--steps", str(steps), "--warmup", str(args.warmup), "--max-warmup",
+            str(args.max_warmup), "--iters", str(args.iters), "--tol", str(args.tol),
+            "--until-contact" if args.until_contact else "--no-until-contact"]
     if args.threads is not None:
-        cmd += ["--threads", str(args.threads)]
+        argv += ["--threads", str(args.threads)]
+    if args.state_dir:
+        argv += ["--state-dir", args.state_dir]
+    return argv
+
+
+#: Per-step contact figures that builds computing the same thing agree on.
+SAME_FIGURES = ("iterations", "local_iterations", "primitive_pairs", "cached_pairs",
+                "candidate_pairs", "ccd_queries", "broad_phase_builds", "cache_repairs",
+                "live_refreshes", "sweeps", "active_pairs", "clamped", "residual")
+
+
+def compare_builds(args, sizes, rec) -> None:
+    """Times the builds ``args.build`` on each case's saved landing, taking turns (see the
+    module doc), into ``rec.data["builds"]``."""
+    import tempfile
+
+    builds = dict(b.split("=", 1) for b in args.build)
+    names = list(builds)
+    runs = {f"{layers}x{n}": {name: [] for name in names} for layers, n in sizes}
+    with tempfile.TemporaryDirectory(prefix="peridyn_contact_builds_") as tmp:
+        where = {name: C.build_dir(b, Path(tmp), name) for name, b in builds.items()}
+        # The first build saves each landing once; every timed run then starts from it.
+        for layers, n in sizes:
+            C.run_in_build(names[0], where[names[0]], child_argv(args, layers, n, 1))
+        for r in range(args.rounds):
+            for name in (names if r % 2 == 0 else names[::-1]):
+                for layers, n in sizes:
+                    case = C.run_in_build(name, where[name],
+                                          child_argv(args, layers, n, args.steps))
+                    runs[f"{layers}x{n}"][name].append(case)
+                    m = case["median"]
+                    print(f"round {r + 1}, {name}, {layers} x {n}^2: cpu {m['cpu']:.1f} ms/step, "
+                          f"wall {m['wall']:.1f} (broad {m['broad_phase']:.1f}, descent "
+                          f"{m['descent']:.1f}, colliders {m['colliders']:.1f}), "
+                          f"load {case['loadavg_1']:.1f}", flush=True)
+    summary = {}
+    for key, per in runs.items():
+        base = per[names[0]][0]
+        summary[key] = {}
+        for name in names:
+            cases = per[name]
+            rows = [row for c in cases for row in c["steps"]]
+            same_figures = all(
+                [row[f] for row in c["steps"] for f in SAME_FIGURES]
+                == [row[f] for row in base["steps"] for f in SAME_FIGURES] for c in cases)
+            summary[key][name] = {
+                "cpu_ms_per_step_median_per_round": [c["median"]["cpu"] for c in cases],
+                "cpu_ms_per_step_median": C.median([row["cpu"] for row in rows]),
+                "wall_ms_per_step_median": C.median([row["wall"] for row in rows]),
+                **{f"{phase}_ms_median": C.median([row[phase] for row in rows])
+                   for phase in PHASES},
+                "same_figures_as_first_build": same_figures,
+                "same_positions_as_first_build": all(
+                    c["positions_sha256"] == base["positions_sha256"] for c in cases),
+            }
+            print(f"{key} {name}: {summary[key][name]}", flush=True)
+    rec.data["builds"] = {"builds": builds, "summary": summary, "runs": runs}
+
+
+def run_case(args, layers: int, n: int, steps: int):
+    cmd = [sys.executable, *child_argv(args, layers, n, steps)]
     r = subprocess.run(cmd, capture_output=True, text=True)
     lines = [line for line in r.stdout.splitlines() if line.startswith("{")]
     if r.returncode != 0 or not lines:
@@ -231,16 +315,31 @@ def main(argv=None):
     p.add_argument("--iters", type=int, default=10, help="global iterations per step")
     p.add_argument("--tol", type=float, default=0.0, help="0: exactly --iters iterations")
     p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--state-dir", default=None,
+                   help="continue each case's landing saved here (saved first if missing)")
+    p.add_argument("--build", action="append", default=[], metavar="NAME=WHEEL_OR_DIR",
+                   help="time builds side by side on the saved landings (two or more, the "
+                        "first the reference; needs --state-dir)")
+    p.add_argument("--rounds", type=int, default=2, help="turns each build takes with --build")
     p.add_argument("--out", default=None)
     p.add_argument("--child", nargs=2, metavar=("LAYERS", "N"), help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.child:
         child(int(args.child[0]), int(args.child[1]), args.steps, args.warmup,
-              args.until_contact, args.max_warmup, args.iters, args.tol, args.threads)
+              args.until_contact, args.max_warmup, args.iters, args.tol, args.threads,
+              args.state_dir)
+        return
+
+    sizes = [tuple(int(v) for v in s.split(":")) for s in args.sizes.split(",")]
+    if args.build:
+        if len(args.build) < 2 or not all("=" in b for b in args.build) or not args.state_dir:
+            p.error("give two or more --build NAME=WHEEL_OR_DIR and --state-dir")
+        rec = C.Record("contact_builds", args)
+        compare_builds(args, sizes, rec)
+        rec.write(args.out)
         return
 
     rec = C.Record("contact", args)
-    sizes = [tuple(int(v) for v in s.split(":")) for s in args.sizes.split(",")]
     rec.data["cases"] = [run_case(args, layers, n, args.steps) for layers, n in sizes]
     rec.data["broad_phase"] = [run_case(args, 1, int(n), args.bp_steps)
                                for n in args.bp_sizes.split(",")]
