@@ -226,6 +226,15 @@ impl LivePairs {
     ) -> Option<usize> {
         debug_assert_eq!(self.shift.len(), self.allowance.len());
         self.grown.clear();
+        // Called after every clamp and descent pass, and nearly always nothing has grown: a
+        // test that collects nothing first.
+        let beyond = |(&a, &e, &shift): (&f64, &f64, &f64)| e.is_nan() || e + shift > a;
+        if !(self.allowance.par_iter(), self.deviation.par_iter(), self.shift.par_iter())
+            .into_par_iter()
+            .any(beyond)
+        {
+            return None;
+        }
         self.grown.par_extend(
             self.allowance
                 .par_iter_mut()

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use super::super::broad_phase::ContactMesh;
 use super::super::primitive_pairs::Pair;
-use super::super::sweep::SweptPair;
+use super::super::sweep::{PatchFalls, SweptPair};
 use super::{below, PairCache, Renewal};
 use crate::geometry::bounds::round_down;
 
@@ -195,6 +195,7 @@ impl PairCache {
             })
             .collect_into_vec(&mut swept);
         self.sweep.swept = swept;
+        self.sweep.within = self.sweep.swept.par_iter().filter(|p| p.slack < 0.0).count();
         let (this, sweep) = (&*self, &self.sweep);
         let found: Vec<u32> = (0..near as u32)
             .into_par_iter()
@@ -224,37 +225,47 @@ impl PairCache {
         reach: f64,
     ) -> Option<Vec<u32>> {
         let swept = self.sweep.near.min(near);
+        // The pairs beyond the sweep's are all looked at again: where they alone are too many,
+        // the sweep is due whatever the swept pairs' tests say (the same decision as below).
+        if swept == self.sweep.near {
+            let within = self.sweep.within;
+            if (near - swept) as f64 > REFILTER_SHARE * (self.sweep.near - within) as f64 {
+                return None;
+            }
+        }
         // The pairs to look at again. Counted: the pairs within reach at the sweep (no test
-        // can leave them out), and those that took a patch test and a pair test.
-        let (mut again, tests) = self.sweep.swept[..swept]
-            .par_iter()
+        // can leave them out), and those that took a patch test and a pair test. In chunks,
+        // each with its own memo of the patch falls (neighbouring pairs share patch pairs).
+        let chunks: Vec<(Vec<u32>, [usize; 3])> = self.sweep.swept[..swept]
+            .par_chunks(REFILTER_CHUNK)
             .enumerate()
-            .fold(
-                || (Vec::new(), [0_usize; 3]),
-                |(mut again, mut tests), (k, swept)| {
+            .map(|(c, chunk)| {
+                let (mut again, mut tests) = (Vec::new(), [0_usize; 3]);
+                let mut patch_falls = PatchFalls::new(&self.sweep);
+                for (k, swept) in (c * REFILTER_CHUNK..).zip(chunk) {
                     let s = f64::from(swept.slack);
                     if s < 0.0 {
                         tests[0] += 1;
                         again.push(k as u32);
                     } else if below(s, fall) {
                         tests[1] += 1;
-                        if below(s, self.sweep.patch_fall(swept.patches)) {
+                        if below(s, patch_falls.of(swept.patches)) {
                             tests[2] += 1;
                             if below(s, self.sweep.pair_fall(&self.pairs[k].0, allowance)) {
                                 again.push(k as u32);
                             }
                         }
                     }
-                    (again, tests)
-                },
-            )
-            .reduce(
-                || (Vec::new(), [0; 3]),
-                |(mut again, tests), (more, more_tests)| {
-                    again.extend(more);
-                    (again, [0, 1, 2].map(|t| tests[t] + more_tests[t]))
-                },
-            );
+                }
+                (again, tests)
+            })
+            .collect();
+        let mut tests = [0_usize; 3];
+        let mut again = Vec::with_capacity(chunks.iter().map(|(a, _)| a.len()).sum());
+        for (more, more_tests) in chunks {
+            again.extend(more);
+            tests = [0, 1, 2].map(|t| tests[t] + more_tests[t]);
+        }
         again.extend(swept as u32..near as u32);
         let [within, patch_tests, pair_tests] = tests;
         let sweep = &mut self.sweep;
@@ -379,6 +390,10 @@ pub(super) const OUTLYING_SHARE: f64 = 1.0 / 512.0;
 /// so does every filter after it until the next sweep, which would have cost a few of them
 /// and made the next filters cheap).
 const REFILTER_SHARE: f64 = 1.0 / 16.0;
+
+/// The swept pairs a refilter's task takes at a time, each with its own memo of the patch
+/// falls (a cost trade-off only).
+const REFILTER_CHUNK: usize = 1 << 14;
 
 /// The costs of a refilter's patch and pair tests ([`super::super::sweep::Sweep::patch_fall`],
 /// [`super::super::sweep::Sweep::pair_fall`]) in fresh bounds (a sweep costs one per near pair),
