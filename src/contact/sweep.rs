@@ -127,8 +127,8 @@ impl<'a> PatchFalls<'a> {
             return self.sweep.patch_fall([p, q]);
         }
         // Fibonacci hashing: the top bits of the product mix both patches.
-        let slot = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - PATCH_FALL_SLOTS.ilog2()))
-            as usize;
+        let slot =
+            (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - PATCH_FALL_SLOTS.ilog2())) as usize;
         let (held, fall) = &mut self.slots[slot];
         if *held != key {
             (*held, *fall) = (key, self.sweep.patch_fall([p, q]));

@@ -229,7 +229,11 @@ impl LivePairs {
         // Called after every clamp and descent pass, and nearly always nothing has grown: a
         // test that collects nothing first.
         let beyond = |(&a, &e, &shift): (&f64, &f64, &f64)| e.is_nan() || e + shift > a;
-        if !(self.allowance.par_iter(), self.deviation.par_iter(), self.shift.par_iter())
+        if !(
+            self.allowance.par_iter(),
+            self.deviation.par_iter(),
+            self.shift.par_iter(),
+        )
             .into_par_iter()
             .any(beyond)
         {

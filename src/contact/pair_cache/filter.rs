@@ -195,7 +195,12 @@ impl PairCache {
             })
             .collect_into_vec(&mut swept);
         self.sweep.swept = swept;
-        self.sweep.within = self.sweep.swept.par_iter().filter(|p| p.slack < 0.0).count();
+        self.sweep.within = self
+            .sweep
+            .swept
+            .par_iter()
+            .filter(|p| p.slack < 0.0)
+            .count();
         let (this, sweep) = (&*self, &self.sweep);
         let found: Vec<u32> = (0..near as u32)
             .into_par_iter()
