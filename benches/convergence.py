@@ -132,7 +132,41 @@ def one_step(args, scene, state, kw, *, iters, record_energy):
     t0 = time.perf_counter()
     st = solver.step()
     wall = (time.perf_counter() - t0) * 1e3
-    return st, wall
+    return st, wall, cloth
+
+
+def predicted(args, scene, state):
+    """The step's first iterate y_0 = y* = x + h v + h^2 g (pinned vertices stay)."""
+    cloth = make_cloth(args, scene)
+    h = scene_dt(args, scene)
+    g = np.asarray(peridyn.Solver(dt=h).gravity, float)
+    y = np.asarray(state[0], float) + h * np.asarray(state[1], float) + h * h * g
+    y[cloth.pinned] = np.asarray(state[0], float)[cloth.pinned]
+    return y
+
+
+def energy_f64(args, scene, state, y):
+    """E(y) of eq. 2 in f64 (J): sum over free vertices of m |y - y*|^2 / (2 h^2), with
+    y* = x + h v + h^2 g from the step's start ``state``, plus the elastic energy at y. The
+    solver's own record of an f32 run sums f32 vertex energies, which cannot resolve eta below
+    about eps_f32 |E| / (E_0 - E*) (a few percent on the stiff step)."""
+    cloth = make_cloth(args, scene)
+    h = scene_dt(args, scene)
+    g = np.asarray(peridyn.Solver(dt=h).gravity, float)
+    x0, v0 = np.asarray(state[0], float), np.asarray(state[1], float)
+    free = np.ones(len(x0), bool)
+    free[cloth.pinned] = False
+    y_star = x0 + h * v0 + h * h * g
+    y = np.asarray(y, float)
+    cloth.positions = y
+    d = y[free] - y_star[free]
+    inertia = 0.5 / h**2 * float(np.sum(np.asarray(cloth.masses)[free] * np.sum(d * d, axis=1)))
+    return inertia + cloth.elastic_energy()
+
+
+# f32 runs of at most this many iterations get their energies re-evaluated in f64 from the
+# iterates (one rerun per iteration count).
+F32_REEVAL_MAX_ITERS = 40
 
 
 def run_scene(args, scene: str, rec: C.Record):
@@ -145,11 +179,11 @@ def run_scene(args, scene: str, rec: C.Record):
     out["references"] = {}
     e_refs = []
     for rname, rkw in REFERENCES:
-        if not C.solver_supports(**rkw):
+        if not C.solver_supports(**rkw) or (args.references and rname not in args.references.split(",")):
             continue
         n_ref = iterations(args, rkw, reference=True)
         print(f"   reference: f64 {rname}, {n_ref} iterations", flush=True)
-        ref, ref_wall = one_step(args, scene, state, rkw, iters=n_ref, record_energy=True)
+        ref, ref_wall, _ = one_step(args, scene, state, rkw, iters=n_ref, record_energy=True)
         e_ref = np.asarray(ref.energies, float)
         e_refs.append((float(np.min(e_ref)), rname))
         out["references"][rname] = {
@@ -167,7 +201,8 @@ def run_scene(args, scene: str, rec: C.Record):
             print(f"   {name:28s} skipped (not in this build)", flush=True)
             continue
         try:
-            st, _ = one_step(args, scene, state, kw, iters=iterations(args, kw), record_energy=True)
+            st, _, cloth = one_step(args, scene, state, kw, iters=iterations(args, kw),
+                                    record_energy=True)
         except Exception as e:  # DivergenceError or a rejected combination
             runs[name] = {"kwargs": kw, "failed": f"{type(e).__name__}: {e}"}
             print(f"   {name:28s} failed: {e}", flush=True)
@@ -180,7 +215,19 @@ def run_scene(args, scene: str, rec: C.Record):
             "residual": st.residual,
             "converged_flag": st.converged,
             "ms_step_all": [], "ms_global_all": [],
+            "linear_products": getattr(st, "linear_products", None),
         }
+        if kw.get("precision", "f64") == "f64":
+            # The f64 re-evaluation below agrees with the solver's own energy (a check of it).
+            e64 = energy_f64(args, scene, state, cloth.positions)
+            runs[name]["energy_f64_check_rel"] = abs(e64 - st.energies[-1]) / abs(st.energies[-1])
+        elif st.iterations <= F32_REEVAL_MAX_ITERS:
+            e = [energy_f64(args, scene, state, one_step(args, scene, state, kw, iters=k,
+                                                         record_energy=False)[2].positions)
+                 for k in range(1, st.iterations + 1)]
+            runs[name]["energies_f32_sums"] = runs[name]["energies"]
+            e0 = energy_f64(args, scene, state, predicted(args, scene, state))
+            runs[name]["energies"] = np.asarray([e0] + e, float)
         print(f"   {name:28s} {st.iterations} it, residual {st.residual:.2e}", flush=True)
 
     # Timing: rounds over all variants (interleaved, so a burst of load on the shared machine
@@ -190,7 +237,7 @@ def run_scene(args, scene: str, rec: C.Record):
             r = runs.get(name, {})
             if "energies" not in r:
                 continue
-            s2, _w = one_step(args, scene, state, kw, iters=iterations(args, kw), record_energy=False)
+            s2, _w, _ = one_step(args, scene, state, kw, iters=iterations(args, kw), record_energy=False)
             r["ms_step_all"].append(s2.timings["total"])
             r["ms_global_all"].append(s2.timings["global"])
     # E(y*): the reference's final energy, or a lower one if an f64 variant found it.
@@ -216,7 +263,7 @@ def run_scene(args, scene: str, rec: C.Record):
                 hit = np.flatnonzero(etas.get(name, np.array([])) <= thr)
                 if len(hit) == 0 or hit[0] == 0:
                     continue
-                s3, _w = one_step(args, scene, state, kw, iters=int(hit[0]), record_energy=False)
+                s3, _w, _ = one_step(args, scene, state, kw, iters=int(hit[0]), record_energy=False)
                 r.setdefault(f"ms_to_eta_{thr:g}_all", []).append(s3.timings["total"])
     for name, r in runs.items():
         for thr in TIMED_ETAS:
@@ -349,6 +396,8 @@ def main(argv=None):
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--rhos", default="0.9,0.95,0.99,0.999")
     p.add_argument("--scenes", default="moderate,stiff")
+    p.add_argument("--references", default=None, help="comma-separated reference names to run "
+                   "(default: all of " + ", ".join(n for n, _ in REFERENCES) + ")")
     p.add_argument("--only", default=None, help="comma-separated variant names to run (default: all)")
     p.add_argument("--out", default=None, help="JSON path (default benches/results/convergence.json)")
     args = p.parse_args(argv)

@@ -550,6 +550,10 @@ class StepStats:
         """Total variational energy E(y^k) (J) of every iterate k = 0..iterations; empty unless
         the solver records it (``record_energy=True``)."""
     @property
+    def linear_products(self) -> int:
+        """``method="newton"``: Hessian products of its conjugate-gradient solves in the step
+        (0 for the other methods)."""
+    @property
     def timings(self) -> dict:
         """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish', 'total'."""
     @property

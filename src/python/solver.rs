@@ -625,6 +625,12 @@ impl PyStepStats {
     fn energies<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         to_numpy_1d(py, self.inner.energies.clone())
     }
+    /// ``method="newton"``: Hessian products of its conjugate-gradient solves in the step (0
+    /// for the other methods).
+    #[getter]
+    fn linear_products(&self) -> usize {
+        self.inner.linear_products
+    }
     /// Milliseconds per phase.
     #[getter]
     fn timings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {

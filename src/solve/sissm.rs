@@ -400,6 +400,7 @@ impl<T: Real> Solver<T> {
                         if params.record_energy {
                             stats.energies.push(search.energy);
                         }
+                        let before = state.products;
                         updates.push(newton_iteration(
                             sys,
                             state,
@@ -408,6 +409,7 @@ impl<T: Real> Solver<T> {
                             &options,
                             &mut search,
                         ));
+                        stats.linear_products += state.products - before;
                     }
                 }
             };

@@ -50,6 +50,9 @@ pub struct StepStats {
     /// contact is off): candidate triangle pairs (largest), active primitive pairs (last),
     /// descent iterations and milliseconds in broad phase, CCD and descent.
     pub contact: ContactStats,
+    /// Newton: Hessian products of its conjugate-gradient solves, summed over the step (0 for
+    /// the other methods).
+    pub linear_products: usize,
 }
 
 impl StepStats {

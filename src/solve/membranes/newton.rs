@@ -17,10 +17,13 @@
 //!    back, or the last local step pushed it) takes its Jacobi move `D_k^-1 r_k`, as in SISSM,
 //!    and is fixed in the solve below: the Newton system knows nothing of the contacts. So does
 //!    a free vertex whose Newton move the colliders would push back;
-//! 3. solves `K d = r` on the other free vertices approximately by conjugate gradients preconditioned with SISSM's blocks
-//!    `D_k^-1` (block Jacobi), matrix-free (the product gathers per-bond products as the force
-//!    does), from `d = 0`, until the preconditioned residual falls by [`FORCING`] or after
-//!    [`MAX_LINEAR_ITERS`] products;
+//! 3. solves `K d = r` on the other free vertices approximately by conjugate gradients,
+//!    matrix-free (the product gathers per-bond products as the force does), from `d = 0`,
+//!    until the preconditioned residual falls by [`FORCING`] or after [`MAX_LINEAR_ITERS`]
+//!    products, preconditioned by two levels ([`precondition`]): SISSM's blocks `D_k^-1`
+//!    (block Jacobi) for the error that varies from vertex to vertex, plus a Galerkin coarse
+//!    correction on aggregates of vertices ([`CoarseLevel`]) for the smooth error that block
+//!    Jacobi leaves to hundreds of CG steps on fine, stiff cloth;
 //! 4. takes the step along `d` by the energy line search shared with the descent baseline
 //!    ([`search_along`]: `alpha` from 1, halved while `E` rises, colliders projected in each
 //!    trial), so no iteration increases the energy beyond round-off.
@@ -41,6 +44,7 @@ use crate::membrane::{bond_vectors, internal_force, Membrane, Preconditioner, Re
 use crate::parallel::{chunked_sum, for_each_vertex};
 use crate::real::Real;
 
+use super::coarse::CoarseLevel;
 use super::descent::{jacobi_moves, search_along, LineSearch};
 use super::evaluate::{evaluate, total_energy};
 use super::hessian_model::VertexModel;
@@ -79,6 +83,12 @@ pub(crate) struct NewtonState<T: Real> {
     /// [`newton_iteration`]).
     free: Vec<bool>,
     held: Vec<Vector3<T>>,
+    /// The coarse level of the CG's preconditioner (built on the first iteration; `None`
+    /// after a failed set-up, when the CG runs on block Jacobi alone).
+    coarse: Option<CoarseLevel>,
+    coarse_built: bool,
+    /// Hessian products of the CG in the current time step.
+    pub products: usize,
 }
 
 impl<T: Real> NewtonState<T> {
@@ -105,6 +115,9 @@ impl<T: Real> NewtonState<T> {
             sums: Vec::new(),
             free: vec![true; n],
             held: vectors,
+            coarse: None,
+            coarse_built: false,
+            products: 0,
         })
     }
 
@@ -125,6 +138,57 @@ impl<T: Real> NewtonState<T> {
 
 #[cfg(test)]
 impl<T: Real> NewtonState<T> {
+    /// The CG of a Newton iteration on `K d = r` at the evaluated state of `sys` (every
+    /// unpinned vertex free, SISSM's blocks as the metric), with or without the coarse level:
+    /// the Hessian products it took and `d`.
+    pub fn linear_solve(
+        &mut self,
+        sys: &MembraneSystem<T>,
+        h2: T,
+        r: &[Vector3<T>],
+        coarse: bool,
+    ) -> (usize, Vec<Vector3<T>>) {
+        self.free = sys.points.pinned.iter().map(|p| !p).collect();
+        self.metric = (0..r.len()).map(|k| PointSystem::of(sys, k, h2)).collect();
+        for (k, out) in self.r.iter_mut().enumerate() {
+            *out = if self.free[k] { r[k] } else { Vector3::zeros() };
+        }
+        self.build_models(sys, &sys.points.y);
+        self.coarse_built = true;
+        self.coarse = coarse.then(|| CoarseLevel::new(&sys.nb).unwrap());
+        let before = self.products;
+        solve_newton_system(sys, self, h2);
+        (self.products - before, self.d.clone())
+    }
+
+    /// The coarse level factored for the models at `sys`'s positions, every unpinned vertex
+    /// free.
+    pub fn coarse_level(&mut self, sys: &MembraneSystem<T>, h2: T) -> CoarseLevel {
+        self.free = sys.points.pinned.iter().map(|p| !p).collect();
+        self.build_models(sys, &sys.points.y);
+        let mut coarse = CoarseLevel::new(&sys.nb).unwrap();
+        coarse
+            .factor(&sys.nb, &self.rest, &self.models, &self.free, h2)
+            .unwrap();
+        coarse
+    }
+
+    /// `M^-1 r` ([`precondition`]) at the evaluated state of `sys`, every unpinned vertex
+    /// free.
+    pub fn preconditioned(
+        &mut self,
+        sys: &MembraneSystem<T>,
+        h2: T,
+        r: &[Vector3<T>],
+    ) -> Vec<Vector3<T>> {
+        self.free = sys.points.pinned.iter().map(|p| !p).collect();
+        self.metric = (0..r.len()).map(|k| PointSystem::of(sys, k, h2)).collect();
+        let mut coarse = self.coarse_level(sys, h2);
+        let mut z = vec![Vector3::zeros(); r.len()];
+        precondition(&self.metric, Some(&mut coarse), &self.free, r, &mut z);
+        z
+    }
+
     /// [`hessian_product`] with the models of the last [`Self::build_models`].
     pub fn product(
         &mut self,
@@ -181,9 +245,37 @@ fn dot<T: Real>(a: &[Vector3<T>], b: &[Vector3<T>], sums: &mut Vec<f64>) -> f64 
     chunked_sum(a.len(), sums, |k| a[k].dot(&b[k]).to_f64())
 }
 
-/// Solves `K d = r` by conjugate gradients preconditioned with `metric[k].inverse`, from
-/// `d = 0`, with `z = D^-1 r` already in `state.z` (the Jacobi moves).
+/// The CG's preconditioner, `z = M^-1 r` with `M^-1 = D^-1 + P A_c^-1 P^T` on the `free`
+/// vertices (zero elsewhere): SISSM's blocks `D_k^-1 = metric[k].inverse` (block Jacobi) plus
+/// the coarse level's correction when there is one. Symmetric positive definite on the free
+/// vertices (see [`CoarseLevel`]); m for `r` in kg m.
+pub(crate) fn precondition<T: Real>(
+    metric: &[PointSystem<T>],
+    coarse: Option<&mut CoarseLevel>,
+    free: &[bool],
+    r: &[Vector3<T>],
+    z: &mut [Vector3<T>],
+) {
+    z.par_iter_mut().enumerate().for_each(|(k, z)| {
+        *z = if free[k] {
+            metric[k].inverse.mul_vector(&r[k])
+        } else {
+            Vector3::zeros()
+        };
+    });
+    if let Some(c) = coarse {
+        c.correct(free, r, z);
+    }
+}
+
+/// Solves `K d = r` by conjugate gradients preconditioned by [`precondition`] (the coarse
+/// level assembled and factored here for the current models and free set; block Jacobi alone
+/// if that fails), from `d = 0`.
 fn solve_newton_system<T: Real>(sys: &MembraneSystem<T>, state: &mut NewtonState<T>, h2: T) {
+    if !state.coarse_built {
+        state.coarse_built = true;
+        state.coarse = CoarseLevel::new(&sys.nb).ok();
+    }
     let NewtonState {
         rest,
         models,
@@ -196,31 +288,36 @@ fn solve_newton_system<T: Real>(sys: &MembraneSystem<T>, state: &mut NewtonState
         q,
         sums,
         free,
+        coarse,
+        products,
         ..
     } = state;
+    let mut coarse = coarse
+        .as_mut()
+        .and_then(|c| c.factor(&sys.nb, rest, models, free, h2).ok().map(|()| c));
+    precondition(metric, coarse.as_deref_mut(), free, r, z);
     d.par_iter_mut().for_each(|v| *v = Vector3::zeros());
     p.copy_from_slice(z);
     let mut rz = dot(r, z, sums);
     let stop = rz * FORCING * FORCING;
-    let mut products = 0;
-    while rz > stop && rz > 0.0 && products < MAX_LINEAR_ITERS {
+    let mut count = 0;
+    while rz > stop && rz > 0.0 && count < MAX_LINEAR_ITERS {
         hessian_product(sys, rest, models, free, h2, p, bonds, q);
-        products += 1;
+        count += 1;
         let pq = dot(p, q, sums);
         if pq.is_nan() || pq <= 0.0 {
             break;
         }
         let a = T::of(rz / pq);
-        let (p_ref, q_ref, metric) = (&*p, &*q, &*metric);
+        let (p_ref, q_ref) = (&*p, &*q);
         d.par_iter_mut()
             .zip(r.par_iter_mut())
-            .zip(z.par_iter_mut())
             .enumerate()
-            .for_each(|(k, ((d, r), z))| {
+            .for_each(|(k, (d, r))| {
                 *d += p_ref[k] * a;
                 *r -= q_ref[k] * a;
-                *z = metric[k].inverse.mul_vector(r);
             });
+        precondition(metric, coarse.as_deref_mut(), free, r, z);
         let rz_next = dot(r, z, sums);
         let beta = T::of(rz_next / rz);
         rz = rz_next;
@@ -229,6 +326,7 @@ fn solve_newton_system<T: Real>(sys: &MembraneSystem<T>, state: &mut NewtonState
             .enumerate()
             .for_each(|(k, p)| *p = z_ref[k] + *p * beta);
     }
+    *products += count;
 }
 
 /// Before an iteration: after a contact local step (`options` carries its reactions) the
