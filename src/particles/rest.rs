@@ -146,7 +146,7 @@ impl<T: Real> ParticleRest<T> {
         let factor = |i: usize| moduli.bulk_weight.map_or(1.0, |bulk| bulk / weight_sums[i]);
         // The extra stiffness of the dilatation term in the global matrix (N/m per bond).
         let mut matrix_extra = Vec::new();
-        for i in 0..bonds.len() {
+        for (i, &weight_sum) in weight_sums.iter().enumerate() {
             let neighbors = bonds.of(i);
             let mut shape = Matrix3::<f64>::zeros();
             for b in bonds.row(i) {
@@ -163,7 +163,7 @@ impl<T: Real> ParticleRest<T> {
                     weight: T::of(weight),
                     k_dev: T::of(2.0 * moduli.mu * k),
                     k_iso: T::of(moduli.lam * k),
-                    share: T::of(weight / (weight_sums[i] * length)),
+                    share: T::of(weight / (weight_sum * length)),
                 });
                 // The dilatation term's Hessian is the rank-one `9 kappa V_i a a^T` over the
                 // bonds' extensions (`a_j = w V_j / (A_i |xi_j|)`); its bond-diagonal part
