@@ -127,6 +127,32 @@ class Elastic:
     def poisson_ratio(self) -> Optional[float]:
         """nu asked of ``from_young``; None for the paper's parameters (whose ratio is 1/4)."""
 
+class DruckerPrager:
+    """Drucker-Prager plasticity of particle bodies (He, Wang and Wu 2017, section 5).
+
+    ``friction_angle`` (degrees, in [0, 90)), ``cohesion`` (Pa, >= 0; > 0 when the angle is
+    0), ``hardening`` (Pa per unit of accumulated plastic strain, >= 0; 0: perfectly
+    plastic), ``rebuild_neighbours`` (search the neighbours anew on the deformed positions
+    after every step, eq. 20). The inner cone of eq. 15, its invariants from the body's
+    continuum moduli (docs/model.md). ValueError naming the bad parameter."""
+
+    def __init__(
+        self,
+        *,
+        friction_angle: float,
+        cohesion: float,
+        hardening: float = 0.0,
+        rebuild_neighbours: bool = True,
+    ) -> None: ...
+    @property
+    def friction_angle(self) -> float: ...
+    @property
+    def cohesion(self) -> float: ...
+    @property
+    def hardening(self) -> float: ...
+    @property
+    def rebuild_neighbours(self) -> bool: ...
+
 class Particles:
     """An elastic body of particles (He, Wang and Wu 2017) stepped by projective peridynamics.
 
@@ -140,6 +166,8 @@ class Particles:
     horizon : radius of each particle's neighbourhood (m, > spacing); None: 2.2 spacings (32
         neighbours on a cubic lattice). Every particle needs a three-dimensional neighbourhood:
         a flat or linear one is refused, naming the particle.
+    plasticity : None (elastic) or a :class:`DruckerPrager`: after every step the particles
+        that yield move their reference bonds, which the body keeps.
     """
 
     def __init__(
@@ -150,7 +178,13 @@ class Particles:
         density: float,
         material: Elastic,
         horizon: Optional[float] = None,
+        plasticity: Optional[DruckerPrager] = None,
     ) -> None: ...
+    @property
+    def plasticity(self) -> Optional[DruckerPrager]: ...
+    def yield_state(self) -> Optional[tuple[np.ndarray, np.ndarray]]:
+        """(sqrt_J2, strength) per particle (Pa) of a plastic body at its current positions
+        and reference bonds (NaN without a 3D neighbourhood); None for an elastic body."""
     @property
     def num_particles(self) -> int: ...
     @property
@@ -555,7 +589,7 @@ class StepStats:
         (0 for the other methods)."""
     @property
     def timings(self) -> dict:
-        """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish', 'total'."""
+        """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish' (of which 'plasticity': the plastic return and rest rebuild of plastic particle bodies, and 'neighbours': their neighbour search on deformed positions; t_p and t_n of He et al. 2017, Table 1), 'total'."""
     @property
     def contact(self) -> dict:
         """Contact figures (zeros when contact is off): 'candidate_pairs' (triangle pairs of

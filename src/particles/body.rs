@@ -12,6 +12,8 @@ use crate::point_state::PointState;
 use super::calibration::Moduli;
 use super::deformation::check_shapes;
 use super::elastic::Elastic;
+use super::plasticity::DruckerPrager;
+use super::rest_bonds::RestBonds;
 
 /// Physical parameters of a particle body (SI units).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -76,6 +78,11 @@ pub struct Particles {
     /// What the material resolved to on this body's lattice.
     moduli: Moduli,
     state: PointState,
+    /// The plastic law, if the body is plastic ([`Self::set_plasticity`]).
+    plasticity: Option<DruckerPrager>,
+    /// A plastic body's current reference bonds once a solver has stepped it (`None`: the
+    /// bonds of `reference` and `horizons`).
+    rest_bonds: Option<RestBonds>,
 }
 
 impl Particles {
@@ -109,6 +116,8 @@ impl Particles {
             params,
             moduli,
             state,
+            plasticity: None,
+            rest_bonds: None,
         };
         check_shapes(&body.reference, &body.horizons, delta)?;
         Ok(body)
@@ -197,6 +206,34 @@ impl Particles {
     /// Solver write-back of a finished step.
     pub(crate) fn state_mut(&mut self) -> (&mut [Vector3<f64>], &mut [Vector3<f64>]) {
         (&mut self.state.positions, &mut self.state.velocities)
+    }
+
+    /// Makes the body plastic with `law` (or elastic with `None`), from its current reference
+    /// bonds on. Fails, naming the parameter, on a bad law.
+    pub fn set_plasticity(&mut self, law: Option<DruckerPrager>) -> Result<()> {
+        if let Some(law) = &law {
+            law.validate()?;
+        }
+        self.plasticity = law;
+        Ok(())
+    }
+    pub fn plasticity(&self) -> Option<&DruckerPrager> {
+        self.plasticity.as_ref()
+    }
+    /// The current reference bonds of a plastic body that a solver has stepped (`None`
+    /// before: the bonds are those of [`Self::reference`] and [`Self::horizons`]).
+    pub fn rest_bonds(&self) -> Option<&RestBonds> {
+        self.rest_bonds.as_ref()
+    }
+    /// The reference bonds as they are now, whichever holds them.
+    pub fn current_rest_bonds(&self) -> RestBonds {
+        self.rest_bonds
+            .clone()
+            .unwrap_or_else(|| RestBonds::from_reference(&self.reference, &self.horizons))
+    }
+    /// Solver write-back of a plastic body's bonds after a step.
+    pub(crate) fn set_rest_bonds(&mut self, bonds: RestBonds) {
+        self.rest_bonds = Some(bonds);
     }
 
     /// Kinetic energy `sum m v^2 / 2` (J).

@@ -13,7 +13,10 @@ mod elastic;
 mod influence;
 mod kernel;
 mod measure;
+mod neighbour_rebuild;
+mod plasticity;
 mod rest;
+mod rest_bonds;
 mod sampling;
 
 pub use body::{ParticleParams, Particles, DEFAULT_HORIZON};
@@ -23,8 +26,15 @@ pub use deformation::{deformation_gradient, uninverted};
 pub use elastic::{Elastic, POISSON_RANGE};
 pub use influence::influence;
 pub use kernel::{evaluate_particles, particle_force, particle_kernel};
+pub use neighbour_rebuild::{rebuild as rebuild_neighbours, MIN_STRETCH};
+pub(crate) use plasticity::PlasticLaw;
+pub use plasticity::{shear_and_bulk, DruckerPrager, YieldState};
 pub use rest::ParticleRest;
+pub(crate) use rest::RestConstants;
+pub use rest_bonds::RestBonds;
 pub use sampling::{sample_surface, sample_volume, MAX_PARTICLES, MAX_SURFACE_CANDIDATES};
 
+#[cfg(test)]
+mod plasticity_tests;
 #[cfg(test)]
 mod tests;

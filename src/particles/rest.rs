@@ -9,8 +9,37 @@ use crate::real::Real;
 
 use super::body::Particles;
 use super::bond::BondRest;
+use super::calibration::Moduli;
 use super::deformation::{flat_neighbourhood, shape_inverse};
 use super::influence::influence;
+use super::rest_bonds::RestBonds;
+
+/// What the rest data of a body needs besides its bonds.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RestConstants {
+    pub moduli: Moduli,
+    /// Particle volume (m^3), horizon (m), density (kg/m^3) and collider margin (m).
+    pub volume: f64,
+    pub delta: f64,
+    pub density: f64,
+    pub margin: f64,
+    /// Whether the body is plastic (its neighbourhoods may degenerate: see
+    /// [`ParticleRest::add_bonds`]).
+    pub plastic: bool,
+}
+
+impl RestConstants {
+    pub fn of(body: &Particles) -> Self {
+        Self {
+            moduli: body.moduli(),
+            volume: body.volume(),
+            delta: body.horizon(),
+            density: body.density(),
+            margin: body.margin(),
+            plastic: body.plasticity().is_some(),
+        }
+    }
+}
 
 /// The rest data of a list of particle bodies, concatenated in one particle range.
 #[derive(Debug, Clone, Default)]
@@ -51,6 +80,18 @@ impl<T: Real> ParticleRest<T> {
         Ok(rest)
     }
 
+    /// The rest data of bodies given by their bonds and constants, in this order.
+    pub(crate) fn of_bonds(bodies: &[(&RestBonds, RestConstants)]) -> Result<Self> {
+        let mut rest = Self {
+            offsets: vec![0],
+            ..Self::default()
+        };
+        for (bonds, constants) in bodies {
+            rest.add_bonds(bonds, constants)?;
+        }
+        Ok(rest)
+    }
+
     pub fn len(&self) -> usize {
         self.offsets.len() - 1
     }
@@ -65,67 +106,88 @@ impl<T: Real> ParticleRest<T> {
         self.offsets[i] as usize..self.offsets[i + 1] as usize
     }
 
-    /// Appends one body's particles and bonds (computed in f64, stored in `T`).
+    /// Appends one body's particles and bonds (computed in f64, stored in `T`): its
+    /// current reference bonds ([`Particles::rest_bonds`]) or those of its reference
+    /// positions.
+    fn add(&mut self, body: &Particles) -> Result<()> {
+        let owned;
+        let bonds = match body.rest_bonds() {
+            Some(bonds) => bonds,
+            None => {
+                owned = RestBonds::from_reference(body.reference(), body.horizons());
+                &owned
+            }
+        };
+        self.add_bonds(bonds, &RestConstants::of(body))
+    }
+
+    /// Appends the particles of `bonds` with the body constants `c`.
     ///
     /// With a surface correction (the moduli's `bulk_weight` `A`), particle `i` with the
     /// weight sum `A_i = sum_j w V_j` over its bonds gets the factor `g_i = A / A_i` (1 in the
     /// interior, about 2 on a flat face), and each bond's springs are scaled by
     /// `(g_i + g_j) / 2`: under a uniform dilation every particle then stores the bulk's
-    /// energy density, so a thin body is not softer than a thick one.
-    fn add(&mut self, body: &Particles) -> Result<()> {
+    /// energy density, so a thin body is not softer than a thick one. Weights and springs
+    /// come from the bonds' `born` lengths, so they, and the global matrix, stay as they are
+    /// while a plastic return moves the vectors `X` ([`super::rest_bonds`]).
+    ///
+    /// A singular shape matrix fails, naming the particle, unless `c.plastic`: a plastic
+    /// body's particle that has lost its three-dimensional neighbourhood gets `K_i^-1 = 0`,
+    /// so `F_i = 0` and its deviatoric springs pull along the bonds as the isotropic ones do.
+    pub(crate) fn add_bonds(&mut self, bonds: &RestBonds, c: &RestConstants) -> Result<()> {
         let base = self.len() as u32;
         let bond_base = self.indices.len() as u32;
-        let horizons = body.horizons();
-        let x = body.reference();
-        let moduli = body.moduli();
-        let (volume, delta) = (body.volume(), body.horizon());
-        let weight = |i: usize, j: u32| influence((x[j as usize] - x[i]).norm(), delta) * volume;
-        let weight_sums: Vec<f64> = (0..x.len())
-            .map(|i| horizons.of(i).iter().map(|&j| weight(i, j)).sum())
+        let moduli = c.moduli;
+        let (volume, delta) = (c.volume, c.delta);
+        let weight = |b: usize| influence(bonds.born[b], delta) * volume;
+        let weight_sums: Vec<f64> = (0..bonds.len())
+            .map(|i| bonds.row(i).map(weight).sum())
             .collect();
         let factor = |i: usize| moduli.bulk_weight.map_or(1.0, |bulk| bulk / weight_sums[i]);
         // The extra stiffness of the dilatation term in the global matrix (N/m per bond).
         let mut matrix_extra = Vec::new();
-        for i in 0..x.len() {
-            let neighbors = horizons.of(i);
+        for (i, &weight_sum) in weight_sums.iter().enumerate() {
+            let neighbors = bonds.of(i);
             let mut shape = Matrix3::<f64>::zeros();
-            for &j in neighbors {
-                let xi = x[j as usize] - x[i];
-                let length = xi.norm();
-                let weight = weight(i, j);
+            for b in bonds.row(i) {
+                let j = bonds.indices[b];
+                let xi = bonds.xi[b];
+                let (length, born) = (xi.norm(), bonds.born[b]);
+                let weight = weight(b);
                 shape += xi * xi.transpose() * weight;
                 // V_i V_j w / |xi|^2 (m): times mu or lam (Pa), a stiffness in N/m.
-                let k =
-                    volume * weight / (length * length) * (0.5 * (factor(i) + factor(j as usize)));
+                let k = volume * weight / (born * born) * (0.5 * (factor(i) + factor(j as usize)));
                 self.bonds.push(BondRest {
                     xi: xi.map(T::of),
                     length: T::of(length),
                     weight: T::of(weight),
                     k_dev: T::of(2.0 * moduli.mu * k),
                     k_iso: T::of(moduli.lam * k),
-                    share: T::of(weight / (weight_sums[i] * length)),
+                    share: T::of(weight / (weight_sum * length)),
                 });
                 // The dilatation term's Hessian is the rank-one `9 kappa V_i a a^T` over the
                 // bonds' extensions (`a_j = w V_j / (A_i |xi_j|)`); its bond-diagonal part
                 // scaled by `A_i / (w V_j)` bounds it from above (Jensen) and equals it
                 // under a uniform dilation. A negative `kappa` only softens: nothing added.
                 matrix_extra.push(
-                    9.0 * moduli.kappa.max(0.0) * volume * weight
-                        / (weight_sums[i] * length * length),
+                    9.0 * moduli.kappa.max(0.0) * volume * weight / (weight_sums[i] * born * born),
                 );
                 self.indices.push(j + base);
-                let back = horizons.of(j as usize).binary_search(&(i as u32));
+                let back = bonds.of(j as usize).binary_search(&(i as u32));
                 let back = back.map_err(|_| invalid!("horizons are not symmetric"))?;
                 self.reverse
-                    .push(bond_base + horizons.offsets[j as usize] + back as u32);
+                    .push(bond_base + bonds.offsets[j as usize] + back as u32);
             }
             self.offsets.push(self.indices.len() as u32);
-            let inverse = shape_inverse(&shape)
-                .ok_or_else(|| flat_neighbourhood(i, neighbors.len(), delta))?;
+            let inverse = match shape_inverse(&shape) {
+                Some(inverse) => inverse,
+                None if c.plastic => Matrix3::zeros(),
+                None => return Err(flat_neighbourhood(i, neighbors.len(), delta)),
+            };
             self.shape_inverse.push(inverse.map(T::of));
             self.dilatation.push(T::of(9.0 * moduli.kappa * volume));
-            self.mass.push(T::of(body.density() * volume));
-            self.margin.push(T::of(body.margin()));
+            self.mass.push(T::of(c.density * volume));
+            self.margin.push(T::of(c.margin));
         }
         // The global matrix's weights, once every reverse bond is there.
         let first = bond_base as usize;

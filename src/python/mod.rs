@@ -13,6 +13,7 @@ mod membrane;
 mod options;
 mod particle_body;
 mod particles;
+mod plasticity;
 mod scalars;
 mod solver;
 mod solver_state;
@@ -35,6 +36,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<membrane::PyMembrane>()?;
     m.add_class::<elastic::PyElastic>()?;
     m.add_class::<particle_body::PyParticles>()?;
+    m.add_class::<plasticity::PyDruckerPrager>()?;
     m.add_class::<collider::PyCollider>()?;
     m.add_class::<collider::PyPlane>()?;
     m.add_class::<collider::PySphere>()?;

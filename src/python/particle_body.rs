@@ -11,6 +11,7 @@ use crate::particles::{ParticleParams, Particles};
 use super::arrays::{indices, to_numpy, to_numpy_1d, vec3s};
 use super::elastic::PyElastic;
 use super::errors::{guard, IntoPyResult};
+use super::plasticity::PyDruckerPrager;
 use super::scalars::Real;
 
 /// An elastic body of particles (He, Wang and Wu 2017) simulated by projective peridynamics.
@@ -42,7 +43,7 @@ fn particle_range(indices: &[i64], n: usize) -> PyResult<()> {
 #[pymethods]
 impl PyParticles {
     #[new]
-    #[pyo3(signature = (positions, *, spacing, density, material, horizon = None))]
+    #[pyo3(signature = (positions, *, spacing, density, material, horizon = None, plasticity = None))]
     fn new(
         py: Python<'_>,
         positions: &Bound<'_, PyAny>,
@@ -50,7 +51,20 @@ impl PyParticles {
         density: Real,
         material: &Bound<'_, PyAny>,
         horizon: Option<Real>,
+        plasticity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let plasticity = plasticity
+            .map(|p| {
+                p.cast::<PyDruckerPrager>()
+                    .map(|d| d.get().inner)
+                    .map_err(|_| {
+                        PyValueError::new_err(format!(
+                            "plasticity must be None or a peridyn.DruckerPrager, got {}",
+                            p.get_type().name().map_or("?".into(), |n| n.to_string())
+                        ))
+                    })
+            })
+            .transpose()?;
         let params = ParticleParams {
             spacing: spacing.get("spacing")?,
             density: density.get("density")?,
@@ -70,7 +84,13 @@ impl PyParticles {
                 .inner,
         };
         let x = vec3s(positions, "positions", None)?;
-        let body = py.detach(|| guard("Particles()", || Particles::new(x, params)))?;
+        let body = py.detach(|| {
+            guard("Particles()", || {
+                let mut body = Particles::new(x, params)?;
+                body.set_plasticity(plasticity)?;
+                Ok(body)
+            })
+        })?;
         Ok(Self {
             inner: Arc::new(Mutex::new(body)),
         })
@@ -140,10 +160,35 @@ impl PyParticles {
     fn particle_mass(&self) -> f64 {
         self.lock().particle_mass()
     }
-    /// CSR (offsets, indices) of every particle's neighbours within the horizon (int64).
+    /// The plastic law, or None for an elastic body.
+    #[getter]
+    fn plasticity(&self) -> Option<PyDruckerPrager> {
+        self.lock()
+            .plasticity()
+            .map(|&inner| PyDruckerPrager { inner })
+    }
+    /// For a plastic body, (sqrt_J2, strength) per particle (Pa, float64 arrays): the
+    /// Drucker-Prager measure `sqrt(J2)` and `A + B I1` at the current positions and
+    /// reference bonds (NaN for a particle without a three-dimensional neighbourhood); it
+    /// yields where `sqrt_J2 > strength`. None for an elastic body.
+    fn yield_state<'py>(&self, py: Python<'py>) -> Option<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let states = self.lock().yield_states()?;
+        let pick = |f: fn(&crate::particles::YieldState) -> f64| {
+            states
+                .iter()
+                .map(|s| s.as_ref().map_or(f64::NAN, f))
+                .collect::<Vec<f64>>()
+        };
+        Some((
+            to_numpy_1d(py, pick(|s| s.sqrt_j2)),
+            to_numpy_1d(py, pick(|s| s.strength)),
+        ))
+    }
+    /// CSR (offsets, indices) of every particle's neighbours (int64): within the horizon at
+    /// rest, or for a plastic body the bonds it has now (searched on deformed positions).
     fn neighborhood<'py>(&self, py: Python<'py>) -> (Bound<'py, PyAny>, Bound<'py, PyAny>) {
         let p = self.lock();
-        let h = p.horizons();
+        let h = p.current_rest_bonds();
         (
             to_numpy_1d(py, h.offsets.iter().map(|&o| o as i64).collect()),
             to_numpy_1d(py, h.indices.iter().map(|&o| o as i64).collect()),

@@ -642,6 +642,8 @@ impl PyStepStats {
             ("kernel", t.kernel),
             ("colliders", t.colliders),
             ("finish", t.finish),
+            ("plasticity", t.plasticity),
+            ("neighbours", t.neighbours),
             ("total", t.total),
         ] {
             d.set_item(k, v)?;

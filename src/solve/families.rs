@@ -65,6 +65,9 @@ impl<T: Real> Families<T> {
         }
         if let Some(p) = &self.particles {
             p.points.store(&mut bodies.particles);
+            if let Some(plastic) = &p.plastic {
+                plastic.store(&mut bodies.particles);
+            }
         }
     }
 

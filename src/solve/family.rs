@@ -14,7 +14,7 @@ use crate::real::Real;
 use super::energy::inertial_energy;
 use super::points::Points;
 use super::update::{MoveOptions, Update};
-use super::{Acceleration, SolverParams};
+use super::{Acceleration, SolverParams, Timings};
 
 /// A body kind's part of the time step.
 pub(crate) trait Family<T: Real>: Send {
@@ -48,7 +48,7 @@ pub(crate) trait Family<T: Real>: Send {
     /// Work at the end of a converged or finished step, after `finish` and before the state
     /// goes back to the bodies: where plasticity updates rest shapes and neighbourhoods are
     /// rebuilt. Nothing for membranes.
-    fn end_step(&mut self) -> Result<()> {
+    fn end_step(&mut self, _timings: &mut Timings) -> Result<()> {
         Ok(())
     }
 }

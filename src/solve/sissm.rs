@@ -502,7 +502,7 @@ impl<T: Real> Solver<T> {
         }
         for family in families.each() {
             family.points_mut().finish(h);
-            family.end_step()?;
+            family.end_step(&mut timings)?;
         }
         families.store(&mut by_kind);
         timings.finish = millis(t);

@@ -15,8 +15,14 @@ pub struct Timings {
     pub kernel: f64,
     /// Collider projection (local step).
     pub colliders: f64,
-    /// Velocity update and write-back.
+    /// Velocity update and write-back (with the plastic phases below).
     pub finish: f64,
+    /// Of `finish`: the plastic return of particle bodies and the rebuild of their rest data
+    /// (`t_p` of He et al. 2017, Table 1; 0 without plastic bodies).
+    pub plasticity: f64,
+    /// Of `finish`: the neighbour search of plastic particle bodies on their deformed
+    /// positions (`t_n` of Table 1; 0 without).
+    pub neighbours: f64,
     /// The whole step.
     pub total: f64,
 }

@@ -7,7 +7,7 @@ use crate::solve::energy::inertial_energy;
 use crate::solve::family::Family;
 use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
-use crate::solve::{Acceleration, GlobalSolver, SolverParams};
+use crate::solve::{Acceleration, GlobalSolver, SolverParams, Timings};
 
 use super::step::{global_move, prepare_direct};
 use super::system::ParticleSystem;
@@ -39,6 +39,10 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
             prepare_direct(self, params.dt)?;
         }
         Ok(())
+    }
+    /// Plasticity and changing neighbourhoods ([`super::plastic`]).
+    fn end_step(&mut self, timings: &mut Timings) -> Result<()> {
+        self.plastic_end_step(timings)
     }
     fn acceleration(&self, params: &SolverParams) -> Acceleration {
         params.global_solver.acceleration(params)

@@ -7,6 +7,7 @@ mod direct;
 mod directions;
 mod evaluation;
 mod family;
+mod plastic;
 mod step;
 mod system;
 

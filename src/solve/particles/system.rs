@@ -11,6 +11,7 @@ use crate::solve::points::Points;
 
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
+use super::plastic::PlasticBodies;
 
 /// The particle family's working set.
 pub(crate) struct ParticleSystem<T: Real> {
@@ -26,6 +27,8 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub direct: Option<DirectSolver>,
     /// Partial sums of the merit (reused).
     pub chunks: Vec<f64>,
+    /// Every body's bonds when some body is plastic ([`super::plastic`]).
+    pub plastic: Option<PlasticBodies>,
 }
 
 impl<T: Real> ParticleSystem<T> {
@@ -44,6 +47,7 @@ impl<T: Real> ParticleSystem<T> {
             scratch: vec![Vector3::zeros(); n],
             direct: None,
             chunks: Vec::new(),
+            plastic: PlasticBodies::of(bodies),
         })
     }
 

@@ -1,0 +1,314 @@
+//! Drucker-Prager plasticity of particle bodies (He et al. 2017, section 5, eq. 14-19 as
+//! corrected in DESIGN.md section 6): the yield test on each particle's bond strain state and
+//! the return that moves its reference bonds, once per step after the local-global solve.
+//!
+//! **Strain state.** Particle `i`'s bond `b` has the strain `e_b = |Y_b| / |X_b| - 1`; with
+//! the bonds' weights `w_b = w(born_b) V_j` and `W = sum w_b`, `e_iso = sum w_b e_b / W`
+//! (eq. 16 normalised), `e_dev,b = e_b - e_iso` and `||e_dev|| = sqrt(sum w_b e_dev,b^2 / W)`.
+//!
+//! **Invariants (eq. 17, beyond the paper).** The paper's `I1 = -lam e_iso`, `J2 = mu int
+//! e_dev^2` are dimensionally wrong and use its `mu`, `lam`, which are not Lame parameters.
+//! Here they are the continuum's for the body's Young's modulus `E` and Poisson ratio `nu`
+//! (shear modulus `G`, bulk modulus `K`): under a small affine strain `eps` each bond's strain
+//! is `n . eps n`, whose mean over directions is `tr eps / 3` and whose deviatoric part has
+//! the mean square `2/15 |eps_dev|^2`, so `I1 = tr sigma = -9 K e_iso` (positive in
+//! compression) and `sqrt(J2) = sqrt(|s|^2 / 2) = sqrt(15) G ||e_dev||`. The cohesion and the
+//! friction angle then mean what they mean for a continuum (with `phi = 0`, a bar in tension
+//! yields at the stress `2 c`, as Tresca's does).
+//!
+//! **Yield (eq. 14-15): the inner cone.** `sqrt(J2) <= A + B I1` with
+//! `A = 6 c cos phi / (sqrt 3 (3 + sin phi))`, `B = 2 sin phi / (sqrt 3 (3 + sin phi))`: the
+//! cone through Mohr-Coulomb's extension corners, inside the Mohr-Coulomb pyramid (the outer
+//! cone, `3 - sin phi`, would allow more). Hardening raises the cohesion linearly:
+//! `c = c_0 + H eps_p` with the accumulated plastic strain `eps_p`, explicit (the return uses
+//! the cohesion from before it).
+//!
+//! **Return (eq. 18, corrected).** With `f = A + B I1`: if `f > 0`, `alpha = 0`,
+//! `beta = (sqrt(J2) - f) / sqrt(J2)` (the paper prints the square root over the difference);
+//! else `alpha = f / (B I1)`, `beta = 1` (back to the cone's apex). The co-rotated
+//! displacement `D = Y - R X` (`R` the rotation of `F_i`) splits into `D_iso = e_iso R X` (per
+//! bond: the paper prints a single vector) and `D_dev = D - D_iso`, and the bond's new
+//! reference vector points along `R X + alpha D_iso + beta D_dev` (eq. 19). That update takes
+//! the strain out to first order only; here each new `X` gets the length that leaves the bond
+//! exactly the strain `e'_b = (1 - alpha) e_iso + (1 - beta) e_dev,b`, so that after the
+//! return `e'_iso = (1 - alpha) e_iso` and `||e'_dev|| = (1 - beta) ||e_dev||`: the state lies
+//! on the yield surface up to round-off (a departure from the paper, whose state drifts off
+//! the surface by the square of the strain).
+
+use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
+
+use crate::error::{check_param, invalid, Result};
+
+use super::deformation::{shape_inverse, uninverted};
+use super::elastic::Elastic;
+use super::influence::influence;
+use super::rest_bonds::RestBonds;
+
+/// A Drucker-Prager plastic law for a particle body.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DruckerPrager {
+    /// Internal friction angle `phi` (degrees, in [0, 90)).
+    pub friction_angle: f64,
+    /// Cohesion `c` (Pa, >= 0; > 0 when `phi = 0`).
+    pub cohesion: f64,
+    /// Hardening modulus `H` (Pa, >= 0): the cohesion grows by `H` per unit of accumulated
+    /// plastic strain. 0 (the paper): perfectly plastic.
+    pub hardening: f64,
+    /// Whether the body's neighbours are searched anew on its deformed positions after every
+    /// step (eq. 20, [`super::neighbour_rebuild`]); without it the body keeps its bonds.
+    pub rebuild_neighbours: bool,
+}
+
+impl DruckerPrager {
+    /// Checks the parameters, naming the bad one.
+    pub fn validate(&self) -> Result<()> {
+        check_param(
+            "friction_angle",
+            self.friction_angle,
+            |v| (0.0..90.0).contains(&v),
+            "an angle in [0, 90) degrees",
+        )?;
+        check_param("cohesion", self.cohesion, |v| v >= 0.0, "a stress >= 0 Pa")?;
+        check_param(
+            "hardening",
+            self.hardening,
+            |v| v >= 0.0,
+            "a modulus >= 0 Pa",
+        )?;
+        if self.cohesion == 0.0 && self.friction_angle == 0.0 {
+            return Err(invalid!(
+                "cohesion = 0 Pa with friction_angle = 0 degrees has no strength at all: give \
+                 one of them a positive value"
+            ));
+        }
+        Ok(())
+    }
+
+    /// `A` (Pa) and `B` (dimensionless) of eq. 15, the inner cone, for the cohesion `c` (Pa).
+    pub fn cone(&self, c: f64) -> (f64, f64) {
+        let (sin, cos) = self.friction_angle.to_radians().sin_cos();
+        let d = 3f64.sqrt() * (3.0 + sin);
+        (6.0 * c * cos / d, 2.0 * sin / d)
+    }
+}
+
+/// The continuum shear and bulk moduli `G`, `K` (Pa) of an elastic particle material, which
+/// the invariants of the yield test are measured with (see the module's doc): from `E`, `nu`
+/// as asked, or for the paper's parameters `E = (2 mu + lam) / 6` and `nu = 1/4`.
+pub fn shear_and_bulk(material: &Elastic) -> (f64, f64) {
+    let (e, nu) = match *material {
+        Elastic::Young { e, nu } => (e, nu),
+        Elastic::Paper { mu, lam } => ((2.0 * mu + lam) / 6.0, 0.25),
+    };
+    (e / (2.0 * (1.0 + nu)), e / (3.0 * (1.0 - 2.0 * nu)))
+}
+
+/// What a particle's bonds say at the positions `y`: its deformation gradient, the weighted
+/// mean and RMS deviation of its bond strains, and the strains themselves.
+pub(crate) struct LocalStrain {
+    /// `F_i` from the current reference bonds, inversion turned back (dimensionless).
+    pub f: Matrix3<f64>,
+    /// `e_iso` and `||e_dev||` (dimensionless).
+    pub iso: f64,
+    pub dev: f64,
+    /// `W = sum_b w_b` (dimensionless).
+    pub weight: f64,
+}
+
+/// The weight `w(born) V` of bond `b` of `bonds` for the horizon `delta` and particle
+/// volume `volume` (m, m^3).
+#[inline]
+pub(crate) fn bond_weight(bonds: &RestBonds, b: usize, delta: f64, volume: f64) -> f64 {
+    influence(bonds.born[b], delta) * volume
+}
+
+/// Particle `i`'s [`LocalStrain`] at the positions `y` (m), or `None` where it has no bonds
+/// with weight or its shape matrix is singular.
+pub(crate) fn local_strain(
+    bonds: &RestBonds,
+    i: usize,
+    y: &[Vector3<f64>],
+    delta: f64,
+    volume: f64,
+) -> Option<LocalStrain> {
+    let (mut shape, mut sum) = (Matrix3::zeros(), Matrix3::zeros());
+    let (mut weight, mut mean) = (0.0, 0.0);
+    for b in bonds.row(i) {
+        let (x, w) = (bonds.xi[b], bond_weight(bonds, b, delta, volume));
+        let yb = y[bonds.indices[b] as usize] - y[i];
+        shape += x * x.transpose() * w;
+        sum += yb * x.transpose() * w;
+        weight += w;
+        mean += w * (yb.norm() / x.norm() - 1.0);
+    }
+    if weight <= 0.0 {
+        return None;
+    }
+    let f = uninverted(sum * shape_inverse(&shape)?);
+    let iso = mean / weight;
+    let square: f64 = bonds
+        .row(i)
+        .map(|b| {
+            let e = (y[bonds.indices[b] as usize] - y[i]).norm() / bonds.xi[b].norm() - 1.0;
+            bond_weight(bonds, b, delta, volume) * (e - iso) * (e - iso)
+        })
+        .sum();
+    Some(LocalStrain {
+        f,
+        iso,
+        dev: (square / weight).sqrt(),
+        weight,
+    })
+}
+
+/// The rotation of the polar decomposition of `f` (`U V^T` of its SVD, a proper rotation).
+fn rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
+    let svd = f.svd(true, true);
+    let (Some(mut u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return Matrix3::identity();
+    };
+    if (u * v_t).determinant() < 0.0 {
+        let k = svd.singular_values.imin();
+        u.column_mut(k).neg_mut();
+    }
+    u * v_t
+}
+
+/// A particle's yield measure: `sqrt(J2)` and the cone's `A + B I1` (Pa).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct YieldState {
+    pub sqrt_j2: f64,
+    pub strength: f64,
+}
+
+/// The plastic law of one body with what its yield test needs.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PlasticLaw {
+    pub law: DruckerPrager,
+    /// `G` and `K` (Pa) of [`shear_and_bulk`].
+    pub shear: f64,
+    pub bulk: f64,
+    /// Horizon (m) and particle volume (m^3).
+    pub delta: f64,
+    pub volume: f64,
+}
+
+impl PlasticLaw {
+    /// The yield measure of a [`LocalStrain`] for a particle with the plastic strain `eps_p`.
+    pub fn measure(&self, local: &LocalStrain, eps_p: f64) -> YieldState {
+        let (a, b) = self
+            .law
+            .cone(self.law.cohesion + self.law.hardening * eps_p);
+        let i1 = -9.0 * self.bulk * local.iso;
+        YieldState {
+            sqrt_j2: 15f64.sqrt() * self.shear * local.dev,
+            strength: a + b * i1,
+        }
+    }
+
+    /// Every particle's yield measure at the positions `y` (m; `None` for a particle without
+    /// a three-dimensional weighted neighbourhood).
+    pub fn yield_states(&self, bonds: &RestBonds, y: &[Vector3<f64>]) -> Vec<Option<YieldState>> {
+        (0..bonds.len())
+            .into_par_iter()
+            .map(|i| {
+                local_strain(bonds, i, y, self.delta, self.volume)
+                    .map(|l| self.measure(&l, bonds.plastic_strain[i]))
+            })
+            .collect()
+    }
+
+    /// The return of eq. 18-19 on every particle of `bonds` at the positions `y` (m): moves
+    /// the reference vectors of the particles that yield and adds to their plastic strain.
+    /// Returns how many yielded. Each particle's update is computed alone (in parallel), so
+    /// the result does not depend on the number of threads.
+    pub fn apply(&self, bonds: &mut RestBonds, y: &[Vector3<f64>]) -> usize {
+        let updates: Vec<Option<(Vec<Vector3<f64>>, f64)>> = (0..bonds.len())
+            .into_par_iter()
+            .map(|i| self.particle_return(bonds, i, y))
+            .collect();
+        let mut yielded = 0;
+        for (i, update) in updates.into_iter().enumerate() {
+            if let Some((xi, strain)) = update {
+                let row = bonds.row(i);
+                bonds.xi[row].copy_from_slice(&xi);
+                bonds.plastic_strain[i] += strain;
+                yielded += 1;
+            }
+        }
+        yielded
+    }
+
+    /// Particle `i`'s new reference vectors and plastic strain increment, if it yields.
+    fn particle_return(
+        &self,
+        bonds: &RestBonds,
+        i: usize,
+        y: &[Vector3<f64>],
+    ) -> Option<(Vec<Vector3<f64>>, f64)> {
+        let local = local_strain(bonds, i, y, self.delta, self.volume)?;
+        let state = self.measure(&local, bonds.plastic_strain[i]);
+        if state.sqrt_j2 <= state.strength {
+            return None;
+        }
+        let f = state.strength;
+        let i1 = -9.0 * self.bulk * local.iso;
+        let (_, b) = self.law.cone(0.0);
+        let (alpha, beta) = if f > 0.0 {
+            (0.0, (state.sqrt_j2 - f) / state.sqrt_j2)
+        } else if b * i1 != 0.0 {
+            (f / (b * i1), 1.0)
+        } else {
+            (0.0, 1.0)
+        };
+        let r = rotation(&local.f);
+        let mut removed = 0.0;
+        let xi = bonds
+            .row(i)
+            .map(|b| {
+                let (x, yb) = (bonds.xi[b], y[bonds.indices[b] as usize] - y[i]);
+                let e = yb.norm() / x.norm() - 1.0;
+                let target = (1.0 - alpha) * local.iso + (1.0 - beta) * (e - local.iso);
+                let w = bond_weight(bonds, b, self.delta, self.volume);
+                removed += w * (e - target) * (e - target);
+                let rx = r * x;
+                let d = yb - rx;
+                let d_iso = rx * local.iso;
+                let along = rx + d_iso * alpha + (d - d_iso) * beta;
+                let length = yb.norm() / (1.0 + target);
+                // A bond squeezed to nothing keeps its vector (no direction to give it).
+                if along.norm() > 0.0 && length > 1e-6 * bonds.born[b] {
+                    along * (length / along.norm())
+                } else {
+                    x
+                }
+            })
+            .collect();
+        Some((xi, (removed / local.weight).sqrt()))
+    }
+}
+
+impl PlasticLaw {
+    /// The law of a plastic body (`None` for an elastic one).
+    pub fn of(body: &super::Particles) -> Option<Self> {
+        let (shear, bulk) = shear_and_bulk(&body.params().material);
+        body.plasticity().map(|&law| Self {
+            law,
+            shear,
+            bulk,
+            delta: body.horizon(),
+            volume: body.volume(),
+        })
+    }
+}
+
+impl super::Particles {
+    /// Every particle's yield measure (Pa) at the current positions with the current
+    /// reference bonds (`None` for a particle without a three-dimensional neighbourhood), or
+    /// `None` for an elastic body.
+    pub fn yield_states(&self) -> Option<Vec<Option<YieldState>>> {
+        let law = PlasticLaw::of(self)?;
+        Some(law.yield_states(&self.current_rest_bonds(), self.positions()))
+    }
+}

@@ -1,0 +1,237 @@
+//! Tests of Drucker-Prager plasticity and changing neighbourhoods (He et al. 2017, section 5).
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::{
+    rebuild_neighbours, DruckerPrager, Elastic, ParticleParams, ParticleRest, Particles, PlasticLaw,
+};
+use crate::solve::{BodyMut, GlobalSolver, Solver, SolverParams};
+
+fn lattice(n: [usize; 3], spacing: f64) -> Vec<Vector3<f64>> {
+    let mut out = Vec::new();
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                out.push(Vector3::new(i as f64, j as f64, k as f64) * spacing);
+            }
+        }
+    }
+    out
+}
+
+fn law(friction_angle: f64, cohesion: f64, rebuild: bool) -> DruckerPrager {
+    DruckerPrager {
+        friction_angle,
+        cohesion,
+        hardening: 0.0,
+        rebuild_neighbours: rebuild,
+    }
+}
+
+fn body(n: [usize; 3], plastic: Option<DruckerPrager>) -> Particles {
+    let params = ParticleParams {
+        spacing: 0.01,
+        density: 1000.0,
+        horizon: None,
+        material: Elastic::Young { e: 1e5, nu: 0.3 },
+    };
+    let mut b = Particles::new(lattice(n, 0.01), params).unwrap();
+    b.set_plasticity(plastic).unwrap();
+    b
+}
+
+/// After the return every particle that yielded lies on the yield surface,
+/// `|sqrt(J2) - (A + B I1)| <= 1e-3 sqrt(J2)` before the return (both branches of eq. 18: a
+/// shear with `A + B I1 > 0`, and a strong dilation of a frictional body past the cone's
+/// apex), and none lies outside it.
+#[test]
+fn the_return_puts_the_state_on_the_yield_surface() {
+    let shear = Matrix3::new(1.0, 0.06, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.97);
+    let dilation = Matrix3::identity() * 1.08 + shear - Matrix3::identity();
+    for (name, dp, f) in [
+        ("shear", law(20.0, 300.0, false), shear),
+        ("dilation", law(30.0, 50.0, false), dilation),
+    ] {
+        let b = body([6, 6, 6], Some(dp));
+        let y: Vec<Vector3<f64>> = b
+            .reference()
+            .iter()
+            .enumerate()
+            .map(|(i, x)| f * x + Vector3::new(0.0, 0.0, 1e-4 * (i as f64 * 0.7).sin()))
+            .collect();
+        let plastic = PlasticLaw::of(&b).unwrap();
+        let mut bonds = b.current_rest_bonds();
+        let before = plastic.yield_states(&bonds, &y);
+        let yielded = plastic.apply(&mut bonds, &y);
+        assert!(yielded > 100, "{name}: {yielded} of 216 yielded");
+        let after = plastic.yield_states(&bonds, &y);
+        let mut apex = 0;
+        for (i, (s0, s1)) in before.iter().zip(&after).enumerate() {
+            let (s0, s1) = (s0.unwrap(), s1.unwrap());
+            if s0.sqrt_j2 <= s0.strength {
+                assert_eq!(
+                    s0, s1,
+                    "{name}: particle {i} did not yield and must not change"
+                );
+                continue;
+            }
+            let tol = 1e-3 * s0.sqrt_j2;
+            assert!(
+                (s1.sqrt_j2 - s1.strength.max(0.0)).abs() <= tol,
+                "{name}: particle {i} at sqrt(J2) {} for A + B I1 {} (before {} {})",
+                s1.sqrt_j2,
+                s1.strength,
+                s0.sqrt_j2,
+                s0.strength
+            );
+            apex += usize::from(s0.strength <= 0.0);
+        }
+        if name == "dilation" {
+            assert!(apex > 0, "the apex branch was not reached");
+        }
+    }
+}
+
+/// Bad parameters are refused, naming the value.
+#[test]
+fn bad_plastic_parameters_are_refused_by_name() {
+    let cases = [
+        (law(-1.0, 1.0, true), "friction_angle"),
+        (law(90.0, 1.0, true), "friction_angle"),
+        (law(f64::NAN, 1.0, true), "friction_angle"),
+        (law(10.0, -5.0, true), "cohesion"),
+        (law(0.0, 0.0, true), "cohesion = 0"),
+        (
+            DruckerPrager {
+                hardening: -1.0,
+                ..law(10.0, 1.0, true)
+            },
+            "hardening",
+        ),
+    ];
+    for (dp, name) in cases {
+        let message = dp.validate().unwrap_err().to_string();
+        assert!(message.contains(name), "{message}");
+    }
+}
+
+/// A plastic body's rest data before any step is the elastic body's, bit for bit, and an
+/// elastic body stepped beside a plastic one (whose end of step rebuilds the family's rest
+/// data) moves exactly as it does alone (with a fixed count of plain Jacobi iterations
+/// without line search, so that the bodies do not share a convergence test or step length).
+#[test]
+fn an_elastic_body_is_unchanged_by_plasticity_beside_it() {
+    let (elastic, plastic) = (
+        body([4, 4, 5], None),
+        body([4, 4, 5], Some(law(0.0, 100.0, true))),
+    );
+    let (a, b) = (
+        ParticleRest::<f64>::of_bodies(&[&elastic]).unwrap(),
+        ParticleRest::<f64>::of_bodies(&[&plastic]).unwrap(),
+    );
+    assert_eq!(a.coupling, b.coupling);
+    assert_eq!(a.shape_inverse, b.shape_inverse);
+    let run = |with_plastic: bool| {
+        let mut e = body([4, 4, 5], None);
+        e.set_velocities(vec![Vector3::new(0.3, -0.2, 0.5); e.num_particles()])
+            .unwrap();
+        e.pin(&[0], None).unwrap();
+        let mut p = body([4, 4, 5], Some(law(0.0, 100.0, true)));
+        p.pin(&[0], None).unwrap();
+        p.set_velocities(vec![Vector3::new(0.0, 0.0, 1.0); p.num_particles()])
+            .unwrap();
+        let params = SolverParams {
+            global_solver: GlobalSolver::Jacobi,
+            step_length: false,
+            tol: 0.0,
+            max_iters: 30,
+            ..SolverParams::default()
+        };
+        let mut s = Solver::<f64>::new(params, Some(1)).unwrap();
+        for _ in 0..5 {
+            if with_plastic {
+                s.step(&mut [BodyMut::from(&mut e), BodyMut::from(&mut p)])
+                    .unwrap();
+            } else {
+                s.step(&mut [BodyMut::from(&mut e)]).unwrap();
+            }
+        }
+        assert!(e.rest_bonds().is_none(), "an elastic body keeps its bonds");
+        assert_eq!(p.rest_bonds().is_some(), with_plastic);
+        e.positions().to_vec()
+    };
+    assert!(run(false) == run(true));
+}
+
+/// A plastic body with changing neighbourhoods, stepped with one and with two threads, in f32
+/// and f64: the same bits, for Chebyshev and the direct solver.
+#[test]
+fn plastic_steps_are_the_same_for_any_thread_count() {
+    fn check<T: crate::real::Real>(solver: GlobalSolver) {
+        let run = |threads| {
+            let mut b = body([5, 5, 8], Some(law(10.0, 50.0, true)));
+            b.pin(&[0, 1, 2, 3, 4], None).unwrap();
+            b.set_velocities(vec![Vector3::new(0.2, 0.0, 0.5); b.num_particles()])
+                .unwrap();
+            let p = SolverParams {
+                dt: 0.01,
+                global_solver: solver,
+                max_iters: 20,
+                ..SolverParams::default()
+            };
+            let mut s = Solver::<T>::new(p, Some(threads)).unwrap();
+            for _ in 0..6 {
+                s.step(&mut [BodyMut::from(&mut b)]).unwrap();
+            }
+            assert!(b
+                .positions()
+                .iter()
+                .all(|p| p.iter().all(|c| c.is_finite())));
+            let bonds = b.rest_bonds().expect("stepped").clone();
+            assert!(
+                bonds.plastic_strain.iter().any(|&e| e > 0.0),
+                "nothing yielded"
+            );
+            (b.positions().to_vec(), bonds)
+        };
+        assert!(run(1) == run(2), "{} {solver:?}", T::NAME);
+    }
+    for solver in [GlobalSolver::Chebyshev, GlobalSolver::Direct] {
+        check::<f32>(solver);
+        check::<f64>(solver);
+    }
+}
+
+/// A new neighbour's reference vector comes from the clamped inverse map (eq. 20): under a
+/// uniform stretch `F = diag(1.3, 1, 1)` already taken up plastically (the bonds' `X` are the
+/// stretched ones), the neighbours that come within the horizon get `X = y_j - y_i` (the
+/// rest state is the stretched one); and the pairs that left the horizon lose their bonds.
+#[test]
+fn new_neighbours_get_reference_vectors_from_the_inverse_map() {
+    let b = body([6, 6, 6], Some(law(0.0, 100.0, true)));
+    let f = Matrix3::from_diagonal(&Vector3::new(1.3, 1.0, 0.8));
+    let y: Vec<Vector3<f64>> = b.reference().iter().map(|x| f * x).collect();
+    let mut bonds = b.current_rest_bonds();
+    for i in 0..bonds.len() {
+        for k in bonds.row(i) {
+            bonds.xi[k] = y[bonds.indices[k] as usize] - y[i];
+        }
+    }
+    let rebuilt = rebuild_neighbours(&bonds, &y, b.horizon(), b.volume())
+        .unwrap()
+        .expect("the neighbours changed");
+    let mut new = 0;
+    for i in 0..rebuilt.len() {
+        for k in rebuilt.row(i) {
+            let j = rebuilt.indices[k] as usize;
+            let d = y[j] - y[i];
+            assert!(d.norm() < b.horizon());
+            assert!(
+                (rebuilt.xi[k] - d).norm() < 1e-12,
+                "particle {i} bond to {j}"
+            );
+            new += usize::from(bonds.of(i).binary_search(&(j as u32)).is_err());
+        }
+    }
+    assert!(new > 0, "no new neighbour");
+}

@@ -1,0 +1,134 @@
+//! The end of a step for plastic particle bodies (He et al. 2017, section 5): once the
+//! local-global solve has finished, as the paper does it, the return of eq. 18-19 moves the
+//! reference bonds of the particles that yield, then the neighbours of bodies that ask for
+//! it are searched on the deformed positions (eq. 20), and the rest data the next step
+//! solves with is rebuilt from the new bonds. Each phase is timed (`Timings::plasticity`,
+//! `Timings::neighbours`: the columns `t_p` and `t_n` of the paper's Table 1).
+//!
+//! The bonds of every body of the family are kept here in f64 (the master copy, whatever the
+//! solver's precision), and the plastic bodies' go back into the bodies with their state
+//! ([`PlasticBodies::store`]). An elastic body's bonds are never changed: its rest data comes
+//! out of the rebuild bit for bit as before.
+
+use std::ops::Range;
+use std::time::Instant;
+
+use nalgebra::Vector3;
+
+use crate::error::Result;
+use crate::particles::{
+    rebuild_neighbours, ParticleRest, Particles, PlasticLaw, RestBonds, RestConstants,
+};
+use crate::real::Real;
+use crate::solve::Timings;
+
+use super::evaluation::Evaluation;
+use super::system::ParticleSystem;
+
+/// One body of the family as the plastic end of a step sees it.
+struct Entry {
+    bonds: RestBonds,
+    constants: RestConstants,
+    /// `None` for an elastic body.
+    law: Option<PlasticLaw>,
+    /// The body's particles in the family.
+    range: Range<usize>,
+}
+
+/// Every body's bonds, when at least one body of the family is plastic.
+pub(crate) struct PlasticBodies {
+    entries: Vec<Entry>,
+    /// The family's positions in f64 (reused).
+    y: Vec<Vector3<f64>>,
+}
+
+impl PlasticBodies {
+    /// The bonds of `bodies`, or `None` when none is plastic (nothing to do at a step's end).
+    pub fn of(bodies: &[&mut Particles]) -> Option<Self> {
+        if bodies.iter().all(|b| b.plasticity().is_none()) {
+            return None;
+        }
+        let mut start = 0;
+        let entries = bodies
+            .iter()
+            .map(|b| {
+                let range = start..start + b.num_particles();
+                start = range.end;
+                Entry {
+                    bonds: b.current_rest_bonds(),
+                    constants: RestConstants::of(b),
+                    law: PlasticLaw::of(b),
+                    range,
+                }
+            })
+            .collect();
+        Some(Self {
+            entries,
+            y: vec![Vector3::zeros(); start],
+        })
+    }
+
+    /// Writes the plastic bodies' bonds back into them.
+    pub fn store(&self, bodies: &mut [&mut Particles]) {
+        for (entry, body) in self.entries.iter().zip(bodies) {
+            if entry.law.is_some() {
+                body.set_rest_bonds(entry.bonds.clone());
+            }
+        }
+    }
+}
+
+impl<T: Real> ParticleSystem<T> {
+    /// The plastic end of a step at the finished positions (see the module's doc).
+    pub(crate) fn plastic_end_step(&mut self, timings: &mut Timings) -> Result<()> {
+        let Some(plastic) = self.plastic.as_mut() else {
+            return Ok(());
+        };
+        let t = Instant::now();
+        for (y, p) in plastic.y.iter_mut().zip(&self.points.y) {
+            *y = p.map(|c| c.to_f64());
+        }
+        let y = &plastic.y;
+        for entry in &mut plastic.entries {
+            if let Some(law) = &entry.law {
+                law.apply(&mut entry.bonds, &y[entry.range.clone()]);
+            }
+        }
+        timings.plasticity += millis(t);
+        let t = Instant::now();
+        let mut changed = false;
+        for entry in &mut plastic.entries {
+            let Some(law) = entry.law.filter(|l| l.law.rebuild_neighbours) else {
+                continue;
+            };
+            let y = &y[entry.range.clone()];
+            if let Some(bonds) = rebuild_neighbours(&entry.bonds, y, law.delta, law.volume)? {
+                entry.bonds = bonds;
+                changed = true;
+            }
+        }
+        timings.neighbours += millis(t);
+        let t = Instant::now();
+        let sources: Vec<(&RestBonds, RestConstants)> = plastic
+            .entries
+            .iter()
+            .map(|e| (&e.bonds, e.constants))
+            .collect();
+        self.rest = ParticleRest::of_bonds(&sources)?;
+        if changed {
+            let (n, bonds) = (self.rest.len(), self.rest.indices.len());
+            self.current = Evaluation::new(n, bonds);
+            self.trial = Evaluation::new(n, bonds);
+            self.direct = None;
+        } else {
+            self.current.valid = false;
+            self.trial.valid = false;
+        }
+        timings.plasticity += millis(t);
+        Ok(())
+    }
+}
+
+fn millis(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
