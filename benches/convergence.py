@@ -20,7 +20,10 @@ are listed in the JSON as skipped. Newton (``method="newton"``, f64 and f32) run
 ``--newton-iters`` iterations (each a CG solve) and is one of the references, since on the
 stiff cloth the SISSM references do not converge. Besides iterations x mean ms/iteration, the
 time to eta 1e-2 / 1e-3 / 1e-4 is measured directly: the step rerun stopped at the first
-iteration that reaches it (``ms_to_eta_<thr>_measured``). ``--only`` picks variants by name. The descent's wall time includes its Hessian diagonal, which
+iteration that reaches it (``ms_to_eta_<thr>_measured``). ``--only`` picks variants by name, ``--references`` the references. f32 runs
+of at most ``F32_REEVAL_MAX_ITERS`` iterations get their energies re-evaluated in f64 from their
+iterates (the solver's own f32 sums cannot resolve eta below a few percent on the stiff step;
+the f32 sums are kept as ``energies_f32_sums``), and Newton runs record ``linear_products``. The descent's wall time includes its Hessian diagonal, which
 peridyn computes by central differences of the exact gradient (6 (n+1) kernel evaluations per
 vertex): it measures this implementation, not what an analytic diagonal would cost.
 

@@ -62,3 +62,16 @@ def test_newton_takes_the_same_implicit_euler_steps_as_sissm(scene):
     m0, _ = scene("sissm")
     assert np.abs(a - m0.positions).max() > 1e-3
     assert np.abs(a - b).max() < 1e-9
+
+
+def test_linear_products_count_newtons_cg_only():
+    """StepStats.linear_products: the Newton step's CG products (at least one per Newton
+    iteration that moved), zero for SISSM."""
+    counts = {}
+    for method in ("sissm", "newton"):
+        m, sol = cantilever(method)
+        st = sol.step()
+        assert st.converged
+        counts[method] = (st.linear_products, st.iterations)
+    assert counts["sissm"][0] == 0
+    assert counts["newton"][0] >= counts["newton"][1] - 1 > 0
