@@ -23,8 +23,7 @@ pub fn particle_kernel<T: Real>(
     let row = rest.row(i);
     let neighbors = &rest.indices[row.clone()];
     let bonds = &rest.bonds[row];
-    let (f, strain) =
-        deformation_and_strain(i, neighbors, bonds, &rest.shape_inverse[i], y);
+    let (f, strain) = deformation_and_strain(i, neighbors, bonds, &rest.shape_inverse[i], y);
     let pressure = rest.dilatation[i] * strain;
     let mut energy = T::of(0.5) * pressure * strain;
     for ((&j, bond), out) in neighbors.iter().zip(bonds).zip(bond_out) {

@@ -81,7 +81,10 @@ impl DirectSolver {
         let slot = |row: usize, col: usize| {
             let rows = matrix.symbolic().row_idx_of_col_raw(col);
             let start = matrix.symbolic().col_ptr()[col];
-            start + rows.binary_search(&row).expect("in the pattern built above")
+            start
+                + rows
+                    .binary_search(&row)
+                    .expect("in the pattern built above")
         };
         let diagonal_slot = (0..n).map(|i| slot(i, i)).collect();
         let mut bond_slot = vec![UPPER; rest.indices.len()];
@@ -128,8 +131,7 @@ impl DirectSolver {
         let h2 = h * h;
         let values = self.matrix.val_mut();
         for i in 0..held.len() {
-            values[self.diagonal_slot[i]] =
-                rest.mass[i].to_f64() + h2 * rest.stiffness[i].to_f64();
+            values[self.diagonal_slot[i]] = rest.mass[i].to_f64() + h2 * rest.stiffness[i].to_f64();
             for b in rest.row(i) {
                 let slot = self.bond_slot[b];
                 if slot != UPPER {

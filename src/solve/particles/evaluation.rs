@@ -81,7 +81,8 @@ impl<T: Real> Evaluation<T> {
         let eps = T::default_epsilon().to_f64();
         chunked_sum(at.len(), chunks, |i| {
             let m = mass[i].to_f64();
-            let size = m * (star[i].norm() + at[i].norm()).to_f64() + (force[i].norm() * h2).to_f64();
+            let size =
+                m * (star[i].norm() + at[i].norm()).to_f64() + (force[i].norm() * h2).to_f64();
             (eps * size).powi(2) / m
         })
     }
