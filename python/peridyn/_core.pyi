@@ -591,6 +591,12 @@ class StepStats:
     def timings(self) -> dict:
         """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish' (of which 'plasticity': the plastic return and rest rebuild of plastic particle bodies, and 'neighbours': their neighbour search on deformed positions; t_p and t_n of He et al. 2017, Table 1), 'total'."""
     @property
+    def particles(self) -> dict:
+        """The particle bodies' share of the step (zeros without them), from its start:
+        milliseconds 'kernel_ms', 'residual_ms', 'solve_ms', 'line_search_ms', 'project_ms';
+        'evaluations' (kernel passes, line search trials included) and 'factorizations' (of
+        the direct solver's matrix)."""
+    @property
     def contact(self) -> dict:
         """Contact figures (zeros when contact is off): 'candidate_pairs' (triangle pairs of
         the broad phase's last build, largest over the iterations), 'box_pairs' (the triangle

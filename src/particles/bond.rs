@@ -22,11 +22,10 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::real::Real;
 
-/// `|len| dir(v)`: `v` scaled to the length `len` (m); `fallback` (already of length `len`)
-/// where `v` has no direction.
+/// `|len| dir(v)` for `v` of norm `norm`: `v` scaled to the length `len` (m); `fallback`
+/// (already of length `len`) where `v` has no direction.
 #[inline(always)]
-fn projected<T: Real>(v: &Vector3<T>, len: T, fallback: Vector3<T>) -> Vector3<T> {
-    let norm = v.norm();
+fn projected<T: Real>(v: &Vector3<T>, norm: T, len: T, fallback: Vector3<T>) -> Vector3<T> {
     if norm > T::zero() {
         v * (len / norm)
     } else {
@@ -60,15 +59,21 @@ pub fn bond_force<T: Real>(
     pressure: T,
 ) -> (Vector3<T>, T) {
     let fxi = f * bond.xi;
+    let (fxi_norm, y_norm) = (fxi.norm(), y.norm());
     let rest_dir = bond.xi;
     // Without a direction (a collapsed bond), each projection takes the other's, then the rest
     // direction.
-    let p_iso = projected(y, bond.length, projected(&fxi, bond.length, rest_dir));
-    let p_dev = projected(&fxi, bond.length, p_iso);
+    let p_iso = projected(
+        y,
+        y_norm,
+        bond.length,
+        projected(&fxi, fxi_norm, bond.length, rest_dir),
+    );
+    let p_dev = projected(&fxi, fxi_norm, bond.length, p_iso);
     let dilatation = p_iso * (pressure * bond.share / bond.length);
     let g = (y - p_dev) * bond.k_dev + (y - p_iso) * bond.k_iso + dilatation;
     let half = T::of(0.5);
-    let dev = fxi.norm() - bond.length;
-    let iso = y.norm() - bond.length;
+    let dev = fxi_norm - bond.length;
+    let iso = y_norm - bond.length;
     (g, half * (bond.k_dev * dev * dev + bond.k_iso * iso * iso))
 }

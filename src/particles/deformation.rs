@@ -22,12 +22,27 @@ pub fn deformation_gradient<T: Real>(
     shape_inverse: &Matrix3<T>,
     y: &[Vector3<T>],
 ) -> Matrix3<T> {
-    let mut sum = Matrix3::zeros();
+    deformation_and_strain(i, neighbors, bonds, shape_inverse, y).0
+}
+
+/// [`deformation_gradient`] and, from the same pass over the bonds (each neighbour's position
+/// read once), particle `i`'s weighted mean bond strain `s_i = sum_j a_j (|Y_j| - |xi_j|)`
+/// (dimensionless; `a_j` the bonds' `share`, see [`super::bond`]).
+#[inline]
+pub fn deformation_and_strain<T: Real>(
+    i: usize,
+    neighbors: &[u32],
+    bonds: &[BondRest<T>],
+    shape_inverse: &Matrix3<T>,
+    y: &[Vector3<T>],
+) -> (Matrix3<T>, T) {
+    let (mut sum, mut strain) = (Matrix3::zeros(), T::zero());
     for (&j, bond) in neighbors.iter().zip(bonds) {
-        let d = (y[j as usize] - y[i]) * bond.weight;
-        sum += d * bond.xi.transpose();
+        let d = y[j as usize] - y[i];
+        sum += (d * bond.weight) * bond.xi.transpose();
+        strain += bond.share * (d.norm() - bond.length);
     }
-    uninverted(sum * shape_inverse)
+    (uninverted(sum * shape_inverse), strain)
 }
 
 /// `F` with an inverted neighbourhood turned back (Irving et al. 2004): where `det F < 0`,

@@ -7,7 +7,7 @@ use crate::parallel::for_each_vertex;
 use crate::real::Real;
 
 use super::bond::bond_force;
-use super::deformation::deformation_gradient;
+use super::deformation::deformation_and_strain;
 use super::rest::ParticleRest;
 
 /// Particle `i`'s kernel at the positions `y` (m): writes the force `g` (N) of each of its
@@ -23,13 +23,7 @@ pub fn particle_kernel<T: Real>(
     let row = rest.row(i);
     let neighbors = &rest.indices[row.clone()];
     let bonds = &rest.bonds[row];
-    let f = deformation_gradient(i, neighbors, bonds, &rest.shape_inverse[i], y);
-    let strain = neighbors
-        .iter()
-        .zip(bonds)
-        .fold(T::zero(), |s, (&j, bond)| {
-            s + bond.share * ((y[j as usize] - y[i]).norm() - bond.length)
-        });
+    let (f, strain) = deformation_and_strain(i, neighbors, bonds, &rest.shape_inverse[i], y);
     let pressure = rest.dilatation[i] * strain;
     let mut energy = T::of(0.5) * pressure * strain;
     for ((&j, bond), out) in neighbors.iter().zip(bonds).zip(bond_out) {

@@ -688,6 +688,29 @@ impl PyStepStats {
         d.set_item("barrier_energy", c.barrier_energy)?;
         Ok(d)
     }
+    /// The particle bodies' share of the step (zeros without them), from its start (the
+    /// initial guess included): milliseconds `kernel_ms` (the local step and forces at the
+    /// iterates), `residual_ms` (the residual of eq. 12 and its merit), `solve_ms` (the global
+    /// solver's move, refactorisations included), `line_search_ms` (the trials of eq. 13),
+    /// `project_ms` (collider projection, extrapolation, measures); `evaluations` (kernel
+    /// passes, trials included) and `factorizations` (of the direct solver's matrix).
+    #[getter]
+    fn particles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let p = &self.inner.particles;
+        let d = PyDict::new(py);
+        for (k, v) in [
+            ("kernel_ms", p.kernel),
+            ("residual_ms", p.residual),
+            ("solve_ms", p.solve),
+            ("line_search_ms", p.line_search),
+            ("project_ms", p.project),
+        ] {
+            d.set_item(k, v)?;
+        }
+        d.set_item("evaluations", p.evaluations)?;
+        d.set_item("factorizations", p.factorizations)?;
+        Ok(d)
+    }
     /// Simulation time after the step (s).
     #[getter]
     fn time(&self) -> f64 {

@@ -51,4 +51,7 @@ pub(crate) trait Family<T: Real>: Send {
     fn end_step(&mut self, _timings: &mut Timings) -> Result<()> {
         Ok(())
     }
+    /// Adds this kind's own figures of the step to `stats` (and starts them afresh). Nothing
+    /// for membranes, whose figures the step measures itself.
+    fn report(&mut self, _stats: &mut super::StepStats) {}
 }

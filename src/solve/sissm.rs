@@ -503,6 +503,7 @@ impl<T: Real> Solver<T> {
         for family in families.each() {
             family.points_mut().finish(h);
             family.end_step(&mut timings)?;
+            family.report(&mut stats);
         }
         families.store(&mut by_kind);
         timings.finish = millis(t);

@@ -27,6 +27,29 @@ pub struct Timings {
     pub total: f64,
 }
 
+/// The particle family's share of a step (all zero without particle bodies): milliseconds
+/// per phase of its work, counted from the start of the step (the initial guess's kernel
+/// passes included), and counts.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ParticleTimings {
+    /// The kernel (He et al. 2017, eq. 8-11: deformation gradients, the bonds' local step and
+    /// forces, gathered per particle) at the iterates, line search trials aside.
+    pub kernel: f64,
+    /// The residual of eq. 12 and its merit at the iterates.
+    pub residual: f64,
+    /// The global solver's move (Jacobi sweeps, averaging, or the direct solve with its
+    /// refactorisations).
+    pub solve: f64,
+    /// The line search's trials (eq. 13), each a kernel pass and a residual.
+    pub line_search: f64,
+    /// The move's collider projection with friction, Chebyshev extrapolation and measures.
+    pub project: f64,
+    /// Kernel passes of the step (at the iterates and at the line search's trials).
+    pub evaluations: usize,
+    /// Numeric factorisations of the direct solver's matrix.
+    pub factorizations: usize,
+}
+
 /// Statistics of one time step.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct StepStats {
@@ -59,6 +82,8 @@ pub struct StepStats {
     /// Newton: Hessian products of its conjugate-gradient solves, summed over the step (0 for
     /// the other methods).
     pub linear_products: usize,
+    /// The particle family's phases and counts.
+    pub particles: ParticleTimings,
 }
 
 impl StepStats {

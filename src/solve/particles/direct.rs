@@ -1,13 +1,26 @@
 //! The direct global solver of the particle family (He et al. 2017, section 4.2 and Fig. 7):
-//! the constant matrix `M + h^2 L` of eq. 12 factored once by a sparse Cholesky
-//! factorisation with a fill-reducing (AMD) ordering (`faer`), and each global step a pair of
-//! triangular solves for the three coordinates.
+//! the matrix `M + h^2 L` of eq. 12 factored by a sparse Cholesky factorisation with a
+//! fill-reducing (AMD) ordering (`faer`), and each global step a pair of triangular solves for
+//! the three coordinates.
 //!
-//! Pinned particles are held: their rows and columns keep only the diagonal, so their move
-//! is zero and the free particles' system is the one with the pins as boundary values. The
-//! factor is rebuilt only when the time step or the set of pinned particles changes (the
-//! bonds of an elastic body never do). It is computed in f64 for either precision (one code
-//! path: the solver's values are converted on the way in and out), sequentially, so its
+//! **Held particles (pins and collider contacts).** A held particle's row and column keep only
+//! their diagonal `D_i = m_i + h^2 L_ii`: the free particles' system is solved with the held
+//! ones where they are (the pins as boundary values), and a held particle takes the Jacobi move
+//! `r_i / D_i` (zero at a pin, whose residual is zero), which the colliders then project with
+//! friction in the same diagonal metric as for the Jacobi solvers. This is the block-Jacobi
+//! splitting `A = B - N` with `B = blockdiag(A_FF, D_H)`: its fixed point is the solution of
+//! `A delta = r` whatever the held set, and since `A` is a strictly diagonally dominant
+//! M-matrix (positive masses, non-positive couplings `-h^2 c_ij`) the splitting is regular and
+//! converges (Varga, Matrix Iterative Analysis, Theorem 3.13). A particle that rests on a
+//! collider must be held: the coupled solve would otherwise spread the collider's support into
+//! the free particles, and the projection that stops the supported particle cannot take it back
+//! (the iteration diverged at the first contact).
+//!
+//! The pattern of the whole matrix and its symbolic factorisation are computed once; a change
+//! of the time step or of the held set only refills the values (held couplings as explicit
+//! zeros) and refactors them numerically in the buffers at hand, so a refactorisation inside
+//! the iterations allocates nothing. The factor is computed in f64 for either precision (one
+//! code path: the solver's values are converted on the way in and out), sequentially, so its
 //! results do not depend on the number of threads.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -16,52 +29,73 @@ use faer::sparse::{SparseColMat, Triplet};
 use faer::{Conj, Mat, Par, Side};
 use nalgebra::Vector3;
 
-use crate::error::{invalid, Result};
+use crate::error::{invalid, Error, Result};
 use crate::particles::ParticleRest;
 use crate::real::Real;
 
-/// A factored `M + h^2 L` and the workspace of its solves.
+/// No slot: the bond's entry is in the upper triangle (its reverse holds it).
+const UPPER: usize = usize::MAX;
+
+/// The pattern of `M + h^2 L`, its symbolic factor, the numeric factor for one time step and
+/// held set, and the workspace of its solves.
 pub(crate) struct DirectSolver {
-    /// The time step (s) and pins it was factored for.
+    /// The time step (s) and held particles the numeric factor is for (`h = NaN`: none yet).
     h: f64,
-    pinned: Vec<bool>,
+    held: Vec<bool>,
+    /// The lower triangle of `M + h^2 L`; per particle the slot of its diagonal and per bond
+    /// the slot of its entry in the values (or [`UPPER`]).
+    matrix: SparseColMat<usize, f64>,
+    diagonal_slot: Vec<usize>,
+    bond_slot: Vec<usize>,
     symbolic: SymbolicCholesky<usize>,
     values: Vec<f64>,
     /// Right-hand sides and solutions, `n x 3` (reused).
     rhs: Mat<f64>,
     scratch: MemBuffer,
+    /// Numeric factorisations since the last [`Self::take_factorizations`].
+    factorizations: usize,
+}
+
+fn failed(e: &dyn std::fmt::Debug) -> Error {
+    invalid!("the direct solver's factorisation failed: {e:?}")
 }
 
 impl DirectSolver {
-    /// Whether the factor is the one for the time step `h` (s) and these pins.
-    pub fn matches(&self, h: f64, pinned: &[bool]) -> bool {
-        self.h == h && self.pinned == pinned
-    }
-
-    /// Factors `M + h^2 L` for the rest data's bonds and masses, `h` in s.
-    pub fn factor<T: Real>(rest: &ParticleRest<T>, h: f64, pinned: &[bool]) -> Result<Self> {
+    /// The pattern of `M + h^2 L` for the rest data's bonds and its symbolic factorisation
+    /// (no numeric factor yet).
+    pub fn new<T: Real>(rest: &ParticleRest<T>) -> Result<Self> {
         let n = rest.len();
-        let h2 = h * h;
         let mut triplets = Vec::with_capacity(n + rest.indices.len() / 2);
         for i in 0..n {
-            let mass = rest.mass[i].to_f64();
-            if pinned[i] {
-                triplets.push(Triplet::new(i, i, mass));
-                continue;
-            }
-            triplets.push(Triplet::new(i, i, mass + h2 * rest.stiffness[i].to_f64()));
+            triplets.push(Triplet::new(i, i, 0.0));
             for b in rest.row(i) {
                 let j = rest.indices[b] as usize;
                 // The lower triangle: each pair once, from its larger index.
-                if j < i && !pinned[j] {
-                    triplets.push(Triplet::new(i, j, -h2 * rest.coupling[b].to_f64()));
+                if j < i {
+                    triplets.push(Triplet::new(i, j, 0.0));
                 }
             }
         }
-        let failed =
-            |e: &dyn std::fmt::Debug| invalid!("the direct solver's factorisation failed: {e:?}");
         let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets)
             .map_err(|e| failed(&e))?;
+        let slot = |row: usize, col: usize| {
+            let rows = matrix.symbolic().row_idx_of_col_raw(col);
+            let start = matrix.symbolic().col_ptr()[col];
+            start
+                + rows
+                    .binary_search(&row)
+                    .expect("in the pattern built above")
+        };
+        let diagonal_slot = (0..n).map(|i| slot(i, i)).collect();
+        let mut bond_slot = vec![UPPER; rest.indices.len()];
+        for i in 0..n {
+            for b in rest.row(i) {
+                let j = rest.indices[b] as usize;
+                if j < i {
+                    bond_slot[b] = slot(i, j);
+                }
+            }
+        }
         let symbolic = factorize_symbolic_cholesky(
             matrix.symbolic(),
             Side::Lower,
@@ -69,36 +103,75 @@ impl DirectSolver {
             Default::default(),
         )
         .map_err(|e| failed(&e))?;
-        let mut values = vec![0.0; symbolic.len_val()];
+        let values = vec![0.0; symbolic.len_val()];
         let factor_scratch =
             symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
         let solve_scratch = symbolic.solve_in_place_scratch::<f64>(3, Par::Seq);
-        let mut scratch = MemBuffer::new(factor_scratch.or(solve_scratch));
-        symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut values,
-                matrix.as_ref(),
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut scratch),
-                Default::default(),
-            )
-            .map_err(|e| failed(&e))?;
         Ok(Self {
-            h,
-            pinned: pinned.to_vec(),
+            h: f64::NAN,
+            held: vec![false; n],
+            matrix,
+            diagonal_slot,
+            bond_slot,
             symbolic,
             values,
             rhs: Mat::zeros(n, 3),
-            scratch,
+            scratch: MemBuffer::new(factor_scratch.or(solve_scratch)),
+            factorizations: 0,
         })
     }
 
-    /// `delta = (M + h^2 L)^-1 r` (m) for the residual `r` (N s^2 = kg m), zero at pins.
+    /// Factors `M + h^2 L` (`h` in s) with the `held` particles' couplings taken out, unless
+    /// the factor at hand is that one; allocates nothing. Fails if the matrix is not positive
+    /// definite (it always is for positive masses and couplings, see the module's doc).
+    pub fn factor<T: Real>(&mut self, rest: &ParticleRest<T>, h: f64, held: &[bool]) -> Result<()> {
+        if self.h == h && self.held == held {
+            return Ok(());
+        }
+        let h2 = h * h;
+        let values = self.matrix.val_mut();
+        for i in 0..held.len() {
+            values[self.diagonal_slot[i]] = rest.mass[i].to_f64() + h2 * rest.stiffness[i].to_f64();
+            for b in rest.row(i) {
+                let slot = self.bond_slot[b];
+                if slot != UPPER {
+                    let j = rest.indices[b] as usize;
+                    values[slot] = if held[i] || held[j] {
+                        0.0
+                    } else {
+                        -h2 * rest.coupling[b].to_f64()
+                    };
+                }
+            }
+        }
+        // Marked stale first: a failed factorisation leaves no usable factor.
+        self.h = f64::NAN;
+        self.factorizations += 1;
+        self.symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut self.values,
+                self.matrix.as_ref(),
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(&mut self.scratch),
+                Default::default(),
+            )
+            .map_err(|e| failed(&e))?;
+        self.h = h;
+        self.held.copy_from_slice(held);
+        Ok(())
+    }
+
+    /// Numeric factorisations since the last call (a measure for [`crate::solve::StepStats`]).
+    pub fn take_factorizations(&mut self) -> usize {
+        std::mem::take(&mut self.factorizations)
+    }
+
+    /// `delta = B^-1 r` (m) for the residual `r` (N s^2 = kg m; zero at pins), with `B` the
+    /// last factor's matrix (see the module's doc).
     pub fn solve<T: Real>(&mut self, residual: &[Vector3<T>], delta: &mut [Vector3<T>]) {
         for (i, r) in residual.iter().enumerate() {
-            let r = if self.pinned[i] { Vector3::zeros() } else { *r };
             for c in 0..3 {
                 self.rhs[(i, c)] = r[c].to_f64();
             }

@@ -7,7 +7,9 @@ use crate::solve::energy::inertial_energy;
 use crate::solve::family::Family;
 use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
-use crate::solve::{Acceleration, GlobalSolver, SolverParams, Timings};
+use crate::solve::{
+    Acceleration, GlobalSolver, ParticleTimings, SolverParams, StepStats, Timings,
+};
 
 use super::step::{global_move, prepare_direct};
 use super::system::ParticleSystem;
@@ -32,17 +34,27 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update {
         global_move(self, h, options)
     }
-    /// Factors the direct solver's matrix when it is asked for and the time step or the pins
-    /// changed.
+    /// Readies the direct solver when it is asked for.
     fn start_step(&mut self, params: &SolverParams) -> Result<()> {
+        self.timings = ParticleTimings::default();
         if params.global_solver == GlobalSolver::Direct {
-            prepare_direct(self, params.dt)?;
+            prepare_direct(self)?;
         }
         Ok(())
     }
-    /// Plasticity and changing neighbourhoods ([`super::plastic`]).
+    /// A failure of the direct solver's factorisation during the step, else plasticity and
+    /// changing neighbourhoods ([`super::plastic`]).
     fn end_step(&mut self, timings: &mut Timings) -> Result<()> {
+        if let Some(failure) = self.failure.take() {
+            return Err(failure);
+        }
         self.plastic_end_step(timings)
+    }
+    fn report(&mut self, stats: &mut StepStats) {
+        if let Some(direct) = &mut self.direct {
+            self.timings.factorizations += direct.take_factorizations();
+        }
+        stats.particles = std::mem::take(&mut self.timings);
     }
     fn acceleration(&self, params: &SolverParams) -> Acceleration {
         params.global_solver.acceleration(params)

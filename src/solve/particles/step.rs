@@ -11,10 +11,12 @@
 //! [`MAX_HALVINGS`] times; the last trial is taken if none passes. Each trial costs one kernel
 //! evaluation, which the next iteration reuses when the move is not changed afterwards.
 
+use std::time::Instant;
+
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::collider::push_out_with_friction;
+use crate::collider::{push_out_with_friction, ColliderModel};
 use crate::real::Real;
 use crate::solve::update::{MoveOptions, Update};
 use crate::solve::GlobalSolver;
@@ -22,12 +24,15 @@ use crate::symmetric::SymmetricMatrix3;
 
 use super::direct::DirectSolver;
 use super::directions::{jacobi, position_averaging};
-use super::system::ParticleSystem;
+use super::system::{millis, ParticleSystem};
 
 /// The sufficient-decrease constant of the Armijo condition.
 pub const ARMIJO_SIGMA: f64 = 1e-4;
 /// Most halvings of the step length in one line search (`alpha >= 1/16`).
 pub const MAX_HALVINGS: usize = 4;
+/// The merit's round-off floor in the line search, in units of [`super::evaluation::Evaluation::merit_noise`]
+/// (whose force term does not bound the round-off of a sum of some 30 bond forces).
+pub const NOISE_FACTOR: f64 = 100.0;
 
 /// The move of one global iteration, from the evaluation at the current iterate `y`, into
 /// `y_next`, and its measures (the direct solver factored by [`prepare_direct`]).
@@ -37,48 +42,81 @@ pub(crate) fn global_move<T: Real>(
     options: &MoveOptions<'_, T>,
 ) -> Update {
     let h2 = h * h;
+    let started = Instant::now();
     let merit = sys.current.residual_merit(&sys.points, h2, &mut sys.chunks);
+    sys.timings.residual += millis(started);
+    let started = Instant::now();
     match options.global_solver {
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => jacobi(sys, h2, options.inner_iters),
         GlobalSolver::Position => position_averaging(sys, h2),
-        GlobalSolver::Direct => {
-            let (residual, points) = (&sys.current.residual, &sys.points);
-            sys.scratch.par_iter_mut().enumerate().for_each(|(i, r)| {
-                *r = supported(
-                    &residual[i],
-                    &points.y[i],
-                    points.margin[i],
-                    options.colliders,
-                );
-            });
-            let direct = sys.direct.as_mut().expect("factored by prepare_direct");
-            direct.solve(&sys.scratch, &mut sys.delta);
-        }
+        GlobalSolver::Direct => direct_move(sys, h, options.colliders),
     }
-    let alpha = if options.step_length {
+    sys.timings.solve += millis(started);
+    let started = Instant::now();
+    let (alpha, tried) = if options.step_length {
         line_search(sys, h2, merit)
     } else {
-        T::one()
+        (T::one(), false)
     };
-    finish(sys, h2, alpha, options)
+    sys.timings.line_search += millis(started);
+    let started = Instant::now();
+    let update = finish(sys, h2, alpha, tried, options);
+    sys.timings.project += millis(started);
+    update
 }
 
-/// Factors the direct solver's matrix for the time step `h` (s) and the current pins unless
-/// the factor at hand is for them (before the iterations, which then allocate nothing).
-pub(crate) fn prepare_direct<T: Real>(
-    sys: &mut ParticleSystem<T>,
-    h: f64,
-) -> crate::error::Result<()> {
-    let pinned = &sys.points.pinned;
-    if !sys.direct.as_ref().is_some_and(|d| d.matches(h, pinned)) {
-        sys.direct = Some(DirectSolver::factor(&sys.rest, h, pinned)?);
+/// Readies the direct solver for a step: the matrix's pattern and symbolic factor on the
+/// first step (before the iterations, which then allocate nothing), and an empty set of
+/// collider contacts (the held set starts again from the pins and the particles that touch a
+/// collider at the first iterate).
+pub(crate) fn prepare_direct<T: Real>(sys: &mut ParticleSystem<T>) -> crate::error::Result<()> {
+    if sys.direct.is_none() {
+        sys.direct = Some(DirectSolver::new(&sys.rest)?);
     }
+    sys.held.fill(false);
     Ok(())
 }
 
+/// The direct solver's move into `sys.delta`: the held set grows by the particles that touch
+/// a collider at the current iterate (within [`CONTACT_GAP`] of their margin) and keeps the
+/// ones that touched earlier in the step, so that it changes, and the matrix is refactored,
+/// only as contacts form (see [`DirectSolver`]). Should a factorisation fail, the move is one
+/// Jacobi sweep and the failure is reported at the end of the step.
+fn direct_move<T: Real>(sys: &mut ParticleSystem<T>, h: T, colliders: &[ColliderModel<T>]) {
+    {
+        let points = &sys.points;
+        sys.held.par_iter_mut().enumerate().for_each(|(i, held)| {
+            let reach = points.margin[i] * (T::one() + T::of(CONTACT_GAP));
+            *held |= points.pinned[i]
+                || colliders
+                    .iter()
+                    .any(|c| c.signed_distance(&points.y[i]) <= reach);
+        });
+    }
+    let direct = sys.direct.as_mut().expect("built by prepare_direct");
+    match direct.factor(&sys.rest, h.to_f64(), &sys.held) {
+        Ok(()) => direct.solve(&sys.current.residual, &mut sys.delta),
+        Err(e) => {
+            sys.failure.get_or_insert(e);
+            jacobi(sys, h * h, 1);
+        }
+    }
+}
+
 /// Armijo backtracking on the merit (see the module's doc); leaves the accepted trial's
-/// evaluation as the current one, keyed by its positions.
-fn line_search<T: Real>(sys: &mut ParticleSystem<T>, h2: T, merit: f64) -> T {
+/// evaluation as the current one, keyed by its positions. Returns the step length and whether
+/// a trial was evaluated (then the residual at `y` sits in `sys.trial`).
+///
+/// Below [`NOISE_FACTOR`] times the merit's round-off floor ([`super::evaluation::Evaluation::merit_noise`])
+/// the merit cannot tell a decrease from round-off: a merit there takes the whole move, which
+/// is itself of round-off size (`delta` is linear in the residual), without a trial (a body
+/// in free fall or at rest converges so in one iteration and one kernel pass per step), and a
+/// trial within that floor of the Armijo bound passes.
+fn line_search<T: Real>(sys: &mut ParticleSystem<T>, h2: T, merit: f64) -> (T, bool) {
+    let noise = NOISE_FACTOR * sys.current.merit_noise(&sys.points, h2, &mut sys.chunks);
+    if merit <= noise {
+        return (T::one(), false);
+    }
     let mut alpha = T::one();
     for halving in 0..=MAX_HALVINGS {
         {
@@ -90,16 +128,16 @@ fn line_search<T: Real>(sys: &mut ParticleSystem<T>, h2: T, merit: f64) -> T {
                 .for_each(|(i, t)| *t = y[i] + delta[i] * alpha);
         }
         sys.trial.run(&sys.rest);
+        sys.timings.evaluations += 1;
         let trial = sys.trial.residual_merit(&sys.points, h2, &mut sys.chunks);
         let bound = merit * (1.0 - 2.0 * ARMIJO_SIGMA * alpha.to_f64());
-        if trial <= bound || halving == MAX_HALVINGS || !trial.is_finite() {
+        if trial <= bound + noise || halving == MAX_HALVINGS || !trial.is_finite() {
             break;
         }
         alpha *= T::of(0.5);
     }
     std::mem::swap(&mut sys.current, &mut sys.trial);
-    // The residual at `y` (for the measures) is in what is now the trial evaluation.
-    alpha
+    (alpha, true)
 }
 
 /// `y_next = y + alpha delta`, kept out of the colliders in the metric of the Jacobi diagonal
@@ -111,16 +149,17 @@ fn finish<T: Real>(
     sys: &mut ParticleSystem<T>,
     h2: T,
     alpha: T,
+    tried: bool,
     options: &MoveOptions<'_, T>,
 ) -> Update {
     let mut y_next = std::mem::take(&mut sys.points.y_next);
-    // After a line search the residual at `y` sits in `trial` (the evaluations swapped).
-    let residual = if options.step_length {
+    // After a line search's trial the residual at `y` sits in `trial` (the evaluations
+    // swapped).
+    let residual = if tried {
         &sys.trial.residual
     } else {
         &sys.current.residual
     };
-    let direct = options.global_solver == GlobalSolver::Direct;
     let sys_ref = &*sys;
     let points = &sys_ref.points;
     let update = y_next
@@ -156,11 +195,7 @@ fn finish<T: Real>(
             if let Some(w) = options.omega.filter(|_| *next == free_move) {
                 *next = (*next - points.y_prev[i]) * w + points.y_prev[i];
             }
-            let free = if direct {
-                sys_ref.scratch[i] / points.mass[i]
-            } else {
-                (residual[i] + reaction * d) / points.mass[i]
-            };
+            let free = (residual[i] + reaction * d) / points.mass[i];
             let mut update = Update::of(i, y, next);
             update.residual = free.norm_squared().to_f64().sqrt();
             update
@@ -170,35 +205,6 @@ fn finish<T: Real>(
     update
 }
 
-/// The residual `r` (kg m) of a particle at `y` (m) with the colliders' support taken out, for
-/// the direct solver.
-///
-/// With a non-diagonal solve, projecting the moves out of the colliders does not converge to
-/// the constrained solution: the solve spreads a supported particle's pull into the free
-/// ones, and the projection only stops the supported particle. So a particle that rests on a
-/// collider (within [`CONTACT_GAP`] of its margin `margin`, m, at `y`) has the part of its
-/// residual that pushes into the collider (along the collider's normal `n`) removed before the
-/// solve: the collider carries it. At a fixed point every free particle's residual is zero
-/// and a resting one's pushes only into its collider, the constrained implicit Euler solution
-/// (frictionless for the solve; the projection that follows applies friction to the move).
-#[inline]
-fn supported<T: Real>(
-    residual: &Vector3<T>,
-    y: &Vector3<T>,
-    margin: T,
-    colliders: &[crate::collider::ColliderModel<T>],
-) -> Vector3<T> {
-    let reach = margin * (T::one() + T::of(CONTACT_GAP));
-    let mut r = *residual;
-    for c in colliders {
-        if c.signed_distance(y) <= reach {
-            let n = c.normal(y);
-            r -= n * r.dot(&n).min(T::zero());
-        }
-    }
-    r
-}
-
-/// How close to its margin (a fraction of the margin) a particle counts as resting on a
-/// collider for the direct solver ([`supported`]).
+/// How close to its margin (a fraction of the margin) a particle counts as touching a
+/// collider for the direct solver ([`direct_move`]).
 pub const CONTACT_GAP: f64 = 1e-3;

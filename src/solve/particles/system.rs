@@ -2,12 +2,15 @@
 //! into one particle range, the kernel's evaluations and the global step's buffers, all
 //! allocated once so that the iteration allocates nothing.
 
+use std::time::Instant;
+
 use nalgebra::Vector3;
 
 use crate::error::Result;
 use crate::particles::{ParticleRest, Particles};
 use crate::real::Real;
 use crate::solve::points::Points;
+use crate::solve::ParticleTimings;
 
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
@@ -23,12 +26,18 @@ pub(crate) struct ParticleSystem<T: Real> {
     /// The global step's move and a Jacobi sweep's scratch (m).
     pub delta: Vec<Vector3<T>>,
     pub scratch: Vec<Vector3<T>>,
-    /// The factored global matrix, once the direct solver was asked for.
+    /// The factored global matrix, once the direct solver was asked for; the particles it
+    /// holds this step (pins and collider contacts, [`super::step`]), and a failure of its
+    /// factorisation, reported at the end of the step.
     pub direct: Option<DirectSolver>,
+    pub held: Vec<bool>,
+    pub failure: Option<crate::error::Error>,
     /// Partial sums of the merit (reused).
     pub chunks: Vec<f64>,
     /// Every body's bonds when some body is plastic ([`super::plastic`]).
     pub plastic: Option<PlasticBodies>,
+    /// The step's phases so far ([`crate::solve::StepStats::particles`]).
+    pub timings: ParticleTimings,
 }
 
 impl<T: Real> ParticleSystem<T> {
@@ -46,8 +55,11 @@ impl<T: Real> ParticleSystem<T> {
             delta: vec![Vector3::zeros(); n],
             scratch: vec![Vector3::zeros(); n],
             direct: None,
+            held: vec![false; n],
+            failure: None,
             chunks: Vec::new(),
             plastic: PlasticBodies::of(bodies),
+            timings: ParticleTimings::default(),
         })
     }
 
@@ -57,8 +69,11 @@ impl<T: Real> ParticleSystem<T> {
         if self.current.is_at(&self.points.y) {
             return;
         }
+        let started = Instant::now();
         self.current.at.copy_from_slice(&self.points.y);
         self.current.run(&self.rest);
+        self.timings.kernel += millis(started);
+        self.timings.evaluations += 1;
     }
 
     /// The Jacobi diagonal `D_i = m_i + h^2 L_ii` (kg) of particle `i`.
@@ -66,4 +81,9 @@ impl<T: Real> ParticleSystem<T> {
     pub fn diagonal(&self, i: usize, h2: T) -> T {
         self.rest.mass[i] + h2 * self.rest.stiffness[i]
     }
+}
+
+/// Milliseconds since `since`.
+pub(crate) fn millis(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
 }

@@ -1,0 +1,147 @@
+"""Speed of elastic particle bodies (issue 38, Benchmarks): ms per step by phase at the issue's
+size, the cost's growth with the particle count, and memory per particle.
+
+Scene: a cube of n^3 particles (spacing 0.1 / 29 m, so 25K particles at n = 29), E 2e5 Pa,
+nu 0.25, density 1000 kg/m^3, dropped from 0.05 m onto a frictionless Plane under gravity at
+h = 1/30 s in f32 with the default global solver (chebyshev) and tolerance, ``--steps`` steps
+(the drop, the impact and the rebound). Reported per size: median ms per step and per phase
+(StepStats.particles: kernel, residual, solve, line search, projection), median iterations and
+kernel passes per step, whether every step converged, the body's build time, and the process's
+peak resident memory growth over the build and run divided by the particle count (KiB).
+
+Scaling: the same scene at each ``--sizes`` (n per side), each in a fresh process (so that peak
+memory is the size's own), in ascending order, stopping once a size's run took more than
+``--budget`` s: the ms per step per particle should stay flat (linear cost).
+
+Default:  python benches/particle_speed.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _common as C  # noqa: E402
+
+PHASES = ["kernel_ms", "residual_ms", "solve_ms", "line_search_ms", "project_ms"]
+
+
+def cube(n: int, side: float, lift: float) -> np.ndarray:
+    h = side / n
+    axis = (np.arange(n) + 0.5) * h
+    x, y, z = np.meshgrid(axis, axis, axis + lift, indexing="ij")
+    return np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+
+
+def one_size(args) -> dict:
+    """Runs one size in this process and returns its figures."""
+    import peridyn
+
+    rss0 = C.vm_kib("VmHWM")
+    x = cube(args.n, args.side, args.lift)
+    t = time.perf_counter()
+    body = peridyn.Particles(x, spacing=args.side / args.n, density=1000.0,
+                             material=peridyn.Elastic.from_young(2e5, 0.25))
+    solver = peridyn.Solver(dt=args.dt, gravity=(0, 0, -9.81), precision="f32",
+                            threads=args.threads)
+    solver.add(body)
+    solver.add_collider(peridyn.Plane())
+    first = solver.step()  # builds the rest data and working set
+    build_s = time.perf_counter() - t
+    rows = []
+    for _ in range(args.steps):
+        s = solver.step()
+        rows.append({"total_ms": s.timings["total"], "iterations": s.iterations,
+                     "converged": s.converged, **s.particles})
+    peak = C.vm_kib("VmHWM")
+    med = lambda k: float(np.median([r[k] for r in rows]))  # noqa: E731
+    return {
+        "n": args.n, "particles": len(x), "build_and_first_step_s": build_s,
+        "first_step_ms": first.timings["total"],
+        "ms_per_step": med("total_ms"), "iterations_median": med("iterations"),
+        "evaluations_median": med("evaluations"),
+        "all_converged": all(r["converged"] for r in rows),
+        "phases_ms_median": {k: med(k) for k in PHASES},
+        "us_per_step_per_particle": 1e3 * med("total_ms") / len(x),
+        "peak_rss_growth_kib_per_particle": (peak - rss0) / len(x),
+        "lowest_z_end": float(np.asarray(body.positions)[:, 2].min()),
+    }
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--sizes", type=int, nargs="+", default=[10, 15, 20, 29, 40, 50, 63],
+                    help="particles per side of each run (29: 24,389, the issue's 25K)")
+    ap.add_argument("--side", type=float, default=0.1, help="cube side (m)")
+    ap.add_argument("--lift", type=float, default=0.05, help="drop height of the bottom (m)")
+    ap.add_argument("--dt", type=float, default=1 / 30)
+    ap.add_argument("--steps", type=int, default=10, help="timed steps per size")
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--budget", type=float, default=120.0,
+                    help="stop growing once a size took longer (s)")
+    ap.add_argument("--n", type=int, help=argparse.SUPPRESS)  # one size, in a child process
+    ap.add_argument("--out", help="JSON path (default benches/results/particle_speed.json)")
+    args = ap.parse_args()
+
+    if args.n is not None:
+        print(json.dumps(one_size(args)))
+        return
+    rec = C.Record("particle_speed", args)
+    rows = []
+    for n in sorted(args.sizes):
+        argv = [sys.executable, __file__, "--n", str(n), "--side", str(args.side),
+                "--lift", str(args.lift), "--dt", str(args.dt), "--steps", str(args.steps),
+                "--threads", str(args.threads)]
+        t = time.perf_counter()
+        out = subprocess.run(argv, capture_output=True, text=True)
+        took = time.perf_counter() - t
+        if out.returncode != 0:
+            rec.note(f"n = {n} failed: {out.stderr.strip()[-500:]}")
+            break
+        row = json.loads(out.stdout.strip().splitlines()[-1])
+        row["process_s"] = took
+        rows.append(row)
+        p = row["phases_ms_median"]
+        print(f"{row['particles']:>8} particles: {row['ms_per_step']:8.1f} ms/step "
+              f"({row['us_per_step_per_particle']:.2f} us/particle), {row['iterations_median']:.0f} "
+              f"iterations, {row['evaluations_median']:.0f} kernel passes, converged "
+              f"{row['all_converged']}; " + ", ".join(f"{k} {v:.1f}" for k, v in p.items())
+              + f"; {row['peak_rss_growth_kib_per_particle']:.2f} KiB/particle", flush=True)
+        if took > args.budget:
+            rec.note(f"stopped after n = {n}: {took:.0f} s > budget {args.budget:.0f} s")
+            break
+    rec.data["results"] = rows
+    if len(rows) >= 2:
+        n = np.array([r["particles"] for r in rows], float)
+        ms = np.array([r["ms_per_step"] for r in rows])
+        slope = np.polyfit(np.log(n), np.log(ms), 1)[0]
+        rec.data["log_log_slope_ms_vs_particles"] = float(slope)
+        rec.note(f"cost ~ particles^{slope:.2f} over {int(n[0])}..{int(n[-1])} particles")
+        try:
+            import matplotlib
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+            fig, ax = plt.subplots(figsize=(5, 3.6))
+            ax.loglog(n, ms, "o-", label="ms per step (median)")
+            ax.loglog(n, ms[-1] * n / n[-1], "k--", lw=0.8, label="linear")
+            ax.set_xlabel("particles")
+            ax.set_ylabel("ms per step (f32, h = 1/30 s)")
+            ax.legend()
+            fig.tight_layout()
+            path = C.RESULTS / "particle_speed.png"
+            fig.savefig(path, dpi=120)
+            print(f"wrote {path}")
+        except ImportError:
+            rec.note("matplotlib missing: no plot")
+    rec.write(args.out)
+
+
+if __name__ == "__main__":
+    main()
