@@ -3,7 +3,8 @@
 //! ([`crate::geometry::find_horizons`]) and elastic material ([`Elastic`]), the influence
 //! function, the deformation gradient with inversion handling, the per-bond local step and
 //! forces, the rest data the solver steps with, the lattice-sum calibration, and the sampling
-//! of particles from meshes ([`sample_volume`], [`sample_surface`]).
+//! of particles from meshes ([`sample_volume`], [`sample_surface`]); shells and rods with their
+//! ghost particles ([`Particles::shell`], [`Particles::rod`]).
 
 mod body;
 mod bond;
@@ -15,6 +16,7 @@ mod kernel;
 mod measure;
 mod rest;
 mod sampling;
+mod thin;
 
 pub use body::{ParticleParams, Particles, DEFAULT_HORIZON};
 pub use bond::{bond_force, BondRest};
@@ -25,6 +27,7 @@ pub use influence::influence;
 pub use kernel::{evaluate_particles, particle_force, particle_kernel};
 pub use rest::ParticleRest;
 pub use sampling::{sample_surface, sample_volume, MAX_PARTICLES, MAX_SURFACE_CANDIDATES};
+pub use thin::MAX_SECTION;
 
 #[cfg(test)]
 mod tests;

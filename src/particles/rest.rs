@@ -35,6 +35,8 @@ pub struct ParticleRest<T: Real> {
     /// Mass (kg) and collider margin (m) per particle.
     pub mass: Vec<T>,
     pub margin: Vec<T>,
+    /// False for a ghost particle: no collider acts on it.
+    pub collides: Vec<bool>,
 }
 
 impl<T: Real> ParticleRest<T> {
@@ -126,6 +128,7 @@ impl<T: Real> ParticleRest<T> {
             self.dilatation.push(T::of(9.0 * moduli.kappa * volume));
             self.mass.push(T::of(body.density() * volume));
             self.margin.push(T::of(body.margin()));
+            self.collides.push(!body.is_ghost(i));
         }
         // The global matrix's weights, once every reverse bond is there.
         let first = bond_base as usize;

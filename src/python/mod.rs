@@ -16,6 +16,7 @@ mod particles;
 mod scalars;
 mod solver;
 mod solver_state;
+mod thin;
 
 use pyo3::prelude::*;
 

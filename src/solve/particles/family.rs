@@ -38,6 +38,9 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         if params.global_solver == GlobalSolver::Direct {
             prepare_direct(self, params.dt)?;
         }
+        if let Some(repulsion) = &mut self.repulsion {
+            repulsion.start_step(&self.points, params.dt, params.gravity)?;
+        }
         Ok(())
     }
     fn acceleration(&self, params: &SolverParams) -> Acceleration {

@@ -7,6 +7,7 @@ mod direct;
 mod directions;
 mod evaluation;
 mod family;
+mod repulsion;
 mod step;
 mod system;
 
@@ -14,3 +15,9 @@ pub(crate) use system::ParticleSystem;
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod thin_tests;
+
+#[cfg(test)]
+mod repulsion_tests;

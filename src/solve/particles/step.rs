@@ -17,6 +17,7 @@ use rayon::prelude::*;
 use crate::collider::push_out_with_friction;
 use crate::real::Real;
 use crate::solve::update::{MoveOptions, Update};
+use crate::solve::points::Points;
 use crate::solve::GlobalSolver;
 use crate::symmetric::SymmetricMatrix3;
 
@@ -48,7 +49,7 @@ pub(crate) fn global_move<T: Real>(
                     &residual[i],
                     &points.y[i],
                     points.margin[i],
-                    options.colliders,
+                    Points::colliders_of(&points.collides, i, options.colliders),
                 );
             });
             let direct = sys.direct.as_mut().expect("factored by prepare_direct");
@@ -60,6 +61,9 @@ pub(crate) fn global_move<T: Real>(
     } else {
         T::one()
     };
+    if let Some(repulsion) = &mut sys.repulsion {
+        repulsion.correct(&sys.points, &sys.delta, alpha);
+    }
     finish(sys, h2, alpha, options)
 }
 
@@ -142,16 +146,17 @@ fn finish<T: Real>(
                     &points.y_start[i],
                     &inverse,
                     margin,
-                    options.colliders,
+                    Points::colliders_of(&points.collides, i, options.colliders),
                 )
             };
+            let repelled = sys_ref.repulsion.as_ref().map_or(Vector3::zeros(), |r| r.of_particle(i));
             let whole = y + sys_ref.delta[i];
             let free_move = y + sys_ref.delta[i] * alpha;
-            *next = push(free_move);
+            *next = push(free_move + repelled);
             let reaction = if alpha == T::one() {
                 *next - free_move
             } else {
-                push(whole) - whole
+                push(whole + repelled) - whole
             };
             if let Some(w) = options.omega.filter(|_| *next == free_move) {
                 *next = (*next - points.y_prev[i]) * w + points.y_prev[i];

@@ -11,6 +11,7 @@ use crate::solve::points::Points;
 
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
+use super::repulsion::Repulsion;
 
 /// The particle family's working set.
 pub(crate) struct ParticleSystem<T: Real> {
@@ -24,6 +25,8 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub scratch: Vec<Vector3<T>>,
     /// The factored global matrix, once the direct solver was asked for.
     pub direct: Option<DirectSolver>,
+    /// The minimum distance between bodies (none for a single body).
+    pub repulsion: Option<Repulsion<T>>,
     /// Partial sums of the merit (reused).
     pub chunks: Vec<f64>,
 }
@@ -35,13 +38,17 @@ impl<T: Real> ParticleSystem<T> {
         let shared: Vec<&Particles> = bodies.iter().map(|b| &**b).collect();
         let rest = ParticleRest::<T>::of_bodies(&shared)?;
         let (n, bonds) = (rest.len(), rest.indices.len());
+        let mut points = Points::new(bodies, rest.mass.clone(), rest.margin.clone());
+        points.collides.clone_from(&rest.collides);
+        let repulsion = Repulsion::of(&points);
         Ok(Self {
-            points: Points::new(bodies, rest.mass.clone(), rest.margin.clone()),
+            points,
             rest,
             current: Evaluation::new(n, bonds),
             trial: Evaluation::new(n, bonds),
             delta: vec![Vector3::zeros(); n],
             scratch: vec![Vector3::zeros(); n],
+            repulsion,
             direct: None,
             chunks: Vec::new(),
         })
