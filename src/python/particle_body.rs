@@ -140,7 +140,14 @@ impl PyParticles {
     /// (N - num_real,) the real particle each ghost belongs to (int64).
     #[getter]
     fn ghost_owner<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        to_numpy_1d(py, self.lock().ghost_owners().iter().map(|&o| o as i64).collect())
+        to_numpy_1d(
+            py,
+            self.lock()
+                .ghost_owners()
+                .iter()
+                .map(|&o| o as i64)
+                .collect(),
+        )
     }
 
     #[getter]

@@ -78,7 +78,9 @@ impl<T: Real> Repulsion<T> {
                 };
                 (points.margin[i].to_f64(), moved.norm())
             })
-            .fold((0.0, 0.0), |(a, b), (d, m)| (f64::max(a, d), f64::max(b, m)));
+            .fold((0.0, 0.0), |(a, b), (d, m)| {
+                (f64::max(a, d), f64::max(b, m))
+            });
         let at: Vec<Vector3<T>> = colliding
             .iter()
             .map(|&i| points.y_start[i as usize])
@@ -107,12 +109,13 @@ impl<T: Real> Repulsion<T> {
     /// iterate, among the candidates of [`Self::start_step`].
     pub fn correct(&mut self, points: &Points<T>, delta: &[Vector3<T>], alpha: T) {
         let (y, pinned) = (&points.y, &points.pinned);
-        self.proposed
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, p)| {
-                *p = if pinned[i] { y[i] } else { y[i] + delta[i] * alpha };
-            });
+        self.proposed.par_iter_mut().enumerate().for_each(|(i, p)| {
+            *p = if pinned[i] {
+                y[i]
+            } else {
+                y[i] + delta[i] * alpha
+            };
+        });
         let (proposed, offsets, indices) = (&self.proposed, &self.offsets, &self.indices);
         let (mass, margin) = (&points.mass, &points.margin);
         self.correction

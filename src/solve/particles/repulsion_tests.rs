@@ -70,7 +70,10 @@ fn two_blocks_collide_head_on_without_interpenetration_and_keep_their_momentum()
         let total = momentum(&a) + momentum(&b);
         assert!(total.norm() < 1e-3 * one, "{solver:?}: {total:?} of {one}");
         let approach = (momentum(&a) - momentum(&b)).x / (2.0 * one);
-        assert!(approach <= 1e-3, "{solver:?}: still approaching ({approach})");
+        assert!(
+            approach <= 1e-3,
+            "{solver:?}: still approaching ({approach})"
+        );
     }
 }
 
@@ -97,9 +100,21 @@ fn a_block_dropped_on_another_stacks_on_it() {
             .unwrap();
         assert!(closest(&lower, &upper) >= 0.9 * S);
     }
-    let top = lower.positions().iter().map(|p| p.z).fold(f64::MIN, f64::max);
-    let bottom = upper.positions().iter().map(|p| p.z).fold(f64::MAX, f64::min);
-    assert!(((bottom - top) / S - 1.0).abs() < 0.05, "gap {} m", bottom - top);
+    let top = lower
+        .positions()
+        .iter()
+        .map(|p| p.z)
+        .fold(f64::MIN, f64::max);
+    let bottom = upper
+        .positions()
+        .iter()
+        .map(|p| p.z)
+        .fold(f64::MAX, f64::min);
+    assert!(
+        ((bottom - top) / S - 1.0).abs() < 0.05,
+        "gap {} m",
+        bottom - top
+    );
 }
 
 #[test]

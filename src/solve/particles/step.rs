@@ -16,8 +16,8 @@ use rayon::prelude::*;
 
 use crate::collider::push_out_with_friction;
 use crate::real::Real;
-use crate::solve::update::{MoveOptions, Update};
 use crate::solve::points::Points;
+use crate::solve::update::{MoveOptions, Update};
 use crate::solve::GlobalSolver;
 use crate::symmetric::SymmetricMatrix3;
 
@@ -149,7 +149,10 @@ fn finish<T: Real>(
                     Points::colliders_of(&points.collides, i, options.colliders),
                 )
             };
-            let repelled = sys_ref.repulsion.as_ref().map_or(Vector3::zeros(), |r| r.of_particle(i));
+            let repelled = sys_ref
+                .repulsion
+                .as_ref()
+                .map_or(Vector3::zeros(), |r| r.of_particle(i));
             let whole = y + sys_ref.delta[i];
             let free_move = y + sys_ref.delta[i] * alpha;
             *next = push(free_move + repelled);
