@@ -180,16 +180,78 @@ class Particles:
         horizon: Optional[float] = None,
         plasticity: Optional[DruckerPrager] = None,
     ) -> None: ...
+    @staticmethod
+    def shell(
+        mesh: Any,
+        *,
+        spacing: float,
+        thickness: float,
+        density: float,
+        material: Elastic,
+        horizon: Optional[float] = None,
+        seed: int = 0,
+    ) -> "Particles":
+        """A shell (He et al. 2017, Fig. 5): one layer of real particles on the surface
+        ``mesh`` (a trimesh.Trimesh or a ``(vertices, triangles)`` pair, m; closed or open),
+        sampled as :func:`sample_surface` does (at least ``spacing`` m apart, seeded), and two
+        layers of ghost particles at ``+-thickness / sqrt(8)`` along each particle's triangle
+        normal, so that the three layers have the plate's second moment of area
+        ``thickness^3 / 12``: bending stiffness grows as ``thickness^3``.
+
+        ``thickness`` (m) in ``(0, 2 * spacing]`` (thicker: sample a solid with
+        :func:`sample_volume`). Each particle stands for an equal share of ``area * thickness``
+        (the mass is exact) and real particles keep ``thickness / 2`` from colliders.
+
+        Ghosts are ordinary particles in the elasticity, mass, positions and pins, but no
+        collider acts on them. Layout: particles ``0..n`` are the real ones (``num_real``),
+        ``n..2n`` the ghosts on the normal's side, ``2n..3n`` the others; ``ghost_owner`` maps
+        each ghost to its particle. Pinning a real particle pins its ghosts too (a clamped edge
+        is clamped in rotation). With :meth:`Elastic.from_young` the paper's ``mu`` is folded
+        into ``lam`` (same response to every affine deformation), so that bending comes from the
+        section and not from the sampling; with ``Elastic(mu=, lam=)`` bending also follows
+        ``mu``, as in the paper's Fig. 5.
+        """
+    @staticmethod
+    def rod(
+        points: ArrayLike,
+        *,
+        spacing: float,
+        radius: float,
+        density: float,
+        material: Elastic,
+        horizon: Optional[float] = None,
+    ) -> "Particles":
+        """A rod (He et al. 2017, Fig. 6) of ``radius`` (m, in ``(0, spacing]``) along the
+        polyline ``points`` ((P, 3) m, P >= 2, consecutive points distinct, no 180-degree
+        turn): real particles at equal arc-length steps of at most ``spacing`` (m), both ends
+        included, each with four ghosts on a ring of radius ``radius * sqrt(5/8)`` across the
+        line (the disk's second moment of area ``pi r^4 / 4``), carried along the curve by
+        parallel transport. Particles ``0..n`` are real, ghosts ``n + 4k .. n + 4k + 4``
+        belong to particle ``k``. Mass exact (``density * pi r^2 * length``); real particles
+        keep ``radius`` from colliders; ghosts, pins and materials as for :meth:`shell`.
+        Bending and twisting stiffness cannot be set apart (the paper's limitation).
+        """
     @property
     def plasticity(self) -> Optional[DruckerPrager]: ...
     def yield_state(self) -> Optional[tuple[np.ndarray, np.ndarray]]:
         """(sqrt_J2, strength) per particle (Pa) of a plastic body at its current positions
         and reference bonds (NaN without a 3D neighbourhood); None for an elastic body."""
     @property
-    def num_particles(self) -> int: ...
+    def num_particles(self) -> int:
+        """Every particle, ghosts included."""
+    @property
+    def num_real(self) -> int:
+        """Particles that are not ghosts: ``0..num_real`` (all of them for a solid)."""
+    @property
+    def real_positions(self) -> np.ndarray:
+        """(num_real, 3) positions of the real particles (m): ``positions[:num_real]``."""
+    @property
+    def ghost_owner(self) -> np.ndarray:
+        """(num_particles - num_real,) int64: the real particle each ghost belongs to."""
     @property
     def positions(self) -> np.ndarray:
-        """(N, 3) current positions (m); settable (finite, same shape)."""
+        """(N, 3) current positions (m), ghosts included (after the real particles);
+        settable (finite, same shape)."""
     @positions.setter
     def positions(self, value: ArrayLike) -> None: ...
     @property

@@ -77,6 +77,12 @@ pub struct Particles {
     params: ParticleParams,
     /// What the material resolved to on this body's lattice.
     moduli: Moduli,
+    /// Volume of each particle (m^3) and how far each keeps from a collider's surface (m).
+    volume: f64,
+    margin: f64,
+    /// The owner of each ghost particle: particles `num_real..` are ghosts ([`super::thin`]),
+    /// `ghost_owners[k]` the real particle that ghost `num_real + k` belongs to.
+    ghost_owners: Vec<u32>,
     state: PointState,
     /// The plastic law, if the body is plastic ([`Self::set_plasticity`]).
     plasticity: Option<DruckerPrager>,
@@ -90,6 +96,21 @@ impl Particles {
     /// culprit, on a bad parameter, a non-finite position, or a particle whose neighbourhood
     /// within the horizon is not three-dimensional (its shape matrix `K_i` is singular).
     pub fn new(reference: Vec<Vector3<f64>>, params: ParticleParams) -> Result<Self> {
+        let (volume, margin) = (params.spacing.powi(3), 0.5 * params.spacing);
+        Self::with_ghosts(reference, Vec::new(), volume, margin, params)
+    }
+
+    /// A body whose last `ghost_owners.len()` particles are ghosts (they take part in the
+    /// elasticity but never in collisions), ghost `k` belonging to the real particle
+    /// `ghost_owners[k]`; each particle stands for `volume` (m^3) and keeps `margin` (m) from
+    /// a collider's surface. The shells' and rods' builders ([`super::thin`]) make these.
+    pub(crate) fn with_ghosts(
+        reference: Vec<Vector3<f64>>,
+        ghost_owners: Vec<u32>,
+        volume: f64,
+        margin: f64,
+        params: ParticleParams,
+    ) -> Result<Self> {
         params.validate()?;
         if reference.is_empty() {
             return Err(crate::error::invalid!(
@@ -115,12 +136,28 @@ impl Particles {
             horizons,
             params,
             moduli,
+            volume,
+            margin,
+            ghost_owners,
             state,
             plasticity: None,
             rest_bonds: None,
         };
+        debug_assert!(body.ghost_owners.len() < body.reference.len());
         check_shapes(&body.reference, &body.horizons, delta)?;
         Ok(body)
+    }
+
+    /// Folds the deviatoric modulus of a calibrated material into the pair springs:
+    /// `(mu, lam) -> (0, lam + 2 mu)` keeps `c = mu + lam / 2`, so every affine deformation
+    /// stores the same energy, and drops the penalty on deformations that are not affine
+    /// within a horizon, which bends a layer of particles with a stiffness set by the spacing
+    /// rather than the section ([`super::thin`]). The paper's `Elastic::Paper` is kept as given.
+    pub(super) fn fold_deviatoric(&mut self) {
+        if self.moduli.bulk_weight.is_some() {
+            self.moduli.lam += 2.0 * self.moduli.mu;
+            self.moduli.mu = 0.0;
+        }
     }
 
     pub fn id(&self) -> u64 {
@@ -147,9 +184,10 @@ impl Particles {
     pub fn moduli(&self) -> Moduli {
         self.moduli
     }
-    /// Volume of each particle, `spacing^3` (m^3).
+    /// Volume of each particle (m^3): `spacing^3` for a solid, the share of the section for a
+    /// shell or a rod ([`super::thin`]).
     pub fn volume(&self) -> f64 {
-        self.params.spacing.powi(3)
+        self.volume
     }
     pub fn density(&self) -> f64 {
         self.params.density
@@ -158,9 +196,22 @@ impl Particles {
     pub fn particle_mass(&self) -> f64 {
         self.params.density * self.volume()
     }
-    /// How far a particle keeps from a collider's surface: half the spacing (m).
+    /// How far a particle keeps from a collider's surface (m): half the spacing for a solid,
+    /// half the thickness of a shell, the radius of a rod. Ghosts keep none (they never collide).
     pub fn margin(&self) -> f64 {
-        0.5 * self.params.spacing
+        self.margin
+    }
+    /// The particles that are not ghosts: `0..num_real()`.
+    pub fn num_real(&self) -> usize {
+        self.reference.len() - self.ghost_owners.len()
+    }
+    /// The real particle each ghost belongs to (ghost `k` is particle `num_real() + k`).
+    pub fn ghost_owners(&self) -> &[u32] {
+        &self.ghost_owners
+    }
+    /// True for a ghost particle (index `>= num_real()`).
+    pub fn is_ghost(&self, i: usize) -> bool {
+        i >= self.num_real()
     }
 
     /// Positions (m).
@@ -185,15 +236,57 @@ impl Particles {
         self.state.velocities = velocities;
         Ok(())
     }
-    /// Pins particles at `targets` (m; default: where they are).
+    /// Pins particles at `targets` (m; default: where they are). A real particle's ghosts are
+    /// pinned with it, each at its place moved as its owner is moved to its target, so a
+    /// clamped shell or rod is clamped in rotation too.
     pub fn pin(&mut self, indices: &[i64], targets: Option<&[Vector3<f64>]>) -> Result<()> {
         self.state.check_pins("particle", indices, targets)?;
         self.state.insert_pins(indices, targets);
+        let (ghosts, ghost_targets) = self.ghosts_of(indices, targets);
+        self.state.insert_pins(&ghosts, Some(&ghost_targets));
         Ok(())
     }
-    /// Releases the given particles (all when `None`); unknown indices are an error.
+    /// Releases the given particles (all when `None`), a real particle's ghosts with it;
+    /// unknown indices are an error.
     pub fn unpin(&mut self, indices: Option<&[i64]>) -> Result<()> {
-        self.state.unpin("particle", indices)
+        self.state.unpin("particle", indices)?;
+        if let Some(list) = indices {
+            let (ghosts, _) = self.ghosts_of(list, None);
+            let pinned: Vec<i64> = ghosts
+                .into_iter()
+                .filter(|&g| self.state.pins.contains_key(&(g as u32)))
+                .collect();
+            self.state.unpin("particle", Some(&pinned))?;
+        }
+        Ok(())
+    }
+    /// The ghosts of the real particles among `indices` (checked) and their positions moved
+    /// by their owners' moves to `targets` (m; none: where they are).
+    fn ghosts_of(
+        &self,
+        indices: &[i64],
+        targets: Option<&[Vector3<f64>]>,
+    ) -> (Vec<i64>, Vec<Vector3<f64>>) {
+        if self.ghost_owners.is_empty() {
+            return (Vec::new(), Vec::new());
+        }
+        let x = &self.state.positions;
+        let first = self.num_real();
+        let mut moves = std::collections::HashMap::new();
+        for (k, &i) in indices.iter().enumerate() {
+            let i = i as usize;
+            if i < first {
+                moves.insert(i as u32, targets.map_or(Vector3::zeros(), |t| t[k] - x[i]));
+            }
+        }
+        self.ghost_owners
+            .iter()
+            .enumerate()
+            .filter_map(|(k, owner)| {
+                let shift = moves.get(owner)?;
+                Some(((first + k) as i64, x[first + k] + shift))
+            })
+            .unzip()
     }
     /// Pinned particles and their targets (m), in ascending particle order.
     pub fn pins(&self) -> &std::collections::BTreeMap<u32, Vector3<f64>> {

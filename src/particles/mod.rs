@@ -3,7 +3,8 @@
 //! ([`crate::geometry::find_horizons`]) and elastic material ([`Elastic`]), the influence
 //! function, the deformation gradient with inversion handling, the per-bond local step and
 //! forces, the rest data the solver steps with, the lattice-sum calibration, and the sampling
-//! of particles from meshes ([`sample_volume`], [`sample_surface`]).
+//! of particles from meshes ([`sample_volume`], [`sample_surface`]); shells and rods with their
+//! ghost particles ([`Particles::shell`], [`Particles::rod`]).
 
 mod body;
 mod bond;
@@ -18,6 +19,7 @@ mod plasticity;
 mod rest;
 mod rest_bonds;
 mod sampling;
+mod thin;
 
 pub use body::{ParticleParams, Particles, DEFAULT_HORIZON};
 pub use bond::{bond_force, BondRest};
@@ -33,6 +35,7 @@ pub use rest::ParticleRest;
 pub(crate) use rest::RestConstants;
 pub use rest_bonds::RestBonds;
 pub use sampling::{sample_surface, sample_volume, MAX_PARTICLES, MAX_SURFACE_CANDIDATES};
+pub use thin::MAX_SECTION;
 
 #[cfg(test)]
 mod plasticity_tests;

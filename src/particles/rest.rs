@@ -23,6 +23,9 @@ pub(crate) struct RestConstants {
     pub delta: f64,
     pub density: f64,
     pub margin: f64,
+    /// The body's particles that are not ghosts (`0..num_real`; ghosts, which no collider
+    /// acts on, come after them).
+    pub num_real: usize,
     /// Whether the body is plastic (its neighbourhoods may degenerate: see
     /// [`ParticleRest::add_bonds`]).
     pub plastic: bool,
@@ -36,6 +39,7 @@ impl RestConstants {
             delta: body.horizon(),
             density: body.density(),
             margin: body.margin(),
+            num_real: body.num_real(),
             plastic: body.plasticity().is_some(),
         }
     }
@@ -64,6 +68,8 @@ pub struct ParticleRest<T: Real> {
     /// Mass (kg) and collider margin (m) per particle.
     pub mass: Vec<T>,
     pub margin: Vec<T>,
+    /// False for a ghost particle: no collider acts on it.
+    pub collides: Vec<bool>,
 }
 
 impl<T: Real> ParticleRest<T> {
@@ -188,6 +194,7 @@ impl<T: Real> ParticleRest<T> {
             self.dilatation.push(T::of(9.0 * moduli.kappa * volume));
             self.mass.push(T::of(c.density * volume));
             self.margin.push(T::of(c.margin));
+            self.collides.push(i < c.num_real);
         }
         // The global matrix's weights, once every reverse bond is there.
         let first = bond_base as usize;

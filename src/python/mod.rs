@@ -17,6 +17,7 @@ mod plasticity;
 mod scalars;
 mod solver;
 mod solver_state;
+mod thin;
 
 use pyo3::prelude::*;
 

@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-use crate::particles::{ParticleParams, Particles};
+use crate::particles::{DruckerPrager, ParticleParams, Particles};
 
 use super::arrays::{indices, to_numpy, to_numpy_1d, vec3s};
 use super::elastic::PyElastic;
@@ -24,6 +24,53 @@ impl PyParticles {
     pub fn lock(&self) -> MutexGuard<'_, Particles> {
         self.inner.lock().unwrap_or_else(|p| p.into_inner())
     }
+}
+
+impl PyParticles {
+    fn wrap(body: Particles) -> Self {
+        Self {
+            inner: Arc::new(Mutex::new(body)),
+        }
+    }
+}
+
+/// The parameters of a particle body from the constructors' arguments, checked by name.
+fn params_of(
+    spacing: Real,
+    density: Real,
+    material: &Bound<'_, PyAny>,
+    horizon: Option<Real>,
+) -> PyResult<ParticleParams> {
+    Ok(ParticleParams {
+        spacing: spacing.get("spacing")?,
+        density: density.get("density")?,
+        horizon: horizon.map(|h| h.get("horizon")).transpose()?,
+        material: material
+            .cast::<PyElastic>()
+            .map_err(|_| {
+                PyValueError::new_err(format!(
+                    "material must be a peridyn.Elastic, got {}",
+                    material
+                        .get_type()
+                        .name()
+                        .map_or("?".into(), |n| n.to_string())
+                ))
+            })?
+            .get()
+            .inner,
+    })
+}
+
+/// The plastic law of the constructor's `plasticity` argument (a `peridyn.DruckerPrager`).
+fn plasticity_of(p: &Bound<'_, PyAny>) -> PyResult<DruckerPrager> {
+    p.cast::<PyDruckerPrager>()
+        .map(|d| d.get().inner)
+        .map_err(|_| {
+            PyValueError::new_err(format!(
+                "plasticity must be None or a peridyn.DruckerPrager, got {}",
+                p.get_type().name().map_or("?".into(), |n| n.to_string())
+            ))
+        })
 }
 
 /// Refuses a particle index outside `[0, n)`, naming its entry and its value.
@@ -53,36 +100,8 @@ impl PyParticles {
         horizon: Option<Real>,
         plasticity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let plasticity = plasticity
-            .map(|p| {
-                p.cast::<PyDruckerPrager>()
-                    .map(|d| d.get().inner)
-                    .map_err(|_| {
-                        PyValueError::new_err(format!(
-                            "plasticity must be None or a peridyn.DruckerPrager, got {}",
-                            p.get_type().name().map_or("?".into(), |n| n.to_string())
-                        ))
-                    })
-            })
-            .transpose()?;
-        let params = ParticleParams {
-            spacing: spacing.get("spacing")?,
-            density: density.get("density")?,
-            horizon: horizon.map(|h| h.get("horizon")).transpose()?,
-            material: material
-                .cast::<PyElastic>()
-                .map_err(|_| {
-                    PyValueError::new_err(format!(
-                        "material must be a peridyn.Elastic, got {}",
-                        material
-                            .get_type()
-                            .name()
-                            .map_or("?".into(), |n| n.to_string())
-                    ))
-                })?
-                .get()
-                .inner,
-        };
+        let plasticity = plasticity.map(plasticity_of).transpose()?;
+        let params = params_of(spacing, density, material, horizon)?;
         let x = vec3s(positions, "positions", None)?;
         let body = py.detach(|| {
             guard("Particles()", || {
@@ -91,9 +110,65 @@ impl PyParticles {
                 Ok(body)
             })
         })?;
-        Ok(Self {
-            inner: Arc::new(Mutex::new(body)),
-        })
+        Ok(Self::wrap(body))
+    }
+
+    /// A shell: one layer of particles on a surface with two ghost layers (see thin.rs).
+    #[staticmethod]
+    #[pyo3(signature = (mesh, *, spacing, thickness, density, material, horizon = None, seed = 0))]
+    #[allow(clippy::too_many_arguments)]
+    fn shell(
+        py: Python<'_>,
+        mesh: &Bound<'_, PyAny>,
+        spacing: Real,
+        thickness: Real,
+        density: Real,
+        material: &Bound<'_, PyAny>,
+        horizon: Option<Real>,
+        seed: i128,
+    ) -> PyResult<Self> {
+        let params = params_of(spacing, density, material, horizon)?;
+        super::thin::shell(py, mesh, thickness.get("thickness")?, seed, params).map(Self::wrap)
+    }
+
+    /// A rod: a line of particles with four ghosts around each (see thin.rs).
+    #[staticmethod]
+    #[pyo3(signature = (points, *, spacing, radius, density, material, horizon = None))]
+    fn rod(
+        py: Python<'_>,
+        points: &Bound<'_, PyAny>,
+        spacing: Real,
+        radius: Real,
+        density: Real,
+        material: &Bound<'_, PyAny>,
+        horizon: Option<Real>,
+    ) -> PyResult<Self> {
+        let params = params_of(spacing, density, material, horizon)?;
+        super::thin::rod(py, points, radius.get("radius")?, params).map(Self::wrap)
+    }
+
+    /// Number of real (non-ghost) particles: particles `0..num_real` (the rest are ghosts).
+    #[getter]
+    fn num_real(&self) -> usize {
+        self.lock().num_real()
+    }
+    /// (num_real, 3) positions of the real particles (m): `positions[:num_real]`.
+    #[getter]
+    fn real_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let p = self.lock();
+        to_numpy(py, p.positions()[..p.num_real()].iter().copied())
+    }
+    /// (N - num_real,) the real particle each ghost belongs to (int64).
+    #[getter]
+    fn ghost_owner<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(
+            py,
+            self.lock()
+                .ghost_owners()
+                .iter()
+                .map(|&o| o as i64)
+                .collect(),
+        )
     }
 
     #[getter]

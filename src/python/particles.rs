@@ -27,7 +27,7 @@ fn real_dtype(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<()> {
 type Mesh = (Vec<[f64; 3]>, Vec<[i64; 3]>);
 
 /// The mesh argument as vertices (m) and triangles, validated by shape and dtype.
-fn mesh_of(mesh: &Bound<'_, PyAny>, what: &str) -> PyResult<Mesh> {
+pub(super) fn mesh_of(mesh: &Bound<'_, PyAny>, what: &str) -> PyResult<Mesh> {
     let (v, f) = if mesh.hasattr("vertices")? && mesh.hasattr("faces")? {
         (mesh.getattr("vertices")?, mesh.getattr("faces")?)
     } else {
@@ -56,7 +56,7 @@ fn mesh_of(mesh: &Bound<'_, PyAny>, what: &str) -> PyResult<Mesh> {
     Ok((vertices.iter().map(|x| (*x).into()).collect(), t))
 }
 
-fn seed_of(seed: i128) -> PyResult<u64> {
+pub(super) fn seed_of(seed: i128) -> PyResult<u64> {
     u64::try_from(seed).map_err(|_| {
         PyValueError::new_err(format!("seed must be an integer in [0, 2^64), got {seed}"))
     })

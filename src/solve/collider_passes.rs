@@ -21,9 +21,11 @@ pub(crate) fn push_iterate_out_of_colliders<T: Real>(
         return;
     }
     let (pinned, margin, start) = (&points.pinned, &points.margin, &points.y_start);
+    let collides = &points.collides;
     points.y.par_iter_mut().enumerate().for_each(|(k, y)| {
         if !pinned[k] {
             let from = MoveStart::OfStep(start[k]);
+            let colliders = Points::colliders_of(collides, k, colliders);
             *y = push_out_of_colliders(colliders, from, *y, margin[k], None);
         }
     });
@@ -35,6 +37,7 @@ pub(crate) fn push_next_out_of_colliders<T: Real>(
     colliders: &[ColliderModel<T>],
 ) -> Update {
     let (y, pinned, margin) = (&points.y, &points.pinned, &points.margin);
+    let collides = &points.collides;
     points
         .y_next
         .par_iter_mut()
@@ -42,6 +45,7 @@ pub(crate) fn push_next_out_of_colliders<T: Real>(
         .map(|(k, next)| {
             if !pinned[k] {
                 let from = MoveStart::Now(y[k]);
+                let colliders = Points::colliders_of(collides, k, colliders);
                 *next = push_out_of_colliders(colliders, from, *next, margin[k], None);
             }
             Update::of(k, &y[k], next)
@@ -65,8 +69,10 @@ pub(crate) fn extrapolate_local_step<T: Real>(
     colliders: &[ColliderModel<T>],
 ) {
     let (y_prev, pinned, margin) = (&points.y_prev, &points.pinned, &points.margin);
+    let collides = &points.collides;
     points.y_next.par_iter_mut().enumerate().for_each(|(k, z)| {
         if !pinned[k] {
+            let colliders = Points::colliders_of(collides, k, colliders);
             *z = extrapolated(z, &y_prev[k], w, margin[k], colliders);
         }
     });

@@ -7,6 +7,7 @@ use std::ops::Range;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use crate::collider::ColliderModel;
 use crate::real::Real;
 
 use super::body::Body;
@@ -34,6 +35,8 @@ pub(crate) struct Points<T: Real> {
     /// The iterate before `y`, kept only while Chebyshev acceleration needs it (else empty).
     pub y_prev: Vec<Vector3<T>>,
     pub pinned: Vec<bool>,
+    /// False for a point no collider acts on (a particle body's ghost, [`Self::colliders_of`]).
+    pub collides: Vec<bool>,
     /// Partial sums of the energy reductions (reused).
     pub energy_chunks: Vec<f64>,
 }
@@ -65,7 +68,22 @@ impl<T: Real> Points<T> {
             y_next: zeros,
             y_prev: Vec::new(),
             pinned: vec![false; start],
+            collides: vec![true; start],
             energy_chunks: Vec::new(),
+        }
+    }
+
+    /// The colliders point `k` meets: all of `colliders`, none where it does not collide.
+    #[inline(always)]
+    pub fn colliders_of<'a>(
+        collides: &[bool],
+        k: usize,
+        colliders: &'a [ColliderModel<T>],
+    ) -> &'a [ColliderModel<T>] {
+        if collides[k] {
+            colliders
+        } else {
+            &[]
         }
     }
 

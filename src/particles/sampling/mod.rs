@@ -7,7 +7,7 @@ mod random;
 mod surface;
 mod volume;
 
-pub use surface::{sample_surface, MAX_SURFACE_CANDIDATES};
+pub use surface::{sample_surface, sample_surface_with_normals, MAX_SURFACE_CANDIDATES};
 pub use volume::sample_volume;
 
 use crate::error::{check_param, Result};

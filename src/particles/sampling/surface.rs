@@ -45,6 +45,24 @@ pub fn sample_surface(
     spacing: f64,
     seed: u64,
 ) -> Result<Vec<Vector3<f64>>> {
+    Ok(sample_surface_with_normals(vertices, triangles, spacing, seed)?.points)
+}
+
+/// [`sample_surface`]'s particles with the unit normal of the triangle each lies on (oriented
+/// by the triangle's winding) and the surface's area (m^2), for the shells' builder.
+pub struct SurfaceSample {
+    pub points: Vec<Vector3<f64>>,
+    pub normals: Vec<Vector3<f64>>,
+    pub area: f64,
+}
+
+/// [`sample_surface`] with each particle's normal and the area ([`SurfaceSample`]).
+pub fn sample_surface_with_normals(
+    vertices: Vec<[f64; 3]>,
+    triangles: Vec<[i64; 3]>,
+    spacing: f64,
+    seed: u64,
+) -> Result<SurfaceSample> {
     let spacing = check_spacing(spacing)?;
     if vertices.len() < 3 || triangles.is_empty() {
         return Err(invalid!(
@@ -74,7 +92,11 @@ pub fn sample_surface(
             "sampling would give about {expected:.3e} particles (area / spacing^2), more than {MAX_PARTICLES}: use a larger spacing ({spacing} m)"
         ));
     }
-    let candidates: Vec<Vector3<f64>> = layouts.par_iter().flat_map_iter(|l| l.points()).collect();
+    let (candidates, on): (Vec<Vector3<f64>>, Vec<u32>) = layouts
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(t, l)| l.points().map(move |p| (p, t as u32)))
+        .unzip();
     let mut visit: Vec<(u64, u32)> = (0..candidates.len() as u32)
         .into_par_iter()
         .map(|c| (hash(seed, &[u64::from(c)]), c))
@@ -110,7 +132,14 @@ pub fn sample_surface(
         }
     }
     accepted.sort_unstable();
-    Ok(accepted.iter().map(|&c| candidates[c as usize]).collect())
+    Ok(SurfaceSample {
+        points: accepted.iter().map(|&c| candidates[c as usize]).collect(),
+        normals: accepted
+            .iter()
+            .map(|&c| layouts[on[c as usize] as usize].normal())
+            .collect(),
+        area,
+    })
 }
 
 /// Candidate rows over one triangle: rows parallel to its longest edge `a b`, from that edge
@@ -149,6 +178,12 @@ impl RowLayout {
             count,
             area: 0.5 * twice_area,
         }
+    }
+
+    /// The unit normal, oriented by the winding (the corners are a cyclic turn of it).
+    fn normal(&self) -> Vector3<f64> {
+        let [a, b, c] = self.corners;
+        (b - a).cross(&(c - a)).normalize()
     }
 
     /// Points of row `r` of `rows`: at most `h` apart over `(1 - r / rows) along h`.

@@ -40,6 +40,9 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         if params.global_solver == GlobalSolver::Direct {
             prepare_direct(self)?;
         }
+        if let Some(repulsion) = &mut self.repulsion {
+            repulsion.start_step(&self.points, params.dt, params.gravity)?;
+        }
         Ok(())
     }
     /// A failure of the direct solver's factorisation during the step, else plasticity and

@@ -8,6 +8,7 @@ mod directions;
 mod evaluation;
 mod family;
 mod plastic;
+mod repulsion;
 mod step;
 mod system;
 
@@ -15,3 +16,9 @@ pub(crate) use system::ParticleSystem;
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod thin_tests;
+
+#[cfg(test)]
+mod repulsion_tests;

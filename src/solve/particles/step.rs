@@ -18,6 +18,7 @@ use rayon::prelude::*;
 
 use crate::collider::{push_out_with_friction, ColliderModel};
 use crate::real::Real;
+use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
 use crate::solve::GlobalSolver;
 use crate::symmetric::SymmetricMatrix3;
@@ -59,6 +60,9 @@ pub(crate) fn global_move<T: Real>(
         (T::one(), false)
     };
     sys.timings.line_search += millis(started);
+    if let Some(repulsion) = &mut sys.repulsion {
+        repulsion.correct(&sys.points, &sys.delta, alpha);
+    }
     let started = Instant::now();
     let update = finish(sys, h2, alpha, tried, options);
     sys.timings.project += millis(started);
@@ -88,7 +92,7 @@ fn direct_move<T: Real>(sys: &mut ParticleSystem<T>, h: T, colliders: &[Collider
         sys.held.par_iter_mut().enumerate().for_each(|(i, held)| {
             let reach = points.margin[i] * (T::one() + T::of(CONTACT_GAP));
             *held |= points.pinned[i]
-                || colliders
+                || Points::colliders_of(&points.collides, i, colliders)
                     .iter()
                     .any(|c| c.signed_distance(&points.y[i]) <= reach);
         });
@@ -181,16 +185,20 @@ fn finish<T: Real>(
                     &points.y_start[i],
                     &inverse,
                     margin,
-                    options.colliders,
+                    Points::colliders_of(&points.collides, i, options.colliders),
                 )
             };
+            let repelled = sys_ref
+                .repulsion
+                .as_ref()
+                .map_or(Vector3::zeros(), |r| r.of_particle(i));
             let whole = y + sys_ref.delta[i];
             let free_move = y + sys_ref.delta[i] * alpha;
-            *next = push(free_move);
+            *next = push(free_move + repelled);
             let reaction = if alpha == T::one() {
                 *next - free_move
             } else {
-                push(whole) - whole
+                push(whole + repelled) - whole
             };
             if let Some(w) = options.omega.filter(|_| *next == free_move) {
                 *next = (*next - points.y_prev[i]) * w + points.y_prev[i];

@@ -15,6 +15,7 @@ use crate::solve::ParticleTimings;
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
 use super::plastic::PlasticBodies;
+use super::repulsion::Repulsion;
 
 /// The particle family's working set.
 pub(crate) struct ParticleSystem<T: Real> {
@@ -32,6 +33,8 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub direct: Option<DirectSolver>,
     pub held: Vec<bool>,
     pub failure: Option<crate::error::Error>,
+    /// The minimum distance between bodies (none for a single body).
+    pub repulsion: Option<Repulsion<T>>,
     /// Partial sums of the merit (reused).
     pub chunks: Vec<f64>,
     /// Every body's bonds when some body is plastic ([`super::plastic`]).
@@ -47,13 +50,17 @@ impl<T: Real> ParticleSystem<T> {
         let shared: Vec<&Particles> = bodies.iter().map(|b| &**b).collect();
         let rest = ParticleRest::<T>::of_bodies(&shared)?;
         let (n, bonds) = (rest.len(), rest.indices.len());
+        let mut points = Points::new(bodies, rest.mass.clone(), rest.margin.clone());
+        points.collides.clone_from(&rest.collides);
+        let repulsion = Repulsion::of(&points);
         Ok(Self {
-            points: Points::new(bodies, rest.mass.clone(), rest.margin.clone()),
+            points,
             rest,
             current: Evaluation::new(n, bonds),
             trial: Evaluation::new(n, bonds),
             delta: vec![Vector3::zeros(); n],
             scratch: vec![Vector3::zeros(); n],
+            repulsion,
             direct: None,
             held: vec![false; n],
             failure: None,

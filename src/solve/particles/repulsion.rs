@@ -1,0 +1,151 @@
+//! Repulsion between particle bodies: a minimum-distance constraint between the particles of
+//! different bodies, so that two bodies collide without passing through each other (DESIGN.md
+//! section 6, "Boundaries and couplings"; the 2017 paper names no form for it).
+//!
+//! Each particle is a ball of its collider margin (half a spacing for a solid, half the
+//! thickness of a shell, the radius of a rod): particles `i`, `j` of different bodies keep
+//! `|y_i - y_j| >= d_ij = margin_i + margin_j` (m). Ghost particles take no part, as in
+//! collisions. The constraint is projected in the local step, where the colliders are: the
+//! global move proposes `p = y + alpha delta` for every particle, and each particle is moved by
+//! its share of every violated pair at the proposed positions,
+//! `c_i = sum_j m_j / (m_i + m_j) (d_ij - |p_i - p_j|) dir(p_i - p_j)` (m), a Jacobi pass of
+//! position-based dynamics: the two moves of a pair are equal and opposite in momentum, and
+//! together close the pair's gap exactly. The move `c_i` counts as a reaction in the
+//! convergence measure, as a collider's does, so at the iteration's fixed point (`c_i = -alpha
+//! delta_i`) an isolated pair sits exactly `d_ij` apart.
+//!
+//! Candidates are found once per step, at its start, by cell lists ([`find_horizons`]) among
+//! the colliding particles within `2 d_max + 2 s`, with `d_max` the largest margin and `s` the
+//! largest predicted move of the step, `|h v + h^2 g|` (m; a pinned particle's move to its
+//! target): a pair that closes by more than that within one step can be missed (a time step
+//! far too long for the bodies' speeds).
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use crate::error::Result;
+use crate::geometry::find_horizons;
+use crate::real::Real;
+use crate::solve::points::Points;
+
+/// The repulsion of the particle bodies of one family, with its scratch.
+pub(crate) struct Repulsion<T: Real> {
+    /// Body of each particle (an index into the family's body list).
+    body: Vec<u32>,
+    /// Candidate pairs of this step in compressed rows (particles of other bodies only).
+    offsets: Vec<u32>,
+    indices: Vec<u32>,
+    /// The proposed positions `p` (m) and each particle's move `c_i` (m).
+    proposed: Vec<Vector3<T>>,
+    correction: Vec<Vector3<T>>,
+}
+
+impl<T: Real> Repulsion<T> {
+    /// The repulsion of the bodies laid out in `points`; `None` for a single body.
+    pub fn of(points: &Points<T>) -> Option<Self> {
+        if points.ranges.len() < 2 {
+            return None;
+        }
+        let n = points.mass.len();
+        let mut body = vec![0; n];
+        for (b, range) in points.ranges.iter().enumerate() {
+            body[range.clone()].fill(b as u32);
+        }
+        Some(Self {
+            body,
+            offsets: vec![0; n + 1],
+            indices: Vec::new(),
+            proposed: vec![Vector3::zeros(); n],
+            correction: vec![Vector3::zeros(); n],
+        })
+    }
+
+    /// The candidate pairs of the step of `h` (s) under `gravity` (m/s^2) that starts at the
+    /// loaded positions, velocities and pins of `points`.
+    pub fn start_step(&mut self, points: &Points<T>, h: f64, gravity: [f64; 3]) -> Result<()> {
+        let colliding: Vec<u32> = (0..points.mass.len() as u32)
+            .filter(|&i| points.collides[i as usize])
+            .collect();
+        let kick = Vector3::from(gravity) * (h * h);
+        let (d_max, s) = colliding
+            .iter()
+            .map(|&i| {
+                let i = i as usize;
+                let moved = if points.pinned[i] {
+                    (points.y_star[i] - points.y_start[i]).map(|c| c.to_f64())
+                } else {
+                    points.velocity[i].map(|c| c.to_f64()) * h + kick
+                };
+                (points.margin[i].to_f64(), moved.norm())
+            })
+            .fold((0.0, 0.0), |(a, b), (d, m)| {
+                (f64::max(a, d), f64::max(b, m))
+            });
+        let at: Vec<Vector3<T>> = colliding
+            .iter()
+            .map(|&i| points.y_start[i as usize])
+            .collect();
+        let near = find_horizons(&at, 2.0 * d_max + 2.0 * s)?;
+        self.offsets.clear();
+        self.offsets.push(0);
+        self.indices.clear();
+        let mut next = colliding.iter().enumerate().peekable();
+        for i in 0..self.body.len() {
+            if let Some((k, _)) = next.next_if(|(_, &c)| c as usize == i) {
+                let body = self.body[i];
+                self.indices.extend(
+                    near.of(k)
+                        .iter()
+                        .map(|&l| colliding[l as usize])
+                        .filter(|&j| self.body[j as usize] != body),
+                );
+            }
+            self.offsets.push(self.indices.len() as u32);
+        }
+        Ok(())
+    }
+
+    /// Each particle's move `c_i` (m) for the proposed moves `alpha delta` (m) from the
+    /// iterate, among the candidates of [`Self::start_step`].
+    pub fn correct(&mut self, points: &Points<T>, delta: &[Vector3<T>], alpha: T) {
+        let (y, pinned) = (&points.y, &points.pinned);
+        self.proposed.par_iter_mut().enumerate().for_each(|(i, p)| {
+            *p = if pinned[i] {
+                y[i]
+            } else {
+                y[i] + delta[i] * alpha
+            };
+        });
+        let (proposed, offsets, indices) = (&self.proposed, &self.offsets, &self.indices);
+        let (mass, margin) = (&points.mass, &points.margin);
+        self.correction
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, c)| {
+                *c = Vector3::zeros();
+                if pinned[i] {
+                    return;
+                }
+                for &j in &indices[offsets[i] as usize..offsets[i + 1] as usize] {
+                    let j = j as usize;
+                    let gap = proposed[i] - proposed[j];
+                    let (distance, reach) = (gap.norm(), margin[i] + margin[j]);
+                    if distance >= reach || distance == T::zero() {
+                        continue;
+                    }
+                    let share = if pinned[j] {
+                        T::one()
+                    } else {
+                        mass[j] / (mass[i] + mass[j])
+                    };
+                    *c += gap * (share * (reach - distance) / distance);
+                }
+            });
+    }
+
+    /// Particle `i`'s move (m) from the last [`Self::correct`].
+    #[inline(always)]
+    pub fn of_particle(&self, i: usize) -> Vector3<T> {
+        self.correction[i]
+    }
+}
