@@ -25,6 +25,7 @@ pub mod solve;
 pub mod symmetric;
 #[cfg(test)]
 mod test_rng;
+mod timing;
 
 #[cfg(feature = "python")]
 mod python;

@@ -19,6 +19,7 @@ use crate::error::{invalid, Error, Result};
 use crate::solve::body::ByKind;
 use crate::solve::BodyMut;
 use crate::solve::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
+use crate::timing::millis;
 
 use super::device::GpuContext;
 use super::layout::{GpuReal, IterValues};
@@ -43,10 +44,6 @@ pub struct GpuSolver<T: GpuReal> {
     pipelines: Pipelines,
     state: Option<State<T>>,
     clock: Clock,
-}
-
-fn millis(since: Instant) -> f64 {
-    since.elapsed().as_secs_f64() * 1e3
 }
 
 impl<T: GpuReal> GpuSolver<T> {

@@ -44,6 +44,7 @@ use super::membranes::descent::{descent_iteration, DescentState, LineSearch};
 use super::membranes::newton::{newton_iteration, start_iteration, NewtonState};
 use super::update::{MoveOptions, Update};
 use super::{Acceleration, Clock, Method, SolverParams, SolverState, StepStats, Timings};
+use crate::timing::millis;
 
 /// Steps a set of membranes in time.
 pub struct Solver<T: Real> {
@@ -61,10 +62,6 @@ pub struct Solver<T: Real> {
     /// A state given to [`Self::restore_state`], taken by the next step.
     restored: Option<SolverState>,
     clock: Clock,
-}
-
-fn millis(since: Instant) -> f64 {
-    since.elapsed().as_secs_f64() * 1e3
 }
 
 impl<T: Real> Solver<T> {

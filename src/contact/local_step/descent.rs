@@ -7,6 +7,8 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use crate::timing::millis;
+
 use super::super::barrier_push::{barrier_energy, VertexSums};
 use super::super::broad_phase::ContactMesh;
 use super::super::parallel_fade::sin2_limit;
@@ -16,9 +18,9 @@ use super::guarantee::{guarantee, vertex_toi};
 use super::live_pairs::FIRST_ALLOWANCE;
 use super::moves::{compliance_bound, damped_move, proximal_pull, settle_or_move, Move, PushOut};
 use super::params::{ContactParams, DescentStep, ProximalWeights, SETTLED_SHARE};
+use super::refill;
 use super::stats::ContactStats;
 use super::workspace::Workspace;
-use super::{millis, refill};
 use crate::geometry::distance::Closest;
 use crate::symmetric::SymmetricMatrix3;
 

@@ -9,9 +9,10 @@ use rayon::prelude::*;
 use super::super::broad_phase::ContactMesh;
 use super::super::primitive_pairs::Pair;
 use super::params::{ContactParams, CLAMP_PASSES};
+use super::refill;
 use super::stats::ContactStats;
 use super::workspace::Workspace;
-use super::{millis, refill};
+use crate::timing::millis;
 
 /// The final clamp (see the module doc) over the live pairs in `work`: marks the vertices it
 /// moves in `work.unmeasured`, adds to `stats` their number, the CCD queries it made and its

@@ -74,8 +74,6 @@ mod stats;
 mod tests;
 mod workspace;
 
-use std::time::Instant;
-
 pub use descent::resolve_contacts;
 pub use moves::PushOut;
 pub use params::{
@@ -92,8 +90,4 @@ pub use workspace::Workspace;
 fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
     v.clear();
     v.resize(n, value);
-}
-
-fn millis(since: Instant) -> f64 {
-    since.elapsed().as_secs_f64() * 1e3
 }

@@ -7,9 +7,7 @@ use crate::solve::energy::inertial_energy;
 use crate::solve::family::Family;
 use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
-use crate::solve::{
-    Acceleration, GlobalSolver, ParticleTimings, SolverParams, StepStats, Timings,
-};
+use crate::solve::{Acceleration, GlobalSolver, ParticleTimings, SolverParams, StepStats, Timings};
 
 use super::step::{global_move, prepare_direct};
 use super::system::ParticleSystem;

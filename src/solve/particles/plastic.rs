@@ -21,6 +21,7 @@ use crate::particles::{
 };
 use crate::real::Real;
 use crate::solve::Timings;
+use crate::timing::millis;
 
 use super::evaluation::Evaluation;
 use super::system::ParticleSystem;
@@ -127,8 +128,4 @@ impl<T: Real> ParticleSystem<T> {
         timings.plasticity += millis(t);
         Ok(())
     }
-}
-
-fn millis(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }

@@ -25,7 +25,8 @@ use crate::symmetric::SymmetricMatrix3;
 
 use super::direct::DirectSolver;
 use super::directions::{jacobi, position_averaging};
-use super::system::{millis, ParticleSystem};
+use super::system::ParticleSystem;
+use crate::timing::millis;
 
 /// The sufficient-decrease constant of the Armijo condition.
 pub const ARMIJO_SIGMA: f64 = 1e-4;

@@ -11,6 +11,7 @@ use crate::particles::{ParticleRest, Particles};
 use crate::real::Real;
 use crate::solve::points::Points;
 use crate::solve::ParticleTimings;
+use crate::timing::millis;
 
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
@@ -88,9 +89,4 @@ impl<T: Real> ParticleSystem<T> {
     pub fn diagonal(&self, i: usize, h2: T) -> T {
         self.rest.mass[i] + h2 * self.rest.stiffness[i]
     }
-}
-
-/// Milliseconds since `since`.
-pub(crate) fn millis(since: Instant) -> f64 {
-    since.elapsed().as_secs_f64() * 1e3
 }
