@@ -22,6 +22,7 @@ pub mod particles;
 pub mod point_state;
 pub mod real;
 pub mod solve;
+mod sparse_llt;
 pub mod symmetric;
 #[cfg(test)]
 mod test_rng;

@@ -22,10 +22,6 @@
 //! descent method whatever the iterate. Everything on the coarse level is in f64 and
 //! sequential (it is some hundreds of unknowns), so results do not depend on the thread count.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky};
-use faer::sparse::{SparseColMat, Triplet};
-use faer::{Conj, Mat, Par, Side};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
@@ -33,6 +29,7 @@ use crate::error::{invalid, Result};
 use crate::membrane::RestData;
 use crate::mesh::Neighborhood;
 use crate::real::Real;
+use crate::sparse_llt::SparseLlt;
 
 use super::hessian_model::VertexModel;
 
@@ -102,14 +99,10 @@ pub(crate) struct CoarseLevel {
     /// The aggregate of every vertex, and the number of aggregates.
     aggregate: Vec<usize>,
     count: usize,
-    /// `A_c`'s lower triangle (3 rows and columns per aggregate, kg); its pattern holds every
-    /// pair of aggregates that share a stencil.
-    matrix: SparseColMat<usize, f64>,
-    symbolic: SymbolicCholesky<usize>,
-    factor: Vec<f64>,
-    /// `P^T r`, then `A_c^-1 P^T r`.
-    rhs: Mat<f64>,
-    scratch: MemBuffer,
+    /// `A_c` (3 rows and columns per aggregate, kg) and its factor; its pattern holds every
+    /// pair of aggregates that share a stencil. Its right-hand side: `P^T r`, then
+    /// `A_c^-1 P^T r`.
+    llt: SparseLlt,
 }
 
 /// One stencil's contribution to `A_c`: the block of rows of aggregate `.0` and columns of
@@ -136,7 +129,7 @@ impl CoarseLevel {
         for a in 0..count {
             for c in 0..3 {
                 for r in c..3 {
-                    pattern.push(Triplet::new(3 * a + r, 3 * a + c, 0.0));
+                    pattern.push((3 * a + r, 3 * a + c));
                 }
             }
         }
@@ -151,33 +144,18 @@ impl CoarseLevel {
                 for &b in touched.iter().filter(|&&b| b > a) {
                     for c in 0..3 {
                         for r in 0..3 {
-                            pattern.push(Triplet::new(3 * b + r, 3 * a + c, 0.0));
+                            pattern.push((3 * b + r, 3 * a + c));
                         }
                     }
                 }
             }
         }
-        let failed = |e: &dyn std::fmt::Debug| invalid!("the coarse level's set-up failed: {e:?}");
-        let matrix = SparseColMat::try_new_from_triplets(3 * count, 3 * count, &pattern)
-            .map_err(|e| failed(&e))?;
-        let symbolic = factorize_symbolic_cholesky(
-            matrix.symbolic(),
-            Side::Lower,
-            Default::default(),
-            Default::default(),
-        )
-        .map_err(|e| failed(&e))?;
-        let factor_scratch =
-            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
-        let solve_scratch = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
+        let llt = SparseLlt::new(3 * count, pattern, 1)
+            .map_err(|e| invalid!("the coarse level's set-up failed: {e}"))?;
         Ok(Self {
             aggregate,
             count,
-            factor: vec![0.0; symbolic.len_val()],
-            symbolic,
-            matrix,
-            rhs: Mat::zeros(3 * count, 1),
-            scratch: MemBuffer::new(factor_scratch.or(solve_scratch)),
+            llt,
         })
     }
 
@@ -266,32 +244,23 @@ impl CoarseLevel {
             .map(|i| self.contribution(i, nb, rest, &models[i], free))
             .collect();
         let h2 = h2.to_f64();
-        let (col_ptr, row_idx) = {
-            let symbolic = self.matrix.symbolic();
-            (symbolic.col_ptr().to_vec(), symbolic.row_idx().to_vec())
-        };
-        let position = |row: usize, col: usize| {
-            col_ptr[col]
-                + row_idx[col_ptr[col]..col_ptr[col + 1]]
-                    .binary_search(&row)
-                    .expect("in the pattern")
-        };
-        let values = self.matrix.val_mut();
-        values.fill(0.0);
+        self.llt.values_mut().fill(0.0);
         let mut has_free = vec![false; self.count];
         for (k, free) in free.iter().enumerate() {
             if *free {
                 let a = self.aggregate[k];
                 has_free[a] = true;
                 for c in 0..3 {
-                    values[position(3 * a + c, 3 * a + c)] += rest.vertices[k].mass.to_f64();
+                    self.llt
+                        .add(3 * a + c, 3 * a + c, rest.vertices[k].mass.to_f64());
                 }
             }
         }
         for (a, has) in has_free.iter().enumerate() {
             if !has {
                 for c in 0..3 {
-                    values[position(3 * a + c, 3 * a + c)] = 1.0;
+                    let slot = self.llt.slot(3 * a + c, 3 * a + c);
+                    self.llt.values_mut()[slot] = 1.0;
                 }
             }
         }
@@ -300,43 +269,30 @@ impl CoarseLevel {
                 for r in 0..3 {
                     let (row, col) = (3 * b + r, 3 * a + c);
                     if row >= col {
-                        values[position(row, col)] += h2 * block[(r, c)];
+                        self.llt.add(row, col, h2 * block[(r, c)]);
                     }
                 }
             }
         }
-        self.symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut self.factor,
-                self.matrix.as_ref(),
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut self.scratch),
-                Default::default(),
-            )
-            .map_err(|e| invalid!("the coarse matrix is not positive definite: {e:?}"))?;
-        Ok(())
+        self.llt
+            .factor()
+            .map_err(|e| invalid!("the coarse matrix is not positive definite: {e}"))
     }
 
     /// `z_k += (P A_c^-1 P^T r)_k` on the free vertices (m, for `r` in kg m).
     pub fn correct<T: Real>(&mut self, free: &[bool], r: &[Vector3<T>], z: &mut [Vector3<T>]) {
-        self.rhs.fill(0.0);
+        let rhs = self.llt.rhs_mut();
+        rhs.fill(0.0);
         for (k, r) in r.iter().enumerate() {
             if free[k] {
                 let a = self.aggregate[k];
                 for c in 0..3 {
-                    self.rhs[(3 * a + c, 0)] += r[c].to_f64();
+                    rhs[(3 * a + c, 0)] += r[c].to_f64();
                 }
             }
         }
-        LltRef::<usize, f64>::new(&self.symbolic, &self.factor).solve_in_place_with_conj(
-            Conj::No,
-            self.rhs.as_mut(),
-            Par::Seq,
-            MemStack::new(&mut self.scratch),
-        );
-        let (rhs, aggregate) = (&self.rhs, &self.aggregate);
+        self.llt.solve();
+        let (rhs, aggregate) = (self.llt.rhs(), &self.aggregate);
         z.par_iter_mut().enumerate().for_each(|(k, z)| {
             if free[k] {
                 let a = aggregate[k];

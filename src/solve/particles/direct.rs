@@ -23,15 +23,12 @@
 //! code path: the solver's values are converted on the way in and out), sequentially, so its
 //! results do not depend on the number of threads.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky};
-use faer::sparse::{SparseColMat, Triplet};
-use faer::{Conj, Mat, Par, Side};
 use nalgebra::Vector3;
 
 use crate::error::{invalid, Error, Result};
 use crate::particles::ParticleRest;
 use crate::real::Real;
+use crate::sparse_llt::SparseLlt;
 
 /// No slot: the bond's entry is in the upper triangle (its reverse holds it).
 const UPPER: usize = usize::MAX;
@@ -42,16 +39,11 @@ pub(crate) struct DirectSolver {
     /// The time step (s) and held particles the numeric factor is for (`h = NaN`: none yet).
     h: f64,
     held: Vec<bool>,
-    /// The lower triangle of `M + h^2 L`; per particle the slot of its diagonal and per bond
-    /// the slot of its entry in the values (or [`UPPER`]).
-    matrix: SparseColMat<usize, f64>,
+    /// `M + h^2 L` and its factor (right-hand sides `n x 3`); per particle the slot of its
+    /// diagonal and per bond the slot of its entry in the values (or [`UPPER`]).
+    llt: SparseLlt,
     diagonal_slot: Vec<usize>,
     bond_slot: Vec<usize>,
-    symbolic: SymbolicCholesky<usize>,
-    values: Vec<f64>,
-    /// Right-hand sides and solutions, `n x 3` (reused).
-    rhs: Mat<f64>,
-    scratch: MemBuffer,
     /// Numeric factorisations since the last [`Self::take_factorizations`].
     factorizations: usize,
 }
@@ -65,58 +57,32 @@ impl DirectSolver {
     /// (no numeric factor yet).
     pub fn new<T: Real>(rest: &ParticleRest<T>) -> Result<Self> {
         let n = rest.len();
-        let mut triplets = Vec::with_capacity(n + rest.indices.len() / 2);
-        for i in 0..n {
-            triplets.push(Triplet::new(i, i, 0.0));
-            for b in rest.row(i) {
-                let j = rest.indices[b] as usize;
-                // The lower triangle: each pair once, from its larger index.
-                if j < i {
-                    triplets.push(Triplet::new(i, j, 0.0));
-                }
-            }
-        }
-        let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets)
-            .map_err(|e| failed(&e))?;
-        let slot = |row: usize, col: usize| {
-            let rows = matrix.symbolic().row_idx_of_col_raw(col);
-            let start = matrix.symbolic().col_ptr()[col];
-            start
-                + rows
-                    .binary_search(&row)
-                    .expect("in the pattern built above")
-        };
-        let diagonal_slot = (0..n).map(|i| slot(i, i)).collect();
+        // The lower triangle: each pair once, from its larger index.
+        let lower = (0..n).flat_map(|i| {
+            std::iter::once((i, i)).chain(
+                rest.row(i)
+                    .map(|b| rest.indices[b] as usize)
+                    .filter(move |&j| j < i)
+                    .map(move |j| (i, j)),
+            )
+        });
+        let llt = SparseLlt::new(n, lower, 3).map_err(|e| failed(&e))?;
+        let diagonal_slot = (0..n).map(|i| llt.slot(i, i)).collect();
         let mut bond_slot = vec![UPPER; rest.indices.len()];
         for i in 0..n {
             for b in rest.row(i) {
                 let j = rest.indices[b] as usize;
                 if j < i {
-                    bond_slot[b] = slot(i, j);
+                    bond_slot[b] = llt.slot(i, j);
                 }
             }
         }
-        let symbolic = factorize_symbolic_cholesky(
-            matrix.symbolic(),
-            Side::Lower,
-            Default::default(),
-            Default::default(),
-        )
-        .map_err(|e| failed(&e))?;
-        let values = vec![0.0; symbolic.len_val()];
-        let factor_scratch =
-            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
-        let solve_scratch = symbolic.solve_in_place_scratch::<f64>(3, Par::Seq);
         Ok(Self {
             h: f64::NAN,
             held: vec![false; n],
-            matrix,
+            llt,
             diagonal_slot,
             bond_slot,
-            symbolic,
-            values,
-            rhs: Mat::zeros(n, 3),
-            scratch: MemBuffer::new(factor_scratch.or(solve_scratch)),
             factorizations: 0,
         })
     }
@@ -129,7 +95,7 @@ impl DirectSolver {
             return Ok(());
         }
         let h2 = h * h;
-        let values = self.matrix.val_mut();
+        let values = self.llt.values_mut();
         for i in 0..held.len() {
             values[self.diagonal_slot[i]] = rest.mass[i].to_f64() + h2 * rest.stiffness[i].to_f64();
             for b in rest.row(i) {
@@ -147,17 +113,7 @@ impl DirectSolver {
         // Marked stale first: a failed factorisation leaves no usable factor.
         self.h = f64::NAN;
         self.factorizations += 1;
-        self.symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut self.values,
-                self.matrix.as_ref(),
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut self.scratch),
-                Default::default(),
-            )
-            .map_err(|e| failed(&e))?;
+        self.llt.factor().map_err(|e| failed(&e))?;
         self.h = h;
         self.held.copy_from_slice(held);
         Ok(())
@@ -171,19 +127,16 @@ impl DirectSolver {
     /// `delta = B^-1 r` (m) for the residual `r` (N s^2 = kg m; zero at pins), with `B` the
     /// last factor's matrix (see the module's doc).
     pub fn solve<T: Real>(&mut self, residual: &[Vector3<T>], delta: &mut [Vector3<T>]) {
+        let rhs = self.llt.rhs_mut();
         for (i, r) in residual.iter().enumerate() {
             for c in 0..3 {
-                self.rhs[(i, c)] = r[c].to_f64();
+                rhs[(i, c)] = r[c].to_f64();
             }
         }
-        LltRef::<usize, f64>::new(&self.symbolic, &self.values).solve_in_place_with_conj(
-            Conj::No,
-            self.rhs.as_mut(),
-            Par::Seq,
-            MemStack::new(&mut self.scratch),
-        );
+        self.llt.solve();
+        let x = self.llt.rhs();
         for (i, d) in delta.iter_mut().enumerate() {
-            *d = Vector3::new(self.rhs[(i, 0)], self.rhs[(i, 1)], self.rhs[(i, 2)]).map(T::of);
+            *d = Vector3::new(x[(i, 0)], x[(i, 1)], x[(i, 2)]).map(T::of);
         }
     }
 }
