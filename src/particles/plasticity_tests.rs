@@ -29,13 +29,19 @@ fn law(friction_angle: f64, cohesion: f64, rebuild: bool) -> DruckerPrager {
 }
 
 fn body(n: [usize; 3], plastic: Option<DruckerPrager>) -> Particles {
+    body_at(n, plastic, Vector3::zeros())
+}
+
+/// [`body`] translated by `offset` (m).
+fn body_at(n: [usize; 3], plastic: Option<DruckerPrager>, offset: Vector3<f64>) -> Particles {
     let params = ParticleParams {
         spacing: 0.01,
         density: 1000.0,
         horizon: None,
         material: Elastic::Young { e: 1e5, nu: 0.3 },
     };
-    let mut b = Particles::new(lattice(n, 0.01), params).unwrap();
+    let x = lattice(n, 0.01).into_iter().map(|x| x + offset).collect();
+    let mut b = Particles::new(x, params).unwrap();
     b.set_plasticity(plastic).unwrap();
     b
 }
@@ -118,7 +124,8 @@ fn bad_plastic_parameters_are_refused_by_name() {
 /// A plastic body's rest data before any step is the elastic body's, bit for bit, and an
 /// elastic body stepped beside a plastic one (whose end of step rebuilds the family's rest
 /// data) moves exactly as it does alone (with a fixed count of plain Jacobi iterations
-/// without line search, so that the bodies do not share a convergence test or step length).
+/// without line search, so that the bodies do not share a convergence test or step length;
+/// the plastic body 1 m away, so that the bodies' repulsion never acts).
 #[test]
 fn an_elastic_body_is_unchanged_by_plasticity_beside_it() {
     let (elastic, plastic) = (
@@ -136,7 +143,11 @@ fn an_elastic_body_is_unchanged_by_plasticity_beside_it() {
         e.set_velocities(vec![Vector3::new(0.3, -0.2, 0.5); e.num_particles()])
             .unwrap();
         e.pin(&[0], None).unwrap();
-        let mut p = body([4, 4, 5], Some(law(0.0, 100.0, true)));
+        let mut p = body_at(
+            [4, 4, 5],
+            Some(law(0.0, 100.0, true)),
+            Vector3::new(1.0, 0.0, 0.0),
+        );
         p.pin(&[0], None).unwrap();
         p.set_velocities(vec![Vector3::new(0.0, 0.0, 1.0); p.num_particles()])
             .unwrap();
