@@ -17,6 +17,7 @@ mod plasticity;
 mod scalars;
 mod solver;
 mod solver_state;
+mod step_stats;
 mod thin;
 
 use pyo3::prelude::*;
@@ -45,7 +46,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<collider::PyCapsule>()?;
     m.add_class::<collider::PyMeshCollider>()?;
     m.add_class::<solver::PySolver>()?;
-    m.add_class::<solver::PyStepStats>()?;
+    m.add_class::<step_stats::PyStepStats>()?;
     m.add_class::<contact::PyContact>()?;
     m.add_submodule(&contact::module(m.py())?)?;
     m.add_function(wrap_pyfunction!(gpu::gpu_info, m)?)?;

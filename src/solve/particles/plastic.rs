@@ -23,9 +23,6 @@ use crate::real::Real;
 use crate::solve::Timings;
 use crate::timing::millis;
 
-use super::evaluation::Evaluation;
-use super::system::ParticleSystem;
-
 /// One body of the family as the plastic end of a step sees it.
 struct Entry {
     bonds: RestBonds,
@@ -69,28 +66,20 @@ impl PlasticBodies {
         })
     }
 
-    /// Writes the plastic bodies' bonds back into them.
-    pub fn store(&self, bodies: &mut [&mut Particles]) {
-        for (entry, body) in self.entries.iter().zip(bodies) {
-            if entry.law.is_some() {
-                body.set_rest_bonds(entry.bonds.clone());
-            }
-        }
-    }
-}
-
-impl<T: Real> ParticleSystem<T> {
-    /// The plastic end of a step at the finished positions (see the module's doc).
-    pub(crate) fn plastic_end_step(&mut self, timings: &mut Timings) -> Result<()> {
-        let Some(plastic) = self.plastic.as_mut() else {
-            return Ok(());
-        };
+    /// The plastic end of a step at the finished positions `y` (m; see the module's doc): the
+    /// family's new rest data, and whether some neighbourhood changed (then the bond count
+    /// and the global matrix's pattern may have too).
+    pub fn end_step<T: Real>(
+        &mut self,
+        y: &[Vector3<T>],
+        timings: &mut Timings,
+    ) -> Result<(ParticleRest<T>, bool)> {
         let t = Instant::now();
-        for (y, p) in plastic.y.iter_mut().zip(&self.points.y) {
-            *y = p.map(|c| c.to_f64());
+        for (mine, p) in self.y.iter_mut().zip(y) {
+            *mine = p.map(|c| c.to_f64());
         }
-        let y = &plastic.y;
-        for entry in &mut plastic.entries {
+        let y = &self.y;
+        for entry in &mut self.entries {
             if let Some(law) = &entry.law {
                 law.apply(&mut entry.bonds, &y[entry.range.clone()]);
             }
@@ -98,7 +87,7 @@ impl<T: Real> ParticleSystem<T> {
         timings.plasticity += millis(t);
         let t = Instant::now();
         let mut changed = false;
-        for entry in &mut plastic.entries {
+        for entry in &mut self.entries {
             let Some(law) = entry.law.filter(|l| l.law.rebuild_neighbours) else {
                 continue;
             };
@@ -110,22 +99,22 @@ impl<T: Real> ParticleSystem<T> {
         }
         timings.neighbours += millis(t);
         let t = Instant::now();
-        let sources: Vec<(&RestBonds, RestConstants)> = plastic
+        let sources: Vec<(&RestBonds, RestConstants)> = self
             .entries
             .iter()
             .map(|e| (&e.bonds, e.constants))
             .collect();
-        self.rest = ParticleRest::of_bonds(&sources)?;
-        if changed {
-            let (n, bonds) = (self.rest.len(), self.rest.indices.len());
-            self.current = Evaluation::new(n, bonds);
-            self.trial = Evaluation::new(n, bonds);
-            self.direct = None;
-        } else {
-            self.current.valid = false;
-            self.trial.valid = false;
-        }
+        let rest = ParticleRest::of_bonds(&sources)?;
         timings.plasticity += millis(t);
-        Ok(())
+        Ok((rest, changed))
+    }
+
+    /// Writes the plastic bodies' bonds back into them.
+    pub fn store(&self, bodies: &mut [&mut Particles]) {
+        for (entry, body) in self.entries.iter().zip(bodies) {
+            if entry.law.is_some() {
+                body.set_rest_bonds(entry.bonds.clone());
+            }
+        }
     }
 }

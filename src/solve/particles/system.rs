@@ -10,7 +10,7 @@ use crate::error::Result;
 use crate::particles::{ParticleRest, Particles};
 use crate::real::Real;
 use crate::solve::points::Points;
-use crate::solve::ParticleTimings;
+use crate::solve::{ParticleTimings, Timings};
 use crate::timing::millis;
 
 use super::direct::DirectSolver;
@@ -82,6 +82,27 @@ impl<T: Real> ParticleSystem<T> {
         self.current.run(&self.rest);
         self.timings.kernel += millis(started);
         self.timings.evaluations += 1;
+    }
+
+    /// The plastic end of a step ([`super::plastic`]): the rest data rebuilt from the returned
+    /// bonds; the evaluations start afresh, and so does the direct solver's pattern when a
+    /// neighbourhood changed. Nothing when no body is plastic.
+    pub(crate) fn plastic_end_step(&mut self, timings: &mut Timings) -> Result<()> {
+        let Some(plastic) = self.plastic.as_mut() else {
+            return Ok(());
+        };
+        let (rest, changed) = plastic.end_step(&self.points.y, timings)?;
+        self.rest = rest;
+        if changed {
+            let (n, bonds) = (self.rest.len(), self.rest.indices.len());
+            self.current = Evaluation::new(n, bonds);
+            self.trial = Evaluation::new(n, bonds);
+            self.direct = None;
+        } else {
+            self.current.valid = false;
+            self.trial.valid = false;
+        }
+        Ok(())
     }
 
     /// The Jacobi diagonal `D_i = m_i + h^2 L_ii` (kg) of particle `i`.
