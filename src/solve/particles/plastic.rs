@@ -68,20 +68,22 @@ impl PlasticBodies {
 
     /// The plastic end of a step at the finished positions `y` (m; see the module's doc): the
     /// family's new rest data, and whether some neighbourhood changed (then the bond count
-    /// and the global matrix's pattern may have too).
+    /// and the global matrix's pattern may have too); `None` when no particle yielded and no
+    /// neighbourhood changed, so the rest data at hand stands.
     pub fn end_step<T: Real>(
         &mut self,
         y: &[Vector3<T>],
         timings: &mut Timings,
-    ) -> Result<(ParticleRest<T>, bool)> {
+    ) -> Result<Option<(ParticleRest<T>, bool)>> {
         let t = Instant::now();
         for (mine, p) in self.y.iter_mut().zip(y) {
             *mine = p.map(|c| c.to_f64());
         }
         let y = &self.y;
+        let mut yielded = 0;
         for entry in &mut self.entries {
             if let Some(law) = &entry.law {
-                law.apply(&mut entry.bonds, &y[entry.range.clone()]);
+                yielded += law.apply(&mut entry.bonds, &y[entry.range.clone()]);
             }
         }
         timings.plasticity += millis(t);
@@ -98,6 +100,9 @@ impl PlasticBodies {
             }
         }
         timings.neighbours += millis(t);
+        if yielded == 0 && !changed {
+            return Ok(None);
+        }
         let t = Instant::now();
         let sources: Vec<(&RestBonds, RestConstants)> = self
             .entries
@@ -106,7 +111,7 @@ impl PlasticBodies {
             .collect();
         let rest = ParticleRest::of_bonds(&sources)?;
         timings.plasticity += millis(t);
-        Ok((rest, changed))
+        Ok(Some((rest, changed)))
     }
 
     /// Writes the plastic bodies' bonds back into them.

@@ -86,12 +86,15 @@ impl<T: Real> ParticleSystem<T> {
 
     /// The plastic end of a step ([`super::plastic`]): the rest data rebuilt from the returned
     /// bonds; the evaluations start afresh, and so does the direct solver's pattern when a
-    /// neighbourhood changed. Nothing when no body is plastic.
+    /// neighbourhood changed. Nothing when no body is plastic, or no particle yielded and no
+    /// neighbourhood changed.
     pub(crate) fn plastic_end_step(&mut self, timings: &mut Timings) -> Result<()> {
         let Some(plastic) = self.plastic.as_mut() else {
             return Ok(());
         };
-        let (rest, changed) = plastic.end_step(&self.points.y, timings)?;
+        let Some((rest, changed)) = plastic.end_step(&self.points.y, timings)? else {
+            return Ok(());
+        };
         self.rest = rest;
         if changed {
             let (n, bonds) = (self.rest.len(), self.rest.indices.len());
