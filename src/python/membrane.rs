@@ -10,9 +10,10 @@ use pyo3::types::PyDict;
 use crate::membrane::{Membrane, MembraneParams};
 use crate::mesh::TriangleMesh;
 
-use super::arrays::{indices, to_numpy, to_numpy_1d, triangles, vec3s};
+use super::arrays::{to_numpy, to_numpy_1d, triangles, vec3s};
 use super::errors::{guard, IntoPyResult};
 use super::material;
+use super::pins;
 use super::scalars::{Int, Real};
 
 /// A thin hyperelastic membrane (triangle mesh) simulated by projective peridynamics.
@@ -30,21 +31,6 @@ impl PyMembrane {
     /// device a GPU step left them on, if any.
     pub fn state(&self) -> PyResult<MutexGuard<'_, Membrane>> {
         synced(&self.inner)
-    }
-}
-
-/// Refuses a vertex index outside `[0, n)`, naming its entry and its true value (the core
-/// keeps vertex indices in 32 bits: 2**32 must not become vertex 0).
-fn vertex_range(indices: &[i64], n: usize) -> PyResult<()> {
-    match indices
-        .iter()
-        .position(|&i| usize::try_from(i).map_or(true, |i| i >= n))
-    {
-        None => Ok(()),
-        Some(k) => Err(pyo3::exceptions::PyValueError::new_err(format!(
-            "indices[{k}] = {} is not a vertex index: the membrane has {n} vertices, [0, {n})",
-            indices[k]
-        ))),
     }
 }
 
@@ -236,48 +222,26 @@ impl PyMembrane {
     /// Fixes vertices at `targets` ((len(indices), 3) m; default: where they are now).
     #[pyo3(signature = (indices, targets = None))]
     fn pin(&self, indices: &Bound<'_, PyAny>, targets: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
-        let idx = self::indices(indices, "indices")?;
-        let targets = targets
-            .map(|t| vec3s(t, "targets", Some(idx.len())))
-            .transpose()?;
-        let mut m = self.state()?;
-        vertex_range(&idx, m.num_vertices())?;
-        m.pin(&idx, targets.as_deref()).py()
+        pins::pin(|| self.state(), indices, targets)
     }
     /// Releases the given pinned vertices (all when None).
     #[pyo3(signature = (indices = None))]
     fn unpin(&self, indices: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
-        let idx = indices.map(|i| self::indices(i, "indices")).transpose()?;
-        let mut m = self.lock();
-        if let Some(idx) = &idx {
-            vertex_range(idx, m.num_vertices())?;
-        }
-        m.unpin(idx.as_deref()).py()
+        pins::unpin(&mut *self.lock(), indices)
     }
     /// Sorted indices of the pinned vertices (int64).
     #[getter]
     fn pinned<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        to_numpy_1d(py, self.lock().pins().keys().map(|&i| i as i64).collect())
+        pins::pinned(py, &*self.lock())
     }
-    /// (P, 3) targets of the pinned vertices, in the order of `pinned`; settable.
+    /// (P, 3) targets of the pinned vertices (m), in the order of `pinned`; settable.
     #[getter]
     fn pin_targets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_numpy(
-            py,
-            self.lock()
-                .pins()
-                .values()
-                .copied()
-                .collect::<Vec<_>>()
-                .into_iter(),
-        )
+        pins::pin_targets(py, &*self.lock())
     }
     #[setter]
     fn set_pin_targets(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
-        let mut m = self.lock();
-        let n = m.pins().len();
-        m.set_pin_targets(&vec3s(value, "pin_targets", Some(n))?)
-            .py()
+        pins::set_pin_targets(&mut *self.lock(), value)
     }
     /// Stretching + bending + hourglass energy (J) at the current positions.
     fn elastic_energy(&self, py: Python<'_>) -> PyResult<f64> {

@@ -13,6 +13,7 @@ mod membrane;
 mod options;
 mod particle_body;
 mod particles;
+mod pins;
 mod plasticity;
 mod scalars;
 mod solver;

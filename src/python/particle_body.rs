@@ -8,9 +8,10 @@ use pyo3::prelude::*;
 
 use crate::particles::{DruckerPrager, ParticleParams, Particles};
 
-use super::arrays::{indices, to_numpy, to_numpy_1d, vec3s};
+use super::arrays::{to_numpy, to_numpy_1d, vec3s};
 use super::elastic::PyElastic;
 use super::errors::{guard, IntoPyResult};
+use super::pins;
 use super::plasticity::PyDruckerPrager;
 use super::scalars::Real;
 
@@ -71,20 +72,6 @@ fn plasticity_of(p: &Bound<'_, PyAny>) -> PyResult<DruckerPrager> {
                 p.get_type().name().map_or("?".into(), |n| n.to_string())
             ))
         })
-}
-
-/// Refuses a particle index outside `[0, n)`, naming its entry and its value.
-fn particle_range(indices: &[i64], n: usize) -> PyResult<()> {
-    match indices
-        .iter()
-        .position(|&i| usize::try_from(i).map_or(true, |i| i >= n))
-    {
-        None => Ok(()),
-        Some(k) => Err(PyValueError::new_err(format!(
-            "indices[{k}] = {} is not a particle index: the body has {n} particles, [0, {n})",
-            indices[k]
-        ))),
-    }
 }
 
 #[pymethods]
@@ -269,44 +256,30 @@ impl PyParticles {
             to_numpy_1d(py, h.indices.iter().map(|&o| o as i64).collect()),
         )
     }
-    /// Fixes particles at `targets` ((len(indices), 3) m; default: where they are now).
+    /// Fixes particles at `targets` ((len(indices), 3) m; default: where they are now); a
+    /// shell's or rod's ghost particles follow their real particle.
     #[pyo3(signature = (indices, targets = None))]
     fn pin(&self, indices: &Bound<'_, PyAny>, targets: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
-        let idx = self::indices(indices, "indices")?;
-        let targets = targets
-            .map(|t| vec3s(t, "targets", Some(idx.len())))
-            .transpose()?;
-        let mut p = self.lock();
-        particle_range(&idx, p.num_particles())?;
-        p.pin(&idx, targets.as_deref()).py()
+        pins::pin(|| Ok(self.lock()), indices, targets)
     }
     /// Releases the given pinned particles (all when None).
     #[pyo3(signature = (indices = None))]
     fn unpin(&self, indices: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
-        let idx = indices.map(|i| self::indices(i, "indices")).transpose()?;
-        let mut p = self.lock();
-        if let Some(idx) = &idx {
-            particle_range(idx, p.num_particles())?;
-        }
-        p.unpin(idx.as_deref()).py()
+        pins::unpin(&mut *self.lock(), indices)
     }
     /// Sorted indices of the pinned particles (int64).
     #[getter]
     fn pinned<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        to_numpy_1d(py, self.lock().pins().keys().map(|&i| i as i64).collect())
+        pins::pinned(py, &*self.lock())
     }
     /// (P, 3) targets of the pinned particles (m), in the order of `pinned`; settable.
     #[getter]
     fn pin_targets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let targets: Vec<_> = self.lock().pins().values().copied().collect();
-        to_numpy(py, targets.into_iter())
+        pins::pin_targets(py, &*self.lock())
     }
     #[setter]
     fn set_pin_targets(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
-        let mut p = self.lock();
-        let n = p.pins().len();
-        p.set_pin_targets(&vec3s(value, "pin_targets", Some(n))?)
-            .py()
+        pins::set_pin_targets(&mut *self.lock(), value)
     }
     /// Elastic energy (J, eq. 8 with the dilatation term) at the current positions.
     fn elastic_energy(&self, py: Python<'_>) -> PyResult<f64> {
