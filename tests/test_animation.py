@@ -9,6 +9,7 @@ and the motion (the first and last frames differ).
 import imageio.v3 as iio
 import numpy as np
 import pytest
+import trimesh
 from matplotlib import colormaps
 
 import peridyn
@@ -57,7 +58,7 @@ def test_without_an_mp4_encoder_a_gif_is_written(tmp_path, monkeypatch):
 
 def test_a_body_without_triangles_is_recorded_and_drawn_as_points(tmp_path):
     """The particle protocol: a body with positions only goes into the recording and the
-    .npz without triangles and is drawn (here 50 points moving 0.2 m between frames)."""
+    .npz without triangles, into point-cloud PLY files, and is drawn (here 50 points moving 0.2 m between frames)."""
     solver, cloth, rec0 = swinging_cloth(tmp_path / "a", steps=0)
     points = PointSet(np.random.default_rng(0).uniform(0.0, 0.5, (50, 3)))
     host = WithPoints(solver, points)
@@ -69,7 +70,10 @@ def test_a_body_without_triangles_is_recorded_and_drawn_as_points(tmp_path):
     recording = rec.recording()
     assert recording.bodies[1].triangles is None and recording.bodies[1].velocities is None
     np.testing.assert_array_equal(recording.bodies[1].positions[1], points.positions)
-    assert sorted(p.name for p in (tmp_path / "b").glob("*.ply")) == ["body0_frame_00000.ply", "body0_frame_00001.ply"]
+    assert sorted(p.name for p in (tmp_path / "b").glob("*.ply")) == [
+        "body0_frame_00000.ply", "body0_frame_00001.ply", "body1_frame_00000.ply", "body1_frame_00001.ply"]
+    cloud = trimesh.load(tmp_path / "b" / "body1_frame_00001.ply")  # the point set as a point cloud
+    np.testing.assert_allclose(cloud.vertices, points.positions, atol=1e-6)
     with np.load(rec.close()) as data:
         assert "triangles_1" not in data and data["positions_1"].shape == (2, 50, 3)
     back = peridyn.load_recording(rec.npz_path)

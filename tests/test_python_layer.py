@@ -414,6 +414,53 @@ def test_main_job_runs(tmp_path):
     assert "5/5" in proc.stderr  # the progress bar
 
 
+def test_main_job_runs_the_particle_scene(tmp_path):
+    """``--scene torus``: an elastic particle body, written as point clouds and an .npz."""
+    out = tmp_path / "out"
+    proc = subprocess.run(
+        [sys.executable, "-m", "peridyn", "--scene", "torus", "--n", "8", "--steps", "4",
+         "--frame-every", "2", "--out", str(out), "--threads", "1", "--no-animation"],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    data = np.load(out / "frames.npz")
+    n = data["positions_0"].shape[1]
+    assert f"particles          {n}" in proc.stdout and n > 50
+    assert data["positions_0"].shape == (3, n, 3) and "triangles_0" not in data
+    cloud = trimesh.load(out / "frame_00002.ply")
+    assert isinstance(cloud, trimesh.PointCloud) and len(cloud.vertices) == n
+    np.testing.assert_allclose(cloud.vertices, data["positions_0"][2], atol=1e-6)  # float32 PLY
+    assert (out / "final.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--scene", "torus", "--backend", "gpu"], "cpu only"),
+    (["--scene", "torus", "--color", "stretch"], "--color stretch"),
+    (["--scene", "torus", "--n", "3"], "--n must be >= 4"),
+])
+def test_main_job_refuses_what_the_particle_scene_lacks(tmp_path, args, message):
+    proc = subprocess.run([sys.executable, "-m", "peridyn", *args, "--out", str(tmp_path)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and message in proc.stderr, proc.stderr
+
+
+def test_the_torus_falls_and_comes_to_rest_on_the_ground():
+    """The torus scene's physical facts: implicit Euler's free fall while in the air (after
+    ``k`` steps every particle has dropped ``g h^2 k (k + 1) / 2``, rigidly), then at rest on
+    the ground, above it by no more than the particles' margin."""
+    scene = peridyn.scenes.elastic_torus_scene(n=8, drop=0.05, threads=1)
+    torus, solver = scene.torus, scene.solver
+    start = torus.positions.copy()
+    solver.run(6)  # 1/40 s: still in the air
+    fall = 9.81 * solver.dt**2 * 6 * 7 / 2
+    np.testing.assert_allclose(torus.positions, start - [0.0, 0.0, fall], atol=1e-9)
+    solver.run(scene.steps - 6)
+    assert np.abs(torus.velocities).max() < 1e-2  # at rest after 1 s
+    lowest = torus.positions[:, 2].min()
+    assert 0.0 < lowest < 0.5 * torus.spacing + 1e-3
+    assert np.isfinite(torus.positions).all()
+
+
 def test_main_job_rejects_bad_arguments(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "peridyn", "--steps", "-3", "--out", str(tmp_path)],
                           capture_output=True, text=True, timeout=120)

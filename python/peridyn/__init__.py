@@ -42,7 +42,7 @@ from .render import draw_scene, render_png
 from .avatar_scenes import dress, mannequin, skirt
 from .paper_scenes import antependium, cloths_over_ball, shooting_shell
 from .recording import Recording, load_recording
-from .scenes import Scene, colliding_sheets, default_scene
+from .scenes import Scene, colliding_sheets, default_scene, elastic_torus_scene
 from .view import show
 from .solver import RunSummary, Solver
 from .sweeps import SweepResult, sweep
@@ -84,6 +84,7 @@ __all__ = [
     "cloths_over_ball",
     "colliding_sheets",
     "default_scene",
+    "elastic_torus_scene",
     "draw_scene",
     "dress",
     "grid",

@@ -178,8 +178,8 @@ class FrameRecorder:
     def record(self, solver: Any) -> int:
         """Record the current state of every body of ``solver`` now (and its colliders' poses).
 
-        A body is anything with ``positions``; one with ``triangles`` is also written as a mesh
-        file, one without (a particle set) only to the ``.npz``.
+        A body is anything with ``positions``; one with ``triangles`` is written as a mesh file,
+        one without (a particle set) as a point cloud (a mesh file without faces).
 
         Returns
         -------
@@ -224,8 +224,9 @@ class FrameRecorder:
                 )
         frame = self.num_frames
         if self.fmt is not None:
-            meshes = [(b, V, tris) for b, (V, tris) in enumerate(zip(positions, triangles)) if tris is not None]
-            for b, V, tris in meshes:
+            for b, (V, tris) in enumerate(zip(positions, triangles)):
+                if tris is None:  # a particle set: a point cloud
+                    tris = np.zeros((0, 3), dtype=np.int64)
                 stem = f"frame_{frame:05d}" if len(positions) == 1 else f"body{b}_frame_{frame:05d}"
                 self.files.append(write_mesh(self.directory / f"{stem}.{self.fmt}", V, tris))
         # The frame is recorded for the .npz only once everything above succeeded.

@@ -12,7 +12,7 @@ from .materials import plate_bending_stiffness
 from .mesh import grid
 from .solver import Solver
 
-__all__ = ["Scene", "colliding_sheets", "default_scene"]
+__all__ = ["Scene", "colliding_sheets", "default_scene", "elastic_torus_scene"]
 
 
 @dataclass
@@ -26,8 +26,8 @@ class Scene:
     ----------
     solver : Solver
         The time stepper, bodies and colliders already added.
-    bodies : dict of str to Membrane
-        The membranes, by name, in the order they were added to the solver.
+    bodies : dict of str to Membrane or Particles
+        The bodies, by name, in the order they were added to the solver.
     colliders : dict of str to Collider
         The colliders, by name, in the order they were added to the solver.
     steps : int
@@ -37,7 +37,7 @@ class Scene:
     """
 
     solver: Solver
-    bodies: Dict[str, _core.Membrane]
+    bodies: Dict[str, Any]
     colliders: Dict[str, Any]
     steps: int
     description: str
@@ -241,6 +241,100 @@ def colliding_sheets(
         solver=solver,
         bodies={"lower": lower, "upper": upper},
         colliders={},
+        steps=int(round(duration / dt)),
+        description=description,
+    )
+
+
+def elastic_torus_scene(
+    *,
+    n: int = 16,
+    major_radius: float = 0.08,
+    minor_radius: float = 0.03,
+    young: float = 2e5,
+    poisson: float = 0.3,
+    density: float = 1000.0,
+    drop: float = 0.15,
+    tilt: float = 30.0,
+    dt: float = 1.0 / 240.0,
+    duration: float = 1.0,
+    tol: float = 1e-4,
+    max_iters: int = 100,
+    threads: Optional[int] = None,
+) -> Scene:
+    """An elastic torus of particles, tilted, falls onto the ground and comes to rest on it.
+
+    The torus (a :func:`trimesh.creation.torus` in the xy-plane, turned by ``tilt`` about x) is
+    filled by :func:`peridyn.sample_volume` with a lattice of ``n`` particles across its outer
+    diameter, made a :class:`peridyn.Particles` body of ``Elastic.from_young(young, poisson)``,
+    and dropped so that its lowest particle starts ``drop`` above a :class:`peridyn.Plane` at
+    ``z = 0``.
+
+    Parameters
+    ----------
+    n : int
+        Particles across the torus's outer diameter ``2 (major_radius + minor_radius)`` (>= 4);
+        the lattice spacing is that diameter over ``n``.
+    major_radius, minor_radius : float
+        Radii of the torus's centre circle and of its tube in m.
+    young : float
+        Young's modulus in Pa (a soft rubber by default).
+    poisson : float
+        Poisson's ratio, in [0, 0.45].
+    density : float
+        Mass density in kg/m^3.
+    drop : float
+        Height in m of the lowest particle above the ground at the start.
+    tilt : float
+        Angle in degrees between the torus's plane and the ground.
+    dt : float
+        Time step in s.
+    duration : float
+        Simulated time in s that the suggested ``steps`` cover.
+    tol, max_iters, threads
+        Passed to :class:`Solver` (``tol`` in m bounds the distance of each step from the exact
+        implicit Euler solution). The particles run on the CPU backend only.
+
+    Returns
+    -------
+    Scene
+        With the body ``torus`` and the collider ``ground``.
+    """
+    import trimesh
+
+    if isinstance(n, bool) or int(n) != n or n < 4:
+        raise ValueError(f"elastic_torus_scene: n must be an integer >= 4, got {n!r}")
+    if not 0.0 < minor_radius < major_radius:
+        raise ValueError(
+            "elastic_torus_scene: the radii must satisfy 0 < minor_radius < major_radius, got "
+            f"minor_radius={minor_radius!r} m, major_radius={major_radius!r} m"
+        )
+    if not drop >= 0.0:
+        raise ValueError(f"elastic_torus_scene: drop must be >= 0 m, got {drop!r}")
+    if duration < 0.0:
+        raise ValueError(f"elastic_torus_scene: duration must be >= 0 s, got {duration!r}")
+    spacing = 2.0 * (major_radius + minor_radius) / int(n)
+    mesh = trimesh.creation.torus(major_radius=major_radius, minor_radius=minor_radius)
+    X = _core.sample_volume(mesh, spacing=spacing)
+    a = np.radians(tilt)
+    turn = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
+    X = X @ turn.T
+    X[:, 2] += drop - X[:, 2].min()
+    torus = _core.Particles(
+        X, spacing=spacing, density=density, material=_core.Elastic.from_young(young, poisson)
+    )
+    ground = _core.Plane()
+    solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads)
+    solver.add(torus)
+    solver.add_collider(ground)
+    description = (
+        f"an elastic torus of {len(X)} particles (radii {major_radius:g} and {minor_radius:g} m, "
+        f"E = {young:g} Pa, nu = {poisson:g}) dropped {drop:g} m onto the ground"
+    )
+    return Scene(
+        solver=solver,
+        bodies={"torus": torus},
+        colliders={"ground": ground},
         steps=int(round(duration / dt)),
         description=description,
     )
