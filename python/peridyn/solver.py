@@ -99,7 +99,10 @@ class Solver(_core.Solver):
         Acceleration in m/s^2; default ``(0, 0, -9.81)``.
     tol : float
         Convergence tolerance in m on the error bound ``StepStats.residual`` (largest
-        residual over mass); 0 always runs ``max_iters`` iterations. Default 1e-4.
+        residual over mass); 0 always runs ``max_iters`` iterations. Default 1e-4. A step's
+        velocity error is up to ``tol / dt``: keep ``tol <= 0.1 * g * dt**2`` (1e-6 m at
+        ``dt = 1e-3`` s), or a step may stop before the forces have moved anything and a
+        passive scene gain energy (docs/performance.md, "Tolerance and energy").
     max_iters : int
         Cap on global iterations per step. Default 100.
     threads : int or None
