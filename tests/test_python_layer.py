@@ -461,6 +461,35 @@ def test_the_torus_falls_and_comes_to_rest_on_the_ground():
     assert np.isfinite(torus.positions).all()
 
 
+def test_gravity_tolerance_is_a_tenth_of_a_step_of_free_fall():
+    assert peridyn.gravity_tolerance(1e-3) == pytest.approx(9.81e-7, rel=1e-12)
+    assert peridyn.gravity_tolerance(2e-3, fraction=0.5) == pytest.approx(0.5 * 9.81 * 4e-6, rel=1e-12)
+    assert peridyn.default_scene(n=4).solver.tol == pytest.approx(peridyn.gravity_tolerance(2e-3))
+    for bad in (dict(dt=0.0), dict(dt=-1.0), dict(dt=1e-3, fraction=0.0), dict(dt=float("nan"))):
+        with pytest.raises(ValueError, match="gravity_tolerance"):
+            peridyn.gravity_tolerance(**bad)
+
+
+def test_the_default_scene_only_dissipates():
+    """A passive scene solved at its default tolerance never gains energy (kinetic +
+    gravitational + elastic); at tol = 1e-4 m with dt = 2 ms, ten times g dt^2, it does
+    (docs/performance.md, "Tolerance and energy")."""
+    def largest_rise(**kw):
+        scene = peridyn.default_scene(n=24, threads=1, **kw)
+        cloth, m = scene.cloth, scene.cloth.masses
+        energy = lambda: cloth.kinetic_energy() + 9.81 * float(m @ cloth.positions[:, 2]) + cloth.elastic_energy()
+        E = [energy()]
+        for _ in range(350):  # the swing onto the sphere and back
+            scene.solver.step()
+            E.append(energy())
+        E = np.array(E)
+        return float(np.max(E - np.minimum.accumulate(E))), E[0] - E[-1]
+    rise, dissipated = largest_rise()
+    assert rise <= 1e-9 * dissipated, (rise, dissipated)
+    loose_rise, _ = largest_rise(tol=1e-4)
+    assert loose_rise > 1e-5 * dissipated  # what the default avoids (the test can fail)
+
+
 def test_main_job_rejects_bad_arguments(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "peridyn", "--steps", "-3", "--out", str(tmp_path)],
                           capture_output=True, text=True, timeout=120)

@@ -44,7 +44,7 @@ from .paper_scenes import antependium, cloths_over_ball, shooting_shell
 from .recording import Recording, load_recording
 from .scenes import Scene, colliding_sheets, default_scene, elastic_torus_scene
 from .view import show
-from .solver import RunSummary, Solver
+from .solver import RunSummary, Solver, gravity_tolerance
 from .sweeps import SweepResult, sweep
 from .usd import write_usd
 
@@ -87,6 +87,7 @@ __all__ = [
     "elastic_torus_scene",
     "draw_scene",
     "dress",
+    "gravity_tolerance",
     "grid",
     "load_mesh",
     "load_recording",

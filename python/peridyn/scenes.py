@@ -10,7 +10,7 @@ import numpy as np
 from . import _core
 from .materials import plate_bending_stiffness
 from .mesh import grid
-from .solver import Solver
+from .solver import Solver, gravity_tolerance
 
 __all__ = ["Scene", "colliding_sheets", "default_scene", "elastic_torus_scene"]
 
@@ -63,7 +63,7 @@ def default_scene(
     s0: float = 2e4,
     bending: Optional[float] = None,
     sphere_radius: float = 0.25,
-    tol: float = 1e-4,
+    tol: Optional[float] = None,
     max_iters: int = 100,
     threads: Optional[int] = None,
     backend: Literal["cpu", "gpu"] = "cpu",
@@ -102,7 +102,8 @@ def default_scene(
         Sphere radius in m.
     tol, max_iters, threads, backend
         Passed to :class:`Solver` (``tol`` in m bounds the distance of each step from the exact
-        implicit Euler solution; ``backend="gpu"`` takes ``threads=None``).
+        implicit Euler solution; default :func:`gravity_tolerance` of ``dt``;
+        ``backend="gpu"`` takes ``threads=None``).
 
     Returns
     -------
@@ -131,6 +132,7 @@ def default_scene(
         center=(0.5 * size, 0.45 * size, -0.3 * size),
         radius=sphere_radius,
     )
+    tol = gravity_tolerance(dt) if tol is None else tol
     solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads, backend=backend)
     solver.add(cloth)
     solver.add_collider(sphere)
@@ -258,7 +260,7 @@ def elastic_torus_scene(
     tilt: float = 30.0,
     dt: float = 1.0 / 240.0,
     duration: float = 1.0,
-    tol: float = 1e-4,
+    tol: Optional[float] = None,
     max_iters: int = 100,
     threads: Optional[int] = None,
 ) -> Scene:
@@ -293,7 +295,8 @@ def elastic_torus_scene(
         Simulated time in s that the suggested ``steps`` cover.
     tol, max_iters, threads
         Passed to :class:`Solver` (``tol`` in m bounds the distance of each step from the exact
-        implicit Euler solution). The particles run on the CPU backend only.
+        implicit Euler solution; default :func:`gravity_tolerance` of ``dt``). The particles
+        run on the CPU backend only.
 
     Returns
     -------
@@ -324,6 +327,7 @@ def elastic_torus_scene(
         X, spacing=spacing, density=density, material=_core.Elastic.from_young(young, poisson)
     )
     ground = _core.Plane()
+    tol = gravity_tolerance(dt) if tol is None else tol
     solver = Solver(dt=dt, tol=tol, max_iters=max_iters, threads=threads)
     solver.add(torus)
     solver.add_collider(ground)

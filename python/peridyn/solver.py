@@ -14,7 +14,32 @@ import numpy as np
 
 from . import _core
 
-__all__ = ["Solver", "RunSummary"]
+__all__ = ["Solver", "RunSummary", "gravity_tolerance"]
+
+#: Standard gravity (m/s^2).
+G = 9.81
+
+
+def gravity_tolerance(dt: float, fraction: float = 0.1) -> float:
+    """A ``Solver(tol=)`` (m) for a scene driven by gravity: ``fraction * g * dt**2``.
+
+    ``g dt^2`` is how far gravity moves a point within one step. A ``tol`` above it lets a
+    step stop at its first iterate, before the forces have moved anything, and a passive
+    scene gain energy; a tenth of it only dissipates and gives the converged motion
+    (``benches/tolerance_energy.py``; docs/performance.md, "Tolerance and energy").
+
+    Parameters
+    ----------
+    dt : float
+        Time step in s (> 0).
+    fraction : float
+        Share of ``g dt^2`` (> 0).
+    """
+    if not dt > 0.0:
+        raise ValueError(f"gravity_tolerance: dt must be > 0 s, got {dt!r}")
+    if not fraction > 0.0:
+        raise ValueError(f"gravity_tolerance: fraction must be > 0, got {fraction!r}")
+    return fraction * G * dt * dt
 
 
 @dataclass(frozen=True)
@@ -101,8 +126,9 @@ class Solver(_core.Solver):
         Convergence tolerance in m on the error bound ``StepStats.residual`` (largest
         residual over mass); 0 always runs ``max_iters`` iterations. Default 1e-4. A step's
         velocity error is up to ``tol / dt``: keep ``tol <= 0.1 * g * dt**2`` (1e-6 m at
-        ``dt = 1e-3`` s), or a step may stop before the forces have moved anything and a
-        passive scene gain energy (docs/performance.md, "Tolerance and energy").
+        ``dt = 1e-3`` s; :func:`gravity_tolerance`), or a step may stop before the forces have
+        moved anything and a passive scene gain energy (docs/performance.md, "Tolerance and
+        energy").
     max_iters : int
         Cap on global iterations per step. Default 100.
     threads : int or None
