@@ -40,8 +40,7 @@ impl PairCache {
             Renewal::Built
         };
         self.apart = self.regions.largest_near_motion();
-        let (horizon, outlying) = self.horizon(reach);
-        let near = self.order.within(horizon);
+        let (horizon, near, outlying) = self.near(reach);
         self.is_live[..self.flagged].fill(false);
         // Ski rental: refilter until the refilters since the sweep have cost a sweep.
         let fall = if self.sweep.valid && self.sweep.rent <= near as f64 {
@@ -338,23 +337,14 @@ impl PairCache {
             - regions.relative_motion(regions.of_side(a), regions.of_side(b))
     }
 
-    /// The filter's horizon: how many of the build's arranged pairs are closer at `r` than
-    /// `reach + 2 D + max T` (m; NaN distances, first, count as near), and the vertices
-    /// deviating by more than `D` ([`PairCache::outlying`]). Only those pairs, and the
-    /// pairs of those vertices, can pass the first test.
-    pub(super) fn near(&self, reach: f64) -> (usize, Vec<u32>) {
-        let (horizon, outlying) = self.horizon(reach);
-        (self.order.within(horizon), outlying)
-    }
-
-    /// The horizon `reach + 2 D + max T` (m; infinite where NaN) and the vertices deviating by
-    /// more than `D` (see [`PairCache::near`]).
-    fn horizon(&self, reach: f64) -> (f64, Vec<u32>) {
+    /// The filter's horizon `reach + 2 D + max T` (m; infinite where NaN), how many of the
+    /// build's arranged pairs are closer than it at `r` (NaN distances, first, count as near),
+    /// and the vertices deviating by more than `D` ([`PairCache::outlying`]). Only those
+    /// pairs, and the pairs of those vertices, can pass the first test.
+    pub(super) fn near(&self, reach: f64) -> (f64, usize, Vec<u32>) {
         let (typical, outlying) = self.outlying();
-        (
-            finite_or_infinite(reach + 2.0 * typical + self.apart),
-            outlying,
-        )
+        let horizon = finite_or_infinite(reach + 2.0 * typical + self.apart);
+        (horizon, self.order.within(horizon), outlying)
     }
 
     /// How many of the build's arranged pairs a sweep looks at where the filter's horizon

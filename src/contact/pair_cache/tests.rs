@@ -669,7 +669,7 @@ fn a_few_fast_vertices_do_not_make_every_pair_near() {
             .collect();
         let renewal = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
         assert_eq!(renewal == Renewal::Built, k == 0, "step {k}: {renewal:?}");
-        let (near, outlying) = cache.near(reach);
+        let (_, near, outlying) = cache.near(reach);
         assert_eq!(outlying, strays, "step {k}");
         let farthest = cache.deviation.iter().copied().fold(0.0, f64::max);
         let near_by_farthest = cache.order.within(reach + 2.0 * farthest + cache.apart);
@@ -866,7 +866,7 @@ fn refiltering_since_the_sweep_holds_every_pair_within_reach() {
             let renewal = cache.live_pairs(&safe, &target, &allowance, &mesh, reach, &mut live);
             let swept = cache.sweeps() - swept;
             assert!(swept <= 1, "{swept} sweeps in one filter");
-            let (near, _) = cache.near(reach);
+            let (_, near, _) = cache.near(reach);
             if swept == 1 {
                 assert!(cache.sweep.near >= near, "a sweep short of its horizon");
                 swept_ahead += usize::from(cache.sweep.near > near);
