@@ -14,6 +14,7 @@ mod options;
 mod particle_body;
 mod particles;
 mod plasticity;
+mod rest_bonds;
 mod scalars;
 mod solver;
 mod solver_state;
