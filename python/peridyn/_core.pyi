@@ -280,6 +280,13 @@ class Particles:
         """Mass of each particle (kg)."""
     def neighborhood(self) -> Tuple[np.ndarray, np.ndarray]:
         """CSR ``(offsets, indices)`` (int64) of every particle's neighbours within the horizon."""
+    @property
+    def rest_bonds(self) -> Optional[Dict[str, np.ndarray]]:
+        """A plastic body's current reference bonds (``offsets`` (N + 1,), ``neighbours``
+        (B,) int64; ``vectors`` (B, 3) m, ``born`` (B,) m, ``plastic_strain`` (N,)); None for
+        an elastic body. Settable (checked; None: the reference positions' bonds)."""
+    @rest_bonds.setter
+    def rest_bonds(self, value: Optional[Dict[str, np.ndarray]]) -> None: ...
     def pin(self, indices: ArrayLike, targets: Optional[ArrayLike] = None) -> None:
         """Fixes particles at ``targets`` ((len(indices), 3) m; default: where they are)."""
     def unpin(self, indices: Optional[ArrayLike] = None) -> None:

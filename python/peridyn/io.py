@@ -296,12 +296,15 @@ def _unfit(path: Any, why: str) -> _StateError:
 class _BodyState:
     """What one body's next steps depend on."""
 
-    __slots__ = ("positions", "velocities", "pinned", "pin_targets", "self_contact")
+    __slots__ = ("positions", "velocities", "pinned", "pin_targets", "self_contact", "bonds")
 
     def __init__(self, positions: np.ndarray, velocities: np.ndarray, pinned: np.ndarray,
-                 pin_targets: np.ndarray, self_contact: Optional[bool]) -> None:
+                 pin_targets: np.ndarray, self_contact: Optional[bool],
+                 bonds: Optional[Dict[str, np.ndarray]] = None) -> None:
         self.positions = positions
         self.velocities = velocities
+        # a plastic particle body's current reference bonds (``Particles.rest_bonds``)
+        self.bonds = bonds
         self.pinned = pinned
         self.pin_targets = pin_targets
         self.self_contact = self_contact
@@ -337,17 +340,41 @@ def _internal_state(solver: Any) -> Optional[Dict[str, np.ndarray]]:
     return {str(k): np.array(v) for k, v in dict(get()).items()}
 
 
+#: The entries of a plastic particle body's bonds (``Particles.rest_bonds``): the file holds
+#: each as ``bonds_<name>_<b>``, with its dtype and its shape's second axis (None: 1-D).
+_BOND_ENTRIES = {
+    "offsets": ("i", None),
+    "neighbours": ("i", None),
+    "vectors": ("f", 3),
+    "born": ("f", None),
+    "plastic_strain": ("f", None),
+}
+
+
+def _is_membrane(body: Any) -> bool:
+    """Membranes have vertices and a self-contact switch; particle bodies have neither."""
+    return hasattr(body, "num_vertices")
+
+
+def _count(body: Any) -> int:
+    """A body's number of vertices (membrane) or particles."""
+    return int(body.num_vertices if _is_membrane(body) else body.num_particles)
+
+
 def _capture(solver: Any) -> _State:
     """The solver's state now (copies)."""
     bodies = []
     for body in solver.bodies:
         pinned = np.asarray(body.pinned, dtype=np.int64)
+        membrane = _is_membrane(body)
+        bonds = None if membrane else body.rest_bonds
         bodies.append(_BodyState(
             np.array(body.positions, dtype=np.float64),
             np.array(body.velocities, dtype=np.float64),
             pinned,
             np.array(body.pin_targets, dtype=np.float64).reshape(len(pinned), 3),
-            bool(body.self_contact),
+            bool(body.self_contact) if membrane else None,
+            None if bonds is None else {k: np.array(v) for k, v in bonds.items()},
         ))
     colliders = []
     for c in range(len(solver.colliders)):
@@ -372,6 +399,8 @@ def _apply(solver: Any, state: _State) -> None:
             body.pin(b.pinned, b.pin_targets)
         if b.self_contact is not None:
             body.self_contact = b.self_contact
+        if not _is_membrane(body) and body.plasticity is not None:
+            body.rest_bonds = b.bonds
     for c, (base, target) in enumerate(state.colliders):
         extra = {}
         if target is not None:
@@ -391,8 +420,10 @@ def save_state(path: PathLike, solver: Any) -> Path:
     reaches it) to a compressed ``.npz`` file at exactly ``path``.
 
     That is the file format version, the solver's clock (``time``, ``steps_taken``) and time
-    step ``dt``; each body's positions, velocities, pinned vertices, pin targets and
-    ``self_contact`` switch; each collider's motion (the pose its velocity carries on from and
+    step ``dt``; each body's positions, velocities, pinned vertices and pin targets, a
+    membrane's ``self_contact`` switch, a plastic particle body's current reference bonds
+    (``Particles.rest_bonds``: its neighbours after the returns and rebuilds, their reference
+    vectors and the hardening state, as entries ``bonds_<name>_<b>``); each collider's motion (the pose its velocity carries on from and
     a pose set with ``Solver.set_collider_pose`` for the next step, if any). :func:`load_state`
     into a solver set up the same way (same bodies, parameters and colliders, in order) then
     continues the simulation bit for bit, with and without contact.
@@ -434,7 +465,10 @@ def save_state(path: PathLike, solver: Any) -> Path:
         arrays[f"velocities_{b}"] = body.velocities
         arrays[f"pinned_{b}"] = body.pinned
         arrays[f"pin_targets_{b}"] = body.pin_targets
-        arrays[f"self_contact_{b}"] = np.array(bool(body.self_contact))
+        if body.self_contact is not None:
+            arrays[f"self_contact_{b}"] = np.array(bool(body.self_contact))
+        for name, value in (body.bonds or {}).items():
+            arrays[f"bonds_{name}_{b}"] = value
     for name, value in (state.internal or {}).items():
         arrays[_INTERNAL + name] = value
     for c, (base, target) in enumerate(state.colliders):
@@ -611,6 +645,26 @@ class _Entries:
                 raise _invalid(self.path, f"entry {key!r} is not sorted without repeats")
         return value.astype(np.int64)
 
+    def bonds(self, b: int) -> Dict[str, np.ndarray]:
+        """Body ``b``'s bonds (entries ``bonds_<name>_<b>``), of the dtypes and dimensions of
+        :data:`_BOND_ENTRIES`; whether they fit the body is checked when they are set."""
+        bonds = {}
+        for name, (kind, columns) in _BOND_ENTRIES.items():
+            key = f"bonds_{name}_{b}"
+            value = self._get(key)
+            self._kind(key, value, "iu" if kind == "i" else "f",
+                       "integers" if kind == "i" else "real floats")
+            ok = value.ndim == 1 if columns is None else value.ndim == 2 and value.shape[1] == 3
+            if not ok:
+                expected = "(B,)" if columns is None else "(B, 3)"
+                raise _invalid(self.path, f"entry {key!r} has shape {value.shape}, expected {expected}")
+            if kind == "f" and not np.isfinite(value).all():
+                index = tuple(int(i) for i in np.argwhere(~np.isfinite(value))[0])
+                raise _invalid(self.path, f"entry {key!r} holds {value[index]!r} at {index}, "
+                                          "not a finite number")
+            bonds[name] = value
+        return bonds
+
     def leftovers(self) -> None:
         extra = sorted(set(self.entries) - self.taken)
         if extra:
@@ -640,14 +694,19 @@ def _parse(path: Any, entries: Dict[str, np.ndarray], solver: Any) -> _State:
         raise _unfit(path, f"the file holds {n_bodies} bodies, the solver has {len(solver_bodies)}")
     bodies = []
     for b, body in enumerate(solver_bodies):
-        n = int(body.num_vertices)
-        positions = e.floats(f"positions_{b}", (n, 3), f"body {b} has {n} vertices,")
-        velocities = e.floats(f"velocities_{b}", (n, 3), f"body {b} has {n} vertices,")
+        n = _count(body)
+        membrane = _is_membrane(body)
+        what = "vertices" if membrane else "particles"
+        positions = e.floats(f"positions_{b}", (n, 3), f"body {b} has {n} {what},")
+        velocities = e.floats(f"velocities_{b}", (n, 3), f"body {b} has {n} {what},")
         pinned = e.indices(f"pinned_{b}", n)
         targets = e.floats(f"pin_targets_{b}", (len(pinned), 3),
-                           f"the file's 'pinned_{b}' has {len(pinned)} vertices,", of_solver=False)
-        self_contact = e.boolean(f"self_contact_{b}") if version >= 1 else None
-        bodies.append(_BodyState(positions, velocities, pinned, targets, self_contact))
+                           f"the file's 'pinned_{b}' has {len(pinned)} {what},", of_solver=False)
+        self_contact = e.boolean(f"self_contact_{b}") if version >= 1 and membrane else None
+        bonds = None
+        if not membrane and body.plasticity is not None:
+            bonds = e.bonds(b)
+        bodies.append(_BodyState(positions, velocities, pinned, targets, self_contact, bonds))
     n_colliders = len(solver.colliders)
     if version >= 1 or e.has("colliders"):
         in_file = e.integer("colliders")

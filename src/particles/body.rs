@@ -89,6 +89,9 @@ pub struct Particles {
     /// A plastic body's current reference bonds once a solver has stepped it (`None`: the
     /// bonds of `reference` and `horizons`).
     rest_bonds: Option<RestBonds>,
+    /// How many times the bonds were replaced from outside ([`Self::restore_rest_bonds`]):
+    /// a solver whose working set was built at another count builds it anew.
+    bonds_revision: u64,
 }
 
 impl Particles {
@@ -142,6 +145,7 @@ impl Particles {
             state,
             plasticity: None,
             rest_bonds: None,
+            bonds_revision: 0,
         };
         debug_assert!(body.ghost_owners.len() < body.reference.len());
         check_shapes(&body.reference, &body.horizons, delta)?;
@@ -323,6 +327,28 @@ impl Particles {
         self.rest_bonds
             .clone()
             .unwrap_or_else(|| RestBonds::from_reference(&self.reference, &self.horizons))
+    }
+    /// Replaces a plastic body's reference bonds (a restored state: `None` goes back to the
+    /// bonds of the reference positions), checked against the body; solvers stepping the
+    /// body take them from their next step on. Fails, naming the culprit, on bad bonds or
+    /// bonds given to an elastic body (which keeps its reference bonds for ever).
+    pub fn restore_rest_bonds(&mut self, bonds: Option<RestBonds>) -> Result<()> {
+        if let Some(bonds) = &bonds {
+            if self.plasticity.is_none() {
+                return Err(crate::error::invalid!(
+                    "an elastic particle body keeps the bonds of its reference positions: \
+                     only a plastic body takes bonds"
+                ));
+            }
+            bonds.check(self.num_particles())?;
+        }
+        self.rest_bonds = bonds;
+        self.bonds_revision += 1;
+        Ok(())
+    }
+    /// See [`Self::restore_rest_bonds`].
+    pub fn bonds_revision(&self) -> u64 {
+        self.bonds_revision
     }
     /// Solver write-back of a plastic body's bonds after a step.
     pub(crate) fn set_rest_bonds(&mut self, bonds: RestBonds) {

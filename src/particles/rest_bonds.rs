@@ -15,6 +15,7 @@
 
 use nalgebra::Vector3;
 
+use crate::error::{invalid, Result};
 use crate::geometry::Horizons;
 
 /// A body's current reference bonds (see the module's doc).
@@ -70,6 +71,90 @@ impl RestBonds {
     #[inline(always)]
     pub fn of(&self, i: usize) -> &[u32] {
         &self.indices[self.row(i)]
+    }
+
+    /// Checks bonds given from outside (a restored state) for a body of `n` particles, naming
+    /// the first culprit: `n + 1` offsets from 0, non-decreasing, to the bond count; per bond
+    /// a neighbour in `[0, n)` other than the particle, increasing within each row, with the
+    /// reverse bond present; a finite nonzero vector `X` (m) and a finite length > 0 (m) it
+    /// was born at; per particle a finite plastic strain >= 0.
+    pub fn check(&self, n: usize) -> Result<()> {
+        let bonds = self.indices.len();
+        if self.offsets.len() != n + 1 {
+            return Err(invalid!(
+                "bond offsets must hold {} entries (particles + 1), got {}",
+                n + 1,
+                self.offsets.len()
+            ));
+        }
+        if self.offsets[0] != 0 || self.offsets[n] as usize != bonds {
+            return Err(invalid!(
+                "bond offsets must run from 0 to the bond count {bonds}, got {} to {}",
+                self.offsets[0],
+                self.offsets[n]
+            ));
+        }
+        if let Some(i) = (0..n).find(|&i| self.offsets[i] > self.offsets[i + 1]) {
+            return Err(invalid!(
+                "bond offsets decrease at particle {i}: {} then {}",
+                self.offsets[i],
+                self.offsets[i + 1]
+            ));
+        }
+        if self.xi.len() != bonds || self.born.len() != bonds {
+            return Err(invalid!(
+                "bond vectors and lengths must hold one entry per bond ({bonds}), got {} and {}",
+                self.xi.len(),
+                self.born.len()
+            ));
+        }
+        if self.plastic_strain.len() != n {
+            return Err(invalid!(
+                "the plastic strain must hold one entry per particle ({n}), got {}",
+                self.plastic_strain.len()
+            ));
+        }
+        for i in 0..n {
+            let row = self.of(i);
+            for (k, &j) in row.iter().enumerate() {
+                let b = self.offsets[i] as usize + k;
+                if j as usize >= n || j as usize == i {
+                    return Err(invalid!(
+                        "bond {b} of particle {i} goes to {j}, not another particle of [0, {n})"
+                    ));
+                }
+                if k > 0 && row[k - 1] >= j {
+                    return Err(invalid!(
+                        "the neighbours of particle {i} are not increasing at bond {b}"
+                    ));
+                }
+                if self.of(j as usize).binary_search(&(i as u32)).is_err() {
+                    return Err(invalid!(
+                        "bond {b} joins particle {i} to {j}, but {j} has no bond back to {i}"
+                    ));
+                }
+                let x = self.xi[b];
+                if !(x.iter().all(|c| c.is_finite()) && x.norm() > 0.0) {
+                    return Err(invalid!(
+                        "the vector of bond {b} must be finite and nonzero, got {:?}",
+                        x.as_slice()
+                    ));
+                }
+                if !(self.born[b].is_finite() && self.born[b] > 0.0) {
+                    return Err(invalid!(
+                        "the birth length of bond {b} must be finite and > 0 m, got {}",
+                        self.born[b]
+                    ));
+                }
+            }
+            let p = self.plastic_strain[i];
+            if !(p.is_finite() && p >= 0.0) {
+                return Err(invalid!(
+                    "the plastic strain of particle {i} must be finite and >= 0, got {p}"
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Whether the bonds join the same pairs as `other`'s.

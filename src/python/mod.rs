@@ -15,6 +15,7 @@ mod particle_body;
 mod particles;
 mod pins;
 mod plasticity;
+mod rest_bonds;
 mod scalars;
 mod solver;
 mod solver_state;

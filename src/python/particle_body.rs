@@ -5,6 +5,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 use crate::particles::{DruckerPrager, ParticleParams, Particles};
 
@@ -13,6 +14,7 @@ use super::elastic::PyElastic;
 use super::errors::{guard, IntoPyResult};
 use super::pins;
 use super::plasticity::PyDruckerPrager;
+use super::rest_bonds;
 use super::scalars::Real;
 
 /// An elastic body of particles (He, Wang and Wu 2017) simulated by projective peridynamics.
@@ -255,6 +257,37 @@ impl PyParticles {
             to_numpy_1d(py, h.offsets.iter().map(|&o| o as i64).collect()),
             to_numpy_1d(py, h.indices.iter().map(|&o| o as i64).collect()),
         )
+    }
+    /// A plastic body's current reference bonds as a dict of arrays (``offsets`` (N + 1,) and
+    /// ``neighbours`` (B,) int64 in CSR, ``vectors`` (B, 3) m, ``born`` (B,) m the length
+    /// each bond's weight was set at, ``plastic_strain`` (N,)), which the returns and the
+    /// neighbour rebuilds of the steps so far have made; None for an elastic body. Settable
+    /// (checked whole; None goes back to the reference positions' bonds): what
+    /// ``peridyn.save_state`` saves and ``load_state`` restores.
+    #[getter]
+    fn rest_bonds<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let p = self.lock();
+        if p.plasticity().is_none() {
+            return Ok(None);
+        }
+        rest_bonds::to_dict(py, p.current_rest_bonds()).map(Some)
+    }
+    #[setter]
+    fn set_rest_bonds(&self, value: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        let bonds = match value {
+            None => None,
+            Some(v) if v.is_none() => None,
+            Some(v) => {
+                let dict = v.cast::<PyDict>().map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "rest_bonds must be None or a dict, got {}",
+                        v.get_type().name().map_or("?".into(), |n| n.to_string())
+                    ))
+                })?;
+                Some(rest_bonds::from_dict(dict)?)
+            }
+        };
+        self.lock().restore_rest_bonds(bonds).py()
     }
     /// Fixes particles at `targets` ((len(indices), 3) m; default: where they are now); a
     /// shell's or rod's ghost particles follow their real particle.

@@ -42,7 +42,7 @@ impl<T: Real> Families<T> {
             None => bodies.membranes.is_empty(),
         };
         let particles = match &self.particles {
-            Some(p) => p.points.matches(&bodies.particles),
+            Some(p) => p.matches(&bodies.particles),
             None => bodies.particles.is_empty(),
         };
         membranes && particles

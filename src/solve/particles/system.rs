@@ -42,6 +42,8 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub plastic: Option<PlasticBodies>,
     /// The step's phases so far ([`crate::solve::StepStats::particles`]).
     pub timings: ParticleTimings,
+    /// Each body's [`Particles::bonds_revision`] when this working set was built.
+    revisions: Vec<u64>,
 }
 
 impl<T: Real> ParticleSystem<T> {
@@ -68,7 +70,19 @@ impl<T: Real> ParticleSystem<T> {
             chunks: Vec::new(),
             plastic: PlasticBodies::of(bodies),
             timings: ParticleTimings::default(),
+            revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
         })
+    }
+
+    /// True when the working set was built for exactly these bodies with the bonds they have
+    /// (none was given bonds from outside since).
+    pub fn matches(&self, bodies: &[&mut Particles]) -> bool {
+        self.points.matches(bodies)
+            && self
+                .revisions
+                .iter()
+                .zip(bodies)
+                .all(|(&r, b)| r == b.bonds_revision())
     }
 
     /// The kernel at the current iterate `y`, unless the current evaluation is there already

@@ -1,0 +1,91 @@
+//! A plastic particle body's current reference bonds ([`RestBonds`]) as a dict of named numpy
+//! arrays and back, checked: the form `Particles.rest_bonds` reads and sets, and
+//! `peridyn.save_state` writes as entries `bonds_<name>_<body>`.
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::particles::RestBonds;
+
+use super::arrays::{indices, real_array, to_numpy, to_numpy_1d, vec3s};
+
+/// Per particle `p` its bonds `offsets[p]..offsets[p + 1]`, (N + 1,) int64.
+const OFFSETS: &str = "offsets";
+/// Per bond its neighbour, (B,) int64, increasing within each particle's bonds.
+const NEIGHBOURS: &str = "neighbours";
+/// Per bond its reference vector `X`, (B, 3) m.
+const VECTORS: &str = "vectors";
+/// Per bond the reference length its weight and springs were set at, (B,) m.
+const BORN: &str = "born";
+/// Per particle the accumulated plastic strain, (N,) dimensionless.
+const PLASTIC_STRAIN: &str = "plastic_strain";
+
+/// Every entry of the dict, in order.
+pub const NAMES: [&str; 5] = [OFFSETS, NEIGHBOURS, VECTORS, BORN, PLASTIC_STRAIN];
+
+/// `bonds` as a dict of every entry in [`NAMES`].
+pub fn to_dict<'py>(py: Python<'py>, bonds: RestBonds) -> PyResult<Bound<'py, PyDict>> {
+    let dict = PyDict::new(py);
+    let ints = |v: &[u32]| to_numpy_1d(py, v.iter().map(|&o| o as i64).collect());
+    dict.set_item(OFFSETS, ints(&bonds.offsets))?;
+    dict.set_item(NEIGHBOURS, ints(&bonds.indices))?;
+    dict.set_item(VECTORS, to_numpy(py, bonds.xi.into_iter())?)?;
+    dict.set_item(BORN, to_numpy_1d(py, bonds.born))?;
+    dict.set_item(PLASTIC_STRAIN, to_numpy_1d(py, bonds.plastic_strain))?;
+    Ok(dict)
+}
+
+/// The bonds a dict from [`to_dict`] holds (every entry, no other; shapes and dtypes
+/// checked here, the bonds themselves by [`RestBonds::check`] against the body).
+pub fn from_dict(dict: &Bound<'_, PyDict>) -> PyResult<RestBonds> {
+    let mut names = Vec::with_capacity(dict.len());
+    for key in dict.keys() {
+        names.push(key.extract::<String>().map_err(|_| {
+            PyValueError::new_err(format!("rest bond entry names must be strings, got {key}"))
+        })?);
+    }
+    let unknown: Vec<&String> = names
+        .iter()
+        .filter(|n| !NAMES.contains(&n.as_str()))
+        .collect();
+    let missing: Vec<&str> = NAMES
+        .into_iter()
+        .filter(|n| !names.iter().any(|m| m == n))
+        .collect();
+    if !unknown.is_empty() || !missing.is_empty() {
+        return Err(PyValueError::new_err(format!(
+            "rest bonds must hold exactly the entries {NAMES:?}: unknown {unknown:?}, missing \
+             {missing:?}"
+        )));
+    }
+    let item = |name: &str| dict.get_item(name).map(|v| v.expect("checked above"));
+    let unsigned = |name: &str| -> PyResult<Vec<u32>> {
+        indices(&item(name)?, name)?
+            .into_iter()
+            .enumerate()
+            .map(|(k, v)| {
+                u32::try_from(v).map_err(|_| {
+                    PyValueError::new_err(format!("{name}[{k}] = {v} is not an index >= 0"))
+                })
+            })
+            .collect()
+    };
+    let reals = |name: &str| -> PyResult<Vec<f64>> {
+        let arr = real_array(&item(name)?, name)?;
+        let ndim: usize = arr.getattr("ndim")?.extract()?;
+        if ndim != 1 {
+            return Err(PyValueError::new_err(format!(
+                "{name} must be one-dimensional, got {ndim} dimensions"
+            )));
+        }
+        arr.extract()
+    };
+    Ok(RestBonds {
+        offsets: unsigned(OFFSETS)?,
+        indices: unsigned(NEIGHBOURS)?,
+        xi: vec3s(&item(VECTORS)?, VECTORS, None)?,
+        born: reals(BORN)?,
+        plastic_strain: reals(PLASTIC_STRAIN)?,
+    })
+}
