@@ -153,6 +153,37 @@ class DruckerPrager:
     @property
     def rebuild_neighbours(self) -> bool: ...
 
+class ViscoelasticFluid:
+    """A fluid material of particle bodies (He, Wang and Wu 2017, section 6), for
+    ``Particles(X, spacing=, density=, material=ViscoelasticFluid(...))``: incompressibility by
+    one-sided position-based density constraints (Macklin and Mueller 2013) on the spiky
+    kernel's lattice-normalised SPH density (support 2.2 spacings), projected after the
+    elastic solve, and an implicit viscosity of kinematic viscosity ``viscosity / density``.
+    The defaults make a Newtonian liquid (water-like, no elasticity).
+
+    ``viscosity`` (dynamic, Pa s, >= 0), ``density_iterations`` (most projections per step,
+    >= 1), ``density_tolerance`` (the projections stop once no particle is denser than
+    ``density * (1 + density_tolerance)``; in (0, 0.1]), ``relaxation`` (the constraints'
+    eps as a fraction of their denominator on the rest lattice, > 0). ValueError naming the
+    bad parameter."""
+
+    def __init__(
+        self,
+        *,
+        viscosity: float = 1e-3,
+        density_iterations: int = 50,
+        density_tolerance: float = 1e-3,
+        relaxation: float = 0.1,
+    ) -> None: ...
+    @property
+    def viscosity(self) -> float: ...
+    @property
+    def density_iterations(self) -> int: ...
+    @property
+    def density_tolerance(self) -> float: ...
+    @property
+    def relaxation(self) -> float: ...
+
 class Particles:
     """An elastic body of particles (He, Wang and Wu 2017) stepped by projective peridynamics.
 

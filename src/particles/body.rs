@@ -12,6 +12,7 @@ use crate::point_state::PointState;
 use super::calibration::Moduli;
 use super::deformation::check_shapes;
 use super::elastic::Elastic;
+use super::fluid::ViscoelasticFluid;
 use super::plasticity::DruckerPrager;
 use super::rest_bonds::RestBonds;
 
@@ -92,6 +93,8 @@ pub struct Particles {
     /// How many times the bonds were replaced from outside ([`Self::restore_rest_bonds`]):
     /// a solver whose working set was built at another count builds it anew.
     bonds_revision: u64,
+    /// The fluid material, if the body is a fluid ([`Self::fluid`]).
+    fluid: Option<ViscoelasticFluid>,
 }
 
 impl Particles {
@@ -146,6 +149,7 @@ impl Particles {
             plasticity: None,
             rest_bonds: None,
             bonds_revision: 0,
+            fluid: None,
         };
         debug_assert!(body.ghost_owners.len() < body.reference.len());
         check_shapes(&body.reference, &body.horizons, delta)?;
@@ -162,6 +166,39 @@ impl Particles {
             self.moduli.lam += 2.0 * self.moduli.mu;
             self.moduli.mu = 0.0;
         }
+    }
+
+    /// A fluid body (He et al. 2017, section 6) of particles at `reference` (m) on a lattice of
+    /// `spacing` (m) with the rest density `density` (kg/m^3): no elastic bonds' stiffness (a
+    /// Newtonian liquid), the density constraints and viscosity of `fluid` applied by the
+    /// solver. Fails, naming the culprit, as [`Self::new`] does or on a bad fluid parameter.
+    pub fn fluid(
+        reference: Vec<Vector3<f64>>,
+        spacing: f64,
+        density: f64,
+        fluid: ViscoelasticFluid,
+    ) -> Result<Self> {
+        fluid.validate()?;
+        let material = Elastic::Paper { mu: 1.0, lam: 0.0 };
+        let params = ParticleParams {
+            spacing,
+            density,
+            horizon: None,
+            material,
+        };
+        let mut body = Self::new(reference, params)?;
+        body.moduli = Moduli {
+            mu: 0.0,
+            lam: 0.0,
+            kappa: 0.0,
+            bulk_weight: None,
+        };
+        body.fluid = Some(fluid);
+        Ok(body)
+    }
+    /// The fluid material of a fluid body.
+    pub fn fluid_material(&self) -> Option<&ViscoelasticFluid> {
+        self.fluid.as_ref()
     }
 
     pub fn id(&self) -> u64 {

@@ -7,6 +7,7 @@ mod collider;
 mod contact;
 mod elastic;
 mod errors;
+mod fluid;
 mod gpu;
 mod material;
 mod membrane;
@@ -41,6 +42,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<elastic::PyElastic>()?;
     m.add_class::<particle_body::PyParticles>()?;
     m.add_class::<plasticity::PyDruckerPrager>()?;
+    m.add_class::<fluid::PyViscoelasticFluid>()?;
     m.add_class::<collider::PyCollider>()?;
     m.add_class::<collider::PyPlane>()?;
     m.add_class::<collider::PySphere>()?;

@@ -12,6 +12,7 @@ use crate::particles::{DruckerPrager, ParticleParams, Particles};
 use super::arrays::{to_numpy, to_numpy_1d, vec3s};
 use super::elastic::PyElastic;
 use super::errors::{guard, IntoPyResult};
+use super::fluid::PyViscoelasticFluid;
 use super::pins;
 use super::plasticity::PyDruckerPrager;
 use super::rest_bonds;
@@ -52,7 +53,7 @@ fn params_of(
             .cast::<PyElastic>()
             .map_err(|_| {
                 PyValueError::new_err(format!(
-                    "material must be a peridyn.Elastic, got {}",
+                    "material must be a peridyn.Elastic or a peridyn.ViscoelasticFluid, got {}",
                     material
                         .get_type()
                         .name()
@@ -76,6 +77,31 @@ fn plasticity_of(p: &Bound<'_, PyAny>) -> PyResult<DruckerPrager> {
         })
 }
 
+/// A fluid body (`material=ViscoelasticFluid(...)`): no horizon or plasticity of its own.
+fn fluid_body(
+    py: Python<'_>,
+    positions: &Bound<'_, PyAny>,
+    spacing: Real,
+    density: Real,
+    fluid: crate::particles::ViscoelasticFluid,
+    horizon: Option<Real>,
+    plasticity: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PyParticles> {
+    if horizon.is_some() || plasticity.is_some() {
+        return Err(PyValueError::new_err(
+            "a ViscoelasticFluid body takes no horizon or plasticity: its neighbourhoods are the SPH support (2.2 spacings)",
+        ));
+    }
+    let (spacing, density) = (spacing.get("spacing")?, density.get("density")?);
+    let x = vec3s(positions, "positions", None)?;
+    let body = py.detach(|| {
+        guard("Particles()", || {
+            Particles::fluid(x, spacing, density, fluid)
+        })
+    })?;
+    Ok(PyParticles::wrap(body))
+}
+
 #[pymethods]
 impl PyParticles {
     #[new]
@@ -89,6 +115,9 @@ impl PyParticles {
         horizon: Option<Real>,
         plasticity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        if let Ok(fluid) = material.cast::<PyViscoelasticFluid>() {
+            return fluid_body(py, positions, spacing, density, fluid.get().inner, horizon, plasticity);
+        }
         let plasticity = plasticity.map(plasticity_of).transpose()?;
         let params = params_of(spacing, density, material, horizon)?;
         let x = vec3s(positions, "positions", None)?;

@@ -76,6 +76,8 @@ impl PyStepStats {
             ("finish", t.finish),
             ("plasticity", t.plasticity),
             ("neighbours", t.neighbours),
+            ("density", t.density),
+            ("viscosity", t.viscosity),
             ("total", t.total),
         ] {
             d.set_item(k, v)?;

@@ -45,6 +45,17 @@ pub(crate) trait Family<T: Real>: Send {
     fn acceleration(&self, params: &SolverParams) -> Acceleration {
         params.acceleration
     }
+    /// Work after the iterations of a step and before its velocities are taken, `h` the
+    /// step (s): position projections (the fluids' density constraints,
+    /// [`super::particles`]). Nothing by default.
+    fn project(
+        &mut self,
+        _h: T,
+        _colliders: &[crate::collider::ColliderModel<T>],
+        _timings: &mut Timings,
+    ) -> Result<()> {
+        Ok(())
+    }
     /// Work at the end of a converged or finished step, after `finish` and before the state
     /// goes back to the bodies: where plasticity updates rest shapes and neighbourhoods are
     /// rebuilt. Nothing for membranes.

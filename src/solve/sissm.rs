@@ -485,6 +485,9 @@ impl<T: Real> Solver<T> {
             timings.global += millis(t);
         }
 
+        for family in families.each() {
+            family.project(h, &colliders, &mut timings)?;
+        }
         let t = Instant::now();
         for (family, indices) in families.each().zip(&list_indices) {
             if let Some(point) = family.points().first_bad_velocity(h) {

@@ -23,6 +23,11 @@ pub struct Timings {
     /// Of `finish`: the neighbour search of plastic particle bodies on their deformed
     /// positions (`t_n` of Table 1; 0 without).
     pub neighbours: f64,
+    /// The density constraints' projection of fluid particles (`t_rho` of Table 1; 0
+    /// without fluids; its neighbour search counts in `neighbours`).
+    pub density: f64,
+    /// Of `finish`: the implicit viscosity of fluid particles (0 without).
+    pub viscosity: f64,
     /// The whole step.
     pub total: f64,
 }

@@ -1,5 +1,6 @@
 //! Particle bodies as a body family of the time step: what the shared step asks of them.
 
+use crate::collider::ColliderModel;
 use crate::error::Result;
 use crate::membrane::Preconditioner;
 use crate::real::Real;
@@ -43,11 +44,21 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         }
         Ok(())
     }
+    /// The fluids' neighbour search and density projection ([`super::fluid`]).
+    fn project(&mut self, h: T, colliders: &[ColliderModel<T>], timings: &mut Timings) -> Result<()> {
+        match &mut self.fluid {
+            Some(fluid) => fluid.project(&mut self.points, h, colliders, timings),
+            None => Ok(()),
+        }
+    }
     /// A failure of the direct solver's factorisation during the step, else plasticity and
-    /// changing neighbourhoods ([`super::plastic`]).
+    /// changing neighbourhoods ([`super::plastic`]), and the fluids' viscosity.
     fn end_step(&mut self, timings: &mut Timings) -> Result<()> {
         if let Some(failure) = self.failure.take() {
             return Err(failure);
+        }
+        if let Some(fluid) = &mut self.fluid {
+            fluid.end_step(&mut self.points, timings);
         }
         self.plastic_end_step(timings)
     }

@@ -7,6 +7,8 @@ mod direct;
 mod directions;
 mod evaluation;
 mod family;
+mod fluid;
+mod fluid_viscosity;
 mod plastic;
 mod repulsion;
 mod step;

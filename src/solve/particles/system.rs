@@ -15,6 +15,7 @@ use crate::timing::millis;
 
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
+use super::fluid::FluidStage;
 use super::plastic::PlasticBodies;
 use super::repulsion::Repulsion;
 
@@ -40,6 +41,8 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub chunks: Vec<f64>,
     /// Every body's bonds when some body is plastic ([`super::plastic`]).
     pub plastic: Option<PlasticBodies>,
+    /// The fluid particles' density projection and viscosity ([`super::fluid`]).
+    pub fluid: Option<FluidStage<T>>,
     /// The step's phases so far ([`crate::solve::StepStats::particles`]).
     pub timings: ParticleTimings,
     /// Each body's [`Particles::bonds_revision`] when this working set was built.
@@ -69,6 +72,7 @@ impl<T: Real> ParticleSystem<T> {
             failure: None,
             chunks: Vec::new(),
             plastic: PlasticBodies::of(bodies),
+            fluid: FluidStage::of(bodies)?,
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
         })

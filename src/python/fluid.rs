@@ -1,0 +1,69 @@
+//! Python wrapper of the fluid material, [`ViscoelasticFluid`].
+
+use pyo3::prelude::*;
+
+use crate::particles::ViscoelasticFluid;
+
+use super::errors::IntoPyResult;
+use super::scalars::Real;
+
+/// A fluid material of particle bodies (He et al. 2017, section 6): position-based density
+/// constraints and an implicit viscosity; the defaults make a Newtonian liquid.
+#[pyclass(module = "peridyn._core", name = "ViscoelasticFluid", frozen)]
+#[derive(Clone, Copy)]
+pub struct PyViscoelasticFluid {
+    pub inner: ViscoelasticFluid,
+}
+
+#[pymethods]
+impl PyViscoelasticFluid {
+    /// `viscosity` (dynamic, Pa s, >= 0), `density_iterations` (most projections per step,
+    /// >= 1), `density_tolerance` (relative, in (0, 0.1]) and `relaxation` (the constraints'
+    /// eps as a fraction of their rest-lattice denominator, > 0).
+    #[new]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1)))]
+    fn new(
+        viscosity: Real,
+        density_iterations: i64,
+        density_tolerance: Real,
+        relaxation: Real,
+    ) -> PyResult<Self> {
+        let iterations = usize::try_from(density_iterations).map_err(|_| {
+            pyo3::exceptions::PyValueError::new_err(format!(
+                "density_iterations must be at least 1, got {density_iterations}"
+            ))
+        })?;
+        let inner = ViscoelasticFluid {
+            viscosity: viscosity.get("viscosity")?,
+            density_iterations: iterations,
+            density_tolerance: density_tolerance.get("density_tolerance")?,
+            relaxation: relaxation.get("relaxation")?,
+        };
+        inner.validate().py()?;
+        Ok(Self { inner })
+    }
+    /// Dynamic viscosity (Pa s).
+    #[getter]
+    fn viscosity(&self) -> f64 {
+        self.inner.viscosity
+    }
+    #[getter]
+    fn density_iterations(&self) -> usize {
+        self.inner.density_iterations
+    }
+    #[getter]
+    fn density_tolerance(&self) -> f64 {
+        self.inner.density_tolerance
+    }
+    #[getter]
+    fn relaxation(&self) -> f64 {
+        self.inner.relaxation
+    }
+    fn __repr__(&self) -> String {
+        let f = &self.inner;
+        format!(
+            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_tolerance={}, relaxation={})",
+            f.viscosity, f.density_iterations, f.density_tolerance, f.relaxation
+        )
+    }
+}

@@ -1,0 +1,299 @@
+//! The fluid stage of a particle step (He et al. 2017, section 6; Macklin and Mueller 2013,
+//! "Position Based Fluids"): once the local-global iterations have finished (`t_e` of the
+//! paper's Table 1), the fluid particles' neighbours are searched on their positions (`t_n`),
+//! their density constraints are projected (`t_rho`), and after the velocities are taken, an
+//! implicit viscosity acts on them ([`super::fluid_viscosity`]).
+//!
+//! **Why a projection stage.** The density constraints are position projections without an
+//! energy: the Armijo search of [`super::step`] has no merit to ask of them, and the
+//! Jacobi/Chebyshev iteration assumes the fixed global matrix of the elastic terms. So, as in
+//! the paper's Table 1 (`t_rho` apart from `t_e`) and in Macklin and Mueller's Algorithm 1
+//! (constraints projected on the predicted positions), they are projected after the elastic
+//! solve, before the velocities `(y - y_t) / h` are taken: the projection's moves become
+//! velocity, as position-based dynamics asks.
+//!
+//! **Constraints.** `C_i = rho_i / rho0_i - 1` with the spiky kernel's lattice-normalised
+//! density ([`crate::particles::sph`], support [`FLUID_SUPPORT`] spacings; the exact
+//! gradient of the same sum, so each projection is a Newton step of its constraint), one-sided:
+//! only `C_i > 0` is corrected, so that the free surface (where the sum misses neighbours)
+//! does not pull particles into clumps (no artificial pressure `s_corr` is needed).
+//! `lambda_i = -C_i / (sum_k |grad_k C_i|^2 + eps)` (Macklin and Mueller, eq. 11) with
+//! `eps = relaxation * D0`, `D0` that denominator at an interior particle of the rest lattice;
+//! every particle moves by `dy_k = sum_i lambda_i grad_k C_i` (eq. 12, all constraints at once,
+//! Jacobi), then out of the colliders (normal projection, no friction: the elastic iteration's
+//! collider pass carries the friction). The iterations stop when no particle is denser than
+//! `rho0 (1 + tolerance)` or after `density_iterations`. Pinned particles count in the
+//! densities and do not move.
+
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use crate::collider::{push_out_of_colliders, ColliderModel, MoveStart};
+use crate::error::Result;
+use crate::geometry::find_horizons;
+use crate::particles::sph::{Kernel, Sph};
+use crate::particles::{Particles, ViscoelasticFluid, FLUID_SUPPORT};
+use crate::real::Real;
+use crate::solve::points::Points;
+use crate::solve::Timings;
+use crate::timing::millis;
+
+use super::fluid_viscosity::Viscosity;
+
+/// The fluid particles of a particle family and their constants.
+pub(crate) struct FluidStage<T: Real> {
+    /// The family index of each fluid particle.
+    pub members: Vec<u32>,
+    /// Per fluid particle: mass (kg), rest density `rho0` (kg/m^3), kinematic viscosity
+    /// (m^2/s), `eps` (1/m^2) and the kernel of its body.
+    pub mass: Vec<T>,
+    pub rest_density: Vec<T>,
+    pub nu: Vec<T>,
+    eps: Vec<T>,
+    pub sph: Sph,
+    iterations: usize,
+    tolerance: f64,
+    /// Neighbour lists of the last search (CSR over the members).
+    pub offsets: Vec<u32>,
+    pub indices: Vec<u32>,
+    /// Working positions (and the next ones), densities, multipliers and gradients of the
+    /// members.
+    pub y: Vec<Vector3<T>>,
+    next: Vec<Vector3<T>>,
+    density: Vec<T>,
+    lambda: Vec<T>,
+    grads: Vec<Vector3<T>>,
+    own: Vec<Vector3<T>>,
+    /// The time step of the last projection (s), which the viscosity uses.
+    h: T,
+    pub viscosity: Viscosity<T>,
+}
+
+/// The denominator `sum_k |grad_k C_i|^2` (1/m^2) of an interior particle of the simple cubic
+/// lattice of `spacing` (m) for the kernel `sph`: `sum_p |m grad W(p)|^2 / rho0^2` with
+/// `m / rho0 = spacing^3` (the particle's own gradient is zero by symmetry).
+fn lattice_denominator(sph: &Sph, spacing: f64) -> f64 {
+    let reach = (sph.radius / spacing).ceil() as i64;
+    let mut sum = 0.0;
+    for a in -reach..=reach {
+        for b in -reach..=reach {
+            for c in -reach..=reach {
+                let p = Vector3::new(a as f64, b as f64, c as f64) * spacing;
+                sum += (sph.gradient(&p) * spacing.powi(3)).norm_squared();
+            }
+        }
+    }
+    sum
+}
+
+impl<T: Real> FluidStage<T> {
+    /// The fluid stage of the family of `bodies` (None when no body is a fluid). The bodies
+    /// share one kernel: the first fluid's; a fluid of another spacing is refused.
+    pub fn of(bodies: &[&mut Particles]) -> Result<Option<Self>> {
+        let mut stage: Option<Self> = None;
+        let mut start = 0u32;
+        let mut spacing = 0.0;
+        for body in bodies {
+            let n = body.num_particles() as u32;
+            if let Some(fluid) = body.fluid_material() {
+                let s = body.params().spacing;
+                let stage = match &mut stage {
+                    Some(stage) => {
+                        if s != spacing {
+                            return Err(crate::error::invalid!(
+                                "fluids in one solver must share a spacing: {s} m against {spacing} m"
+                            ));
+                        }
+                        stage
+                    }
+                    None => {
+                        spacing = s;
+                        stage.insert(Self::new(Sph::on_lattice(
+                            Kernel::Spiky,
+                            FLUID_SUPPORT * s,
+                            s,
+                        )?))
+                    }
+                };
+                stage.add(body, fluid, start..start + n);
+            }
+            start += n;
+        }
+        if let Some(stage) = &mut stage {
+            let n = stage.members.len();
+            stage.y = vec![Vector3::zeros(); n];
+            stage.density = vec![T::zero(); n];
+            stage.lambda = vec![T::zero(); n];
+            stage.own = vec![Vector3::zeros(); n];
+            stage.viscosity = Viscosity::new(n);
+        }
+        Ok(stage)
+    }
+
+    fn new(sph: Sph) -> Self {
+        Self {
+            members: Vec::new(),
+            mass: Vec::new(),
+            rest_density: Vec::new(),
+            nu: Vec::new(),
+            eps: Vec::new(),
+            sph,
+            iterations: 1,
+            tolerance: 1.0,
+            offsets: vec![0],
+            indices: Vec::new(),
+            y: Vec::new(),
+            next: Vec::new(),
+            density: Vec::new(),
+            lambda: Vec::new(),
+            grads: Vec::new(),
+            own: Vec::new(),
+            h: T::zero(),
+            viscosity: Viscosity::new(0),
+        }
+    }
+
+    fn add(&mut self, body: &Particles, fluid: &ViscoelasticFluid, range: std::ops::Range<u32>) {
+        let rho0 = body.density();
+        let eps = fluid.relaxation * lattice_denominator(&self.sph, body.params().spacing);
+        for i in range {
+            self.members.push(i);
+            self.mass.push(T::of(body.particle_mass()));
+            self.rest_density.push(T::of(rho0));
+            self.nu.push(T::of(fluid.viscosity / rho0));
+            self.eps.push(T::of(eps));
+        }
+        self.iterations = self.iterations.max(fluid.density_iterations);
+        self.tolerance = self.tolerance.min(fluid.density_tolerance);
+    }
+
+    /// The stage's work before the velocities are taken (see the module's doc): the
+    /// neighbour search and the density projections on `points.y`, `h` the step (s).
+    pub fn project(
+        &mut self,
+        points: &mut Points<T>,
+        h: T,
+        colliders: &[ColliderModel<T>],
+        timings: &mut Timings,
+    ) -> Result<()> {
+        self.h = h;
+        let started = Instant::now();
+        for (y, &k) in self.y.iter_mut().zip(&self.members) {
+            *y = points.y[k as usize];
+        }
+        let found = find_horizons(&self.y, self.sph.radius)?;
+        self.offsets = found.offsets;
+        self.indices = found.indices;
+        self.grads.resize(self.indices.len(), Vector3::zeros());
+        timings.neighbours += millis(started);
+        let started = Instant::now();
+        for _ in 0..self.iterations {
+            if !self.project_once(points, colliders) {
+                break;
+            }
+        }
+        for (y, &k) in self.y.iter().zip(&self.members) {
+            points.y[k as usize] = *y;
+        }
+        timings.density += millis(started);
+        Ok(())
+    }
+
+    /// One Jacobi projection of every density constraint on `self.y`; false (nothing moved)
+    /// when every density was within the tolerance.
+    fn project_once(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) -> bool {
+        let (sph, y, mass) = (&self.sph, &self.y, &self.mass);
+        let (offsets, indices) = (&self.offsets, &self.indices);
+        sph.densities(y, offsets, indices, mass, &mut self.density);
+        let limit = T::of(1.0 + self.tolerance);
+        let (density, rest) = (&self.density, &self.rest_density);
+        if !density
+            .par_iter()
+            .zip(rest.par_iter())
+            .any(|(&r, &r0)| r > r0 * limit)
+        {
+            return false;
+        }
+        // Multipliers, and each particle's own gradient and its neighbours' (`grads`), of
+        // `rho_i` (not yet divided by `rho0_i`).
+        let eps = &self.eps;
+        self.lambda
+            .par_iter_mut()
+            .zip(self.own.par_iter_mut())
+            .zip(split_rows(offsets, &mut self.grads))
+            .enumerate()
+            .for_each(|(i, ((lambda, own), row))| {
+                *own = sph.density_gradient(i, y, offsets, indices, mass, row);
+                let c = density[i] / rest[i] - T::one();
+                *lambda = if c > T::zero() {
+                    let mut norm2 = own.norm_squared();
+                    for g in row.iter() {
+                        norm2 += g.norm_squared();
+                    }
+                    -c / (norm2 / (rest[i] * rest[i]) + eps[i])
+                } else {
+                    T::zero()
+                };
+            });
+        let (lambda, own, grads) = (&self.lambda, &self.own, &self.grads);
+        let members = &self.members;
+        (0..y.len())
+            .into_par_iter()
+            .map(|i| {
+                let k = members[i] as usize;
+                if points.pinned[k] {
+                    return y[i];
+                }
+                // dy_i = lambda_i grad_i C_i + sum_j lambda_j grad_i C_j, where
+                // grad_i C_j = d rho_j / d y_i / rho0_j is the entry of `i` in `j`'s row.
+                let mut dy = own[i] * (lambda[i] / rest[i]);
+                for &j in &indices[offsets[i] as usize..offsets[i + 1] as usize] {
+                    let j = j as usize;
+                    let row = &indices[offsets[j] as usize..offsets[j + 1] as usize];
+                    let b = offsets[j] as usize + row.binary_search(&(i as u32)).unwrap_or(0);
+                    dy += grads[b] * (lambda[j] / rest[j]);
+                }
+                push_out_of_colliders(
+                    Points::colliders_of(&points.collides, k, colliders),
+                    MoveStart::Now(y[i]),
+                    y[i] + dy,
+                    points.margin[k],
+                    None,
+                )
+            })
+            .collect_into_vec(&mut self.next);
+        std::mem::swap(&mut self.y, &mut self.next);
+        true
+    }
+
+    /// The implicit viscosity on the velocities the step took ([`super::fluid_viscosity`]).
+    pub fn end_step(&mut self, points: &mut Points<T>, timings: &mut Timings) {
+        let started = Instant::now();
+        let mut viscosity = std::mem::replace(&mut self.viscosity, Viscosity::new(0));
+        viscosity.apply(self, points);
+        self.viscosity = viscosity;
+        timings.viscosity += millis(started);
+    }
+
+    /// The time step of the last projection (s).
+    pub fn h(&self) -> T {
+        self.h
+    }
+}
+
+/// `grads` split into the rows of `offsets`, in parallel.
+fn split_rows<'a, V: Send>(
+    offsets: &'a [u32],
+    grads: &'a mut [V],
+) -> impl IndexedParallelIterator<Item = &'a mut [V]> + 'a {
+    let mut rows = Vec::with_capacity(offsets.len() - 1);
+    let mut rest = grads;
+    for w in offsets.windows(2) {
+        let (row, tail) = rest.split_at_mut((w[1] - w[0]) as usize);
+        rows.push(row);
+        rest = tail;
+    }
+    rows.into_par_iter()
+}

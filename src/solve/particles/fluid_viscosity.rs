@@ -1,0 +1,167 @@
+//! The implicit viscosity of fluid particles (He et al. 2017, section 6, after Mueller et al.
+//! 2003): backward Euler of `dv/dt = nu laplacian(v)`, `(I + h L) v_{t+1} = v`, on the
+//! velocities the step took, `nu` the kinematic viscosity (m^2/s) and `h` the step (s).
+//!
+//! The Laplacian is Brookshaw's SPH form (as in Monaghan 2005, eq. 3.77 without the
+//! compressible term): `laplacian(v)_i = sum_j c_ij (v_j - v_i)` with
+//! `c_ij = 2 V_j |r_ij . grad W_ij| / (|r_ij|^2 + 0.01 H^2)` (1/m^2; `V_j = m_j / rho0_j`,
+//! `H` the support radius), made symmetric by the mean of the two particles' `nu V`, so that
+//! the system matrix is symmetric positive definite and momentum is conserved. It is solved by
+//! conjugate gradients with a Jacobi preconditioner to a relative residual of the square root
+//! of the precision's epsilon (at most [`MAX_CG`] iterations; sums in fixed chunks, the same
+//! on any thread count). Pinned particles keep their velocity and drag their neighbours.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use crate::parallel::chunked_sum;
+use crate::real::Real;
+use crate::solve::points::Points;
+
+use super::fluid::FluidStage;
+
+/// Most conjugate-gradient iterations of one viscosity solve.
+pub const MAX_CG: usize = 200;
+
+/// The viscosity solve's buffers (one entry per fluid particle, one coefficient per bond).
+pub(crate) struct Viscosity<T: Real> {
+    coefficient: Vec<T>,
+    diagonal: Vec<T>,
+    x: Vec<Vector3<T>>,
+    r: Vec<Vector3<T>>,
+    p: Vec<Vector3<T>>,
+    ap: Vec<Vector3<T>>,
+    free: Vec<bool>,
+    chunks: Vec<f64>,
+    /// Conjugate-gradient iterations of the last solve.
+    pub iterations: usize,
+}
+
+impl<T: Real> Viscosity<T> {
+    pub fn new(n: usize) -> Self {
+        Self {
+            coefficient: Vec::new(),
+            diagonal: vec![T::zero(); n],
+            x: vec![Vector3::zeros(); n],
+            r: vec![Vector3::zeros(); n],
+            p: vec![Vector3::zeros(); n],
+            ap: vec![Vector3::zeros(); n],
+            free: vec![false; n],
+            chunks: Vec::new(),
+            iterations: 0,
+        }
+    }
+
+    /// `(A v)_i = v_i + sum_j k_ij (v_i - v_j)` (`k = h c`) for the free particles, 0 for
+    /// the pinned ones.
+    fn apply_matrix(&mut self, stage: &FluidStage<T>) {
+        let (offsets, indices) = (&stage.offsets, &stage.indices);
+        let (k, p, free) = (&self.coefficient, &self.p, &self.free);
+        self.ap.par_iter_mut().enumerate().for_each(|(i, out)| {
+            if !free[i] {
+                *out = Vector3::zeros();
+                return;
+            }
+            let mut sum = p[i];
+            for b in offsets[i] as usize..offsets[i + 1] as usize {
+                sum += (p[i] - p[indices[b] as usize]) * k[b];
+            }
+            *out = sum;
+        });
+    }
+
+    fn dot(chunks: &mut Vec<f64>, a: &[Vector3<T>], b: &[Vector3<T>]) -> f64 {
+        chunked_sum(a.len(), chunks, |i| a[i].dot(&b[i]).to_f64())
+    }
+
+    /// Replaces the fluid particles' velocities in `points` by the solution (see the module's
+    /// doc); positions are left as the step took them.
+    pub fn apply(&mut self, stage: &FluidStage<T>, points: &mut Points<T>) {
+        let n = stage.members.len();
+        let h = stage.h();
+        let (offsets, indices) = (&stage.offsets, &stage.indices);
+        let (y, mass, rho0, nu) = (&stage.y, &stage.mass, &stage.rest_density, &stage.nu);
+        let support2 = T::of(0.01 * stage.sph.radius * stage.sph.radius);
+        self.coefficient.resize(indices.len(), T::zero());
+        let sph = &stage.sph;
+        self.coefficient
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(b, k)| {
+                let i = offsets.partition_point(|&o| o as usize <= b) - 1;
+                let j = indices[b] as usize;
+                let d = y[i] - y[j];
+                let share = (nu[i] * mass[i] / rho0[i] + nu[j] * mass[j] / rho0[j]) * T::of(0.5);
+                let c = T::of(2.0) * share * d.dot(&sph.gradient(&d)).abs()
+                    / (d.norm_squared() + support2);
+                *k = h * c;
+            });
+        let (members, pinned) = (&stage.members, &points.pinned);
+        for (i, free) in self.free.iter_mut().enumerate() {
+            *free = !pinned[members[i] as usize];
+        }
+        let k = &self.coefficient;
+        self.diagonal.par_iter_mut().enumerate().for_each(|(i, d)| {
+            let mut sum = T::one();
+            for b in offsets[i] as usize..offsets[i + 1] as usize {
+                sum += k[b];
+            }
+            *d = sum;
+        });
+        for (x, &m) in self.x.iter_mut().zip(members) {
+            *x = points.velocity[m as usize];
+        }
+        // r = b - A x with b = x (the velocities), so r = -(A - I) x = sum_j k_ij (x_j - x_i).
+        std::mem::swap(&mut self.p, &mut self.x);
+        self.apply_matrix(stage);
+        std::mem::swap(&mut self.p, &mut self.x);
+        {
+            let (x, ap, free) = (&self.x, &self.ap, &self.free);
+            self.r.par_iter_mut().enumerate().for_each(|(i, r)| {
+                *r = if free[i] { x[i] - ap[i] } else { Vector3::zeros() };
+            });
+        }
+        let scale = Self::dot(&mut self.chunks, &self.x, &self.x);
+        let tol2 = T::default_epsilon().to_f64() * scale.max(f64::MIN_POSITIVE);
+        let (r, diagonal) = (&self.r, &self.diagonal);
+        self.p
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, p)| *p = r[i] / diagonal[i]);
+        let mut rz = Self::dot(&mut self.chunks, &self.r, &self.p);
+        self.iterations = 0;
+        while self.iterations < MAX_CG && Self::dot(&mut self.chunks, &self.r, &self.r) > tol2 {
+            self.apply_matrix(stage);
+            let pap = Self::dot(&mut self.chunks, &self.p, &self.ap);
+            if !(pap > 0.0) {
+                break;
+            }
+            let alpha = T::of(rz / pap);
+            {
+                let (p, ap) = (&self.p, &self.ap);
+                self.x
+                    .par_iter_mut()
+                    .zip(self.r.par_iter_mut())
+                    .enumerate()
+                    .for_each(|(i, (x, r))| {
+                        *x += p[i] * alpha;
+                        *r -= ap[i] * alpha;
+                    });
+            }
+            let (r, diagonal) = (&self.r, &self.diagonal);
+            let rz_next = chunked_sum(n, &mut self.chunks, |i| {
+                (r[i].dot(&r[i]) / diagonal[i]).to_f64()
+            });
+            let beta = T::of(rz_next / rz);
+            rz = rz_next;
+            self.p
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(i, p)| *p = r[i] / diagonal[i] + *p * beta);
+            self.iterations += 1;
+        }
+        for (x, &m) in self.x.iter().zip(members) {
+            points.velocity[m as usize] = *x;
+        }
+    }
+}
