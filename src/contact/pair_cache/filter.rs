@@ -40,7 +40,7 @@ impl PairCache {
             Renewal::Built
         };
         self.apart = self.regions.largest_near_motion();
-        let (horizon, near, outlying) = self.near(reach);
+        let (near, outlying) = self.near(reach);
         self.is_live[..self.flagged].fill(false);
         // Ski rental: refilter until the refilters since the sweep have cost a sweep.
         let fall = if self.sweep.valid && self.sweep.rent <= near as f64 {
@@ -53,16 +53,12 @@ impl PairCache {
         } else {
             None
         };
-        let (mut found, covered) =
-            match fall.and_then(|fall| self.refilter(near, fall, allowance, reach)) {
-                Some(found) => (found, near),
-                None => {
-                    let ahead = self.ahead(near, horizon, reach);
-                    (self.sweep(safe, target, ahead, allowance, reach), ahead)
-                }
-            };
-        // Beyond what the filter covered, the build's pairs of the outlying vertices (after
-        // those before it: `found` stays increasing).
+        let mut found = match fall.and_then(|fall| self.refilter(near, fall, allowance, reach)) {
+            Some(found) => found,
+            None => self.sweep(safe, target, near, allowance, reach),
+        };
+        // Beyond the horizon, the build's pairs of the outlying vertices (after those before
+        // it: `found` stays increasing).
         let this = &*self;
         let mut beyond: Vec<u32> = outlying
             .par_iter()
@@ -70,7 +66,7 @@ impl PairCache {
                 this.pairs_of(v)
                     .iter()
                     .copied()
-                    .filter(|&k| k as usize >= covered)
+                    .filter(|&k| k as usize >= near)
             })
             .collect();
         beyond.par_sort_unstable();
@@ -162,8 +158,7 @@ impl PairCache {
         Some(renewal)
     }
 
-    /// Filters the cached pairs `..near` (the horizon's and those [`PairCache::ahead`] of it)
-    /// afresh for the path from `safe` to `target` and the
+    /// Filters the cached pairs `..near` afresh for the path from `safe` to `target` and the
     /// allowances `allowance` (m) and records the sweep (see [`super::super::sweep`]): returns the
     /// pairs that may come within `reach` (m), increasing.
     fn sweep(
@@ -337,22 +332,19 @@ impl PairCache {
             - regions.relative_motion(regions.of_side(a), regions.of_side(b))
     }
 
-    /// The filter's horizon `reach + 2 D + max T` (m; infinite where NaN), how many of the
-    /// build's arranged pairs are closer than it at `r` (NaN distances, first, count as near),
-    /// and the vertices deviating by more than `D` ([`PairCache::outlying`]). Only those
-    /// pairs, and the pairs of those vertices, can pass the first test.
-    pub(super) fn near(&self, reach: f64) -> (f64, usize, Vec<u32>) {
+    /// The filter's horizon: how many of the build's arranged pairs are closer at `r` than
+    /// `reach + 2 D + max T` (m; NaN distances, first, count as near), and the vertices
+    /// deviating by more than `D` ([`PairCache::outlying`]). Only those pairs, and the
+    /// pairs of those vertices, can pass the first test.
+    pub(super) fn near(&self, reach: f64) -> (usize, Vec<u32>) {
         let (typical, outlying) = self.outlying();
-        let horizon = finite_or_infinite(reach + 2.0 * typical + self.apart);
-        (horizon, self.order.within(horizon), outlying)
-    }
-
-    /// How many of the build's arranged pairs a sweep looks at where the filter's horizon
-    /// `horizon` (m) holds `near` of them: those closer at `r` than `reach + SWEEP_AHEAD
-    /// (horizon - reach)`, [`SWEEP_AHEAD`] times the horizon's margin.
-    fn ahead(&self, near: usize, horizon: f64, reach: f64) -> usize {
-        let ahead = finite_or_infinite(reach + SWEEP_AHEAD * (horizon - reach));
-        near.max(self.order.within(ahead))
+        let horizon = reach + 2.0 * typical + self.apart;
+        let horizon = if horizon.is_nan() {
+            f64::INFINITY
+        } else {
+            horizon
+        };
+        (self.order.within(horizon), outlying)
     }
 
     /// The build's pairs of the vertex `v` (indices into `pairs`, below `arranged`).
@@ -379,26 +371,6 @@ impl PairCache {
         (typical, outlying)
     }
 }
-
-/// `x`, or infinity where it is NaN (a horizon that holds every pair).
-fn finite_or_infinite(x: f64) -> f64 {
-    if x.is_nan() {
-        f64::INFINITY
-    } else {
-        x
-    }
-}
-
-/// How far a sweep looks beyond the filter's horizon, as a multiple of the horizon's margin
-/// `2 D + max T` over the reach ([`PairCache::ahead`]). A cost trade-off only: a sweep may look
-/// at any pairs beyond the horizon (each gets a correct slack), and the filters after it need
-/// the sweep's record of every pair within their own horizons. The horizon grows between
-/// builds as the deviations since the build grow (a folding cloth's near pairs grew 168K,
-/// 455K, 590K in three steps after a build), so a sweep of only the pairs within it is spent
-/// at the next time step's first filter; one that looks ahead serves the next step too. Looking
-/// much further ahead keeps a sweep's record until its positions are far behind, and the
-/// refilters then look again at many pairs at every local step.
-const SWEEP_AHEAD: f64 = 2.0;
 
 /// How far beyond the reach, as a share of it, a pair's bound from the build
 /// ([`PairCache::sweep`]: its distance at the reference positions and the moves since) must be

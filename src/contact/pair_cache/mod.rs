@@ -83,11 +83,7 @@
 //!   filter sweeps afresh once the filters since the last sweep have cost as much as a sweep
 //!   (ski rental): as a sweep's positions fall behind, its filters cost more and more (the
 //!   first global iterations of a step can move a body's parts millimetres apart, so that
-//!   every later filter of the step looks again at a large share of the near pairs). A sweep
-//!   also records pairs beyond its filter's horizon, which the horizons of later filters
-//!   reach as the deviations since the build grow (a pair beyond a filter's horizon can come
-//!   within reach only through an outlying vertex, whose pairs that filter looks at anyway,
-//!   so recording it costs a look and changes no live list).
+//!   every later filter of the step looks again at a large share of the near pairs).
 
 mod build;
 mod filter;
