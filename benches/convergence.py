@@ -9,7 +9,9 @@ and runs a fixed number of iterations (tol = 0) with ``record_energy=True``. The
 uses E(y*) from a long f64 run of the same step (``--ref-iters``, >= 500 iterations; if any f64
 variant reaches a lower energy, that lower value is used and the JSON says so). Wall time per
 iteration comes from separate runs without energy recording: the median over ``--repeats`` of
-the step's total time divided by the iteration count.
+the step's total time divided by the iteration count. Timed runs are a warm solver's second
+step of the same state (the first step's set-up excluded, as in a running simulation;
+``--cold`` times the first step instead).
 
 Variants: SISSM (tangent preconditioner, f64 and f32), SISSM + Chebyshev for several rho, the
 paper's preconditioner (with and without Chebyshev), inner Jacobi sweeps 1/2/4 (``inner_iters``)
