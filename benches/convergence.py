@@ -9,7 +9,9 @@ and runs a fixed number of iterations (tol = 0) with ``record_energy=True``. The
 uses E(y*) from a long f64 run of the same step (``--ref-iters``, >= 500 iterations; if any f64
 variant reaches a lower energy, that lower value is used and the JSON says so). Wall time per
 iteration comes from separate runs without energy recording: the median over ``--repeats`` of
-the step's total time divided by the iteration count.
+the step's total time divided by the iteration count. Timed runs are a warm solver's second
+step of the same state (the first step's set-up excluded, as in a running simulation;
+``--cold`` times the first step instead).
 
 Variants: SISSM (tangent preconditioner, f64 and f32), SISSM + Chebyshev for several rho, the
 paper's preconditioner (with and without Chebyshev), inner Jacobi sweeps 1/2/4 (``inner_iters``)
@@ -125,13 +127,21 @@ def preroll(args, scene: str, rec: C.Record):
     return best, hist
 
 
-def one_step(args, scene, state, kw, *, iters, record_energy):
+def one_step(args, scene, state, kw, *, iters, record_energy, warm=False):
+    """One step of ``iters`` iterations from ``state`` with a new solver. ``warm``: the solver
+    first takes the same step once (discarded; the bodies are reset to ``state``), so the step
+    measured is that of a running simulation, without the first step's set-up (the solver's
+    data structures, Newton's coarse aggregation and symbolic factorisation)."""
     cloth = make_cloth(args, scene)
     cloth.positions = state[0]
     cloth.velocities = state[1]
     solver = peridyn.Solver(dt=scene_dt(args, scene), tol=0.0, max_iters=iters, threads=args.threads,
                             record_energy=record_energy, **{"precision": "f64", **kw})
     solver.add(cloth)
+    if warm:
+        solver.step()
+        cloth.positions = state[0]
+        cloth.velocities = state[1]
     t0 = time.perf_counter()
     st = solver.step()
     wall = (time.perf_counter() - t0) * 1e3
@@ -240,9 +250,12 @@ def run_scene(args, scene: str, rec: C.Record):
             r = runs.get(name, {})
             if "energies" not in r:
                 continue
-            s2, _w, _ = one_step(args, scene, state, kw, iters=iterations(args, kw), record_energy=False)
+            s2, _w, _ = one_step(args, scene, state, kw, iters=iterations(args, kw), record_energy=False,
+                                 warm=args.warm)
             r["ms_step_all"].append(s2.timings["total"])
             r["ms_global_all"].append(s2.timings["global"])
+            if kw.get("method") == "newton" and hasattr(s2, "newton"):
+                r.setdefault("newton_phases_all", []).append(dict(s2.newton))
     # E(y*): the reference's final energy, or a lower one if an f64 variant found it.
     e_star, src = min(e_refs)
     lowest = min(((float(np.min(r["energies"])), n) for n, r in runs.items()
@@ -254,6 +267,20 @@ def run_scene(args, scene: str, rec: C.Record):
         out["E_star_reference_minus_lowest"] = e_star - lowest[0]
         e_star = lowest[0]
     out["E_star"] = e_star
+    # The floor of any f32 solver on this step: eta of the best f64 iterate with its positions
+    # rounded to f32 (an f32 solver stores positions so), evaluated in f64.
+    best = min(((float(np.min(r["energies"])), n) for n, r in runs.items() if "energies" in r
+                and r["kwargs"].get("precision", "f64") == "f64" and len(r["energies"])),
+               default=(None, None))[1]
+    if best is not None:
+        kw = runs[best]["kwargs"]
+        _s, _w, c = one_step(args, scene, state, kw, iters=iterations(args, kw), record_energy=False)
+        y = np.asarray(c.positions, float)
+        e0 = energy_f64(args, scene, state, predicted(args, scene, state))
+        e_round = energy_f64(args, scene, state, y.astype(np.float32).astype(float))
+        out["f32_rounding_floor_eta"] = (e_round - e_star) / (e0 - e_star)
+        out["f32_rounding_floor_of"] = best
+        print(f"   eta of '{best}' rounded to f32: {out['f32_rounding_floor_eta']:.2e}", flush=True)
     # Time to a given accuracy, measured: the same step stopped at the first iteration whose
     # eta reaches the threshold (tol = 0, max_iters = that iteration), median over the rounds.
     # (For Newton the cost per iteration varies with its CG solves, so iterations times a mean
@@ -266,8 +293,11 @@ def run_scene(args, scene: str, rec: C.Record):
                 hit = np.flatnonzero(etas.get(name, np.array([])) <= thr)
                 if len(hit) == 0 or hit[0] == 0:
                     continue
-                s3, _w, _ = one_step(args, scene, state, kw, iters=int(hit[0]), record_energy=False)
+                s3, _w, _ = one_step(args, scene, state, kw, iters=int(hit[0]), record_energy=False,
+                                     warm=args.warm)
                 r.setdefault(f"ms_to_eta_{thr:g}_all", []).append(s3.timings["total"])
+                if kw.get("method") == "newton" and hasattr(s3, "newton"):
+                    r.setdefault(f"newton_phases_to_eta_{thr:g}_all", []).append(dict(s3.newton))
     for name, r in runs.items():
         for thr in TIMED_ETAS:
             if f"ms_to_eta_{thr:g}_all" in r:
@@ -397,6 +427,8 @@ def main(argv=None):
     p.add_argument("--newton-ref-iters", type=int, default=60, help="iterations of the Newton reference")
     p.add_argument("--repeats", type=int, default=5, help="timing repeats (median)")
     p.add_argument("--threads", type=int, default=1)
+    p.add_argument("--cold", dest="warm", action="store_false", help="time a new solver's first step "
+                   "(set-up included) instead of its second step of the same state")
     p.add_argument("--rhos", default="0.9,0.95,0.99,0.999")
     p.add_argument("--scenes", default="moderate,stiff")
     p.add_argument("--references", default=None, help="comma-separated reference names to run "

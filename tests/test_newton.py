@@ -11,7 +11,7 @@ from conftest import G, make_grid, membrane
 
 
 def test_bad_method_names_the_choices():
-    with pytest.raises(ValueError, match=r"'sissm', 'descent' or 'newton'.*\"quasi\""):
+    with pytest.raises(ValueError, match=r"'sissm', 'descent', 'newton' or 'auto'.*\"quasi\""):
         peridyn.Solver(dt=1e-3, method="quasi")
 
 
@@ -75,3 +75,41 @@ def test_linear_products_count_newtons_cg_only():
         counts[method] = (st.linear_products, st.iterations)
     assert counts["sissm"][0] == 0
     assert counts["newton"][0] >= counts["newton"][1] - 1 > 0
+
+
+def stiff_sheet(n):
+    """An n x n sheet of 0.6 m, the paper's stiff neo-Hookean at 1 mm, pinned along one edge,
+    given a swing; a step of 1 ms (h^2 k / m of order 1e3 at n = 32)."""
+    v, t = make_grid(n, n, 0.6, 0.6)
+    m = membrane(v, t, material=peridyn.NeoHookean(s0=4.8e7, s1=1.2e7), density=300.0,
+                 hourglass=0.5)
+    m.pin(np.where(np.isclose(v[:, 1], 0.6))[0])
+    m.velocities = np.tile([0.0, 0.3, -1.0], (n * n, 1))
+    return m
+
+
+def auto_step(n, tol):
+    m = stiff_sheet(n)
+    sol = peridyn.Solver(dt=1e-3, tol=tol, max_iters=3000, method="auto", gravity=(0, -G, 0),
+                         acceleration="chebyshev", chebyshev_rho=0.99)
+    sol.add(m)
+    return sol.step(), m.positions
+
+
+def test_auto_picks_newton_for_a_fine_stiff_sheet_and_a_tight_tol():
+    """method="auto" takes Newton steps (CG products) on a stiff 32 x 32 sheet with tol 1e-8 m
+    (min(h^2 k / m, N / pi^2) = 104 > 100), SISSM (none) on the same sheet with the default
+    1e-4 m, and on an 8 x 8 sheet (N / pi^2 = 6.5) at any tol; each step converges, and the
+    Newton step (to 1e-8 m) lands within 1e-7 m of SISSM's (to 1e-11 m)."""
+    assert peridyn.Solver(dt=1e-3, method="auto").method == "auto"
+    st, y_auto = auto_step(32, 1e-8)
+    assert st.converged and st.linear_products > 0, (st.iterations, st.linear_products)
+    m = stiff_sheet(32)
+    sol = peridyn.Solver(dt=1e-3, tol=1e-11, max_iters=40000, gravity=(0, -G, 0),
+                         acceleration="chebyshev", chebyshev_rho=0.99)
+    sol.add(m)
+    assert sol.step().converged
+    assert np.abs(m.positions - y_auto).max() < 1e-7
+    for n, tol in ((32, 1e-4), (8, 1e-8)):
+        st, _ = auto_step(n, tol)
+        assert st.converged and st.linear_products == 0, (n, tol, st.iterations)

@@ -21,7 +21,7 @@ Vec3 = Union[Sequence[float], npt.ArrayLike]
 
 # The option strings the core accepts (src/python/options.rs maps them to core values; any
 # other string is a ValueError naming the accepted ones).
-Method = Literal["sissm", "descent", "newton"]
+Method = Literal["sissm", "descent", "newton", "auto"]
 Preconditioner = Literal["tangent", "paper"]
 # "none" is a synonym of None (plain iterations); the getter returns None.
 Acceleration = Literal["chebyshev", "none"]
@@ -688,6 +688,13 @@ class StepStats:
         """``method="newton"``: Hessian products of its conjugate-gradient solves in the step
         (0 for the other methods)."""
     @property
+    def newton(self) -> dict:
+        """``method="newton"``: milliseconds per phase of its iterations, summed over the step:
+        'jacobi' (SISSM's systems and residual), 'models' (the Hessian models),
+        'coarse_assembly', 'coarse_factor', 'cg', 'line_search'; counts 'factorizations' (of
+        the coarse matrix) and 'trials' (line-search kernel passes). Zeros for the other
+        methods."""
+    @property
     def timings(self) -> dict:
         """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish' (of which 'plasticity': the plastic return and rest rebuild of plastic particle bodies, and 'neighbours': their neighbour search on deformed positions; t_p and t_n of He et al. 2017, Table 1), 'total'."""
     @property
@@ -757,7 +764,10 @@ class Solver:
         solved by conjugate gradients preconditioned with SISSM's blocks, then a line search
         that never lets the energy rise; colliders, contact and the convergence test as SISSM;
         no Chebyshev, ValueError; for fine or stiff cloth asked to converge, see
-        docs/performance.md).
+        docs/performance.md) or "auto" (per step: Newton where ``0 < tol <= 1e-5`` m and the
+        cloth is stiff and fine enough that SISSM's slowest error would need more than 100
+        iterations, ``min(h^2 k / m, N / pi^2) > 100`` over the N membrane vertices; else SISSM,
+        with the acceleration asked for; SISSM with particle bodies and on the GPU).
     inner_iters : Jacobi sweeps on the linear system of eq. 25 per global iteration (Fig. 6).
     backend : "cpu" (Rust, rayon threads) or "gpu" (wgpu compute shaders, state on the device;
         f32 by default, f64 where the adapter has SHADER_F64; raises RuntimeError naming what

@@ -77,7 +77,7 @@ impl<T: GpuReal> GpuSolver<T> {
         if params.contact.is_some() {
             return Err(invalid!("the GPU backend has no contact between membranes yet; use backend='cpu' for contact"));
         }
-        if params.method != Method::Sissm || params.inner_iters != 1 {
+        if !matches!(params.method, Method::Sissm | Method::Auto) || params.inner_iters != 1 {
             return Err(invalid!(
                 "the GPU backend runs method='sissm' with inner_iters=1; got method={:?}, inner_iters={}",
                 params.method,

@@ -90,6 +90,7 @@ pub const METHOD: Choices<Method> = Choices {
         ("sissm", Method::Sissm),
         ("descent", Method::Descent),
         ("newton", Method::Newton),
+        ("auto", Method::Auto),
     ],
 };
 

@@ -452,7 +452,7 @@ impl PySolver {
             }
         })
     }
-    /// "sissm", "descent" or "newton".
+    /// "sissm", "descent", "newton" or "auto".
     #[getter]
     fn method(&self) -> &'static str {
         METHOD.name(with_solver!(&self.core, s => s.params().method))

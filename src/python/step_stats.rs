@@ -63,6 +63,29 @@ impl PyStepStats {
     fn linear_products(&self) -> usize {
         self.inner.linear_products
     }
+    /// ``method="newton"``: milliseconds per phase of its iterations, summed over the step
+    /// (``jacobi``: SISSM's systems and residual; ``models``: the Hessian models;
+    /// ``coarse_assembly``, ``coarse_factor``: the coarse level; ``cg``: the conjugate
+    /// gradients; ``line_search``: its trials), and the counts ``factorizations`` (of the
+    /// coarse matrix) and ``trials`` (line-search kernel passes). Zeros for the other methods.
+    #[getter]
+    fn newton<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let t = &self.inner.newton;
+        let d = PyDict::new(py);
+        for (k, v) in [
+            ("jacobi", t.jacobi),
+            ("models", t.models),
+            ("coarse_assembly", t.coarse_assembly),
+            ("coarse_factor", t.coarse_factor),
+            ("cg", t.cg),
+            ("line_search", t.line_search),
+        ] {
+            d.set_item(k, v)?;
+        }
+        d.set_item("factorizations", t.factorizations)?;
+        d.set_item("trials", t.trials)?;
+        Ok(d)
+    }
     /// Milliseconds per phase.
     #[getter]
     fn timings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {

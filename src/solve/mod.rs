@@ -23,7 +23,7 @@ pub use params::{Acceleration, GlobalSolver, Method, SolverParams};
 pub(crate) use sissm::Forget;
 pub use sissm::Solver;
 pub use state::SolverState;
-pub use stats::{ParticleTimings, StepStats, Timings};
+pub use stats::{NewtonTimings, ParticleTimings, StepStats, Timings};
 
 #[cfg(test)]
 mod restore_tests;

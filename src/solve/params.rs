@@ -86,6 +86,10 @@ pub enum Method {
     /// block-Jacobi preconditioned conjugate gradients, and an energy line search; see
     /// `solve/membranes/newton.rs`.
     Newton,
+    /// SISSM or Newton, chosen at each step from `tol`, the mesh and the stiffness
+    /// `h^2 k / m` (membranes only; SISSM with particle bodies and on the GPU); see
+    /// `solve/membranes/auto.rs`. A Chebyshev acceleration applies where SISSM is chosen.
+    Auto,
 }
 
 /// Acceleration of the global iteration.

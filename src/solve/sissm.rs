@@ -39,6 +39,7 @@ use super::collider_passes::{
 };
 use super::families::Families;
 use super::family::Family;
+use super::membranes::auto;
 use super::membranes::contact_step::ContactState;
 use super::membranes::descent::{descent_iteration, DescentState, LineSearch};
 use super::membranes::newton::{newton_iteration, start_iteration, NewtonState};
@@ -206,7 +207,7 @@ impl<T: Real> Solver<T> {
 
     fn step_in_pool(&mut self, bodies: &mut [BodyMut<'_>]) -> Result<StepStats> {
         let started = Instant::now();
-        let params = self.params;
+        let mut params = self.params;
         let mut by_kind = ByKind::sort(bodies);
         if !self.families.as_ref().is_some_and(|f| f.matches(&by_kind)) {
             self.families = Some(Families::build(&by_kind, true)?);
@@ -226,7 +227,10 @@ impl<T: Real> Solver<T> {
             // The contact state restarts from what was restored (its caches are rebuilt).
             self.contact = None;
         }
-        if params.method != Method::Sissm {
+        if params.method == Method::Auto && !by_kind.particle_indices.is_empty() {
+            params.method = Method::Sissm;
+        }
+        if !matches!(params.method, Method::Sissm | Method::Auto) {
             if let Some(&body) = by_kind.particle_indices.first() {
                 let method = if params.method == Method::Descent {
                     "descent"
@@ -275,6 +279,18 @@ impl<T: Real> Solver<T> {
             family.start_step(&params)?;
             family.points_mut().predict(h, gravity);
             energy += initial_guess(family, h, params.preconditioner, &colliders);
+        }
+        if params.method == Method::Auto {
+            params.method = families
+                .membranes
+                .as_ref()
+                .map_or(Method::Sissm, |sys| auto::choose(sys, h * h, params.tol));
+            if params.method == Method::Newton {
+                params.acceleration = Acceleration::None;
+                if self.newton.is_none() {
+                    self.newton = Some(NewtonState::new(&by_kind.membranes)?);
+                }
+            }
         }
         let mut timings = Timings {
             predict: millis(started),
@@ -350,7 +366,7 @@ impl<T: Real> Solver<T> {
             };
             updates.clear();
             match params.method {
-                Method::Sissm => {
+                Method::Sissm | Method::Auto => {
                     if iteration > 0 {
                         let t = Instant::now();
                         for family in families.each() {
@@ -407,11 +423,12 @@ impl<T: Real> Solver<T> {
                             &mut search,
                         ));
                         stats.linear_products += state.products - before;
+                        stats.newton.accumulate(&std::mem::take(&mut state.timings));
                     }
                 }
             };
             timings.global += millis(t);
-            if params.method == Method::Sissm && !colliders.is_empty() {
+            if matches!(params.method, Method::Sissm | Method::Auto) && !colliders.is_empty() {
                 let t = Instant::now();
                 for (family, update) in families.each().zip(updates.iter_mut()) {
                     let projected = push_next_out_of_colliders(family.points_mut(), &colliders);
@@ -472,7 +489,7 @@ impl<T: Real> Solver<T> {
         if params.record_energy {
             let t = Instant::now();
             let last = match params.method {
-                Method::Sissm => families
+                Method::Sissm | Method::Auto => families
                     .each()
                     .map(|f| {
                         f.evaluate(params.preconditioner);

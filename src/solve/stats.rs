@@ -55,6 +55,44 @@ pub struct ParticleTimings {
     pub factorizations: usize,
 }
 
+/// `method="newton"`: milliseconds per phase of its iterations, summed over the step, and
+/// counts (all zero for the other methods). The phases partition the Newton iterations'
+/// share of [`Timings::global`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct NewtonTimings {
+    /// SISSM's Jacobi systems and residual at the iterate, and the held vertices.
+    pub jacobi: f64,
+    /// The per-vertex Hessian models.
+    pub models: f64,
+    /// The coarse matrix's assembly (`P^T K P`).
+    pub coarse_assembly: f64,
+    /// The coarse matrix's numeric factorisation.
+    pub coarse_factor: f64,
+    /// The conjugate-gradient iterations (Hessian products and preconditioner).
+    pub cg: f64,
+    /// The line search's trials (a kernel pass and an energy each), collider projection
+    /// included.
+    pub line_search: f64,
+    /// Numeric factorisations of the coarse matrix.
+    pub factorizations: usize,
+    /// Line-search trials (kernel passes).
+    pub trials: usize,
+}
+
+impl NewtonTimings {
+    /// Adds `other`'s times and counts to these.
+    pub fn accumulate(&mut self, other: &Self) {
+        self.jacobi += other.jacobi;
+        self.models += other.models;
+        self.coarse_assembly += other.coarse_assembly;
+        self.coarse_factor += other.coarse_factor;
+        self.cg += other.cg;
+        self.line_search += other.line_search;
+        self.factorizations += other.factorizations;
+        self.trials += other.trials;
+    }
+}
+
 /// Statistics of one time step.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct StepStats {
@@ -87,6 +125,8 @@ pub struct StepStats {
     /// Newton: Hessian products of its conjugate-gradient solves, summed over the step (0 for
     /// the other methods).
     pub linear_products: usize,
+    /// Newton: its phases (zero for the other methods).
+    pub newton: NewtonTimings,
     /// The particle family's phases and counts.
     pub particles: ParticleTimings,
 }

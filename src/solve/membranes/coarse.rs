@@ -29,7 +29,10 @@ use crate::error::{invalid, Result};
 use crate::membrane::RestData;
 use crate::mesh::Neighborhood;
 use crate::real::Real;
+use crate::solve::NewtonTimings;
 use crate::sparse_llt::SparseLlt;
+use crate::timing::millis;
+use std::time::Instant;
 
 use super::hessian_model::VertexModel;
 
@@ -238,7 +241,9 @@ impl CoarseLevel {
         models: &[VertexModel<T>],
         free: &[bool],
         h2: T,
+        timings: &mut NewtonTimings,
     ) -> Result<()> {
+        let t = Instant::now();
         let contributions: Vec<Contribution> = (0..free.len())
             .into_par_iter()
             .map(|i| self.contribution(i, nb, rest, &models[i], free))
@@ -274,9 +279,15 @@ impl CoarseLevel {
                 }
             }
         }
-        self.llt
+        timings.coarse_assembly += millis(t);
+        let t = Instant::now();
+        let out = self
+            .llt
             .factor()
-            .map_err(|e| invalid!("the coarse matrix is not positive definite: {e}"))
+            .map_err(|e| invalid!("the coarse matrix is not positive definite: {e}"));
+        timings.coarse_factor += millis(t);
+        timings.factorizations += 1;
+        out
     }
 
     /// `z_k += (P A_c^-1 P^T r)_k` on the free vertices (m, for `r` in kg m).

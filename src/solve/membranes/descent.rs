@@ -146,7 +146,7 @@ pub(crate) fn descent_iteration<T: Real>(
         |sys, k| jacobi_system(sys, state_ref, k, h2),
     );
 
-    let update = search_along(sys, &point_systems, &direction, h, mode, options, search);
+    let (update, _) = search_along(sys, &point_systems, &direction, h, mode, options, search);
     sys.point_systems = point_systems;
     sys.delta = direction;
     Update { residual, ..update }
@@ -189,7 +189,7 @@ pub(crate) fn jacobi_moves<T: Real>(
 /// when `E` does not rise beyond round-off, else `alpha` halves and the trial is redone
 /// without extrapolation. Leaves the accepted trial in `y_next` (or `y` itself when no step
 /// length lowers the energy), the responses evaluated there, and its energy in `search`;
-/// returns the move's measures (without the residual).
+/// returns the move's measures (without the residual) and the number of trials evaluated.
 pub(crate) fn search_along<T: Real>(
     sys: &mut MembraneSystem<T>,
     metric: &[PointSystem<T>],
@@ -198,12 +198,13 @@ pub(crate) fn search_along<T: Real>(
     mode: Preconditioner,
     options: &MoveOptions<'_, T>,
     search: &mut LineSearch,
-) -> Update {
+) -> (Update, usize) {
     let round_off = ENERGY_ROUND_OFF.max(16.0 * T::default_epsilon().to_f64());
     let mut omega = options.omega;
     search.restarted = false;
     let mut update = Update::NONE;
     let mut settled = false;
+    let mut trials = 0;
     for _ in 0..=MAX_HALVINGS {
         let alpha = T::of(search.alpha);
         let (y, y_prev, y_start, pinned, rest) = (
@@ -251,6 +252,7 @@ pub(crate) fn search_along<T: Real>(
         }
         std::mem::swap(&mut sys.points.y, &mut sys.points.y_next);
         evaluate(sys, mode);
+        trials += 1;
         let energy = total_energy(sys, h);
         std::mem::swap(&mut sys.points.y, &mut sys.points.y_next);
         if energy <= search.energy + round_off * search.energy.abs() {
@@ -268,7 +270,7 @@ pub(crate) fn search_along<T: Real>(
         evaluate(sys, mode);
         update = Update::NONE;
     }
-    update
+    (update, trials)
 }
 
 /// Vertex `k`'s Jacobi system `P_k d = r_k` (see the module docs), with the residual and

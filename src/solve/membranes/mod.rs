@@ -5,6 +5,7 @@
 //! the solver's side of membrane contact (the call of Algorithm 2 after each global step, and
 //! the contact reaction it realised).
 
+pub(crate) mod auto;
 mod coarse;
 pub(crate) mod contact_step;
 pub(crate) mod descent;

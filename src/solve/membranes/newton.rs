@@ -23,7 +23,9 @@
 //!    products, preconditioned by two levels ([`precondition`]): SISSM's blocks `D_k^-1`
 //!    (block Jacobi) for the error that varies from vertex to vertex, plus a Galerkin coarse
 //!    correction on aggregates of vertices ([`CoarseLevel`]) for the smooth error that block
-//!    Jacobi leaves to hundreds of CG steps on fine, stiff cloth;
+//!    Jacobi leaves to hundreds of CG steps on fine, stiff cloth. The coarse factor is kept
+//!    across iterations and steps until the CG's products grow ([`Refactor`]): a stale
+//!    preconditioner is still symmetric positive definite;
 //! 4. takes the step along `d` by the energy line search shared with the descent baseline
 //!    ([`search_along`]: `alpha` from 1, halved while `E` rises, colliders projected in each
 //!    trial), so no iteration increases the energy beyond round-off.
@@ -43,6 +45,9 @@ use crate::error::Result;
 use crate::membrane::{bond_vectors, internal_force, Membrane, Preconditioner, RestData};
 use crate::parallel::{chunked_sum, for_each_vertex};
 use crate::real::Real;
+use crate::solve::NewtonTimings;
+use crate::timing::millis;
+use std::time::Instant;
 
 use super::coarse::CoarseLevel;
 use super::descent::{jacobi_moves, search_along, LineSearch};
@@ -60,6 +65,23 @@ const FORCING: f64 = 0.05;
 /// Most Hessian products per Newton iteration.
 const MAX_LINEAR_ITERS: usize = 400;
 
+/// A coarse factor is kept (across the iterations of a step and across steps) until a CG
+/// with it takes more than this many times the products of the first CG after its
+/// factorisation.
+const REFACTOR_GROWTH: usize = 2;
+
+/// When the coarse matrix is assembled and factored. It is only a preconditioner: a factor
+/// from earlier models (and an earlier free set; `P` and `P^T` act on the current free
+/// vertices only) keeps `M^-1` symmetric positive definite and the CG correct, only slower.
+/// So it is refactored when the CG's products have grown since its last factorisation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Refactor {
+    /// Before the next CG (no usable factor).
+    Now,
+    /// Once a CG takes more than `REFACTOR_GROWTH` times `fresh` products, `fresh` being
+    /// the products of the first CG after the last factorisation (`None` until it ran).
+    After { fresh: Option<usize> },
+}
 /// The Newton method's working set: the rest data with its bonds (the model needs the
 /// stencils, which the packed host kernel keeps only in SIMD packs), the Hessian models, and
 /// the CG's vectors.
@@ -87,8 +109,12 @@ pub(crate) struct NewtonState<T: Real> {
     /// after a failed set-up, when the CG runs on block Jacobi alone).
     coarse: Option<CoarseLevel>,
     coarse_built: bool,
+    /// When the coarse matrix is factored again (see [`Refactor`]).
+    refactor: Refactor,
     /// Hessian products of the CG in the current time step.
     pub products: usize,
+    /// Milliseconds per phase since the caller last took them.
+    pub timings: NewtonTimings,
 }
 
 impl<T: Real> NewtonState<T> {
@@ -117,7 +143,9 @@ impl<T: Real> NewtonState<T> {
             held: vectors,
             coarse: None,
             coarse_built: false,
+            refactor: Refactor::Now,
             products: 0,
+            timings: NewtonTimings::default(),
         })
     }
 
@@ -155,6 +183,7 @@ impl<T: Real> NewtonState<T> {
         }
         self.build_models(sys, &sys.points.y);
         self.coarse_built = true;
+        self.refactor = Refactor::Now;
         self.coarse = coarse.then(|| CoarseLevel::new(&sys.nb).unwrap());
         let before = self.products;
         solve_newton_system(sys, self, h2);
@@ -168,7 +197,14 @@ impl<T: Real> NewtonState<T> {
         self.build_models(sys, &sys.points.y);
         let mut coarse = CoarseLevel::new(&sys.nb).unwrap();
         coarse
-            .factor(&sys.nb, &self.rest, &self.models, &self.free, h2)
+            .factor(
+                &sys.nb,
+                &self.rest,
+                &self.models,
+                &self.free,
+                h2,
+                &mut self.timings,
+            )
             .unwrap();
         coarse
     }
@@ -269,8 +305,8 @@ pub(crate) fn precondition<T: Real>(
 }
 
 /// Solves `K d = r` by conjugate gradients preconditioned by [`precondition`] (the coarse
-/// level assembled and factored here for the current models and free set; block Jacobi alone
-/// if that fails), from `d = 0`.
+/// level assembled and factored here for the current models and free set when [`Refactor`]
+/// asks, else the last factor; block Jacobi alone if the factorisation fails), from `d = 0`.
 fn solve_newton_system<T: Real>(sys: &MembraneSystem<T>, state: &mut NewtonState<T>, h2: T) {
     if !state.coarse_built {
         state.coarse_built = true;
@@ -289,12 +325,19 @@ fn solve_newton_system<T: Real>(sys: &MembraneSystem<T>, state: &mut NewtonState
         sums,
         free,
         coarse,
+        refactor,
         products,
+        timings,
         ..
     } = state;
-    let mut coarse = coarse
-        .as_mut()
-        .and_then(|c| c.factor(&sys.nb, rest, models, free, h2).ok().map(|()| c));
+    let mut coarse = coarse.as_mut().and_then(|c| {
+        if *refactor == Refactor::Now {
+            c.factor(&sys.nb, rest, models, free, h2, timings).ok()?;
+            *refactor = Refactor::After { fresh: None };
+        }
+        Some(c)
+    });
+    let t = Instant::now();
     precondition(metric, coarse.as_deref_mut(), free, r, z);
     d.par_iter_mut().for_each(|v| *v = Vector3::zeros());
     p.copy_from_slice(z);
@@ -327,6 +370,14 @@ fn solve_newton_system<T: Real>(sys: &MembraneSystem<T>, state: &mut NewtonState
             .for_each(|(k, p)| *p = z_ref[k] + *p * beta);
     }
     *products += count;
+    timings.cg += millis(t);
+    *refactor = match *refactor {
+        Refactor::After { fresh: None } => Refactor::After { fresh: Some(count) },
+        Refactor::After { fresh: Some(fresh) } if count > REFACTOR_GROWTH * fresh.max(1) => {
+            Refactor::Now
+        }
+        other => other,
+    };
 }
 
 /// Before an iteration: after a contact local step (`options` carries its reactions) the
@@ -356,6 +407,7 @@ pub(crate) fn newton_iteration<T: Real>(
     search: &mut LineSearch,
 ) -> Update {
     let h2 = h * h;
+    let t = Instant::now();
     let residual = jacobi_moves(sys, &mut state.metric, &mut state.z, options, |sys, k| {
         PointSystem::of(sys, k, h2)
     });
@@ -395,7 +447,10 @@ pub(crate) fn newton_iteration<T: Real>(
                 *z = Vector3::zeros();
             }
         });
+    state.timings.jacobi += millis(t);
+    let t = Instant::now();
     state.build_models(sys, &sys.points.y);
+    state.timings.models += millis(t);
     solve_newton_system(sys, state, h2);
     // Held vertices, and free ones whose Newton move a collider would push back, take their
     // Jacobi move.
@@ -421,6 +476,9 @@ pub(crate) fn newton_iteration<T: Real>(
             }
         });
     search.alpha = 1.0;
-    let update = search_along(sys, &state.metric, &state.d, h, mode, options, search);
+    let t = Instant::now();
+    let (update, trials) = search_along(sys, &state.metric, &state.d, h, mode, options, search);
+    state.timings.line_search += millis(t);
+    state.timings.trials += trials;
     Update { residual, ..update }
 }
