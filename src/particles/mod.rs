@@ -19,6 +19,7 @@ mod plasticity;
 mod rest;
 mod rest_bonds;
 mod sampling;
+pub mod surface;
 mod thin;
 
 pub use body::{ParticleParams, Particles, DEFAULT_HORIZON};
