@@ -162,7 +162,7 @@ impl Particles {
     /// within a horizon, which bends a layer of particles with a stiffness set by the spacing
     /// rather than the section ([`super::thin`]). The paper's `Elastic::Paper` is kept as given.
     pub(super) fn fold_deviatoric(&mut self) {
-        if self.moduli.bulk_weight.is_some() {
+        if self.moduli.bulk_moment.is_some() {
             self.moduli.lam += 2.0 * self.moduli.mu;
             self.moduli.mu = 0.0;
         }

@@ -45,13 +45,17 @@ pub struct LatticeModuli {
 }
 
 /// The paper's `mu`, `lam` and the dilatation modulus `kappa` (Pa) a material resolves to, and
-/// whether the bonds near free surfaces are stiffened (see [`super::rest`]).
+/// whether the bonds near free surfaces are stiffened (see [`super::surface`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Moduli {
     pub mu: f64,
     pub lam: f64,
     pub kappa: f64,
-    /// `A` of the bulk lattice for the surface correction, or `None` (the paper's model).
+    /// `S_1111` of the bulk lattice (dimensionless, the same along each axis) for the
+    /// surface correction ([`super::surface`]), or `None` (the paper's model).
+    pub bulk_moment: Option<f64>,
+    /// `A` of the bulk lattice (dimensionless) for the surface correction of plastic bodies
+    /// ([`super::rest`]), or `None`.
     pub bulk_weight: Option<f64>,
 }
 
@@ -128,6 +132,7 @@ pub fn calibrate(e: f64, nu: f64, spacing: f64, delta: f64) -> Result<Moduli> {
         mu: c - lam / 2.0,
         lam,
         kappa,
+        bulk_moment: Some(s.s1111),
         bulk_weight: Some(s.weight),
     })
 }

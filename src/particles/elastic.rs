@@ -61,6 +61,7 @@ impl Elastic {
                 mu,
                 lam,
                 kappa: 0.0,
+                bulk_moment: None,
                 bulk_weight: None,
             }),
             Self::Young { e, nu } => calibrate(e, nu, spacing, delta),

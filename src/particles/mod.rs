@@ -21,6 +21,7 @@ mod rest;
 mod rest_bonds;
 mod sampling;
 pub mod sph;
+pub mod surface;
 mod thin;
 
 pub use body::{ParticleParams, Particles, DEFAULT_HORIZON};

@@ -2,7 +2,7 @@
 //! rows with each bond's reverse, per-bond constants, per-particle inverse shape matrices and
 //! the constant weights of the global matrix (He et al. 2017, eq. 4, 8 and 12).
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{invalid, Result};
 use crate::real::Real;
@@ -13,6 +13,7 @@ use super::calibration::Moduli;
 use super::deformation::{flat_neighbourhood, shape_inverse};
 use super::influence::influence;
 use super::rest_bonds::RestBonds;
+use super::surface::{axis_factors, bond_factor, strain_shares};
 
 /// What the rest data of a body needs besides its bonds.
 #[derive(Debug, Clone, Copy)]
@@ -129,13 +130,17 @@ impl<T: Real> ParticleRest<T> {
 
     /// Appends the particles of `bonds` with the body constants `c`.
     ///
-    /// With a surface correction (the moduli's `bulk_weight` `A`), particle `i` with the
-    /// weight sum `A_i = sum_j w V_j` over its bonds gets the factor `g_i = A / A_i` (1 in the
-    /// interior, about 2 on a flat face), and each bond's springs are scaled by
-    /// `(g_i + g_j) / 2`: under a uniform dilation every particle then stores the bulk's
-    /// energy density, so a thin body is not softer than a thick one. Weights and springs
+    /// With a surface correction (the moduli's `bulk_moment`), each bond's springs are
+    /// scaled by the factor of [`super::surface`] (1 in the interior, above 1 near a free
+    /// surface, by direction): under a stretch along a lattice axis every particle then stores
+    /// the bulk's energy density, so a thin body is neither softer nor stiffer than a thick
+    /// one. Weights and springs
     /// come from the bonds' `born` lengths, so they, and the global matrix, stay as they are
-    /// while a plastic return moves the vectors `X` ([`super::rest_bonds`]).
+    /// while a plastic return moves the vectors `X` ([`super::rest_bonds`]). A plastic body's
+    /// bonds turn with each return, which would change direction-based factors (and the global
+    /// matrix) at every step: its bonds are scaled by `(g_i + g_j) / 2` with `g_i = A / A_i`,
+    /// the bulk lattice's weight sum over the particle's own, which depends on lengths only
+    /// (exact under a uniform dilation, too stiff along a free surface: [`super::surface`]).
     ///
     /// A singular shape matrix fails, naming the particle, unless `c.plastic`: a plastic
     /// body's particle that has lost its three-dimensional neighbourhood gets `K_i^-1 = 0`,
@@ -149,10 +154,38 @@ impl<T: Real> ParticleRest<T> {
         let weight_sums: Vec<f64> = (0..bonds.len())
             .map(|i| bonds.row(i).map(weight).sum())
             .collect();
-        let factor = |i: usize| moduli.bulk_weight.map_or(1.0, |bulk| bulk / weight_sums[i]);
+        let axes = moduli.bulk_moment.filter(|_| !c.plastic).map(|bulk| {
+            axis_factors(bonds.len(), bulk, |i| {
+                bonds.row(i).map(move |b| (bonds.xi[b], weight(b)))
+            })
+        });
+        let bulk_weight = moduli.bulk_weight;
+        let factor = |i: usize, j: usize, xi: &Vector3<f64>| match (&axes, bulk_weight) {
+            (Some(g), _) => bond_factor(xi, &g[i], &g[j]),
+            (None, Some(bulk)) if c.plastic => {
+                0.5 * (bulk / weight_sums[i] + bulk / weight_sums[j])
+            }
+            _ => 1.0,
+        };
+        // The corrected shares of the mean strain ([`super::surface`]), with the bodies'
+        // direction-based factors.
+        let shares = axes.as_ref().map(|_| {
+            let mut all = Vec::with_capacity(bonds.indices.len());
+            let (mut row, mut out) = (Vec::new(), Vec::new());
+            for i in 0..bonds.len() {
+                row.clear();
+                row.extend(bonds.row(i).map(|b| (bonds.xi[b], weight(b))));
+                strain_shares(&row, &mut out);
+                all.extend_from_slice(&out);
+            }
+            all
+        });
         // The extra stiffness of the dilatation term in the global matrix (N/m per bond).
         let mut matrix_extra = Vec::new();
         for (i, &weight_sum) in weight_sums.iter().enumerate() {
+            let abs_sum: f64 = shares.as_ref().map_or(1.0, |a| {
+                bonds.row(i).map(|b| a[b].abs() * bonds.xi[b].norm()).sum()
+            });
             let neighbors = bonds.of(i);
             let mut shape = Matrix3::<f64>::zeros();
             for b in bonds.row(i) {
@@ -162,22 +195,31 @@ impl<T: Real> ParticleRest<T> {
                 let weight = weight(b);
                 shape += xi * xi.transpose() * weight;
                 // V_i V_j w / |xi|^2 (m): times mu or lam (Pa), a stiffness in N/m.
-                let k = volume * weight / (born * born) * (0.5 * (factor(i) + factor(j as usize)));
+                let k = volume * weight / (born * born) * factor(i, j as usize, &xi);
+                let share = shares
+                    .as_ref()
+                    .map_or(weight / (weight_sum * length), |a| a[b]);
                 self.bonds.push(BondRest {
                     xi: xi.map(T::of),
                     length: T::of(length),
                     weight: T::of(weight),
                     k_dev: T::of(2.0 * moduli.mu * k),
                     k_iso: T::of(moduli.lam * k),
-                    share: T::of(weight / (weight_sum * length)),
+                    share: T::of(share),
                 });
                 // The dilatation term's Hessian is the rank-one `9 kappa V_i a a^T` over the
-                // bonds' extensions (`a_j = w V_j / (A_i |xi_j|)`); its bond-diagonal part
-                // scaled by `A_i / (w V_j)` bounds it from above (Jensen) and equals it
-                // under a uniform dilation. A negative `kappa` only softens: nothing added.
-                matrix_extra.push(
-                    9.0 * moduli.kappa.max(0.0) * volume * weight / (weight_sums[i] * born * born),
-                );
+                // bonds' extensions; by Cauchy-Schwarz `(sum_j a_j e_j)^2 <= (sum_k |a_k|
+                // |xi_k|) sum_j |a_j| e_j^2 / |xi_j|`, so the bond-diagonal
+                // `9 kappa V_i (sum_k |a_k| |xi_k|) |a_j| / |xi_j|` bounds it from above and
+                // equals it under a uniform dilation (with the uncorrected shares
+                // `a_j = w V_j / (A_i |xi_j|)`, `sum_k a_k |xi_k| = 1`; lengths at birth there,
+                // so that a plastic return leaves it as it is). A negative `kappa` only
+                // softens: nothing added.
+                let kappa = moduli.kappa.max(0.0);
+                matrix_extra.push(match &shares {
+                    Some(_) => 9.0 * kappa * volume * abs_sum * share.abs() / length,
+                    None => 9.0 * kappa * volume * weight / (weight_sums[i] * born * born),
+                });
                 self.indices.push(j + base);
                 let back = bonds.of(j as usize).binary_search(&(i as u32));
                 let back = back.map_err(|_| invalid!("horizons are not symmetric"))?;
