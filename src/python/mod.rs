@@ -8,6 +8,7 @@ mod contact;
 mod elastic;
 mod errors;
 mod gpu;
+mod granular;
 mod material;
 mod membrane;
 mod options;
@@ -40,6 +41,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<elastic::PyElastic>()?;
     m.add_class::<particle_body::PyParticles>()?;
     m.add_class::<plasticity::PyDruckerPrager>()?;
+    m.add_class::<granular::PyGranular>()?;
     m.add_class::<collider::PyCollider>()?;
     m.add_class::<collider::PyPlane>()?;
     m.add_class::<collider::PySphere>()?;

@@ -23,6 +23,9 @@ pub struct Timings {
     /// Of `finish`: the neighbour search of plastic particle bodies on their deformed
     /// positions (`t_n` of Table 1; 0 without).
     pub neighbours: f64,
+    /// Of `finish`: the SPH density of granular particle bodies and their stiffness from it
+    /// (`t_d` of Table 1, He et al. 2017, eq. 25-27; 0 without).
+    pub density: f64,
     /// The whole step.
     pub total: f64,
 }
@@ -48,6 +51,9 @@ pub struct ParticleTimings {
     pub evaluations: usize,
     /// Numeric factorisations of the direct solver's matrix.
     pub factorizations: usize,
+    /// Particles of granular bodies that static friction held at the end of the step (He et
+    /// al. 2017, eq. 28).
+    pub held_static: usize,
 }
 
 /// Statistics of one time step.

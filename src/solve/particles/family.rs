@@ -41,10 +41,14 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         if let Some(repulsion) = &mut self.repulsion {
             repulsion.start_step(&self.points, params.dt, params.gravity)?;
         }
+        if let Some(friction) = &mut self.static_friction {
+            friction.start_step(&self.points);
+        }
         Ok(())
     }
-    /// A failure of the direct solver's factorisation during the step, else plasticity and
-    /// changing neighbourhoods ([`super::plastic`]).
+    /// A failure of the direct solver's factorisation during the step, else plasticity,
+    /// static friction and changing neighbourhoods ([`super::plastic`],
+    /// [`super::static_friction`]).
     fn end_step(&mut self, timings: &mut Timings) -> Result<()> {
         if let Some(failure) = self.failure.take() {
             return Err(failure);

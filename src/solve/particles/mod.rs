@@ -9,6 +9,7 @@ mod evaluation;
 mod family;
 mod plastic;
 mod repulsion;
+mod static_friction;
 mod step;
 mod system;
 
