@@ -184,6 +184,50 @@ class ViscoelasticFluid:
     @property
     def relaxation(self) -> float: ...
 
+class Granular:
+    """Dry and wet sand (He, Wang and Wu 2017, section 7, eq. 25-28 corrected): a particle
+    material whose stiffness ``lam = k_f + k_c`` follows each particle's SPH density, which
+    yields by its friction angle (Drucker-Prager without cohesion), searches its neighbours
+    anew every step and holds still by static friction.
+
+    ``friction_angle`` (degrees, in (0, 90)), ``saturation`` (water, in [0, 1]; 0: dry),
+    ``friction_stiffness`` ``K_f`` (Pa, > 0) and ``friction_hardening`` ``H_f`` (>= 0) of
+    eq. 25, ``cohesion_stiffness`` ``K_c`` (Pa, >= 0) of eq. 26, ``cohesion_falloff``
+    ``H_0`` (> 0) and ``debonding`` ``b`` (in [0, 1]) of eq. 27, ``static_friction``
+    ``eta`` (in (0, 1], None for none) of eq. 28. docs/model.md gives the defaults' reasons.
+    ValueError naming the bad parameter."""
+
+    def __init__(
+        self,
+        *,
+        friction_angle: float,
+        saturation: float = 0.0,
+        friction_stiffness: float = 1e5,
+        friction_hardening: float = 10.0,
+        cohesion_stiffness: float = 2e4,
+        cohesion_falloff: float = 10.0,
+        debonding: float = 1.0,
+        static_friction: Optional[float] = 0.8,
+    ) -> None: ...
+    @property
+    def friction_angle(self) -> float: ...
+    @property
+    def saturation(self) -> float: ...
+    @property
+    def friction_stiffness(self) -> float: ...
+    @property
+    def friction_hardening(self) -> float: ...
+    @property
+    def cohesion_stiffness(self) -> float: ...
+    @property
+    def cohesion_falloff(self) -> float: ...
+    @property
+    def debonding(self) -> float: ...
+    @property
+    def static_friction(self) -> Optional[float]: ...
+    def stiffness(self, density_ratio: float) -> float:
+        """``k_f + k_c`` (Pa) at the density ratio ``rho / rho_0`` (eq. 25-27)."""
+
 class Particles:
     """An elastic body of particles (He, Wang and Wu 2017) stepped by projective peridynamics.
 
@@ -193,7 +237,10 @@ class Particles:
     spacing : lattice spacing (m, > 0): each particle stands for a cube of this side (mass
         ``density * spacing^3``) and keeps half of it from colliders.
     density : kg/m^3 (> 0).
-    material : an :class:`Elastic`.
+    material : an :class:`Elastic`; a :class:`Granular` (sand: ``density`` is its reference
+        density ``rho_0``, the packing it is sampled at); or a :class:`ViscoelasticFluid` for a
+        fluid body (then no ``horizon`` or ``plasticity``: its neighbourhoods are the SPH
+        support, 2.2 spacings).
     horizon : radius of each particle's neighbourhood (m, > spacing); None: 2.2 spacings (32
         neighbours on a cubic lattice). Every particle needs a three-dimensional neighbourhood:
         a flat or linear one is refused, naming the particle.
@@ -207,7 +254,7 @@ class Particles:
         *,
         spacing: float,
         density: float,
-        material: Elastic,
+        material: Union[Elastic, Granular],
         horizon: Optional[float] = None,
         plasticity: Optional[DruckerPrager] = None,
     ) -> None: ...
@@ -301,7 +348,7 @@ class Particles:
     def horizon(self) -> float:
         """Horizon radius (m)."""
     @property
-    def material(self) -> Elastic: ...
+    def material(self) -> Union[Elastic, Granular]: ...
     @property
     def moduli(self) -> Tuple[float, float, float]:
         """``(mu, lam, kappa)`` (Pa) the material resolved to on this body's lattice: the
@@ -696,13 +743,14 @@ class StepStats:
         methods."""
     @property
     def timings(self) -> dict:
-        """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish' (of which 'plasticity': the plastic return and rest rebuild of plastic particle bodies, and 'neighbours': their neighbour search on deformed positions; t_p and t_n of He et al. 2017, Table 1), 'total'."""
+        """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish' (of which 'plasticity': the plastic return and rest rebuild of plastic particle bodies, 'neighbours': their neighbour search on deformed positions, and 'density': the SPH density and stiffness of granular bodies; t_p, t_n and t_d of He et al. 2017, Table 1), 'total'."""
     @property
     def particles(self) -> dict:
         """The particle bodies' share of the step (zeros without them), from its start:
         milliseconds 'kernel_ms', 'residual_ms', 'solve_ms', 'line_search_ms', 'project_ms';
-        'evaluations' (kernel passes, line search trials included) and 'factorizations' (of
-        the direct solver's matrix)."""
+        'evaluations' (kernel passes, line search trials included), 'factorizations' (of
+        the direct solver's matrix) and 'held_static' (granular particles held by static
+        friction, eq. 28)."""
     @property
     def contact(self) -> dict:
         """Contact figures (zeros when contact is off): 'candidate_pairs' (triangle pairs of

@@ -13,6 +13,7 @@ use super::calibration::Moduli;
 use super::deformation::check_shapes;
 use super::elastic::Elastic;
 use super::fluid::ViscoelasticFluid;
+use super::granular::Granular;
 use super::plasticity::DruckerPrager;
 use super::rest_bonds::RestBonds;
 
@@ -90,6 +91,8 @@ pub struct Particles {
     /// A plastic body's current reference bonds once a solver has stepped it (`None`: the
     /// bonds of `reference` and `horizons`).
     rest_bonds: Option<RestBonds>,
+    /// The granular material, if the body is sand ([`Self::set_granular`]).
+    granular: Option<Granular>,
     /// How many times the bonds were replaced from outside ([`Self::restore_rest_bonds`]):
     /// a solver whose working set was built at another count builds it anew.
     bonds_revision: u64,
@@ -150,6 +153,7 @@ impl Particles {
             rest_bonds: None,
             bonds_revision: 0,
             fluid: None,
+            granular: None,
         };
         debug_assert!(body.ghost_owners.len() < body.reference.len());
         check_shapes(&body.reference, &body.horizons, delta)?;
@@ -345,11 +349,30 @@ impl Particles {
     /// Makes the body plastic with `law` (or elastic with `None`), from its current reference
     /// bonds on. Fails, naming the parameter, on a bad law.
     pub fn set_plasticity(&mut self, law: Option<DruckerPrager>) -> Result<()> {
+        if self.granular.is_some() {
+            return Err(crate::error::invalid!(
+                "a granular body yields by its material's friction angle: it takes no other \
+                 plasticity"
+            ));
+        }
         if let Some(law) = &law {
             law.validate()?;
         }
         self.plasticity = law;
         Ok(())
+    }
+    /// Makes the body granular with `material` ([`super::granular`]): its yield law is the
+    /// material's, its stiffness follows its density. Fails, naming the parameter, on a bad
+    /// material.
+    pub fn set_granular(&mut self, material: Granular) -> Result<()> {
+        material.validate()?;
+        self.plasticity = Some(material.yield_law());
+        self.granular = Some(material);
+        Ok(())
+    }
+    /// The granular material, or `None` for a body that is not sand.
+    pub fn granular(&self) -> Option<&Granular> {
+        self.granular.as_ref()
     }
     pub fn plasticity(&self) -> Option<&DruckerPrager> {
         self.plasticity.as_ref()

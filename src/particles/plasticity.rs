@@ -223,7 +223,14 @@ impl PlasticLaw {
     /// the reference vectors of the particles that yield and adds to their plastic strain.
     /// Returns how many yielded. Each particle's update is computed alone (in parallel), so
     /// the result does not depend on the number of threads.
-    pub fn apply(&self, bonds: &mut RestBonds, y: &[Vector3<f64>]) -> usize {
+    /// The particles that yield are marked in `yielded_flags` (one per particle; the others
+    /// are left as they are).
+    pub fn apply(
+        &self,
+        bonds: &mut RestBonds,
+        y: &[Vector3<f64>],
+        yielded_flags: &mut [bool],
+    ) -> usize {
         let updates: Vec<Option<(Vec<Vector3<f64>>, f64)>> = (0..bonds.len())
             .into_par_iter()
             .map(|i| self.particle_return(bonds, i, y))
@@ -234,6 +241,7 @@ impl PlasticLaw {
                 let row = bonds.row(i);
                 bonds.xi[row].copy_from_slice(&xi);
                 bonds.plastic_strain[i] += strain;
+                yielded_flags[i] = true;
                 yielded += 1;
             }
         }

@@ -11,6 +11,7 @@ use super::body::Particles;
 use super::bond::BondRest;
 use super::calibration::Moduli;
 use super::deformation::{flat_neighbourhood, shape_inverse};
+use super::granular::Granular;
 use super::influence::influence;
 use super::rest_bonds::RestBonds;
 use super::surface::{axis_factors, bond_factor, strain_shares};
@@ -30,6 +31,8 @@ pub(crate) struct RestConstants {
     /// Whether the body is plastic (its neighbourhoods may degenerate: see
     /// [`ParticleRest::add_bonds`]).
     pub plastic: bool,
+    /// The granular material, whose stiffness follows each particle's density.
+    pub granular: Option<Granular>,
 }
 
 impl RestConstants {
@@ -42,6 +45,7 @@ impl RestConstants {
             margin: body.margin(),
             num_real: body.num_real(),
             plastic: body.plasticity().is_some(),
+            granular: body.granular().copied(),
         }
     }
 }
@@ -88,13 +92,14 @@ impl<T: Real> ParticleRest<T> {
     }
 
     /// The rest data of bodies given by their bonds and constants, in this order.
-    pub(crate) fn of_bonds(bodies: &[(&RestBonds, RestConstants)]) -> Result<Self> {
+    /// `lam` per particle (Pa) replaces the moduli's for a granular body.
+    pub(crate) fn of_bonds(bodies: &[(&RestBonds, RestConstants, Option<&[f64]>)]) -> Result<Self> {
         let mut rest = Self {
             offsets: vec![0],
             ..Self::default()
         };
-        for (bonds, constants) in bodies {
-            rest.add_bonds(bonds, constants)?;
+        for (bonds, constants, lam) in bodies {
+            rest.add_bonds(bonds, constants, *lam)?;
         }
         Ok(rest)
     }
@@ -125,7 +130,14 @@ impl<T: Real> ParticleRest<T> {
                 &owned
             }
         };
-        self.add_bonds(bonds, &RestConstants::of(body))
+        let constants = RestConstants::of(body);
+        let lam = constants
+            .granular
+            .map(|g| {
+                g.particle_stiffness(bonds, body.positions(), constants.delta, constants.volume)
+            })
+            .transpose()?;
+        self.add_bonds(bonds, &constants, lam.as_deref())
     }
 
     /// Appends the particles of `bonds` with the body constants `c`.
@@ -145,7 +157,15 @@ impl<T: Real> ParticleRest<T> {
     /// A singular shape matrix fails, naming the particle, unless `c.plastic`: a plastic
     /// body's particle that has lost its three-dimensional neighbourhood gets `K_i^-1 = 0`,
     /// so `F_i = 0` and its deviatoric springs pull along the bonds as the isotropic ones do.
-    pub(crate) fn add_bonds(&mut self, bonds: &RestBonds, c: &RestConstants) -> Result<()> {
+    ///
+    /// `lam`, per particle (Pa), replaces the moduli's `lam` for a granular body
+    /// ([`super::granular`]): a bond's isotropic spring takes the mean of its two particles'.
+    pub(crate) fn add_bonds(
+        &mut self,
+        bonds: &RestBonds,
+        c: &RestConstants,
+        lam: Option<&[f64]>,
+    ) -> Result<()> {
         let base = self.len() as u32;
         let bond_base = self.indices.len() as u32;
         let moduli = c.moduli;
@@ -204,7 +224,7 @@ impl<T: Real> ParticleRest<T> {
                     length: T::of(length),
                     weight: T::of(weight),
                     k_dev: T::of(2.0 * moduli.mu * k),
-                    k_iso: T::of(moduli.lam * k),
+                    k_iso: T::of(lam.map_or(moduli.lam, |l| 0.5 * (l[i] + l[j as usize])) * k),
                     share: T::of(share),
                 });
                 // The dilatation term's Hessian is the rank-one `9 kappa V_i a a^T` over the

@@ -9,6 +9,7 @@ mod elastic;
 mod errors;
 mod fluid;
 mod gpu;
+mod granular;
 mod material;
 mod membrane;
 mod options;
@@ -43,6 +44,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<particle_body::PyParticles>()?;
     m.add_class::<plasticity::PyDruckerPrager>()?;
     m.add_class::<fluid::PyViscoelasticFluid>()?;
+    m.add_class::<granular::PyGranular>()?;
     m.add_class::<collider::PyCollider>()?;
     m.add_class::<collider::PyPlane>()?;
     m.add_class::<collider::PySphere>()?;

@@ -7,12 +7,13 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::particles::{DruckerPrager, ParticleParams, Particles};
+use crate::particles::{DruckerPrager, Elastic, Granular, ParticleParams, Particles};
 
 use super::arrays::{to_numpy, to_numpy_1d, vec3s};
 use super::elastic::PyElastic;
 use super::errors::{guard, IntoPyResult};
 use super::fluid::PyViscoelasticFluid;
+use super::granular::PyGranular;
 use super::pins;
 use super::plasticity::PyDruckerPrager;
 use super::rest_bonds;
@@ -45,24 +46,55 @@ fn params_of(
     material: &Bound<'_, PyAny>,
     horizon: Option<Real>,
 ) -> PyResult<ParticleParams> {
+    let material = match material.cast::<PyGranular>() {
+        Ok(g) => granular_moduli(&g.get().inner),
+        Err(_) => {
+            material
+                .cast::<PyElastic>()
+                .map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "material must be a peridyn.Elastic, peridyn.Granular or peridyn.ViscoelasticFluid, got {}",
+                        material
+                            .get_type()
+                            .name()
+                            .map_or("?".into(), |n| n.to_string())
+                    ))
+                })?
+                .get()
+                .inner
+        }
+    };
     Ok(ParticleParams {
         spacing: spacing.get("spacing")?,
         density: density.get("density")?,
         horizon: horizon.map(|h| h.get("horizon")).transpose()?,
-        material: material
-            .cast::<PyElastic>()
-            .map_err(|_| {
-                PyValueError::new_err(format!(
-                    "material must be a peridyn.Elastic or a peridyn.ViscoelasticFluid, got {}",
-                    material
-                        .get_type()
-                        .name()
-                        .map_or("?".into(), |n| n.to_string())
-                ))
-            })?
-            .get()
-            .inner,
+        material,
     })
+}
+
+/// Refuses a granular or fluid material for a shell or a rod (sand and fluids come as
+/// bodies of `peridyn.Particles(...)`).
+fn elastic_only(material: &Bound<'_, PyAny>) -> PyResult<()> {
+    let kind = if material.cast::<PyGranular>().is_ok() {
+        "peridyn.Granular"
+    } else if material.cast::<PyViscoelasticFluid>().is_ok() {
+        "peridyn.ViscoelasticFluid"
+    } else {
+        return Ok(());
+    };
+    Err(PyValueError::new_err(format!(
+        "material must be a peridyn.Elastic for a shell or a rod: a {kind} body is made with \
+         peridyn.Particles(...)"
+    )))
+}
+
+/// The nominal moduli of a granular body (its stiffness per particle follows its density):
+/// `mu = 0`, `lam = K_f`.
+fn granular_moduli(g: &Granular) -> Elastic {
+    Elastic::Paper {
+        mu: 0.0,
+        lam: g.friction_stiffness,
+    }
 }
 
 /// The plastic law of the constructor's `plasticity` argument (a `peridyn.DruckerPrager`).
@@ -119,12 +151,22 @@ impl PyParticles {
             return fluid_body(py, positions, spacing, density, fluid.get().inner, horizon, plasticity);
         }
         let plasticity = plasticity.map(plasticity_of).transpose()?;
+        let granular = material.cast::<PyGranular>().ok().map(|g| g.get().inner);
+        if granular.is_some() && plasticity.is_some() {
+            return Err(PyValueError::new_err(
+                "plasticity must be None for a peridyn.Granular material, which yields by its \
+                 own friction angle",
+            ));
+        }
         let params = params_of(spacing, density, material, horizon)?;
         let x = vec3s(positions, "positions", None)?;
         let body = py.detach(|| {
             guard("Particles()", || {
                 let mut body = Particles::new(x, params)?;
-                body.set_plasticity(plasticity)?;
+                match granular {
+                    Some(g) => body.set_granular(g)?,
+                    None => body.set_plasticity(plasticity)?,
+                }
                 Ok(body)
             })
         })?;
@@ -145,6 +187,7 @@ impl PyParticles {
         horizon: Option<Real>,
         seed: i128,
     ) -> PyResult<Self> {
+        elastic_only(material)?;
         let params = params_of(spacing, density, material, horizon)?;
         super::thin::shell(py, mesh, thickness.get("thickness")?, seed, params).map(Self::wrap)
     }
@@ -161,6 +204,7 @@ impl PyParticles {
         material: &Bound<'_, PyAny>,
         horizon: Option<Real>,
     ) -> PyResult<Self> {
+        elastic_only(material)?;
         let params = params_of(spacing, density, material, horizon)?;
         super::thin::rod(py, points, radius.get("radius")?, params).map(Self::wrap)
     }
@@ -235,11 +279,20 @@ impl PyParticles {
     fn horizon(&self) -> f64 {
         self.lock().horizon()
     }
+    /// The material: a ``peridyn.Elastic``, or the ``peridyn.Granular`` of sand.
     #[getter]
-    fn material(&self) -> PyElastic {
-        PyElastic {
-            inner: self.lock().params().material,
-        }
+    fn material(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let p = self.lock();
+        Ok(match p.granular() {
+            Some(&inner) => Py::new(py, PyGranular { inner })?.into_any(),
+            None => Py::new(
+                py,
+                PyElastic {
+                    inner: p.params().material,
+                },
+            )?
+            .into_any(),
+        })
     }
     /// The resolved moduli (Pa): {'mu', 'lam', 'kappa'} (the paper's mu and lam, and the
     /// dilatation modulus beyond the paper; 0 for `Elastic(mu=, lam=)`).
@@ -381,10 +434,13 @@ impl PyParticles {
             params.spacing,
             params.density,
             p.horizon(),
-            PyElastic {
-                inner: params.material
-            }
-            .__repr__(),
+            match p.granular() {
+                Some(&inner) => PyGranular { inner }.__repr__(),
+                None => PyElastic {
+                    inner: params.material,
+                }
+                .__repr__(),
+            },
             p.pins().len()
         )
     }

@@ -150,7 +150,8 @@ impl PyStepStats {
     /// iterates), `residual_ms` (the residual of eq. 12 and its merit), `solve_ms` (the global
     /// solver's move, refactorisations included), `line_search_ms` (the trials of eq. 13),
     /// `project_ms` (collider projection, extrapolation, measures); `evaluations` (kernel
-    /// passes, trials included) and `factorizations` (of the direct solver's matrix).
+    /// passes, trials included), `factorizations` (of the direct solver's matrix) and
+    /// `held_static` (granular particles that static friction held, eq. 28).
     #[getter]
     fn particles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let p = &self.inner.particles;
@@ -166,6 +167,7 @@ impl PyStepStats {
         }
         d.set_item("evaluations", p.evaluations)?;
         d.set_item("factorizations", p.factorizations)?;
+        d.set_item("held_static", p.held_static)?;
         Ok(d)
     }
     /// Simulation time after the step (s).

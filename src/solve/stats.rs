@@ -23,8 +23,10 @@ pub struct Timings {
     /// Of `finish`: the neighbour search of plastic particle bodies on their deformed
     /// positions (`t_n` of Table 1; 0 without).
     pub neighbours: f64,
-    /// The density constraints' projection of fluid particles (`t_rho` of Table 1; 0
-    /// without fluids; its neighbour search counts in `neighbours`).
+    /// The SPH density and what follows from it: the density constraints' projection of fluid
+    /// particles (`t_rho`), the density of granular bodies and their stiffness from it (`t_d`,
+    /// He et al. 2017 eq. 25-27); 0 without fluids or sand (their neighbour search counts in
+    /// `neighbours`).
     pub density: f64,
     /// Of `finish`: the implicit viscosity of fluid particles (0 without).
     pub viscosity: f64,
@@ -53,6 +55,9 @@ pub struct ParticleTimings {
     pub evaluations: usize,
     /// Numeric factorisations of the direct solver's matrix.
     pub factorizations: usize,
+    /// Particles of granular bodies that static friction held at the end of the step (He et
+    /// al. 2017, eq. 28).
+    pub held_static: usize,
 }
 
 /// `method="newton"`: milliseconds per phase of its iterations, summed over the step, and

@@ -42,6 +42,9 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         if let Some(repulsion) = &mut self.repulsion {
             repulsion.start_step(&self.points, params.dt, params.gravity)?;
         }
+        if let Some(friction) = &mut self.static_friction {
+            friction.start_step(&self.points);
+        }
         Ok(())
     }
     /// The fluids' neighbour search and density projection ([`super::fluid`]).
@@ -51,8 +54,9 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
             None => Ok(()),
         }
     }
-    /// A failure of the direct solver's factorisation during the step, else plasticity and
-    /// changing neighbourhoods ([`super::plastic`]), and the fluids' viscosity.
+    /// A failure of the direct solver's factorisation during the step, else the fluids'
+    /// viscosity, then plasticity, static friction and changing neighbourhoods
+    /// ([`super::fluid`], [`super::plastic`], [`super::static_friction`]).
     fn end_step(&mut self, timings: &mut Timings) -> Result<()> {
         if let Some(failure) = self.failure.take() {
             return Err(failure);

@@ -11,6 +11,7 @@ mod fluid;
 mod fluid_viscosity;
 mod plastic;
 mod repulsion;
+mod static_friction;
 mod step;
 mod system;
 

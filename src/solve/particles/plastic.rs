@@ -2,8 +2,10 @@
 //! local-global solve has finished, as the paper does it, the return of eq. 18-19 moves the
 //! reference bonds of the particles that yield, then the neighbours of bodies that ask for
 //! it are searched on the deformed positions (eq. 20), and the rest data the next step
-//! solves with is rebuilt from the new bonds. Each phase is timed (`Timings::plasticity`,
-//! `Timings::neighbours`: the columns `t_p` and `t_n` of the paper's Table 1).
+//! solves with is rebuilt from the new bonds, with a granular body's stiffness from its SPH
+//! density on the new neighbours (eq. 25-27, [`crate::particles::Granular`]). Each phase is
+//! timed (`Timings::plasticity`, `Timings::neighbours`, `Timings::density`: the columns
+//! `t_p`, `t_n` and `t_d` of the paper's Table 1).
 //!
 //! The bonds of every body of the family are kept here in f64 (the master copy, whatever the
 //! solver's precision), and the plastic bodies' go back into the bodies with their state
@@ -17,7 +19,8 @@ use nalgebra::Vector3;
 
 use crate::error::Result;
 use crate::particles::{
-    rebuild_neighbours, ParticleRest, Particles, PlasticLaw, RestBonds, RestConstants,
+    density_ratios, rebuild_neighbours, ParticleRest, Particles, PlasticLaw, RestBonds,
+    RestConstants,
 };
 use crate::real::Real;
 use crate::solve::Timings;
@@ -31,6 +34,9 @@ struct Entry {
     law: Option<PlasticLaw>,
     /// The body's particles in the family.
     range: Range<usize>,
+    /// A granular body's `lam` per particle (Pa) from its density at the end of the last
+    /// step (empty for other bodies).
+    lam: Vec<f64>,
 }
 
 /// Every body's bonds, when at least one body of the family is plastic.
@@ -57,6 +63,7 @@ impl PlasticBodies {
                     constants: RestConstants::of(b),
                     law: PlasticLaw::of(b),
                     range,
+                    lam: Vec::new(),
                 }
             })
             .collect();
@@ -66,27 +73,50 @@ impl PlasticBodies {
         })
     }
 
-    /// The plastic end of a step at the finished positions `y` (m; see the module's doc): the
-    /// family's new rest data, and whether some neighbourhood changed (then the bond count
-    /// and the global matrix's pattern may have too); `None` when no particle yielded and no
-    /// neighbourhood changed, so the rest data at hand stands.
-    pub fn end_step<T: Real>(
+    /// The returns of eq. 18-19 at the solved positions `y` (m), the first half of the
+    /// plastic end of a step: marks in `yielded` (one flag per particle of the family) the
+    /// particles that yielded, and returns how many did.
+    pub fn returns<T: Real>(
         &mut self,
         y: &[Vector3<T>],
+        yielded: &mut [bool],
         timings: &mut Timings,
-    ) -> Result<Option<(ParticleRest<T>, bool)>> {
+    ) -> usize {
         let t = Instant::now();
-        for (mine, p) in self.y.iter_mut().zip(y) {
-            *mine = p.map(|c| c.to_f64());
-        }
-        let y = &self.y;
-        let mut yielded = 0;
+        self.copy_positions(y);
+        let mut count = 0;
         for entry in &mut self.entries {
             if let Some(law) = &entry.law {
-                yielded += law.apply(&mut entry.bonds, &y[entry.range.clone()]);
+                let (y, marks) = (
+                    &self.y[entry.range.clone()],
+                    &mut yielded[entry.range.clone()],
+                );
+                count += law.apply(&mut entry.bonds, y, marks);
             }
         }
         timings.plasticity += millis(t);
+        count
+    }
+
+    fn copy_positions<T: Real>(&mut self, y: &[Vector3<T>]) {
+        for (mine, p) in self.y.iter_mut().zip(y) {
+            *mine = p.map(|c| c.to_f64());
+        }
+    }
+
+    /// The second half of the plastic end of a step, at the step's final positions `y` (m;
+    /// see the module's doc), after `yielded` particles yielded in [`Self::returns`]: the
+    /// family's new rest data, and whether some neighbourhood changed (then the bond count
+    /// and the global matrix's pattern may have too); `None` when no particle yielded, no
+    /// neighbourhood changed and no body is granular, so the rest data at hand stands.
+    pub fn rebuild<T: Real>(
+        &mut self,
+        y: &[Vector3<T>],
+        yielded: usize,
+        timings: &mut Timings,
+    ) -> Result<Option<(ParticleRest<T>, bool)>> {
+        self.copy_positions(y);
+        let y = &self.y;
         let t = Instant::now();
         let mut changed = false;
         for entry in &mut self.entries {
@@ -100,14 +130,33 @@ impl PlasticBodies {
             }
         }
         timings.neighbours += millis(t);
-        if yielded == 0 && !changed {
+        let t = Instant::now();
+        let mut granular = false;
+        for entry in &mut self.entries {
+            if let Some(material) = entry.constants.granular {
+                let y = &y[entry.range.clone()];
+                let ratios = density_ratios(
+                    &entry.bonds,
+                    y,
+                    entry.constants.delta,
+                    entry.constants.volume,
+                )?;
+                entry.lam = material.stiffness_of(&ratios);
+                granular = true;
+            }
+        }
+        timings.density += millis(t);
+        if yielded == 0 && !changed && !granular {
             return Ok(None);
         }
         let t = Instant::now();
-        let sources: Vec<(&RestBonds, RestConstants)> = self
+        let sources: Vec<(&RestBonds, RestConstants, Option<&[f64]>)> = self
             .entries
             .iter()
-            .map(|e| (&e.bonds, e.constants))
+            .map(|e| {
+                let lam = e.constants.granular.map(|_| e.lam.as_slice());
+                (&e.bonds, e.constants, lam)
+            })
             .collect();
         let rest = ParticleRest::of_bonds(&sources)?;
         timings.plasticity += millis(t);

@@ -1,6 +1,8 @@
 //! Repulsion between particle bodies: a minimum-distance constraint between the particles of
 //! different bodies, so that two bodies collide without passing through each other (DESIGN.md
-//! section 6, "Boundaries and couplings"; the 2017 paper names no form for it).
+//! section 6, "Boundaries and couplings"; the 2017 paper names no form for it). Within a
+//! granular body too ([`crate::particles::Granular`]): its grains are balls that keep apart,
+//! while the bonds, searched anew every step, would let them pass through each other.
 //!
 //! Each particle is a ball of its collider margin (half a spacing for a solid, half the
 //! thickness of a shell, the radius of a rod): particles `i`, `j` of different bodies keep
@@ -32,6 +34,8 @@ use crate::solve::points::Points;
 pub(crate) struct Repulsion<T: Real> {
     /// Body of each particle (an index into the family's body list).
     body: Vec<u32>,
+    /// Per body, whether its own particles repel each other (a granular body).
+    within: Vec<bool>,
     /// Candidate pairs of this step in compressed rows (particles of other bodies only).
     offsets: Vec<u32>,
     indices: Vec<u32>,
@@ -41,9 +45,10 @@ pub(crate) struct Repulsion<T: Real> {
 }
 
 impl<T: Real> Repulsion<T> {
-    /// The repulsion of the bodies laid out in `points`; `None` for a single body.
-    pub fn of(points: &Points<T>) -> Option<Self> {
-        if points.ranges.len() < 2 {
+    /// The repulsion of the bodies laid out in `points`, those marked in `within` among
+    /// their own particles too; `None` for a single body that does not repel itself.
+    pub fn of(points: &Points<T>, within: Vec<bool>) -> Option<Self> {
+        if points.ranges.len() < 2 && !within.iter().any(|&w| w) {
             return None;
         }
         let n = points.mass.len();
@@ -53,6 +58,7 @@ impl<T: Real> Repulsion<T> {
         }
         Some(Self {
             body,
+            within,
             offsets: vec![0; n + 1],
             indices: Vec::new(),
             proposed: vec![Vector3::zeros(); n],
@@ -93,11 +99,12 @@ impl<T: Real> Repulsion<T> {
         for i in 0..self.body.len() {
             if let Some((k, _)) = next.next_if(|(_, &c)| c as usize == i) {
                 let body = self.body[i];
+                let within = self.within[body as usize];
                 self.indices.extend(
                     near.of(k)
                         .iter()
                         .map(|&l| colliding[l as usize])
-                        .filter(|&j| self.body[j as usize] != body),
+                        .filter(|&j| within || self.body[j as usize] != body),
                 );
             }
             self.offsets.push(self.indices.len() as u32);

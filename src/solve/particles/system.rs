@@ -18,6 +18,7 @@ use super::evaluation::Evaluation;
 use super::fluid::FluidStage;
 use super::plastic::PlasticBodies;
 use super::repulsion::Repulsion;
+use super::static_friction::StaticFriction;
 
 /// The particle family's working set.
 pub(crate) struct ParticleSystem<T: Real> {
@@ -45,6 +46,10 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub fluid: Option<FluidStage<T>>,
     /// The step's phases so far ([`crate::solve::StepStats::particles`]).
     pub timings: ParticleTimings,
+    /// The granular bodies' static friction (eq. 28), if any has it.
+    pub static_friction: Option<StaticFriction<T>>,
+    /// Per particle, whether it yielded at the end of the last step (reused).
+    yielded: Vec<bool>,
     /// Each body's [`Particles::bonds_revision`] when this working set was built.
     revisions: Vec<u64>,
 }
@@ -58,7 +63,8 @@ impl<T: Real> ParticleSystem<T> {
         let (n, bonds) = (rest.len(), rest.indices.len());
         let mut points = Points::new(bodies, rest.mass.clone(), rest.margin.clone());
         points.collides.clone_from(&rest.collides);
-        let repulsion = Repulsion::of(&points);
+        let within = bodies.iter().map(|b| b.granular().is_some()).collect();
+        let repulsion = Repulsion::of(&points, within);
         Ok(Self {
             points,
             rest,
@@ -73,6 +79,8 @@ impl<T: Real> ParticleSystem<T> {
             chunks: Vec::new(),
             plastic: PlasticBodies::of(bodies),
             fluid: FluidStage::of(bodies)?,
+            static_friction: StaticFriction::of(bodies),
+            yielded: vec![false; n],
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
         })
@@ -106,11 +114,19 @@ impl<T: Real> ParticleSystem<T> {
     /// bonds; the evaluations start afresh, and so does the direct solver's pattern when a
     /// neighbourhood changed. Nothing when no body is plastic, or no particle yielded and no
     /// neighbourhood changed.
+    ///
+    /// Between the returns and the rebuild, the static friction of granular bodies (eq. 28,
+    /// [`super::static_friction`]) holds the particles that did not yield.
     pub(crate) fn plastic_end_step(&mut self, timings: &mut Timings) -> Result<()> {
         let Some(plastic) = self.plastic.as_mut() else {
             return Ok(());
         };
-        let Some((rest, changed)) = plastic.end_step(&self.points.y, timings)? else {
+        self.yielded.fill(false);
+        let yielded = plastic.returns(&self.points.y, &mut self.yielded, timings);
+        if let Some(friction) = &self.static_friction {
+            self.timings.held_static = friction.apply(&mut self.points, &self.yielded);
+        }
+        let Some((rest, changed)) = plastic.rebuild(&self.points.y, yielded, timings)? else {
             return Ok(());
         };
         self.rest = rest;

@@ -1,0 +1,236 @@
+//! Granular particle material: dry and wet sand (He et al. 2017, section 7, eq. 25-28 as
+//! corrected in DESIGN.md section 6).
+//!
+//! **Stiffness from density (eq. 25-27).** A granular body has no constant moduli: each
+//! particle's `lam_i = k_f(rho_i) + k_c(rho_i)` (Pa) follows its SPH density `rho_i`
+//! ([`super::sph`], the poly6 kernel over the horizon, normalised on the sampling's cubic
+//! lattice so that the inside of the body as sampled has exactly the reference density
+//! `rho_0`, the body's `density`), and `mu = 0` (the pair springs of `lam` resist shear too).
+//! A bond's isotropic spring uses the mean `(lam_i + lam_j) / 2`.
+//! - Friction stiffness (eq. 25): `k_f = K_f exp(H_f (rho / rho_0 - 1))` for `rho >= rho_0`,
+//!   else 0: grains push on each other only when packed.
+//! - Cohesion stiffness (eq. 26, its falloff's sign corrected): `k_c = K_c` for
+//!   `rho >= rho_0`, `K_c exp(-H_c (1 - rho / rho_0))` on `[rho_1, rho_0)`, else 0: the
+//!   capillary bridges of wet sand hold grains a little apart and break at `rho_1`.
+//! - Water saturation `theta` (eq. 27): `H_c = H_0 theta^(-1/2)`, `rho_1 = (1 - b theta)
+//!   rho_0`. Dry sand (`theta = 0`) has `rho_1 = rho_0`: no cohesion below `rho_0`.
+//!
+//! **Friction angle.** The yield test of [`super::plasticity`] with the friction angle and no
+//! cohesion (a cone through the origin: sand carries no tension of its own; the wet sand's
+//! hold is the cohesion stiffness acting within each step), the return of eq. 18-19 each step
+//! and the neighbours searched anew each step (eq. 20).
+//!
+//! **Static friction (eq. 28).** After the solve, a particle whose solved position `y'` went
+//! back from the inertial target `y*` towards its start `y` by at least `eta` of the way,
+//! `(y' - y*) . (y - y*) >= eta |y* - y|^2`, is held where it started (no move, no velocity):
+//! the friction of its neighbours held it. Pinned particles are left as they are.
+//!
+//! **Defaults.** The paper gives no values for `K_f`, `H_f`, `K_c`, `H_0` (the authors' code
+//! uses `H_f = 1` and no cohesion): the defaults here are chosen for sand at a few mm
+//! spacing at time steps of a few ms, `K_f = 100 kPa` (a continuum Young's modulus
+//! `K_f / 6`), `H_f = 10`, `K_c = 20 kPa`, `H_0 = 10`, `b = 1` and `eta = 0.8` (the
+//! paper's). A stiffer sand flows more slowly: its bonds, stretched within a step before the
+//! return relaxes them, resist the flow like a viscosity of about `K_f h / 6`.
+//!
+//! **Grains keep apart.** A granular body's particles repel each other as the particles of
+//! different bodies do ([`crate::solve`]'s repulsion: balls of half a spacing): its bonds,
+//! searched anew every step with reference vectors from the deformed positions, would let
+//! grains pass through each other and the sand compact without end.
+
+use nalgebra::Vector3;
+
+use crate::error::{check_param, Result};
+use crate::real::Real;
+
+use super::plasticity::DruckerPrager;
+use super::rest_bonds::RestBonds;
+use super::sph::{Kernel, Sph};
+
+/// A granular particle material (see the module's doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Granular {
+    /// Internal friction angle `phi` (degrees, in (0, 90)).
+    pub friction_angle: f64,
+    /// Water saturation `theta` (dimensionless, in [0, 1]; 0 is dry sand).
+    pub saturation: f64,
+    /// Reference friction stiffness `K_f` (Pa, > 0) of eq. 25.
+    pub friction_stiffness: f64,
+    /// Hardening coefficient `H_f` (dimensionless, >= 0) of eq. 25.
+    pub friction_hardening: f64,
+    /// Reference cohesion stiffness `K_c` (Pa, >= 0) of eq. 26.
+    pub cohesion_stiffness: f64,
+    /// Reference falloff coefficient `H_0` (dimensionless, > 0) of eq. 27.
+    pub cohesion_falloff: f64,
+    /// Debonding scale `b` (dimensionless, in [0, 1]) of eq. 27.
+    pub debonding: f64,
+    /// Static friction coefficient `eta` of eq. 28 (dimensionless, in (0, 1]), or `None`
+    /// for none.
+    pub static_friction: Option<f64>,
+}
+
+impl Granular {
+    /// Dry or wet sand with the friction angle `phi` (degrees) and the water saturation
+    /// `theta`, every other parameter at its default (see the module's doc).
+    pub fn new(friction_angle: f64, saturation: f64) -> Self {
+        Self {
+            friction_angle,
+            saturation,
+            friction_stiffness: 1e5,
+            friction_hardening: 10.0,
+            cohesion_stiffness: 2e4,
+            cohesion_falloff: 10.0,
+            debonding: 1.0,
+            static_friction: Some(0.8),
+        }
+    }
+
+    /// Checks the parameters, naming the bad one.
+    pub fn validate(&self) -> Result<()> {
+        check_param(
+            "friction_angle",
+            self.friction_angle,
+            |v| v > 0.0 && v < 90.0,
+            "an angle in (0, 90) degrees",
+        )?;
+        check_param(
+            "saturation",
+            self.saturation,
+            |v| (0.0..=1.0).contains(&v),
+            "a water saturation in [0, 1]",
+        )?;
+        check_param(
+            "friction_stiffness",
+            self.friction_stiffness,
+            |v| v > 0.0,
+            "a finite stiffness > 0 Pa",
+        )?;
+        check_param(
+            "friction_hardening",
+            self.friction_hardening,
+            |v| v >= 0.0,
+            "a finite coefficient >= 0",
+        )?;
+        check_param(
+            "cohesion_stiffness",
+            self.cohesion_stiffness,
+            |v| v >= 0.0,
+            "a finite stiffness >= 0 Pa",
+        )?;
+        check_param(
+            "cohesion_falloff",
+            self.cohesion_falloff,
+            |v| v > 0.0,
+            "a finite coefficient > 0",
+        )?;
+        check_param(
+            "debonding",
+            self.debonding,
+            |v| (0.0..=1.0).contains(&v),
+            "a scale in [0, 1]",
+        )?;
+        if let Some(eta) = self.static_friction {
+            check_param(
+                "static_friction",
+                eta,
+                |v| v > 0.0 && v <= 1.0,
+                "a coefficient in (0, 1] (or None for none)",
+            )?;
+        }
+        Ok(())
+    }
+
+    /// The yield law of the material: the friction angle, no cohesion, no hardening, the
+    /// neighbours searched anew every step.
+    pub fn yield_law(&self) -> DruckerPrager {
+        DruckerPrager {
+            friction_angle: self.friction_angle,
+            cohesion: 0.0,
+            hardening: 0.0,
+            rebuild_neighbours: true,
+        }
+    }
+
+    /// The debonding density ratio `rho_1 / rho_0 = 1 - b theta` (eq. 27).
+    pub fn debonding_ratio(&self) -> f64 {
+        1.0 - self.debonding * self.saturation
+    }
+
+    /// Friction stiffness `k_f` (Pa) at the density ratio `r = rho / rho_0` (eq. 25).
+    pub fn friction(&self, r: f64) -> f64 {
+        if r >= 1.0 {
+            self.friction_stiffness * (self.friction_hardening * (r - 1.0)).exp()
+        } else {
+            0.0
+        }
+    }
+
+    /// Cohesion stiffness `k_c` (Pa) at the density ratio `r = rho / rho_0` (eq. 26-27, the
+    /// falloff's sign corrected).
+    pub fn cohesion(&self, r: f64) -> f64 {
+        if r >= 1.0 {
+            self.cohesion_stiffness
+        } else if r >= self.debonding_ratio() && self.saturation > 0.0 {
+            let falloff = self.cohesion_falloff / self.saturation.sqrt();
+            self.cohesion_stiffness * (-falloff * (1.0 - r)).exp()
+        } else {
+            0.0
+        }
+    }
+
+    /// `lam = k_f + k_c` (Pa) at the density ratio `r`.
+    pub fn stiffness(&self, r: f64) -> f64 {
+        self.friction(r) + self.cohesion(r)
+    }
+}
+
+/// Eq. 28 for one particle: whether its solved position `y` (m) went back from the inertial
+/// target `star` towards its start `start` by at least `eta` of the way (then static
+/// friction holds it at `start`). A particle whose target is its start (no motion to stop)
+/// is not held.
+#[inline]
+pub fn holds<T: Real>(eta: f64, y: &Vector3<T>, start: &Vector3<T>, star: &Vector3<T>) -> bool {
+    let back = start - star;
+    let reach = back.norm_squared();
+    reach > T::zero() && (y - star).dot(&back) >= T::of(eta) * reach
+}
+
+/// Every particle's density over the reference density, `rho_i / rho_0` (dimensionless), at
+/// the positions `y` (m) with the neighbours of `bonds`: the poly6 SPH sum over the horizon
+/// `delta` (m), normalised on the cubic lattice of the particle volume `volume` (m^3; see the
+/// module's doc).
+pub(crate) fn density_ratios(
+    bonds: &RestBonds,
+    y: &[Vector3<f64>],
+    delta: f64,
+    volume: f64,
+) -> Result<Vec<f64>> {
+    let sph = Sph::on_lattice(Kernel::Poly6, delta, volume.cbrt())?;
+    // Volumes as masses: the sum is then `rho / rho_0`.
+    let volumes = vec![volume; y.len()];
+    let mut out = vec![0.0; y.len()];
+    sph.densities(y, &bonds.offsets, &bonds.indices, &volumes, &mut out);
+    Ok(out)
+}
+
+impl Granular {
+    /// `lam_i` (Pa) of every particle at the density ratios `ratios`.
+    pub(crate) fn stiffness_of(&self, ratios: &[f64]) -> Vec<f64> {
+        ratios.iter().map(|&r| self.stiffness(r)).collect()
+    }
+
+    /// `lam_i` (Pa) of every particle at the positions `y` (m) with the neighbours of
+    /// `bonds`, the horizon `delta` (m) and the particle volume `volume` (m^3).
+    pub(crate) fn particle_stiffness(
+        &self,
+        bonds: &RestBonds,
+        y: &[Vector3<f64>],
+        delta: f64,
+        volume: f64,
+    ) -> Result<Vec<f64>> {
+        Ok(self.stiffness_of(&density_ratios(bonds, y, delta, volume)?))
+    }
+}
+
+#[cfg(test)]
+#[path = "granular_tests.rs"]
+mod tests;

@@ -1,0 +1,85 @@
+//! Static friction of granular particle bodies (He et al. 2017, eq. 28): at the end of a
+//! step, a particle that the solve pushed back from its inertial target towards its start by
+//! at least `eta` of the way is held where it started, with no velocity
+//! ([`crate::particles::holds`]). Without it a pile of sand, solved by a few iterations each
+//! step, creeps down under its own weight.
+//!
+//! **Departure: only where the sand did not yield.** The paper holds every particle that
+//! passes eq. 28. A particle of a stiff column then passes it every step (the elastic
+//! response holds it up within the step), is put back where it started, never strains and
+//! never yields: a column of dry sand would stand for ever. Here a particle that yielded in
+//! the step's return (its friction cone exceeded: it slides) is not held; static friction
+//! holds what the friction cone holds.
+
+use std::ops::Range;
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use crate::particles::{holds, Particles};
+use crate::real::Real;
+use crate::solve::points::Points;
+
+/// The granular bodies of a family with static friction, and the step's start positions.
+pub(crate) struct StaticFriction<T: Real> {
+    /// Per body with static friction its particles in the family and its `eta`.
+    bodies: Vec<(Range<usize>, f64)>,
+    /// Every particle's position at the start of the step (m).
+    starts: Vec<Vector3<T>>,
+}
+
+impl<T: Real> StaticFriction<T> {
+    /// The static friction of `bodies`, or `None` when no body has any.
+    pub fn of(bodies: &[&mut Particles]) -> Option<Self> {
+        let mut start = 0;
+        let mut with = Vec::new();
+        for body in bodies {
+            let range = start..start + body.num_particles();
+            start = range.end;
+            if let Some(eta) = body.granular().and_then(|g| g.static_friction) {
+                with.push((range, eta));
+            }
+        }
+        (!with.is_empty()).then(|| Self {
+            bodies: with,
+            starts: vec![Vector3::zeros(); start],
+        })
+    }
+
+    /// Keeps the positions the step starts from.
+    pub fn start_step(&mut self, points: &Points<T>) {
+        self.starts.copy_from_slice(&points.y_start);
+    }
+
+    /// Eq. 28 once the step's velocities are set ([`Points::finish`]): a particle held goes
+    /// back to its start with no velocity. Pinned particles and those marked in `yielded`
+    /// are left as they are. Returns how many were held.
+    pub fn apply(&self, points: &mut Points<T>, yielded: &[bool]) -> usize {
+        let mut held = 0;
+        for (range, eta) in &self.bodies {
+            let (starts, star, pinned, yielded) = (
+                &self.starts[range.clone()],
+                &points.y_star[range.clone()],
+                &points.pinned[range.clone()],
+                &yielded[range.clone()],
+            );
+            let r = range.clone();
+            held += points.y[r.clone()]
+                .par_iter_mut()
+                .zip(points.y_start[r.clone()].par_iter_mut())
+                .zip(points.velocity[r].par_iter_mut())
+                .enumerate()
+                .map(|(k, ((y, start), velocity))| {
+                    if pinned[k] || yielded[k] || !holds(*eta, y, &starts[k], &star[k]) {
+                        return 0;
+                    }
+                    *y = starts[k];
+                    *start = starts[k];
+                    *velocity = Vector3::zeros();
+                    1
+                })
+                .sum::<usize>();
+        }
+        held
+    }
+}
