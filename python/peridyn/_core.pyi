@@ -164,8 +164,10 @@ class ViscoelasticFluid:
     ``viscosity`` (dynamic, Pa s, >= 0), ``density_iterations`` (most projections per step,
     >= 1), ``density_tolerance`` (the projections stop once no particle is denser than
     ``density * (1 + density_tolerance)``; in (0, 0.1]), ``relaxation`` (the constraints'
-    eps as a fraction of their denominator on the rest lattice, > 0). ValueError naming the
-    bad parameter."""
+    eps as a fraction of their denominator on the rest lattice, > 0), ``redistribution``
+    (strength in [0, 1] of the particle redistribution, eq. 21-24 corrected, lowering
+    ``||grad rho||^2`` after the density projection; 0: none), ``redistribution_iterations``
+    (its passes per step, in [1, 100]). ValueError naming the bad parameter."""
 
     def __init__(
         self,
@@ -174,6 +176,8 @@ class ViscoelasticFluid:
         density_iterations: int = 50,
         density_tolerance: float = 1e-3,
         relaxation: float = 0.1,
+        redistribution: float = 0.0,
+        redistribution_iterations: int = 5,
     ) -> None: ...
     @property
     def viscosity(self) -> float: ...
@@ -183,6 +187,10 @@ class ViscoelasticFluid:
     def density_tolerance(self) -> float: ...
     @property
     def relaxation(self) -> float: ...
+    @property
+    def redistribution(self) -> float: ...
+    @property
+    def redistribution_iterations(self) -> int: ...
 
 class Particles:
     """An elastic body of particles (He, Wang and Wu 2017) stepped by projective peridynamics.
@@ -193,7 +201,8 @@ class Particles:
     spacing : lattice spacing (m, > 0): each particle stands for a cube of this side (mass
         ``density * spacing^3``) and keeps half of it from colliders.
     density : kg/m^3 (> 0).
-    material : an :class:`Elastic`.
+    material : an :class:`Elastic`, or a :class:`ViscoelasticFluid` for a fluid body (then no
+        ``horizon`` or ``plasticity``: its neighbourhoods are the SPH support, 2.2 spacings).
     horizon : radius of each particle's neighbourhood (m, > spacing); None: 2.2 spacings (32
         neighbours on a cubic lattice). Every particle needs a three-dimensional neighbourhood:
         a flat or linear one is refused, naming the particle.

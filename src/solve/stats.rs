@@ -26,6 +26,8 @@ pub struct Timings {
     /// The density constraints' projection of fluid particles (`t_rho` of Table 1; 0
     /// without fluids; its neighbour search counts in `neighbours`).
     pub density: f64,
+    /// The particle redistribution of fluids (`t_d` of Table 1; 0 without).
+    pub redistribution: f64,
     /// Of `finish`: the implicit viscosity of fluid particles (0 without).
     pub viscosity: f64,
     /// The whole step.
