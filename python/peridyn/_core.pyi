@@ -164,8 +164,10 @@ class ViscoelasticFluid:
     ``viscosity`` (dynamic, Pa s, >= 0), ``density_iterations`` (most projections per step,
     >= 1), ``density_tolerance`` (the projections stop once no particle is denser than
     ``density * (1 + density_tolerance)``; in (0, 0.1]), ``relaxation`` (the constraints'
-    eps as a fraction of their denominator on the rest lattice, > 0). ValueError naming the
-    bad parameter."""
+    eps as a fraction of their denominator on the rest lattice, > 0), ``redistribution``
+    (strength in [0, 1] of the particle redistribution, eq. 21-24 corrected, lowering
+    ``||grad rho||^2`` after the density projection; 0: none), ``redistribution_iterations``
+    (its passes per step, in [1, 100]). ValueError naming the bad parameter."""
 
     def __init__(
         self,
@@ -174,6 +176,8 @@ class ViscoelasticFluid:
         density_iterations: int = 50,
         density_tolerance: float = 1e-3,
         relaxation: float = 0.1,
+        redistribution: float = 0.0,
+        redistribution_iterations: int = 5,
     ) -> None: ...
     @property
     def viscosity(self) -> float: ...
@@ -183,6 +187,10 @@ class ViscoelasticFluid:
     def density_tolerance(self) -> float: ...
     @property
     def relaxation(self) -> float: ...
+    @property
+    def redistribution(self) -> float: ...
+    @property
+    def redistribution_iterations(self) -> int: ...
 
 class Granular:
     """Dry and wet sand (He, Wang and Wu 2017, section 7, eq. 25-28 corrected): a particle

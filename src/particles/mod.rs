@@ -18,6 +18,7 @@ mod kernel;
 mod measure;
 mod neighbour_rebuild;
 mod plasticity;
+pub mod redistribution;
 mod rest;
 mod rest_bonds;
 mod sampling;

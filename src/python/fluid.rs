@@ -19,18 +19,27 @@ pub struct PyViscoelasticFluid {
 impl PyViscoelasticFluid {
     /// `viscosity` (dynamic, Pa s, >= 0), `density_iterations` (most projections per step,
     /// >= 1), `density_tolerance` (relative, in (0, 0.1]) and `relaxation` (the constraints'
-    /// eps as a fraction of their rest-lattice denominator, > 0).
+    /// eps as a fraction of their rest-lattice denominator, > 0), `redistribution` (strength
+    /// in [0, 1] of eq. 21-24, 0: none) and `redistribution_iterations` (passes per step, in
+    /// [1, 100]).
     #[new]
-    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1)))]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5))]
     fn new(
         viscosity: Real,
         density_iterations: i64,
         density_tolerance: Real,
         relaxation: Real,
+        redistribution: Real,
+        redistribution_iterations: i64,
     ) -> PyResult<Self> {
         let iterations = usize::try_from(density_iterations).map_err(|_| {
             pyo3::exceptions::PyValueError::new_err(format!(
                 "density_iterations must be at least 1, got {density_iterations}"
+            ))
+        })?;
+        let passes = usize::try_from(redistribution_iterations).map_err(|_| {
+            pyo3::exceptions::PyValueError::new_err(format!(
+                "redistribution_iterations must be in [1, 100], got {redistribution_iterations}"
             ))
         })?;
         let inner = ViscoelasticFluid {
@@ -38,6 +47,8 @@ impl PyViscoelasticFluid {
             density_iterations: iterations,
             density_tolerance: density_tolerance.get("density_tolerance")?,
             relaxation: relaxation.get("relaxation")?,
+            redistribution: redistribution.get("redistribution")?,
+            redistribution_iterations: passes,
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -59,11 +70,19 @@ impl PyViscoelasticFluid {
     fn relaxation(&self) -> f64 {
         self.inner.relaxation
     }
+    #[getter]
+    fn redistribution(&self) -> f64 {
+        self.inner.redistribution
+    }
+    #[getter]
+    fn redistribution_iterations(&self) -> usize {
+        self.inner.redistribution_iterations
+    }
     fn __repr__(&self) -> String {
         let f = &self.inner;
         format!(
-            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_tolerance={}, relaxation={})",
-            f.viscosity, f.density_iterations, f.density_tolerance, f.relaxation
+            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={})",
+            f.viscosity, f.density_iterations, f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations
         )
     }
 }

@@ -148,7 +148,15 @@ impl PyParticles {
         plasticity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         if let Ok(fluid) = material.cast::<PyViscoelasticFluid>() {
-            return fluid_body(py, positions, spacing, density, fluid.get().inner, horizon, plasticity);
+            return fluid_body(
+                py,
+                positions,
+                spacing,
+                density,
+                fluid.get().inner,
+                horizon,
+                plasticity,
+            );
         }
         let plasticity = plasticity.map(plasticity_of).transpose()?;
         let granular = material.cast::<PyGranular>().ok().map(|g| g.get().inner);

@@ -101,6 +101,7 @@ impl PyStepStats {
             ("neighbours", t.neighbours),
             ("density", t.density),
             ("viscosity", t.viscosity),
+            ("redistribution", t.redistribution),
             ("total", t.total),
         ] {
             d.set_item(k, v)?;

@@ -28,6 +28,8 @@ pub struct Timings {
     /// He et al. 2017 eq. 25-27); 0 without fluids or sand (their neighbour search counts in
     /// `neighbours`).
     pub density: f64,
+    /// The particle redistribution of fluids (`t_d` of Table 1; 0 without).
+    pub redistribution: f64,
     /// Of `finish`: the implicit viscosity of fluid particles (0 without).
     pub viscosity: f64,
     /// The whole step.

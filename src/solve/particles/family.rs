@@ -48,7 +48,12 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         Ok(())
     }
     /// The fluids' neighbour search and density projection ([`super::fluid`]).
-    fn project(&mut self, h: T, colliders: &[ColliderModel<T>], timings: &mut Timings) -> Result<()> {
+    fn project(
+        &mut self,
+        h: T,
+        colliders: &[ColliderModel<T>],
+        timings: &mut Timings,
+    ) -> Result<()> {
         match &mut self.fluid {
             Some(fluid) => fluid.project(&mut self.points, h, colliders, timings),
             None => Ok(()),

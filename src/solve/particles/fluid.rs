@@ -33,6 +33,7 @@ use rayon::prelude::*;
 use crate::collider::{push_out_of_colliders, ColliderModel, MoveStart};
 use crate::error::Result;
 use crate::geometry::find_horizons;
+use crate::particles::redistribution::Redistribution;
 use crate::particles::sph::{Kernel, Sph};
 use crate::particles::{Particles, ViscoelasticFluid, FLUID_SUPPORT};
 use crate::real::Real;
@@ -40,27 +41,27 @@ use crate::solve::points::Points;
 use crate::solve::Timings;
 use crate::timing::millis;
 
-use super::fluid_viscosity::Viscosity;
+use super::fluid_viscosity::{Fluid, Viscosity};
 
 /// The fluid particles of a particle family and their constants.
 pub(crate) struct FluidStage<T: Real> {
     /// The family index of each fluid particle.
-    pub members: Vec<u32>,
+    members: Vec<u32>,
     /// Per fluid particle: mass (kg), rest density `rho0` (kg/m^3), kinematic viscosity
     /// (m^2/s), `eps` (1/m^2) and the kernel of its body.
-    pub mass: Vec<T>,
-    pub rest_density: Vec<T>,
-    pub nu: Vec<T>,
+    mass: Vec<T>,
+    rest_density: Vec<T>,
+    nu: Vec<T>,
     eps: Vec<T>,
-    pub sph: Sph,
+    sph: Sph,
     iterations: usize,
     tolerance: f64,
     /// Neighbour lists of the last search (CSR over the members).
-    pub offsets: Vec<u32>,
-    pub indices: Vec<u32>,
+    offsets: Vec<u32>,
+    indices: Vec<u32>,
     /// Working positions (and the next ones), densities, multipliers and gradients of the
     /// members.
-    pub y: Vec<Vector3<T>>,
+    y: Vec<Vector3<T>>,
     next: Vec<Vector3<T>>,
     density: Vec<T>,
     lambda: Vec<T>,
@@ -68,7 +69,13 @@ pub(crate) struct FluidStage<T: Real> {
     own: Vec<Vector3<T>>,
     /// The time step of the last projection (s), which the viscosity uses.
     h: T,
-    pub viscosity: Viscosity<T>,
+    viscosity: Viscosity<T>,
+    /// Redistribution strength and passes (the largest asked by a fluid of the family), its
+    /// buffers and each member's pin.
+    redistribution: f64,
+    redistribution_iterations: usize,
+    redistributor: Redistribution<T>,
+    fixed: Vec<bool>,
 }
 
 /// The denominator `sum_k |grad_k C_i|^2` (1/m^2) of an interior particle of the simple cubic
@@ -152,6 +159,10 @@ impl<T: Real> FluidStage<T> {
             own: Vec::new(),
             h: T::zero(),
             viscosity: Viscosity::new(0),
+            redistribution: 0.0,
+            redistribution_iterations: 0,
+            redistributor: Redistribution::default(),
+            fixed: Vec::new(),
         }
     }
 
@@ -167,6 +178,12 @@ impl<T: Real> FluidStage<T> {
         }
         self.iterations = self.iterations.max(fluid.density_iterations);
         self.tolerance = self.tolerance.min(fluid.density_tolerance);
+        self.redistribution = self.redistribution.max(fluid.redistribution);
+        if fluid.redistribution > 0.0 {
+            self.redistribution_iterations = self
+                .redistribution_iterations
+                .max(fluid.redistribution_iterations);
+        }
     }
 
     /// The stage's work before the velocities are taken (see the module's doc): the
@@ -194,10 +211,46 @@ impl<T: Real> FluidStage<T> {
                 break;
             }
         }
+        timings.density += millis(started);
+        if self.redistribution > 0.0 {
+            let started = Instant::now();
+            self.redistribute(points, colliders)?;
+            timings.redistribution += millis(started);
+        }
         for (y, &k) in self.y.iter().zip(&self.members) {
             points.y[k as usize] = *y;
         }
-        timings.density += millis(started);
+        Ok(())
+    }
+
+    /// The redistribution passes on `self.y` over the step's neighbour lists (pinned members
+    /// fixed), then out of the colliders from where each particle was.
+    fn redistribute(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) -> Result<()> {
+        self.fixed.clear();
+        self.fixed
+            .extend(self.members.iter().map(|&k| points.pinned[k as usize]));
+        self.next.clone_from(&self.y);
+        self.redistributor.run(
+            &self.sph,
+            &mut self.y,
+            &self.offsets,
+            &self.indices,
+            &self.mass,
+            &self.fixed,
+            self.redistribution,
+            self.redistribution_iterations,
+        )?;
+        let (before, members) = (&self.next, &self.members);
+        self.y.par_iter_mut().enumerate().for_each(|(i, y)| {
+            let k = members[i] as usize;
+            *y = push_out_of_colliders(
+                Points::colliders_of(&points.collides, k, colliders),
+                MoveStart::Now(before[i]),
+                *y,
+                points.margin[k],
+                None,
+            );
+        });
         Ok(())
     }
 
@@ -271,15 +324,19 @@ impl<T: Real> FluidStage<T> {
     /// The implicit viscosity on the velocities the step took ([`super::fluid_viscosity`]).
     pub fn end_step(&mut self, points: &mut Points<T>, timings: &mut Timings) {
         let started = Instant::now();
-        let mut viscosity = std::mem::replace(&mut self.viscosity, Viscosity::new(0));
-        viscosity.apply(self, points);
-        self.viscosity = viscosity;
+        let fluid = Fluid {
+            sph: &self.sph,
+            offsets: &self.offsets,
+            indices: &self.indices,
+            y: &self.y,
+            mass: &self.mass,
+            rest_density: &self.rest_density,
+            nu: &self.nu,
+            members: &self.members,
+            h: self.h,
+        };
+        self.viscosity.apply(&fluid, points);
         timings.viscosity += millis(started);
-    }
-
-    /// The time step of the last projection (s).
-    pub fn h(&self) -> T {
-        self.h
     }
 }
 

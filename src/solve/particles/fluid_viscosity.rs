@@ -18,7 +18,22 @@ use crate::parallel::chunked_sum;
 use crate::real::Real;
 use crate::solve::points::Points;
 
-use super::fluid::FluidStage;
+use crate::particles::sph::Sph;
+
+/// What the viscosity solve reads of the fluid particles (one entry per particle unless said):
+/// the kernel, the CSR neighbour lists, positions (m), masses (kg), rest densities (kg/m^3),
+/// kinematic viscosities (m^2/s), each particle's index in the family, and the step (s).
+pub(crate) struct Fluid<'a, T: Real> {
+    pub sph: &'a Sph,
+    pub offsets: &'a [u32],
+    pub indices: &'a [u32],
+    pub y: &'a [Vector3<T>],
+    pub mass: &'a [T],
+    pub rest_density: &'a [T],
+    pub nu: &'a [T],
+    pub members: &'a [u32],
+    pub h: T,
+}
 
 /// Most conjugate-gradient iterations of one viscosity solve.
 pub const MAX_CG: usize = 200;
@@ -54,8 +69,7 @@ impl<T: Real> Viscosity<T> {
 
     /// `(A v)_i = v_i + sum_j k_ij (v_i - v_j)` (`k = h c`) for the free particles, 0 for
     /// the pinned ones.
-    fn apply_matrix(&mut self, stage: &FluidStage<T>) {
-        let (offsets, indices) = (&stage.offsets, &stage.indices);
+    fn apply_matrix(&mut self, offsets: &[u32], indices: &[u32]) {
         let (k, p, free) = (&self.coefficient, &self.p, &self.free);
         self.ap.par_iter_mut().enumerate().for_each(|(i, out)| {
             if !free[i] {
@@ -76,14 +90,14 @@ impl<T: Real> Viscosity<T> {
 
     /// Replaces the fluid particles' velocities in `points` by the solution (see the module's
     /// doc); positions are left as the step took them.
-    pub fn apply(&mut self, stage: &FluidStage<T>, points: &mut Points<T>) {
+    pub fn apply(&mut self, stage: &Fluid<'_, T>, points: &mut Points<T>) {
         let n = stage.members.len();
-        let h = stage.h();
-        let (offsets, indices) = (&stage.offsets, &stage.indices);
-        let (y, mass, rho0, nu) = (&stage.y, &stage.mass, &stage.rest_density, &stage.nu);
+        let h = stage.h;
+        let (offsets, indices) = (stage.offsets, stage.indices);
+        let (y, mass, rho0, nu) = (stage.y, stage.mass, stage.rest_density, stage.nu);
         let support2 = T::of(0.01 * stage.sph.radius * stage.sph.radius);
         self.coefficient.resize(indices.len(), T::zero());
-        let sph = &stage.sph;
+        let sph = stage.sph;
         self.coefficient
             .par_iter_mut()
             .enumerate()
@@ -96,15 +110,15 @@ impl<T: Real> Viscosity<T> {
                     / (d.norm_squared() + support2);
                 *k = h * c;
             });
-        let (members, pinned) = (&stage.members, &points.pinned);
+        let (members, pinned) = (stage.members, &points.pinned);
         for (i, free) in self.free.iter_mut().enumerate() {
             *free = !pinned[members[i] as usize];
         }
         let k = &self.coefficient;
         self.diagonal.par_iter_mut().enumerate().for_each(|(i, d)| {
             let mut sum = T::one();
-            for b in offsets[i] as usize..offsets[i + 1] as usize {
-                sum += k[b];
+            for &kb in &k[offsets[i] as usize..offsets[i + 1] as usize] {
+                sum += kb;
             }
             *d = sum;
         });
@@ -113,12 +127,16 @@ impl<T: Real> Viscosity<T> {
         }
         // r = b - A x with b = x (the velocities), so r = -(A - I) x = sum_j k_ij (x_j - x_i).
         std::mem::swap(&mut self.p, &mut self.x);
-        self.apply_matrix(stage);
+        self.apply_matrix(offsets, indices);
         std::mem::swap(&mut self.p, &mut self.x);
         {
             let (x, ap, free) = (&self.x, &self.ap, &self.free);
             self.r.par_iter_mut().enumerate().for_each(|(i, r)| {
-                *r = if free[i] { x[i] - ap[i] } else { Vector3::zeros() };
+                *r = if free[i] {
+                    x[i] - ap[i]
+                } else {
+                    Vector3::zeros()
+                };
             });
         }
         let scale = Self::dot(&mut self.chunks, &self.x, &self.x);
@@ -131,9 +149,9 @@ impl<T: Real> Viscosity<T> {
         let mut rz = Self::dot(&mut self.chunks, &self.r, &self.p);
         self.iterations = 0;
         while self.iterations < MAX_CG && Self::dot(&mut self.chunks, &self.r, &self.r) > tol2 {
-            self.apply_matrix(stage);
+            self.apply_matrix(offsets, indices);
             let pap = Self::dot(&mut self.chunks, &self.p, &self.ap);
-            if !(pap > 0.0) {
+            if pap <= 0.0 || pap.is_nan() {
                 break;
             }
             let alpha = T::of(rz / pap);
