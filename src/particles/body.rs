@@ -195,6 +195,7 @@ impl Particles {
             mu: 0.0,
             lam: 0.0,
             kappa: 0.0,
+            bulk_moment: None,
             bulk_weight: None,
         };
         body.fluid = Some(fluid);
