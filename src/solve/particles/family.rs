@@ -33,9 +33,6 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update {
         global_move(self, h, options)
     }
-    fn keeps_out_of_colliders(&self) -> bool {
-        true
-    }
     /// Readies the direct solver when it is asked for.
     fn start_step(&mut self, params: &SolverParams) -> Result<()> {
         self.timings = ParticleTimings::default();

@@ -35,8 +35,6 @@ pub(crate) struct ParticleSystem<T: Real> {
     /// factorisation, reported at the end of the step.
     pub direct: Option<DirectSolver>,
     pub held: Vec<bool>,
-    /// The particles a collider moved in the last trial ([`super::step`]).
-    pub touched: Vec<bool>,
     pub failure: Option<crate::error::Error>,
     /// The minimum distance between bodies (none for a single body).
     pub repulsion: Option<Repulsion<T>>,
@@ -77,7 +75,6 @@ impl<T: Real> ParticleSystem<T> {
             repulsion,
             direct: None,
             held: vec![false; n],
-            touched: vec![false; n],
             failure: None,
             chunks: Vec::new(),
             plastic: PlasticBodies::of(bodies),
