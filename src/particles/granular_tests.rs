@@ -106,9 +106,9 @@ fn density_is_the_reference_inside_a_lattice_block_and_less_at_its_surface() {
     };
     let mut body = Particles::new(x.clone(), params).unwrap();
     body.set_granular(sand(0.0)).unwrap();
-    let c = RestConstants::of(&body);
+    let (delta, volume) = (body.horizon(), body.volume());
     let bonds = body.current_rest_bonds();
-    let ratios = density_ratios(&bonds, &x, c.delta, c.volume).unwrap();
+    let ratios = density_ratios(&bonds, &x, delta, volume).unwrap();
     let index = |i: usize, j: usize, k: usize| (i * n + j) * n + k;
     assert!(
         (ratios[index(4, 4, 4)] - 1.0).abs() < 1e-12,
@@ -118,11 +118,11 @@ fn density_is_the_reference_inside_a_lattice_block_and_less_at_its_surface() {
     assert!(ratios[index(0, 4, 4)] < 0.9);
     assert!(ratios[index(0, 0, 0)] < ratios[index(0, 4, 4)]);
     let squeezed: Vec<_> = x.iter().map(|p| p * 0.98).collect();
-    let near = find_horizons(&squeezed, c.delta).unwrap();
+    let near = find_horizons(&squeezed, delta).unwrap();
     let mut tight = bonds.clone();
     tight.offsets = near.offsets;
     tight.indices = near.indices;
-    let ratios = density_ratios(&tight, &squeezed, c.delta, c.volume).unwrap();
+    let ratios = density_ratios(&tight, &squeezed, delta, volume).unwrap();
     let expected = 0.98f64.powi(-3);
     assert!(
         (ratios[index(4, 4, 4)] - expected).abs() < 1e-2 * expected,
