@@ -188,7 +188,7 @@ def test_granular_bodies_refuse_other_plasticity_and_thin_shapes():
     with pytest.raises(ValueError, match="plasticity must be None for a peridyn.Granular"):
         pd.Particles(x, spacing=S, density=RHO, material=sand(),
                      plasticity=pd.DruckerPrager(friction_angle=30.0, cohesion=1.0))
-    with pytest.raises(ValueError, match="material must be a peridyn.Elastic or peridyn.Granular, got str"):
+    with pytest.raises(ValueError, match="material must be a peridyn.Elastic, peridyn.Granular or peridyn.ViscoelasticFluid, got str"):
         pd.Particles(x, spacing=S, density=RHO, material="sand")
     with pytest.raises(ValueError, match="a peridyn.Granular body is made with peridyn.Particles"):
         pd.Particles.rod(x[:3], spacing=S, radius=S, density=RHO, material=sand())

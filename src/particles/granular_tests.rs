@@ -4,7 +4,7 @@ use nalgebra::Vector3;
 
 use super::*;
 use crate::geometry::find_horizons;
-use crate::particles::{Elastic, ParticleParams, Particles, RestConstants};
+use crate::particles::{Elastic, ParticleParams, Particles};
 
 fn sand(saturation: f64) -> Granular {
     Granular::new(30.0, saturation)
