@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 /// `obj` as a float64 contiguous array, refusing every dtype that is not real or integer.
 pub fn real_array<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyAny>> {
@@ -192,4 +193,29 @@ pub fn rotation_rows(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[[f64; 3]; 
     };
     let q = u * v_t;
     Ok([0, 1, 2].map(|i| [q[(i, 0)], q[(i, 1)], q[(i, 2)]]))
+}
+
+/// Checks that `dict` holds exactly the string keys `names` (no other, none missing), naming
+/// what is unknown and what is missing; `what` says whose entries they are in the message.
+pub fn exact_entries(dict: &Bound<'_, PyDict>, names: &[&str], what: &str) -> PyResult<()> {
+    let mut keys = Vec::with_capacity(dict.len());
+    for key in dict.keys() {
+        keys.push(key.extract::<String>().map_err(|_| {
+            PyValueError::new_err(format!("{what} entry names must be strings, got {key}"))
+        })?);
+    }
+    let unknown: Vec<&String> = keys
+        .iter()
+        .filter(|k| !names.contains(&k.as_str()))
+        .collect();
+    let missing: Vec<&&str> = names
+        .iter()
+        .filter(|n| !keys.iter().any(|k| k == *n))
+        .collect();
+    if unknown.is_empty() && missing.is_empty() {
+        return Ok(());
+    }
+    Err(PyValueError::new_err(format!(
+        "{what} must hold exactly the entries {names:?}: unknown {unknown:?}, missing {missing:?}"
+    )))
 }

@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 
 use crate::particles::RestBonds;
 
-use super::arrays::{indices, real_array, to_numpy, to_numpy_1d, vec3s};
+use super::arrays::{exact_entries, indices, real_array, to_numpy, to_numpy_1d, vec3s};
 
 /// Per particle `p` its bonds `offsets[p]..offsets[p + 1]`, (N + 1,) int64.
 const OFFSETS: &str = "offsets";
@@ -39,26 +39,7 @@ pub fn to_dict<'py>(py: Python<'py>, bonds: RestBonds) -> PyResult<Bound<'py, Py
 /// The bonds a dict from [`to_dict`] holds (every entry, no other; shapes and dtypes
 /// checked here, the bonds themselves by [`RestBonds::check`] against the body).
 pub fn from_dict(dict: &Bound<'_, PyDict>) -> PyResult<RestBonds> {
-    let mut names = Vec::with_capacity(dict.len());
-    for key in dict.keys() {
-        names.push(key.extract::<String>().map_err(|_| {
-            PyValueError::new_err(format!("rest bond entry names must be strings, got {key}"))
-        })?);
-    }
-    let unknown: Vec<&String> = names
-        .iter()
-        .filter(|n| !NAMES.contains(&n.as_str()))
-        .collect();
-    let missing: Vec<&str> = NAMES
-        .into_iter()
-        .filter(|n| !names.iter().any(|m| m == n))
-        .collect();
-    if !unknown.is_empty() || !missing.is_empty() {
-        return Err(PyValueError::new_err(format!(
-            "rest bonds must hold exactly the entries {NAMES:?}: unknown {unknown:?}, missing \
-             {missing:?}"
-        )));
-    }
+    exact_entries(dict, &NAMES, "rest bonds")?;
     let item = |name: &str| dict.get_item(name).map(|v| v.expect("checked above"));
     let unsigned = |name: &str| -> PyResult<Vec<u32>> {
         indices(&item(name)?, name)?

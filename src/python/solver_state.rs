@@ -9,7 +9,7 @@ use pyo3::types::PyDict;
 use crate::contact::{SavedRestGap, SavedRestGaps};
 use crate::solve::SolverState;
 
-use super::arrays::{integer_rows, real_array, to_numpy, to_numpy_1d, vec3s};
+use super::arrays::{exact_entries, integer_rows, real_array, to_numpy, to_numpy_1d, vec3s};
 use super::errors::to_py;
 
 /// Per membrane vertex, the warm start of the next contact local step, (N, 3) m.
@@ -62,26 +62,7 @@ pub fn from_dict(dict: &Bound<'_, PyDict>, vertices: usize) -> PyResult<SolverSt
     if dict.is_empty() {
         return Ok(SolverState::default());
     }
-    let mut names = Vec::with_capacity(dict.len());
-    for key in dict.keys() {
-        names.push(key.extract::<String>().map_err(|_| {
-            PyValueError::new_err(format!("internal state names must be strings, got {key}"))
-        })?);
-    }
-    let unknown: Vec<&String> = names
-        .iter()
-        .filter(|n| !NAMES.contains(&n.as_str()))
-        .collect();
-    let missing: Vec<&str> = NAMES
-        .into_iter()
-        .filter(|n| !names.iter().any(|m| m == n))
-        .collect();
-    if !unknown.is_empty() || !missing.is_empty() {
-        return Err(PyValueError::new_err(format!(
-            "the internal state must hold exactly the entries {NAMES:?} (or none): unknown \
-             {unknown:?}, missing {missing:?}"
-        )));
-    }
+    exact_entries(dict, &NAMES, "the internal state (or none)")?;
     let item = |name: &str| dict.get_item(name).map(|v| v.expect("checked above"));
     let warm = vec3s(&item(WARM_START)?, WARM_START, None)?;
     let seeded = flag(&item(SEEDED)?, SEEDED)?;
