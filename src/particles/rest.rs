@@ -153,6 +153,8 @@ impl<T: Real> ParticleRest<T> {
     /// matrix) at every step: its bonds are scaled by `(g_i + g_j) / 2` with `g_i = A / A_i`,
     /// the bulk lattice's weight sum over the particle's own, which depends on lengths only
     /// (exact under a uniform dilation, too stiff along a free surface: [`super::surface`]).
+    /// So are a shell's or rod's, whose ghost layers are calibrated by their second moment
+    /// (`super::thin`), not by direction factors.
     ///
     /// A singular shape matrix fails, naming the particle, unless `c.plastic`: a plastic
     /// body's particle that has lost its three-dimensional neighbourhood gets `K_i^-1 = 0`,
@@ -174,15 +176,22 @@ impl<T: Real> ParticleRest<T> {
         let weight_sums: Vec<f64> = (0..bonds.len())
             .map(|i| bonds.row(i).map(weight).sum())
             .collect();
-        let axes = moduli.bulk_moment.filter(|_| !c.plastic).map(|bulk| {
-            axis_factors(bonds.len(), bulk, |i| {
-                bonds.row(i).map(move |b| (bonds.xi[b], weight(b)))
-            })
-        });
+        // Thin bodies (shells and rods: ghost particles after the real ones) keep the
+        // isotropic factors too: their few layers leave the direction moments along the
+        // thickness far from the bulk's.
+        let thin = c.num_real < bonds.len();
+        let axes = moduli
+            .bulk_moment
+            .filter(|_| !c.plastic && !thin)
+            .map(|bulk| {
+                axis_factors(bonds.len(), bulk, |i| {
+                    bonds.row(i).map(move |b| (bonds.xi[b], weight(b)))
+                })
+            });
         let bulk_weight = moduli.bulk_weight;
         let factor = |i: usize, j: usize, xi: &Vector3<f64>| match (&axes, bulk_weight) {
             (Some(g), _) => bond_factor(xi, &g[i], &g[j]),
-            (None, Some(bulk)) if c.plastic => {
+            (None, Some(bulk)) if c.plastic || thin => {
                 0.5 * (bulk / weight_sums[i] + bulk / weight_sums[j])
             }
             _ => 1.0,
