@@ -105,7 +105,7 @@ def default_scene(
     tol, max_iters, acceleration, chebyshev_rho, threads, backend
         Passed to :class:`Solver` (``tol`` in m bounds the distance of each step from the exact
         implicit Euler solution; default :func:`gravity_tolerance` of ``dt``, which Chebyshev
-        acceleration at ``rho = 0.9`` reaches in about a third fewer iterations than plain
+        acceleration at ``rho = 0.9`` reaches in a quarter to a third fewer iterations than plain
         iterations from 40 x 40 vertices up (47 against 70 per step at 120 x 120, where plain
         iterations also hit ``max_iters``); ``acceleration=None`` for plain iterations;
         ``backend="gpu"`` takes ``threads=None``).
