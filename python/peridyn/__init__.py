@@ -47,6 +47,7 @@ from .recording import Recording, load_recording
 from .scenes import Scene, colliding_sheets, default_scene, elastic_torus_scene
 from .view import show
 from .solver import RunSummary, Solver, gravity_tolerance
+from .surface import particle_surface
 from .sweeps import SweepResult, sweep
 from .usd import write_usd
 
@@ -97,6 +98,7 @@ __all__ = [
     "load_recording",
     "load_state",
     "mannequin",
+    "particle_surface",
     "plate_bending_stiffness",
     "render_png",
     "save_state",

@@ -115,7 +115,11 @@ class FrameRecorder:
 
     - ``frame_00000.ply``, ``frame_00001.ply``, ... (one per recorded frame) when the solver
       has one body; ``body0_frame_00000.ply``, ``body1_frame_00000.ply``, ... when it has
-      several. Frames are numbered 0, 1, 2, ... in the order recorded.
+      several. Frames are numbered 0, 1, 2, ... in the order recorded. A particle set is
+      written as a point cloud (vertices without faces).
+    - with ``surfaces=True``, also ``frame_00000_surface.ply`` (or
+      ``body1_frame_00000_surface.ply``, ...) for each particle set: its surface as a closed
+      triangle mesh (:func:`peridyn.particle_surface` with its defaults), for fluids.
     - ``frames.npz`` (at :meth:`close`) with ``times`` (F,) in s, ``steps`` (F,) the number of
       steps taken at each frame, and for each body ``b``: ``positions_b`` (F, N_b, 3) in m,
       ``triangles_b`` (M_b, 3) (a membrane; none for a particle set), ``velocities_b``
@@ -132,6 +136,9 @@ class FrameRecorder:
         Mesh file format per frame; ``None`` records only the ``.npz``.
     every : int
         When used as a callback, record after every ``every``-th step (>= 1).
+    surfaces : bool
+        Also write each particle set's surface mesh per frame (needs ``fmt``; costs a grid of
+        about ``(extent / (spacing / 2))^3`` cells per body and frame).
     npz_name : str
         File name of the archive written by :meth:`close`.
 
@@ -149,16 +156,22 @@ class FrameRecorder:
         *,
         fmt: Optional[Literal["ply", "obj"]] = "ply",
         every: int = 1,
+        surfaces: bool = False,
         npz_name: str = "frames.npz",
     ) -> None:
         if fmt is not None and fmt.lower() not in _FORMATS:
             raise ValueError(f"FrameRecorder: fmt must be 'ply', 'obj' or None, got {fmt!r}")
         if isinstance(every, bool) or int(every) != every or every < 1:
             raise ValueError(f"FrameRecorder: every must be an integer >= 1, got {every!r}")
+        if not isinstance(surfaces, (bool, np.bool_)):
+            raise ValueError(f"FrameRecorder: surfaces must be True or False, got {surfaces!r}")
+        if surfaces and fmt is None:
+            raise ValueError("FrameRecorder: surfaces=True writes mesh files: give fmt 'ply' or 'obj'")
         self.directory = Path(directory)
         self.directory.mkdir(parents=True, exist_ok=True)
         self.fmt = None if fmt is None else fmt.lower()
         self.every = int(every)
+        self.surfaces = bool(surfaces)
         self.npz_path = self.directory / npz_name
         self.files: List[Path] = []
         self._frames: List[Any] = []  # peridyn.recording.Frame, one per recorded frame
@@ -224,10 +237,16 @@ class FrameRecorder:
                 )
         frame = self.num_frames
         if self.fmt is not None:
+            bodies = list(solver.bodies)
             for b, (V, tris) in enumerate(zip(positions, triangles)):
+                stem = f"frame_{frame:05d}" if len(positions) == 1 else f"body{b}_frame_{frame:05d}"
+                if tris is None and self.surfaces:
+                    from .surface import particle_surface
+
+                    S, T = particle_surface(V, bodies[b].spacing)
+                    self.files.append(write_mesh(self.directory / f"{stem}_surface.{self.fmt}", S, T))
                 if tris is None:  # a particle set: a point cloud
                     tris = np.zeros((0, 3), dtype=np.int64)
-                stem = f"frame_{frame:05d}" if len(positions) == 1 else f"body{b}_frame_{frame:05d}"
                 self.files.append(write_mesh(self.directory / f"{stem}.{self.fmt}", V, tris))
         # The frame is recorded for the .npz only once everything above succeeded.
         if not self._frames:
@@ -267,6 +286,7 @@ class FrameRecorder:
     def __repr__(self) -> str:
         return (
             f"FrameRecorder({str(self.directory)!r}, fmt={self.fmt!r}, every={self.every}, "
+            f"surfaces={self.surfaces}, "
             f"frames={self.num_frames})"
         )
 

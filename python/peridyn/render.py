@@ -38,12 +38,23 @@ def _draw_collider(ax: Any, c: Any, center: np.ndarray, half: float, pose: Any =
                                                 edgecolor="#555555", linewidth=edge))
 
 
-def _as_mesh_list(meshes: Union[MeshLike, Sequence[MeshLike]]) -> List[Tuple[np.ndarray, Optional[np.ndarray]]]:
-    """``(V, F)`` per body; ``F`` is None for a body without triangles (particles, as points)."""
+def _as_mesh_list(meshes: Union[MeshLike, Sequence[MeshLike]],
+                  particles: str = "points") -> List[Tuple[np.ndarray, Optional[np.ndarray]]]:
+    """``(V, F)`` per body; ``F`` is None for a body without triangles (particles, as points),
+    or with ``particles="surface"`` a particle body's surface mesh."""
     from .recording import body_triangles
 
+    if particles not in ("points", "surface"):
+        raise ValueError(f"render: particles must be 'points' or 'surface', got {particles!r}")
+
     def one(m: MeshLike) -> Tuple[np.ndarray, Optional[np.ndarray]]:
-        if hasattr(m, "positions"):
+        if hasattr(m, "positions") and particles == "surface" and body_triangles(m) is None:
+            from .surface import particle_surface
+
+            V, F = particle_surface(m)
+            if len(F) == 0:  # too sparse for a surface: its points
+                V, F = m.positions, None
+        elif hasattr(m, "positions"):
             V, F = m.positions, body_triangles(m)
         else:
             V, F = m
@@ -119,6 +130,7 @@ def draw_scene(
     title: Optional[str] = None,
     elev: float = 25.0,
     azim: float = -60.0,
+    particles: str = "points",
 ) -> Any:
     """Draw membranes and colliders on a matplotlib 3-D axes, with equal axis scaling.
 
@@ -136,13 +148,16 @@ def draw_scene(
         Axes title.
     elev, azim : float
         Camera elevation and azimuth in degrees.
+    particles : {"points", "surface"}
+        How particle bodies are drawn: as points, or as their surface
+        (:func:`peridyn.particle_surface`, for fluids).
 
     Returns
     -------
     ax
         The same axes.
     """
-    mesh_list = _as_mesh_list(meshes)
+    mesh_list = _as_mesh_list(meshes, particles)
     colliders = list(colliders)
     center, half = _view_box(mesh_list, colliders)
 
@@ -196,6 +211,7 @@ def render_png(
     azim: float = -60.0,
     size: Tuple[float, float] = (7.0, 6.0),
     dpi: int = 120,
+    particles: str = "points",
 ) -> Path:
     """Render membranes and colliders to a PNG file, off-screen.
 
@@ -215,6 +231,8 @@ def render_png(
         Figure size in inches.
     dpi : int
         Resolution in dots per inch.
+    particles : {"points", "surface"}
+        See :func:`draw_scene`.
 
     Returns
     -------
@@ -227,7 +245,8 @@ def render_png(
     fig = Figure(figsize=size, dpi=dpi)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(projection="3d")
-    draw_scene(ax, meshes, colliders=colliders, title=title, elev=elev, azim=azim)
+    draw_scene(ax, meshes, colliders=colliders, title=title, elev=elev, azim=azim,
+               particles=particles)
     fig.tight_layout()
     path = Path(path)
     fig.savefig(str(path), format="png")
