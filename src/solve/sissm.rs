@@ -191,6 +191,21 @@ impl<T: Real> Solver<T> {
         Ok(())
     }
 
+    /// The membranes' system and the contact state as the last step left them, for the tests
+    /// of a step's first-order conditions.
+    #[cfg(test)]
+    pub(crate) fn membranes_and_contact(
+        &mut self,
+    ) -> (
+        Option<&mut super::membranes::MembraneSystem<T>>,
+        Option<&ContactState<T>>,
+    ) {
+        (
+            self.families.as_mut().and_then(|f| f.membranes.as_mut()),
+            self.contact.as_ref(),
+        )
+    }
+
     /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
     /// [`Error::Diverged`] names the first non-finite point (the body by its index in
     /// `bodies`).
@@ -457,8 +472,15 @@ impl<T: Real> Solver<T> {
                 &params.contact,
                 families.membranes.as_mut(),
             ) {
+                // Newton's line search leaves the responses at its trial: the local step's
+                // metric is taken at the iterate instead, as SISSM's is.
+                let blocks = self
+                    .newton
+                    .as_ref()
+                    .filter(|_| params.method == Method::Newton)
+                    .map(NewtonState::metric);
                 let (moved, figures) =
-                    state.local_step(sys, h, contact_params, params.tol, &colliders);
+                    state.local_step(sys, h, contact_params, params.tol, &colliders, blocks);
                 updates[0].moved = moved;
                 update = updates.iter().copied().fold(Update::NONE, Update::merge);
                 stats.contact.accumulate(&figures);

@@ -20,6 +20,7 @@ use crate::symmetric::SymmetricMatrix3;
 use super::jacobi::jacobi_block;
 use super::reaction::realised_reaction;
 use super::system::MembraneSystem;
+use crate::solve::point_system::PointSystem;
 
 /// How close to a collider's surface (m, beyond the vertex's half thickness) a vertex counts as
 /// resting on it: the local step leaves the vertices it keeps out on the surface, up to
@@ -93,8 +94,14 @@ impl<T: Real> ContactState<T> {
     /// vertices out of the colliders, and makes the result the new safe positions. `h` (s) is
     /// the time step, for the Jacobi blocks of [`ProximalMetric::Jacobi`]; `tol` (m) the
     /// solver's tolerance, which bounds the local step's stopping distance
-    /// ([`ContactParams::stop_distance`]). Returns the largest move from `sys.points.y` (m) and the
-    /// step's figures.
+    /// ([`ContactParams::stop_distance`]). `blocks`: the systems `D_k` at the iterate
+    /// `sys.points.y` the global step started from, when the responses of the last evaluation
+    /// are not those of that iterate (Newton's line search leaves them evaluated at its
+    /// trial); `None`: from the responses. The proximal metric must be taken there for every
+    /// method alike: at a fixed point `W(y) (y - y^k) = p(y)` with `y^k - y = D(y)^-1 r(y)` is
+    /// `r(y) = -d(y) p(y)`, the stationarity of `E + d mu B / h^2`, only if `W = D(y) / d(y)`
+    /// (with `W` taken at Newton's trial the two methods' solutions differed by 9e-7 m).
+    /// Returns the largest move from `sys.points.y` (m) and the step's figures.
     pub fn local_step(
         &mut self,
         sys: &mut MembraneSystem<T>,
@@ -102,6 +109,7 @@ impl<T: Real> ContactState<T> {
         params: &ContactParams,
         tol: f64,
         colliders: &[ColliderModel<T>],
+        blocks: Option<&[PointSystem<T>]>,
     ) -> (f64, ContactStats) {
         let mut z = std::mem::take(&mut self.next);
         for (zi, next) in z.iter_mut().zip(&sys.points.y_next) {
@@ -116,7 +124,7 @@ impl<T: Real> ContactState<T> {
         // `d` of the Jacobi metric (kg), for the barrier's energy `d mu B / h^2`.
         let scale = std::sync::OnceLock::new();
         let jacobi = |weights: &mut Vec<SymmetricMatrix3<f64>>| {
-            let d = jacobi_weights(sys, h, weights);
+            let d = jacobi_weights(sys, h, blocks, weights);
             let _ = scale.set(d);
         };
         let weights = match params.proximal {
@@ -147,7 +155,10 @@ impl<T: Real> ContactState<T> {
             &mut self.work,
         );
         if stats.barrier > 0.0 {
-            let d = scale.get().copied().unwrap_or_else(|| mass_scale(sys, h));
+            let d = scale
+                .get()
+                .copied()
+                .unwrap_or_else(|| mass_scale(sys, h, blocks));
             let h = h.to_f64();
             stats.barrier_energy = d * stats.barrier / (h * h);
         }
@@ -256,6 +267,13 @@ impl<T: Real> ContactState<T> {
         self.work.set_rest_gaps(saved, &mesh);
     }
 
+    /// The barrier's push `-mu grad_i B` per vertex at the last local step's result (m; empty
+    /// before it, zero away from contact).
+    #[cfg(test)]
+    pub fn push(&self) -> &[Vector3<f64>] {
+        self.work.push()
+    }
+
     /// The local step's buffers, for the tests that drop a piece of them.
     #[cfg(test)]
     pub fn work_mut(&mut self) -> &mut Workspace {
@@ -264,26 +282,33 @@ impl<T: Real> ContactState<T> {
 }
 
 /// `d`, the mean of `trace(D_i) / 3` over the free vertices (kg; 1 if none is free), with `D_i`
-/// the Jacobi block of eq. 25 at the current iterate: the barrier's energy is `d mu B / h^2`
-/// (J) whatever the proximal metric (see [`ProximalMetric::Jacobi`]).
-fn mass_scale<T: Real>(sys: &MembraneSystem<T>, h: T) -> f64 {
+/// the Jacobi block of eq. 25 at the current iterate (`blocks`, or from the responses, see
+/// [`ContactState::local_step`]): the barrier's energy is `d mu B / h^2` (J) whatever the
+/// proximal metric (see [`ProximalMetric::Jacobi`]).
+fn mass_scale<T: Real>(sys: &MembraneSystem<T>, h: T, blocks: Option<&[PointSystem<T>]>) -> f64 {
     let mut weights = Vec::new();
-    jacobi_weights(sys, h, &mut weights)
+    jacobi_weights(sys, h, blocks, &mut weights)
 }
 
 /// Writes into `weights` the metric of [`ProximalMetric::Jacobi`] for every vertex, `W_i = D_i /
-/// d` with `D_i` its Jacobi block of eq. 25 at the current iterate (kg) and `d` the mean of
+/// d` with `D_i` its Jacobi block of eq. 25 at the current iterate (kg; `blocks`, or from the
+/// responses of the last evaluation, see [`ContactState::local_step`]) and `d` the mean of
 /// `trace(D_i) / 3` over the free vertices (the identity everywhere if none is free), and
 /// returns `d` (kg; 1 if none is free).
 fn jacobi_weights<T: Real>(
     sys: &MembraneSystem<T>,
     h: T,
+    blocks: Option<&[PointSystem<T>]>,
     weights: &mut Vec<SymmetricMatrix3<f64>>,
 ) -> f64 {
     let h2 = h * h;
     (0..sys.points.y.len())
         .into_par_iter()
-        .map(|k| jacobi_block(sys, k, h2).map(|x| x.to_f64()))
+        .map(|k| {
+            blocks
+                .map_or_else(|| jacobi_block(sys, k, h2), |b| b[k].system)
+                .map(|x| x.to_f64())
+        })
         .collect_into_vec(weights);
     let pinned = &sys.points.pinned;
     let free = pinned.iter().filter(|&&p| !p).count();

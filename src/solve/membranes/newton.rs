@@ -33,7 +33,9 @@
 //! `d` is a descent direction: CG from zero on a symmetric positive definite system gives
 //! `r . d > 0` after any number of steps. The contact local step (Algorithm 2) follows the
 //! global step in the solver as for every method; its move changes the energy, so an iteration
-//! after it starts by re-evaluating.
+//! after it starts by re-evaluating. Its proximal metric is taken from SISSM's blocks at `y`
+//! ([`NewtonState::metric`]), not from the responses the line search left at its trial, so the
+//! two methods' fixed points under contact are the same (docs/model.md, "Membrane contact").
 //!
 //! Every reduction (the CG's dot products) sums in f64 in fixed chunks, and every other pass
 //! writes per vertex: results do not depend on the thread count.
@@ -147,6 +149,12 @@ impl<T: Real> NewtonState<T> {
             products: 0,
             timings: NewtonTimings::default(),
         })
+    }
+
+    /// SISSM's Jacobi systems `D_k` at the last iteration's iterate `y` (before its move),
+    /// for the contact local step's metric.
+    pub fn metric(&self) -> &[PointSystem<T>] {
+        &self.metric
     }
 
     /// Every vertex's Hessian model at the positions `y` (m).
