@@ -155,7 +155,10 @@ fn capillary_strength_is_the_largest_tension_the_cohesion_stiffness_holds() {
             .map(|r| g.cohesion(r) * (1.0 - r) / 9.0)
             .fold(0.0, f64::max);
         let strength = g.capillary_strength();
-        assert!((strength - sampled).abs() < 1e-6 * sampled, "{strength} {sampled}");
+        assert!(
+            (strength - sampled).abs() < 1e-6 * sampled,
+            "{strength} {sampled}"
+        );
         let expected = strength * g.friction_angle.to_radians().tan();
         assert!((g.yield_law().cohesion - expected).abs() < 1e-12 * expected);
     }
