@@ -194,9 +194,11 @@ class ViscoelasticFluid:
 
 class Granular:
     """Dry and wet sand (He, Wang and Wu 2017, section 7, eq. 25-28 corrected): a particle
-    material whose stiffness ``lam = k_f + k_c`` follows each particle's SPH density, which
-    yields by its friction angle (Drucker-Prager without cohesion), searches its neighbours
-    anew every step and holds still by static friction.
+    material whose stiffness ``lam = k_f + k_c`` follows each particle's SPH density (over the
+    same sum at its reference bonds, so 1 at a free surface at rest), which yields by its
+    friction angle (Drucker-Prager; wet sand with the capillary cohesion its cohesion
+    stiffness holds, dry sand without), searches its neighbours anew every step and holds
+    still by static friction.
 
     ``friction_angle`` (degrees, in (0, 90)), ``saturation`` (water, in [0, 1]; 0: dry),
     ``friction_stiffness`` ``K_f`` (Pa, > 0) and ``friction_hardening`` ``H_f`` (>= 0) of

@@ -2,11 +2,17 @@
 //! corrected in DESIGN.md section 6).
 //!
 //! **Stiffness from density (eq. 25-27).** A granular body has no constant moduli: each
-//! particle's `lam_i = k_f(rho_i) + k_c(rho_i)` (Pa) follows its SPH density `rho_i`
-//! ([`super::sph`], the poly6 kernel over the horizon, normalised on the sampling's cubic
-//! lattice so that the inside of the body as sampled has exactly the reference density
-//! `rho_0`, the body's `density`), and `mu = 0` (the pair springs of `lam` resist shear too).
-//! A bond's isotropic spring uses the mean `(lam_i + lam_j) / 2`.
+//! particle's `lam_i = k_f(rho_i) + k_c(rho_i)` (Pa) follows its density ratio `rho_i / rho_0`
+//! (`rho_0` the body's `density`, the packing it was sampled at), and `mu = 0` (the pair
+//! springs of `lam` resist shear too). A bond's isotropic spring uses the mean
+//! `(lam_i + lam_j) / 2`.
+//! - Density (departure): `rho_i / rho_0 = (W(0) + sum_j W(|y_j - y_i|)) / (W(0) + sum_j
+//!   W(|X_ij|))`, the poly6 SPH sum ([`super::sph`]) over the particle's neighbours at their
+//!   positions over the same sum at its reference vectors `X_ij` (as the return and eq. 20
+//!   leave them). Inside the body as sampled that is the SPH density over `rho_0`, as the
+//!   paper has it; at a free surface, whose particles miss part of the kernel, the plain SPH
+//!   sum reads 0.78 `rho_0` on a flat face at rest, so `k_f = 0` there and a small body's
+//!   surface layers (most of a pile a few spacings high) had no friction stiffness at all.
 //! - Friction stiffness (eq. 25): `k_f = K_f exp(H_f (rho / rho_0 - 1))` for `rho >= rho_0`,
 //!   else 0: grains push on each other only when packed.
 //! - Cohesion stiffness (eq. 26, its falloff's sign corrected): `k_c = K_c` for
@@ -15,10 +21,14 @@
 //! - Water saturation `theta` (eq. 27): `H_c = H_0 theta^(-1/2)`, `rho_1 = (1 - b theta)
 //!   rho_0`. Dry sand (`theta = 0`) has `rho_1 = rho_0`: no cohesion below `rho_0`.
 //!
-//! **Friction angle.** The yield test of [`super::plasticity`] with the friction angle and no
-//! cohesion (a cone through the origin: sand carries no tension of its own; the wet sand's
-//! hold is the cohesion stiffness acting within each step), the return of eq. 18-19 each step
-//! and the neighbours searched anew each step (eq. 20).
+//! **Friction angle and capillary cohesion (departure).** The yield test of
+//! [`super::plasticity`] with the friction angle, the return of eq. 18-19 each step and the
+//! neighbours searched anew each step (eq. 20). Dry sand's cone goes through the origin (no
+//! tension). Wet sand's cone has the cohesion `c = sigma_t tan(phi)`, its apex at the mean
+//! tension `sigma_t` that the cohesion stiffness of eq. 26-27 holds before the capillary
+//! bridges break ([`Granular::capillary_strength`]): without it the return, run at each step's
+//! end, relaxes every tension, the cohesion stiffness acts only within a step, and wet sand
+//! slumped as far as dry (the paper's wet sand has no stated yield law).
 //!
 //! **Static friction (eq. 28).** After the solve, a particle whose solved position `y'` went
 //! back from the inertial target `y*` towards its start `y` by at least `eta` of the way,
@@ -38,6 +48,7 @@
 //! grains pass through each other and the sand compact without end.
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use crate::error::{check_param, Result};
 use crate::real::Real;
@@ -139,12 +150,14 @@ impl Granular {
         Ok(())
     }
 
-    /// The yield law of the material: the friction angle, no cohesion, no hardening, the
-    /// neighbours searched anew every step.
+    /// The yield law of the material: the friction angle, the capillary cohesion
+    /// `c = sigma_t tan(phi)` of wet sand (the cone's apex at the mean tension `sigma_t` =
+    /// [`Self::capillary_strength`]; 0 for dry sand), no hardening, the neighbours searched
+    /// anew every step.
     pub fn yield_law(&self) -> DruckerPrager {
         DruckerPrager {
             friction_angle: self.friction_angle,
-            cohesion: 0.0,
+            cohesion: self.capillary_strength() * self.friction_angle.to_radians().tan(),
             hardening: 0.0,
             rebuild_neighbours: true,
         }
@@ -177,6 +190,20 @@ impl Granular {
         }
     }
 
+    /// The tensile strength of wet sand's capillary bonds (Pa): the largest mean tension
+    /// `k_c(r) (1 - r) / 9` the cohesion stiffness holds as the density ratio `r` falls from
+    /// 1 to the debonding ratio (a dilatation `1 - r` under the bulk modulus `k_c / 9` of the
+    /// pair springs, [`super::plasticity`]), at `1 - r = min(1 / H_c, b theta)`; 0 for dry
+    /// sand.
+    pub fn capillary_strength(&self) -> f64 {
+        if self.saturation == 0.0 || self.debonding == 0.0 {
+            return 0.0;
+        }
+        let falloff = self.cohesion_falloff / self.saturation.sqrt();
+        let x = (1.0 / falloff).min(1.0 - self.debonding_ratio());
+        self.cohesion(1.0 - x) * x / 9.0
+    }
+
     /// `lam = k_f + k_c` (Pa) at the density ratio `r`.
     pub fn stiffness(&self, r: f64) -> f64 {
         self.friction(r) + self.cohesion(r)
@@ -195,20 +222,29 @@ pub fn holds<T: Real>(eta: f64, y: &Vector3<T>, start: &Vector3<T>, star: &Vecto
 }
 
 /// Every particle's density over the reference density, `rho_i / rho_0` (dimensionless), at
-/// the positions `y` (m) with the neighbours of `bonds`: the poly6 SPH sum over the horizon
-/// `delta` (m), normalised on the cubic lattice of the particle volume `volume` (m^3; see the
-/// module's doc).
+/// the positions `y` (m) with the neighbours and reference vectors of `bonds`: the poly6 SPH
+/// sum over the horizon `delta` (m) at `y`, over the same sum at the particle's reference
+/// vectors `X` (both with the self term; see the module's doc, "Density"). `volume` is the
+/// particle volume (m^3).
 pub(crate) fn density_ratios(
     bonds: &RestBonds,
     y: &[Vector3<f64>],
     delta: f64,
     volume: f64,
 ) -> Result<Vec<f64>> {
-    let sph = Sph::on_lattice(Kernel::Poly6, delta, volume.cbrt())?;
-    // Volumes as masses: the sum is then `rho / rho_0`.
+    let sph = Sph::new(Kernel::Poly6, delta)?;
+    // Volumes as masses (the scale cancels in the ratio).
     let volumes = vec![volume; y.len()];
     let mut out = vec![0.0; y.len()];
     sph.densities(y, &bonds.offsets, &bonds.indices, &volumes, &mut out);
+    out.par_iter_mut().enumerate().for_each(|(i, ratio)| {
+        let packed = sph.value(0.0)
+            + bonds
+                .row(i)
+                .map(|b| sph.value(bonds.xi[b].norm()))
+                .sum::<f64>();
+        *ratio /= volume * packed;
+    });
     Ok(out)
 }
 

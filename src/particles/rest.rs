@@ -192,7 +192,10 @@ impl<T: Real> ParticleRest<T> {
         let factor = |i: usize, j: usize, xi: &Vector3<f64>| match (&axes, bulk_weight) {
             (Some(g), _) => bond_factor(xi, &g[i], &g[j]),
             (None, Some(bulk)) if c.plastic || thin => {
-                0.5 * (bulk / weight_sums[i] + bulk / weight_sums[j])
+                // A particle whose bonds all have weight 0 (new neighbours mapped beyond the
+                // horizon by eq. 20) adds nothing, instead of an infinite factor.
+                let g = |w: f64| if w > 0.0 { bulk / w } else { 0.0 };
+                0.5 * (g(weight_sums[i]) + g(weight_sums[j]))
             }
             _ => 1.0,
         };
@@ -225,9 +228,15 @@ impl<T: Real> ParticleRest<T> {
                 shape += xi * xi.transpose() * weight;
                 // V_i V_j w / |xi|^2 (m): times mu or lam (Pa), a stiffness in N/m.
                 let k = volume * weight / (born * born) * factor(i, j as usize, &xi);
-                let share = shares
-                    .as_ref()
-                    .map_or(weight / (weight_sum * length), |a| a[b]);
+                // A particle without weighted bonds has no mean strain: its shares are 0.
+                let share = shares.as_ref().map_or(
+                    if weight_sum > 0.0 {
+                        weight / (weight_sum * length)
+                    } else {
+                        0.0
+                    },
+                    |a| a[b],
+                );
                 self.bonds.push(BondRest {
                     xi: xi.map(T::of),
                     length: T::of(length),
@@ -247,7 +256,10 @@ impl<T: Real> ParticleRest<T> {
                 let kappa = moduli.kappa.max(0.0);
                 matrix_extra.push(match &shares {
                     Some(_) => 9.0 * kappa * volume * abs_sum * share.abs() / length,
-                    None => 9.0 * kappa * volume * weight / (weight_sums[i] * born * born),
+                    None if weight_sum > 0.0 => {
+                        9.0 * kappa * volume * weight / (weight_sum * born * born)
+                    }
+                    None => 0.0,
                 });
                 self.indices.push(j + base);
                 let back = bonds.of(j as usize).binary_search(&(i as u32));

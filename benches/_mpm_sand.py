@@ -1,0 +1,159 @@
+"""MLS-MPM sand in Taichi on the CPU (``ti.init(arch=ti.x64)``): the peer of benches/sand.py.
+
+Written for this bench from the published algorithms, not copied:
+- MLS-MPM transfers (Hu et al. 2018, "A moving least squares material point method", eq. 16-18)
+  with APIC affine velocities, quadratic B-spline weights, one particle-to-grid and one
+  grid-to-particle pass per step;
+- Drucker-Prager elastoplasticity of dry sand after Klar et al. 2016 ("Drucker-Prager
+  elastoplasticity for sand animation", sections 4-7): the elastic part of the deformation
+  gradient ``F = U Sigma V^T`` in Hencky strain ``eps = log Sigma``; St. Venant-Kirchhoff in
+  Hencky strain, Kirchhoff stress ``tau = U (2 mu eps + lam tr(eps) I) U^T``; the return map
+  projects ``eps`` onto the cone ``|eps_dev| <= -alpha (3 lam + 2 mu) / (2 mu) tr(eps)`` with
+  ``alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi))`` (the cone through Mohr-Coulomb's
+  compression corners) and sends a state in tension (``tr eps >= 0``) to the apex ``eps = 0``
+  (no cohesion);
+- a floor at z = 0 with Coulomb friction ``mu_floor`` on the grid velocities, walls of the box.
+
+Units SI. The time step is explicit: ``dt = cfl dx / sqrt(E / rho)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+GRAVITY = 9.81
+
+
+class MpmSand:
+    """A column of dry sand on a rough floor, stepped by MLS-MPM.
+
+    positions: (N, 3) particles (m), each of volume ``volume`` (m^3) and density ``density``
+    (kg/m^3); ``dx`` the grid spacing (m); ``young`` (Pa), ``nu``; ``friction_angle``
+    (degrees); ``floor_friction`` the floor's Coulomb coefficient; ``reach`` (m) how far the
+    grid extends around the axis; ``threads`` for Taichi."""
+
+    def __init__(self, positions, *, volume, density, dx, young, nu, friction_angle,
+                 floor_friction, reach, height, cfl=0.4, threads=2):
+        import taichi as ti
+
+        ti.init(arch=ti.x64, cpu_max_num_threads=threads, default_fp=ti.f32,
+                offline_cache=True, log_level=ti.WARN)
+        self.ti = ti
+        self.n = len(positions)
+        self.dx = dx
+        mu = young / (2 * (1 + nu))
+        lam = young * nu / ((1 + nu) * (1 - 2 * nu))
+        self.dt = cfl * dx / math.sqrt(young / density)
+        self.origin = np.array([-reach, -reach, 0.0]) - 3 * dx
+        extent = np.array([2 * reach, 2 * reach, height]) + 6 * dx
+        self.cells = tuple(int(np.ceil(e / dx)) for e in extent)
+        s = math.sin(math.radians(friction_angle))
+        alpha = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
+        self.x = ti.Vector.field(3, ti.f32, self.n)
+        self.v = ti.Vector.field(3, ti.f32, self.n)
+        self.C = ti.Matrix.field(3, 3, ti.f32, self.n)
+        self.F = ti.Matrix.field(3, 3, ti.f32, self.n)
+        self.grid_v = ti.Vector.field(3, ti.f32, self.cells)
+        self.grid_m = ti.field(ti.f32, self.cells)
+        inv_dx, dt = 1.0 / dx, self.dt
+        p_mass, p_vol = density * volume, volume
+        floor = int(round(-self.origin[2] / dx))  # the grid layer at z = 0
+        g, mu_f = GRAVITY, floor_friction
+        x, v, C_, F = self.x, self.v, self.C, self.F
+        grid_v, grid_m = self.grid_v, self.grid_m
+        origin = ti.Vector(list(self.origin.astype(np.float32)))
+        self.positions0 = np.asarray(positions, dtype=np.float32)
+
+        @ti.func
+        def weights(xp):
+            base = int(xp - 0.5)
+            fx = xp - base
+            return base, fx, [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
+
+        @ti.func
+        def project(sig):
+            """Klar et al. 2016, section 7: the singular values of the elastic F after the
+            return to the Drucker-Prager cone (the apex in tension)."""
+            eps = ti.Vector([ti.log(ti.max(sig[i, i], 1e-6)) for i in ti.static(range(3))])
+            tr = eps.sum()
+            out = ti.Vector([1.0, 1.0, 1.0])
+            if tr < 0.0:
+                dev = eps - tr / 3.0
+                norm = dev.norm() + 1e-20
+                gamma = norm + (3.0 * lam + 2.0 * mu) / (2.0 * mu) * tr * alpha
+                h = eps
+                if gamma > 0.0:
+                    h = eps - gamma / norm * dev
+                out = ti.exp(h)
+            return out
+
+        @ti.kernel
+        def substep():
+            for I in ti.grouped(grid_m):
+                grid_v[I] = ti.Vector.zero(ti.f32, 3)
+                grid_m[I] = 0.0
+            for p in x:
+                base, fx, w = weights((x[p] - origin) * inv_dx)
+                U, sig, V = ti.svd((ti.Matrix.identity(ti.f32, 3) + dt * C_[p]) @ F[p])
+                s_new = project(sig)
+                F[p] = U @ ti.Matrix([[s_new[0], 0, 0], [0, s_new[1], 0], [0, 0, s_new[2]]]) @ V.transpose()
+                eps = ti.log(s_new)
+                d = 2.0 * mu * eps + lam * eps.sum()
+                tau = U @ ti.Matrix([[d[0], 0, 0], [0, d[1], 0], [0, 0, d[2]]]) @ U.transpose()
+                affine = -dt * p_vol * 4.0 * inv_dx * inv_dx * tau + p_mass * C_[p]
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    offset = ti.Vector([i, j, k])
+                    dpos = (offset.cast(ti.f32) - fx) * dx
+                    weight = w[i][0] * w[j][1] * w[k][2]
+                    grid_v[base + offset] += weight * (p_mass * v[p] + affine @ dpos)
+                    grid_m[base + offset] += weight * p_mass
+            for I in ti.grouped(grid_m):
+                if grid_m[I] > 0:
+                    gv = grid_v[I] / grid_m[I]
+                    gv[2] -= dt * g
+                    if I[2] < floor + 1 and gv[2] < 0:
+                        # Coulomb friction on the floor: the tangential speed drops by mu |v_n|.
+                        tangent = ti.Vector([gv[0], gv[1], 0.0])
+                        speed = tangent.norm()
+                        keep = ti.max(0.0, 1.0 - mu_f * (-gv[2]) / (speed + 1e-20))
+                        gv = tangent * keep
+                    for d in ti.static(range(3)):
+                        if I[d] < 3 and gv[d] < 0:
+                            gv[d] = 0.0
+                        if I[d] > grid_m.shape[d] - 4 and gv[d] > 0:
+                            gv[d] = 0.0
+                    grid_v[I] = gv
+            for p in x:
+                base, fx, w = weights((x[p] - origin) * inv_dx)
+                new_v = ti.Vector.zero(ti.f32, 3)
+                new_C = ti.Matrix.zero(ti.f32, 3, 3)
+                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
+                    offset = ti.Vector([i, j, k])
+                    dpos = offset.cast(ti.f32) - fx
+                    weight = w[i][0] * w[j][1] * w[k][2]
+                    gv = grid_v[base + offset]
+                    new_v += weight * gv
+                    new_C += 4.0 * inv_dx * weight * gv.outer_product(dpos)
+                v[p], C_[p] = new_v, new_C
+                x[p] += dt * new_v
+
+        self.substep = substep
+
+    def reset(self) -> None:
+        self.x.from_numpy(self.positions0)
+        self.v.fill(0.0)
+        self.C.fill(0.0)
+        self.F.from_numpy(np.tile(np.eye(3, dtype=np.float32), (self.n, 1, 1)))
+
+    def advance(self, seconds: float) -> int:
+        """Steps for ``seconds`` (s); returns the steps taken."""
+        steps = int(np.ceil(seconds / self.dt))
+        for _ in range(steps):
+            self.substep()
+        self.ti.sync()
+        return steps
+
+    def positions(self) -> np.ndarray:
+        return self.x.to_numpy().astype(np.float64)
