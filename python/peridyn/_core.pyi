@@ -166,8 +166,13 @@ class ViscoelasticFluid:
     ``density * (1 + density_tolerance)``; in (0, 0.1]), ``relaxation`` (the constraints'
     eps as a fraction of their denominator on the rest lattice, > 0), ``redistribution``
     (strength in [0, 1] of the particle redistribution, eq. 21-24 corrected, lowering
-    ``||grad rho||^2`` after the density projection; 0: none), ``redistribution_iterations``
-    (its passes per step, in [1, 100]). ValueError naming the bad parameter."""
+    ``||grad rho||^2`` after the density projection, a position correction whose moves do
+    not become velocity and which never pushes a free surface out; 0: none),
+    ``redistribution_iterations`` (its passes per step, in [1, 100]), ``shear_modulus`` (Pa,
+    >= 0: a viscoelastic fluid, elastic bonds of continuum shear modulus ``G`` whose rest shape
+    follows the flow beyond ``yield_stress``; 0: a Newtonian liquid) and ``yield_stress``
+    (uniaxial von Mises yield stress, Pa, > 0; None: the shear modulus). ValueError naming
+    the bad parameter."""
 
     def __init__(
         self,
@@ -178,6 +183,8 @@ class ViscoelasticFluid:
         relaxation: float = 0.1,
         redistribution: float = 0.0,
         redistribution_iterations: int = 5,
+        shear_modulus: float = 0.0,
+        yield_stress: float | None = None,
     ) -> None: ...
     @property
     def viscosity(self) -> float: ...
@@ -191,6 +198,10 @@ class ViscoelasticFluid:
     def redistribution(self) -> float: ...
     @property
     def redistribution_iterations(self) -> int: ...
+    @property
+    def shear_modulus(self) -> float: ...
+    @property
+    def yield_stress(self) -> float | None: ...
 
 class Granular:
     """Dry and wet sand (He, Wang and Wu 2017, section 7, eq. 25-28 corrected): a particle

@@ -174,8 +174,9 @@ impl Particles {
 
     /// A fluid body (He et al. 2017, section 6) of particles at `reference` (m) on a lattice of
     /// `spacing` (m) with the rest density `density` (kg/m^3): no elastic bonds' stiffness (a
-    /// Newtonian liquid), the density constraints and viscosity of `fluid` applied by the
-    /// solver. Fails, naming the culprit, as [`Self::new`] does or on a bad fluid parameter.
+    /// Newtonian liquid) or, with a shear modulus, the elastoplastic bonds of a viscoelastic
+    /// fluid ([`ViscoelasticFluid::elastoplastic`]), the density constraints and viscosity of
+    /// `fluid` applied by the solver. Fails, naming the culprit, as [`Self::new`] does or on a bad fluid parameter.
     pub fn fluid(
         reference: Vec<Vector3<f64>>,
         spacing: f64,
@@ -183,7 +184,8 @@ impl Particles {
         fluid: ViscoelasticFluid,
     ) -> Result<Self> {
         fluid.validate()?;
-        let material = Elastic::Paper { mu: 1.0, lam: 0.0 };
+        let elastoplastic = fluid.elastoplastic();
+        let material = elastoplastic.map_or(Elastic::Paper { mu: 1.0, lam: 0.0 }, |(m, _)| m);
         let params = ParticleParams {
             spacing,
             density,
@@ -191,13 +193,18 @@ impl Particles {
             material,
         };
         let mut body = Self::new(reference, params)?;
-        body.moduli = Moduli {
-            mu: 0.0,
-            lam: 0.0,
-            kappa: 0.0,
-            bulk_moment: None,
-            bulk_weight: None,
-        };
+        match elastoplastic {
+            Some((_, law)) => body.plasticity = Some(law),
+            None => {
+                body.moduli = Moduli {
+                    mu: 0.0,
+                    lam: 0.0,
+                    kappa: 0.0,
+                    bulk_moment: None,
+                    bulk_weight: None,
+                }
+            }
+        }
         body.fluid = Some(fluid);
         Ok(body)
     }

@@ -4,8 +4,22 @@
 //!
 //! Units: `viscosity` is the dynamic viscosity `mu` (Pa s); the solver uses the kinematic
 //! viscosity `nu = mu / rho0` (m^2/s) with `rho0` the body's density (kg/m^3).
+//!
+//! **Viscoelastic fluids (section 6: "Lame parameters as constants and phi = 0").** With
+//! `shear_modulus = G > 0` the body is also an elastoplastic particle body of the paper's
+//! sections 4-5, on top of the fluid terms: the elastic kernel with the calibrated material
+//! `E = 5 G / 2`, `nu = 1/4` (the bond model's own Poisson ratio, so no dilatation term and
+//! `G` is the continuum shear modulus along the lattice axes), and a Drucker-Prager law with
+//! `phi = 0` (a von Mises cone: cohesion `c = yield_stress / 2`, so a bar in tension yields at
+//! `yield_stress`) whose return moves the bonds' rest shape with the flow, and whose
+//! neighbour rebuild on the deformed positions (eq. 20) gives a particle the neighbours it
+//! flows next to. The strain up to yield springs back; beyond it, it is kept (the
+//! plastic body's machinery, [`super::plasticity`], no second kernel).
 
 use crate::error::{check_param, Result};
+
+use super::elastic::Elastic;
+use super::plasticity::DruckerPrager;
 
 /// SPH support radius of a fluid, in particle spacings: 32 neighbours on a cubic lattice
 /// (distances 1, sqrt 2, sqrt 3 and 2 spacings), as the elastic horizon
@@ -34,6 +48,14 @@ pub struct ViscoelasticFluid {
     pub redistribution: f64,
     /// Redistribution passes per step (the paper: 3 to 10), in [1, 100].
     pub redistribution_iterations: usize,
+    /// Shear modulus `G` (Pa, >= 0) of the elasticity on top of the fluid terms (see the
+    /// module's doc); 0: a Newtonian liquid.
+    pub shear_modulus: f64,
+    /// The von Mises yield stress (Pa, > 0) beyond which a viscoelastic fluid's strain
+    /// flows away (uniaxial; the Drucker-Prager cohesion at `phi = 0` is half of it).
+    /// `None`: equal to the shear modulus (a yield strain of 0.4 in tension). Unused at
+    /// `shear_modulus = 0`.
+    pub yield_stress: Option<f64>,
 }
 
 impl Default for ViscoelasticFluid {
@@ -45,6 +67,8 @@ impl Default for ViscoelasticFluid {
             relaxation: 0.1,
             redistribution: 0.0,
             redistribution_iterations: 5,
+            shear_modulus: 0.0,
+            yield_stress: None,
         }
     }
 }
@@ -88,6 +112,35 @@ impl ViscoelasticFluid {
             |v| (1.0..=100.0).contains(&v),
             "in [1, 100]",
         )?;
+        check_param(
+            "shear_modulus",
+            self.shear_modulus,
+            |v| v >= 0.0,
+            "a finite shear modulus >= 0 Pa",
+        )?;
+        if let Some(y) = self.yield_stress {
+            check_param("yield_stress", y, |v| v > 0.0, "a finite stress > 0 Pa")?;
+        }
         Ok(())
+    }
+
+    /// The elastic material and plastic law of a viscoelastic fluid (see the module's doc),
+    /// or `None` for a Newtonian liquid (`shear_modulus = 0`).
+    pub fn elastoplastic(&self) -> Option<(Elastic, DruckerPrager)> {
+        if self.shear_modulus == 0.0 {
+            return None;
+        }
+        let g = self.shear_modulus;
+        let material = Elastic::Young {
+            e: 2.5 * g,
+            nu: 0.25,
+        };
+        let law = DruckerPrager {
+            friction_angle: 0.0,
+            cohesion: 0.5 * self.yield_stress.unwrap_or(g),
+            hardening: 0.0,
+            rebuild_neighbours: true,
+        };
+        Some((material, law))
     }
 }

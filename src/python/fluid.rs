@@ -21,9 +21,11 @@ impl PyViscoelasticFluid {
     /// >= 1), `density_tolerance` (relative, in (0, 0.1]) and `relaxation` (the constraints'
     /// eps as a fraction of their rest-lattice denominator, > 0), `redistribution` (strength
     /// in [0, 1] of eq. 21-24, 0: none) and `redistribution_iterations` (passes per step, in
-    /// [1, 100]).
+    /// [1, 100]), `shear_modulus` (Pa, >= 0: a viscoelastic fluid's elasticity; 0: Newtonian)
+    /// and `yield_stress` (Pa, > 0; None: the shear modulus).
     #[new]
-    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5))]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         viscosity: Real,
         density_iterations: i64,
@@ -31,6 +33,8 @@ impl PyViscoelasticFluid {
         relaxation: Real,
         redistribution: Real,
         redistribution_iterations: i64,
+        shear_modulus: Real,
+        yield_stress: Option<Real>,
     ) -> PyResult<Self> {
         let iterations = usize::try_from(density_iterations).map_err(|_| {
             pyo3::exceptions::PyValueError::new_err(format!(
@@ -49,6 +53,8 @@ impl PyViscoelasticFluid {
             relaxation: relaxation.get("relaxation")?,
             redistribution: redistribution.get("redistribution")?,
             redistribution_iterations: passes,
+            shear_modulus: shear_modulus.get("shear_modulus")?,
+            yield_stress: yield_stress.map(|y| y.get("yield_stress")).transpose()?,
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -78,11 +84,22 @@ impl PyViscoelasticFluid {
     fn redistribution_iterations(&self) -> usize {
         self.inner.redistribution_iterations
     }
+    /// Shear modulus (Pa; 0: a Newtonian liquid).
+    #[getter]
+    fn shear_modulus(&self) -> f64 {
+        self.inner.shear_modulus
+    }
+    /// Yield stress (Pa; None: the shear modulus).
+    #[getter]
+    fn yield_stress(&self) -> Option<f64> {
+        self.inner.yield_stress
+    }
     fn __repr__(&self) -> String {
         let f = &self.inner;
+        let yield_stress = f.yield_stress.map_or("None".to_string(), |y| y.to_string());
         format!(
-            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={})",
-            f.viscosity, f.density_iterations, f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations
+            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={})",
+            f.viscosity, f.density_iterations, f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress
         )
     }
 }
