@@ -102,6 +102,7 @@ impl PyStepStats {
             ("density", t.density),
             ("viscosity", t.viscosity),
             ("redistribution", t.redistribution),
+            ("coupling", t.coupling),
             ("total", t.total),
         ] {
             d.set_item(k, v)?;

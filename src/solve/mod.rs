@@ -3,6 +3,7 @@
 pub(crate) mod body;
 mod clock;
 mod collider_passes;
+mod coupling;
 pub(crate) mod energy;
 pub(crate) mod families;
 pub(crate) mod family;

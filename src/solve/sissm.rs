@@ -37,6 +37,7 @@ use super::body::{BodyMut, ByKind};
 use super::collider_passes::{
     extrapolate_local_step, push_iterate_out_of_colliders, push_next_out_of_colliders,
 };
+use super::coupling::ClothCoupling;
 use super::families::Families;
 use super::family::Family;
 use super::membranes::auto;
@@ -56,6 +57,9 @@ pub struct Solver<T: Real> {
     families: Option<Families<T>>,
     /// Contact topology of the current body list (built on the first step with contact).
     contact: Option<ContactState<T>>,
+    /// Particles against membrane triangles, when the body list has both (built with the
+    /// families).
+    coupling: Option<ClothCoupling<T>>,
     /// The descent method's working set (built on the first descent step).
     descent: Option<DescentState>,
     /// The Newton method's working set (built on the first Newton step).
@@ -85,6 +89,7 @@ impl<T: Real> Solver<T> {
             pool,
             families: None,
             contact: None,
+            coupling: None,
             descent: None,
             newton: None,
             restored: None,
@@ -225,7 +230,9 @@ impl<T: Real> Solver<T> {
         let mut params = self.params;
         let mut by_kind = ByKind::sort(bodies);
         if !self.families.as_ref().is_some_and(|f| f.matches(&by_kind)) {
-            self.families = Some(Families::build(&by_kind, true)?);
+            let families = Families::build(&by_kind, true)?;
+            self.coupling = ClothCoupling::of(&by_kind.membranes, &families);
+            self.families = Some(families);
             self.contact = None;
             self.descent = None;
             self.newton = None;
@@ -295,6 +302,9 @@ impl<T: Real> Solver<T> {
             family.points_mut().predict(h, gravity);
             energy += initial_guess(family, h, params.preconditioner, &colliders);
         }
+        if let Some(coupling) = &mut self.coupling {
+            coupling.start_step(families);
+        }
         if params.method == Method::Auto {
             params.method = families
                 .membranes
@@ -347,7 +357,7 @@ impl<T: Real> Solver<T> {
                 .acceleration
                 .omega(iteration - chebyshev_origin, omega);
             omega = extrapolation.unwrap_or(1.0);
-            // The membrane contact reactions (the particles' moves ignore them).
+            // The membrane contact reactions.
             let contact_reaction = self
                 .contact
                 .as_ref()
@@ -355,8 +365,10 @@ impl<T: Real> Solver<T> {
                 .unwrap_or_default();
             // With contact, the first iterate of a step has not been through a local step: its
             // residual says nothing of the contacts, so it cannot decide convergence.
-            let decisive =
-                params.contact.is_none() || self.contact.is_none() || !contact_reaction.is_empty();
+            let decisive = (params.contact.is_none()
+                || self.contact.is_none()
+                || !contact_reaction.is_empty())
+                && self.coupling.as_ref().is_none_or(ClothCoupling::ran);
             let converges =
                 |update: &Update| decisive && params.tol > 0.0 && update.residual < params.tol;
             // Each family's extrapolation weight this iteration.
@@ -395,8 +407,15 @@ impl<T: Real> Solver<T> {
                     if params.record_energy {
                         stats.energies.push(energy);
                     }
-                    for (family, w) in families.each().zip(&family_omegas) {
-                        updates.push(family.global_move(h, &options(contact_reaction, *w)));
+                    // Per family, the reactions its residual is measured with.
+                    let reactions = match &mut self.coupling {
+                        Some(coupling) => coupling.reactions(contact_reaction),
+                        None => [contact_reaction; 2],
+                    };
+                    for ((family, w), reaction) in
+                        families.each().zip(&family_omegas).zip(reactions)
+                    {
+                        updates.push(family.global_move(h, &options(reaction, *w)));
                     }
                 }
                 Method::Descent => {
@@ -466,6 +485,12 @@ impl<T: Real> Solver<T> {
                     });
                 }
             }
+            if let Some(coupling) = &mut self.coupling {
+                let moved = coupling.iterate(families, h);
+                for update in &mut updates {
+                    update.moved = update.moved.max(moved);
+                }
+            }
             let mut update = updates.iter().copied().fold(Update::NONE, Update::merge);
             if let (Some(state), Some(contact_params), Some(sys)) = (
                 self.contact.as_mut(),
@@ -527,6 +552,10 @@ impl<T: Real> Solver<T> {
         for family in families.each() {
             family.project(h, &colliders, &mut timings)?;
         }
+        if let Some(coupling) = &mut self.coupling {
+            coupling.finish(families, h);
+            timings.coupling = coupling.millis;
+        }
         let t = Instant::now();
         for (family, indices) in families.each().zip(&list_indices) {
             if let Some(point) = family.points().first_bad_velocity(h) {
@@ -584,6 +613,7 @@ impl<T: Real> Solver<T> {
             Forget::Families => {
                 self.families = None;
                 self.contact = None;
+                self.coupling = None;
                 self.descent = None;
                 self.newton = None;
                 self.restored = Some(saved);

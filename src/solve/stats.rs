@@ -32,6 +32,9 @@ pub struct Timings {
     pub redistribution: f64,
     /// Of `finish`: the implicit viscosity of fluid particles (0 without).
     pub viscosity: f64,
+    /// The coupling of particles with membrane triangles: its pairs, its projections after
+    /// every iteration and at the end (0 without both families).
+    pub coupling: f64,
     /// The whole step.
     pub total: f64,
 }

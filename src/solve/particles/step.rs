@@ -204,7 +204,9 @@ fn finish<T: Real>(
             if let Some(w) = options.omega.filter(|_| *next == free_move) {
                 *next = (*next - points.y_prev[i]) * w + points.y_prev[i];
             }
-            let free = (residual[i] + reaction * d) / points.mass[i];
+            // With another family's reaction on the particle (a membrane's, `crate::solve::coupling`).
+            let coupled = options.contact_reaction.get(i).copied().unwrap_or_default();
+            let free = (residual[i] + (reaction + coupled) * d) / points.mass[i];
             let mut update = Update::of(i, y, next);
             update.residual = free.norm_squared().to_f64().sqrt();
             update
