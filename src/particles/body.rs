@@ -68,6 +68,15 @@ impl ParticleParams {
     }
 }
 
+/// A fluid body's moduli: no elastic stiffness (a Newtonian liquid).
+const FLUID_MODULI: Moduli = Moduli {
+    mu: 0.0,
+    lam: 0.0,
+    kappa: 0.0,
+    bulk_moment: None,
+    bulk_weight: None,
+};
+
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
 /// A body of particles. Not `Clone`: its `id` is unique.
@@ -191,13 +200,7 @@ impl Particles {
             material,
         };
         let mut body = Self::new(reference, params)?;
-        body.moduli = Moduli {
-            mu: 0.0,
-            lam: 0.0,
-            kappa: 0.0,
-            bulk_moment: None,
-            bulk_weight: None,
-        };
+        body.moduli = FLUID_MODULI;
         body.fluid = Some(fluid);
         Ok(body)
     }
@@ -414,6 +417,61 @@ impl Particles {
     /// Solver write-back of a plastic body's bonds after a step.
     pub(crate) fn set_rest_bonds(&mut self, bonds: RestBonds) {
         self.rest_bonds = Some(bonds);
+    }
+
+    /// Changes the body's material during a run (He et al. 2017, section 8 and Fig. 19: a
+    /// fluid that becomes an elastic solid, or a solid that melts): the particles keep their
+    /// positions, velocities and pins, and the bonds are born at the current positions, which
+    /// become the reference. `Some(fluid)` makes a fluid body (as [`Self::fluid`]: no elastic
+    /// stiffness, the default horizon), `None` an elastic one of `elastic` (Pa) with the
+    /// default horizon. Solvers stepping the body build its working set anew at their next
+    /// step. Fails, changing nothing, on a bad material, a shell or rod (ghosts), sand or a
+    /// plastic body made fluid, or a particle whose neighbourhood at the current positions is
+    /// not three-dimensional (naming it).
+    pub fn set_material(
+        &mut self,
+        elastic: Elastic,
+        fluid: Option<ViscoelasticFluid>,
+    ) -> Result<()> {
+        if !self.ghost_owners.is_empty() || self.granular.is_some() {
+            return Err(crate::error::invalid!(
+                "only a solid or fluid body changes its material: a shell, rod or sand keeps its own"
+            ));
+        }
+        if let Some(fluid) = &fluid {
+            fluid.validate()?;
+            if self.plasticity.is_some() {
+                return Err(crate::error::invalid!(
+                    "a plastic body cannot become a fluid: set its plasticity to None first"
+                ));
+            }
+        }
+        let params = ParticleParams {
+            horizon: None,
+            material: if fluid.is_some() {
+                Elastic::Paper { mu: 1.0, lam: 0.0 }
+            } else {
+                elastic
+            },
+            ..self.params
+        };
+        params.validate()?;
+        let reference = self.state.positions.clone();
+        let delta = params.delta();
+        let horizons = find_horizons(&reference, delta)?;
+        check_shapes(&reference, &horizons, delta)?;
+        let moduli = match fluid {
+            Some(_) => FLUID_MODULI,
+            None => params.material.resolve(params.spacing, delta)?,
+        };
+        self.reference = reference;
+        self.horizons = horizons;
+        self.params = params;
+        self.moduli = moduli;
+        self.fluid = fluid;
+        self.rest_bonds = None;
+        self.bonds_revision += 1;
+        Ok(())
     }
 
     /// Kinetic energy `sum m v^2 / 2` (J).
