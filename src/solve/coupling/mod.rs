@@ -47,6 +47,7 @@
 
 mod cloth;
 mod pairs;
+mod prism;
 mod projection;
 
 pub(crate) use cloth::ClothCoupling;

@@ -10,7 +10,8 @@ use crate::symmetric::SymmetricMatrix3;
 use crate::test_rng::Rng;
 
 use super::pairs::{Pair, PairList};
-use super::projection::{over_triangle, pass, Metric, Scratch};
+use super::prism::over_triangle;
+use super::projection::{pass, Metric, Scratch};
 
 /// The pairs `(particle, triangle)` with their sides, laid out as [`PairList::find`] does.
 fn list(
