@@ -38,7 +38,7 @@ pub(super) fn over_triangle(
     let n = e1.cross(&e2);
     let area2 = n.norm_squared();
     let scale = e1.norm_squared().max(e2.norm_squared());
-    if !(area2 > 1e-24 * scale * scale) {
+    if area2.is_nan() || area2 <= 1e-24 * scale * scale {
         return None;
     }
     let beta = q.cross(&e2).dot(&n) / area2;
