@@ -370,6 +370,14 @@ class Particles:
         """Horizon radius (m)."""
     @property
     def material(self) -> Union[Elastic, Granular]: ...
+    def set_material(self, material: Union[Elastic, ViscoelasticFluid]) -> None:
+        """Changes the material during a run (He et al. 2017, Fig. 19): an ``Elastic`` makes
+        the body a solid whose bonds are born at its current positions (they become the
+        reference; default horizon), a ``ViscoelasticFluid`` melts it. Positions, velocities
+        and pins are kept; solvers rebuild the body's working set at their next step.
+        ValueError, changing nothing, for another material, a shell, rod or sand, a plastic
+        body made fluid, or a particle without a three-dimensional neighbourhood at its
+        current position (named)."""
     @property
     def moduli(self) -> Tuple[float, float, float]:
         """``(mu, lam, kappa)`` (Pa) the material resolved to on this body's lattice: the

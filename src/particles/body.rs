@@ -68,6 +68,15 @@ impl ParticleParams {
     }
 }
 
+/// A fluid body's moduli: no elastic stiffness (a Newtonian liquid).
+const FLUID_MODULI: Moduli = Moduli {
+    mu: 0.0,
+    lam: 0.0,
+    kappa: 0.0,
+    bulk_moment: None,
+    bulk_weight: None,
+};
+
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
 /// A body of particles. Not `Clone`: its `id` is unique.
@@ -195,15 +204,7 @@ impl Particles {
         let mut body = Self::new(reference, params)?;
         match elastoplastic {
             Some((_, law)) => body.plasticity = Some(law),
-            None => {
-                body.moduli = Moduli {
-                    mu: 0.0,
-                    lam: 0.0,
-                    kappa: 0.0,
-                    bulk_moment: None,
-                    bulk_weight: None,
-                }
-            }
+            None => body.moduli = FLUID_MODULI,
         }
         body.fluid = Some(fluid);
         Ok(body)
@@ -421,6 +422,70 @@ impl Particles {
     /// Solver write-back of a plastic body's bonds after a step.
     pub(crate) fn set_rest_bonds(&mut self, bonds: RestBonds) {
         self.rest_bonds = Some(bonds);
+    }
+
+    /// Changes the body's material during a run (He et al. 2017, section 8 and Fig. 19: a
+    /// fluid that becomes an elastic solid, or a solid that melts): the particles keep their
+    /// positions, velocities and pins, and the bonds are born at the current positions, which
+    /// become the reference. `Some(fluid)` makes a fluid body (as [`Self::fluid`]: no elastic
+    /// stiffness, or a viscoelastic fluid's elastoplastic bonds; the default horizon), `None` an
+    /// elastic one (a viscoelastic fluid leaves its yield law behind) of `elastic` (Pa) with the
+    /// default horizon. Solvers stepping the body build its working set anew at their next
+    /// step. Fails, changing nothing, on a bad material, a shell or rod (ghosts), sand or a
+    /// plastic body made fluid, or a particle whose neighbourhood at the current positions is
+    /// not three-dimensional (naming it).
+    pub fn set_material(
+        &mut self,
+        elastic: Elastic,
+        fluid: Option<ViscoelasticFluid>,
+    ) -> Result<()> {
+        if !self.ghost_owners.is_empty() || self.granular.is_some() {
+            return Err(crate::error::invalid!(
+                "only a solid or fluid body changes its material: a shell, rod or sand keeps its own"
+            ));
+        }
+        // A viscoelastic fluid's plasticity is its own (its yield law); a solid's is the user's.
+        let own_plasticity = self.plasticity.is_some() && self.fluid.is_none();
+        if let Some(fluid) = &fluid {
+            fluid.validate()?;
+            if own_plasticity {
+                return Err(crate::error::invalid!(
+                    "a plastic body cannot become a fluid: set its plasticity to None first"
+                ));
+            }
+        }
+        let elastoplastic = fluid.as_ref().and_then(ViscoelasticFluid::elastoplastic);
+        let params = ParticleParams {
+            horizon: None,
+            material: match (&fluid, elastoplastic) {
+                (_, Some((material, _))) => material,
+                (Some(_), None) => Elastic::Paper { mu: 1.0, lam: 0.0 },
+                (None, None) => elastic,
+            },
+            ..self.params
+        };
+        params.validate()?;
+        let reference = self.state.positions.clone();
+        let delta = params.delta();
+        let horizons = find_horizons(&reference, delta)?;
+        check_shapes(&reference, &horizons, delta)?;
+        let moduli = match (&fluid, elastoplastic) {
+            (Some(_), None) => FLUID_MODULI,
+            _ => params.material.resolve(params.spacing, delta)?,
+        };
+        if let Some((_, law)) = elastoplastic {
+            self.plasticity = Some(law);
+        } else if !own_plasticity {
+            self.plasticity = None;
+        }
+        self.reference = reference;
+        self.horizons = horizons;
+        self.params = params;
+        self.moduli = moduli;
+        self.fluid = fluid;
+        self.rest_bonds = None;
+        self.bonds_revision += 1;
+        Ok(())
     }
 
     /// Kinetic energy `sum m v^2 / 2` (J).

@@ -302,6 +302,36 @@ impl PyParticles {
             .into_any(),
         })
     }
+    /// Changes the material during a run (He et al. 2017, Fig. 19): ``material`` an
+    /// ``Elastic`` (the body becomes a solid whose bonds are born at the current positions)
+    /// or a ``ViscoelasticFluid`` (it melts). Positions, velocities and pins are kept; solvers
+    /// rebuild the body's working set at their next step. ValueError, changing nothing, for
+    /// another material, a shell, rod or sand, a plastic body made fluid, or a particle whose
+    /// neighbourhood at the current positions is not three-dimensional (named).
+    fn set_material(&self, py: Python<'_>, material: &Bound<'_, PyAny>) -> PyResult<()> {
+        let (elastic, fluid) = if let Ok(f) = material.cast::<PyViscoelasticFluid>() {
+            (Elastic::Paper { mu: 1.0, lam: 0.0 }, Some(f.get().inner))
+        } else if let Ok(e) = material.cast::<PyElastic>() {
+            (e.get().inner, None)
+        } else {
+            return Err(PyValueError::new_err(format!(
+                "material must be a peridyn.Elastic or peridyn.ViscoelasticFluid, got {}",
+                material
+                    .get_type()
+                    .name()
+                    .map_or("?".into(), |n| n.to_string())
+            )));
+        };
+        let inner = &self.inner;
+        py.detach(|| {
+            guard("Particles.set_material()", || {
+                inner
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .set_material(elastic, fluid)
+            })
+        })
+    }
     /// The resolved moduli (Pa): {'mu', 'lam', 'kappa'} (the paper's mu and lam, and the
     /// dilatation modulus beyond the paper; 0 for `Elastic(mu=, lam=)`).
     #[getter]

@@ -18,7 +18,7 @@ use crate::timing::millis;
 
 use super::pairs::PairList;
 use super::projection::{pass, Metric, Scratch};
-use super::{MAX_PASSES, PASS_TOLERANCE};
+use super::{ITERATION_PASSES, MAX_PASSES, PASS_TOLERANCE};
 
 /// The coupling of a body list with membranes and particle bodies.
 pub(crate) struct ClothCoupling<T: Real> {
@@ -157,11 +157,15 @@ impl<T: Real> ClothCoupling<T> {
             particle_inverse: &self.particle_inverse,
             vertex_inverse: &self.vertex_inverse,
         };
-        let (p, c) = match which {
-            Iterate::Next => (&mut particles.points.y_next, &mut cloth.points.y_next),
-            Iterate::Current => (&mut particles.points.y, &mut cloth.points.y),
+        let (p, c, passes) = match which {
+            Iterate::Next => (
+                &mut particles.points.y_next,
+                &mut cloth.points.y_next,
+                ITERATION_PASSES,
+            ),
+            Iterate::Current => (&mut particles.points.y, &mut cloth.points.y, MAX_PASSES),
         };
-        for _ in 0..MAX_PASSES {
+        for _ in 0..passes {
             let worst = pass(
                 &mut self.list,
                 &metric,

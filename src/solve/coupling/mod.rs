@@ -22,12 +22,15 @@
 //! the minimal-`D`-norm move that closes the linearised gap. All pairs are projected at once
 //! (Jacobi), with each point's inverse metric scaled by `n`, the number of violated pairs it
 //! is in ("mass splitting", Tonge, Benevolenskiy and Voroshilov 2012), so that a particle over
-//! a crease or a vertex under many particles is not pushed once per pair; passes repeat until
-//! no pair is violated by more than [`PASS_TOLERANCE`] of its gap, at most [`MAX_PASSES`].
+//! a crease or a vertex under many particles is not pushed once per pair. After a global
+//! iteration the projection is [`ITERATION_PASSES`] pass (the iterations repeat it); at the
+//! end of the step, passes repeat until no pair is violated by more than [`PASS_TOLERANCE`] of
+//! its gap, at most [`MAX_PASSES`].
 //! `D dx` sums to `J (1 - sum_k w_k) = 0` over a pair: the reactions are equal and opposite,
 //! so at the iteration's fixed point (where each move takes back the global move's `D^-1 r`)
-//! the cloth carries exactly the particles' weight, and the momentum of the step is
-//! conserved to the solver's tolerance (the coupling adds none of its own). No friction.
+//! the cloth carries exactly the particles' weight, and the iterations conserve momentum to
+//! the solver's tolerance (the coupling adds none of its own); the projection at the end of
+//! the step, in the same metric, closes what the iterations left and does not. No friction.
 //!
 //! **Where in the step.** The pairs are found at the start of the step ([`pairs`]); the
 //! projection runs after every global iteration (after the colliders, before the membrane
@@ -44,6 +47,7 @@
 
 mod cloth;
 mod pairs;
+mod prism;
 mod projection;
 
 pub(crate) use cloth::ClothCoupling;
@@ -57,5 +61,7 @@ pub const PRISM_SLACK: f64 = 0.05;
 /// A pass stops the projection when no pair is violated by more than this fraction of its
 /// gap `d`.
 pub const PASS_TOLERANCE: f64 = 1e-4;
-/// Most passes of one projection.
+/// Most passes of the projection at the end of a step.
 pub const MAX_PASSES: usize = 64;
+/// Passes of the projection after each global iteration.
+pub const ITERATION_PASSES: usize = 1;

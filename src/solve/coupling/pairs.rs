@@ -17,7 +17,7 @@ use crate::geometry::vertex_index::index_by_vertex;
 use crate::real::Real;
 use crate::solve::points::Points;
 
-use super::projection::over_triangle;
+use super::prism::over_triangle;
 
 /// One particle-triangle pair of a step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
