@@ -1,8 +1,15 @@
 //! The fluid stage of a particle step (He et al. 2017, section 6; Macklin and Mueller 2013,
 //! "Position Based Fluids"): once the local-global iterations have finished (`t_e` of the
 //! paper's Table 1), the fluid particles' neighbours are searched on their positions (`t_n`),
-//! their density constraints are projected (`t_rho`), and after the velocities are taken, an
-//! implicit viscosity acts on them ([`super::fluid_viscosity`]).
+//! their density constraints are projected (`t_rho`), the particles are redistributed (`t_d`,
+//! [`crate::particles::redistribution`]), and after the velocities are taken, the
+//! redistribution's moves are taken out of them and an implicit viscosity acts on them
+//! ([`super::fluid_viscosity`]).
+//!
+//! **Redistribution is a position correction only.** It evens the particles' spacing; it is
+//! no force. Its displacement `s_i` (with the push out of colliders that follows it) is kept,
+//! and once `finish` has taken the velocities `(y - y_t) / h`, `s_i / h` is subtracted from
+//! them: the velocity is the one the step took without it, the position keeps it.
 //!
 //! **Why a projection stage.** The density constraints are position projections without an
 //! energy: the Armijo search of [`super::step`] has no merit to ask of them, and the
@@ -41,7 +48,7 @@ use crate::solve::points::Points;
 use crate::solve::Timings;
 use crate::timing::millis;
 
-use super::fluid_viscosity::{Fluid, Viscosity};
+use super::fluid_viscosity::{lattice_laplacian_scale, Fluid, Viscosity};
 
 /// The fluid particles of a particle family and their constants.
 pub(crate) struct FluidStage<T: Real> {
@@ -76,6 +83,8 @@ pub(crate) struct FluidStage<T: Real> {
     redistribution_iterations: usize,
     redistributor: Redistribution<T>,
     fixed: Vec<bool>,
+    /// Each member's displacement by the last redistribution (m; empty without).
+    shift: Vec<Vector3<T>>,
 }
 
 /// The denominator `sum_k |grad_k C_i|^2` (1/m^2) of an interior particle of the simple cubic
@@ -134,7 +143,7 @@ impl<T: Real> FluidStage<T> {
             stage.density = vec![T::zero(); n];
             stage.lambda = vec![T::zero(); n];
             stage.own = vec![Vector3::zeros(); n];
-            stage.viscosity = Viscosity::new(n);
+            stage.viscosity = Viscosity::new(n, lattice_laplacian_scale(&stage.sph, spacing));
         }
         Ok(stage)
     }
@@ -158,11 +167,12 @@ impl<T: Real> FluidStage<T> {
             grads: Vec::new(),
             own: Vec::new(),
             h: T::zero(),
-            viscosity: Viscosity::new(0),
+            viscosity: Viscosity::new(0, 1.0),
             redistribution: 0.0,
             redistribution_iterations: 0,
             redistributor: Redistribution::default(),
             fixed: Vec::new(),
+            shift: Vec::new(),
         }
     }
 
@@ -224,7 +234,8 @@ impl<T: Real> FluidStage<T> {
     }
 
     /// The redistribution passes on `self.y` over the step's neighbour lists (pinned members
-    /// fixed), then out of the colliders from where each particle was.
+    /// fixed), then out of the colliders from where each particle was; the displacement is
+    /// kept in `self.shift` for [`Self::end_step`].
     fn redistribute(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) -> Result<()> {
         self.fixed.clear();
         self.fixed
@@ -236,6 +247,7 @@ impl<T: Real> FluidStage<T> {
             &self.offsets,
             &self.indices,
             &self.mass,
+            &self.rest_density,
             &self.fixed,
             self.redistribution,
             self.redistribution_iterations,
@@ -251,6 +263,13 @@ impl<T: Real> FluidStage<T> {
                 None,
             );
         });
+        self.shift.clear();
+        self.shift.extend(
+            self.y
+                .iter()
+                .zip(&self.next)
+                .map(|(after, before)| after - before),
+        );
         Ok(())
     }
 
@@ -321,8 +340,13 @@ impl<T: Real> FluidStage<T> {
         true
     }
 
-    /// The implicit viscosity on the velocities the step took ([`super::fluid_viscosity`]).
+    /// The redistribution's displacement taken out of the velocities the step took, then the
+    /// implicit viscosity on them ([`super::fluid_viscosity`]).
     pub fn end_step(&mut self, points: &mut Points<T>, timings: &mut Timings) {
+        let inv_h = T::one() / self.h;
+        for (s, &k) in self.shift.iter().zip(&self.members) {
+            points.velocity[k as usize] -= s * inv_h;
+        }
         let started = Instant::now();
         let fluid = Fluid {
             sph: &self.sph,

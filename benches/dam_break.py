@@ -1,0 +1,146 @@
+"""The dam break of the 2017 paper (Table 1: 312K particles, h = 1/500, 412 ms per step on a
+4-core i7-2600) at sizes this machine runs in minutes: ms per step by phase, the front against
+Martin and Moyce 1952, and the trend towards the paper's size.
+
+Scene (DESIGN.md section 7): a water column a = 0.1 m wide, 2a high and a deep against the
+left wall of a tank 8a long and a deep (slip walls: planes), water (1000 kg/m^3, 1e-3 Pa s) as
+``ViscoelasticFluid`` particles on a cubic lattice of spacing a / na, released at rest under
+g = 9.81 m/s^2, time step ``--dt``, the Jacobi global solver (a liquid has no stiffness: its
+local-global iterations are the inertial prediction with the colliders). For each ``--na``:
+the particle count, the median over the steps of each phase of ``StepStats.timings`` (ms; the
+paper's t_n = neighbours, t_rho = density, t_d = redistribution; viscosity and the rest), the
+wall time per simulated second, and the front ``Z = (max x + S/2) / a`` at Martin and Moyce's
+``T = t sqrt(2 g / a)`` points (nearest step) with its relative error. The per-step cost is
+fitted as ``c N^p`` over the sizes run and extrapolated to the paper's 312K particles (a trend,
+not a measurement). The machine is shared with other builds: timings are upper bounds.
+
+Default:  python benches/dam_break.py                 (na = 8, 12, 16: 1K, 3.5K, 8K particles)
+Run:      python benches/dam_break.py --na 6 8 10     (the committed JSON: 0.4K-2K particles)
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _common as C  # noqa: E402
+
+import peridyn as pd  # noqa: E402
+
+G = 9.81
+MARTIN_MOYCE = [(0.832, 1.217), (1.997, 2.292), (3.345, 4.134), (5.091, 6.98)]
+PAPER = {"particles": 312_000, "ms_per_step": 412.0, "machine": "Intel i7-2600, 4 cores"}
+
+
+def dam_break(na: int, a: float, dt: float, threads: int, redistribution: float):
+    s = a / na
+    k = np.stack(np.meshgrid(np.arange(na), np.arange(na), np.arange(2 * na), indexing="ij"),
+                 -1).reshape(-1, 3)
+    x = (k + 0.5) * s
+    body = pd.Particles(x, spacing=s, density=1000.0,
+                        material=pd.ViscoelasticFluid(viscosity=1e-3,
+                                                      redistribution=redistribution))
+    solver = pd.Solver(dt=dt, gravity=(0, 0, -G), global_solver="jacobi", threads=threads)
+    solver.add(body)
+    length, depth = 8 * a, a
+    for point, normal in [((0, 0, 0), (0, 0, 1)), ((0, 0, 0), (1, 0, 0)),
+                          ((length, 0, 0), (-1, 0, 0)), ((0, 0, 0), (0, 1, 0)),
+                          ((0, depth, 0), (0, -1, 0))]:
+        solver.add_collider(pd.Plane(point=point, normal=normal))
+    return body, solver, s
+
+
+def run(na: int, args) -> dict:
+    a, dt = args.a, args.dt
+    body, solver, s = dam_break(na, a, dt, args.threads, args.redistribution)
+    c = np.sqrt(2 * G / a)
+    phases: dict = {}
+    totals, fronts = [], []
+    k = 0
+    started = time.perf_counter()
+    for T, Z in MARTIN_MOYCE:
+        while k < round(T / (c * dt)):
+            stats = solver.step()
+            k += 1
+            for key, value in stats.timings.items():
+                phases.setdefault(key, []).append(value)
+            totals.append(stats.timings["total"])
+        front = (body.positions[:, 0].max() + 0.5 * s) / a
+        fronts.append({"T": T, "Z_martin_moyce": Z, "Z": front, "error": front / Z - 1.0})
+        print(f"  na={na}: T={T} Z={front:.3f} (Martin and Moyce {Z})", flush=True)
+    wall = time.perf_counter() - started
+    return {
+        "na": na, "spacing_m": s, "particles": body.positions.shape[0], "steps": k,
+        "ms_per_step_median": C.median(totals),
+        "phases_ms_median": {key: C.median(v) for key, v in phases.items()},
+        "wall_seconds_per_simulated_second": wall / (k * dt),
+        "fronts": fronts,
+    }
+
+
+def plot(result: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
+    mm = np.array(MARTIN_MOYCE)
+    left.plot(mm[:, 0], mm[:, 1], "ks", label="Martin and Moyce 1952")
+    left.fill_between(mm[:, 0], 0.9 * mm[:, 1], 1.1 * mm[:, 1], color="0.85", label="10 %")
+    for r in result["runs"]:
+        f = r["fronts"]
+        left.plot([p["T"] for p in f], [p["Z"] for p in f], "o-",
+                  label=f"peridyn, {r['particles']} particles")
+    left.set_xlabel("T = t sqrt(2g/a)")
+    left.set_ylabel("Z = front / a")
+    left.legend()
+    n = np.array([r["particles"] for r in result["runs"]], dtype=float)
+    ms = np.array([r["ms_per_step_median"] for r in result["runs"]])
+    right.loglog(n, ms, "o", label="peridyn (median ms/step)")
+    fit = result["trend"]
+    grid = np.geomspace(n.min(), PAPER["particles"], 50)
+    right.loglog(grid, fit["c"] * grid ** fit["p"], "--", label=f"fit c N^{fit['p']:.2f}")
+    right.loglog([PAPER["particles"]], [PAPER["ms_per_step"]], "k*", markersize=12,
+                 label="paper (312K, 4 cores)")
+    right.set_xlabel("particles")
+    right.set_ylabel("ms per step")
+    right.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--na", type=int, nargs="+", default=[8, 12, 16],
+                    help="particles across the column's width a")
+    ap.add_argument("--a", type=float, default=0.1, help="column width (m)")
+    ap.add_argument("--dt", type=float, default=0.005, help="time step (s)")
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--redistribution", type=float, default=0.0)
+    ap.add_argument("--out", help="JSON path (default benches/results/dam_break.json)")
+    args = ap.parse_args()
+    rec = C.Record("dam_break", args)
+    runs = []
+    for na in args.na:
+        print(f"na = {na}", flush=True)
+        runs.append(run(na, args))
+    n = np.log([r["particles"] for r in runs])
+    ms = np.log([r["ms_per_step_median"] for r in runs])
+    p, logc = np.polyfit(n, ms, 1) if len(runs) > 1 else (1.0, ms[0] - n[0])
+    trend = {"c": float(np.exp(logc)), "p": float(p),
+             "ms_per_step_at_312K": float(np.exp(logc) * PAPER["particles"] ** p)}
+    rec.data.update({"paper": PAPER, "runs": runs, "trend": trend})
+    rec.note(f"fitted ms/step = {trend['c']:.3g} N^{trend['p']:.2f}: "
+             f"{trend['ms_per_step_at_312K']:.0f} ms at 312K (paper 412 ms on 4 cores)")
+    path = rec.write(args.out)
+    plot(rec.data, path.with_suffix(".png"))
+
+
+if __name__ == "__main__":
+    main()
