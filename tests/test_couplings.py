@@ -199,9 +199,11 @@ def pushed_blob(elastic, steps=60):
     solver.add(blob)
     for _ in range(3):
         solver.step()
+    assert isinstance(blob.material, pd.ViscoelasticFluid) and blob.material.viscosity == 1e-3
     if elastic:
         x, v = blob.positions.copy(), blob.velocities.copy()
         blob.set_material(pd.Elastic.from_young(1e4, 0.3))
+        assert isinstance(blob.material, pd.Elastic)
         assert np.array_equal(blob.positions, x) and np.array_equal(blob.velocities, v)
         assert np.array_equal(blob.rest_positions, x)
     x0 = blob.positions - blob.positions.mean(0)

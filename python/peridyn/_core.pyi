@@ -369,7 +369,7 @@ class Particles:
     def horizon(self) -> float:
         """Horizon radius (m)."""
     @property
-    def material(self) -> Union[Elastic, Granular]: ...
+    def material(self) -> Union[Elastic, Granular, ViscoelasticFluid]: ...
     def set_material(self, material: Union[Elastic, ViscoelasticFluid]) -> None:
         """Changes the material during a run (He et al. 2017, Fig. 19): an ``Elastic`` makes
         the body a solid whose bonds are born at its current positions (they become the

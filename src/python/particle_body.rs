@@ -287,10 +287,14 @@ impl PyParticles {
     fn horizon(&self) -> f64 {
         self.lock().horizon()
     }
-    /// The material: a ``peridyn.Elastic``, or the ``peridyn.Granular`` of sand.
+    /// The material: a ``peridyn.Elastic``, the ``peridyn.Granular`` of sand or the
+    /// ``peridyn.ViscoelasticFluid`` of a fluid.
     #[getter]
     fn material(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         let p = self.lock();
+        if let Some(&inner) = p.fluid_material() {
+            return Ok(Py::new(py, PyViscoelasticFluid { inner })?.into_any());
+        }
         Ok(match p.granular() {
             Some(&inner) => Py::new(py, PyGranular { inner })?.into_any(),
             None => Py::new(
