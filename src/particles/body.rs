@@ -77,6 +77,10 @@ const FLUID_MODULI: Moduli = Moduli {
     bulk_weight: None,
 };
 
+/// The material a Newtonian fluid's parameters carry: any valid one, for the horizon and the
+/// checks of [`Particles::new`]; its moduli are replaced by [`FLUID_MODULI`], so it never acts.
+pub const FLUID_PLACEHOLDER: Elastic = Elastic::Paper { mu: 1.0, lam: 0.0 };
+
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
 /// A body of particles. Not `Clone`: its `id` is unique.
@@ -194,7 +198,7 @@ impl Particles {
     ) -> Result<Self> {
         fluid.validate()?;
         let elastoplastic = fluid.elastoplastic();
-        let material = elastoplastic.map_or(Elastic::Paper { mu: 1.0, lam: 0.0 }, |(m, _)| m);
+        let material = elastoplastic.map_or(FLUID_PLACEHOLDER, |(m, _)| m);
         let params = ParticleParams {
             spacing,
             density,
@@ -459,7 +463,7 @@ impl Particles {
             horizon: None,
             material: match (&fluid, elastoplastic) {
                 (_, Some((material, _))) => material,
-                (Some(_), None) => Elastic::Paper { mu: 1.0, lam: 0.0 },
+                (Some(_), None) => FLUID_PLACEHOLDER,
                 (None, None) => elastic,
             },
             ..self.params

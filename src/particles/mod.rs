@@ -26,7 +26,7 @@ pub mod sph;
 pub mod surface;
 mod thin;
 
-pub use body::{ParticleParams, Particles, DEFAULT_HORIZON};
+pub use body::{ParticleParams, Particles, DEFAULT_HORIZON, FLUID_PLACEHOLDER};
 pub use bond::{bond_force, BondRest};
 pub use calibration::{calibrate, lattice_moduli, LatticeModuli, Moduli};
 pub use deformation::{deformation_gradient, uninverted};

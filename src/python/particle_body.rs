@@ -7,7 +7,9 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::particles::{DruckerPrager, Elastic, Granular, ParticleParams, Particles};
+use crate::particles::{
+    DruckerPrager, Elastic, Granular, ParticleParams, Particles, FLUID_PLACEHOLDER,
+};
 
 use super::arrays::{to_numpy, to_numpy_1d, vec3s};
 use super::elastic::PyElastic;
@@ -314,7 +316,7 @@ impl PyParticles {
     /// neighbourhood at the current positions is not three-dimensional (named).
     fn set_material(&self, py: Python<'_>, material: &Bound<'_, PyAny>) -> PyResult<()> {
         let (elastic, fluid) = if let Ok(f) = material.cast::<PyViscoelasticFluid>() {
-            (Elastic::Paper { mu: 1.0, lam: 0.0 }, Some(f.get().inner))
+            (FLUID_PLACEHOLDER, Some(f.get().inner))
         } else if let Ok(e) = material.cast::<PyElastic>() {
             (e.get().inner, None)
         } else {
