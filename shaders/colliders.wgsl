@@ -101,6 +101,62 @@ fn collider_project(k: Collider, x: vec3<real>, distance: real, margin: real) ->
     return x;
 }
 
+// A point `margin` (m) or less outside (`distance`: its signed distance) moved to the nearest
+// point p of the offset surface d = margin in the metric inverse^-1: p = x + lambda A n(p),
+// with the normal at p itself (push_out in src/collider/shape.rs, the same rounds in the same
+// order): from p_0 = x, each round moves along A n_k to the surface linearised at p_k, until
+// the normal no longer changes or a round moves p by PUSH_SETTLE_ULPS units of round-off;
+// where PUSH_ROUNDS rounds do not settle, the first round's point. lambda is 0 (and p = x)
+// where x is outside or A has no positive curvature along n.
+struct Push {
+    p: vec3<real>,
+    lambda: real,
+    normal: vec3<real>,
+}
+
+// The point x + lambda A n on the surface linearised at `at` (signed distance d there), and
+// lambda (w; 0 where A has no positive curvature along n).
+fn push_towards(inverse: mat3x3<real>, n: vec3<real>, x: vec3<real>, at: vec3<real>, d: real, margin: real) -> vec4<real> {
+    let along = inverse * n;
+    let reach = dot(n, along);
+    if reach <= 0.0 {
+        return vec4<real>(x, 0.0);
+    }
+    let lambda = (margin - d - dot(n, x - at)) / reach;
+    return vec4<real>(x + along * lambda, lambda);
+}
+
+fn collider_push_out(k: Collider, x: vec3<real>, distance: real, inverse: mat3x3<real>, margin: real) -> Push {
+    if distance - margin >= 0.0 {
+        return Push(x, 0.0, vec3<real>(0.0));
+    }
+    var n = collider_normal(k, x);
+    let first = push_towards(inverse, n, x, x, distance, margin);
+    if first.w == 0.0 {
+        return Push(x, 0.0, n);
+    }
+    var p = first.xyz;
+    var lambda = first.w;
+    for (var attempt = 0u; attempt < PUSH_ROUNDS; attempt++) {
+        let normal = collider_normal(k, p);
+        if all(normal == n) {
+            return Push(p, lambda, n);
+        }
+        let next = push_towards(inverse, normal, x, p, shape_distance(k, p - k.offset), margin);
+        if next.w == 0.0 {
+            break;
+        }
+        let settled = length(next.xyz - p) <= REAL_EPSILON * PUSH_SETTLE_ULPS * (length(p) + 1.0);
+        p = next.xyz;
+        lambda = next.w;
+        n = normal;
+        if settled {
+            return Push(p, lambda, n);
+        }
+    }
+    return Push(first.xyz, first.w, collider_normal(k, x));
+}
+
 // A move that would cross a collider in one go (src/contact/collider/crossing.rs, the same
 // decisions in the same order; every shape here is an exact, convex distance): sphere tracing
 // along the straight path from `origin` (outside) to `to`, at most TRACE_STEPS steps each as

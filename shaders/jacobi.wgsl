@@ -31,8 +31,8 @@ fn inverse_or(d: mat3x3<real>, mass: real) -> mat3x3<real> {
 // Keeps a move from `origin` (the iterate, outside) to `moved` out of the colliders in the
 // metric of D, with Coulomb friction (push_out_with_friction in src/collider/friction.rs); a move that would cross
 // a collider ends on the side it came from (collider_keep_side). Where y ends closer than
-// `margin` to a collider it moves along D^-1 n by the normal reaction
-// lambda = -gap / (n . D^-1 n) (N s^2). With friction, the slip of the
+// `margin` to a collider it moves along D^-1 n to the offset surface, n the normal where it
+// ends, by the normal reaction lambda (N s^2; collider_push_out). With friction, the slip of the
 // vertex relative to the collider over the step, s = (y - y_t) - displacement, tangential part
 // s_t, is removed when the reaction that takes, k |s_t| with k = |s_t|^2 / (s_t . D^-1 s_t),
 // is within friction * lambda (sticking), and shortened by friction * lambda / k otherwise.
@@ -42,18 +42,13 @@ fn push_out_with_friction(origin: vec3<real>, moved: vec3<real>, start: vec3<rea
         let k = colliders[c];
         let kept = collider_keep_side(k, origin, y);
         y = kept.xyz;
-        let gap = kept.w - margin;
-        if gap >= 0.0 {
+        let push = collider_push_out(k, y, kept.w, inverse, margin);
+        if push.lambda == 0.0 {
             continue;
         }
-        let n = collider_normal(k, y);
-        let along = inverse * n;
-        let reach = dot(n, along);
-        if reach <= 0.0 {
-            continue;
-        }
-        let reaction = -gap / reach;
-        y += along * reaction;
+        y = push.p;
+        let n = push.normal;
+        let reaction = push.lambda;
         if k.friction > 0.0 {
             let slip = (y - start) - k.displacement;
             let slip_t = slip - n * dot(n, slip);

@@ -1,6 +1,7 @@
 // The scalar type of the f32 kernels, and the functions whose f64 form needs care.
 
 alias real = f32;
+const REAL_EPSILON: real = 1.1920929e-7;
 const REAL_MAX: real = 3.40282347e38;
 
 // ln(x) for x > 0.

@@ -3,6 +3,7 @@
 // instead, to f64 accuracy.
 
 alias real = f64;
+const REAL_EPSILON: real = 2.220446049250313e-16;
 const REAL_MAX: real = 1.7976931348623157e308;
 const LN_2: real = 0.6931471805599453;
 

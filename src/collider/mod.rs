@@ -17,3 +17,4 @@ pub use motion::MovingCollider;
 pub use pose::{rotation_matrix, Pose};
 pub use sdf::{MeshDistance, SdfGrid};
 pub use shape::{push_out_of_colliders, Collider, ColliderModel, MoveStart, Shape, ShapeModel};
+pub(crate) use shape::{PUSH_ROUNDS, PUSH_SETTLE_ULPS};

@@ -15,6 +15,13 @@ use crate::symmetric::SymmetricMatrix3;
 
 /// The solid shape of a collider (SI units), in its own frame (the pose given at time 0).
 /// Cloning is cheap: a mesh's grid is shared.
+/// The most rounds [`ColliderModel::push_out`] takes to settle the normal at its end.
+pub(crate) const PUSH_ROUNDS: usize = 12;
+
+/// A push has settled when a round moves it by at most this many units of round-off of its
+/// position (`epsilon (|p| + 1 m)`).
+pub(crate) const PUSH_SETTLE_ULPS: f64 = 16.0;
+
 #[derive(Debug, Clone, PartialEq)]
 pub enum Shape {
     /// Half-space `{x : (x - point) . normal >= 0}` is free; `normal` is unit.
@@ -291,15 +298,22 @@ impl<T: Real> ColliderModel<T> {
     }
 
     /// Moves `x`, when it is less than `margin` outside (`distance`: its signed distance, m),
-    /// back to the collider's surface
-    /// linearised at `x` (offset by `margin`) by the shortest move in the metric `A^-1`, where
-    /// `inverse` is `A` (symmetric positive definite): `x += lambda A n` with
-    /// `lambda = -gap / (n . A n)`, `gap = d(x) - margin` (m) and `n` the outward normal.
-    /// Returns `n` and `lambda` (m per unit of `A`), or `None` where `x` is outside or `A` has
-    /// no positive curvature along `n`. With `A = I` it is the normal projection; with
-    /// `A = D^-1` (1/kg) the reaction is the force impulse `lambda n` (kg m) that stops the
-    /// move of a vertex whose system is `D`. On a curved surface `x` can end a second-order
-    /// amount inside.
+    /// to the nearest point of the offset surface `d = margin` in the metric `A^-1`, where
+    /// `inverse` is `A` (symmetric positive definite): the point `p = x + lambda A n(p)` with
+    /// `d(p) = margin`, `n(p)` the outward normal at `p` itself. Returns `n(p)` and `lambda`
+    /// (m per unit of `A`), or `None` where `x` is outside or `A` has no positive curvature
+    /// along `n`. With `A = I` it is the normal projection; with `A = D^-1` (1/kg) the
+    /// reaction is the force impulse `lambda n` (kg m) that stops the move of a vertex whose
+    /// system is `D`, normal to the surface where the vertex ends, so that a vertex held there
+    /// has a residual force along that normal alone: the frictionless constrained minimum.
+    ///
+    /// Solved by moving along `A n_k` to the surface linearised at the last point `p_k`:
+    /// `lambda_k = (margin - d(p_k) - n_k . (x - p_k)) / (n_k . A n_k)` from `p_0 = x` (so the
+    /// first point is the push to the surface linearised at `x`), until the normal no longer
+    /// changes (a plane, a box face: one round) or the point moves by round-off. Each round
+    /// removes the tilt of the normal over the push, a factor `|lambda A n|_t / R` on a surface
+    /// of radius `R`; where the rounds do not settle (at an edge, in a grid's kinks) the first
+    /// point is kept, on the surface linearised at `x`.
     #[inline]
     pub fn push_out(
         &self,
@@ -308,19 +322,40 @@ impl<T: Real> ColliderModel<T> {
         inverse: &SymmetricMatrix3<T>,
         margin: T,
     ) -> Option<(Vector3<T>, T)> {
-        let gap = distance - margin;
-        if gap >= T::zero() {
+        if distance - margin >= T::zero() {
             return None;
         }
-        let n = self.normal(x);
-        let along = inverse.mul_vector(&n);
-        let reach = n.dot(&along);
-        if reach <= T::zero() {
-            return None;
+        let start = *x;
+        let towards = |n: &Vector3<T>, at: &Vector3<T>, d: T| -> Option<(Vector3<T>, T)> {
+            let along = inverse.mul_vector(n);
+            let reach = n.dot(&along);
+            (reach > T::zero()).then(|| {
+                let lambda = (margin - d - n.dot(&(start - at))) / reach;
+                (start + along * lambda, lambda)
+            })
+        };
+        let mut n = self.normal(&start);
+        let (first, first_lambda) = towards(&n, &start, distance)?;
+        let (mut p, mut lambda) = (first, first_lambda);
+        for _ in 0..PUSH_ROUNDS {
+            let normal = self.normal(&p);
+            if normal == n {
+                *x = p;
+                return Some((n, lambda));
+            }
+            let Some((next, next_lambda)) = towards(&normal, &p, self.signed_distance(&p)) else {
+                break;
+            };
+            let settled = (next - p).norm()
+                <= T::default_epsilon() * T::of(PUSH_SETTLE_ULPS) * (p.norm() + T::one());
+            (p, lambda, n) = (next, next_lambda, normal);
+            if settled {
+                *x = p;
+                return Some((n, lambda));
+            }
         }
-        let lambda = -gap / reach;
-        *x += along * lambda;
-        Some((n, lambda))
+        *x = first;
+        Some((self.normal(&start), first_lambda))
     }
 
     /// The end of the move from `from` (outside; both at the end pose) to `to` to take out of
@@ -600,19 +635,23 @@ mod tests {
         }
     }
 
-    /// Near a shape, [`ColliderModel::push_out`] in the metric `A^-1` (random
-    /// symmetric positive definite `A`) ends on the surface linearised at the start, offset by
-    /// the margin (on a plane: on the surface itself), and no other point of that linearised
-    /// surface is closer to the start in `A^-1`. Points outside the margin stay.
+    /// Near a shape, [`ColliderModel::push_out`] in the metric `A^-1` (random symmetric
+    /// positive definite `A`) ends on the offset surface `d = margin` at a point `p` with
+    /// `p - x = lambda A n(p)`, `lambda > 0` and `n` the normal returned, and no nearby point of
+    /// that surface is closer to the start in `A^-1` (checked on points of the surface around
+    /// `p`). Pushes up to 6 cm deep in a random metric of condition up to ~100 make an
+    /// ill-posed problem on a curved surface (along a tangential soft axis each round tilts the
+    /// normal more than the last): those pushes that do not settle (and those that cross a
+    /// box's edge) end on the surface linearised at `x`. Points outside the margin stay.
+    /// [`a_push_into_a_ball_ends_where_its_reaction_is_normal`] is the case of a step.
     #[test]
     fn pushing_out_in_a_metric_takes_its_shortest_move() {
         let mut rng = Rng::new(11);
         let margin = 0.01;
         for shape in shapes() {
-            let is_plane = matches!(shape, Shape::Plane { .. });
             let model = crate::collider::MovingCollider::new(Collider::fixed(shape.clone()))
                 .during_step::<f64>(0.0, 1.0);
-            let (mut inside, mut outside) = (0, 0);
+            let (mut inside, mut outside, mut linearised) = (0, 0, 0);
             for _ in 0..300 {
                 // Near the surface: within the margin (or inside) for u > -0.2, else outside.
                 let seed = rng.vector() * 0.8 + Vector3::new(0.0, 0.0, 0.3);
@@ -635,29 +674,90 @@ mod tests {
                 }
                 inside += 1;
                 let (n, lambda) = out.unwrap();
-                assert_eq!(n, model.normal(&x));
                 assert!(lambda > 0.0);
-                assert!((gap + n.dot(&(moved - x))).abs() < 1e-12, "{gap}");
-                if is_plane {
-                    assert!((model.signed_distance(&moved) - margin).abs() < 1e-12);
+                assert!((moved - x - full * n * lambda).norm() < 1e-12);
+                if (model.signed_distance(&moved) - margin).abs() > 1e-12 {
+                    // The fallback: on the surface linearised at the start.
+                    assert_eq!(n, model.normal(&x));
+                    assert!((gap + n.dot(&(moved - x))).abs() < 1e-12, "{gap}");
+                    linearised += 1;
+                    continue;
                 }
+                assert!((n - model.normal(&moved)).norm() < 1e-9, "{shape:?}");
                 let metric = full.try_inverse().unwrap();
                 let cost = |w: &Vector3<f64>| (w - x).dot(&(metric * (w - x)));
                 for _ in 0..20 {
-                    let t = rng.vector() * 0.1;
-                    let other = moved + t - n * n.dot(&t);
+                    let t = rng.vector() * 0.02;
+                    let other = model.project(moved + t - n * n.dot(&t), margin);
+                    let other =
+                        other - model.normal(&other) * (model.signed_distance(&other) - margin);
+                    let flat = matches!(shape, Shape::Box { .. });
+                    let normal = model.normal(&other);
+                    if normal.dot(&n) < 0.9 || flat && normal != n {
+                        // Another face of the box, or its offset surface's rounded edge (a
+                        // radius of `margin`, less than the push): no neighbour of `p`.
+                        continue;
+                    }
                     assert!(
-                        cost(&other) >= cost(&moved) * (1.0 - 1e-12),
+                        cost(&other) >= cost(&moved) * (1.0 - 1e-9),
                         "{shape:?}: {} < {}",
                         cost(&other),
                         cost(&moved)
                     );
                 }
             }
+            // The share of pushes that settle: all on the plane, most on the 50 cm sphere, more
+            // than a quarter on the 15 cm capsule and the box (measured 46 % on the capsule).
+            let settled_enough = match shape {
+                Shape::Plane { .. } => linearised == 0,
+                Shape::Sphere { .. } => linearised * 3 < inside,
+                _ => linearised * 4 < inside * 3,
+            };
             assert!(
-                inside > 20 && outside > 20,
-                "{inside} inside, {outside} outside"
+                inside > 20 && outside > 20 && settled_enough,
+                "{shape:?}: {inside} inside, {outside} outside, {linearised} linearised"
             );
+        }
+    }
+
+    /// At the scale of a step (a vertex pushed 1 mm into a 10 cm ball, in the Jacobi metric of
+    /// a stiff sheet lying on it: compliance 100 times larger along the sheet's normal than
+    /// in its plane), every push
+    /// settles on the offset sphere with the reaction along the normal where it ends:
+    /// `p - x = lambda A n(p)` to 1e-15 m, on the surface to 1e-14 m (the rounds stop at 16 ulp).
+    #[test]
+    fn a_push_into_a_ball_ends_where_its_reaction_is_normal() {
+        let mut rng = Rng::new(5);
+        let (center, radius, margin) = (Vector3::new(0.0, 0.0, 0.0), 0.1, 1e-3);
+        let model = crate::collider::MovingCollider::new(Collider::fixed(
+            Shape::sphere([0.0, 0.0, 0.0], radius).unwrap(),
+        ))
+        .during_step::<f64>(0.0, 1.0);
+        for _ in 0..500 {
+            let n = loop {
+                let v = rng.vector();
+                if v.norm() > 0.1 {
+                    break v.normalize();
+                }
+            };
+            let x = center + n * (radius - 1e-3 * rng.uniform());
+            // The soft axis of a sheet lying on the ball: its normal, tilted up to ~30 degrees.
+            let axis = (n + rng.vector() * 0.3).normalize();
+            let full = Matrix3::identity() * 1e-2 + axis * axis.transpose();
+            let inverse = SymmetricMatrix3 {
+                diagonal: [full[(0, 0)], full[(1, 1)], full[(2, 2)]],
+                upper: [full[(0, 1)], full[(0, 2)], full[(1, 2)]],
+            };
+            let mut p = x;
+            let (normal, lambda) = model
+                .push_out(&mut p, model.signed_distance(&x), &inverse, margin)
+                .unwrap();
+            let off = model.signed_distance(&p) - margin;
+            assert!(off.abs() < 1e-14, "{off:e} m off the offset sphere");
+            let tilt = (normal - (p - center).normalize()).norm();
+            assert!(tilt < 1e-12, "normal tilted {tilt:e}");
+            let miss = (p - x - full * normal * lambda).norm();
+            assert!(miss < 1e-15, "{miss:e} m from the normal reaction");
         }
     }
 

@@ -43,14 +43,19 @@ pub(super) struct Pipelines {
     pub finish_energy: wgpu::ComputePipeline,
 }
 
-/// The sphere-tracing constants of the crossing check in colliders.wgsl, written from the
-/// CPU's (`contact::collider::crossing`), so that the two traces cannot drift apart.
+/// The sphere-tracing constants of the crossing check and the rounds of the metric push in
+/// colliders.wgsl, written from the CPU's (`collider::crossing`, `collider::shape`), so that
+/// the two cannot drift apart.
 fn trace_constants() -> String {
-    use crate::collider::{TOUCH_DISTANCE, TRACE_STEPS, TRACE_TOLERANCE};
+    use crate::collider::{
+        PUSH_ROUNDS, PUSH_SETTLE_ULPS, TOUCH_DISTANCE, TRACE_STEPS, TRACE_TOLERANCE,
+    };
     format!(
         "const TRACE_STEPS: u32 = {TRACE_STEPS}u;\n\
          const TRACE_TOLERANCE: real = {TRACE_TOLERANCE:?};\n\
-         const TOUCH_DISTANCE: real = {TOUCH_DISTANCE:?};\n"
+         const TOUCH_DISTANCE: real = {TOUCH_DISTANCE:?};\n\
+         const PUSH_ROUNDS: u32 = {PUSH_ROUNDS}u;\n\
+         const PUSH_SETTLE_ULPS: real = {PUSH_SETTLE_ULPS:?};\n"
     )
 }
 

@@ -344,16 +344,12 @@ fn newton_on_a_floor_reaches_the_implicit_euler_solution_of_sissm() {
     same_solution_as_sissm(Obstacle::Floor);
 }
 
-/// The same with the cloth swinging into a frictionless sphere. Fails on the soft cloth: Newton
-/// converges (energy constant to 1e-16 relative, moves of 1e-17 m) to a point where the
-/// convergence measure is 7.6e-5 m, while SISSM converges in 248 iterations. The measure
-/// vanishes where the collider's push-out of the Jacobi move `D^-1 r` returns the vertex to
-/// `y`, with the push along the normal at the pushed-in point `y + D^-1 r`; on a curved
-/// collider that is not the normal at `y`, so the measure's zero (SISSM's fixed point) and
-/// the constrained energy minimum that Newton's line search approaches differ by the tilt
-/// `|D^-1 r|_t / R` of the reaction (docs/model.md, "Curved colliders").
+/// The same with the cloth swinging into a frictionless sphere: both fixed points are the
+/// constrained minimum because the collider's push in the system metric ends where its
+/// reaction is normal to the surface ([`crate::collider::ColliderModel::push_out`]; with the
+/// normal taken where the push started, SISSM's fixed point was tilted from Newton's by
+/// `|D^-1 r|_t / R`, 7.6e-5 m here).
 #[test]
-#[ignore = "different fixed points on a curved collider: Newton converges where SISSM's measure is 7.6e-5 m (issue 44)"]
 fn newton_with_a_collider_reaches_the_implicit_euler_solution_of_sissm() {
     same_solution_as_sissm(Obstacle::Sphere);
 }
