@@ -188,9 +188,9 @@ def test_sand_poured_through_an_opening_forms_a_pile_and_keeps_out_of_the_collid
     """Sand poured into a pile: a block of sand (7 x 7 x 6 spacings) in a square hopper whose
     bottom, 5 cm above the ground, has an opening 5 spacings wide, released at rest. It
     leaves through the opening as a stream (a growing share below the bottom at 0.1, 0.3
-    and 0.5 s, not all at once), piles up on the ground under the opening (the middle of the
+    and 0.5 s, not all at once; measured 15, 45, 70 %), piles up on the ground under the opening (the middle of the
     deposit stands more than two spacings above its edge, which spreads beyond the
-    opening), and no grain comes within 99 % of its margin (half a spacing) of the ground or
+    opening; measured 5.0 cm against 1.9 cm, the edge 4.8 cm from the axis), and no grain comes within 99 % of its margin (half a spacing) of the ground or
     the hopper at any step."""
     bottom, opening = 0.05, 0.025
     g = np.arange(-3, 4) * S
