@@ -27,6 +27,11 @@ Every solver runs in its own worker process (for its memory figure), one after t
 
     python benches/sand.py                      # sizes 5 8 12, MPM at 8 (about 10 min)
     python benches/sand.py --sizes 5 --mpm 5    # a quick look
+    python benches/sand.py --sizes 5 8 12 20 --mpm --paper-steps 3   # and 1.17M particles
+
+``--paper-steps K`` also runs the paper's size itself (72 spacings per radius, 1,169,352
+particles) for K steps in its own worker: ms per step by phase, set-up seconds and the
+peak memory per particle, measured rather than extrapolated.
 
 Writes benches/results/sand.json and sand.png. Timings on a shared machine are upper bounds
 (the record carries the load average).
@@ -48,6 +53,8 @@ import _common as C  # noqa: E402
 
 RADIUS, ASPECT, ANGLE, DENSITY, FLOOR = 0.05, 1.0, 30.0, 1600.0, 0.3
 PAPER_PARTICLES = 1_177_000
+# Spacings per radius that give about the paper's particle count (1,169,352 particles).
+PAPER_N = 72
 
 
 def column(n: int) -> tuple:
@@ -70,11 +77,13 @@ def peridyn_worker(a) -> dict:
 
     base = C.vm_kib("VmHWM")
     x, s = column(a.n)
+    t = time.perf_counter()
     body = pd.Particles(x, spacing=s, density=DENSITY,
                         material=pd.Granular(friction_angle=ANGLE))
     solver = pd.Solver(dt=a.dt, max_iters=a.iters, tol=0.0, threads=a.threads)
     solver.add_collider(pd.Plane(friction=FLOOR))
     solver.add(body)
+    setup = time.perf_counter() - t
     rows = []
     t = time.perf_counter()
     for _ in range(int(round(a.duration / a.dt))):
@@ -83,8 +92,12 @@ def peridyn_worker(a) -> dict:
     phases = {k: C.median([r[k] for r in rows]) for k in ("neighbours", "density", "plasticity",
                                                           "global", "total")}
     phases["elasticity"] = phases.pop("global")
+    bonds = body.rest_bonds["offsets"][-1]
     return {"particles": len(x), "spacing_m": s, "dt": a.dt, "steps": len(rows), "wall_s": wall,
+            "setup_s": setup, "bonds_per_particle": float(bonds) / len(x),
             "wall_seconds_per_simulated_second": wall / a.duration, "median_ms": phases,
+            "first_step_ms": {k: rows[0][k] for k in ("neighbours", "density", "plasticity",
+                                                      "global", "total")},
             "runout": runout(body.positions), "peak_kib_over_import": C.vm_kib("VmHWM") - base}
 
 
@@ -173,6 +186,8 @@ def main() -> None:
     ap.add_argument("--iters", type=int, default=10, help="peridyn's iterations a step")
     ap.add_argument("--mpm-young", type=float, default=3.5e5, help="MPM's Young's modulus (Pa)")
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--paper-steps", type=int, default=0,
+                    help="also run the paper's size (1.17M particles) for this many steps")
     ap.add_argument("--worker", choices=["peridyn", "mpm", "baseline"], help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -188,6 +203,10 @@ def main() -> None:
         r = in_worker("peridyn", n, args)
         results["peridyn"].append(r)
         print("peridyn", n, json.dumps(r)[:400], flush=True)
+    if args.paper_steps:
+        paper = argparse.Namespace(**{**vars(args), "duration": args.paper_steps * args.dt})
+        results["paper_size"] = in_worker("peridyn", PAPER_N, paper)
+        print("paper size", json.dumps(results["paper_size"])[:600], flush=True)
     for n in args.mpm:
         r = in_worker("mpm", n, args)
         results["mpm"].append(r)

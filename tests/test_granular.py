@@ -1,7 +1,7 @@
 """Granular particle bodies: dry and wet sand (He et al. 2017, section 7, eq. 25-28; issue
 39), at small sizes: a column's collapse against Lube et al. 2004, the deposit's slope
 against the friction angle, wet sand standing taller than dry, a pile held by static
-friction, sand kept out of colliders, threads bit-identical, bad input."""
+friction and creeping without, sand poured into a pile, sand kept out of colliders, threads bit-identical, bad input."""
 
 import functools
 
@@ -125,18 +125,29 @@ def test_wet_sand_stands_taller_than_dry():
     assert heights[1] > heights[0] + S and heights[2] > heights[0] + S, heights
 
 
-def test_a_pile_at_rest_stays_at_rest_with_static_friction():
-    """A low column (R = 4 cm, a = 0.5) settled for 0.4 s, then 0.06 s more: with static
-    friction (eq. 28) no particle moves by more than a micrometre and most are held. (That
-    it creeps without is not shown: without static friction the settled pile moved at most
-    8 nm in those 0.06 s; solved to 10 iterations a step it is at rest either way.)"""
-    body = column(0.04, 0.02, sand(30.0))
-    s, _ = settle(body, 0.4)
-    before = body.positions.copy()
-    for _ in range(30):
-        stats = s.step()
-    assert stats.particles["held_static"] > 0.9 * body.num_particles
-    assert np.linalg.norm(body.positions - before, axis=1).max() < 1e-6
+def test_a_pile_at_rest_stays_at_rest_with_static_friction_and_creeps_without():
+    """A low column (R = 4 cm, a = 0.5) settled for 0.4 s, then 0.3 s more, solved by 8
+    iterations a step (short of convergence, as the paper's few iterations): with static
+    friction (eq. 28) no particle moves by more than a micrometre and most are held; without,
+    the pile creeps on at a steady pace (measured: the largest displacement 26 um after 0.1 s,
+    110 um after 0.3 s, about 0.35 mm/s; the mean 2 then 9 um). Solved to 10 iterations a step
+    the pile is at rest either way (8 nm in 0.1 s without static friction)."""
+    moves = []
+    for eta in (0.8, None):
+        body = column(0.04, 0.02, sand(30.0, static_friction=eta))
+        s, _ = settle(body, 0.4, max_iters=8)
+        before = body.positions.copy()
+        largest = []
+        for k in range(150):
+            stats = s.step()
+            if k in (49, 149):
+                largest.append(np.linalg.norm(body.positions - before, axis=1).max())
+        moves.append(largest)
+        if eta is not None:
+            assert stats.particles["held_static"] > 0.9 * body.num_particles
+    (held_early, held_late), (free_early, free_late) = moves
+    assert held_late < 1e-6, moves
+    assert free_early > 5e-6 and free_late > 2.0 * free_early, moves
 
 
 def test_sand_does_not_pass_through_colliders():
@@ -154,6 +165,57 @@ def test_sand_does_not_pass_through_colliders():
         y = body.positions
         assert y[:, 2].min() >= 0.5 * S * 0.99
         assert (np.linalg.norm(y - center, axis=1) - radius).min() >= 0.5 * S * 0.99
+
+
+def hopper(half_width, opening, bottom, thickness=0.01):
+    """A square tube of inner half-width ``half_width`` (m) standing on a bottom at height
+    ``bottom`` (m) with a square opening of half-width ``opening`` (m) in its middle: four
+    walls and four bottom plates (boxes ``thickness`` thick), friction 0.3."""
+    w, t = half_width, thickness
+    boxes = []
+    for axis in (0, 1):
+        for sign in (-1.0, 1.0):
+            centre, half = [0.0, 0.0, bottom + 0.1], [w + 2 * t, w + 2 * t, 0.1]
+            centre[axis], half[axis] = sign * (w + t), t
+            boxes.append(pd.Box(center=tuple(centre), half_extents=tuple(half), friction=0.3))
+            centre, half = [0.0, 0.0, bottom - t], [w + 2 * t, w + 2 * t, t]
+            centre[axis], half[axis] = sign * (opening + w + 2 * t) / 2, (w + 2 * t - opening) / 2
+            boxes.append(pd.Box(center=tuple(centre), half_extents=tuple(half), friction=0.3))
+    return boxes
+
+
+def test_sand_poured_through_an_opening_forms_a_pile_and_keeps_out_of_the_colliders():
+    """Sand poured into a pile: a block of sand (7 x 7 x 6 spacings) in a square hopper whose
+    bottom, 5 cm above the ground, has an opening 5 spacings wide, released at rest. It
+    leaves through the opening as a stream (a growing share below the bottom at 0.1, 0.3
+    and 0.5 s, not all at once; measured 15, 45, 70 %), piles up on the ground under the opening (the middle of the
+    deposit stands more than two spacings above its edge, which spreads beyond the
+    opening; measured 5.0 cm against 1.9 cm, the edge 4.8 cm from the axis), and no grain comes within 99 % of its margin (half a spacing) of the ground or
+    the hopper at any step."""
+    bottom, opening = 0.05, 0.025
+    g = np.arange(-3, 4) * S
+    p = np.stack(np.meshgrid(g, g, bottom + (np.arange(6) + 0.5) * S, indexing="ij"), -1)
+    body = pd.Particles(p.reshape(-1, 3), spacing=S, density=RHO, material=sand(30.0))
+    s = ground_solver()
+    boxes = hopper(0.035, opening, bottom)
+    for box in boxes:
+        s.add_collider(box)
+    s.add(body)
+    out = []
+    for k in range(250):
+        s.step()
+        y = body.positions
+        assert y[:, 2].min() >= 0.5 * S * 0.99, k
+        assert min(b.signed_distance(y).min() for b in boxes) >= 0.5 * S * 0.99, k
+        if k in (49, 149, 249):
+            out.append(np.mean(y[:, 2] < bottom))
+    assert 0.0 < out[0] < out[1] < out[2] < 1.0, out
+    pile = body.positions[body.positions[:, 2] < bottom]
+    r = np.hypot(pile[:, 0], pile[:, 1])
+    middle = pile[r < opening, 2].max()
+    edge = np.percentile(r, 98)
+    rim = pile[r > edge - S, 2].max()
+    assert edge > opening + S and middle > rim + 2 * S, (edge, middle, rim)
 
 
 def test_one_and_two_threads_give_the_same_sand_to_the_bit():

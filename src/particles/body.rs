@@ -424,8 +424,11 @@ impl Particles {
         self.bonds_revision
     }
     /// Solver write-back of a plastic body's bonds after a step.
-    pub(crate) fn set_rest_bonds(&mut self, bonds: RestBonds) {
-        self.rest_bonds = Some(bonds);
+    pub(crate) fn set_rest_bonds(&mut self, bonds: &RestBonds) {
+        match &mut self.rest_bonds {
+            Some(mine) => mine.clone_from(bonds),
+            None => self.rest_bonds = Some(bonds.clone()),
+        }
     }
 
     /// Changes the body's material during a run (He et al. 2017, section 8 and Fig. 19: a

@@ -14,7 +14,8 @@ use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::geometry::find_horizons;
+use crate::geometry::{find_horizons, Horizons};
+use crate::parallel::for_each_vertex;
 
 use super::plasticity::local_strain;
 use super::rest_bonds::RestBonds;
@@ -57,44 +58,79 @@ pub fn rebuild(
     if found.offsets == bonds.offsets && found.indices == bonds.indices {
         return Ok(None);
     }
-    // Coincident particles (which the search counts as neighbours) get no bond: it would have
-    // no direction.
-    let rows: Vec<Vec<(u32, Vector3<f64>, f64)>> = (0..bonds.len())
-        .into_par_iter()
-        .map(|i| {
-            let old = bonds.of(i);
-            let mut inverse = None;
-            found
-                .of(i)
-                .iter()
-                .filter(|&&j| y[j as usize] != y[i])
-                .map(|&j| match old.binary_search(&j) {
-                    Ok(k) => {
-                        let b = bonds.offsets[i] as usize + k;
-                        (j, bonds.xi[b], bonds.born[b])
-                    }
-                    Err(_) => {
-                        let map = *inverse
-                            .get_or_insert_with(|| clamped_inverse(bonds, i, y, delta, volume));
-                        let x = map * (y[j as usize] - y[i]);
-                        (j, x, x.norm())
-                    }
-                })
-                .collect()
-        })
-        .collect();
-    let mut offsets = Vec::with_capacity(rows.len() + 1);
-    offsets.push(0u32);
-    for row in &rows {
-        offsets.push(offsets[offsets.len() - 1] + row.len() as u32);
-    }
-    let flat: Vec<(u32, Vector3<f64>, f64)> = rows.into_iter().flatten().collect();
-    let rebuilt = RestBonds {
+    let Horizons {
+        offsets, indices, ..
+    } = found;
+    // Each new bond's vector and birth length, in place in rows of the new pairs (no copy of
+    // the bonds beyond the result).
+    let mut xi = vec![Vector3::zeros(); indices.len()];
+    let mut born = vec![0.0; indices.len()];
+    let mut unused = vec![(); bonds.len()];
+    for_each_vertex(&offsets, &mut xi, &mut unused, &|i,
+                                                      row: &mut [Vector3<
+        f64,
+    >]| {
+        let (old, new) = (bonds.of(i), &indices[offsets[i] as usize..]);
+        let mut inverse = None;
+        for (x, &j) in row.iter_mut().zip(new) {
+            *x = match old.binary_search(&j) {
+                Ok(k) => bonds.xi[bonds.offsets[i] as usize + k],
+                Err(_) => {
+                    let map =
+                        *inverse.get_or_insert_with(|| clamped_inverse(bonds, i, y, delta, volume));
+                    map * (y[j as usize] - y[i])
+                }
+            };
+        }
+    });
+    for_each_vertex(&offsets, &mut born, &mut unused, &|i, row: &mut [f64]| {
+        let (old, new) = (bonds.of(i), &indices[offsets[i] as usize..]);
+        let first = offsets[i] as usize;
+        for (k, (length, &j)) in row.iter_mut().zip(new).enumerate() {
+            *length = match old.binary_search(&j) {
+                Ok(m) => bonds.born[bonds.offsets[i] as usize + m],
+                Err(_) => xi[first + k].norm(),
+            };
+        }
+    });
+    let mut rebuilt = RestBonds {
         offsets,
-        indices: flat.iter().map(|p| p.0).collect(),
-        xi: flat.iter().map(|p| p.1).collect(),
-        born: flat.iter().map(|p| p.2).collect(),
+        indices,
+        xi,
+        born,
         plastic_strain: bonds.plastic_strain.clone(),
     };
+    drop_coincident(&mut rebuilt, y);
     Ok((!rebuilt.same_pairs(bonds)).then_some(rebuilt))
+}
+
+/// Drops the bonds between coincident particles (which the search counts as neighbours): a
+/// bond would have no direction. Moves nothing when there are none (the usual case).
+fn drop_coincident(bonds: &mut RestBonds, y: &[Vector3<f64>]) {
+    let coincident = |i: usize, b: usize| y[bonds.indices[b] as usize] == y[i];
+    if !(0..bonds.len())
+        .into_par_iter()
+        .any(|i| bonds.row(i).any(|b| coincident(i, b)))
+    {
+        return;
+    }
+    let mut keep = Vec::with_capacity(bonds.indices.len());
+    let mut offsets = vec![0u32];
+    for i in 0..bonds.len() {
+        let before = keep.len();
+        keep.extend(bonds.row(i).map(|b| !coincident(i, b)));
+        let kept = keep[before..].iter().filter(|&&k| k).count() as u32;
+        offsets.push(offsets[i] + kept);
+    }
+    let mut flags = keep.iter();
+    bonds
+        .indices
+        .retain(|_| *flags.next().expect("one flag a bond"));
+    let mut flags = keep.iter();
+    bonds.xi.retain(|_| *flags.next().expect("one flag a bond"));
+    let mut flags = keep.iter();
+    bonds
+        .born
+        .retain(|_| *flags.next().expect("one flag a bond"));
+    bonds.offsets = offsets;
 }

@@ -39,11 +39,12 @@ use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use crate::error::{check_param, invalid, Result};
+use crate::parallel::for_each_vertex;
 
 use super::deformation::{shape_inverse, uninverted};
 use super::elastic::Elastic;
 use super::influence::influence;
-use super::rest_bonds::RestBonds;
+use super::rest_bonds::{BondRow, RestBonds};
 
 /// A Drucker-Prager plastic law for a particle body.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -116,13 +117,6 @@ pub(crate) struct LocalStrain {
     pub weight: f64,
 }
 
-/// The weight `w(born) V` of bond `b` of `bonds` for the horizon `delta` and particle
-/// volume `volume` (m, m^3).
-#[inline]
-pub(crate) fn bond_weight(bonds: &RestBonds, b: usize, delta: f64, volume: f64) -> f64 {
-    influence(bonds.born[b], delta) * volume
-}
-
 /// Particle `i`'s [`LocalStrain`] at the positions `y` (m), or `None` where it has no bonds
 /// with weight or its shape matrix is singular.
 pub(crate) fn local_strain(
@@ -132,34 +126,55 @@ pub(crate) fn local_strain(
     delta: f64,
     volume: f64,
 ) -> Option<LocalStrain> {
-    let (mut shape, mut sum) = (Matrix3::zeros(), Matrix3::zeros());
-    let (mut weight, mut mean) = (0.0, 0.0);
-    for b in bonds.row(i) {
-        let (x, w) = (bonds.xi[b], bond_weight(bonds, b, delta, volume));
-        let yb = y[bonds.indices[b] as usize] - y[i];
-        shape += x * x.transpose() * w;
-        sum += yb * x.transpose() * w;
-        weight += w;
-        mean += w * (yb.norm() / x.norm() - 1.0);
+    bonds.bonds_of(i).strain(i, y, delta, volume)
+}
+
+impl BondRow<'_> {
+    /// The weight `w(born) V` of the row's bond `k` for the horizon `delta` and particle
+    /// volume `volume` (m, m^3).
+    #[inline]
+    fn weight(&self, k: usize, delta: f64, volume: f64) -> f64 {
+        influence(self.born[k], delta) * volume
     }
-    if weight <= 0.0 {
-        return None;
+
+    /// The strain `|Y| / |X| - 1` of the row's bond `k` at the positions `y` (m) of the
+    /// particle `i` whose row it is.
+    #[inline]
+    fn bond_strain(&self, k: usize, i: usize, y: &[Vector3<f64>]) -> f64 {
+        (y[self.indices[k] as usize] - y[i]).norm() / self.xi[k].norm() - 1.0
     }
-    let f = uninverted(sum * shape_inverse(&shape)?);
-    let iso = mean / weight;
-    let square: f64 = bonds
-        .row(i)
-        .map(|b| {
-            let e = (y[bonds.indices[b] as usize] - y[i]).norm() / bonds.xi[b].norm() - 1.0;
-            bond_weight(bonds, b, delta, volume) * (e - iso) * (e - iso)
+
+    /// The [`LocalStrain`] of particle `i`, whose bonds these are, at the positions `y` (m)
+    /// (see [`local_strain`]).
+    fn strain(&self, i: usize, y: &[Vector3<f64>], delta: f64, volume: f64) -> Option<LocalStrain> {
+        let (mut shape, mut sum) = (Matrix3::zeros(), Matrix3::zeros());
+        let (mut weight, mut mean) = (0.0, 0.0);
+        for k in 0..self.xi.len() {
+            let (x, w) = (self.xi[k], self.weight(k, delta, volume));
+            let yb = y[self.indices[k] as usize] - y[i];
+            shape += x * x.transpose() * w;
+            sum += yb * x.transpose() * w;
+            weight += w;
+            mean += w * (yb.norm() / x.norm() - 1.0);
+        }
+        if weight <= 0.0 {
+            return None;
+        }
+        let f = uninverted(sum * shape_inverse(&shape)?);
+        let iso = mean / weight;
+        let square: f64 = (0..self.xi.len())
+            .map(|k| {
+                let e = self.bond_strain(k, i, y);
+                self.weight(k, delta, volume) * (e - iso) * (e - iso)
+            })
+            .sum();
+        Some(LocalStrain {
+            f,
+            iso,
+            dev: (square / weight).sqrt(),
+            weight,
         })
-        .sum();
-    Some(LocalStrain {
-        f,
-        iso,
-        dev: (square / weight).sqrt(),
-        weight,
-    })
+    }
 }
 
 /// The rotation of the polar decomposition of `f` (`U V^T` of its SVD, a proper rotation).
@@ -220,9 +235,9 @@ impl PlasticLaw {
     }
 
     /// The return of eq. 18-19 on every particle of `bonds` at the positions `y` (m): moves
-    /// the reference vectors of the particles that yield and adds to their plastic strain.
-    /// Returns how many yielded. Each particle's update is computed alone (in parallel), so
-    /// the result does not depend on the number of threads.
+    /// the reference vectors of the particles that yield, in place, and adds to their plastic
+    /// strain. Returns how many yielded. Each particle's update reads and writes its own
+    /// bonds only (in parallel), so the result does not depend on the number of threads.
     /// The particles that yield are marked in `yielded_flags` (one per particle; the others
     /// are left as they are).
     pub fn apply(
@@ -231,16 +246,34 @@ impl PlasticLaw {
         y: &[Vector3<f64>],
         yielded_flags: &mut [bool],
     ) -> usize {
-        let updates: Vec<Option<(Vec<Vector3<f64>>, f64)>> = (0..bonds.len())
-            .into_par_iter()
-            .map(|i| self.particle_return(bonds, i, y))
-            .collect();
+        let RestBonds {
+            offsets,
+            indices,
+            xi,
+            born,
+            plastic_strain,
+        } = bonds;
+        let mut increments = vec![None; plastic_strain.len()];
+        for_each_vertex(offsets, xi, &mut increments, &|i,
+                                                        xi: &mut [Vector3<
+            f64,
+        >]| {
+            let row = offsets[i] as usize..offsets[i + 1] as usize;
+            let (indices, born) = (&indices[row.clone()], &born[row]);
+            let view = BondRow { indices, xi, born };
+            let plan = self.plan(&view, i, y, plastic_strain[i])?;
+            for (k, x) in xi.iter_mut().enumerate() {
+                let yb = y[indices[k] as usize] - y[i];
+                if let Some(moved) = plan.moved(x, &yb, born[k]) {
+                    *x = moved;
+                }
+            }
+            Some(plan.increment)
+        });
         let mut yielded = 0;
-        for (i, update) in updates.into_iter().enumerate() {
-            if let Some((xi, strain)) = update {
-                let row = bonds.row(i);
-                bonds.xi[row].copy_from_slice(&xi);
-                bonds.plastic_strain[i] += strain;
+        for (i, increment) in increments.into_iter().enumerate() {
+            if let Some(strain) = increment {
+                plastic_strain[i] += strain;
                 yielded_flags[i] = true;
                 yielded += 1;
             }
@@ -248,15 +281,11 @@ impl PlasticLaw {
         yielded
     }
 
-    /// Particle `i`'s new reference vectors and plastic strain increment, if it yields.
-    fn particle_return(
-        &self,
-        bonds: &RestBonds,
-        i: usize,
-        y: &[Vector3<f64>],
-    ) -> Option<(Vec<Vector3<f64>>, f64)> {
-        let local = local_strain(bonds, i, y, self.delta, self.volume)?;
-        let state = self.measure(&local, bonds.plastic_strain[i]);
+    /// The return of particle `i` with its bonds `row` and plastic strain `eps_p` at the
+    /// positions `y` (m), if it yields.
+    fn plan(&self, row: &BondRow<'_>, i: usize, y: &[Vector3<f64>], eps_p: f64) -> Option<Return> {
+        let local = row.strain(i, y, self.delta, self.volume)?;
+        let state = self.measure(&local, eps_p);
         if state.sqrt_j2 <= state.strength {
             return None;
         }
@@ -270,30 +299,56 @@ impl PlasticLaw {
         } else {
             (0.0, 1.0)
         };
-        let r = rotation(&local.f);
-        let mut removed = 0.0;
-        let xi = bonds
-            .row(i)
-            .map(|b| {
-                let (x, yb) = (bonds.xi[b], y[bonds.indices[b] as usize] - y[i]);
-                let e = yb.norm() / x.norm() - 1.0;
-                let target = (1.0 - alpha) * local.iso + (1.0 - beta) * (e - local.iso);
-                let w = bond_weight(bonds, b, self.delta, self.volume);
-                removed += w * (e - target) * (e - target);
-                let rx = r * x;
-                let d = yb - rx;
-                let d_iso = rx * local.iso;
-                let along = rx + d_iso * alpha + (d - d_iso) * beta;
-                let length = yb.norm() / (1.0 + target);
-                // A bond squeezed to nothing keeps its vector (no direction to give it).
-                if along.norm() > 0.0 && length > 1e-6 * bonds.born[b] {
-                    along * (length / along.norm())
-                } else {
-                    x
-                }
+        let mut plan = Return {
+            alpha,
+            beta,
+            iso: local.iso,
+            rotation: rotation(&local.f),
+            increment: 0.0,
+        };
+        let removed: f64 = (0..row.xi.len())
+            .map(|k| {
+                let e = row.bond_strain(k, i, y);
+                let w = row.weight(k, self.delta, self.volume);
+                w * (e - plan.target(e)).powi(2)
             })
-            .collect();
-        Some((xi, (removed / local.weight).sqrt()))
+            .sum();
+        plan.increment = (removed / local.weight).sqrt();
+        Some(plan)
+    }
+}
+
+/// One particle's return (eq. 18-19, see the module's doc).
+struct Return {
+    /// `alpha`, `beta` of eq. 18 (dimensionless).
+    alpha: f64,
+    beta: f64,
+    /// `e_iso` before the return (dimensionless) and the rotation `R` of `F_i`.
+    iso: f64,
+    rotation: Matrix3<f64>,
+    /// The plastic strain the return takes away (dimensionless).
+    increment: f64,
+}
+
+impl Return {
+    /// The strain a bond of strain `e` keeps, `(1 - alpha) e_iso + (1 - beta) e_dev`.
+    #[inline]
+    fn target(&self, e: f64) -> f64 {
+        (1.0 - self.alpha) * self.iso + (1.0 - self.beta) * (e - self.iso)
+    }
+
+    /// The new reference vector (m) of a bond with the vector `x` (m), the deformed vector
+    /// `yb` (m) and the birth length `born` (m); `None` for a bond squeezed to nothing, which
+    /// keeps its vector (no direction to give it).
+    #[inline]
+    fn moved(&self, x: &Vector3<f64>, yb: &Vector3<f64>, born: f64) -> Option<Vector3<f64>> {
+        let e = yb.norm() / x.norm() - 1.0;
+        let rx = self.rotation * x;
+        let d = yb - rx;
+        let d_iso = rx * self.iso;
+        let along = rx + d_iso * self.alpha + (d - d_iso) * self.beta;
+        let length = yb.norm() / (1.0 + self.target(e));
+        (along.norm() > 0.0 && length > 1e-6 * born).then(|| along * (length / along.norm()))
     }
 }
 

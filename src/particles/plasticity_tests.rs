@@ -246,3 +246,31 @@ fn new_neighbours_get_reference_vectors_from_the_inverse_map() {
     }
     assert!(new > 0, "no new neighbour");
 }
+
+/// Coincident particles (which the search counts as neighbours) get no bond between them,
+/// the bonds stay symmetric and valid, and every other pair keeps its vector and birth length.
+#[test]
+fn coincident_particles_get_no_bond_and_the_others_keep_theirs() {
+    let b = body([4, 4, 4], Some(law(0.0, 100.0, true)));
+    let mut y = b.reference().to_vec();
+    y[0] = y[1];
+    let bonds = b.current_rest_bonds();
+    let rebuilt = rebuild_neighbours(&bonds, &y, b.horizon(), b.volume())
+        .unwrap()
+        .expect("the pairs changed");
+    rebuilt.check(y.len()).unwrap();
+    assert!(rebuilt.of(0).binary_search(&1).is_err());
+    assert!(rebuilt.of(1).binary_search(&0).is_err());
+    for i in 0..rebuilt.len() {
+        for k in rebuilt.row(i) {
+            let j = rebuilt.indices[k];
+            if let Ok(m) = bonds.of(i).binary_search(&j) {
+                let old = bonds.offsets[i] as usize + m;
+                assert_eq!(
+                    (rebuilt.xi[k], rebuilt.born[k]),
+                    (bonds.xi[old], bonds.born[old])
+                );
+            }
+        }
+    }
+}

@@ -91,17 +91,31 @@ impl<T: Real> ParticleRest<T> {
         Ok(rest)
     }
 
-    /// The rest data of bodies given by their bonds and constants, in this order.
-    /// `lam` per particle (Pa) replaces the moduli's for a granular body.
-    pub(crate) fn of_bonds(bodies: &[(&RestBonds, RestConstants, Option<&[f64]>)]) -> Result<Self> {
-        let mut rest = Self {
-            offsets: vec![0],
-            ..Self::default()
-        };
+    /// Replaces the rest data by that of bodies given by their bonds and constants, in this
+    /// order, in place: the vectors keep their allocations (a plastic family's rest data is
+    /// rebuilt every step; building it beside the old one doubled its memory at the peak).
+    /// `lam` per particle (Pa) replaces the moduli's for a granular body. On an error the
+    /// rest data is partly filled and must not be used.
+    pub(crate) fn refill(
+        &mut self,
+        bodies: &[(&RestBonds, RestConstants, Option<&[f64]>)],
+    ) -> Result<()> {
+        self.offsets.clear();
+        self.offsets.push(0);
+        self.indices.clear();
+        self.reverse.clear();
+        self.bonds.clear();
+        self.shape_inverse.clear();
+        self.dilatation.clear();
+        self.coupling.clear();
+        self.stiffness.clear();
+        self.mass.clear();
+        self.margin.clear();
+        self.collides.clear();
         for (bonds, constants, lam) in bodies {
-            rest.add_bonds(bonds, constants, *lam)?;
+            self.add_bonds(bonds, constants, *lam)?;
         }
-        Ok(rest)
+        Ok(())
     }
 
     pub fn len(&self) -> usize {
@@ -170,6 +184,19 @@ impl<T: Real> ParticleRest<T> {
     ) -> Result<()> {
         let base = self.len() as u32;
         let bond_base = self.indices.len() as u32;
+        // Exact sizes: pushing would leave up to half of each vector's allocation unused.
+        let (n, count) = (bonds.len(), bonds.indices.len());
+        self.offsets.reserve_exact(n);
+        self.indices.reserve_exact(count);
+        self.reverse.reserve_exact(count);
+        self.bonds.reserve_exact(count);
+        self.coupling.reserve_exact(count);
+        self.shape_inverse.reserve_exact(n);
+        self.dilatation.reserve_exact(n);
+        self.stiffness.reserve_exact(n);
+        self.mass.reserve_exact(n);
+        self.margin.reserve_exact(n);
+        self.collides.reserve_exact(n);
         let moduli = c.moduli;
         let (volume, delta) = (c.volume, c.delta);
         let weight = |b: usize| influence(bonds.born[b], delta) * volume;
@@ -213,7 +240,7 @@ impl<T: Real> ParticleRest<T> {
             all
         });
         // The extra stiffness of the dilatation term in the global matrix (N/m per bond).
-        let mut matrix_extra = Vec::new();
+        let mut matrix_extra = Vec::with_capacity(count);
         for (i, &weight_sum) in weight_sums.iter().enumerate() {
             let abs_sum: f64 = shares.as_ref().map_or(1.0, |a| {
                 bonds.row(i).map(|b| a[b].abs() * bonds.xi[b].norm()).sum()

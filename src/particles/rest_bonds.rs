@@ -19,7 +19,7 @@ use crate::error::{invalid, Result};
 use crate::geometry::Horizons;
 
 /// A body's current reference bonds (see the module's doc).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct RestBonds {
     /// Bond `b` of particle `i` (`offsets[i] <= b < offsets[i + 1]`) goes to `indices[b]`,
     /// the neighbours of each particle in increasing order (so the bonds are symmetric:
@@ -33,6 +33,36 @@ pub struct RestBonds {
     /// Per particle the accumulated plastic strain (dimensionless; the weighted RMS of the
     /// bond strains each return took away), which hardening raises the cohesion with.
     pub plastic_strain: Vec<f64>,
+}
+
+/// `clone_from` copies into the vectors at hand (the solver writes a plastic body's bonds
+/// back every step: a fresh copy each time left the old one to the allocator at the peak).
+impl Clone for RestBonds {
+    fn clone(&self) -> Self {
+        Self {
+            offsets: self.offsets.clone(),
+            indices: self.indices.clone(),
+            xi: self.xi.clone(),
+            born: self.born.clone(),
+            plastic_strain: self.plastic_strain.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.offsets.clone_from(&source.offsets);
+        self.indices.clone_from(&source.indices);
+        self.xi.clone_from(&source.xi);
+        self.born.clone_from(&source.born);
+        self.plastic_strain.clone_from(&source.plastic_strain);
+    }
+}
+
+/// The bonds of one particle: neighbours, reference vectors `X` (m) and birth lengths (m).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BondRow<'a> {
+    pub indices: &'a [u32],
+    pub xi: &'a [Vector3<f64>],
+    pub born: &'a [f64],
 }
 
 impl RestBonds {
@@ -65,6 +95,17 @@ impl RestBonds {
     #[inline(always)]
     pub fn row(&self, i: usize) -> std::ops::Range<usize> {
         self.offsets[i] as usize..self.offsets[i + 1] as usize
+    }
+
+    /// The bonds of particle `i` as one view.
+    #[inline(always)]
+    pub(crate) fn bonds_of(&self, i: usize) -> BondRow<'_> {
+        let row = self.row(i);
+        BondRow {
+            indices: &self.indices[row.clone()],
+            xi: &self.xi[row.clone()],
+            born: &self.born[row],
+        }
     }
 
     /// The neighbours of particle `i`, increasing.

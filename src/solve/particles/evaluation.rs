@@ -36,6 +36,14 @@ impl<T: Real> Evaluation<T> {
         }
     }
 
+    /// Readies the evaluation for `bonds` bonds (their count changed with the neighbours), in
+    /// the allocation at hand; it no longer holds a valid evaluation.
+    pub fn resize_bonds(&mut self, bonds: usize) {
+        self.bond_force.clear();
+        self.bond_force.resize(bonds, Vector3::zeros());
+        self.valid = false;
+    }
+
     /// Whether this evaluation was taken at `y`, bit for bit.
     pub fn is_at(&self, y: &[Vector3<T>]) -> bool {
         self.valid && self.at == y

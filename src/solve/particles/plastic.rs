@@ -106,15 +106,17 @@ impl PlasticBodies {
 
     /// The second half of the plastic end of a step, at the step's final positions `y` (m;
     /// see the module's doc), after `yielded` particles yielded in [`Self::returns`]: the
-    /// family's new rest data, and whether some neighbourhood changed (then the bond count
-    /// and the global matrix's pattern may have too); `None` when no particle yielded, no
-    /// neighbourhood changed and no body is granular, so the rest data at hand stands.
+    /// family's new rest data, refilled into `rest` in place, and whether some neighbourhood
+    /// changed (then the bond count and the global matrix's pattern may have too); `None`
+    /// when no particle yielded, no neighbourhood changed and no body is granular, so the rest
+    /// data at hand stands. On an error `rest` is partly filled and must be built anew.
     pub fn rebuild<T: Real>(
         &mut self,
         y: &[Vector3<T>],
         yielded: usize,
+        rest: &mut ParticleRest<T>,
         timings: &mut Timings,
-    ) -> Result<Option<(ParticleRest<T>, bool)>> {
+    ) -> Result<Option<bool>> {
         self.copy_positions(y);
         let y = &self.y;
         let t = Instant::now();
@@ -158,16 +160,16 @@ impl PlasticBodies {
                 (&e.bonds, e.constants, lam)
             })
             .collect();
-        let rest = ParticleRest::of_bonds(&sources)?;
+        rest.refill(&sources)?;
         timings.plasticity += millis(t);
-        Ok(Some((rest, changed)))
+        Ok(Some(changed))
     }
 
-    /// Writes the plastic bodies' bonds back into them.
+    /// Writes the plastic bodies' bonds back into them (into the bodies' own allocations).
     pub fn store(&self, bodies: &mut [&mut Particles]) {
         for (entry, body) in self.entries.iter().zip(bodies) {
             if entry.law.is_some() {
-                body.set_rest_bonds(entry.bonds.clone());
+                body.set_rest_bonds(&entry.bonds);
             }
         }
     }

@@ -52,6 +52,8 @@ pub(crate) struct ParticleSystem<T: Real> {
     yielded: Vec<bool>,
     /// Each body's [`Particles::bonds_revision`] when this working set was built.
     revisions: Vec<u64>,
+    /// Whether the rest data was left partly built by a failed end of a step.
+    stale: bool,
 }
 
 impl<T: Real> ParticleSystem<T> {
@@ -83,13 +85,15 @@ impl<T: Real> ParticleSystem<T> {
             yielded: vec![false; n],
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
+            stale: false,
         })
     }
 
     /// True when the working set was built for exactly these bodies with the bonds they have
-    /// (none was given bonds from outside since).
+    /// (none was given bonds from outside since), and the rest data is whole.
     pub fn matches(&self, bodies: &[&mut Particles]) -> bool {
-        self.points.matches(bodies)
+        !self.stale
+            && self.points.matches(bodies)
             && self
                 .revisions
                 .iter()
@@ -126,14 +130,17 @@ impl<T: Real> ParticleSystem<T> {
         if let Some(friction) = &self.static_friction {
             self.timings.held_static = friction.apply(&mut self.points, &self.yielded);
         }
-        let Some((rest, changed)) = plastic.rebuild(&self.points.y, yielded, timings)? else {
+        let rebuilt = plastic.rebuild(&self.points.y, yielded, &mut self.rest, timings);
+        // A failed refill leaves the rest data partly built: the next step builds the
+        // working set anew from the bodies, which kept their bonds.
+        self.stale = rebuilt.is_err();
+        let Some(changed) = rebuilt? else {
             return Ok(());
         };
-        self.rest = rest;
         if changed {
-            let (n, bonds) = (self.rest.len(), self.rest.indices.len());
-            self.current = Evaluation::new(n, bonds);
-            self.trial = Evaluation::new(n, bonds);
+            let bonds = self.rest.indices.len();
+            self.current.resize_bonds(bonds);
+            self.trial.resize_bonds(bonds);
             self.direct = None;
         } else {
             self.current.valid = false;
