@@ -197,9 +197,12 @@ pub(crate) struct PlasticLaw {
 impl PlasticLaw {
     /// The yield measure of a [`LocalStrain`] for a particle with the plastic strain `eps_p`.
     pub fn measure(&self, local: &LocalStrain, eps_p: f64) -> YieldState {
-        let (a, b) = self
-            .law
-            .cone(self.law.cohesion + self.law.hardening * eps_p);
+        self.measure_at(local, eps_p, self.law.cohesion)
+    }
+
+    /// [`Self::measure`] with the particle's own cohesion `c` (Pa) before hardening.
+    fn measure_at(&self, local: &LocalStrain, eps_p: f64, c: f64) -> YieldState {
+        let (a, b) = self.law.cone(c + self.law.hardening * eps_p);
         let i1 = -9.0 * self.bulk * local.iso;
         YieldState {
             sqrt_j2: 15f64.sqrt() * self.shear * local.dev,
@@ -224,16 +227,21 @@ impl PlasticLaw {
     /// Returns how many yielded. Each particle's update is computed alone (in parallel), so
     /// the result does not depend on the number of threads.
     /// The particles that yield are marked in `yielded_flags` (one per particle; the others
-    /// are left as they are).
+    /// are left as they are). `cohesion`, per particle (Pa), replaces the law's (wetted
+    /// sand, [`super::wet_sand`]).
     pub fn apply(
         &self,
         bonds: &mut RestBonds,
         y: &[Vector3<f64>],
         yielded_flags: &mut [bool],
+        cohesion: Option<&[f64]>,
     ) -> usize {
         let updates: Vec<Option<(Vec<Vector3<f64>>, f64)>> = (0..bonds.len())
             .into_par_iter()
-            .map(|i| self.particle_return(bonds, i, y))
+            .map(|i| {
+                let c = cohesion.map_or(self.law.cohesion, |c| c[i]);
+                self.particle_return(bonds, i, y, c)
+            })
             .collect();
         let mut yielded = 0;
         for (i, update) in updates.into_iter().enumerate() {
@@ -248,15 +256,17 @@ impl PlasticLaw {
         yielded
     }
 
-    /// Particle `i`'s new reference vectors and plastic strain increment, if it yields.
+    /// Particle `i`'s new reference vectors and plastic strain increment, if it yields with
+    /// the cohesion `c` (Pa) before hardening.
     fn particle_return(
         &self,
         bonds: &RestBonds,
         i: usize,
         y: &[Vector3<f64>],
+        c: f64,
     ) -> Option<(Vec<Vector3<f64>>, f64)> {
         let local = local_strain(bonds, i, y, self.delta, self.volume)?;
-        let state = self.measure(&local, bonds.plastic_strain[i]);
+        let state = self.measure_at(&local, bonds.plastic_strain[i], c);
         if state.sqrt_j2 <= state.strength {
             return None;
         }
