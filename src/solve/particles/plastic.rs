@@ -95,7 +95,9 @@ impl PlasticBodies {
                     &self.y[entry.range.clone()],
                     &mut yielded[entry.range.clone()],
                 );
-                let cohesion = (entry.constants.granular)
+                let cohesion = entry
+                    .constants
+                    .granular
                     .filter(|_| !entry.wetted.is_empty())
                     .map(|g| g.cohesions(&entry.wetted));
                 count += law.apply(&mut entry.bonds, y, marks, cohesion.as_deref());
