@@ -238,3 +238,87 @@ impl Particles {
         Ok(out)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::particles::tests::lattice;
+
+    /// A 6 x 3 x 3 water body on a 1 cm lattice, its positions moved by `shift` (m).
+    fn water() -> Particles {
+        Particles::fluid(
+            lattice([6, 3, 3], 0.01),
+            0.01,
+            1000.0,
+            ViscoelasticFluid::default(),
+        )
+        .unwrap()
+    }
+
+    /// The particles of the half `x < 2.5 cm` (a 3 x 3 x 3 block).
+    fn half(body: &Particles) -> Vec<i64> {
+        let x = body.positions();
+        (0..x.len() as i64)
+            .filter(|&i| x[i as usize].x < 0.025)
+            .collect()
+    }
+
+    fn solid() -> RegionMaterial {
+        RegionMaterial::Solid(Elastic::Paper { mu: 1e3, lam: 1e3 })
+    }
+
+    /// Bonds only between solid particles, born at the positions of the change; a later
+    /// change keeps the bonds between unchanged particles as they were (their `X`, not the
+    /// moved positions) and drops those of a particle turned fluid.
+    #[test]
+    fn region_bonds_join_solid_particles_only_and_keep_unchanged_ones() {
+        let mut body = water();
+        let n = body.num_particles();
+        let half = half(&body);
+        let solid_at = |i: usize| half.contains(&(i as i64));
+        body.set_material_of(&half, solid()).unwrap();
+        let bonds = body.rest_bonds().unwrap().clone();
+        let y = body.positions().to_vec();
+        for i in 0..n {
+            for b in bonds.row(i) {
+                let j = bonds.indices[b] as usize;
+                assert!(
+                    solid_at(i) && solid_at(j),
+                    "bond {i}-{j} leaves the solid half"
+                );
+                assert_eq!(bonds.xi[b], y[j] - y[i]);
+            }
+        }
+        // Move everything, then turn particle 0 (a corner of the half) fluid: it loses its
+        // bonds, the others keep X.
+        assert!(solid_at(0));
+        let moved: Vec<_> = y.iter().map(|p| p * 1.1).collect();
+        body.set_positions(moved).unwrap();
+        body.set_material_of(&[0], RegionMaterial::Fluid(ViscoelasticFluid::default()))
+            .unwrap();
+        let after = body.rest_bonds().unwrap();
+        assert!(after.of(0).is_empty());
+        for i in (1..n).filter(|&i| solid_at(i)) {
+            let kept: Vec<_> = bonds.row(i).filter(|&b| bonds.indices[b] != 0).collect();
+            assert_eq!(after.of(i).len(), kept.len());
+            for (a, b) in after.row(i).zip(kept) {
+                assert_eq!(after.xi[a], bonds.xi[b]);
+            }
+        }
+        assert!((0..n).all(|i| body.is_fluid_particle(i) == (i == 0 || !solid_at(i))));
+    }
+
+    /// A mixed body refuses plasticity, sand and bonds from outside, by name.
+    #[test]
+    fn a_mixed_body_takes_no_plasticity_sand_or_bonds() {
+        let mut body = water();
+        body.set_material_of(&half(&body), solid()).unwrap();
+        let refused = |r: Result<()>| {
+            let message = r.unwrap_err().to_string();
+            assert!(message.contains("region changed material"), "{message}");
+        };
+        refused(body.set_granular(crate::particles::Granular::new(30.0, 0.0)));
+        refused(body.set_plasticity(None));
+        refused(body.restore_rest_bonds(None));
+    }
+}
