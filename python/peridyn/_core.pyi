@@ -370,14 +370,29 @@ class Particles:
         """Horizon radius (m)."""
     @property
     def material(self) -> Union[Elastic, Granular, ViscoelasticFluid]: ...
-    def set_material(self, material: Union[Elastic, ViscoelasticFluid]) -> None:
+    def set_material(self, material: Union[Elastic, ViscoelasticFluid],
+                     indices: Optional[ArrayLike] = None) -> None:
         """Changes the material during a run (He et al. 2017, Fig. 19): an ``Elastic`` makes
         the body a solid whose bonds are born at its current positions (they become the
         reference; default horizon), a ``ViscoelasticFluid`` melts it. Positions, velocities
         and pins are kept; solvers rebuild the body's working set at their next step.
         ValueError, changing nothing, for another material, a shell, rod or sand, a plastic
         body made fluid, or a particle without a three-dimensional neighbourhood at its
-        current position (named)."""
+        current position (named).
+
+        With ``indices`` only those particles change, between a Newtonian fluid and an
+        elastic solid (one of each per body): bonds between solid particles of which one
+        changed are born at the current positions, others kept; none across the fluid-solid
+        boundary, where the fluid's density constraints see the solid particles as
+        neighbours. ValueError naming a bad index or a second elastic or fluid material."""
+    @property
+    def saturation(self) -> Optional[np.ndarray]:
+        """A sand body's water saturation per particle (in [0, 1]): the material's, risen
+        where a liquid in the same solver reached the grains; None for other bodies."""
+    @property
+    def fluid_particles(self) -> np.ndarray:
+        """Per particle, True for a fluid particle (bool): all for a fluid body, none for a
+        solid, a region after ``set_material(material, indices)``."""
     @property
     def moduli(self) -> Tuple[float, float, float]:
         """``(mu, lam, kappa)`` (Pa) the material resolved to on this body's lattice: the

@@ -81,6 +81,10 @@ const FLUID_MODULI: Moduli = Moduli {
 /// checks of [`Particles::new`]; its moduli are replaced by [`FLUID_MODULI`], so it never acts.
 pub const FLUID_PLACEHOLDER: Elastic = Elastic::Paper { mu: 1.0, lam: 0.0 };
 
+#[path = "transition.rs"]
+mod transition;
+pub use transition::RegionMaterial;
+
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
 /// A body of particles. Not `Clone`: its `id` is unique.
@@ -109,8 +113,14 @@ pub struct Particles {
     /// How many times the bonds were replaced from outside ([`Self::restore_rest_bonds`]):
     /// a solver whose working set was built at another count builds it anew.
     bonds_revision: u64,
-    /// The fluid material, if the body is a fluid ([`Self::fluid`]).
+    /// The fluid material, if the body is a fluid ([`Self::fluid`]) or has fluid particles.
     fluid: Option<ViscoelasticFluid>,
+    /// Per particle, whether it is a fluid particle, once a region changed its material
+    /// ([`transition`]); `None`: the material is uniform.
+    fluid_mask: Option<Vec<bool>>,
+    /// A sand body's saturation per particle once a liquid wetted it
+    /// ([`super::wet_sand`]); `None`: the material's everywhere.
+    wetted: Option<Vec<f64>>,
 }
 
 impl Particles {
@@ -166,6 +176,8 @@ impl Particles {
             rest_bonds: None,
             bonds_revision: 0,
             fluid: None,
+            fluid_mask: None,
+            wetted: None,
             granular: None,
         };
         debug_assert!(body.ghost_owners.len() < body.reference.len());
@@ -362,6 +374,7 @@ impl Particles {
     /// Makes the body plastic with `law` (or elastic with `None`), from its current reference
     /// bonds on. Fails, naming the parameter, on a bad law.
     pub fn set_plasticity(&mut self, law: Option<DruckerPrager>) -> Result<()> {
+        self.refuse_mixed()?;
         if self.granular.is_some() {
             return Err(crate::error::invalid!(
                 "a granular body yields by its material's friction angle: it takes no other \
@@ -378,10 +391,30 @@ impl Particles {
     /// material's, its stiffness follows its density. Fails, naming the parameter, on a bad
     /// material.
     pub fn set_granular(&mut self, material: Granular) -> Result<()> {
+        self.refuse_mixed()?;
         material.validate()?;
         self.plasticity = Some(material.yield_law());
         self.granular = Some(material);
+        self.wetted = None;
         Ok(())
+    }
+    /// A sand body's water saturation per particle (dimensionless), or `None` for a body
+    /// that is not sand.
+    pub fn saturation(&self) -> Option<Vec<f64>> {
+        let g = self.granular.as_ref()?;
+        Some(
+            self.wetted
+                .clone()
+                .unwrap_or_else(|| vec![g.saturation; self.num_particles()]),
+        )
+    }
+    /// A sand body's saturation per particle once a liquid wetted it ([`super::wet_sand`]).
+    pub fn wetted(&self) -> Option<&[f64]> {
+        self.wetted.as_deref()
+    }
+    /// Solver write-back of a sand body's saturations after a step.
+    pub(crate) fn set_wetted(&mut self, theta: Vec<f64>) {
+        self.wetted = Some(theta);
     }
     /// The granular material, or `None` for a body that is not sand.
     pub fn granular(&self) -> Option<&Granular> {
@@ -406,6 +439,7 @@ impl Particles {
     /// body take them from their next step on. Fails, naming the culprit, on bad bonds or
     /// bonds given to an elastic body (which keeps its reference bonds for ever).
     pub fn restore_rest_bonds(&mut self, bonds: Option<RestBonds>) -> Result<()> {
+        self.refuse_mixed()?;
         if let Some(bonds) = &bonds {
             if self.plasticity.is_none() {
                 return Err(crate::error::invalid!(
@@ -490,6 +524,7 @@ impl Particles {
         self.params = params;
         self.moduli = moduli;
         self.fluid = fluid;
+        self.fluid_mask = None;
         self.rest_bonds = None;
         self.bonds_revision += 1;
         Ok(())

@@ -25,8 +25,9 @@ mod sampling;
 pub mod sph;
 pub mod surface;
 mod thin;
+mod wet_sand;
 
-pub use body::{ParticleParams, Particles, DEFAULT_HORIZON, FLUID_PLACEHOLDER};
+pub use body::{ParticleParams, Particles, RegionMaterial, DEFAULT_HORIZON, FLUID_PLACEHOLDER};
 pub use bond::{bond_force, BondRest};
 pub use calibration::{calibrate, lattice_moduli, LatticeModuli, Moduli};
 pub use deformation::{deformation_gradient, uninverted};
@@ -44,6 +45,7 @@ pub(crate) use rest::RestConstants;
 pub use rest_bonds::RestBonds;
 pub use sampling::{sample_surface, sample_volume, MAX_PARTICLES, MAX_SURFACE_CANDIDATES};
 pub use thin::MAX_SECTION;
+pub use wet_sand::{wetted, WETTING_FRACTION};
 
 #[cfg(test)]
 mod plasticity_tests;

@@ -212,9 +212,12 @@ pub(crate) struct PlasticLaw {
 impl PlasticLaw {
     /// The yield measure of a [`LocalStrain`] for a particle with the plastic strain `eps_p`.
     pub fn measure(&self, local: &LocalStrain, eps_p: f64) -> YieldState {
-        let (a, b) = self
-            .law
-            .cone(self.law.cohesion + self.law.hardening * eps_p);
+        self.measure_at(local, eps_p, self.law.cohesion)
+    }
+
+    /// [`Self::measure`] with the particle's own cohesion `c` (Pa) before hardening.
+    fn measure_at(&self, local: &LocalStrain, eps_p: f64, c: f64) -> YieldState {
+        let (a, b) = self.law.cone(c + self.law.hardening * eps_p);
         let i1 = -9.0 * self.bulk * local.iso;
         YieldState {
             sqrt_j2: 15f64.sqrt() * self.shear * local.dev,
@@ -239,12 +242,14 @@ impl PlasticLaw {
     /// strain. Returns how many yielded. Each particle's update reads and writes its own
     /// bonds only (in parallel), so the result does not depend on the number of threads.
     /// The particles that yield are marked in `yielded_flags` (one per particle; the others
-    /// are left as they are).
+    /// are left as they are). `cohesion`, per particle (Pa), replaces the law's (wetted
+    /// sand, [`super::wet_sand`]).
     pub fn apply(
         &self,
         bonds: &mut RestBonds,
         y: &[Vector3<f64>],
         yielded_flags: &mut [bool],
+        cohesion: Option<&[f64]>,
     ) -> usize {
         let RestBonds {
             offsets,
@@ -261,7 +266,8 @@ impl PlasticLaw {
             let row = offsets[i] as usize..offsets[i + 1] as usize;
             let (indices, born) = (&indices[row.clone()], &born[row]);
             let view = BondRow { indices, xi, born };
-            let plan = self.plan(&view, i, y, plastic_strain[i])?;
+            let c = cohesion.map_or(self.law.cohesion, |c| c[i]);
+            let plan = self.plan(&view, i, y, plastic_strain[i], c)?;
             for (k, x) in xi.iter_mut().enumerate() {
                 let yb = y[indices[k] as usize] - y[i];
                 if let Some(moved) = plan.moved(x, &yb, born[k]) {
@@ -282,10 +288,17 @@ impl PlasticLaw {
     }
 
     /// The return of particle `i` with its bonds `row` and plastic strain `eps_p` at the
-    /// positions `y` (m), if it yields.
-    fn plan(&self, row: &BondRow<'_>, i: usize, y: &[Vector3<f64>], eps_p: f64) -> Option<Return> {
+    /// positions `y` (m), if it yields with the cohesion `c` (Pa) before hardening.
+    fn plan(
+        &self,
+        row: &BondRow<'_>,
+        i: usize,
+        y: &[Vector3<f64>],
+        eps_p: f64,
+        c: f64,
+    ) -> Option<Return> {
         let local = row.strain(i, y, self.delta, self.volume)?;
-        let state = self.measure(&local, eps_p);
+        let state = self.measure_at(&local, eps_p, c);
         if state.sqrt_j2 <= state.strength {
             return None;
         }

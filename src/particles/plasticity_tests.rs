@@ -68,7 +68,7 @@ fn the_return_puts_the_state_on_the_yield_surface() {
         let plastic = PlasticLaw::of(&b).unwrap();
         let mut bonds = b.current_rest_bonds();
         let before = plastic.yield_states(&bonds, &y);
-        let yielded = plastic.apply(&mut bonds, &y, &mut vec![false; y.len()]);
+        let yielded = plastic.apply(&mut bonds, &y, &mut vec![false; y.len()], None);
         assert!(yielded > 100, "{name}: {yielded} of 216 yielded");
         let after = plastic.yield_states(&bonds, &y);
         let mut apex = 0;

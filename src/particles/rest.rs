@@ -33,6 +33,9 @@ pub(crate) struct RestConstants {
     pub plastic: bool,
     /// The granular material, whose stiffness follows each particle's density.
     pub granular: Option<Granular>,
+    /// Whether the body has fluid and solid particles ([`Particles::fluid_mask`]): its fluid
+    /// particles have no bonds and `K^-1 = 0`.
+    pub mixed: bool,
 }
 
 impl RestConstants {
@@ -46,6 +49,7 @@ impl RestConstants {
             num_real: body.num_real(),
             plastic: body.plasticity().is_some(),
             granular: body.granular().copied(),
+            mixed: body.fluid_mask().is_some(),
         }
     }
 }
@@ -148,7 +152,11 @@ impl<T: Real> ParticleRest<T> {
         let lam = constants
             .granular
             .map(|g| {
-                g.particle_stiffness(bonds, body.positions(), constants.delta, constants.volume)
+                let (y, delta, volume) = (body.positions(), constants.delta, constants.volume);
+                match body.wetted() {
+                    None => g.particle_stiffness(bonds, y, delta, volume),
+                    Some(theta) => g.wet_particle_stiffness(bonds, y, delta, volume, theta),
+                }
             })
             .transpose()?;
         self.add_bonds(bonds, &constants, lam.as_deref())
@@ -297,7 +305,7 @@ impl<T: Real> ParticleRest<T> {
             self.offsets.push(self.indices.len() as u32);
             let inverse = match shape_inverse(&shape) {
                 Some(inverse) => inverse,
-                None if c.plastic => Matrix3::zeros(),
+                None if c.plastic || (c.mixed && neighbors.is_empty()) => Matrix3::zeros(),
                 None => return Err(flat_neighbourhood(i, neighbors.len(), delta)),
             };
             self.shape_inverse.push(inverse.map(T::of));

@@ -8,10 +8,10 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::particles::{
-    DruckerPrager, Elastic, Granular, ParticleParams, Particles, FLUID_PLACEHOLDER,
+    DruckerPrager, Elastic, Granular, ParticleParams, Particles, RegionMaterial, FLUID_PLACEHOLDER,
 };
 
-use super::arrays::{to_numpy, to_numpy_1d, vec3s};
+use super::arrays::{indices as index_list, to_numpy, to_numpy_1d, vec3s};
 use super::elastic::PyElastic;
 use super::errors::{guard, IntoPyResult};
 use super::fluid::PyViscoelasticFluid;
@@ -314,7 +314,19 @@ impl PyParticles {
     /// rebuild the body's working set at their next step. ValueError, changing nothing, for
     /// another material, a shell, rod or sand, a plastic body made fluid, or a particle whose
     /// neighbourhood at the current positions is not three-dimensional (named).
-    fn set_material(&self, py: Python<'_>, material: &Bound<'_, PyAny>) -> PyResult<()> {
+    ///
+    /// With ``indices``, only those particles change (a region, Fig. 19: between a Newtonian
+    /// fluid and an elastic solid; bonds between solid particles of which one changed are born
+    /// at the current positions, bonds across the fluid-solid boundary carry nothing, the
+    /// fluid's density constraints see the solid particles: docs/model.md). ValueError naming
+    /// a bad index, or a material other than the body's elastic or fluid one.
+    #[pyo3(signature = (material, indices = None))]
+    fn set_material(
+        &self,
+        py: Python<'_>,
+        material: &Bound<'_, PyAny>,
+        indices: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
         let (elastic, fluid) = if let Ok(f) = material.cast::<PyViscoelasticFluid>() {
             (FLUID_PLACEHOLDER, Some(f.get().inner))
         } else if let Ok(e) = material.cast::<PyElastic>() {
@@ -328,15 +340,40 @@ impl PyParticles {
                     .map_or("?".into(), |n| n.to_string())
             )));
         };
+        let region = indices
+            .filter(|i| !i.is_none())
+            .map(|i| index_list(i, "indices"))
+            .transpose()?;
         let inner = &self.inner;
         py.detach(|| {
             guard("Particles.set_material()", || {
-                inner
-                    .lock()
-                    .unwrap_or_else(|p| p.into_inner())
-                    .set_material(elastic, fluid)
+                let mut body = inner.lock().unwrap_or_else(|p| p.into_inner());
+                match &region {
+                    None => body.set_material(elastic, fluid),
+                    Some(list) => body.set_material_of(
+                        list,
+                        fluid.map_or(RegionMaterial::Solid(elastic), RegionMaterial::Fluid),
+                    ),
+                }
             })
         })
+    }
+    /// A sand body's water saturation per particle (float64, in [0, 1]): the material's,
+    /// risen where a liquid in the same solver has reached the grains (docs/model.md, "Liquid
+    /// with wet sand"); None for a body that is not sand.
+    #[getter]
+    fn saturation<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
+        self.lock().saturation().map(|t| to_numpy_1d(py, t))
+    }
+    /// Per particle, whether it is a fluid particle (bool array): all True for a fluid body,
+    /// all False for a solid, mixed once ``set_material(material, indices)`` changed a region.
+    #[getter]
+    fn fluid_particles<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        let p = self.lock();
+        let mask = (0..p.num_particles())
+            .map(|i| p.is_fluid_particle(i))
+            .collect();
+        to_numpy_1d(py, mask)
     }
     /// The resolved moduli (Pa): {'mu', 'lam', 'kappa'} (the paper's mu and lam, and the
     /// dilatation modulus beyond the paper; 0 for `Elastic(mu=, lam=)`).

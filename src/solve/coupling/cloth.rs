@@ -143,7 +143,10 @@ impl<T: Real> ClothCoupling<T> {
             return;
         };
         let started = Instant::now();
-        self.metrics(cloth, particles, h);
+        match which {
+            Iterate::Next => self.metrics(cloth, particles, h),
+            Iterate::Current => self.masses(cloth, particles),
+        }
         let zero = Vector3::zeros();
         self.particle_reaction.clear();
         self.particle_reaction
@@ -179,7 +182,44 @@ impl<T: Real> ClothCoupling<T> {
                 break;
             }
         }
+        if let Iterate::Next = which {
+            // The direct solver holds these particles from its next move on: they take the
+            // Jacobi move, whose metric the projection is in (see the module [`super`]).
+            let held = &mut particles.held;
+            for (h, r) in held.iter_mut().zip(&self.particle_reaction) {
+                *h |= *r != Vector3::zeros();
+            }
+        }
         self.millis += millis(started);
+    }
+
+    /// The inverse masses (1/kg) of the particles and of the vertices in some pair, the
+    /// metric of the projection at the end of the step (see the module [`super`]); zero for
+    /// pinned points.
+    fn masses(&mut self, cloth: &MembraneSystem<T>, particles: &ParticleSystem<T>) {
+        let (starts, pinned) = (&self.list.particle_start, &particles.points.pinned);
+        self.particle_inverse
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, inverse)| {
+                *inverse = if pinned[i] || starts[i] == starts[i + 1] {
+                    0.0
+                } else {
+                    1.0 / particles.rest.mass[i].to_f64()
+                };
+            });
+        let (starts, pinned) = (&self.list.vertex_start, &cloth.points.pinned);
+        self.vertex_inverse
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(v, inverse)| {
+                *inverse = if pinned[v] || starts[v] == starts[v + 1] {
+                    SymmetricMatrix3::zeros()
+                } else {
+                    SymmetricMatrix3::zeros()
+                        .plus_identity(1.0 / cloth.rest.vertices[v].mass.to_f64())
+                };
+            });
     }
 
     /// The inverse Jacobi blocks (1/kg) of the particles and of the vertices in some pair at

@@ -29,8 +29,21 @@
 //! `D dx` sums to `J (1 - sum_k w_k) = 0` over a pair: the reactions are equal and opposite,
 //! so at the iteration's fixed point (where each move takes back the global move's `D^-1 r`)
 //! the cloth carries exactly the particles' weight, and the iterations conserve momentum to
-//! the solver's tolerance (the coupling adds none of its own); the projection at the end of
-//! the step, in the same metric, closes what the iterations left and does not. No friction.
+//! the solver's tolerance (the coupling adds none of its own).
+//!
+//! **The projection at the end of the step is in the mass metric** (`D = m`, `m I` for a
+//! vertex): there `sum m dx = J (1 - sum_k w_k) = 0` per pair, so it conserves momentum to
+//! round-off, and the velocities `(y - y_t) / h` taken after it carry no momentum the
+//! coupling made. It closes only what the iterations left (a residual violation), so its
+//! metric does not set how the weight is shared at the fixed point; in the Jacobi metric it
+//! moved the total momentum by up to 3.5e-3 of it (tests/test_couplings.py). No friction.
+//!
+//! **With the direct solver** the particles' global move is the full solve `A^-1 r`, not the
+//! Jacobi move `D^-1 r` the projection's metric assumes: at the fixed point the particles
+//! would feel `A c` for a move `c`, the cloth `D c`, and a block fell through a soft cloth. So
+//! a particle the projection moved is held by the direct solver from its next move on, as a
+//! particle touching a collider is (`crate::solve::particles`, `direct`): its couplings are
+//! taken out of the factor and it takes the Jacobi move, in the projection's metric.
 //!
 //! **Where in the step.** The pairs are found at the start of the step ([`pairs`]); the
 //! projection runs after every global iteration (after the colliders, before the membrane

@@ -60,7 +60,7 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         }
     }
     /// A failure of the direct solver's factorisation during the step, else the fluids'
-    /// viscosity, then plasticity, static friction and changing neighbourhoods
+    /// viscosity and the wetting of sand they reach, then plasticity, static friction and changing neighbourhoods
     /// ([`super::fluid`], [`super::plastic`], [`super::static_friction`]).
     fn end_step(&mut self, timings: &mut Timings) -> Result<()> {
         if let Some(failure) = self.failure.take() {
@@ -68,6 +68,9 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         }
         if let Some(fluid) = &mut self.fluid {
             fluid.end_step(&mut self.points, timings);
+            if let Some(plastic) = &mut self.plastic {
+                plastic.wet(fluid.liquid_fractions());
+            }
         }
         self.plastic_end_step(timings)
     }

@@ -50,6 +50,9 @@ use crate::timing::millis;
 
 use super::fluid_viscosity::{lattice_laplacian_scale, Fluid, Viscosity};
 
+#[path = "fluid_partners.rs"]
+mod partners;
+
 /// The fluid particles of a particle family and their constants.
 pub(crate) struct FluidStage<T: Real> {
     /// The family index of each fluid particle.
@@ -85,6 +88,9 @@ pub(crate) struct FluidStage<T: Real> {
     fixed: Vec<bool>,
     /// Each member's displacement by the last redistribution (m; empty without).
     shift: Vec<Vector3<T>>,
+    /// Per member, whether it is a partner: a solid particle the fluids meet
+    /// ([`partners`]), in the density sums, without a constraint of its own.
+    partner: Vec<bool>,
 }
 
 /// The denominator `sum_k |grad_k C_i|^2` (1/m^2) of an interior particle of the simple cubic
@@ -133,11 +139,14 @@ impl<T: Real> FluidStage<T> {
                         )?))
                     }
                 };
-                stage.add(body, fluid, start..start + n);
+                let fluid_particles =
+                    (start..start + n).filter(|&k| body.is_fluid_particle((k - start) as usize));
+                stage.add(body, fluid, fluid_particles);
             }
             start += n;
         }
         if let Some(stage) = &mut stage {
+            stage.add_partners(bodies, spacing)?;
             let n = stage.members.len();
             stage.y = vec![Vector3::zeros(); n];
             stage.density = vec![T::zero(); n];
@@ -173,10 +182,16 @@ impl<T: Real> FluidStage<T> {
             redistributor: Redistribution::default(),
             fixed: Vec::new(),
             shift: Vec::new(),
+            partner: Vec::new(),
         }
     }
 
-    fn add(&mut self, body: &Particles, fluid: &ViscoelasticFluid, range: std::ops::Range<u32>) {
+    fn add(
+        &mut self,
+        body: &Particles,
+        fluid: &ViscoelasticFluid,
+        range: impl Iterator<Item = u32>,
+    ) {
         let rho0 = body.density();
         let eps = fluid.relaxation * lattice_denominator(&self.sph, body.params().spacing);
         for i in range {
@@ -185,6 +200,7 @@ impl<T: Real> FluidStage<T> {
             self.rest_density.push(T::of(rho0));
             self.nu.push(T::of(fluid.viscosity / rho0));
             self.eps.push(T::of(eps));
+            self.partner.push(false);
         }
         self.iterations = self.iterations.max(fluid.density_iterations);
         self.tolerance = self.tolerance.min(fluid.density_tolerance);
@@ -238,8 +254,9 @@ impl<T: Real> FluidStage<T> {
     /// kept in `self.shift` for [`Self::end_step`].
     fn redistribute(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) -> Result<()> {
         self.fixed.clear();
-        self.fixed
-            .extend(self.members.iter().map(|&k| points.pinned[k as usize]));
+        self.fixed.extend(
+            (self.members.iter().zip(&self.partner)).map(|(&k, &p)| p || points.pinned[k as usize]),
+        );
         self.next.clone_from(&self.y);
         self.redistributor.run(
             &self.sph,
@@ -280,11 +297,12 @@ impl<T: Real> FluidStage<T> {
         let (offsets, indices) = (&self.offsets, &self.indices);
         sph.densities(y, offsets, indices, mass, &mut self.density);
         let limit = T::of(1.0 + self.tolerance);
-        let (density, rest) = (&self.density, &self.rest_density);
+        let (density, rest, partner) = (&self.density, &self.rest_density, &self.partner);
         if !density
             .par_iter()
             .zip(rest.par_iter())
-            .any(|(&r, &r0)| r > r0 * limit)
+            .zip(partner.par_iter())
+            .any(|((&r, &r0), &p)| !p && r > r0 * limit)
         {
             return false;
         }
@@ -299,7 +317,7 @@ impl<T: Real> FluidStage<T> {
             .for_each(|(i, ((lambda, own), row))| {
                 *own = sph.density_gradient(i, y, offsets, indices, mass, row);
                 let c = density[i] / rest[i] - T::one();
-                *lambda = if c > T::zero() {
+                *lambda = if c > T::zero() && !partner[i] {
                     let mut norm2 = own.norm_squared();
                     for g in row.iter() {
                         norm2 += g.norm_squared();
@@ -357,6 +375,7 @@ impl<T: Real> FluidStage<T> {
             rest_density: &self.rest_density,
             nu: &self.nu,
             members: &self.members,
+            partner: &self.partner,
             h: self.h,
         };
         self.viscosity.apply(&fluid, points);

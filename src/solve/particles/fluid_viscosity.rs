@@ -41,6 +41,8 @@ pub(crate) struct Fluid<'a, T: Real> {
     pub rest_density: &'a [T],
     pub nu: &'a [T],
     pub members: &'a [u32],
+    /// Partners (`super::fluid::partners`): they keep their velocity, as pinned particles do.
+    pub partner: &'a [bool],
     pub h: T,
 }
 
@@ -144,7 +146,7 @@ impl<T: Real> Viscosity<T> {
             });
         let (members, pinned) = (stage.members, &points.pinned);
         for (i, free) in self.free.iter_mut().enumerate() {
-            *free = !pinned[members[i] as usize];
+            *free = !pinned[members[i] as usize] && !stage.partner[i];
         }
         let k = &self.coefficient;
         self.diagonal.par_iter_mut().enumerate().for_each(|(i, d)| {

@@ -19,7 +19,7 @@ use nalgebra::Vector3;
 
 use crate::error::Result;
 use crate::particles::{
-    density_ratios, rebuild_neighbours, ParticleRest, Particles, PlasticLaw, RestBonds,
+    density_ratios, rebuild_neighbours, wetted, ParticleRest, Particles, PlasticLaw, RestBonds,
     RestConstants,
 };
 use crate::real::Real;
@@ -37,6 +37,9 @@ struct Entry {
     /// A granular body's `lam` per particle (Pa) from its density at the end of the last
     /// step (empty for other bodies).
     lam: Vec<f64>,
+    /// A sand body's saturation per particle once a liquid wetted it (empty before:
+    /// the material's; [`crate::particles::wetted`]).
+    wetted: Vec<f64>,
 }
 
 /// Every body's bonds, when at least one body of the family is plastic.
@@ -64,6 +67,7 @@ impl PlasticBodies {
                     law: PlasticLaw::of(b),
                     range,
                     lam: Vec::new(),
+                    wetted: b.wetted().map_or_else(Vec::new, <[f64]>::to_vec),
                 }
             })
             .collect();
@@ -91,7 +95,12 @@ impl PlasticBodies {
                     &self.y[entry.range.clone()],
                     &mut yielded[entry.range.clone()],
                 );
-                count += law.apply(&mut entry.bonds, y, marks);
+                let cohesion = entry
+                    .constants
+                    .granular
+                    .filter(|_| !entry.wetted.is_empty())
+                    .map(|g| g.cohesions(&entry.wetted));
+                count += law.apply(&mut entry.bonds, y, marks, cohesion.as_deref());
             }
         }
         timings.plasticity += millis(t);
@@ -143,7 +152,10 @@ impl PlasticBodies {
                     entry.constants.delta,
                     entry.constants.volume,
                 )?;
-                entry.lam = material.stiffness_of(&ratios);
+                entry.lam = match entry.wetted.as_slice() {
+                    [] => material.stiffness_of(&ratios),
+                    theta => material.wet_stiffness_of(&ratios, theta),
+                };
                 granular = true;
             }
         }
@@ -165,12 +177,34 @@ impl PlasticBodies {
         Ok(Some(changed))
     }
 
-    /// Writes the plastic bodies' bonds back into them (into the bodies' own allocations).
+    /// Writes the plastic bodies' bonds (into the bodies' own allocations), and the wetted
+    /// sand's saturations, back into them.
     pub fn store(&self, bodies: &mut [&mut Particles]) {
         for (entry, body) in self.entries.iter().zip(bodies) {
             if entry.law.is_some() {
                 body.set_rest_bonds(&entry.bonds);
             }
+            if !entry.wetted.is_empty() {
+                body.set_wetted(entry.wetted.clone());
+            }
+        }
+    }
+
+    /// Wets the sand (see [`crate::particles::wetted`]) at the liquid volume fractions
+    /// `fractions` (family index, fraction) around its grains; other particles are left.
+    pub fn wet(&mut self, fractions: impl Iterator<Item = (usize, f64)>) {
+        for (k, phi) in fractions {
+            let Some(entry) = self.entries.iter_mut().find(|e| e.range.contains(&k)) else {
+                continue;
+            };
+            let Some(material) = entry.constants.granular else {
+                continue;
+            };
+            if entry.wetted.is_empty() {
+                entry.wetted = vec![material.saturation; entry.range.len()];
+            }
+            let theta = &mut entry.wetted[k - entry.range.start];
+            *theta = wetted(*theta, phi);
         }
     }
 }

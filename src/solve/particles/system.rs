@@ -66,7 +66,14 @@ impl<T: Real> ParticleSystem<T> {
         let mut points = Points::new(bodies, rest.mass.clone(), rest.margin.clone());
         points.collides.clone_from(&rest.collides);
         let within = bodies.iter().map(|b| b.granular().is_some()).collect();
-        let repulsion = Repulsion::of(&points, within);
+        let fluid: Vec<bool> = bodies
+            .iter()
+            .flat_map(|b| {
+                let mixed = b.fluid_mask().is_some();
+                (0..b.num_particles()).map(move |i| mixed && b.is_fluid_particle(i))
+            })
+            .collect();
+        let repulsion = Repulsion::of(&points, within, &fluid);
         Ok(Self {
             points,
             rest,
