@@ -9,8 +9,10 @@ g = 9.81 m/s^2, time step ``--dt``, the Jacobi global solver (a liquid has no st
 local-global iterations are the inertial prediction with the colliders). For each ``--na``:
 the particle count, the median over the steps of each phase of ``StepStats.timings`` (ms; the
 paper's t_n = neighbours, t_rho = density, t_d = redistribution; viscosity and the rest), the
-wall time per simulated second, and the front ``Z = (max x + S/2) / a`` at Martin and Moyce's
-``T = t sqrt(2 g / a)`` points (nearest step) with its relative error. The per-step cost is
+wall time per simulated second, the density projections per step (median, and the steps
+that ran to the default cap of 50) with the largest excess density ``rho / rho0 - 1`` each
+left (median and worst over the steps), and the front ``Z = (max x + S/2) / a`` at Martin
+and Moyce's ``T = t sqrt(2 g / a)`` points (nearest step) with its relative error. The per-step cost is
 fitted as ``c N^p`` over the sizes run and extrapolated to the paper's 312K particles (a trend,
 not a measurement). The machine is shared with other builds: timings are upper bounds.
 
@@ -60,7 +62,7 @@ def run(na: int, args) -> dict:
     body, solver, s = dam_break(na, a, dt, args.threads, args.redistribution)
     c = np.sqrt(2 * G / a)
     phases: dict = {}
-    totals, fronts = [], []
+    totals, fronts, passes, errors = [], [], [], []
     k = 0
     started = time.perf_counter()
     for T, Z in MARTIN_MOYCE:
@@ -70,6 +72,8 @@ def run(na: int, args) -> dict:
             for key, value in stats.timings.items():
                 phases.setdefault(key, []).append(value)
             totals.append(stats.timings["total"])
+            passes.append(stats.particles["density_passes"])
+            errors.append(stats.particles["density_error"])
         front = (body.positions[:, 0].max() + 0.5 * s) / a
         fronts.append({"T": T, "Z_martin_moyce": Z, "Z": front, "error": front / Z - 1.0})
         print(f"  na={na}: T={T} Z={front:.3f} (Martin and Moyce {Z})", flush=True)
@@ -78,6 +82,9 @@ def run(na: int, args) -> dict:
         "na": na, "spacing_m": s, "particles": body.positions.shape[0], "steps": k,
         "ms_per_step_median": C.median(totals),
         "phases_ms_median": {key: C.median(v) for key, v in phases.items()},
+        "density_passes_median": C.median(passes),
+        "steps_at_the_pass_cap": int(sum(p >= 50 for p in passes)),
+        "density_error_median": C.median(errors), "density_error_max": max(errors),
         "wall_seconds_per_simulated_second": wall / (k * dt),
         "fronts": fronts,
     }
