@@ -12,12 +12,16 @@ paper's t_n = neighbours, t_rho = density, t_d = redistribution; viscosity and t
 wall time per simulated second, the density projections per step (median, and the steps
 that ran to the default cap of 50) with the largest excess density ``rho / rho0 - 1`` each
 left (median and worst over the steps), and the front ``Z = (max x + S/2) / a`` at Martin
-and Moyce's ``T = t sqrt(2 g / a)`` points (nearest step) with its relative error. The per-step cost is
-fitted as ``c N^p`` over the sizes run and extrapolated to the paper's 312K particles (a trend,
-not a measurement). The machine is shared with other builds: timings are upper bounds.
+and Moyce's ``T = t sqrt(2 g / a)`` points (nearest step) with its relative error. The
+per-step cost is fitted as ``c N^p`` over the sizes run and extrapolated to the paper's 312K
+particles (a trend, not a measurement). The machine is shared with other builds: timings
+are upper bounds.
 
 Default:  python benches/dam_break.py                 (na = 8, 12, 16: 1K, 3.5K, 8K particles)
 Run:      python benches/dam_break.py --na 6 8 10     (the committed JSON: 0.4K-2K particles)
+Peers:    python benches/dam_break.py --na 6 8 --peers --out benches/results/dam_break_peers.json
+          (and pySPlisHSPlasH's DFSPH at the same sizes: particles, wall s per simulated s,
+          fronts against Martin and Moyce; benches/_dfsph_dam_break.py)
 """
 
 from __future__ import annotations
@@ -90,6 +94,25 @@ def run(na: int, args) -> dict:
     }
 
 
+def dfsph(na: int, a: float) -> dict:
+    """The same dam break in pySPlisHSPlasH's DFSPH (benches/_dfsph_dam_break.py), in a
+    subprocess with ``LD_PRELOAD=libGLdispatch.so.0`` (its import needs it without a
+    display); its JSON, or the reason it failed."""
+    import json
+    import os
+    import subprocess
+    import tempfile
+
+    out = Path(tempfile.mkdtemp(prefix="dfsph_")) / "run.json"
+    env = {**os.environ, "LD_PRELOAD": "libGLdispatch.so.0"}
+    script = Path(__file__).resolve().parent / "_dfsph_dam_break.py"
+    done = subprocess.run([sys.executable, str(script), str(na), str(a), str(out)], env=env,
+                          capture_output=True, text=True)
+    if not out.exists():
+        return {"na": na, "failed": done.stderr[-2000:] or f"exit code {done.returncode}"}
+    return json.loads(out.read_text())
+
+
 def plot(result: dict, path: Path) -> None:
     import matplotlib
 
@@ -104,6 +127,11 @@ def plot(result: dict, path: Path) -> None:
         f = r["fronts"]
         left.plot([p["T"] for p in f], [p["Z"] for p in f], "o-",
                   label=f"peridyn, {r['particles']} particles")
+    for r in result.get("peers", []):
+        if "fronts" in r:
+            f = r["fronts"]
+            left.plot([p["T"] for p in f], [p["Z"] for p in f], "x--",
+                      label=f"DFSPH, {r['particles']} particles")
     left.set_xlabel("T = t sqrt(2g/a)")
     left.set_ylabel("Z = front / a")
     left.legend()
@@ -130,6 +158,9 @@ def main() -> None:
     ap.add_argument("--dt", type=float, default=0.005, help="time step (s)")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--redistribution", type=float, default=0.0)
+    ap.add_argument("--peers", action="store_true",
+                    help="also run pySPlisHSPlasH's DFSPH at each size "
+                    "(benches/_dfsph_dam_break.py)")
     ap.add_argument("--out", help="JSON path (default benches/results/dam_break.json)")
     args = ap.parse_args()
     rec = C.Record("dam_break", args)
@@ -143,6 +174,12 @@ def main() -> None:
     trend = {"c": float(np.exp(logc)), "p": float(p),
              "ms_per_step_at_312K": float(np.exp(logc) * PAPER["particles"] ** p)}
     rec.data.update({"paper": PAPER, "runs": runs, "trend": trend})
+    if args.peers:
+        peers = []
+        for na in args.na:
+            print(f"DFSPH na = {na}", flush=True)
+            peers.append(dfsph(na, args.a))
+        rec.data["peers"] = peers
     rec.note(f"fitted ms/step = {trend['c']:.3g} N^{trend['p']:.2f}: "
              f"{trend['ms_per_step_at_312K']:.0f} ms at 312K (paper 412 ms on 4 cores)")
     path = rec.write(args.out)
