@@ -9,13 +9,19 @@ g = 9.81 m/s^2, time step ``--dt``, the Jacobi global solver (a liquid has no st
 local-global iterations are the inertial prediction with the colliders). For each ``--na``:
 the particle count, the median over the steps of each phase of ``StepStats.timings`` (ms; the
 paper's t_n = neighbours, t_rho = density, t_d = redistribution; viscosity and the rest), the
-wall time per simulated second, and the front ``Z = (max x + S/2) / a`` at Martin and Moyce's
-``T = t sqrt(2 g / a)`` points (nearest step) with its relative error. The per-step cost is
-fitted as ``c N^p`` over the sizes run and extrapolated to the paper's 312K particles (a trend,
-not a measurement). The machine is shared with other builds: timings are upper bounds.
+wall time per simulated second, the density projections per step (median, and the steps
+that ran to the default cap of 50) with the largest excess density ``rho / rho0 - 1`` each
+left (median and worst over the steps), and the front ``Z = (max x + S/2) / a`` at Martin
+and Moyce's ``T = t sqrt(2 g / a)`` points (nearest step) with its relative error. The
+per-step cost is fitted as ``c N^p`` over the sizes run and extrapolated to the paper's 312K
+particles (a trend, not a measurement). The machine is shared with other builds: timings
+are upper bounds.
 
 Default:  python benches/dam_break.py                 (na = 8, 12, 16: 1K, 3.5K, 8K particles)
 Run:      python benches/dam_break.py --na 6 8 10     (the committed JSON: 0.4K-2K particles)
+Peers:    python benches/dam_break.py --na 6 8 --peers --out benches/results/dam_break_peers.json
+          (and pySPlisHSPlasH's DFSPH at the same sizes: particles, wall s per simulated s,
+          fronts against Martin and Moyce; benches/_dfsph_dam_break.py)
 """
 
 from __future__ import annotations
@@ -60,7 +66,7 @@ def run(na: int, args) -> dict:
     body, solver, s = dam_break(na, a, dt, args.threads, args.redistribution)
     c = np.sqrt(2 * G / a)
     phases: dict = {}
-    totals, fronts = [], []
+    totals, fronts, passes, errors = [], [], [], []
     k = 0
     started = time.perf_counter()
     for T, Z in MARTIN_MOYCE:
@@ -70,6 +76,8 @@ def run(na: int, args) -> dict:
             for key, value in stats.timings.items():
                 phases.setdefault(key, []).append(value)
             totals.append(stats.timings["total"])
+            passes.append(stats.particles["density_passes"])
+            errors.append(stats.particles["density_error"])
         front = (body.positions[:, 0].max() + 0.5 * s) / a
         fronts.append({"T": T, "Z_martin_moyce": Z, "Z": front, "error": front / Z - 1.0})
         print(f"  na={na}: T={T} Z={front:.3f} (Martin and Moyce {Z})", flush=True)
@@ -78,9 +86,31 @@ def run(na: int, args) -> dict:
         "na": na, "spacing_m": s, "particles": body.positions.shape[0], "steps": k,
         "ms_per_step_median": C.median(totals),
         "phases_ms_median": {key: C.median(v) for key, v in phases.items()},
+        "density_passes_median": C.median(passes),
+        "steps_at_the_pass_cap": int(sum(p >= 50 for p in passes)),
+        "density_error_median": C.median(errors), "density_error_max": max(errors),
         "wall_seconds_per_simulated_second": wall / (k * dt),
         "fronts": fronts,
     }
+
+
+def dfsph(na: int, a: float) -> dict:
+    """The same dam break in pySPlisHSPlasH's DFSPH (benches/_dfsph_dam_break.py), in a
+    subprocess with ``LD_PRELOAD=libGLdispatch.so.0`` (its import needs it without a
+    display); its JSON, or the reason it failed."""
+    import json
+    import os
+    import subprocess
+    import tempfile
+
+    out = Path(tempfile.mkdtemp(prefix="dfsph_")) / "run.json"
+    env = {**os.environ, "LD_PRELOAD": "libGLdispatch.so.0"}
+    script = Path(__file__).resolve().parent / "_dfsph_dam_break.py"
+    done = subprocess.run([sys.executable, str(script), str(na), str(a), str(out)], env=env,
+                          capture_output=True, text=True)
+    if not out.exists():
+        return {"na": na, "failed": done.stderr[-2000:] or f"exit code {done.returncode}"}
+    return json.loads(out.read_text())
 
 
 def plot(result: dict, path: Path) -> None:
@@ -97,6 +127,11 @@ def plot(result: dict, path: Path) -> None:
         f = r["fronts"]
         left.plot([p["T"] for p in f], [p["Z"] for p in f], "o-",
                   label=f"peridyn, {r['particles']} particles")
+    for r in result.get("peers", []):
+        if "fronts" in r:
+            f = r["fronts"]
+            left.plot([p["T"] for p in f], [p["Z"] for p in f], "x--",
+                      label=f"DFSPH, {r['particles']} particles")
     left.set_xlabel("T = t sqrt(2g/a)")
     left.set_ylabel("Z = front / a")
     left.legend()
@@ -123,6 +158,9 @@ def main() -> None:
     ap.add_argument("--dt", type=float, default=0.005, help="time step (s)")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--redistribution", type=float, default=0.0)
+    ap.add_argument("--peers", action="store_true",
+                    help="also run pySPlisHSPlasH's DFSPH at each size "
+                    "(benches/_dfsph_dam_break.py)")
     ap.add_argument("--out", help="JSON path (default benches/results/dam_break.json)")
     args = ap.parse_args()
     rec = C.Record("dam_break", args)
@@ -136,6 +174,12 @@ def main() -> None:
     trend = {"c": float(np.exp(logc)), "p": float(p),
              "ms_per_step_at_312K": float(np.exp(logc) * PAPER["particles"] ** p)}
     rec.data.update({"paper": PAPER, "runs": runs, "trend": trend})
+    if args.peers:
+        peers = []
+        for na in args.na:
+            print(f"DFSPH na = {na}", flush=True)
+            peers.append(dfsph(na, args.a))
+        rec.data["peers"] = peers
     rec.note(f"fitted ms/step = {trend['c']:.3g} N^{trend['p']:.2f}: "
              f"{trend['ms_per_step_at_312K']:.0f} ms at 312K (paper 412 ms on 4 cores)")
     path = rec.write(args.out)

@@ -793,8 +793,9 @@ class StepStats:
         """The particle bodies' share of the step (zeros without them), from its start:
         milliseconds 'kernel_ms', 'residual_ms', 'solve_ms', 'line_search_ms', 'project_ms';
         'evaluations' (kernel passes, line search trials included), 'factorizations' (of
-        the direct solver's matrix) and 'held_static' (granular particles held by static
-        friction, eq. 28)."""
+        the direct solver's matrix), 'held_static' (granular particles held by static
+        friction, eq. 28), 'density_passes' (the fluids' density projections) and
+        'density_error' (the largest relative excess density rho / rho0 - 1 left)."""
     @property
     def contact(self) -> dict:
         """Contact figures (zeros when contact is off): 'candidate_pairs' (triangle pairs of

@@ -153,7 +153,9 @@ impl PyStepStats {
     /// solver's move, refactorisations included), `line_search_ms` (the trials of eq. 13),
     /// `project_ms` (collider projection, extrapolation, measures); `evaluations` (kernel
     /// passes, trials included), `factorizations` (of the direct solver's matrix) and
-    /// `held_static` (granular particles that static friction held, eq. 28).
+    /// `held_static` (granular particles that static friction held, eq. 28); for fluids
+    /// `density_passes` (density projections) and `density_error` (the largest relative
+    /// excess density `rho / rho0 - 1` they left).
     #[getter]
     fn particles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let p = &self.inner.particles;
@@ -170,6 +172,8 @@ impl PyStepStats {
         d.set_item("evaluations", p.evaluations)?;
         d.set_item("factorizations", p.factorizations)?;
         d.set_item("held_static", p.held_static)?;
+        d.set_item("density_passes", p.density_passes)?;
+        d.set_item("density_error", p.density_error)?;
         Ok(d)
     }
     /// Simulation time after the step (s).

@@ -63,6 +63,10 @@ pub struct ParticleTimings {
     /// Particles of granular bodies that static friction held at the end of the step (He et
     /// al. 2017, eq. 28).
     pub held_static: usize,
+    /// Density projections of the fluids' step, and the largest relative excess density
+    /// `rho / rho0 - 1` they left (`src/solve/particles/fluid.rs`).
+    pub density_passes: usize,
+    pub density_error: f64,
 }
 
 /// `method="newton"`: milliseconds per phase of its iterations, summed over the step, and

@@ -1,5 +1,7 @@
 //! Particle bodies as a body family of the time step: what the shared step asks of them.
 
+use nalgebra::Vector3;
+
 use crate::collider::ColliderModel;
 use crate::error::Result;
 use crate::membrane::Preconditioner;
@@ -33,11 +35,16 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update {
         global_move(self, h, options)
     }
-    /// Readies the direct solver when it is asked for.
+    /// Readies the direct solver when it is asked for; the fluids' viscosity acts on the
+    /// velocities before the prediction ([`super::fluid`]).
     fn start_step(&mut self, params: &SolverParams) -> Result<()> {
         self.timings = ParticleTimings::default();
         if params.global_solver == GlobalSolver::Direct {
             prepare_direct(self)?;
+        }
+        if let Some(fluid) = &mut self.fluid {
+            let gravity = Vector3::from(params.gravity).map(T::of);
+            fluid.start_step(&mut self.points, T::of(params.dt), gravity)?;
         }
         if let Some(repulsion) = &mut self.repulsion {
             repulsion.start_step(&self.points, params.dt, params.gravity)?;
@@ -54,20 +61,23 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         colliders: &[ColliderModel<T>],
         timings: &mut Timings,
     ) -> Result<()> {
-        match &mut self.fluid {
-            Some(fluid) => fluid.project(&mut self.points, h, colliders, timings),
-            None => Ok(()),
+        if let Some(fluid) = &mut self.fluid {
+            fluid.project(&mut self.points, h, colliders, timings)?;
+            self.timings.density_passes = fluid.passes;
+            self.timings.density_error = fluid.error;
         }
+        Ok(())
     }
     /// A failure of the direct solver's factorisation during the step, else the fluids'
-    /// viscosity and the wetting of sand they reach, then plasticity, static friction and changing neighbourhoods
+    /// redistribution taken out of their velocities and the wetting of sand they reach, then
+    /// plasticity, static friction and changing neighbourhoods
     /// ([`super::fluid`], [`super::plastic`], [`super::static_friction`]).
     fn end_step(&mut self, timings: &mut Timings) -> Result<()> {
         if let Some(failure) = self.failure.take() {
             return Err(failure);
         }
         if let Some(fluid) = &mut self.fluid {
-            fluid.end_step(&mut self.points, timings);
+            fluid.end_step(&mut self.points);
             if let Some(plastic) = &mut self.plastic {
                 plastic.wet(fluid.liquid_fractions());
             }

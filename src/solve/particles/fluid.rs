@@ -1,10 +1,11 @@
 //! The fluid stage of a particle step (He et al. 2017, section 6; Macklin and Mueller 2013,
-//! "Position Based Fluids"): once the local-global iterations have finished (`t_e` of the
+//! "Position Based Fluids"): before the inertial prediction, an implicit viscosity acts on the
+//! velocities with gravity's kick, on neighbours searched at the step's start
+//! ([`super::fluid_viscosity`]); once the local-global iterations have finished (`t_e` of the
 //! paper's Table 1), the fluid particles' neighbours are searched on their positions (`t_n`),
 //! their density constraints are projected (`t_rho`), the particles are redistributed (`t_d`,
 //! [`crate::particles::redistribution`]), and after the velocities are taken, the
-//! redistribution's moves are taken out of them and an implicit viscosity acts on them
-//! ([`super::fluid_viscosity`]).
+//! redistribution's moves are taken out of them.
 //!
 //! **Redistribution is a position correction only.** It evens the particles' spacing; it is
 //! no force. Its displacement `s_i` (with the push out of colliders that follows it) is kept,
@@ -29,8 +30,16 @@
 //! every particle moves by `dy_k = sum_i lambda_i grad_k C_i` (eq. 12, all constraints at once,
 //! Jacobi), then out of the colliders (normal projection, no friction: the elastic iteration's
 //! collider pass carries the friction). The iterations stop when no particle is denser than
-//! `rho0 (1 + tolerance)` or after `density_iterations`. Pinned particles count in the
-//! densities and do not move.
+//! `rho0 (1 + tolerance)` or after `density_iterations` (the passes and the violation left
+//! are reported in the step's particle figures). Pinned particles count in the densities and
+//! do not move.
+//!
+//! **Why no warm start.** Starting a step from the last step's multipliers summed over its
+//! passes (as DFSPH warm-starts its pressure) made a resting column explode within 10 steps:
+//! with one-sided Jacobi passes the sum holds every pass's overshoot correction, not the net
+//! pressure, and applying it again overshoots; clamping the sum at zero so that a light
+//! particle gives its multiplier back makes the Jacobi iteration two-sided, and it diverges
+//! on the short-wavelength modes that one-sided passes only leave expanded.
 
 use std::time::Instant;
 
@@ -75,10 +84,17 @@ pub(crate) struct FluidStage<T: Real> {
     next: Vec<Vector3<T>>,
     density: Vec<T>,
     lambda: Vec<T>,
+    /// Projections of the last step and the violation they left ([`Self::violation`],
+    /// relative).
+    pub passes: usize,
+    pub error: f64,
     grads: Vec<Vector3<T>>,
     own: Vec<Vector3<T>>,
-    /// The time step of the last projection (s), which the viscosity uses.
+    /// The time step of the current step (s).
     h: T,
+    /// The neighbour search's and the viscosity's ms in [`Self::start_step`], which
+    /// [`Self::project`] adds to the step's timings.
+    start_millis: (f64, f64),
     viscosity: Viscosity<T>,
     /// Redistribution strength and passes (the largest asked by a fluid of the family), its
     /// buffers and each member's pin.
@@ -173,9 +189,12 @@ impl<T: Real> FluidStage<T> {
             next: Vec::new(),
             density: Vec::new(),
             lambda: Vec::new(),
+            passes: 0,
+            error: 0.0,
             grads: Vec::new(),
             own: Vec::new(),
             h: T::zero(),
+            start_millis: (0.0, 0.0),
             viscosity: Viscosity::new(0, 1.0),
             redistribution: 0.0,
             redistribution_iterations: 0,
@@ -212,6 +231,45 @@ impl<T: Real> FluidStage<T> {
         }
     }
 
+    /// The stage's work before the prediction (see the module's doc): the neighbour search on
+    /// the start positions `points.y_start` and the implicit viscosity on the velocities with
+    /// gravity's kick `h g` (`h` the step in s, `gravity` in m/s^2). The velocity stored is
+    /// `u - h g`, so that the prediction `y_t + h v + h^2 g` that follows is `y_t + h u`.
+    pub fn start_step(&mut self, points: &mut Points<T>, h: T, gravity: Vector3<T>) -> Result<()> {
+        self.h = h;
+        let started = Instant::now();
+        self.search(&points.y_start)?;
+        self.start_millis.0 = millis(started);
+        let started = Instant::now();
+        let fluid = Fluid {
+            sph: &self.sph,
+            offsets: &self.offsets,
+            indices: &self.indices,
+            y: &self.y,
+            mass: &self.mass,
+            rest_density: &self.rest_density,
+            nu: &self.nu,
+            members: &self.members,
+            partner: &self.partner,
+            h,
+        };
+        self.viscosity.apply(&fluid, points, gravity * h);
+        self.start_millis.1 = millis(started);
+        Ok(())
+    }
+
+    /// The members' positions of `from` into `self.y` and their neighbour lists (CSR).
+    fn search(&mut self, from: &[Vector3<T>]) -> Result<()> {
+        for (y, &k) in self.y.iter_mut().zip(&self.members) {
+            *y = from[k as usize];
+        }
+        let found = find_horizons(&self.y, self.sph.radius)?;
+        self.offsets = found.offsets;
+        self.indices = found.indices;
+        self.grads.resize(self.indices.len(), Vector3::zeros());
+        Ok(())
+    }
+
     /// The stage's work before the velocities are taken (see the module's doc): the
     /// neighbour search and the density projections on `points.y`, `h` the step (s).
     pub fn project(
@@ -222,20 +280,18 @@ impl<T: Real> FluidStage<T> {
         timings: &mut Timings,
     ) -> Result<()> {
         self.h = h;
+        let (search, viscosity) = std::mem::take(&mut self.start_millis);
+        timings.viscosity += viscosity;
         let started = Instant::now();
-        for (y, &k) in self.y.iter_mut().zip(&self.members) {
-            *y = points.y[k as usize];
-        }
-        let found = find_horizons(&self.y, self.sph.radius)?;
-        self.offsets = found.offsets;
-        self.indices = found.indices;
-        self.grads.resize(self.indices.len(), Vector3::zeros());
-        timings.neighbours += millis(started);
+        self.search(&points.y)?;
+        timings.neighbours += search + millis(started);
         let started = Instant::now();
-        for _ in 0..self.iterations {
-            if !self.project_once(points, colliders) {
-                break;
-            }
+        self.passes = 0;
+        self.error = self.violation();
+        while self.error > self.tolerance && self.passes < self.iterations {
+            self.project_once(points, colliders);
+            self.passes += 1;
+            self.error = self.violation();
         }
         timings.density += millis(started);
         if self.redistribution > 0.0 {
@@ -290,25 +346,35 @@ impl<T: Real> FluidStage<T> {
         Ok(())
     }
 
-    /// One Jacobi projection of every density constraint on `self.y`; false (nothing moved)
-    /// when every density was within the tolerance.
-    fn project_once(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) -> bool {
+    /// The largest violation of the constraints at `self.y`, `max_i (rho_i / rho0_i - 1)`
+    /// and 0 (relative); it also leaves the densities in `self.density`.
+    fn violation(&mut self) -> f64 {
         let (sph, y, mass) = (&self.sph, &self.y, &self.mass);
-        let (offsets, indices) = (&self.offsets, &self.indices);
-        sph.densities(y, offsets, indices, mass, &mut self.density);
-        let limit = T::of(1.0 + self.tolerance);
+        sph.densities(y, &self.offsets, &self.indices, mass, &mut self.density);
         let (density, rest, partner) = (&self.density, &self.rest_density, &self.partner);
-        if !density
+        density
             .par_iter()
             .zip(rest.par_iter())
             .zip(partner.par_iter())
-            .any(|((&r, &r0), &p)| !p && r > r0 * limit)
-        {
-            return false;
-        }
+            .map(|((&r, &r0), &p)| {
+                if p {
+                    0.0
+                } else {
+                    (r / r0 - T::one()).to_f64().max(0.0)
+                }
+            })
+            .reduce(|| 0.0, f64::max)
+    }
+
+    /// One Jacobi projection of every density constraint on `self.y` at the densities
+    /// [`Self::violation`] left (partners carry none).
+    fn project_once(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
+        let (sph, y, mass) = (&self.sph, &self.y, &self.mass);
+        let (offsets, indices) = (&self.offsets, &self.indices);
+        let (density, rest, eps) = (&self.density, &self.rest_density, &self.eps);
+        let partner = &self.partner;
         // Multipliers, and each particle's own gradient and its neighbours' (`grads`), of
         // `rho_i` (not yet divided by `rho0_i`).
-        let eps = &self.eps;
         self.lambda
             .par_iter_mut()
             .zip(self.own.par_iter_mut())
@@ -355,31 +421,14 @@ impl<T: Real> FluidStage<T> {
             })
             .collect_into_vec(&mut self.next);
         std::mem::swap(&mut self.y, &mut self.next);
-        true
     }
 
-    /// The redistribution's displacement taken out of the velocities the step took, then the
-    /// implicit viscosity on them ([`super::fluid_viscosity`]).
-    pub fn end_step(&mut self, points: &mut Points<T>, timings: &mut Timings) {
+    /// The redistribution's displacement taken out of the velocities the step took.
+    pub fn end_step(&mut self, points: &mut Points<T>) {
         let inv_h = T::one() / self.h;
         for (s, &k) in self.shift.iter().zip(&self.members) {
             points.velocity[k as usize] -= s * inv_h;
         }
-        let started = Instant::now();
-        let fluid = Fluid {
-            sph: &self.sph,
-            offsets: &self.offsets,
-            indices: &self.indices,
-            y: &self.y,
-            mass: &self.mass,
-            rest_density: &self.rest_density,
-            nu: &self.nu,
-            members: &self.members,
-            partner: &self.partner,
-            h: self.h,
-        };
-        self.viscosity.apply(&fluid, points);
-        timings.viscosity += millis(started);
     }
 }
 

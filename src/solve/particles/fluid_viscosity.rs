@@ -1,6 +1,12 @@
 //! The implicit viscosity of fluid particles (He et al. 2017, section 6, after Mueller et al.
-//! 2003): backward Euler of `dv/dt = nu laplacian(v)`, `(I + h L) v_{t+1} = v`, on the
-//! velocities the step took, `nu` the kinematic viscosity (m^2/s) and `h` the step (s).
+//! 2003): backward Euler of `dv/dt = nu laplacian(v) + g`, `(I + h L) u = v_t + h g`, `nu` the
+//! kinematic viscosity (m^2/s), `h` the step (s), `g` gravity (m/s^2), solved at the start of
+//! a step on the positions `y_t`, before the inertial prediction `y* = y_t + h u` (the order
+//! of position-based fluids: forces and viscosity on the velocity, then predict, then
+//! project). The positions the step takes thus feel the viscosity: a liquid held only by its
+//! viscosity (honey under a ceiling) moves by `h u`, which the viscosity has slowed; applied
+//! after the positions instead, it crept by `g h^2` every step, whatever its viscosity, and
+//! parted from its ceiling.
 //!
 //! The Laplacian is Brookshaw's SPH form (as in Monaghan 2005, eq. 3.77 without the
 //! compressible term): `laplacian(v)_i = sum_j c_ij (v_j - v_i)` with
@@ -122,9 +128,11 @@ impl<T: Real> Viscosity<T> {
         chunked_sum(a.len(), chunks, |i| a[i].dot(&b[i]).to_f64())
     }
 
-    /// Replaces the fluid particles' velocities in `points` by the solution (see the module's
-    /// doc); positions are left as the step took them.
-    pub fn apply(&mut self, stage: &Fluid<'_, T>, points: &mut Points<T>) {
+    /// Solves `(I + h L) u = v + kick` for the free fluid particles (`v` their velocities in
+    /// `points`, m/s; `kick` a velocity change every free particle receives first, m/s; the
+    /// pinned ones keep their velocity, a Dirichlet condition) and stores `u - kick` as their
+    /// velocity; positions are not touched.
+    pub fn apply(&mut self, stage: &Fluid<'_, T>, points: &mut Points<T>, kick: Vector3<T>) {
         let n = stage.members.len();
         let h = stage.h;
         let (offsets, indices) = (stage.offsets, stage.indices);
@@ -156,8 +164,8 @@ impl<T: Real> Viscosity<T> {
             }
             *d = sum;
         });
-        for (x, &m) in self.x.iter_mut().zip(members) {
-            *x = points.velocity[m as usize];
+        for ((x, &m), &free) in self.x.iter_mut().zip(members).zip(&self.free) {
+            *x = points.velocity[m as usize] + if free { kick } else { Vector3::zeros() };
         }
         // r = b - A x with b = x (the velocities), so r = -(A - I) x = sum_j k_ij (x_j - x_i).
         std::mem::swap(&mut self.p, &mut self.x);
@@ -212,8 +220,10 @@ impl<T: Real> Viscosity<T> {
                 .for_each(|(i, p)| *p = r[i] / diagonal[i] + *p * beta);
             self.iterations += 1;
         }
-        for (x, &m) in self.x.iter().zip(members) {
-            points.velocity[m as usize] = *x;
+        for ((x, &m), &free) in self.x.iter().zip(members).zip(&self.free) {
+            if free {
+                points.velocity[m as usize] = x - kick;
+            }
         }
     }
 }
