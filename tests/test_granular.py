@@ -127,15 +127,24 @@ def test_wet_sand_stands_taller_than_dry():
 
 def test_a_pile_at_rest_stays_at_rest_with_static_friction():
     """A low column (R = 4 cm, a = 0.5) settled for 0.4 s, then 0.06 s more: with static
-    friction (eq. 28) no particle moves by more than a micrometre and most are held. (That
-    it creeps without is not shown: without static friction the settled pile moved at most
-    8 nm in those 0.06 s; solved to 10 iterations a step it is at rest either way.)"""
+    friction (eq. 28) no particle moves by more than a micrometre, and every particle under
+    the surface layer is held at every step. (That it creeps without is not shown: without
+    static friction the settled pile moved at most 8 nm in those 0.06 s; solved to 10
+    iterations a step it is at rest either way.) The surface layer sits at the apex of the
+    friction cone (strengths 0.01 to 2 Pa): how many of its 49 particles keep yielding, and so
+    are not held, is set by round-off: 0 to 15, the initial lattice perturbed by 1e-9 m
+    turning 0 into 15 and back, with either global iteration of issue 38."""
     body = column(0.04, 0.02, sand(30.0))
     s, _ = settle(body, 0.4)
     before = body.positions.copy()
+    surface = before[:, 2] > before[:, 2].max() - 0.5 * S
+    moved = np.zeros(body.num_particles, dtype=bool)
     for _ in range(30):
+        last = body.positions.copy()
         stats = s.step()
-    assert stats.particles["held_static"] > 0.9 * body.num_particles
+        moved |= np.any(body.positions != last, axis=1)
+    assert not moved[~surface].any(), np.flatnonzero(moved & ~surface)
+    assert stats.particles["held_static"] >= np.count_nonzero(~surface)
     assert np.linalg.norm(body.positions - before, axis=1).max() < 1e-6
 
 
