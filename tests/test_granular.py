@@ -128,7 +128,10 @@ def test_wet_sand_stands_taller_than_dry():
 def test_a_pile_at_rest_stays_at_rest_with_static_friction_and_creeps_without():
     """A low column (R = 4 cm, a = 0.5) settled for 0.4 s, then 0.3 s more, solved by 8
     iterations a step (short of convergence, as the paper's few iterations): with static
-    friction (eq. 28) no particle moves by more than a micrometre and most are held; without,
+    friction (eq. 28) no particle moves by more than a micrometre and every particle under
+    the surface layer is held (the surface layer sits at the apex of the friction cone,
+    strengths 0.01 to 2 Pa: how many of its particles keep yielding is set by round-off, 0 to
+    15 of 49 with the lattice perturbed by 1e-9 m); without,
     the pile creeps on at a steady pace (measured: the largest displacement 26 um after 0.1 s,
     110 um after 0.3 s, about 0.35 mm/s; the mean 2 then 9 um). Solved to 10 iterations a step
     the pile is at rest either way (8 nm in 0.1 s without static friction)."""
@@ -137,6 +140,7 @@ def test_a_pile_at_rest_stays_at_rest_with_static_friction_and_creeps_without():
         body = column(0.04, 0.02, sand(30.0, static_friction=eta))
         s, _ = settle(body, 0.4, max_iters=8)
         before = body.positions.copy()
+        surface = before[:, 2] > before[:, 2].max() - 0.5 * S
         largest = []
         for k in range(150):
             stats = s.step()
@@ -144,7 +148,7 @@ def test_a_pile_at_rest_stays_at_rest_with_static_friction_and_creeps_without():
                 largest.append(np.linalg.norm(body.positions - before, axis=1).max())
         moves.append(largest)
         if eta is not None:
-            assert stats.particles["held_static"] > 0.9 * body.num_particles
+            assert stats.particles["held_static"] >= np.count_nonzero(~surface)
     (held_early, held_late), (free_early, free_late) = moves
     assert held_late < 1e-6, moves
     assert free_early > 5e-6 and free_late > 2.0 * free_early, moves

@@ -60,18 +60,27 @@ pub fn bond_force<T: Real>(
 ) -> (Vector3<T>, T) {
     let fxi = f * bond.xi;
     let (fxi_norm, y_norm) = (fxi.norm(), y.norm());
-    let rest_dir = bond.xi;
-    // Without a direction (a collapsed bond), each projection takes the other's, then the rest
-    // direction.
-    let p_iso = projected(
-        y,
-        y_norm,
-        bond.length,
-        projected(&fxi, fxi_norm, bond.length, rest_dir),
-    );
-    let p_dev = projected(&fxi, fxi_norm, bond.length, p_iso);
-    let dilatation = p_iso * (pressure * bond.share / bond.length);
-    let g = (y - p_dev) * bond.k_dev + (y - p_iso) * bond.k_iso + dilatation;
+    let zero = T::zero();
+    let g = if fxi_norm > zero && y_norm > zero {
+        // `p_iso = |xi| Y / |Y|`, `p_dev = |xi| F xi / |F xi|` and the dilatation
+        // `P a p_iso / |xi|`, gathered on `Y` and `F xi` (two divisions per bond).
+        let (over_y, over_f) = (T::one() / y_norm, T::one() / fxi_norm);
+        let along_y =
+            bond.k_dev + bond.k_iso + (pressure * bond.share - bond.k_iso * bond.length) * over_y;
+        y * along_y - fxi * (bond.k_dev * bond.length * over_f)
+    } else {
+        // Without a direction (a collapsed bond), each projection takes the other's, then
+        // the rest direction.
+        let p_iso = projected(
+            y,
+            y_norm,
+            bond.length,
+            projected(&fxi, fxi_norm, bond.length, bond.xi),
+        );
+        let p_dev = projected(&fxi, fxi_norm, bond.length, p_iso);
+        let dilatation = p_iso * (pressure * bond.share / bond.length);
+        (y - p_dev) * bond.k_dev + (y - p_iso) * bond.k_iso + dilatation
+    };
     let half = T::of(0.5);
     let dev = fxi_norm - bond.length;
     let iso = y_norm - bond.length;

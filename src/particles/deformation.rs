@@ -22,25 +22,29 @@ pub fn deformation_gradient<T: Real>(
     shape_inverse: &Matrix3<T>,
     y: &[Vector3<T>],
 ) -> Matrix3<T> {
-    deformation_and_strain(i, neighbors, bonds, shape_inverse, y).0
+    deformation_and_strain(i, neighbors, bonds, shape_inverse, y, |_, _| {}).0
 }
 
 /// [`deformation_gradient`] and, from the same pass over the bonds (each neighbour's position
 /// read once), particle `i`'s weighted mean bond strain `s_i = sum_j a_j (|Y_j| - |xi_j|)`
-/// (dimensionless; `a_j` the bonds' `share`, see [`super::bond`]).
-#[inline]
+/// (dimensionless; `a_j` the bonds' `share`, see [`super::bond`]); `keep(k, Y)` receives the
+/// `k`-th bond's vector `Y = y_j - y_i` (m), for a caller that needs it again.
+#[inline(always)]
 pub fn deformation_and_strain<T: Real>(
     i: usize,
     neighbors: &[u32],
     bonds: &[BondRest<T>],
     shape_inverse: &Matrix3<T>,
     y: &[Vector3<T>],
+    mut keep: impl FnMut(usize, Vector3<T>),
 ) -> (Matrix3<T>, T) {
     let (mut sum, mut strain) = (Matrix3::zeros(), T::zero());
-    for (&j, bond) in neighbors.iter().zip(bonds) {
-        let d = y[j as usize] - y[i];
+    let y_i = y[i];
+    for (k, (&j, bond)) in neighbors.iter().zip(bonds).enumerate() {
+        let d = y[j as usize] - y_i;
         sum += (d * bond.weight) * bond.xi.transpose();
         strain += bond.share * (d.norm() - bond.length);
+        keep(k, d);
     }
     (uninverted(sum * shape_inverse), strain)
 }

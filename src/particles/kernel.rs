@@ -13,6 +13,10 @@ use super::rest::ParticleRest;
 /// Particle `i`'s kernel at the positions `y` (m): writes the force `g` (N) of each of its
 /// bonds on `i` into `bond_out` and returns its energy, `V_i Psi_i` (J; eq. 8, with the
 /// dilatation term of [`super::bond`]).
+///
+/// Two passes over the bonds: the first reads each neighbour's position once, keeps the bond
+/// vector `Y = y_j - y_i` in `bond_out` (no other storage) and sums `F_i` and the mean strain;
+/// the second turns each `Y` into the bond's force in place.
 #[inline]
 pub fn particle_kernel<T: Real>(
     i: usize,
@@ -23,11 +27,14 @@ pub fn particle_kernel<T: Real>(
     let row = rest.row(i);
     let neighbors = &rest.indices[row.clone()];
     let bonds = &rest.bonds[row];
-    let (f, strain) = deformation_and_strain(i, neighbors, bonds, &rest.shape_inverse[i], y);
+    let (f, strain) =
+        deformation_and_strain(i, neighbors, bonds, &rest.shape_inverse[i], y, |k, d| {
+            bond_out[k] = d
+        });
     let pressure = rest.dilatation[i] * strain;
     let mut energy = T::of(0.5) * pressure * strain;
-    for ((&j, bond), out) in neighbors.iter().zip(bonds).zip(bond_out) {
-        let (g, e) = bond_force(bond, &f, &(y[j as usize] - y[i]), pressure);
+    for (bond, out) in bonds.iter().zip(bond_out) {
+        let (g, e) = bond_force(bond, &f, out, pressure);
         *out = g;
         energy += e;
     }

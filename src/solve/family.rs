@@ -35,6 +35,12 @@ pub(crate) trait Family<T: Real>: Send {
     /// length of eq. 31-33, colliders in the system metric and Chebyshev extrapolation as
     /// `options` ask), and its measures.
     fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update;
+    /// Whether [`Self::global_move`] leaves `y_next` out of the colliders itself, so that the
+    /// step's own collider pass leaves it alone (the particles evaluate their line search's
+    /// trials at `y_next`: moving it again would cost them a kernel pass).
+    fn keeps_out_of_colliders(&self) -> bool {
+        false
+    }
     /// Work before the iterations of a step, once its state is loaded and predicted (the
     /// particles factor their direct solver's matrix here). Nothing for membranes.
     fn start_step(&mut self, _params: &SolverParams) -> Result<()> {

@@ -465,6 +465,9 @@ impl<T: Real> Solver<T> {
             if matches!(params.method, Method::Sissm | Method::Auto) && !colliders.is_empty() {
                 let t = Instant::now();
                 for (family, update) in families.each().zip(updates.iter_mut()) {
+                    if family.keeps_out_of_colliders() {
+                        continue;
+                    }
                     let projected = push_next_out_of_colliders(family.points_mut(), &colliders);
                     *update = Update {
                         residual: update.residual,

@@ -79,22 +79,6 @@ impl<T: Real> Evaluation<T> {
         })
     }
 
-    /// The round-off floor of the merit at `self.at` (kg m^2): `sum_i (eps s_i)^2 / m_i` with
-    /// `eps` the precision's machine epsilon and `s_i = m_i (|y*_i| + |y_i|) + h^2 |f_i|`
-    /// (kg m) the size of the terms of the residual `r_i` (whose force is a sum of bond
-    /// forces that |f_i| does not bound: the caller adds a factor), summed in fixed chunks.
-    pub fn merit_noise(&self, points: &Points<T>, h2: T, chunks: &mut Vec<f64>) -> f64 {
-        let (at, force) = (&self.at, &self.force);
-        let (mass, star) = (&points.mass, &points.y_star);
-        let eps = T::default_epsilon().to_f64();
-        chunked_sum(at.len(), chunks, |i| {
-            let m = mass[i].to_f64();
-            let size =
-                m * (star[i].norm() + at[i].norm()).to_f64() + (force[i].norm() * h2).to_f64();
-            (eps * size).powi(2) / m
-        })
-    }
-
     /// `sum_i V_i Psi_i` (J) summed in fixed chunks.
     pub fn elastic_energy(&self, chunks: &mut Vec<f64>) -> f64 {
         let energy = &self.energy;

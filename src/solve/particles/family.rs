@@ -12,6 +12,7 @@ use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
 use crate::solve::{Acceleration, GlobalSolver, ParticleTimings, SolverParams, StepStats, Timings};
 
+use super::chebyshev::Chebyshev;
 use super::step::{global_move, prepare_direct};
 use super::system::ParticleSystem;
 
@@ -35,10 +36,15 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update {
         global_move(self, h, options)
     }
+    /// The line search's trials are the next iterates, kept out of the colliders there.
+    fn keeps_out_of_colliders(&self) -> bool {
+        true
+    }
     /// Readies the direct solver when it is asked for; the fluids' viscosity acts on the
     /// velocities before the prediction ([`super::fluid`]).
     fn start_step(&mut self, params: &SolverParams) -> Result<()> {
         self.timings = ParticleTimings::default();
+        self.chebyshev = Chebyshev::start(params);
         if params.global_solver == GlobalSolver::Direct {
             prepare_direct(self)?;
         }

@@ -5,11 +5,22 @@
 //! **Merit (eq. 13).** The deviatoric force (eq. 10) is not the gradient of any energy, so the
 //! line search cannot ask the energy to fall. It asks the residual of eq. 12 to:
 //! `phi(y) = sum_i |r_i|^2 / m_i` with `r = m (y* - y) + h^2 f(y)` (kg m^2), zero exactly at
-//! the implicit Euler solution. The step length `alpha` starts at 1 and halves until
-//! `phi(y + alpha delta) <= (1 - 2 sigma alpha) phi(y)` (`sigma` = [`ARMIJO_SIGMA`]; for
-//! `delta = J^-1 r` the directional derivative of `phi` is `-2 phi`), at most
-//! [`MAX_HALVINGS`] times; the last trial is taken if none passes. Each trial costs one kernel
-//! evaluation, which the next iteration reuses when the move is not changed afterwards.
+//! the implicit Euler solution.
+//!
+//! **One kernel pass per iteration.** The line search's trials are the next iterates
+//! themselves, colliders, repulsion and extrapolation applied, so that the accepted trial's
+//! evaluation is the next iteration's. The first trial is the whole move, extrapolated where
+//! the family's Chebyshev sequence extrapolates ([`super::chebyshev`]): it passes unless its
+//! merit exceeds [`GROWTH`] times the merit where the sequence started (Chebyshev is no
+//! descent method: its merit may rise between iterates while its error bound falls). A plain
+//! trial passes when `phi(y + alpha delta) <= (1 - 2 sigma alpha) phi(y)` (`sigma` =
+//! [`ARMIJO_SIGMA`]; for `delta = J^-1 r` the directional derivative of `phi` is `-2 phi`).
+//! A rejected extrapolation restarts the sequence and tries the plain move; a rejected plain
+//! move halves `alpha`, at most [`MAX_HALVINGS`] times, and the last trial is taken if none
+//! passes. The Armijo test compares the merits over the particles no collider moved in the
+//! trial (a moved particle's residual carries the collider's reaction, which no move takes
+//! away), and a plain trial that a collider touched is taken without halvings (the projected
+//! move is no descent direction of the free particles' merit).
 
 use std::time::Instant;
 
@@ -17,12 +28,15 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::collider::{push_out_with_friction, ColliderModel};
+use crate::parallel::chunked_sum;
 use crate::real::Real;
+use crate::solve::collider_passes::extrapolated;
 use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
 use crate::solve::GlobalSolver;
 use crate::symmetric::SymmetricMatrix3;
 
+use super::chebyshev::GROWTH;
 use super::direct::DirectSolver;
 use super::directions::{jacobi, position_averaging};
 use super::system::ParticleSystem;
@@ -32,12 +46,32 @@ use crate::timing::millis;
 pub const ARMIJO_SIGMA: f64 = 1e-4;
 /// Most halvings of the step length in one line search (`alpha >= 1/16`).
 pub const MAX_HALVINGS: usize = 4;
-/// The merit's round-off floor in the line search, in units of [`super::evaluation::Evaluation::merit_noise`]
-/// (whose force term does not bound the round-off of a sum of some 30 bond forces).
-pub const NOISE_FACTOR: f64 = 100.0;
+/// The round-off floor of a particle's residual per unit mass, in units of
+/// `eps |y_i| D_i / m_i` (m; [`residual_floor`]). Where an f32 iteration stalls it can leave
+/// more (about 3 on a 12^3 cube after an impact: the extrapolation rounds every position
+/// again at each iteration, and a particle's residual sums its neighbours' errors): such a
+/// step reports not converged. A larger factor would let it stop, but lets f32 stop further
+/// from f64 (a clamped beam at tol 1e-7 m: 2e-5 m apart with 4, within 1e-5 m with 1).
+pub const ROUNDOFF_FACTOR: f64 = 1.0;
+
+/// The round-off floor (m) of particle `i`'s residual per unit mass `|r_i| / m_i` at `y_i`,
+/// with the Jacobi diagonal `d = D_i` and mass `m = m_i` (kg): `c eps |y_i| D_i / m_i`
+/// (`c` = [`ROUNDOFF_FACTOR`], `eps` the precision's machine epsilon). A position is stored to
+/// `eps |y_i|`, and the residual changes by `D_i` per metre a particle moves, so no stored
+/// iterate brings `|r_i| / m_i` much lower, whatever the iteration (docs/model.md,
+/// "Convergence measure"): 25K particles of E 2e5 Pa in a 0.1 m cube at h = 1/30 s have
+/// `D_i / m_i` about 5e4, a floor near 5e-4 m in f32 (1e-12 m in f64).
+#[inline(always)]
+pub(crate) fn residual_floor<T: Real>(y: &Vector3<T>, d: T, m: T) -> f64 {
+    ROUNDOFF_FACTOR * T::default_epsilon().to_f64() * y.norm().to_f64() * (d / m).to_f64()
+}
 
 /// The move of one global iteration, from the evaluation at the current iterate `y`, into
-/// `y_next`, and its measures (the direct solver factored by [`prepare_direct`]).
+/// `y_next`, and its measures (the direct solver factored by [`prepare_direct`]). With a line
+/// search the evaluation at `y_next` is left as the current one (see the module's doc); the
+/// step's own collider pass leaves `y_next` alone ([`Family::keeps_out_of_colliders`]).
+///
+/// [`Family::keeps_out_of_colliders`]: crate::solve::family::Family::keeps_out_of_colliders
 pub(crate) fn global_move<T: Real>(
     sys: &mut ParticleSystem<T>,
     h: T,
@@ -54,20 +88,11 @@ pub(crate) fn global_move<T: Real>(
         GlobalSolver::Direct => direct_move(sys, h, options.colliders),
     }
     sys.timings.solve += millis(started);
-    let started = Instant::now();
-    let (alpha, tried) = if options.step_length {
-        line_search(sys, h2, merit)
-    } else {
-        (T::one(), false)
-    };
-    sys.timings.line_search += millis(started);
-    if let Some(repulsion) = &mut sys.repulsion {
-        repulsion.correct(&sys.points, &sys.delta, alpha);
+    let omega = sys.chebyshev.next(merit);
+    if !options.step_length {
+        return propose(sys, h2, T::one(), omega, options);
     }
-    let started = Instant::now();
-    let update = finish(sys, h2, alpha, tried, options);
-    sys.timings.project += millis(started);
-    update
+    line_search(sys, h2, merit, omega, options)
 }
 
 /// Readies the direct solver for a step: the matrix's pattern and symbolic factor on the
@@ -108,70 +133,118 @@ fn direct_move<T: Real>(sys: &mut ParticleSystem<T>, h: T, colliders: &[Collider
     }
 }
 
-/// Armijo backtracking on the merit (see the module's doc); leaves the accepted trial's
-/// evaluation as the current one, keyed by its positions. Returns the step length and whether
-/// a trial was evaluated (then the residual at `y` sits in `sys.trial`).
+/// The line search of the module's doc over the trials `y_next` ([`propose`]), from the merit
+/// `merit` (kg m^2) at `y` and the sequence's weight `omega`; returns the accepted trial's
+/// measures and leaves its evaluation as the current one.
 ///
-/// Below [`NOISE_FACTOR`] times the merit's round-off floor ([`super::evaluation::Evaluation::merit_noise`])
-/// the merit cannot tell a decrease from round-off: a merit there takes the whole move, which
-/// is itself of round-off size (`delta` is linear in the residual), without a trial (a body
-/// in free fall or at rest converges so in one iteration and one kernel pass per step), and a
-/// trial within that floor of the Armijo bound passes.
-fn line_search<T: Real>(sys: &mut ParticleSystem<T>, h2: T, merit: f64) -> (T, bool) {
-    let noise = NOISE_FACTOR * sys.current.merit_noise(&sys.points, h2, &mut sys.chunks);
-    if merit <= noise {
-        return (T::one(), false);
-    }
-    let mut alpha = T::one();
-    for halving in 0..=MAX_HALVINGS {
-        {
-            let (y, delta) = (&sys.points.y, &sys.delta);
-            sys.trial
-                .at
-                .par_iter_mut()
-                .enumerate()
-                .for_each(|(i, t)| *t = y[i] + delta[i] * alpha);
+/// Below the merit's round-off floor ([`merit_floor`]) the merit cannot tell a decrease from
+/// round-off: a merit there takes the first trial without evaluating it (the move is itself
+/// of round-off size: a body in free fall or at rest converges so in one iteration and one
+/// kernel pass per step), and a trial within that floor of its bound passes.
+fn line_search<T: Real>(
+    sys: &mut ParticleSystem<T>,
+    h2: T,
+    merit: f64,
+    mut omega: Option<T>,
+    options: &MoveOptions<'_, T>,
+) -> Update {
+    let noise = merit_floor(sys, h2);
+    let (mut alpha, mut halvings) = (T::one(), 0);
+    loop {
+        let update = propose(sys, h2, alpha, omega, options);
+        if merit <= noise {
+            return update;
         }
+        let started = Instant::now();
+        sys.trial.at.copy_from_slice(&sys.points.y_next);
         sys.trial.run(&sys.rest);
         sys.timings.evaluations += 1;
-        let trial = sys.trial.residual_merit(&sys.points, h2, &mut sys.chunks);
-        let bound = merit * (1.0 - 2.0 * ARMIJO_SIGMA * alpha.to_f64());
-        if trial <= bound + noise || halving == MAX_HALVINGS || !trial.is_finite() {
-            break;
+        let whole = sys.trial.residual_merit(&sys.points, h2, &mut sys.chunks);
+        let passes = if omega.is_some() {
+            whole <= GROWTH * sys.chebyshev.start_merit + noise
+        } else {
+            let (points, touched) = (&sys.points, &sys.touched);
+            let before = free_merit(&sys.current.residual, points, touched, &mut sys.chunks);
+            let after = free_merit(&sys.trial.residual, points, touched, &mut sys.chunks);
+            after <= before * (1.0 - 2.0 * ARMIJO_SIGMA * alpha.to_f64()) + noise
+        };
+        sys.timings.line_search += millis(started);
+        let contact = omega.is_none() && sys.touched.iter().any(|&t| t);
+        if passes || halvings == MAX_HALVINGS || contact || !whole.is_finite() {
+            std::mem::swap(&mut sys.current, &mut sys.trial);
+            return update;
         }
-        alpha *= T::of(0.5);
+        if omega.is_some() {
+            omega = None;
+            sys.chebyshev.restart();
+        } else {
+            alpha *= T::of(0.5);
+            halvings += 1;
+        }
     }
-    std::mem::swap(&mut sys.current, &mut sys.trial);
-    (alpha, true)
 }
 
-/// `y_next = y + alpha delta`, kept out of the colliders in the metric of the Jacobi diagonal
-/// (with friction) and extrapolated (Chebyshev) where no collider touched it; the measures:
-/// the largest move, and the largest residual per unit mass at `y` with the colliders'
-/// reaction to the whole move added (as for membranes,
-/// [`crate::solve::membranes::jacobi::free_residual`]).
-fn finish<T: Real>(
+/// `sum_i |r_i|^2 / m_i` (kg m^2) over the particles not `touched` by a collider, summed in
+/// fixed chunks (the same for any thread count).
+fn free_merit<T: Real>(
+    residual: &[Vector3<T>],
+    points: &Points<T>,
+    touched: &[bool],
+    chunks: &mut Vec<f64>,
+) -> f64 {
+    chunked_sum(residual.len(), chunks, |i| {
+        if touched[i] {
+            0.0
+        } else {
+            residual[i].norm_squared().to_f64() / points.mass[i].to_f64()
+        }
+    })
+}
+
+/// The merit's round-off floor (kg m^2): `sum_i m_i nu_i^2` with `nu_i` the floor of particle
+/// `i`'s residual per unit mass ([`residual_floor`]), summed in fixed chunks.
+fn merit_floor<T: Real>(sys: &mut ParticleSystem<T>, h2: T) -> f64 {
+    let mut chunks = std::mem::take(&mut sys.chunks);
+    let sys_ref = &*sys;
+    let (y, mass) = (&sys_ref.points.y, &sys_ref.points.mass);
+    let floor = chunked_sum(y.len(), &mut chunks, |i| {
+        let nu = residual_floor(&y[i], sys_ref.diagonal(i, h2), mass[i]);
+        mass[i].to_f64() * nu * nu
+    });
+    sys.chunks = chunks;
+    floor
+}
+
+/// The trial `y_next = y + alpha delta` (with the repulsion's move), kept out of the colliders
+/// in the metric of the Jacobi diagonal (with friction) and, where no collider touched it,
+/// extrapolated by `omega` (Chebyshev) unless that could reach into a collider
+/// ([`extrapolated`]); `sys.touched` marks the particles a collider or the repulsion moved. The measures: the
+/// largest move, and the convergence measure: the largest residual per unit mass at `y` with
+/// the colliders' reaction to the whole move added (as for membranes,
+/// [`crate::solve::membranes::jacobi::free_residual`]), less its round-off floor
+/// ([`residual_floor`]).
+fn propose<T: Real>(
     sys: &mut ParticleSystem<T>,
     h2: T,
     alpha: T,
-    tried: bool,
+    omega: Option<T>,
     options: &MoveOptions<'_, T>,
 ) -> Update {
+    let started = Instant::now();
+    if let Some(repulsion) = &mut sys.repulsion {
+        repulsion.correct(&sys.points, &sys.delta, alpha);
+    }
     let mut y_next = std::mem::take(&mut sys.points.y_next);
-    // After a line search's trial the residual at `y` sits in `trial` (the evaluations
-    // swapped).
-    let residual = if tried {
-        &sys.trial.residual
-    } else {
-        &sys.current.residual
-    };
+    let mut touched = std::mem::take(&mut sys.touched);
     let sys_ref = &*sys;
-    let points = &sys_ref.points;
+    let (points, residual) = (&sys_ref.points, &sys_ref.current.residual);
     let update = y_next
         .par_iter_mut()
+        .zip(touched.par_iter_mut())
         .enumerate()
-        .map(|(i, next)| {
+        .map(|(i, (next, touched))| {
             let y = &points.y[i];
+            *touched = false;
             if points.pinned[i] {
                 *next = *y;
                 return Update::NONE;
@@ -179,15 +252,9 @@ fn finish<T: Real>(
             let d = sys_ref.diagonal(i, h2);
             let inverse = SymmetricMatrix3::from_diagonal(&Vector3::repeat(T::one() / d));
             let margin = points.margin[i];
+            let colliders = Points::colliders_of(&points.collides, i, options.colliders);
             let push = |to: Vector3<T>| {
-                push_out_with_friction(
-                    y,
-                    to,
-                    &points.y_start[i],
-                    &inverse,
-                    margin,
-                    Points::colliders_of(&points.collides, i, options.colliders),
-                )
+                push_out_with_friction(y, to, &points.y_start[i], &inverse, margin, colliders)
             };
             let repelled = sys_ref
                 .repulsion
@@ -196,23 +263,28 @@ fn finish<T: Real>(
             let whole = y + sys_ref.delta[i];
             let free_move = y + sys_ref.delta[i] * alpha;
             *next = push(free_move + repelled);
+            // The colliders' and the repulsion's reaction to the whole move.
             let reaction = if alpha == T::one() {
                 *next - free_move
             } else {
                 push(whole + repelled) - whole
             };
-            if let Some(w) = options.omega.filter(|_| *next == free_move) {
-                *next = (*next - points.y_prev[i]) * w + points.y_prev[i];
+            *touched = *next != free_move;
+            if let Some(w) = omega.filter(|_| !*touched) {
+                *next = extrapolated(next, &points.y_prev[i], w, margin, colliders);
             }
             // With another family's reaction on the particle (a membrane's, `crate::solve::coupling`).
             let coupled = options.contact_reaction.get(i).copied().unwrap_or_default();
             let free = (residual[i] + (reaction + coupled) * d) / points.mass[i];
             let mut update = Update::of(i, y, next);
-            update.residual = free.norm_squared().to_f64().sqrt();
+            let floor = residual_floor(y, d, points.mass[i]);
+            update.residual = (free.norm_squared().to_f64().sqrt() - floor).max(0.0);
             update
         })
         .reduce(|| Update::NONE, Update::merge);
     sys.points.y_next = y_next;
+    sys.touched = touched;
+    sys.timings.project += millis(started);
     update
 }
 

@@ -13,6 +13,7 @@ use crate::solve::points::Points;
 use crate::solve::{ParticleTimings, Timings};
 use crate::timing::millis;
 
+use super::chebyshev::Chebyshev;
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
 use super::fluid::FluidStage;
@@ -35,6 +36,10 @@ pub(crate) struct ParticleSystem<T: Real> {
     /// factorisation, reported at the end of the step.
     pub direct: Option<DirectSolver>,
     pub held: Vec<bool>,
+    /// The particles a collider or the repulsion moved in the last trial ([`super::step`]).
+    pub touched: Vec<bool>,
+    /// The step's Chebyshev sequence, which the line search restarts ([`super::chebyshev`]).
+    pub chebyshev: Chebyshev,
     pub failure: Option<crate::error::Error>,
     /// The minimum distance between bodies (none for a single body).
     pub repulsion: Option<Repulsion<T>>,
@@ -84,6 +89,8 @@ impl<T: Real> ParticleSystem<T> {
             repulsion,
             direct: None,
             held: vec![false; n],
+            touched: vec![false; n],
+            chebyshev: Chebyshev::default(),
             failure: None,
             chunks: Vec::new(),
             plastic: PlasticBodies::of(bodies),
