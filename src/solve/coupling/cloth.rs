@@ -197,58 +197,58 @@ impl<T: Real> ClothCoupling<T> {
     /// metric of the projection at the end of the step (see the module [`super`]); zero for
     /// pinned points.
     fn masses(&mut self, cloth: &MembraneSystem<T>, particles: &ParticleSystem<T>) {
-        let (starts, pinned) = (&self.list.particle_start, &particles.points.pinned);
-        self.particle_inverse
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, inverse)| {
-                *inverse = if pinned[i] || starts[i] == starts[i + 1] {
-                    0.0
-                } else {
-                    1.0 / particles.rest.mass[i].to_f64()
-                };
-            });
-        let (starts, pinned) = (&self.list.vertex_start, &cloth.points.pinned);
-        self.vertex_inverse
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(v, inverse)| {
-                *inverse = if pinned[v] || starts[v] == starts[v + 1] {
-                    SymmetricMatrix3::zeros()
-                } else {
-                    SymmetricMatrix3::zeros()
-                        .plus_identity(1.0 / cloth.rest.vertices[v].mass.to_f64())
-                };
-            });
+        self.fill_inverses(
+            cloth,
+            particles,
+            |i| 1.0 / particles.rest.mass[i].to_f64(),
+            |v| SymmetricMatrix3::zeros().plus_identity(1.0 / cloth.rest.vertices[v].mass.to_f64()),
+        );
     }
 
     /// The inverse Jacobi blocks (1/kg) of the particles and of the vertices in some pair at
     /// the last evaluation; zero for pinned points.
     fn metrics(&mut self, cloth: &MembraneSystem<T>, particles: &ParticleSystem<T>, h: T) {
         let h2 = h * h;
+        self.fill_inverses(
+            cloth,
+            particles,
+            |i| 1.0 / particles.diagonal(i, h2).to_f64(),
+            |v| {
+                let mass = cloth.rest.vertices[v].mass;
+                jacobi_block(cloth, v, h2)
+                    .inverse_or(T::one() / mass)
+                    .map(|x| x.to_f64())
+            },
+        );
+    }
+
+    /// `particle_inverse[i]` and `vertex_inverse[v]` from the given maps for the free points
+    /// in some pair, zero for the pinned ones and those in no pair.
+    fn fill_inverses(
+        &mut self,
+        cloth: &MembraneSystem<T>,
+        particles: &ParticleSystem<T>,
+        particle: impl Fn(usize) -> f64 + Sync,
+        vertex: impl Fn(usize) -> SymmetricMatrix3<f64> + Sync,
+    ) {
         let (starts, pinned) = (&self.list.particle_start, &particles.points.pinned);
         self.particle_inverse
             .par_iter_mut()
             .enumerate()
             .for_each(|(i, inverse)| {
-                *inverse = if pinned[i] || starts[i] == starts[i + 1] {
-                    0.0
-                } else {
-                    1.0 / particles.diagonal(i, h2).to_f64()
-                };
+                let free = !pinned[i] && starts[i] != starts[i + 1];
+                *inverse = if free { particle(i) } else { 0.0 };
             });
         let (starts, pinned) = (&self.list.vertex_start, &cloth.points.pinned);
         self.vertex_inverse
             .par_iter_mut()
             .enumerate()
             .for_each(|(v, inverse)| {
-                *inverse = if pinned[v] || starts[v] == starts[v + 1] {
-                    SymmetricMatrix3::zeros()
+                let free = !pinned[v] && starts[v] != starts[v + 1];
+                *inverse = if free {
+                    vertex(v)
                 } else {
-                    let mass = cloth.rest.vertices[v].mass;
-                    jacobi_block(cloth, v, h2)
-                        .inverse_or(T::one() / mass)
-                        .map(|x| x.to_f64())
+                    SymmetricMatrix3::zeros()
                 };
             });
     }
