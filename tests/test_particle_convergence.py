@@ -99,3 +99,48 @@ def test_chebyshev_keeps_its_speed_up_at_one_kernel_pass_per_iteration():
     assert cheb.residuals[-1] < 0.2 * jac.residuals[-1], (cheb.residuals[-1], jac.residuals[-1])
     for stats in (cheb, jac):
         assert stats.particles["evaluations"] <= 1.1 * stats.iterations + 1
+
+
+def test_a_short_step_converges_where_newtons_law_holds_within_particle_tol():
+    """At h = 1e-3 s, where gravity moves a body 1e-5 m per step (a tenth of the default tol),
+    the default particle_tol (g / 100) stops each step of a block falling onto a Plane and
+    landing once its velocities are within 2 particle_tol h (2e-4 m/s) of a step solved to
+    1e-12 m from the same state; the distance tol alone (particle_tol out of the way) stops
+    at the first iterates, its velocities off by more than g h / 4 (2.5e-3 m/s) at some step."""
+    dt, steps = 1e-3, 25
+    ref = pd.Solver(dt=dt).particle_tol
+    assert ref == pytest.approx(9.81 / 100)
+
+    def worst(**kwargs):
+        """The largest velocity error (m/s) over the steps, each step started from the
+        tight solve's state."""
+        n, s = 5, 0.01
+        x = cube(n, side=n * s, lift=0.002)
+        make = lambda: pd.Particles(x, spacing=s, density=1000.0,
+                                    material=pd.Elastic.from_young(1e5, 0.25))
+        tight, loose = make(), make()
+        st = pd.Solver(dt=dt, global_solver="chebyshev", max_iters=5000, tol=1e-12)
+        sl = pd.Solver(dt=dt, global_solver="chebyshev", max_iters=5000, **kwargs)
+        for solver, body in ((st, tight), (sl, loose)):
+            solver.add(body)
+            solver.add_collider(pd.Plane())
+        err, iterations = 0.0, []
+        for _ in range(steps):
+            loose.positions, loose.velocities = tight.positions, tight.velocities
+            stats = sl.step()
+            st.step()
+            iterations.append(stats.iterations)
+            assert stats.converged
+            err = max(err, np.abs(np.asarray(loose.velocities) - tight.velocities).max())
+        return err, iterations
+
+    err, its = worst()
+    assert err < 2 * ref * dt, (err, its)
+    err_tol_only, its_tol_only = worst(particle_tol=1e9)
+    assert err_tol_only > 9.81 * dt / 4, (err_tol_only, its_tol_only)
+
+
+def test_particle_tol_is_checked():
+    for bad in (0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="particle_tol"):
+            pd.Solver(dt=0.01, particle_tol=bad)

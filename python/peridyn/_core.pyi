@@ -880,6 +880,12 @@ class Solver:
         ``method="descent"`` and the GPU backend refuse particle bodies.
     contact : a ``Contact`` to keep every body's triangles apart from the other bodies' (and
         its own, unless built with ``self_contact=False``); None: no contact between membranes.
+    particle_tol : particle bodies only (> 0, m/s^2; default 0.0981, a hundredth of g): a step
+        stops once every particle's force imbalance per unit mass ``|r_i| / (m_i dt^2)``
+        (Newton's law at the step's accelerations, colliders' reactions taken out, less its
+        round-off floor) is below it and its distance measure below ``tol``: particle steps
+        stop at ``min(tol, particle_tol * dt^2)`` m, so that a short step is not "converged"
+        before it has moved (docs/model.md, "Convergence measure").
     """
 
     def __init__(
@@ -902,6 +908,7 @@ class Solver:
         backend: Backend = "cpu",
         contact: Optional[Contact] = None,
         global_solver: GlobalSolver = "chebyshev",
+        particle_tol: float = 0.0981,
     ) -> None: ...
     def add(self, body: Union[Membrane, Particles]) -> None: ...
     def add_collider(self, collider: Collider) -> None: ...
@@ -975,6 +982,9 @@ class Solver:
     @property
     def global_solver(self) -> GlobalSolver:
         """How particle bodies solve their global step."""
+    @property
+    def particle_tol(self) -> float:
+        """The particles' force-imbalance tolerance (m/s^2)."""
     @property
     def contact(self) -> Optional[Contact]:
         """The contact parameters, or None when contact is off. Settable to another Contact

@@ -92,7 +92,8 @@ impl PySolver {
                         chebyshev_rho = Real::of(Acceleration::DEFAULT_RHO),
                         chebyshev_delay = Int::of(Acceleration::DEFAULT_DELAY as i64),
                         record_energy = false, method = "sissm", inner_iters = Int::of(1),
-                        backend = "cpu", contact = None, global_solver = "chebyshev"))]
+                        backend = "cpu", contact = None, global_solver = "chebyshev",
+                        particle_tol = Real::of(SolverParams::DEFAULT_PARTICLE_TOL)))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: Real,
@@ -112,9 +113,11 @@ impl PySolver {
         backend: &str,
         contact: Option<PyRef<'_, PyContact>>,
         global_solver: &str,
+        particle_tol: Real,
     ) -> PyResult<Self> {
         let dt = dt.get("dt")?;
         let tol = tol.get("tol")?;
+        let particle_tol = particle_tol.get("particle_tol")?;
         let max_iters = max_iters.get("max_iters")?;
         let threads = threads.map(|t| t.get("threads")).transpose()?;
         let chebyshev_rho = chebyshev_rho.get("chebyshev_rho")?;
@@ -159,6 +162,7 @@ impl PySolver {
             dt,
             gravity,
             tol,
+            particle_tol,
             max_iters: max_iters as usize,
             step_length,
             preconditioner: PRECONDITIONER.parse(preconditioner)?,
@@ -403,6 +407,11 @@ impl PySolver {
     #[getter]
     fn tol(&self) -> f64 {
         with_solver!(&self.core, s => s.params().tol)
+    }
+    /// The particles' force-imbalance tolerance (m/s^2).
+    #[getter]
+    fn particle_tol(&self) -> f64 {
+        with_solver!(&self.core, s => s.params().particle_tol)
     }
     #[getter]
     fn max_iters(&self) -> usize {

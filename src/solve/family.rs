@@ -41,6 +41,11 @@ pub(crate) trait Family<T: Real>: Send {
     fn keeps_out_of_colliders(&self) -> bool {
         false
     }
+    /// The threshold (m) this family's convergence measure must fall below for the step to
+    /// stop (both families' must): `tol` for membranes.
+    fn threshold(&self, params: &SolverParams) -> f64 {
+        params.tol
+    }
     /// Work before the iterations of a step, once its state is loaded and predicted (the
     /// particles factor their direct solver's matrix here). Nothing for membranes.
     fn start_step(&mut self, _params: &SolverParams) -> Result<()> {

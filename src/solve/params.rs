@@ -14,6 +14,10 @@ pub struct SolverParams {
     /// Convergence threshold on the error bound `max_i |r_i| / m_i` (m, see
     /// [`super::StepStats::residual`]); 0 runs `max_iters` iterations.
     pub tol: f64,
+    /// Particle bodies only: the largest force imbalance per unit mass, `|r_i| / (m_i h^2)`
+    /// (m/s^2), a converged step may leave, besides `tol` (docs/model.md, "Convergence
+    /// measure"): particle steps stop at `min(tol, particle_tol h^2)` (m).
+    pub particle_tol: f64,
     /// Cap on global iterations per step.
     pub max_iters: usize,
     /// Apply the per-vertex step length of eq. 31-33.
@@ -143,6 +147,7 @@ impl Default for SolverParams {
             dt: 1e-3,
             gravity: [0.0, 0.0, -9.81],
             tol: 1e-4,
+            particle_tol: Self::DEFAULT_PARTICLE_TOL,
             max_iters: 100,
             step_length: true,
             preconditioner: Preconditioner::Tangent,
@@ -157,6 +162,16 @@ impl Default for SolverParams {
 }
 
 impl SolverParams {
+    /// The default [`Self::particle_tol`] (m/s^2): a hundredth of the gravity of Earth.
+    pub const DEFAULT_PARTICLE_TOL: f64 = 0.0981;
+
+    /// The convergence threshold (m) of particle bodies' measure: `min(tol, particle_tol
+    /// dt^2)`, so that a step of any length stops where its accelerations meet Newton's law
+    /// within `particle_tol`, and within `tol` of the implicit Euler solution.
+    pub fn particle_threshold(&self) -> f64 {
+        self.tol.min(self.particle_tol * self.dt * self.dt)
+    }
+
     /// Checks every parameter, naming the first bad one.
     pub fn validate(&self) -> Result<()> {
         check_param("dt", self.dt, |v| v > 0.0, "a finite time step > 0 s")?;
@@ -164,6 +179,12 @@ impl SolverParams {
             check_param(&format!("gravity[{k}]"), *g, |_| true, "finite")?;
         }
         check_param("tol", self.tol, |v| v >= 0.0, "a finite distance >= 0 m")?;
+        check_param(
+            "particle_tol",
+            self.particle_tol,
+            |v| v > 0.0,
+            "a finite acceleration > 0 m/s^2",
+        )?;
         if let Acceleration::Chebyshev { rho, delay } = self.acceleration {
             check_param("chebyshev rho", rho, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
             if delay < 1 {

@@ -343,6 +343,8 @@ impl<T: Real> Solver<T> {
                 points.y_prev = points.y.clone();
             }
         }
+        // Per family, the threshold its convergence measure must fall below.
+        let thresholds: Vec<f64> = families.each().map(|f| f.threshold(&params)).collect();
         let mut omegas = vec![1.0; accelerations.len()];
         let list_indices = by_kind.list_indices();
         let mut updates = Vec::with_capacity(list_indices.len());
@@ -369,8 +371,14 @@ impl<T: Real> Solver<T> {
                 || self.contact.is_none()
                 || !contact_reaction.is_empty())
                 && self.coupling.as_ref().is_none_or(ClothCoupling::ran);
-            let converges =
-                |update: &Update| decisive && params.tol > 0.0 && update.residual < params.tol;
+            let converges = |updates: &[Update]| {
+                decisive
+                    && params.tol > 0.0
+                    && updates
+                        .iter()
+                        .zip(&thresholds)
+                        .all(|(u, t)| u.residual < *t)
+            };
             // Each family's extrapolation weight this iteration.
             let family_omegas: Vec<Option<f64>> = accelerations
                 .iter()
@@ -513,7 +521,7 @@ impl<T: Real> Solver<T> {
                 update = updates.iter().copied().fold(Update::NONE, Update::merge);
                 stats.contact.accumulate(&figures);
                 // The iteration the step stops at is not extrapolated: it ends on `z`.
-                let last = iteration + 1 == params.max_iters || converges(&update);
+                let last = iteration + 1 == params.max_iters || converges(&updates);
                 if let Some(w) = extrapolation.filter(|_| !last) {
                     for family in families.each() {
                         extrapolate_local_step(family.points_mut(), T::of(w), &colliders);
@@ -530,7 +538,7 @@ impl<T: Real> Solver<T> {
             stats.iterations = iteration + 1;
             stats.moves.push(update.moved);
             stats.residuals.push(update.residual);
-            if converges(&update) {
+            if converges(&updates) {
                 stats.converged = true;
                 break;
             }

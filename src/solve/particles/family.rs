@@ -40,6 +40,10 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn keeps_out_of_colliders(&self) -> bool {
         true
     }
+    /// `min(tol, particle_tol h^2)` ([`SolverParams::particle_threshold`]).
+    fn threshold(&self, params: &SolverParams) -> f64 {
+        params.particle_threshold()
+    }
     /// Readies the direct solver when it is asked for; the fluids' viscosity acts on the
     /// velocities before the prediction ([`super::fluid`]).
     fn start_step(&mut self, params: &SolverParams) -> Result<()> {
