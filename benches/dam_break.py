@@ -19,6 +19,8 @@ are upper bounds.
 
 Default:  python benches/dam_break.py                 (na = 8, 12, 16: 1K, 3.5K, 8K particles)
 Run:      python benches/dam_break.py --na 6 8 10     (the committed JSON: 0.4K-2K particles)
+Paper:    python benches/dam_break.py --na 6 8 10 --paper-steps 3 --out benches/results/dam_break_paper.json
+          (and the paper's size itself, 315K particles at h = 1/500 s, for 3 steps from rest)
 Peers:    python benches/dam_break.py --na 6 8 --peers --out benches/results/dam_break_peers.json
           (and pySPlisHSPlasH's DFSPH and Taichi MLS-MPM at the same sizes: particles, wall s
           per simulated s, fronts against Martin and Moyce; benches/_dfsph_dam_break.py,
@@ -42,6 +44,7 @@ import peridyn as pd  # noqa: E402
 G = 9.81
 MARTIN_MOYCE = [(0.832, 1.217), (1.997, 2.292), (3.345, 4.134), (5.091, 6.98)]
 PAPER = {"particles": 312_000, "ms_per_step": 412.0, "machine": "Intel i7-2600, 4 cores"}
+PAPER_NA = 54  # 2 x 54^3 = 314,928 particles, the paper's 312K
 
 
 def dam_break(na: int, a: float, dt: float, threads: int, redistribution: float):
@@ -93,6 +96,32 @@ def run(na: int, args) -> dict:
         "wall_seconds_per_simulated_second": wall / (k * dt),
         "fronts": fronts,
     }
+
+
+def paper_size(args) -> dict:
+    """The paper's size itself (na = 54: 314,928 particles, spacing 1.85 mm, h = 1/500 s as
+    in its Table 1) for ``--paper-steps`` steps from rest: ms per step by phase (each step),
+    density passes, set-up seconds and the peak memory per particle. The first steps of the
+    collapse, not the run's average the paper quotes: the projections a step needs grow as
+    the column falls."""
+    base = C.vm_kib("VmHWM")
+    started = time.perf_counter()
+    body, solver, s = dam_break(PAPER_NA, args.a, 1.0 / 500.0, args.threads,
+                                args.redistribution)
+    setup = time.perf_counter() - started
+    steps = []
+    for _ in range(args.paper_steps):
+        stats = solver.step()
+        steps.append({"ms": dict(stats.timings),
+                      "density_passes": stats.particles["density_passes"],
+                      "density_error": stats.particles["density_error"]})
+        print(f"  paper size: {stats.timings['total']:.0f} ms, "
+              f"{stats.particles['density_passes']} passes", flush=True)
+    n = body.positions.shape[0]
+    return {"na": PAPER_NA, "particles": n, "spacing_m": s, "dt": 1.0 / 500.0,
+            "setup_s": setup, "steps": steps,
+            "ms_per_step_median": C.median([r["ms"]["total"] for r in steps]),
+            "peak_kib_per_particle": (C.vm_kib("VmHWM") - base) / n}
 
 
 def dfsph(na: int, a: float) -> dict:
@@ -199,6 +228,8 @@ def main() -> None:
     ap.add_argument("--peers", action="store_true",
                     help="also run pySPlisHSPlasH's DFSPH (benches/_dfsph_dam_break.py) and "
                     "Taichi MLS-MPM (benches/_mpm.py) at each size")
+    ap.add_argument("--paper-steps", type=int, default=0,
+                    help="also run the paper's size (315K particles, h = 1/500 s) this many steps")
     ap.add_argument("--out", help="JSON path (default benches/results/dam_break.json)")
     args = ap.parse_args()
     rec = C.Record("dam_break", args)
@@ -212,6 +243,9 @@ def main() -> None:
     trend = {"c": float(np.exp(logc)), "p": float(p),
              "ms_per_step_at_312K": float(np.exp(logc) * PAPER["particles"] ** p)}
     rec.data.update({"paper": PAPER, "runs": runs, "trend": trend})
+    if args.paper_steps:
+        print(f"paper size, na = {PAPER_NA}", flush=True)
+        rec.data["paper_size"] = paper_size(args)
     if args.peers:
         peers = []
         for na in args.na:
