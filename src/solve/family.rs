@@ -51,6 +51,12 @@ pub(crate) trait Family<T: Real>: Send {
     fn start_step(&mut self, _params: &SolverParams) -> Result<()> {
         Ok(())
     }
+    /// The ms of [`Self::start_step`] that the family reports under other phases of the
+    /// step's timings (the fluids' neighbour search and viscosity), so that the prediction's
+    /// time leaves them out. None for membranes.
+    fn start_millis_timed_elsewhere(&self) -> f64 {
+        0.0
+    }
     /// The acceleration this kind's moves use under `params` (see
     /// [`super::GlobalSolver::acceleration`] for the particles).
     fn acceleration(&self, params: &SolverParams) -> Acceleration {

@@ -20,8 +20,9 @@ pub struct Timings {
     /// Of `finish`: the plastic return of particle bodies and the rebuild of their rest data
     /// (`t_p` of He et al. 2017, Table 1; 0 without plastic bodies).
     pub plasticity: f64,
-    /// Of `finish`: the neighbour search of plastic particle bodies on their deformed
-    /// positions (`t_n` of Table 1; 0 without).
+    /// The neighbour searches of particle bodies (`t_n` of Table 1; 0 without): of plastic
+    /// bodies on their deformed positions (of `finish`), and of fluids at the step's start
+    /// and before their density projection (not in `predict`).
     pub neighbours: f64,
     /// The SPH density and what follows from it: the density constraints' projection of fluid
     /// particles (`t_rho`), the density of granular bodies and their stiffness from it (`t_d`,
@@ -30,7 +31,8 @@ pub struct Timings {
     pub density: f64,
     /// The particle redistribution of fluids (`t_d` of Table 1; 0 without).
     pub redistribution: f64,
-    /// Of `finish`: the implicit viscosity of fluid particles (0 without).
+    /// The implicit viscosity of fluid particles, at the step's start (not in `predict`; 0
+    /// without).
     pub viscosity: f64,
     /// The coupling of particles with membrane triangles: its pairs, its projections after
     /// every iteration and at the end (0 without both families).

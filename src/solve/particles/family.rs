@@ -64,6 +64,11 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         }
         Ok(())
     }
+    fn start_millis_timed_elsewhere(&self) -> f64 {
+        self.fluid
+            .as_ref()
+            .map_or(0.0, |fluid| fluid.start_millis())
+    }
     /// The fluids' neighbour search and density projection ([`super::fluid`]).
     fn project(
         &mut self,

@@ -275,6 +275,12 @@ impl<T: Real> FluidStage<T> {
         Ok(())
     }
 
+    /// The ms of the last [`Self::start_step`] (neighbour search and viscosity), which
+    /// [`Self::project`] reports under those phases.
+    pub fn start_millis(&self) -> f64 {
+        self.start_millis.0 + self.start_millis.1
+    }
+
     /// The members' positions of `from` into `self.y` and their neighbour lists (CSR).
     fn search(&mut self, from: &[Vector3<T>]) -> Result<()> {
         for (y, &k) in self.y.iter_mut().zip(&self.members) {
