@@ -5,7 +5,7 @@ use nalgebra::Vector3;
 
 use crate::particles::{
     evaluate_particles, Elastic, Granular, ParticleParams, ParticleRest, Particles, PlasticLaw,
-    RestConstants,
+    RestBonds, RestConstants,
 };
 
 /// A 6^3 block of dry sand on a lattice of 1 cm (30 degrees).
@@ -65,7 +65,7 @@ fn the_kernels_return_gives_the_forces_of_the_stored_return() {
     let law = PlasticLaw::of(&body).unwrap();
     let bonds = body.current_rest_bonds();
     let lam = vec![1.2e5; body.num_particles()];
-    let rest_of = |bonds, cones: bool| {
+    let rest_of = |bonds: &RestBonds, cones: bool| {
         let mut rest = ParticleRest::<f64>::of_bodies(&[&body]).unwrap();
         rest.refill(&[(bonds, constants, Some(&lam))]).unwrap();
         if cones {
