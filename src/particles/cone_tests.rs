@@ -3,6 +3,7 @@
 
 use nalgebra::Vector3;
 
+use crate::particles::tests::lattice;
 use crate::particles::{
     evaluate_particles, Elastic, Granular, ParticleParams, ParticleRest, Particles, PlasticLaw,
     RestBonds, RestConstants,
@@ -10,17 +11,9 @@ use crate::particles::{
 
 /// A 6^3 block of dry sand on a lattice of 1 cm (30 degrees).
 fn block() -> Particles {
-    let (d, n) = (0.01, 6);
-    let mut x = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            for k in 0..n {
-                x.push(Vector3::new(i as f64, j as f64, k as f64) * d);
-            }
-        }
-    }
+    let x = lattice([6, 6, 6], 0.01);
     let params = ParticleParams {
-        spacing: d,
+        spacing: 0.01,
         density: 1600.0,
         horizon: None,
         material: Elastic::Paper { mu: 0.0, lam: 1e5 },
