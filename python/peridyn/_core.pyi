@@ -787,7 +787,7 @@ class StepStats:
         methods."""
     @property
     def timings(self) -> dict:
-        """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish' (of which 'plasticity': the plastic return and rest rebuild of plastic particle bodies, 'neighbours': their neighbour search on deformed positions, and 'density': the SPH density and stiffness of granular bodies; t_p, t_n and t_d of He et al. 2017, Table 1), 'total'."""
+        """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish' (of which 'plasticity': the plastic return stored at the step's end and the rest rebuild of plastic particle bodies (a granular body's return within the iterations is part of its kernel passes, in 'global'), 'neighbours': their neighbour search on deformed positions, and 'density': the SPH density and stiffness of granular bodies; t_p, t_n and t_d of He et al. 2017, Table 1), 'total'."""
     @property
     def particles(self) -> dict:
         """The particle bodies' share of the step (zeros without them), from its start:
