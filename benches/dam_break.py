@@ -19,9 +19,12 @@ are upper bounds.
 
 Default:  python benches/dam_break.py                 (na = 8, 12, 16: 1K, 3.5K, 8K particles)
 Run:      python benches/dam_break.py --na 6 8 10     (the committed JSON: 0.4K-2K particles)
+Paper:    python benches/dam_break.py --na 6 8 10 --paper-steps 3 --out benches/results/dam_break_paper.json
+          (and the paper's size itself, 315K particles at h = 1/500 s, for 3 steps from rest)
 Peers:    python benches/dam_break.py --na 6 8 --peers --out benches/results/dam_break_peers.json
-          (and pySPlisHSPlasH's DFSPH at the same sizes: particles, wall s per simulated s,
-          fronts against Martin and Moyce; benches/_dfsph_dam_break.py)
+          (and pySPlisHSPlasH's DFSPH and Taichi MLS-MPM at the same sizes: particles, wall s
+          per simulated s, fronts against Martin and Moyce; benches/_dfsph_dam_break.py,
+          benches/_mpm.py)
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ import peridyn as pd  # noqa: E402
 G = 9.81
 MARTIN_MOYCE = [(0.832, 1.217), (1.997, 2.292), (3.345, 4.134), (5.091, 6.98)]
 PAPER = {"particles": 312_000, "ms_per_step": 412.0, "machine": "Intel i7-2600, 4 cores"}
+PAPER_NA = 54  # 2 x 54^3 = 314,928 particles, the paper's 312K
 
 
 def dam_break(na: int, a: float, dt: float, threads: int, redistribution: float):
@@ -94,6 +98,32 @@ def run(na: int, args) -> dict:
     }
 
 
+def paper_size(args) -> dict:
+    """The paper's size itself (na = 54: 314,928 particles, spacing 1.85 mm, h = 1/500 s as
+    in its Table 1) for ``--paper-steps`` steps from rest: ms per step by phase (each step),
+    density passes, set-up seconds and the peak memory per particle. The first steps of the
+    collapse, not the run's average the paper quotes: the projections a step needs grow as
+    the column falls."""
+    base = C.vm_kib("VmHWM")
+    started = time.perf_counter()
+    body, solver, s = dam_break(PAPER_NA, args.a, 1.0 / 500.0, args.threads,
+                                args.redistribution)
+    setup = time.perf_counter() - started
+    steps = []
+    for _ in range(args.paper_steps):
+        stats = solver.step()
+        steps.append({"ms": dict(stats.timings),
+                      "density_passes": stats.particles["density_passes"],
+                      "density_error": stats.particles["density_error"]})
+        print(f"  paper size: {stats.timings['total']:.0f} ms, "
+              f"{stats.particles['density_passes']} passes", flush=True)
+    n = body.positions.shape[0]
+    return {"na": PAPER_NA, "particles": n, "spacing_m": s, "dt": 1.0 / 500.0,
+            "setup_s": setup, "steps": steps,
+            "ms_per_step_median": C.median([r["ms"]["total"] for r in steps]),
+            "peak_kib_per_particle": (C.vm_kib("VmHWM") - base) / n}
+
+
 def dfsph(na: int, a: float) -> dict:
     """The same dam break in pySPlisHSPlasH's DFSPH (benches/_dfsph_dam_break.py), in a
     subprocess with ``LD_PRELOAD=libGLdispatch.so.0`` (its import needs it without a
@@ -113,6 +143,42 @@ def dfsph(na: int, a: float) -> dict:
     return json.loads(out.read_text())
 
 
+def mpm_water(na: int, a: float, threads: int) -> dict:
+    """The same dam break in Taichi MLS-MPM with a weakly compressible liquid
+    (benches/_mpm.py: speed of sound ten times the column's free-fall speed sqrt(2 g 2a), grid
+    spacing twice the particles', slip walls at the tank's faces), in this process: particles,
+    wall s per simulated s (after a warm-up that compiles the kernels), fronts against Martin
+    and Moyce; or the reason it failed."""
+    try:
+        from _mpm import Mpm
+
+        s = a / na
+        k = np.stack(np.meshgrid(np.arange(na), np.arange(na), np.arange(2 * na),
+                                 indexing="ij"), -1).reshape(-1, 3)
+        sound = 10.0 * np.sqrt(2 * G * 2 * a)
+        mpm = Mpm((k + 0.5) * s, volume=s ** 3, density=1000.0, dx=2 * s, low=(0, 0, 0),
+                  high=(8 * a, a, 3 * a), material="water", sound_speed=sound,
+                  threads=threads)
+    except Exception as e:  # a peer that is missing or fails is recorded, not fatal
+        return {"na": na, "failed": f"{type(e).__name__}: {e}"}
+    mpm.reset()
+    mpm.advance(20 * mpm.dt)  # compiles the kernels
+    mpm.reset()
+    c = np.sqrt(2 * G / a)
+    fronts, elapsed, wall = [], 0.0, 0.0
+    for T, Z in MARTIN_MOYCE:
+        started = time.perf_counter()
+        steps = mpm.advance(T / c - elapsed)
+        wall += time.perf_counter() - started
+        elapsed += steps * mpm.dt
+        front = (mpm.positions()[:, 0].max() + 0.5 * s) / a
+        fronts.append({"T": T, "Z_martin_moyce": Z, "Z": front, "error": front / Z - 1.0})
+        print(f"  MPM na={na}: T={T} Z={front:.3f} (Martin and Moyce {Z})", flush=True)
+    return {"solver": "taichi MLS-MPM, weakly compressible", "na": na, "particles": mpm.n,
+            "dt": mpm.dt, "sound_speed_m_s": sound, "grid_cells": list(mpm.cells),
+            "wall_seconds_per_simulated_second": wall / elapsed, "fronts": fronts}
+
+
 def plot(result: dict, path: Path) -> None:
     import matplotlib
 
@@ -130,8 +196,9 @@ def plot(result: dict, path: Path) -> None:
     for r in result.get("peers", []):
         if "fronts" in r:
             f = r["fronts"]
+            name = "MLS-MPM" if "MPM" in r.get("solver", "") else "DFSPH"
             left.plot([p["T"] for p in f], [p["Z"] for p in f], "x--",
-                      label=f"DFSPH, {r['particles']} particles")
+                      label=f"{name}, {r['particles']} particles")
     left.set_xlabel("T = t sqrt(2g/a)")
     left.set_ylabel("Z = front / a")
     left.legend()
@@ -159,8 +226,10 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--redistribution", type=float, default=0.0)
     ap.add_argument("--peers", action="store_true",
-                    help="also run pySPlisHSPlasH's DFSPH at each size "
-                    "(benches/_dfsph_dam_break.py)")
+                    help="also run pySPlisHSPlasH's DFSPH (benches/_dfsph_dam_break.py) and "
+                    "Taichi MLS-MPM (benches/_mpm.py) at each size")
+    ap.add_argument("--paper-steps", type=int, default=0,
+                    help="also run the paper's size (315K particles, h = 1/500 s) this many steps")
     ap.add_argument("--out", help="JSON path (default benches/results/dam_break.json)")
     args = ap.parse_args()
     rec = C.Record("dam_break", args)
@@ -174,11 +243,16 @@ def main() -> None:
     trend = {"c": float(np.exp(logc)), "p": float(p),
              "ms_per_step_at_312K": float(np.exp(logc) * PAPER["particles"] ** p)}
     rec.data.update({"paper": PAPER, "runs": runs, "trend": trend})
+    if args.paper_steps:
+        print(f"paper size, na = {PAPER_NA}", flush=True)
+        rec.data["paper_size"] = paper_size(args)
     if args.peers:
         peers = []
         for na in args.na:
             print(f"DFSPH na = {na}", flush=True)
             peers.append(dfsph(na, args.a))
+            print(f"MLS-MPM na = {na}", flush=True)
+            peers.append(mpm_water(na, args.a, args.threads))
         rec.data["peers"] = peers
     rec.note(f"fitted ms/step = {trend['c']:.3g} N^{trend['p']:.2f}: "
              f"{trend['ms_per_step_at_312K']:.0f} ms at 312K (paper 412 ms on 4 cores)")

@@ -57,10 +57,6 @@ def heights(x: np.ndarray) -> dict:
             "lowest_z": float(x[:, 2].min())}
 
 
-def lame(E: float, nu: float) -> tuple:
-    return E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
-
-
 class PeridynRun:
     name = "peridyn"
 
@@ -87,109 +83,30 @@ class PeridynRun:
 
 
 class TaichiMpmRun:
-    """MLS-MPM (Hu et al. 2018, eq. 16-18 with APIC) in Taichi, fixed-corotated elasticity."""
+    """MLS-MPM (Hu et al. 2018, eq. 16-18 with APIC) in Taichi, fixed-corotated elasticity
+    (benches/_mpm.py)."""
 
     name = "taichi MLS-MPM"
 
     def __init__(self, args):
-        import taichi as ti
+        from _mpm import Mpm
 
-        self.ti = ti
-        self.args = args
-        ti.init(arch=ti.x64, cpu_max_num_threads=args.threads, default_fp=ti.f32,
-                offline_cache=True, log_level=ti.WARN)
-        a = args
+        a = self.args = args
         spacing = a.side / a.n
-        self.dx = 2 * spacing
-        mu, lam = lame(a.young, a.nu)
-        self.dt = a.cfl * self.dx / np.sqrt((lam + 2 * mu) / a.density)
-        # The grid covers the cube's fall and its spread at the floor, with 3 cells of padding.
-        self.origin = np.array([-a.side, -a.side, 0.0]) - 3 * self.dx
-        extent = np.array([2 * a.side, 2 * a.side, a.lift + 1.5 * a.side]) + 6 * self.dx
-        self.cells = tuple(int(np.ceil(e / self.dx)) for e in extent)
-        n_particles = a.n ** 3
-        vol = spacing ** 3
-        self.x = ti.Vector.field(3, ti.f32, n_particles)
-        self.v = ti.Vector.field(3, ti.f32, n_particles)
-        self.C = ti.Matrix.field(3, 3, ti.f32, n_particles)
-        self.F = ti.Matrix.field(3, 3, ti.f32, n_particles)
-        self.grid_v = ti.Vector.field(3, ti.f32, self.cells)
-        self.grid_m = ti.field(ti.f32, self.cells)
-        inv_dx, dx, dt = 1.0 / self.dx, self.dx, self.dt
-        p_mass, p_vol = a.density * vol, vol
-        floor = int(round(-self.origin[2] / self.dx))  # the grid layer at z = 0
-        g = GRAVITY
-        x, v, C_, F = self.x, self.v, self.C, self.F
-        grid_v, grid_m = self.grid_v, self.grid_m
-        origin = ti.Vector(list(self.origin.astype(np.float32)))
-
-        @ti.kernel
-        def substep():
-            for I in ti.grouped(grid_m):
-                grid_v[I] = ti.Vector.zero(ti.f32, 3)
-                grid_m[I] = 0.0
-            for p in x:
-                xp = (x[p] - origin) * inv_dx
-                base = int(xp - 0.5)
-                fx = xp - base
-                w = [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
-                F[p] = (ti.Matrix.identity(ti.f32, 3) + dt * C_[p]) @ F[p]
-                R, _ = ti.polar_decompose(F[p])
-                J = F[p].determinant()
-                stress = 2.0 * mu * (F[p] - R) @ F[p].transpose() + ti.Matrix.identity(ti.f32, 3) * lam * J * (J - 1.0)
-                stress = -dt * p_vol * 4.0 * inv_dx * inv_dx * stress
-                affine = stress + p_mass * C_[p]
-                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                    offset = ti.Vector([i, j, k])
-                    dpos = (offset.cast(ti.f32) - fx) * dx
-                    weight = w[i][0] * w[j][1] * w[k][2]
-                    grid_v[base + offset] += weight * (p_mass * v[p] + affine @ dpos)
-                    grid_m[base + offset] += weight * p_mass
-            for I in ti.grouped(grid_m):
-                if grid_m[I] > 0:
-                    grid_v[I] = grid_v[I] / grid_m[I]
-                    grid_v[I][2] -= dt * g
-                    # A separating slip floor at z = 0; the sides of the box stop the grid.
-                    if I[2] < floor + 1 and grid_v[I][2] < 0:
-                        grid_v[I][2] = 0.0
-                    for d in ti.static(range(3)):
-                        if I[d] < 3 and grid_v[I][d] < 0:
-                            grid_v[I][d] = 0.0
-                        if I[d] > grid_m.shape[d] - 4 and grid_v[I][d] > 0:
-                            grid_v[I][d] = 0.0
-            for p in x:
-                xp = (x[p] - origin) * inv_dx
-                base = int(xp - 0.5)
-                fx = xp - base
-                w = [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
-                new_v = ti.Vector.zero(ti.f32, 3)
-                new_C = ti.Matrix.zero(ti.f32, 3, 3)
-                for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
-                    offset = ti.Vector([i, j, k])
-                    dpos = offset.cast(ti.f32) - fx
-                    weight = w[i][0] * w[j][1] * w[k][2]
-                    gv = grid_v[base + offset]
-                    new_v += weight * gv
-                    new_C += 4.0 * inv_dx * weight * gv.outer_product(dpos)
-                v[p], C_[p] = new_v, new_C
-                x[p] += dt * new_v
-
-        self.substep = substep
+        # The grid covers the cube's fall and its spread at the floor (a slip floor at z = 0).
+        self.mpm = Mpm(lattice(a.n, a.side, a.lift), volume=spacing ** 3, density=a.density,
+                       dx=2 * spacing, low=(-a.side, -a.side, 0.0),
+                       high=(a.side, a.side, a.lift + 1.5 * a.side), material="elastic",
+                       young=a.young, nu=a.nu, cfl=a.cfl, threads=a.threads)
 
     def run(self) -> dict:
-        a, ti = self.args, self.ti
-        self.x.from_numpy(lattice(a.n, a.side, a.lift).astype(np.float32))
-        self.v.fill(0.0)
-        self.C.fill(0.0)
-        self.F.from_numpy(np.tile(np.eye(3, dtype=np.float32), (a.n ** 3, 1, 1)))
-        steps = int(np.ceil(a.duration / self.dt))
+        mpm = self.mpm
+        mpm.reset()
         t = time.perf_counter()
-        for _ in range(steps):
-            self.substep()
-        ti.sync()
+        steps = mpm.advance(self.args.duration)
         wall = time.perf_counter() - t
-        return {"dt": self.dt, "steps": steps, "wall_s": wall, "grid_cells": list(self.cells),
-                **heights(self.x.to_numpy().astype(np.float64))}
+        return {"dt": mpm.dt, "steps": steps, "wall_s": wall, "grid_cells": list(mpm.cells),
+                **heights(mpm.positions())}
 
 
 def main() -> None:

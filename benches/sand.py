@@ -1,6 +1,6 @@
 """Dry sand: the axisymmetric column collapse (R = 0.05 m, a = H / R = 1, friction angle 30
 degrees) in peridyn at three sizes, with a peer (Taichi MLS-MPM with Drucker-Prager sand,
-benches/_mpm_sand.py) at equal particle count, in one run.
+benches/_mpm.py) at equal particle count, in one run.
 
 Scene: a cylinder of radius R and height a R sampled on a cubic lattice of spacing
 ``R / n`` (``--sizes`` lists n), density 1600 kg/m^3, standing on a plane at z = 0 with
@@ -143,13 +143,14 @@ def stream_worker(a) -> dict:
 
 
 def mpm_worker(a) -> dict:
-    from _mpm_sand import MpmSand
+    from _mpm import Mpm
 
     base = C.vm_kib("VmHWM")
     x, s = column(a.n)
-    mpm = MpmSand(x, volume=s ** 3, density=DENSITY, dx=2 * s, young=a.mpm_young, nu=0.3,
-                  friction_angle=ANGLE, floor_friction=FLOOR, reach=3.5 * RADIUS,
-                  height=1.3 * ASPECT * RADIUS, threads=a.threads)
+    reach = 3.5 * RADIUS
+    mpm = Mpm(x, volume=s ** 3, density=DENSITY, dx=2 * s, low=(-reach, -reach, 0.0),
+              high=(reach, reach, 1.3 * ASPECT * RADIUS), material="sand", young=a.mpm_young,
+              nu=0.3, friction_angle=ANGLE, floor_friction=FLOOR, threads=a.threads)
     mpm.reset()
     mpm.advance(20 * mpm.dt)  # compiles the kernels
     mpm.reset()

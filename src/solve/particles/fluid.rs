@@ -25,10 +25,16 @@
 //! gradient of the same sum, so each projection is a Newton step of its constraint), one-sided:
 //! only `C_i > 0` is corrected, so that the free surface (where the sum misses neighbours)
 //! does not pull particles into clumps (no artificial pressure `s_corr` is needed).
-//! `lambda_i = -C_i / (sum_k |grad_k C_i|^2 + eps)` (Macklin and Mueller, eq. 11) with
+//! `lambda_i = -C_i / (sum_k w_k |grad_k C_i|^2 + eps)` (Macklin and Mueller, eq. 11, with
+//! the inverse-mass weights of Macklin et al. 2014, "Unified particle physics", eq. 4) with
 //! `eps = relaxation * D0`, `D0` that denominator at an interior particle of the rest lattice;
-//! every particle moves by `dy_k = sum_i lambda_i grad_k C_i` (eq. 12, all constraints at once,
-//! Jacobi), then out of the colliders (normal projection, no friction: the elastic iteration's
+//! every particle moves by `dy_k = w_k sum_i lambda_i grad_k C_i` (eq. 12, all constraints at
+//! once, Jacobi). `w_k = m_ref / m_k` is the member's inverse mass relative to the first fluid
+//! particle's: 1 for every particle of a single liquid (the unweighted projection), smaller for
+//! a heavier member (a sand grain, a denser fluid). Since a constraint's gradients sum to zero,
+//! the weighted moves conserve momentum, `sum_k m_k dy_k = m_ref sum_i lambda_i sum_k grad_k
+//! C_i = 0`; with equal moves, water shoved sand grains as easily as its own particles and
+//! the pair's momentum changed. Then out of the colliders (normal projection, no friction: the elastic iteration's
 //! collider pass carries the friction). The iterations stop when no particle is denser than
 //! `rho0 (1 + tolerance)` or after `density_iterations` (the passes and the violation left
 //! are reported in the step's particle figures). Pinned particles count in the densities and
@@ -107,6 +113,10 @@ pub(crate) struct FluidStage<T: Real> {
     /// Per member, whether it is a partner: a solid particle the fluids meet
     /// ([`partners`]), in the density sums, without a constraint of its own.
     partner: Vec<bool>,
+    /// Per member, its share of a constraint's correction: its inverse mass relative to the
+    /// first fluid particle's, `w_k = m_ref / m_k` (dimensionless; 1 for every particle of a
+    /// single fluid). Until the stage is built, the members' masses (kg).
+    share: Vec<T>,
 }
 
 /// The denominator `sum_k |grad_k C_i|^2` (1/m^2) of an interior particle of the simple cubic
@@ -163,6 +173,11 @@ impl<T: Real> FluidStage<T> {
         }
         if let Some(stage) = &mut stage {
             stage.add_partners(bodies, spacing)?;
+            if let Some(&reference) = stage.share.first() {
+                for share in &mut stage.share {
+                    *share = reference / *share;
+                }
+            }
             let n = stage.members.len();
             stage.y = vec![Vector3::zeros(); n];
             stage.density = vec![T::zero(); n];
@@ -202,6 +217,7 @@ impl<T: Real> FluidStage<T> {
             fixed: Vec::new(),
             shift: Vec::new(),
             partner: Vec::new(),
+            share: Vec::new(),
         }
     }
 
@@ -220,6 +236,7 @@ impl<T: Real> FluidStage<T> {
             self.nu.push(T::of(fluid.viscosity / rho0));
             self.eps.push(T::of(eps));
             self.partner.push(false);
+            self.share.push(T::of(body.particle_mass()));
         }
         self.iterations = self.iterations.max(fluid.density_iterations);
         self.tolerance = self.tolerance.min(fluid.density_tolerance);
@@ -372,7 +389,7 @@ impl<T: Real> FluidStage<T> {
         let (sph, y, mass) = (&self.sph, &self.y, &self.mass);
         let (offsets, indices) = (&self.offsets, &self.indices);
         let (density, rest, eps) = (&self.density, &self.rest_density, &self.eps);
-        let partner = &self.partner;
+        let (partner, share) = (&self.partner, &self.share);
         // Multipliers, and each particle's own gradient and its neighbours' (`grads`), of
         // `rho_i` (not yet divided by `rho0_i`).
         self.lambda
@@ -384,9 +401,10 @@ impl<T: Real> FluidStage<T> {
                 *own = sph.density_gradient(i, y, offsets, indices, mass, row);
                 let c = density[i] / rest[i] - T::one();
                 *lambda = if c > T::zero() && !partner[i] {
-                    let mut norm2 = own.norm_squared();
-                    for g in row.iter() {
-                        norm2 += g.norm_squared();
+                    let mut norm2 = own.norm_squared() * share[i];
+                    let neighbours = &indices[offsets[i] as usize..offsets[i + 1] as usize];
+                    for (g, &j) in row.iter().zip(neighbours) {
+                        norm2 += g.norm_squared() * share[j as usize];
                     }
                     -c / (norm2 / (rest[i] * rest[i]) + eps[i])
                 } else {
@@ -394,7 +412,7 @@ impl<T: Real> FluidStage<T> {
                 };
             });
         let (lambda, own, grads) = (&self.lambda, &self.own, &self.grads);
-        let members = &self.members;
+        let (members, share) = (&self.members, &self.share);
         (0..y.len())
             .into_par_iter()
             .map(|i| {
@@ -411,6 +429,7 @@ impl<T: Real> FluidStage<T> {
                     let b = offsets[j] as usize + row.binary_search(&(i as u32)).unwrap_or(0);
                     dy += grads[b] * (lambda[j] / rest[j]);
                 }
+                dy *= share[i];
                 push_out_of_colliders(
                     Points::colliders_of(&points.collides, k, colliders),
                     MoveStart::Now(y[i]),

@@ -56,6 +56,7 @@ impl<T: Real> FluidStage<T> {
                     self.nu.push(T::zero());
                     self.eps.push(T::one());
                     self.partner.push(true);
+                    self.share.push(T::of(body.particle_mass()));
                 }
             }
             start += n;

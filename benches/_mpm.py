@@ -1,20 +1,30 @@
-"""MLS-MPM sand in Taichi on the CPU (``ti.init(arch=ti.x64)``): the peer of benches/sand.py.
+"""MLS-MPM in Taichi on the CPU (``ti.init(arch=ti.x64)``): the peer solver of the particle
+benches (benches/peer_mpm.py: an elastic cube; benches/sand.py: a sand column;
+benches/dam_break.py: a water column), one transfer loop with three constitutive models.
 
-Written for this bench from the published algorithms, not copied:
+Written for these benches from the published algorithms, not copied:
 - MLS-MPM transfers (Hu et al. 2018, "A moving least squares material point method", eq. 16-18)
   with APIC affine velocities, quadratic B-spline weights, one particle-to-grid and one
-  grid-to-particle pass per step;
-- Drucker-Prager elastoplasticity of dry sand after Klar et al. 2016 ("Drucker-Prager
-  elastoplasticity for sand animation", sections 4-7): the elastic part of the deformation
-  gradient ``F = U Sigma V^T`` in Hencky strain ``eps = log Sigma``; St. Venant-Kirchhoff in
-  Hencky strain, Kirchhoff stress ``tau = U (2 mu eps + lam tr(eps) I) U^T``; the return map
+  grid-to-particle pass per step, explicit time steps ``dt = cfl dx / c`` with ``c`` the
+  material's wave speed;
+- ``"elastic"``: fixed-corotated hyperelasticity (Stomakhin et al. 2012), Kirchhoff stress
+  ``tau = 2 mu (F - R) F^T + lam J (J - 1) I`` with the Lame parameters of (E, nu);
+- ``"sand"``: Drucker-Prager elastoplasticity of dry sand after Klar et al. 2016 ("Drucker-
+  Prager elastoplasticity for sand animation", sections 4-7): the elastic part of the
+  deformation gradient ``F = U Sigma V^T`` in Hencky strain ``eps = log Sigma``; St. Venant-
+  Kirchhoff in Hencky strain, ``tau = U (2 mu eps + lam tr(eps) I) U^T``; the return map
   projects ``eps`` onto the cone ``|eps_dev| <= -alpha (3 lam + 2 mu) / (2 mu) tr(eps)`` with
-  ``alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi))`` (the cone through Mohr-Coulomb's
-  compression corners) and sends a state in tension (``tr eps >= 0``) to the apex ``eps = 0``
-  (no cohesion);
-- a floor at z = 0 with Coulomb friction ``mu_floor`` on the grid velocities, walls of the box.
+  ``alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi))`` and sends a state in tension
+  (``tr eps >= 0``) to the apex ``eps = 0`` (no cohesion);
+- ``"water"``: a weakly compressible liquid (Monaghan's convention: a speed of sound ``c``
+  about ten times the flow's, so the density varies by about 1 %), the volume ratio ``J``
+  carried per particle (``J <- J (1 + dt tr C)``), pressure ``p = K (1 - J)`` with
+  ``K = rho c^2`` clamped at zero in tension (a free surface does not pull), Kirchhoff stress
+  ``tau = -p J I``; no viscosity (water's 1e-3 Pa s is far below this grid's numerical one).
 
-Units SI. The time step is explicit: ``dt = cfl dx / sqrt(E / rho)``.
+Boundaries: the grid box's outer three cells stop the velocity into them (slip walls at the
+box's faces, ``origin + 3 dx`` and ``origin + extent - 3 dx``), and the bottom face is a floor
+with Coulomb friction ``floor_friction`` (``0``: slip). Units SI.
 """
 
 from __future__ import annotations
@@ -24,30 +34,41 @@ import math
 import numpy as np
 
 GRAVITY = 9.81
+PADDING = 3  # grid cells outside the walls (the B-spline stencil reaches 2)
 
 
-class MpmSand:
-    """A column of dry sand on a rough floor, stepped by MLS-MPM.
+class Mpm:
+    """Particles of one material stepped by MLS-MPM.
 
     positions: (N, 3) particles (m), each of volume ``volume`` (m^3) and density ``density``
-    (kg/m^3); ``dx`` the grid spacing (m); ``young`` (Pa), ``nu``; ``friction_angle``
-    (degrees); ``floor_friction`` the floor's Coulomb coefficient; ``reach`` (m) how far the
-    grid extends around the axis; ``threads`` for Taichi."""
+    (kg/m^3); ``dx`` the grid spacing (m); ``low``, ``high`` the walls' corners (m; the floor
+    at ``low[2]``); ``material`` ``"elastic"`` (needs ``young`` Pa, ``nu``), ``"sand"`` (also
+    ``friction_angle`` in degrees) or ``"water"`` (``sound_speed`` m/s); ``floor_friction`` the
+    floor's Coulomb coefficient; ``cfl`` the step's fraction of a cell per wave crossing;
+    ``threads`` for Taichi."""
 
-    def __init__(self, positions, *, volume, density, dx, young, nu, friction_angle,
-                 floor_friction, reach, height, cfl=0.4, threads=2):
+    def __init__(self, positions, *, volume, density, dx, low, high, material, young=0.0,
+                 nu=0.0, friction_angle=0.0, sound_speed=0.0, floor_friction=0.0, cfl=0.4,
+                 threads=2):
         import taichi as ti
 
         ti.init(arch=ti.x64, cpu_max_num_threads=threads, default_fp=ti.f32,
                 offline_cache=True, log_level=ti.WARN)
+        if material not in ("elastic", "sand", "water"):
+            raise ValueError(f"material = {material!r}: elastic, sand or water")
         self.ti = ti
         self.n = len(positions)
         self.dx = dx
-        mu = young / (2 * (1 + nu))
-        lam = young * nu / ((1 + nu) * (1 - 2 * nu))
-        self.dt = cfl * dx / math.sqrt(young / density)
-        self.origin = np.array([-reach, -reach, 0.0]) - 3 * dx
-        extent = np.array([2 * reach, 2 * reach, height]) + 6 * dx
+        if material == "water":
+            mu, lam, bulk = 0.0, 0.0, density * sound_speed ** 2
+            wave = sound_speed
+        else:
+            mu = young / (2 * (1 + nu))
+            lam = young * nu / ((1 + nu) * (1 - 2 * nu))
+            bulk, wave = 0.0, math.sqrt((lam + 2 * mu) / density)
+        self.dt = cfl * dx / wave
+        self.origin = np.asarray(low, dtype=float) - PADDING * dx
+        extent = np.asarray(high, dtype=float) - np.asarray(low, dtype=float) + 2 * PADDING * dx
         self.cells = tuple(int(np.ceil(e / dx)) for e in extent)
         s = math.sin(math.radians(friction_angle))
         alpha = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
@@ -55,13 +76,13 @@ class MpmSand:
         self.v = ti.Vector.field(3, ti.f32, self.n)
         self.C = ti.Matrix.field(3, 3, ti.f32, self.n)
         self.F = ti.Matrix.field(3, 3, ti.f32, self.n)
+        self.J = ti.field(ti.f32, self.n)
         self.grid_v = ti.Vector.field(3, ti.f32, self.cells)
         self.grid_m = ti.field(ti.f32, self.cells)
         inv_dx, dt = 1.0 / dx, self.dt
         p_mass, p_vol = density * volume, volume
-        floor = int(round(-self.origin[2] / dx))  # the grid layer at z = 0
         g, mu_f = GRAVITY, floor_friction
-        x, v, C_, F = self.x, self.v, self.C, self.F
+        x, v, C_, F, J_ = self.x, self.v, self.C, self.F, self.J
         grid_v, grid_m = self.grid_v, self.grid_m
         origin = ti.Vector(list(self.origin.astype(np.float32)))
         self.positions0 = np.asarray(positions, dtype=np.float32)
@@ -73,7 +94,7 @@ class MpmSand:
             return base, fx, [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
 
         @ti.func
-        def project(sig):
+        def sand_return(sig):
             """Klar et al. 2016, section 7: the singular values of the elastic F after the
             return to the Drucker-Prager cone (the apex in tension)."""
             eps = ti.Vector([ti.log(ti.max(sig[i, i], 1e-6)) for i in ti.static(range(3))])
@@ -89,6 +110,29 @@ class MpmSand:
                 out = ti.exp(h)
             return out
 
+        @ti.func
+        def kirchhoff(p):
+            """Updates particle p's state by its velocity gradient and returns its Kirchhoff
+            stress (Pa)."""
+            tau = ti.Matrix.zero(ti.f32, 3, 3)
+            if ti.static(material == "water"):
+                J_[p] *= 1.0 + dt * C_[p].trace()
+                pressure = ti.max(0.0, bulk * (1.0 - J_[p]))
+                tau = -pressure * J_[p] * ti.Matrix.identity(ti.f32, 3)
+            elif ti.static(material == "sand"):
+                U, sig, V = ti.svd((ti.Matrix.identity(ti.f32, 3) + dt * C_[p]) @ F[p])
+                s_new = sand_return(sig)
+                F[p] = U @ ti.Matrix([[s_new[0], 0, 0], [0, s_new[1], 0], [0, 0, s_new[2]]]) @ V.transpose()
+                eps = ti.log(s_new)
+                d = 2.0 * mu * eps + lam * eps.sum()
+                tau = U @ ti.Matrix([[d[0], 0, 0], [0, d[1], 0], [0, 0, d[2]]]) @ U.transpose()
+            else:
+                F[p] = (ti.Matrix.identity(ti.f32, 3) + dt * C_[p]) @ F[p]
+                R, _ = ti.polar_decompose(F[p])
+                J = F[p].determinant()
+                tau = 2.0 * mu * (F[p] - R) @ F[p].transpose() + ti.Matrix.identity(ti.f32, 3) * lam * J * (J - 1.0)
+            return tau
+
         @ti.kernel
         def substep():
             for I in ti.grouped(grid_m):
@@ -96,12 +140,7 @@ class MpmSand:
                 grid_m[I] = 0.0
             for p in x:
                 base, fx, w = weights((x[p] - origin) * inv_dx)
-                U, sig, V = ti.svd((ti.Matrix.identity(ti.f32, 3) + dt * C_[p]) @ F[p])
-                s_new = project(sig)
-                F[p] = U @ ti.Matrix([[s_new[0], 0, 0], [0, s_new[1], 0], [0, 0, s_new[2]]]) @ V.transpose()
-                eps = ti.log(s_new)
-                d = 2.0 * mu * eps + lam * eps.sum()
-                tau = U @ ti.Matrix([[d[0], 0, 0], [0, d[1], 0], [0, 0, d[2]]]) @ U.transpose()
+                tau = kirchhoff(p)
                 affine = -dt * p_vol * 4.0 * inv_dx * inv_dx * tau + p_mass * C_[p]
                 for i, j, k in ti.static(ti.ndrange(3, 3, 3)):
                     offset = ti.Vector([i, j, k])
@@ -113,16 +152,16 @@ class MpmSand:
                 if grid_m[I] > 0:
                     gv = grid_v[I] / grid_m[I]
                     gv[2] -= dt * g
-                    if I[2] < floor + 1 and gv[2] < 0:
+                    if I[2] < PADDING + 1 and gv[2] < 0:
                         # Coulomb friction on the floor: the tangential speed drops by mu |v_n|.
                         tangent = ti.Vector([gv[0], gv[1], 0.0])
                         speed = tangent.norm()
                         keep = ti.max(0.0, 1.0 - mu_f * (-gv[2]) / (speed + 1e-20))
                         gv = tangent * keep
                     for d in ti.static(range(3)):
-                        if I[d] < 3 and gv[d] < 0:
+                        if I[d] < PADDING and gv[d] < 0:
                             gv[d] = 0.0
-                        if I[d] > grid_m.shape[d] - 4 and gv[d] > 0:
+                        if I[d] > grid_m.shape[d] - PADDING - 1 and gv[d] > 0:
                             gv[d] = 0.0
                     grid_v[I] = gv
             for p in x:
@@ -145,6 +184,7 @@ class MpmSand:
         self.x.from_numpy(self.positions0)
         self.v.fill(0.0)
         self.C.fill(0.0)
+        self.J.fill(1.0)
         self.F.from_numpy(np.tile(np.eye(3, dtype=np.float32), (self.n, 1, 1)))
 
     def advance(self, seconds: float) -> int:
