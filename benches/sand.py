@@ -28,6 +28,7 @@ Every solver runs in its own worker process (for its memory figure), one after t
     python benches/sand.py                      # sizes 5 8 12, MPM at 8 (about 10 min)
     python benches/sand.py --sizes 5 --mpm 5    # a quick look
     python benches/sand.py --sizes 5 8 12 20 --mpm --paper-steps 3   # and 1.17M particles
+    python benches/sand.py --sizes 5 --mpm --stream   # and the stream of Fig. 15, small
 
 ``--paper-steps K`` also runs the paper's size itself (72 spacings per radius, 1,169,352
 particles) for K steps in its own worker: ms per step by phase, set-up seconds and the
@@ -99,6 +100,46 @@ def peridyn_worker(a) -> dict:
             "first_step_ms": {k: rows[0][k] for k in ("neighbours", "density", "plasticity",
                                                       "global", "total")},
             "runout": runout(body.positions), "peak_kib_over_import": C.vm_kib("VmHWM") - base}
+
+
+def stream_worker(a) -> dict:
+    """Fig. 15 at a small size: a stream of sand (3 x 3 x 16 grains of 1 cm, the column a
+    third of a spacing off the axis) released 4 cm above a sphere (radius 3 cm, friction
+    0.3) standing on the ground (friction 0.3), stepped as the column (``--dt``,
+    ``--iters``) for 0.6 s. Records every 0.1 s the shares of the grains on top of the
+    sphere (within its radius of the axis, above its centre) and on the ground (below 1.5
+    spacings), the median and 98th percentile distance from the axis, and the closest any
+    grain came to each collider over the run, in units of its margin (half a spacing)."""
+    import peridyn as pd
+
+    s = 0.01
+    g = (np.arange(3) - 1) * s
+    centre, radius = np.array([0.0, 0.0, 0.03]), 0.03
+    x = np.stack(np.meshgrid(g, g, centre[2] + radius + 0.04 + np.arange(16) * s,
+                             indexing="ij"), -1).reshape(-1, 3) + [s / 3, 0.0, 0.0]
+    body = pd.Particles(x, spacing=s, density=DENSITY, material=pd.Granular(friction_angle=ANGLE))
+    solver = pd.Solver(dt=a.dt, max_iters=a.iters, tol=0.0, threads=a.threads)
+    solver.add_collider(pd.Plane(friction=FLOOR))
+    solver.add_collider(pd.Sphere(center=tuple(centre), radius=radius, friction=FLOOR))
+    solver.add(body)
+    closest = {"plane": np.inf, "sphere": np.inf}
+    frames, steps = [], int(round(0.6 / a.dt))
+    t = time.perf_counter()
+    for k in range(steps):
+        solver.step()
+        y = body.positions
+        closest["plane"] = min(closest["plane"], y[:, 2].min() / (s / 2))
+        gap = np.linalg.norm(y - centre, axis=1) - radius
+        closest["sphere"] = min(closest["sphere"], gap.min() / (s / 2))
+        if (k + 1) % int(round(0.1 / a.dt)) == 0:
+            r = np.hypot(y[:, 0], y[:, 1])
+            frames.append({"t": (k + 1) * a.dt,
+                           "on_sphere": float(np.mean((r < radius) & (y[:, 2] > centre[2]))),
+                           "on_ground": float(np.mean(y[:, 2] < 1.5 * s)),
+                           "r_median_m": float(np.median(r)),
+                           "r_98_m": float(np.percentile(r, 98))})
+    return {"particles": len(x), "wall_s": time.perf_counter() - t, "frames": frames,
+            "closest_over_margin": {k: float(v) for k, v in closest.items()}}
 
 
 def mpm_worker(a) -> dict:
@@ -189,11 +230,14 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--paper-steps", type=int, default=0,
                     help="also run the paper's size (1.17M particles) for this many steps")
-    ap.add_argument("--worker", choices=["peridyn", "mpm", "baseline"], help=argparse.SUPPRESS)
+    ap.add_argument("--stream", action="store_true",
+                    help="also run the stream of Fig. 15 at a small size (stream_worker)")
+    ap.add_argument("--worker", choices=["peridyn", "mpm", "baseline", "stream"],
+                    help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        work = {"peridyn": peridyn_worker, "mpm": mpm_worker,
+        work = {"peridyn": peridyn_worker, "mpm": mpm_worker, "stream": stream_worker,
                 "baseline": lambda a: {"kib": import_baseline()}}[args.worker]
         print(json.dumps(work(args)))
         return
@@ -208,6 +252,9 @@ def main() -> None:
         paper = argparse.Namespace(**{**vars(args), "duration": args.paper_steps * args.dt})
         results["paper_size"] = in_worker("peridyn", PAPER_N, paper)
         print("paper size", json.dumps(results["paper_size"])[:600], flush=True)
+    if args.stream:
+        results["stream"] = in_worker("stream", 0, args)
+        print("stream", json.dumps(results["stream"])[:600], flush=True)
     for n in args.mpm:
         r = in_worker("mpm", n, args)
         results["mpm"].append(r)

@@ -787,7 +787,7 @@ class StepStats:
         methods."""
     @property
     def timings(self) -> dict:
-        """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0), 'colliders', 'finish' (of which 'plasticity': the plastic return and rest rebuild of plastic particle bodies, their share of 'neighbours': the search on deformed positions, and their share of 'density': the SPH density and stiffness of granular bodies; t_p, t_n and t_d of He et al. 2017, Table 1), and for fluids, outside 'predict' and 'finish': 'neighbours' (their searches at the step's start and before the projection), 'viscosity' (at the step's start), 'density' (the projection), 'redistribution'; 'coupling' (particles against membrane triangles), 'total'."""
+        """Milliseconds per phase: 'predict', 'global' (of which 'kernel': the vertex kernel, CPU SISSM only, else 0; a granular body's return within the iterations is part of its kernel passes), 'colliders', 'finish' (of which 'plasticity': the plastic return stored at the step's end and the rest rebuild of plastic particle bodies, their share of 'neighbours': the search on deformed positions, and their share of 'density': the SPH density and stiffness of granular bodies; t_p, t_n and t_d of He et al. 2017, Table 1), and for fluids, outside 'predict' and 'finish': 'neighbours' (their searches at the step's start and before the projection), 'viscosity' (at the step's start), 'density' (the projection), 'redistribution'; 'coupling' (particles against membrane triangles), 'total'."""
     @property
     def particles(self) -> dict:
         """The particle bodies' share of the step (zeros without them), from its start:

@@ -22,13 +22,14 @@
 //!   rho_0`. Dry sand (`theta = 0`) has `rho_1 = rho_0`: no cohesion below `rho_0`.
 //!
 //! **Friction angle and capillary cohesion (departure).** The yield test of
-//! [`super::plasticity`] with the friction angle, the return of eq. 18-19 each step and the
-//! neighbours searched anew each step (eq. 20). Dry sand's cone goes through the origin (no
+//! [`super::plasticity`] with the friction angle, the return of eq. 18-19 within the local
+//! step ([`super::cone`]) and stored at each step's end, and the neighbours searched anew
+//! each step (eq. 20). Dry sand's cone goes through the origin (no
 //! tension). Wet sand's cone has the cohesion `c = sigma_t tan(phi)`, its apex at the mean
 //! tension `sigma_t` that the cohesion stiffness of eq. 26-27 holds before the capillary
-//! bridges break ([`Granular::capillary_strength`]): without it the return, run at each step's
-//! end, relaxes every tension, the cohesion stiffness acts only within a step, and wet sand
-//! slumped as far as dry (the paper's wet sand has no stated yield law).
+//! bridges break ([`Granular::capillary_strength`]): without it the return relaxes every
+//! tension, the cohesion stiffness holds nothing, and wet sand slumped as far as dry (the
+//! paper's wet sand has no stated yield law).
 //!
 //! **Static friction (eq. 28).** After the solve, a particle whose solved position `y'` went
 //! back from the inertial target `y*` towards its start `y` by at least `eta` of the way,
@@ -39,8 +40,7 @@
 //! uses `H_f = 1` and no cohesion): the defaults here are chosen for sand at a few mm
 //! spacing at time steps of a few ms, `K_f = 100 kPa` (a continuum Young's modulus
 //! `K_f / 6`), `H_f = 10`, `K_c = 20 kPa`, `H_0 = 10`, `b = 1` and `eta = 0.8` (the
-//! paper's). A stiffer sand flows more slowly: its bonds, stretched within a step before the
-//! return relaxes them, resist the flow like a viscosity of about `K_f h / 6`.
+//! paper's).
 //!
 //! **Grains keep apart.** A granular body's particles repel each other as the particles of
 //! different bodies do ([`crate::solve`]'s repulsion: balls of half a spacing): its bonds,

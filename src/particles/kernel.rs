@@ -16,7 +16,9 @@ use super::rest::ParticleRest;
 ///
 /// Two passes over the bonds: the first reads each neighbour's position once, keeps the bond
 /// vector `Y = y_j - y_i` in `bond_out` (no other storage) and sums `F_i` and the mean strain;
-/// the second turns each `Y` into the bond's force in place.
+/// the second turns each `Y` into the bond's force in place. A particle with a cone in the
+/// rest data (granular) takes its Drucker-Prager return between them, over the kept `Y`
+/// ([`super::cone`]; its energy is then that of the returned bonds).
 #[inline]
 pub fn particle_kernel<T: Real>(
     i: usize,
@@ -33,8 +35,18 @@ pub fn particle_kernel<T: Real>(
         });
     let pressure = rest.dilatation[i] * strain;
     let mut energy = T::of(0.5) * pressure * strain;
+    // A granular particle's return within the local step ([`super::cone`]).
+    let factors = rest
+        .cones
+        .get(i)
+        .copied()
+        .flatten()
+        .and_then(|cone| cone.local_return(bonds, bond_out));
     for (bond, out) in bonds.iter().zip(bond_out) {
-        let (g, e) = bond_force(bond, &f, out, pressure);
+        let (g, e) = match &factors {
+            Some(factors) => bond_force(&factors.returned(bond, out), &f, out, pressure),
+            None => bond_force(bond, &f, out, pressure),
+        };
         *out = g;
         energy += e;
     }

@@ -9,6 +9,7 @@
 mod body;
 mod bond;
 pub mod calibration;
+mod cone;
 mod deformation;
 mod elastic;
 mod fluid;
@@ -30,6 +31,7 @@ mod wet_sand;
 pub use body::{ParticleParams, Particles, RegionMaterial, DEFAULT_HORIZON, FLUID_PLACEHOLDER};
 pub use bond::{bond_force, BondRest};
 pub use calibration::{calibrate, lattice_moduli, LatticeModuli, Moduli};
+pub use cone::{Cone, Factors};
 pub use deformation::{deformation_gradient, uninverted};
 pub use elastic::{Elastic, POISSON_RANGE};
 pub use fluid::{ViscoelasticFluid, FLUID_SUPPORT};

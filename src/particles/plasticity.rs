@@ -1,6 +1,7 @@
 //! Drucker-Prager plasticity of particle bodies (He et al. 2017, section 5, eq. 14-19 as
 //! corrected in DESIGN.md section 6): the yield test on each particle's bond strain state and
-//! the return that moves its reference bonds, once per step after the local-global solve.
+//! the return that moves its reference bonds, once per step after the local-global solve (a
+//! granular body's is also taken within the local step: [`super::cone`]).
 //!
 //! **Strain state.** Particle `i`'s bond `b` has the strain `e_b = |Y_b| / |X_b| - 1`; with
 //! the bonds' weights `w_b = w(born_b) V_j` and `W = sum w_b`, `e_iso = sum w_b e_b / W`
@@ -41,6 +42,7 @@ use rayon::prelude::*;
 use crate::error::{check_param, invalid, Result};
 use crate::parallel::for_each_vertex;
 
+use super::cone::{Cone, Factors};
 use super::deformation::{shape_inverse, uninverted};
 use super::elastic::Elastic;
 use super::influence::influence;
@@ -217,11 +219,19 @@ impl PlasticLaw {
 
     /// [`Self::measure`] with the particle's own cohesion `c` (Pa) before hardening.
     fn measure_at(&self, local: &LocalStrain, eps_p: f64, c: f64) -> YieldState {
+        let (sqrt_j2, strength) = self.cone_at(c, eps_p).state(local.iso, local.dev);
+        YieldState { sqrt_j2, strength }
+    }
+
+    /// The cone of a particle with the cohesion `c` (Pa) before hardening and the plastic
+    /// strain `eps_p`.
+    pub fn cone_at(&self, c: f64, eps_p: f64) -> Cone<f64> {
         let (a, b) = self.law.cone(c + self.law.hardening * eps_p);
-        let i1 = -9.0 * self.bulk * local.iso;
-        YieldState {
-            sqrt_j2: 15f64.sqrt() * self.shear * local.dev,
-            strength: a + b * i1,
+        Cone {
+            a,
+            b,
+            bulk9: 9.0 * self.bulk,
+            shear15: 15f64.sqrt() * self.shear,
         }
     }
 
@@ -298,24 +308,9 @@ impl PlasticLaw {
         c: f64,
     ) -> Option<Return> {
         let local = row.strain(i, y, self.delta, self.volume)?;
-        let state = self.measure_at(&local, eps_p, c);
-        if state.sqrt_j2 <= state.strength {
-            return None;
-        }
-        let f = state.strength;
-        let i1 = -9.0 * self.bulk * local.iso;
-        let (_, b) = self.law.cone(0.0);
-        let (alpha, beta) = if f > 0.0 {
-            (0.0, (state.sqrt_j2 - f) / state.sqrt_j2)
-        } else if b * i1 != 0.0 {
-            (f / (b * i1), 1.0)
-        } else {
-            (0.0, 1.0)
-        };
+        let factors = self.cone_at(c, eps_p).factors(local.iso, local.dev)?;
         let mut plan = Return {
-            alpha,
-            beta,
-            iso: local.iso,
+            factors,
             rotation: rotation(&local.f),
             increment: 0.0,
         };
@@ -323,7 +318,7 @@ impl PlasticLaw {
             .map(|k| {
                 let e = row.bond_strain(k, i, y);
                 let w = row.weight(k, self.delta, self.volume);
-                w * (e - plan.target(e)).powi(2)
+                w * (e - factors.target(e)).powi(2)
             })
             .sum();
         plan.increment = (removed / local.weight).sqrt();
@@ -333,34 +328,27 @@ impl PlasticLaw {
 
 /// One particle's return (eq. 18-19, see the module's doc).
 struct Return {
-    /// `alpha`, `beta` of eq. 18 (dimensionless).
-    alpha: f64,
-    beta: f64,
-    /// `e_iso` before the return (dimensionless) and the rotation `R` of `F_i`.
-    iso: f64,
+    /// `alpha`, `beta` of eq. 18 and `e_iso` before the return (dimensionless).
+    factors: Factors<f64>,
+    /// The rotation `R` of `F_i`.
     rotation: Matrix3<f64>,
     /// The plastic strain the return takes away (dimensionless).
     increment: f64,
 }
 
 impl Return {
-    /// The strain a bond of strain `e` keeps, `(1 - alpha) e_iso + (1 - beta) e_dev`.
-    #[inline]
-    fn target(&self, e: f64) -> f64 {
-        (1.0 - self.alpha) * self.iso + (1.0 - self.beta) * (e - self.iso)
-    }
-
     /// The new reference vector (m) of a bond with the vector `x` (m), the deformed vector
     /// `yb` (m) and the birth length `born` (m); `None` for a bond squeezed to nothing, which
     /// keeps its vector (no direction to give it).
     #[inline]
     fn moved(&self, x: &Vector3<f64>, yb: &Vector3<f64>, born: f64) -> Option<Vector3<f64>> {
+        let Factors { alpha, beta, iso } = self.factors;
         let e = yb.norm() / x.norm() - 1.0;
         let rx = self.rotation * x;
         let d = yb - rx;
-        let d_iso = rx * self.iso;
-        let along = rx + d_iso * self.alpha + (d - d_iso) * self.beta;
-        let length = yb.norm() / (1.0 + self.target(e));
+        let d_iso = rx * iso;
+        let along = rx + d_iso * alpha + (d - d_iso) * beta;
+        let length = yb.norm() / (1.0 + self.factors.target(e));
         (along.norm() > 0.0 && length > 1e-6 * born).then(|| along * (length / along.norm()))
     }
 }

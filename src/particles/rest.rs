@@ -10,9 +10,11 @@ use crate::real::Real;
 use super::body::Particles;
 use super::bond::BondRest;
 use super::calibration::Moduli;
+use super::cone::Cone;
 use super::deformation::{flat_neighbourhood, shape_inverse};
 use super::granular::Granular;
 use super::influence::influence;
+use super::plasticity::PlasticLaw;
 use super::rest_bonds::RestBonds;
 use super::surface::{axis_factors, bond_factor, strain_shares};
 
@@ -39,6 +41,13 @@ pub(crate) struct RestConstants {
 }
 
 impl RestConstants {
+    /// Whether the body's plastic return is taken within the local step ([`super::cone`]):
+    /// a plastic body of pair springs only (`mu = 0`, no dilatation term), as granular
+    /// bodies are, whose bonds' forces depend on their reference vectors' lengths alone.
+    pub fn returns_in_kernel(&self) -> bool {
+        self.plastic && self.moduli.mu == 0.0 && self.moduli.kappa == 0.0
+    }
+
     pub fn of(body: &Particles) -> Self {
         Self {
             moduli: body.moduli(),
@@ -79,6 +88,9 @@ pub struct ParticleRest<T: Real> {
     pub margin: Vec<T>,
     /// False for a ghost particle: no collider acts on it.
     pub collides: Vec<bool>,
+    /// Per particle the cone of its return within the local step (a granular body's,
+    /// [`super::cone`]; `None` for other particles), or empty when no body has one.
+    pub cones: Vec<Option<Cone<T>>>,
 }
 
 impl<T: Real> ParticleRest<T> {
@@ -116,6 +128,7 @@ impl<T: Real> ParticleRest<T> {
         self.mass.clear();
         self.margin.clear();
         self.collides.clear();
+        self.cones.clear();
         for (bonds, constants, lam) in bodies {
             self.add_bonds(bonds, constants, *lam)?;
         }
@@ -159,7 +172,39 @@ impl<T: Real> ParticleRest<T> {
                 }
             })
             .transpose()?;
-        self.add_bonds(bonds, &constants, lam.as_deref())
+        let base = self.len();
+        self.add_bonds(bonds, &constants, lam.as_deref())?;
+        if let Some(law) = PlasticLaw::of(body).filter(|_| constants.returns_in_kernel()) {
+            let cohesion = constants
+                .granular
+                .zip(body.wetted())
+                .map(|(g, theta)| g.cohesions(theta));
+            self.set_cones(base, &law, &bonds.plastic_strain, cohesion.as_deref());
+        }
+        Ok(())
+    }
+
+    /// The cones of the particles `base..base + eps_p.len()` (one body's, its law `law`, its
+    /// particles' plastic strains `eps_p` and, for wetted sand, cohesions `cohesion` in Pa):
+    /// the kernel returns them within the local step ([`super::cone`]).
+    pub(crate) fn set_cones(
+        &mut self,
+        base: usize,
+        law: &PlasticLaw,
+        eps_p: &[f64],
+        cohesion: Option<&[f64]>,
+    ) {
+        self.cones.resize(self.len(), None);
+        for (k, (cone, &eps)) in self.cones[base..].iter_mut().zip(eps_p).enumerate() {
+            let c = cohesion.map_or(law.law.cohesion, |c| c[k]);
+            let f = law.cone_at(c, eps);
+            *cone = Some(Cone {
+                a: T::of(f.a),
+                b: T::of(f.b),
+                bulk9: T::of(f.bulk9),
+                shear15: T::of(f.shear15),
+            });
+        }
     }
 
     /// Appends the particles of `bonds` with the body constants `c`.

@@ -17,8 +17,10 @@ pub struct Timings {
     pub colliders: f64,
     /// Velocity update and write-back (with the plastic phases below).
     pub finish: f64,
-    /// Of `finish`: the plastic return of particle bodies and the rebuild of their rest data
-    /// (`t_p` of He et al. 2017, Table 1; 0 without plastic bodies).
+    /// Of `finish`: the plastic return of particle bodies stored at the step's end and the
+    /// rebuild of their rest data (`t_p` of He et al. 2017, Table 1; 0 without plastic
+    /// bodies). A granular body's return within the iterations is part of its kernel passes,
+    /// in `global` ([`crate::particles::Cone`]).
     pub plasticity: f64,
     /// The neighbour searches of particle bodies (`t_n` of Table 1; 0 without): of plastic
     /// bodies on their deformed positions (of `finish`), and of fluids at the step's start

@@ -1,6 +1,8 @@
 //! The end of a step for plastic particle bodies (He et al. 2017, section 5): once the
 //! local-global solve has finished, as the paper does it, the return of eq. 18-19 moves the
-//! reference bonds of the particles that yield, then the neighbours of bodies that ask for
+//! reference bonds of the particles that yield (a granular body's kernel took the same return
+//! within the iterations, from the same bonds: [`crate::particles::Cone`]; here it is stored,
+//! and decides which particles static friction may hold), then the neighbours of bodies that ask for
 //! it are searched on the deformed positions (eq. 20), and the rest data the next step
 //! solves with is rebuilt from the new bonds, with a granular body's stiffness from its SPH
 //! density on the new neighbours (eq. 25-27, [`crate::particles::Granular`]). Each phase is
@@ -40,6 +42,17 @@ struct Entry {
     /// A sand body's saturation per particle once a liquid wetted it (empty before:
     /// the material's; [`crate::particles::wetted`]).
     wetted: Vec<f64>,
+}
+
+impl Entry {
+    /// A wetted sand body's cohesion per particle (Pa; [`crate::particles::wetted`]), or
+    /// `None` for the law's own.
+    fn cohesions(&self) -> Option<Vec<f64>> {
+        self.constants
+            .granular
+            .filter(|_| !self.wetted.is_empty())
+            .map(|g| g.cohesions(&self.wetted))
+    }
 }
 
 /// Every body's bonds, when at least one body of the family is plastic.
@@ -95,11 +108,7 @@ impl PlasticBodies {
                     &self.y[entry.range.clone()],
                     &mut yielded[entry.range.clone()],
                 );
-                let cohesion = entry
-                    .constants
-                    .granular
-                    .filter(|_| !entry.wetted.is_empty())
-                    .map(|g| g.cohesions(&entry.wetted));
+                let cohesion = entry.cohesions();
                 count += law.apply(&mut entry.bonds, y, marks, cohesion.as_deref());
             }
         }
@@ -173,6 +182,12 @@ impl PlasticBodies {
             })
             .collect();
         rest.refill(&sources)?;
+        for entry in &self.entries {
+            if let Some(law) = entry.law.filter(|_| entry.constants.returns_in_kernel()) {
+                let (start, eps_p) = (entry.range.start, &entry.bonds.plastic_strain);
+                rest.set_cones(start, &law, eps_p, entry.cohesions().as_deref());
+            }
+        }
         timings.plasticity += millis(t);
         Ok(Some(changed))
     }

@@ -1,0 +1,124 @@
+//! A particle's Drucker-Prager cone (He et al. 2017, eq. 14-15, the inner cone
+//! `3 + sin phi`, invariants as corrected in [`super::plasticity`]) and the return factors of
+//! eq. 18 (corrected), in the simulation's precision: shared by the return at a step's end
+//! ([`super::plasticity`], f64) and the return within the local step ([`Cone::local_return`]).
+//!
+//! **The return within the local step (departure).** The paper returns once per step, after
+//! the local-global solve: every bond then stays elastic through the step's iterations and the
+//! solve finds the implicit step of an elastic body that yields only afterwards, so the bonds
+//! resist the step's motion like a viscosity of about `K_f h / 6` (a sand column ran out to
+//! dR/R = 0.47 where Lube et al. 2004 measure 1.24). For a body of pair springs only (`mu = 0`
+//! and no dilatation term: granular bodies) a bond's force depends on its reference vector
+//! through its length alone, so the kernel can take the return as part of its local step:
+//! at every evaluation it projects the particle's bond strains, measured from the step's
+//! reference bonds, onto the cone (`e'_b = (1 - alpha) e_iso + (1 - beta) e_dev,b`) and
+//! springs each bond to the length `|X'_b| = |Y_b| / (1 + e'_b)` that leaves it that strain.
+//! The reference bonds themselves are not touched within the step (the kernel stays a
+//! function of the positions, as the line search needs); the return at the step's end, from
+//! the same reference bonds at the final positions, stores exactly these lengths (and the
+//! directions of eq. 19). This is the implicit (backward Euler) return of the step's whole
+//! strain increment.
+
+use nalgebra::Vector3;
+
+use crate::real::Real;
+
+use super::bond::BondRest;
+
+/// One particle's yield cone `sqrt(J2) <= A + B I1` with `I1 = -9 K e_iso` and
+/// `sqrt(J2) = sqrt(15) G ||e_dev||` ([`super::plasticity`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cone<T: Real> {
+    /// `A` (Pa): the cohesion's share, hardening included.
+    pub a: T,
+    /// `B` (dimensionless): the friction's.
+    pub b: T,
+    /// `9 K` and `sqrt(15) G` (Pa).
+    pub bulk9: T,
+    pub shear15: T,
+}
+
+/// The factors of eq. 18 (corrected) for one particle beyond its cone, with its mean strain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Factors<T: Real> {
+    /// `alpha`, `beta` (dimensionless, in [0, 1]).
+    pub alpha: T,
+    pub beta: T,
+    /// `e_iso` before the return (dimensionless).
+    pub iso: T,
+}
+
+impl<T: Real> Cone<T> {
+    /// `sqrt(J2)` and `A + B I1` (Pa) at the mean strain `iso` and the RMS deviation `dev`.
+    #[inline]
+    pub fn state(&self, iso: T, dev: T) -> (T, T) {
+        (self.shear15 * dev, self.a - self.b * self.bulk9 * iso)
+    }
+
+    /// Eq. 18 (corrected) at the mean strain `iso` and the RMS deviation `dev`: `None` inside
+    /// the cone; else, with `f = A + B I1`, `alpha = 0`, `beta = (sqrt(J2) - f) / sqrt(J2)`
+    /// if `f > 0`, and `alpha = f / (B I1)`, `beta = 1` (to the apex) otherwise.
+    #[inline]
+    pub fn factors(&self, iso: T, dev: T) -> Option<Factors<T>> {
+        let (sqrt_j2, f) = self.state(iso, dev);
+        if sqrt_j2 <= f {
+            return None;
+        }
+        let b_i1 = -self.b * self.bulk9 * iso;
+        let (alpha, beta) = if f > T::zero() {
+            (T::zero(), (sqrt_j2 - f) / sqrt_j2)
+        } else if b_i1 != T::zero() {
+            (f / b_i1, T::one())
+        } else {
+            (T::zero(), T::one())
+        };
+        Some(Factors { alpha, beta, iso })
+    }
+
+    /// The return within the local step (see the module's doc) of a particle with the bonds
+    /// `bonds` at the bond vectors `y` (`Y_b`, m): its factors, or `None` inside the cone or
+    /// without weighted bonds. The strains are `|Y_b| / |X_b| - 1`, weighted by the bonds'
+    /// `w V_j`.
+    #[inline]
+    pub fn local_return(&self, bonds: &[BondRest<T>], y: &[Vector3<T>]) -> Option<Factors<T>> {
+        let strain = |bond: &BondRest<T>, y: &Vector3<T>| y.norm() / bond.length - T::one();
+        let (mut weight, mut mean) = (T::zero(), T::zero());
+        for (bond, y) in bonds.iter().zip(y) {
+            weight += bond.weight;
+            mean += bond.weight * strain(bond, y);
+        }
+        if weight <= T::zero() {
+            return None;
+        }
+        let iso = mean / weight;
+        let square = bonds.iter().zip(y).fold(T::zero(), |s, (bond, y)| {
+            let e = strain(bond, y) - iso;
+            s + bond.weight * e * e
+        });
+        self.factors(iso, (square / weight).sqrt())
+    }
+}
+
+impl<T: Real> Factors<T> {
+    /// The strain a bond of strain `e` keeps, `(1 - alpha) e_iso + (1 - beta) (e - e_iso)`.
+    #[inline]
+    pub fn target(&self, e: T) -> T {
+        (T::one() - self.alpha) * self.iso + (T::one() - self.beta) * (e - self.iso)
+    }
+
+    /// `bond` with the length `|Y| / (1 + e')` that leaves it the strain `e'` = [`Self::target`]
+    /// at the bond vector `y` (m).
+    #[inline]
+    pub fn returned(&self, bond: &BondRest<T>, y: &Vector3<T>) -> BondRest<T> {
+        let norm = y.norm();
+        let kept = self.target(norm / bond.length - T::one());
+        BondRest {
+            length: norm / (T::one() + kept),
+            ..*bond
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "cone_tests.rs"]
+mod tests;
