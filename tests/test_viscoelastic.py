@@ -85,5 +85,45 @@ def test_the_material_reports_its_parameters():
     honey = pd.ViscoelasticFluid(viscosity=10.0, shear_modulus=50.0, redistribution=0.5)
     assert honey.shear_modulus == 50.0 and honey.yield_stress is None
     assert pd.ViscoelasticFluid(shear_modulus=50.0, yield_stress=20.0).yield_stress == 20.0
-    assert "shear_modulus=50" in repr(honey)
+    assert "shear_modulus=50" in repr(honey) and "adhesion=False" in repr(honey)
+    assert pd.ViscoelasticFluid(adhesion=True).adhesion
     assert pd.ViscoelasticFluid().shear_modulus == 0.0
+
+
+def honey_under_a_ceiling(adhesion, steps=80):
+    """A honey-like blob (5 x 5 x 6 particles, 1400 kg/m^3, 10 Pa s, G = 500 Pa, yield stress
+    500 Pa: its weight's stress at the top, about 800 Pa, is beyond yield) under a ceiling of
+    two layers of pinned ghost particles of its body, dt = 5 ms. Returns the fluid particles'
+    positions after ``steps`` steps and the ceiling's lowest layer height (m)."""
+    n, h = 5, 6
+    x = lattice((-1, -1, -h), (n + 1, n + 1, 2))
+    k = np.floor(x / S).astype(int)
+    ceiling = k[:, 2] >= 0
+    keep = ceiling | ((k[:, 0] >= 0) & (k[:, 0] < n) & (k[:, 1] >= 0) & (k[:, 1] < n))
+    x, ceiling = x[keep], ceiling[keep]
+    honey = pd.Particles(x, spacing=S, density=1400.0,
+                         material=pd.ViscoelasticFluid(viscosity=10.0, shear_modulus=500.0,
+                                                       yield_stress=500.0, adhesion=adhesion))
+    honey.pin(np.flatnonzero(ceiling))
+    solver = pd.Solver(dt=0.005, gravity=(0, 0, -9.81), global_solver="jacobi")
+    solver.add(honey)
+    for _ in range(steps):
+        solver.step()
+    return honey.positions[~ceiling], x[ceiling, 2].min()
+
+
+def test_adhesion_holds_a_liquid_film_at_its_ghost_ceiling():
+    """After 0.4 s with adhesion, the liquid layer next to the ceiling (its 25 particles)
+    stays within 1.5 spacings of the ghosts' lowest layer (its rest distance: 1; measured
+    0.93): the ghosts' two-sided density constraints hold it. (The rest of the blob parts
+    from that film along a plane at about 0.12-0.15 s and falls, with no thread between:
+    honey's thread is an open item of issue 40, not asserted here.) Without adhesion the
+    blob hangs on as one piece, held by its viscosity and elasticity (its top layer within 2
+    spacings of the ceiling, its lowest particle less than 5 spacings down; measured 3)."""
+    fluid, ceiling = honey_under_a_ceiling(adhesion=True)
+    film = (ceiling - fluid[:, 2]) < 1.5 * S
+    assert film.sum() == 25, film.sum()
+    fluid, ceiling = honey_under_a_ceiling(adhesion=False)
+    low0 = ceiling - 6.5 * S
+    assert 0.0 < low0 - fluid[:, 2].min() < 5 * S, low0 - fluid[:, 2].min()
+    assert ceiling - fluid[:, 2].max() < 2 * S

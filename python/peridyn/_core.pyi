@@ -171,8 +171,10 @@ class ViscoelasticFluid:
     ``redistribution_iterations`` (its passes per step, in [1, 100]), ``shear_modulus`` (Pa,
     >= 0: a viscoelastic fluid, elastic bonds of continuum shear modulus ``G`` whose rest shape
     follows the flow beyond ``yield_stress``; 0: a Newtonian liquid) and ``yield_stress``
-    (uniaxial von Mises yield stress, Pa, > 0; None: the shear modulus). ValueError naming
-    the bad parameter."""
+    (uniaxial von Mises yield stress, Pa, > 0; None: the shear modulus), ``adhesion`` (the
+    liquid sticks to the body's pinned ghost particles: each ghost with a free liquid
+    neighbour holds a two-sided density constraint on its free-surface-corrected density).
+    ValueError naming the bad parameter."""
 
     def __init__(
         self,
@@ -185,6 +187,7 @@ class ViscoelasticFluid:
         redistribution_iterations: int = 5,
         shear_modulus: float = 0.0,
         yield_stress: float | None = None,
+        adhesion: bool = False,
     ) -> None: ...
     @property
     def viscosity(self) -> float: ...
@@ -202,6 +205,8 @@ class ViscoelasticFluid:
     def shear_modulus(self) -> float: ...
     @property
     def yield_stress(self) -> float | None: ...
+    @property
+    def adhesion(self) -> bool: ...
 
 class Granular:
     """Dry and wet sand (He, Wang and Wu 2017, section 7, eq. 25-28 corrected): a particle

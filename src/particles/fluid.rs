@@ -56,6 +56,12 @@ pub struct ViscoelasticFluid {
     /// `None`: equal to the shear modulus (a yield strain of 0.4 in tension). Unused at
     /// `shear_modulus = 0`.
     pub yield_stress: Option<f64>,
+    /// Adhesion to the body's ghost particles (its pinned particles: a wall or ceiling):
+    /// each ghost with a free fluid neighbour holds a two-sided density constraint on its
+    /// free-surface-corrected density, which pulls the liquid back when it draws away
+    /// (`crate::solve::particles`' fluid stage). `false`: ghosts hold the one-sided
+    /// constraint of every particle.
+    pub adhesion: bool,
 }
 
 impl Default for ViscoelasticFluid {
@@ -69,6 +75,7 @@ impl Default for ViscoelasticFluid {
             redistribution_iterations: 5,
             shear_modulus: 0.0,
             yield_stress: None,
+            adhesion: false,
         }
     }
 }

@@ -24,6 +24,7 @@ mod rest;
 mod rest_bonds;
 mod sampling;
 pub mod sph;
+pub mod sph_deficiency;
 pub mod surface;
 mod thin;
 mod wet_sand;

@@ -22,9 +22,10 @@ impl PyViscoelasticFluid {
     /// eps as a fraction of their rest-lattice denominator, > 0), `redistribution` (strength
     /// in [0, 1] of eq. 21-24, 0: none) and `redistribution_iterations` (passes per step, in
     /// [1, 100]), `shear_modulus` (Pa, >= 0: a viscoelastic fluid's elasticity; 0: Newtonian)
-    /// and `yield_stress` (Pa, > 0; None: the shear modulus).
+    /// and `yield_stress` (Pa, > 0; None: the shear modulus), `adhesion` (the liquid sticks to
+    /// the body's pinned ghost particles by two-sided density constraints).
     #[new]
-    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None))]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, adhesion = false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         viscosity: Real,
@@ -35,6 +36,7 @@ impl PyViscoelasticFluid {
         redistribution_iterations: i64,
         shear_modulus: Real,
         yield_stress: Option<Real>,
+        adhesion: bool,
     ) -> PyResult<Self> {
         let iterations = usize::try_from(density_iterations).map_err(|_| {
             pyo3::exceptions::PyValueError::new_err(format!(
@@ -55,6 +57,7 @@ impl PyViscoelasticFluid {
             redistribution_iterations: passes,
             shear_modulus: shear_modulus.get("shear_modulus")?,
             yield_stress: yield_stress.map(|y| y.get("yield_stress")).transpose()?,
+            adhesion,
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -94,12 +97,17 @@ impl PyViscoelasticFluid {
     fn yield_stress(&self) -> Option<f64> {
         self.inner.yield_stress
     }
+    /// Whether the liquid adheres to the body's ghost (pinned) particles.
+    #[getter]
+    fn adhesion(&self) -> bool {
+        self.inner.adhesion
+    }
     fn __repr__(&self) -> String {
         let f = &self.inner;
         let yield_stress = f.yield_stress.map_or("None".to_string(), |y| y.to_string());
         format!(
-            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={})",
-            f.viscosity, f.density_iterations, f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress
+            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={}, adhesion={})",
+            f.viscosity, f.density_iterations, f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress, if f.adhesion { "True" } else { "False" }
         )
     }
 }
