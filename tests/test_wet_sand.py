@@ -56,9 +56,15 @@ def test_liquid_poured_on_a_sand_bed_stays_on_it_and_wets_the_grains_it_reaches(
     above it within 0.7 spacings horizontally, from 0.24 s on: remnants of the top layer on
     the water; at 0.2 s none, which the test asserted before and which held only by its
     timing). After 0.2 s the grains the water touches (a water particle within 1.05 spacings)
-    are wet (theta > 0.5, measured from 0.56) and those farther than 2.5 spacings from all of
-    it nearly dry (theta < 0.2, measured at most 0.09; a grain keeps the saturation it
-    reached, so a grain the water passed earlier stays wet: the kernel is peaked, docs/model.md)."""
+    are wet (theta > 0.4, measured from 0.45) and those farther than 2.5 spacings from all of
+    it nearly dry (theta < 0.2, measured at most 0.001; a grain keeps the saturation it
+    reached, so a grain the water passed earlier stays wet: the kernel is peaked, docs/model.md).
+    With the sand's return within the local step (issue 39) the bed spreads further under the
+    water (its grains to 8.4 spacings from the axis, the water to 10 at 0.2 s), so 58 grains
+    touch the water and only 6 lie farther than 2.5 spacings from it (asserted: at least 5),
+    the last-reached of the touching grains at theta 0.45; lowest water 1.14 spacings. (With
+    the return after the iterations: touching grains from theta 0.56, far ones at most 0.09,
+    more than 10 of them.)"""
     s, bed, water = bed_and_water()
     lowest = np.inf
     for step in range(1, 201):
@@ -72,8 +78,8 @@ def test_liquid_poured_on_a_sand_bed_stays_on_it_and_wets_the_grains_it_reaches(
             assert theta.shape == (bed.num_particles,)
             gap = np.linalg.norm(x[:, None] - water.positions[None], axis=2).min(1)
             touching, far = gap < 1.05 * S, gap > 2.5 * S
-            assert touching.sum() > 20 and far.sum() > 10, (touching.sum(), far.sum())
-            assert theta[touching].min() > 0.5, theta[touching]
+            assert touching.sum() > 20 and far.sum() >= 5, (touching.sum(), far.sum())
+            assert theta[touching].min() > 0.4, theta[touching]
             assert theta[far].max() < 0.2, theta[far]
     assert lowest > 0.9 * S, lowest / S
 
