@@ -22,8 +22,8 @@
 //! the sweep: the deviatoric bond forces (eq. 10) are not central, so their torques need not
 //! sum to zero over a body, and a rigid rotation fitted to them would spin it.
 //!
-//! **Contacts.** A body in contact is left to the fine iteration: the particles a collider or
-//! the repulsion holds carry its reaction in their residual, which no translation of the body
+//! **Contacts.** A body in contact is left to the fine iteration: the particles a collider,
+//! the repulsion or a membrane (a coupling's reaction) holds carry its reaction in their residual, which no translation of the body
 //! takes away (summing the reactions instead is wrong: measured in the Jacobi metric, `D_i` per
 //! metre, a reaction is some 5e4 times what the body's mass asks for the same move). The
 //! translation of a free body is shortened so that it carries no particle into a collider or
@@ -43,13 +43,22 @@ use crate::solve::points::Points;
 use super::system::ParticleSystem;
 
 /// Adds the translation of every free, unpinned body (module doc) to `sys.delta`, the fine
-/// sweep's move from the residual `sys.current.residual`, and to the Chebyshev history.
-pub(crate) fn correct<T: Real>(sys: &mut ParticleSystem<T>, colliders: &[ColliderModel<T>]) {
+/// sweep's move from the residual `sys.current.residual`, and to the Chebyshev history. A
+/// body with a particle that another family holds (`coupled`, a membrane's reaction on it,
+/// [`crate::solve::coupling`]) is in contact too.
+pub(crate) fn correct<T: Real>(
+    sys: &mut ParticleSystem<T>,
+    colliders: &[ColliderModel<T>],
+    coupled: &[Vector3<T>],
+) {
     let mut moves = std::mem::take(&mut sys.rigid);
     moves.clear();
     for range in sys.points.ranges.iter().cloned() {
         let (points, touched) = (&sys.points, &sys.touched);
-        let held = range.clone().any(|i| points.pinned[i] || touched[i]);
+        let held = range.clone().any(|i| {
+            let coupled = coupled.get(i).is_some_and(|r| *r != Vector3::zeros());
+            points.pinned[i] || touched[i] || coupled
+        });
         moves.push(if held { None } else { translation(sys, range) });
     }
     let fractions: Vec<T> = (0..moves.len())

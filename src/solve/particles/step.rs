@@ -87,7 +87,7 @@ pub(crate) fn global_move<T: Real>(
     match options.global_solver {
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
             jacobi(sys, h2, options.inner_iters);
-            coarse::correct(sys, options.colliders);
+            coarse::correct(sys, options.colliders, options.contact_reaction);
         }
         GlobalSolver::Position => position_averaging(sys, h2),
         GlobalSolver::Direct => direct_move(sys, h, options.colliders),
