@@ -4,6 +4,7 @@
 //! Cholesky) and the Armijo line search of eq. 13 on the residual of eq. 12.
 
 mod chebyshev;
+mod coarse;
 mod direct;
 mod directions;
 mod evaluation;

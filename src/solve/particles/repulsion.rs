@@ -164,6 +164,13 @@ impl<T: Real> Repulsion<T> {
             });
     }
 
+    /// The candidate partners of particle `i` this step (particles of other bodies, or of its
+    /// own granular body).
+    #[inline(always)]
+    pub fn partners(&self, i: usize) -> &[u32] {
+        &self.indices[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+
     /// Particle `i`'s move (m) from the last [`Self::correct`].
     #[inline(always)]
     pub fn of_particle(&self, i: usize) -> Vector3<T> {

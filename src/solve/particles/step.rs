@@ -1,5 +1,6 @@
 //! One global iteration of the particle family (He et al. 2017, eq. 12-13): the residual at
-//! the current iterate, the global solver's move, Armijo backtracking on the merit, the
+//! the current iterate, the global solver's move (for Jacobi and Chebyshev with the free
+//! bodies' coarse translation, [`super::coarse`]), Armijo backtracking on the merit, the
 //! colliders in the Jacobi metric with friction, Chebyshev extrapolation, and the measures.
 //!
 //! **Merit (eq. 13).** The deviatoric force (eq. 10) is not the gradient of any energy, so the
@@ -37,6 +38,7 @@ use crate::solve::GlobalSolver;
 use crate::symmetric::SymmetricMatrix3;
 
 use super::chebyshev::GROWTH;
+use super::coarse;
 use super::direct::DirectSolver;
 use super::directions::{jacobi, position_averaging};
 use super::system::ParticleSystem;
@@ -83,7 +85,10 @@ pub(crate) fn global_move<T: Real>(
     sys.timings.residual += millis(started);
     let started = Instant::now();
     match options.global_solver {
-        GlobalSolver::Jacobi | GlobalSolver::Chebyshev => jacobi(sys, h2, options.inner_iters),
+        GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
+            jacobi(sys, h2, options.inner_iters);
+            coarse::correct(sys, options.colliders, options.contact_reaction);
+        }
         GlobalSolver::Position => position_averaging(sys, h2),
         GlobalSolver::Direct => direct_move(sys, h, options.colliders),
     }

@@ -51,6 +51,9 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub fluid: Option<FluidStage<T>>,
     /// The step's phases so far ([`crate::solve::StepStats::particles`]).
     pub timings: ParticleTimings,
+    /// Each body's coarse translation in the last iteration (m, [`super::coarse`]; `None`
+    /// for a pinned body; reused).
+    pub rigid: Vec<Option<Vector3<T>>>,
     /// The granular bodies' static friction (eq. 28), if any has it.
     pub static_friction: Option<StaticFriction<T>>,
     /// Per particle, whether it yielded at the end of the last step (reused).
@@ -96,6 +99,7 @@ impl<T: Real> ParticleSystem<T> {
             plastic: PlasticBodies::of(bodies),
             fluid: FluidStage::of(bodies)?,
             static_friction: StaticFriction::of(bodies),
+            rigid: Vec::with_capacity(bodies.len()),
             yielded: vec![false; n],
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
