@@ -10,6 +10,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 import peridyn as pd
+from fluid_scenes import blob_under_a_ceiling
 
 S = 0.01  # lattice spacing (m)
 RHO = 1000.0  # kg/m^3
@@ -100,12 +101,7 @@ def test_a_viscous_blob_under_a_ceiling_hangs_on_by_its_viscosity():
     viscosity. After 0.3 s the blob is still one piece with the ceiling (neighbours within
     1.6 spacings) and its lowest particle has dropped less than 3 spacings (free fall: 44
     spacings). With the viscosity applied after the positions it parted within 0.15 s."""
-    n, h = 5, 6
-    x = lattice((-1, -1, -h), (n + 1, n + 1, 2))
-    k = np.floor(x / S).astype(int)
-    ceiling = k[:, 2] >= 0
-    keep = ceiling | ((k[:, 0] >= 0) & (k[:, 0] < n) & (k[:, 1] >= 0) & (k[:, 1] < n))
-    x, ceiling = x[keep], ceiling[keep]
+    x, ceiling = blob_under_a_ceiling(5, 6, S)
     blob = pd.Particles(x, spacing=S, density=1400.0,
                         material=pd.ViscoelasticFluid(viscosity=1000.0))
     blob.pin(np.flatnonzero(ceiling))

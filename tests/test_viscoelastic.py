@@ -9,6 +9,7 @@ import pytest
 from scipy.linalg import polar
 
 import peridyn as pd
+from fluid_scenes import blob_under_a_ceiling
 
 S = 0.01  # lattice spacing (m)
 
@@ -97,12 +98,7 @@ def honey_under_a_ceiling(adhesion, steps=80):
     500 Pa: its weight's stress at the top, about 800 Pa, is beyond yield) under a ceiling of
     two layers of pinned ghost particles of its body, dt = 5 ms. Returns the fluid particles'
     positions after ``steps`` steps and the ceiling's lowest layer height (m)."""
-    n, h = 5, 6
-    x = lattice((-1, -1, -h), (n + 1, n + 1, 2))
-    k = np.floor(x / S).astype(int)
-    ceiling = k[:, 2] >= 0
-    keep = ceiling | ((k[:, 0] >= 0) & (k[:, 0] < n) & (k[:, 1] >= 0) & (k[:, 1] < n))
-    x, ceiling = x[keep], ceiling[keep]
+    x, ceiling = blob_under_a_ceiling(5, 6, S)
     honey = pd.Particles(x, spacing=S, density=1400.0,
                          material=pd.ViscoelasticFluid(viscosity=10.0, shear_modulus=500.0,
                                                        yield_stress=500.0, adhesion=adhesion))
