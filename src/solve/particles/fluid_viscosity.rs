@@ -11,8 +11,14 @@
 //! The Laplacian is Brookshaw's SPH form (as in Monaghan 2005, eq. 3.77 without the
 //! compressible term): `laplacian(v)_i = sum_j c_ij (v_j - v_i)` with
 //! `c_ij = 2 V_j |r_ij . grad W_ij| / (|r_ij|^2 + 0.01 H^2)` (1/m^2; `V_j = m_j / rho0_j`,
-//! `H` the support radius), made symmetric by the mean of the two particles' `nu V`, so that
-//! the system matrix is symmetric positive definite and momentum is conserved.
+//! `H` the support radius). It is solved in momentum form, `m_i u_i + h sum_j s_ij (u_i -
+//! u_j) = m_i (v_i + h g)` with `s_ij = 2 mu_ij V_i V_j |r_ij . grad W_ij| / (|r_ij|^2 +
+//! 0.01 H^2)` (kg/s), `mu_ij` the mean of the two particles' dynamic
+//! viscosities `nu rho0` (Pa s): `s` is symmetric, so the forces between two particles are
+//! equal and opposite and momentum is conserved whatever their masses (liquids of different
+//! densities; a sand grain, a partner of viscosity 0, takes half the liquid's coefficient),
+//! and the system matrix `M + h S` is symmetric positive definite. For particles of one
+//! liquid it is the velocity form `(I + h L) u = v + h g` multiplied by their common mass.
 //!
 //! **Lattice normalisation (beyond the paper).** The continuous form is exact (for
 //! `v = x^2` the integral of `(v(x + s) - v(x)) 2 |s . grad W| / |s|^2` is 2), but its sum over
@@ -107,16 +113,16 @@ impl<T: Real> Viscosity<T> {
         }
     }
 
-    /// `(A v)_i = v_i + sum_j k_ij (v_i - v_j)` (`k = h c`) for the free particles, 0 for
-    /// the pinned ones.
-    fn apply_matrix(&mut self, offsets: &[u32], indices: &[u32]) {
+    /// `(A v)_i = m_i v_i + sum_j k_ij (v_i - v_j)` (`k = h s`, `m` the masses, kg) for the
+    /// free particles, 0 for the pinned ones.
+    fn apply_matrix(&mut self, offsets: &[u32], indices: &[u32], mass: &[T]) {
         let (k, p, free) = (&self.coefficient, &self.p, &self.free);
         self.ap.par_iter_mut().enumerate().for_each(|(i, out)| {
             if !free[i] {
                 *out = Vector3::zeros();
                 return;
             }
-            let mut sum = p[i];
+            let mut sum = p[i] * mass[i];
             for b in offsets[i] as usize..offsets[i + 1] as usize {
                 sum += (p[i] - p[indices[b] as usize]) * k[b];
             }
@@ -128,7 +134,7 @@ impl<T: Real> Viscosity<T> {
         chunked_sum(a.len(), chunks, |i| a[i].dot(&b[i]).to_f64())
     }
 
-    /// Solves `(I + h L) u = v + kick` for the free fluid particles (`v` their velocities in
+    /// Solves `(M + h S) u = M (v + kick)` (see the module's doc) for the free fluid particles (`v` their velocities in
     /// `points`, m/s; `kick` a velocity change every free particle receives first, m/s; the
     /// pinned ones keep their velocity, a Dirichlet condition) and stores `u - kick` as their
     /// velocity; positions are not touched.
@@ -147,10 +153,11 @@ impl<T: Real> Viscosity<T> {
                 let i = offsets.partition_point(|&o| o as usize <= b) - 1;
                 let j = indices[b] as usize;
                 let d = y[i] - y[j];
-                let share = (nu[i] * mass[i] / rho0[i] + nu[j] * mass[j] / rho0[j]) * T::of(0.5);
-                let c = T::of(2.0) * scale * share * d.dot(&sph.gradient(&d)).abs()
+                let mu = (nu[i] * rho0[i] + nu[j] * rho0[j]) * T::of(0.5);
+                let volumes = mass[i] / rho0[i] * (mass[j] / rho0[j]);
+                let s = T::of(2.0) * scale * mu * volumes * d.dot(&sph.gradient(&d)).abs()
                     / (d.norm_squared() + support2);
-                *k = h * c;
+                *k = h * s;
             });
         let (members, pinned) = (stage.members, &points.pinned);
         for (i, free) in self.free.iter_mut().enumerate() {
@@ -158,7 +165,7 @@ impl<T: Real> Viscosity<T> {
         }
         let k = &self.coefficient;
         self.diagonal.par_iter_mut().enumerate().for_each(|(i, d)| {
-            let mut sum = T::one();
+            let mut sum = mass[i];
             for &kb in &k[offsets[i] as usize..offsets[i + 1] as usize] {
                 sum += kb;
             }
@@ -167,21 +174,24 @@ impl<T: Real> Viscosity<T> {
         for ((x, &m), &free) in self.x.iter_mut().zip(members).zip(&self.free) {
             *x = points.velocity[m as usize] + if free { kick } else { Vector3::zeros() };
         }
-        // r = b - A x with b = x (the velocities), so r = -(A - I) x = sum_j k_ij (x_j - x_i).
+        // r = b - A x with b = M x (the momenta), so r = sum_j k_ij (x_j - x_i).
         std::mem::swap(&mut self.p, &mut self.x);
-        self.apply_matrix(offsets, indices);
+        self.apply_matrix(offsets, indices, mass);
         std::mem::swap(&mut self.p, &mut self.x);
         {
             let (x, ap, free) = (&self.x, &self.ap, &self.free);
             self.r.par_iter_mut().enumerate().for_each(|(i, r)| {
                 *r = if free[i] {
-                    x[i] - ap[i]
+                    x[i] * mass[i] - ap[i]
                 } else {
                     Vector3::zeros()
                 };
             });
         }
-        let scale = Self::dot(&mut self.chunks, &self.x, &self.x);
+        let x = &self.x;
+        let scale = chunked_sum(n, &mut self.chunks, |i| {
+            (x[i] * mass[i]).norm_squared().to_f64()
+        });
         let tol2 = T::default_epsilon().to_f64() * scale.max(f64::MIN_POSITIVE);
         let (r, diagonal) = (&self.r, &self.diagonal);
         self.p
@@ -191,7 +201,7 @@ impl<T: Real> Viscosity<T> {
         let mut rz = Self::dot(&mut self.chunks, &self.r, &self.p);
         self.iterations = 0;
         while self.iterations < MAX_CG && Self::dot(&mut self.chunks, &self.r, &self.r) > tol2 {
-            self.apply_matrix(offsets, indices);
+            self.apply_matrix(offsets, indices, mass);
             let pap = Self::dot(&mut self.chunks, &self.p, &self.ap);
             if pap <= 0.0 || pap.is_nan() {
                 break;
