@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import peridyn
-from peridyn.io import STATE_FORMAT_VERSION
+from peridyn.state import STATE_FORMAT_VERSION
 from conftest import make_grid
 from test_gpu import gpu, gpu_precision  # noqa: F401  (the fixture and its f64 check)
 
@@ -426,10 +426,10 @@ def test_loading_into_a_different_scene_names_both_counts(tmp_path):
 def test_a_newer_format_version_is_refused_naming_both(saved, tmp_path):
     s, path = saved
     e = entries(path)
-    assert int(e["format_version"]) == STATE_FORMAT_VERSION == 1
+    assert int(e["format_version"]) == STATE_FORMAT_VERSION == 2
     e["format_version"] = np.array(STATE_FORMAT_VERSION + 1)
     before = snapshot(s)
-    with pytest.raises(ValueError, match=r"format version 2, newer than .*\(0 to 1\)"):
+    with pytest.raises(ValueError, match=r"format version 3, newer than .*\(0 to 2\)"):
         peridyn.load_state(write(tmp_path / "new.npz", e), s)
     assert_same(snapshot(s), before)
 

@@ -1,8 +1,9 @@
-"""peridyn: thin hyperelastic membranes (cloth) with contact, by projective peridynamics.
+"""peridyn: thin hyperelastic membranes (cloth) with contact and elastoplastic particles
+(solids, sand, fluids), by projective peridynamics.
 
 The simulation runs in a compiled Rust core (:mod:`peridyn._core`); this package re-exports it
 and adds Python helpers: mesh building and loading (:mod:`peridyn.mesh`), output
-(:mod:`peridyn.io`), pictures (:mod:`peridyn.render`), animations (:mod:`peridyn.animation`),
+(:mod:`peridyn.io`), saved states (:mod:`peridyn.state`), pictures (:mod:`peridyn.render`), animations (:mod:`peridyn.animation`),
 notebook views (:mod:`peridyn.view`), USD stages (:mod:`peridyn.usd`), parameter sweeps
 (:mod:`peridyn.sweeps`), a ``run`` loop with progress bar
 (:class:`peridyn.Solver`) and ready-made scenes (:mod:`peridyn.scenes`, and the paper's
@@ -37,7 +38,8 @@ from ._core import (
     sample_volume,
 )
 from .animation import animate
-from .io import FrameRecorder, load_state, save_state, write_mesh
+from .io import FrameRecorder, write_mesh
+from .state import load_state, save_state
 from .materials import plate_bending_stiffness
 from .mesh import grid, load_mesh
 from .render import draw_scene, render_png

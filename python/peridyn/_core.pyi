@@ -414,6 +414,14 @@ class Particles:
         an elastic body. Settable (checked; None: the reference positions' bonds)."""
     @rest_bonds.setter
     def rest_bonds(self, value: Optional[Dict[str, np.ndarray]]) -> None: ...
+    @property
+    def material_state(self) -> Dict[str, np.ndarray]:
+        """The material as the run left it (``elastic``, ``fluid``, ``horizon`` (m),
+        ``reference`` (N, 3) m, ``fluid_mask``, ``wetted``, ``region_<bond entry>``; an
+        optional part empty when absent): what ``save_state`` saves. Settable into a body set
+        up as the one it came from (checked whole; parts equal to its own change nothing)."""
+    @material_state.setter
+    def material_state(self, value: Dict[str, np.ndarray]) -> None: ...
     def pin(self, indices: ArrayLike, targets: Optional[ArrayLike] = None) -> None:
         """Fixes particles at ``targets`` ((len(indices), 3) m; default: where they are)."""
     def unpin(self, indices: Optional[ArrayLike] = None) -> None:

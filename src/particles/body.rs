@@ -81,8 +81,11 @@ const FLUID_MODULI: Moduli = Moduli {
 /// checks of [`Particles::new`]; its moduli are replaced by [`FLUID_MODULI`], so it never acts.
 pub const FLUID_PLACEHOLDER: Elastic = Elastic::Paper { mu: 1.0, lam: 0.0 };
 
+#[path = "material_state.rs"]
+mod material_state;
 #[path = "transition.rs"]
 mod transition;
+pub use material_state::MaterialState;
 pub use transition::RegionMaterial;
 
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
@@ -480,6 +483,20 @@ impl Particles {
         elastic: Elastic,
         fluid: Option<ViscoelasticFluid>,
     ) -> Result<()> {
+        let reference = self.state.positions.clone();
+        self.adopt_material(elastic, fluid, None, reference)
+    }
+
+    /// [`Self::set_material`] with the body's horizon `horizon` (m; `None`: the default) and
+    /// `reference` positions (m) for its bonds: also the restore of a saved material state
+    /// ([`MaterialState`]).
+    pub(super) fn adopt_material(
+        &mut self,
+        elastic: Elastic,
+        fluid: Option<ViscoelasticFluid>,
+        horizon: Option<f64>,
+        reference: Vec<Vector3<f64>>,
+    ) -> Result<()> {
         if !self.ghost_owners.is_empty() || self.granular.is_some() {
             return Err(crate::error::invalid!(
                 "only a solid or fluid body changes its material: a shell, rod or sand keeps its own"
@@ -497,7 +514,7 @@ impl Particles {
         }
         let elastoplastic = fluid.as_ref().and_then(ViscoelasticFluid::elastoplastic);
         let params = ParticleParams {
-            horizon: None,
+            horizon,
             material: match (&fluid, elastoplastic) {
                 (_, Some((material, _))) => material,
                 (Some(_), None) => FLUID_PLACEHOLDER,
@@ -506,7 +523,6 @@ impl Particles {
             ..self.params
         };
         params.validate()?;
-        let reference = self.state.positions.clone();
         let delta = params.delta();
         let horizons = find_horizons(&reference, delta)?;
         check_shapes(&reference, &horizons, delta)?;

@@ -29,7 +29,9 @@ pub mod surface;
 mod thin;
 mod wet_sand;
 
-pub use body::{ParticleParams, Particles, RegionMaterial, DEFAULT_HORIZON, FLUID_PLACEHOLDER};
+pub use body::{
+    MaterialState, ParticleParams, Particles, RegionMaterial, DEFAULT_HORIZON, FLUID_PLACEHOLDER,
+};
 pub use bond::{bond_force, BondRest};
 pub use calibration::{calibrate, lattice_moduli, LatticeModuli, Moduli};
 pub use cone::{Cone, Factors};

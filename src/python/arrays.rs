@@ -219,3 +219,21 @@ pub fn exact_entries(dict: &Bound<'_, PyDict>, names: &[&str], what: &str) -> Py
         "{what} must hold exactly the entries {names:?}: unknown {unknown:?}, missing {missing:?}"
     )))
 }
+
+/// A bool array (of any shape) as a flat vector; other dtypes are refused.
+pub fn flags(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<bool>> {
+    let arr = obj.py().import("numpy")?.call_method1("asarray", (obj,))?;
+    let kind: String = arr.getattr("dtype")?.getattr("kind")?.extract()?;
+    let size: usize = arr.getattr("size")?.extract()?;
+    if kind != "b" && size > 0 {
+        return Err(PyValueError::new_err(format!(
+            "{name} must hold booleans, got dtype {}",
+            arr.getattr("dtype")?.str()?
+        )));
+    }
+    let flat: PyReadonlyArray1<bool> = arr
+        .call_method1("astype", ("bool",))?
+        .call_method1("reshape", (-1,))?
+        .extract()?;
+    Ok(flat.as_slice()?.to_vec())
+}

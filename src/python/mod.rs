@@ -11,6 +11,7 @@ mod fluid;
 mod gpu;
 mod granular;
 mod material;
+mod material_state;
 mod membrane;
 mod options;
 mod particle_body;

@@ -16,6 +16,7 @@ use super::elastic::PyElastic;
 use super::errors::{guard, IntoPyResult};
 use super::fluid::PyViscoelasticFluid;
 use super::granular::PyGranular;
+use super::material_state;
 use super::pins;
 use super::plasticity::PyDruckerPrager;
 use super::rest_bonds;
@@ -451,6 +452,36 @@ impl PyParticles {
             }
         };
         self.lock().restore_rest_bonds(bonds).py()
+    }
+    /// What the body's material has become during the run, as a dict of numpy arrays (an
+    /// optional part empty when absent): ``elastic`` ``[0, mu, lam]`` (Pa) or ``[1, E, nu]``;
+    /// ``fluid`` the fluid's parameters or empty; ``horizon`` (m) or empty for the default;
+    /// ``reference`` (N, 3) m, the positions the bonds are measured from (the positions at a
+    /// ``set_material``); ``fluid_mask`` (N,) bool of a mixed body; ``wetted`` (N,) a sand
+    /// body's saturations once a liquid wetted it; ``region_<name>`` a mixed body's bonds (the
+    /// entries of ``rest_bonds``). Settable into a body set up as the one it came from (checked
+    /// whole; parts equal to the body's own change nothing): what ``peridyn.save_state`` saves
+    /// and ``load_state`` restores.
+    #[getter]
+    fn material_state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let state = self.lock().material_state();
+        material_state::to_dict(py, state)
+    }
+    #[setter]
+    fn set_material_state(&self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let dict = value.cast::<PyDict>().map_err(|_| {
+            PyValueError::new_err(format!(
+                "material_state must be a dict, got {}",
+                value
+                    .get_type()
+                    .name()
+                    .map_or("?".into(), |n| n.to_string())
+            ))
+        })?;
+        let state = material_state::from_dict(dict)?;
+        guard("Particles.material_state", || {
+            self.lock().restore_material_state(state)
+        })
     }
     /// Fixes particles at `targets` ((len(indices), 3) m; default: where they are now); a
     /// shell's or rod's ghost particles follow their real particle.

@@ -9,7 +9,7 @@ use pyo3::types::PyDict;
 use crate::contact::{SavedRestGap, SavedRestGaps};
 use crate::solve::SolverState;
 
-use super::arrays::{exact_entries, integer_rows, real_array, to_numpy, to_numpy_1d, vec3s};
+use super::arrays::{exact_entries, flags, integer_rows, real_array, to_numpy, to_numpy_1d, vec3s};
 use super::errors::to_py;
 
 /// Per membrane vertex, the warm start of the next contact local step, (N, 3) m.
@@ -130,24 +130,6 @@ fn scalar(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<f64> {
         )));
     }
     arr.call_method0("item")?.extract()
-}
-
-/// A bool array (of any shape) as a flat vector; other dtypes are refused.
-fn flags(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<bool>> {
-    let arr = obj.py().import("numpy")?.call_method1("asarray", (obj,))?;
-    let kind: String = arr.getattr("dtype")?.getattr("kind")?.extract()?;
-    let size: usize = arr.getattr("size")?.extract()?;
-    if kind != "b" && size > 0 {
-        return Err(PyValueError::new_err(format!(
-            "{name} must hold booleans, got dtype {}",
-            arr.getattr("dtype")?.str()?
-        )));
-    }
-    let flat: PyReadonlyArray1<bool> = arr
-        .call_method1("astype", ("bool",))?
-        .call_method1("reshape", (-1,))?
-        .extract()?;
-    Ok(flat.as_slice()?.to_vec())
 }
 
 /// A single boolean (0-d bool array or `bool`).

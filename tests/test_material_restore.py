@@ -1,0 +1,165 @@
+"""A particle body's material as a run left it travels with ``save_state`` / ``load_state``
+(``Particles.material_state``): a body that solidified or melted whole, a region that changed
+material, sand a liquid wetted. A run continued from the file equals the run that went on, to
+the bit; before the material was saved the same continuations differed by millimetres (the
+fresh bodies kept their set-up materials and dry grains)."""
+
+import numpy as np
+import pytest
+
+import peridyn as pd
+
+S = 0.01  # lattice spacing (m)
+SAVE, MORE = 10, 10  # steps before the save and after it
+
+
+def lattice(n, origin):
+    g = np.stack(np.meshgrid(*[np.arange(k) for k in n], indexing="ij"), -1).reshape(-1, 3)
+    return g * S + np.asarray(origin)
+
+
+def solver():
+    s = pd.Solver(dt=0.005, gravity=(0.0, 0.0, -9.81), max_iters=20)
+    s.add_collider(pd.Plane())
+    return s
+
+
+def liquid_on_sand():
+    s = solver()
+    sand = pd.Particles(lattice((6, 6, 3), (0, 0, 0.006)), spacing=S, density=1600.0,
+                        material=pd.Granular(friction_angle=30.0, saturation=0.0))
+    water = pd.Particles(lattice((3, 3, 3), (0.015, 0.015, 0.04)), spacing=S,
+                         density=1000.0, material=pd.ViscoelasticFluid(viscosity=1e-3))
+    s.add(sand)
+    s.add(water)
+    return s, [sand, water]
+
+
+def melt():
+    s = solver()
+    body = pd.Particles(lattice((5, 5, 5), (0, 0, 0.006)), spacing=S, density=1000.0,
+                        material=pd.ViscoelasticFluid(viscosity=1.0))
+    s.add(body)
+    return s, [body]
+
+
+SOLID = pd.Elastic.from_young(1e4, 0.3)
+
+
+def region_solidifies(s, bodies):
+    bodies[0].set_material(SOLID, np.arange(60))
+
+
+def whole_solidifies(s, bodies):
+    bodies[0].set_material(SOLID)
+
+
+def nothing(s, bodies):
+    pass
+
+
+CASES = {
+    "wetted sand": (liquid_on_sand, nothing),
+    "a region solidified": (melt, region_solidifies),
+    "the whole body solidified": (melt, whole_solidifies),
+}
+
+
+def run(s, bodies, event, steps):
+    """``steps`` steps; ``event`` at step 5 (from the solver's count, so a restored solver
+    does not repeat it)."""
+    for _ in range(steps):
+        if s.steps_taken == 5:
+            event(s, bodies)
+        s.step()
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_a_run_continued_from_a_file_equals_the_run_that_went_on(case, tmp_path):
+    scene, event = CASES[case]
+    s, bodies = scene()
+    run(s, bodies, event, SAVE)
+    path = pd.save_state(tmp_path / "state.npz", s)
+    run(s, bodies, event, MORE)
+
+    fresh, copies = scene()
+    pd.load_state(path, fresh)
+    run(fresh, copies, event, MORE)
+    for body, copy in zip(bodies, copies):
+        assert np.array_equal(copy.positions, body.positions)
+        assert np.array_equal(copy.velocities, body.velocities)
+        assert np.array_equal(copy.fluid_particles, body.fluid_particles)
+        for name, value in body.material_state.items():
+            assert np.array_equal(copy.material_state[name], value), name
+    if case == "wetted sand":
+        assert bodies[0].saturation.max() > 0.1  # the liquid did wet the grains
+
+
+def test_the_restore_matters():
+    """Without the material the continuations part: the saved state is not what the set-up
+    makes (so the test above tests something)."""
+    for scene, event in CASES.values():
+        s, bodies = scene()
+        run(s, bodies, event, SAVE)
+        _, fresh = scene()
+        assert any(not np.array_equal(b.material_state[k], f.material_state[k])
+                   for b, f in zip(bodies, fresh) for k in b.material_state)
+
+
+def test_a_state_loaded_back_into_a_body_that_changed_since(tmp_path):
+    """Loading into a solver that went on (and melted the region back) restores the saved
+    material: loading repeats the continuation."""
+    s, bodies = melt()
+    run(s, bodies, region_solidifies, SAVE)
+    path = pd.save_state(tmp_path / "state.npz", s)
+    run(s, bodies, region_solidifies, MORE)
+    expected = bodies[0].positions.copy()
+    bodies[0].set_material(pd.ViscoelasticFluid(viscosity=1.0), np.arange(60))
+    pd.load_state(path, s)
+    run(s, bodies, region_solidifies, MORE)
+    assert np.array_equal(bodies[0].positions, expected)
+
+
+def test_a_version_1_file_leaves_the_material_as_it_is(tmp_path):
+    """A file written before the material was saved (format version 1: no material entries)
+    still loads; the bodies keep the materials they have; a material entry in it is refused."""
+    s, bodies = liquid_on_sand()
+    run(s, bodies, nothing, SAVE)
+    path = pd.save_state(tmp_path / "state.npz", s)
+    with np.load(path) as data:
+        e = {k: data[k] for k in data.files}
+    material = [k for k in e if k.startswith("material_")]
+    assert material
+    old = {k: v for k, v in e.items() if k not in material}
+    old["format_version"] = np.array(1)
+    np.savez(tmp_path / "v1.npz", **old)
+    fresh, copies = liquid_on_sand()
+    pd.load_state(tmp_path / "v1.npz", fresh)
+    assert np.array_equal(copies[0].positions, bodies[0].positions)
+    assert np.array_equal(copies[0].saturation, np.zeros(copies[0].num_particles))
+    old[material[0]] = e[material[0]]
+    np.savez(tmp_path / "mixed.npz", **old)
+    with pytest.raises(ValueError, match="unexpected entries"):
+        pd.load_state(tmp_path / "mixed.npz", liquid_on_sand()[0])
+
+
+def test_bad_material_states_are_refused_by_name():
+    s, (sand, water) = liquid_on_sand()
+    state = sand.material_state
+    wet = dict(state, wetted=np.full(sand.num_particles, 0.5))
+    wet["wetted"][7] = 1.5
+    with pytest.raises(ValueError, match=r"saturation 7 is 1\.5"):
+        sand.material_state = wet
+    with pytest.raises(ValueError, match="not sand"):
+        water.material_state = dict(water.material_state,
+                                    wetted=np.full(water.num_particles, 0.5))
+    with pytest.raises(ValueError, match="reference positions"):
+        water.material_state = dict(water.material_state,
+                                    reference=water.material_state["reference"][:-1])
+    with pytest.raises(ValueError, match="elastic"):
+        water.material_state = dict(water.material_state, elastic=np.array([3.0, 1.0, 1.0]))
+    missing = dict(water.material_state)
+    del missing["wetted"]
+    with pytest.raises(ValueError, match="wetted"):
+        water.material_state = missing
+    assert np.array_equal(sand.saturation, np.zeros(sand.num_particles))
