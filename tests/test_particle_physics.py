@@ -75,13 +75,11 @@ def cantilever(n=(34, 3, 4), spacing=0.01, E=1e7, clamp=3):
     return deflection, 3 * RHO * G * length**4 / (2 * E * thickness**2)
 
 
-@pytest.mark.xfail(strict=True, reason="known limit: a beam four particles thick is too stiff in "
-                   "bending (measured 0.73 of Euler-Bernoulli after the directional surface "
-                   "correction, 0.55 before): the deviatoric term of eq. 8 penalises the "
-                   "curvature within a horizon (see docs/model.md)")
 def test_a_cantilever_four_thick_sags_under_its_weight_as_euler_bernoulli_says():
     """Tip deflection of a 34 x 3 x 4 cantilever (slenderness 7.75) within 15 % of
-    3 rho g L^4 / (2 E t^2)."""
+    3 rho g L^4 / (2 E t^2). Measured 0.89 of it (eight thick, 66 x 3 x 8: 0.93): the
+    deviatoric term's share of the stiffness (calibration.rs, DEVIATORIC_SHARE 0.3) stiffens
+    bending within a horizon; at the 2/3 of mu = lam the beam sagged 0.73 of it."""
     deflection, expected = cantilever()
     assert deflection > 0
     assert abs(deflection / expected - 1) < 0.15, (deflection, expected)

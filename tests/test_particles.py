@@ -91,11 +91,13 @@ def test_beam_is_stable_and_consistent_across_time_steps():
     assert (max(sags) - min(sags)) < 0.2 * max(sags), sags
 
 
-def test_a_flattened_inverted_body_recovers():
+@pytest.mark.parametrize("nu", [0.0, 0.3, 0.45])
+def test_a_flattened_inverted_body_recovers(nu):
     """Fig. 3: a block squashed to a fifth of its height and turned inside out (z -> -z / 5)
     comes back: after 1 s without gravity its height is within 10 % of the rest height and
-    right side up."""
-    body = block((5, 5, 5), E=1e5, nu=0.3)
+    right side up. The deviatoric term turns it back (pair springs see lengths only): with
+    its share of the stiffness at 0.15 instead of 0.3 the block stayed inside out at nu 0.3."""
+    body = block((5, 5, 5), E=1e5, nu=nu)
     x0 = body.rest_positions
     squashed = x0.copy()
     squashed[:, 2] = 0.02 - (x0[:, 2] - 0.02) / 5
