@@ -220,7 +220,9 @@ class Granular:
     ``friction_stiffness`` ``K_f`` (Pa, > 0) and ``friction_hardening`` ``H_f`` (>= 0) of
     eq. 25, ``cohesion_stiffness`` ``K_c`` (Pa, >= 0) of eq. 26, ``cohesion_falloff``
     ``H_0`` (> 0) and ``debonding`` ``b`` (in [0, 1]) of eq. 27, ``static_friction``
-    ``eta`` (in (0, 1], None for none) of eq. 28. docs/model.md gives the defaults' reasons.
+    ``eta`` (in (0, 1], None for none) of eq. 28, ``contact_friction`` ``mu_c`` (>= 0): the
+    Coulomb friction coefficient at the contacts of touching grains (0: frictionless balls).
+    docs/model.md gives the defaults' reasons.
     ValueError naming the bad parameter."""
 
     def __init__(
@@ -234,6 +236,7 @@ class Granular:
         cohesion_falloff: float = 10.0,
         debonding: float = 1.0,
         static_friction: Optional[float] = 0.8,
+        contact_friction: float = 0.0,
     ) -> None: ...
     @property
     def friction_angle(self) -> float: ...
@@ -249,6 +252,8 @@ class Granular:
     def cohesion_falloff(self) -> float: ...
     @property
     def debonding(self) -> float: ...
+    @property
+    def contact_friction(self) -> float: ...
     @property
     def static_friction(self) -> Optional[float]: ...
     def stiffness(self, density_ratio: float) -> float:

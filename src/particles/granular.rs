@@ -77,6 +77,9 @@ pub struct Granular {
     /// Static friction coefficient `eta` of eq. 28 (dimensionless, in (0, 1]), or `None`
     /// for none.
     pub static_friction: Option<f64>,
+    /// Coulomb friction coefficient `mu_c` (dimensionless, >= 0) at the contacts of touching
+    /// grains (`crate::solve`'s grain friction; 0: frictionless balls, the default).
+    pub contact_friction: f64,
 }
 
 impl Granular {
@@ -92,6 +95,7 @@ impl Granular {
             cohesion_falloff: 10.0,
             debonding: 1.0,
             static_friction: Some(0.8),
+            contact_friction: 0.0,
         }
     }
 
@@ -138,6 +142,12 @@ impl Granular {
             self.debonding,
             |v| (0.0..=1.0).contains(&v),
             "a scale in [0, 1]",
+        )?;
+        check_param(
+            "contact_friction",
+            self.contact_friction,
+            |v| v >= 0.0,
+            "a finite coefficient >= 0",
         )?;
         if let Some(eta) = self.static_friction {
             check_param(

@@ -20,13 +20,15 @@ impl PyGranular {
     /// `friction_angle` (degrees, in (0, 90)), `saturation` (water, in [0, 1]); the
     /// reference friction stiffness `K_f` (Pa) and its hardening `H_f`, the reference
     /// cohesion stiffness `K_c` (Pa) and falloff `H_0`, the debonding scale `b`, and the
-    /// static friction `eta` (in (0, 1], None for none): docs/model.md.
+    /// static friction `eta` (in (0, 1], None for none), the grains' contact friction
+    /// coefficient `mu_c` (>= 0): docs/model.md.
     #[new]
     #[pyo3(signature = (
         *, friction_angle, saturation = Real::of(0.0),
         friction_stiffness = Real::of(1e5), friction_hardening = Real::of(10.0),
         cohesion_stiffness = Real::of(2e4), cohesion_falloff = Real::of(10.0),
         debonding = Real::of(1.0), static_friction = Some(Real::of(0.8)),
+        contact_friction = Real::of(0.0),
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -38,6 +40,7 @@ impl PyGranular {
         cohesion_falloff: Real,
         debonding: Real,
         static_friction: Option<Real>,
+        contact_friction: Real,
     ) -> PyResult<Self> {
         let inner = Granular {
             friction_angle: friction_angle.get("friction_angle")?,
@@ -50,6 +53,7 @@ impl PyGranular {
             static_friction: static_friction
                 .map(|s| s.get("static_friction"))
                 .transpose()?,
+            contact_friction: contact_friction.get("contact_friction")?,
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -94,6 +98,11 @@ impl PyGranular {
     fn static_friction(&self) -> Option<f64> {
         self.inner.static_friction
     }
+    /// Contact friction coefficient `mu_c` between touching grains (dimensionless).
+    #[getter]
+    fn contact_friction(&self) -> f64 {
+        self.inner.contact_friction
+    }
     /// `k_f + k_c` (Pa) at the density ratio `rho / rho_0` (eq. 25-27).
     fn stiffness(&self, density_ratio: Real) -> PyResult<f64> {
         Ok(self.inner.stiffness(density_ratio.get("density_ratio")?))
@@ -103,7 +112,7 @@ impl PyGranular {
         format!(
             "Granular(friction_angle={}, saturation={}, friction_stiffness={}, \
              friction_hardening={}, cohesion_stiffness={}, cohesion_falloff={}, debonding={}, \
-             static_friction={})",
+             static_friction={}, contact_friction={})",
             g.friction_angle,
             g.saturation,
             g.friction_stiffness,
@@ -112,7 +121,8 @@ impl PyGranular {
             g.cohesion_falloff,
             g.debonding,
             g.static_friction
-                .map_or("None".to_string(), |e| e.to_string())
+                .map_or("None".to_string(), |e| e.to_string()),
+            g.contact_friction
         )
     }
 }

@@ -11,6 +11,7 @@ mod evaluation;
 mod family;
 mod fluid;
 mod fluid_viscosity;
+mod grain_friction;
 mod plastic;
 mod repulsion;
 mod static_friction;

@@ -34,6 +34,8 @@ use crate::geometry::find_horizons;
 use crate::real::Real;
 use crate::solve::points::Points;
 
+use super::grain_friction::friction_move;
+
 /// The repulsion of the particle bodies of one family, with its scratch.
 pub(crate) struct Repulsion<T: Real> {
     /// Body of each particle (an index into the family's body list).
@@ -46,6 +48,10 @@ pub(crate) struct Repulsion<T: Real> {
     /// The proposed positions `p` (m) and each particle's move `c_i` (m).
     proposed: Vec<Vector3<T>>,
     correction: Vec<Vector3<T>>,
+    /// Each particle's contact friction coefficient `mu_c` (dimensionless,
+    /// [`super::grain_friction`]; 0 for a particle of a body without one), empty when no body
+    /// has one.
+    friction: Vec<T>,
 }
 
 impl<T: Real> Repulsion<T> {
@@ -77,7 +83,18 @@ impl<T: Real> Repulsion<T> {
             indices: Vec::new(),
             proposed: vec![Vector3::zeros(); n],
             correction: vec![Vector3::zeros(); n],
+            friction: Vec::new(),
         })
+    }
+
+    /// With Coulomb friction at the contacts ([`super::grain_friction`]) of the particles of
+    /// the bodies whose coefficient `mu_c` in `per_body` (dimensionless) is above 0.
+    pub fn with_friction(mut self, per_body: &[f64]) -> Self {
+        if per_body.iter().any(|&mu| mu > 0.0) {
+            let of = |b: u32| per_body.get(b as usize).copied().unwrap_or(0.0);
+            self.friction = self.body.iter().map(|&b| T::of(of(b))).collect();
+        }
+        self
     }
 
     /// The candidate pairs of the step of `h` (s) under `gravity` (m/s^2) that starts at the
@@ -138,7 +155,8 @@ impl<T: Real> Repulsion<T> {
             };
         });
         let (proposed, offsets, indices) = (&self.proposed, &self.offsets, &self.indices);
-        let (mass, margin) = (&points.mass, &points.margin);
+        let (mass, margin, start) = (&points.mass, &points.margin, &points.y_start);
+        let friction = &self.friction;
         self.correction
             .par_iter_mut()
             .enumerate()
@@ -160,6 +178,12 @@ impl<T: Real> Repulsion<T> {
                         mass[j] / (mass[i] + mass[j])
                     };
                     *c += gap * (share * (reach - distance) / distance);
+                    let mu = friction.get(i).map_or(T::zero(), |&a| a.min(friction[j]));
+                    if mu > T::zero() {
+                        let slip = (proposed[i] - start[i]) - (proposed[j] - start[j]);
+                        let normal = gap / distance;
+                        *c += friction_move(&normal, reach - distance, &slip, share, mu);
+                    }
                 }
             });
     }

@@ -81,7 +81,11 @@ impl<T: Real> ParticleSystem<T> {
                 (0..b.num_particles()).map(move |i| mixed && b.is_fluid_particle(i))
             })
             .collect();
-        let repulsion = Repulsion::of(&points, within, &fluid);
+        let friction: Vec<f64> = bodies
+            .iter()
+            .map(|b| b.granular().map_or(0.0, |g| g.contact_friction))
+            .collect();
+        let repulsion = Repulsion::of(&points, within, &fluid).map(|r| r.with_friction(&friction));
         Ok(Self {
             points,
             rest,
