@@ -237,3 +237,15 @@ pub fn flags(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<bool>> {
         .extract()?;
     Ok(flat.as_slice()?.to_vec())
 }
+
+/// A one-dimensional real array as floats; other shapes are refused, naming `name`.
+pub fn reals_1d(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<f64>> {
+    let arr = real_array(obj, name)?;
+    let ndim: usize = arr.getattr("ndim")?.extract()?;
+    if ndim != 1 {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be one-dimensional, got {ndim} dimensions"
+        )));
+    }
+    arr.extract()
+}

@@ -9,7 +9,7 @@ use pyo3::types::PyDict;
 
 use crate::particles::{Elastic, MaterialState, ViscoelasticFluid};
 
-use super::arrays::{exact_entries, flags, real_array, to_numpy, to_numpy_1d, vec3s};
+use super::arrays::{exact_entries, flags, reals_1d, to_numpy, to_numpy_1d, vec3s};
 use super::rest_bonds;
 
 /// `[0, mu, lam]` (Pa) for `Elastic(mu=, lam=)`, `[1, E, nu]` (Pa, 1) for `from_young`.
@@ -142,16 +142,7 @@ pub fn from_dict(dict: &Bound<'_, PyDict>) -> PyResult<MaterialState> {
     let refs: Vec<&str> = names.iter().map(String::as_str).collect();
     exact_entries(dict, &refs, "material state")?;
     let item = |name: &str| dict.get_item(name).map(|v| v.expect("checked above"));
-    let reals = |name: &str| -> PyResult<Vec<f64>> {
-        let arr = real_array(&item(name)?, name)?;
-        let ndim: usize = arr.getattr("ndim")?.extract()?;
-        if ndim != 1 {
-            return Err(PyValueError::new_err(format!(
-                "{name} must be one-dimensional, got {ndim} dimensions"
-            )));
-        }
-        arr.extract()
-    };
+    let reals = |name: &str| reals_1d(&item(name)?, name);
     let elastic = match reals(ELASTIC)?.as_slice() {
         &[0.0, mu, lam] => Elastic::Paper { mu, lam },
         &[1.0, e, nu] => Elastic::Young { e, nu },

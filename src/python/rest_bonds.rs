@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 
 use crate::particles::RestBonds;
 
-use super::arrays::{exact_entries, indices, real_array, to_numpy, to_numpy_1d, vec3s};
+use super::arrays::{exact_entries, indices, reals_1d, to_numpy, to_numpy_1d, vec3s};
 
 /// Per particle `p` its bonds `offsets[p]..offsets[p + 1]`, (N + 1,) int64.
 const OFFSETS: &str = "offsets";
@@ -52,16 +52,7 @@ pub fn from_dict(dict: &Bound<'_, PyDict>) -> PyResult<RestBonds> {
             })
             .collect()
     };
-    let reals = |name: &str| -> PyResult<Vec<f64>> {
-        let arr = real_array(&item(name)?, name)?;
-        let ndim: usize = arr.getattr("ndim")?.extract()?;
-        if ndim != 1 {
-            return Err(PyValueError::new_err(format!(
-                "{name} must be one-dimensional, got {ndim} dimensions"
-            )));
-        }
-        arr.extract()
-    };
+    let reals = |name: &str| reals_1d(&item(name)?, name);
     Ok(RestBonds {
         offsets: unsigned(OFFSETS)?,
         indices: unsigned(NEIGHBOURS)?,
