@@ -68,10 +68,6 @@ pub(super) struct Sweep {
     step: Vec<Vector3<f64>>,
     /// Per vertex: the allowance at the sweep (m).
     allowance: Vec<f64>,
-    /// Per vertex: its displacements `[s^0 - r, y^0 - r]` from the build's reference
-    /// positions `r` at the sweep (m), for the bound from the build's distance of the pairs
-    /// an extension records ([`Sweep::start`]).
-    pub shift: Vec<[Vector3<f64>; 2]>,
     /// The sweep looked at the cached pairs `..near`.
     pub near: usize,
     /// How many of them it found within reach (a negative slack).
@@ -175,19 +171,6 @@ impl Sweep {
         self.rent = 0.0;
         self.valid = true;
         self.measure(safe, target);
-    }
-
-    /// The sweep's safe positions `s^0`, its path `[0, y^0 - s^0]` from them and its
-    /// allowances `A^0` (m): what a pair's relative distance bound `b^0` is measured with, so
-    /// that a filter whose horizon has grown past the sweep's can record the pairs beyond it
-    /// as the sweep would have, had it looked that far.
-    pub fn start(&self) -> (&[Vector3<f64>], Vec<[Vector3<f64>; 2]>, &[f64]) {
-        let path = self
-            .step
-            .par_iter()
-            .map(|u| [Vector3::zeros(), *u])
-            .collect();
-        (&self.safe, path, &self.allowance)
     }
 
     /// Measures the path from `safe` to `target` (m): writes [`Sweep::ends`],

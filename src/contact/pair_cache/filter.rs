@@ -172,17 +172,27 @@ impl PairCache {
         self.sweeps += 1;
         let mut swept = std::mem::take(&mut self.sweep.swept);
         self.sweep.record(safe, target, allowance, near);
-        self.sweep.shift.clone_from(&self.shift);
-        let (this, sweep) = (&*self, &self.sweep);
-        let at = SweptFrom {
-            shift: &this.shift,
-            safe: &sweep.safe_now,
-            path: &sweep.path,
-            allowance,
-        };
+        let this = &*self;
         (0..near)
             .into_par_iter()
-            .map(|k| this.swept_pair(k, &at, reach).0)
+            .map(|k| {
+                let (pair, at_build) = &this.pairs[k];
+                let (a, b) = pair.sides();
+                // The bound from the build's distance and the moves since (`shift`, measured
+                // for this filter) costs no closest points; it is lower than the fresh bound,
+                // which is taken only where it might be needed.
+                let cheap =
+                    pair.relative_distance_bound(f64::from(*at_build), &this.shift, allowance);
+                let bound = if cheap - reach >= CHEAP_SLACK * reach {
+                    cheap
+                } else {
+                    this.fresh_bound(k, allowance)
+                };
+                SweptPair {
+                    slack: round_down(bound - reach),
+                    patches: [a, b].map(|side| this.patches.of_side(side) as u32),
+                }
+            })
             .collect_into_vec(&mut swept);
         self.sweep.swept = swept;
         self.sweep.within = self
@@ -206,9 +216,8 @@ impl PairCache {
     /// those whose bound may have fallen below `reach` (m) since the sweep, by at most `fall` (m)
     /// for every pair and by at most [`super::super::sweep::Sweep::patch_fall`] and
     /// [`super::super::sweep::Sweep::pair_fall`] for each (see [`super::super::sweep`]; the cheaper
-    /// test first), having first extended the sweep's record to `near` where the horizon grew
-    /// past it ([`PairCache::extend_sweep`]): the pairs that may come within `reach`,
-    /// increasing, or `None` when, beyond the pairs within reach at the sweep,
+    /// test first), and at those beyond the sweep's: the pairs that may come within `reach`,
+    /// increasing, or `None` (and nothing done) when, beyond the pairs within reach at the sweep,
     /// more than [`REFILTER_SHARE`] of the others would be looked at again: the sweep's positions
     /// are then far enough behind that every filter until the next sweep would look at that many,
     /// and a sweep afresh costs a few of them. Adds the filter's work beyond what it costs right
@@ -220,13 +229,15 @@ impl PairCache {
         allowance: &[f64],
         reach: f64,
     ) -> Option<Vec<u32>> {
-        // The horizon grew past the sweep's (a folding cloth's grows with the deviations at
-        // every step between builds): the sweep's record is extended to it, so that the
-        // tests below keep most of the pairs beyond out, instead of a sweep afresh.
-        if near > self.sweep.near {
-            self.extend_sweep(near, reach);
-        }
         let swept = self.sweep.near.min(near);
+        // The pairs beyond the sweep's are all looked at again: where they alone are too many,
+        // the sweep is due whatever the swept pairs' tests say (the same decision as below).
+        if swept == self.sweep.near {
+            let within = self.sweep.within;
+            if (near - swept) as f64 > REFILTER_SHARE * (self.sweep.near - within) as f64 {
+                return None;
+            }
+        }
         // The pairs to look at again. Counted: the pairs within reach at the sweep (no test
         // can leave them out), and those that took a patch test and a pair test. In chunks,
         // each with its own memo of the patch falls (neighbouring pairs share patch pairs).
@@ -260,6 +271,7 @@ impl PairCache {
             again.extend(more);
             tests = [0, 1, 2].map(|t| tests[t] + more_tests[t]);
         }
+        again.extend(swept as u32..near as u32);
         let [within, patch_tests, pair_tests] = tests;
         let sweep = &mut self.sweep;
         let beyond = again.len() - within;
@@ -276,55 +288,6 @@ impl PairCache {
                 .filter(|&k| this.may_come_within(k as usize, allowance, reach))
                 .collect(),
         )
-    }
-
-    /// Extends the sweep's record to the cached pairs `..near` (`near` beyond the sweep's):
-    /// records each pair from the sweep's `near` on as the sweep would have (its bound from
-    /// the build's distance and the moves until the sweep where that clears `reach` by
-    /// [`CHEAP_SLACK`], else from its distance at the sweep's safe positions), so that the
-    /// refilters test them against their falls since the sweep like the pairs it looked at.
-    /// Adds its work to the sweep's rent.
-    fn extend_sweep(&mut self, near: usize, reach: f64) {
-        let sweep = &self.sweep;
-        let (safe, path, allowance) = sweep.start();
-        let at = SweptFrom {
-            shift: &sweep.shift,
-            safe,
-            path: &path,
-            allowance,
-        };
-        let this = &*self;
-        let more: Vec<(SweptPair, bool)> = (sweep.near..near)
-            .into_par_iter()
-            .map(|k| this.swept_pair(k, &at, reach))
-            .collect();
-        let fresh = more.iter().filter(|(_, fresh)| *fresh).count();
-        let sweep = &mut self.sweep;
-        sweep.rent += fresh as f64 + PAIR_TEST_COST * (more.len() - fresh) as f64;
-        sweep.within += more.iter().filter(|(p, _)| p.slack < 0.0).count();
-        sweep.swept.extend(more.into_iter().map(|(p, _)| p));
-        sweep.near = near;
-    }
-
-    /// What a sweep at `at` records of the cached pair `k`, and whether that took its closest
-    /// points: the bound from the build's distance and the moves since (`at.shift`) costs no
-    /// closest points; it is lower than the fresh bound (from the pair's distance at
-    /// `at.safe` and the moves along `at.path`), which is taken only where it might be needed.
-    fn swept_pair(&self, k: usize, at: &SweptFrom, reach: f64) -> (SweptPair, bool) {
-        let (pair, at_build) = &self.pairs[k];
-        let (a, b) = pair.sides();
-        let cheap = pair.relative_distance_bound(f64::from(*at_build), at.shift, at.allowance);
-        let (bound, fresh) = if cheap - reach >= CHEAP_SLACK * reach {
-            (cheap, false)
-        } else {
-            let d = pair.closest(at.safe).separation.norm();
-            (pair.relative_distance_bound(d, at.path, at.allowance), true)
-        };
-        let swept = SweptPair {
-            slack: round_down(bound - reach),
-            patches: [a, b].map(|side| self.patches.of_side(side) as u32),
-        };
-        (swept, fresh)
     }
 
     /// The indices of the pairs that repairs added since the build, increasing.
@@ -407,16 +370,6 @@ impl PairCache {
             .collect();
         (typical, outlying)
     }
-}
-
-/// Where a sweep measures its pairs' bounds ([`PairCache::swept_pair`]): the displacements
-/// `[s - r, y - r]` from the build's reference positions, the safe positions `s`, the path
-/// `[0, y - s]` from them and the allowances (m).
-struct SweptFrom<'a> {
-    shift: &'a [[Vector3<f64>; 2]],
-    safe: &'a [Vector3<f64>],
-    path: &'a [[Vector3<f64>; 2]],
-    allowance: &'a [f64],
 }
 
 /// How far beyond the reach, as a share of it, a pair's bound from the build
