@@ -30,6 +30,10 @@ pub(super) struct BarrierPush {
     tail_rows: Rows,
     /// The version of the live list the rows are for (None: none yet).
     indexed: Option<u64>,
+    /// The vertices with a pair in either rows, increasing: the only ones whose sums an
+    /// update may change (the others stay zero), so that an update costs what the contact
+    /// holds, not what the mesh does (most of a draping cloth's vertices have no live pair).
+    in_pairs: Vec<u32>,
     /// Per pair, whether it felt the barrier at its last evaluation; `false` for a pair that
     /// adds nothing to the sums, not even to `alpha`. A list of its own, a byte per pair, so
     /// that a vertex's sum skips the many live pairs beyond the barrier's reach without reading
@@ -124,6 +128,11 @@ impl Rows {
             .for_each(|row| row.sort_unstable_by_key(|&e| pairs[e as usize / SLOTS - first]));
     }
 
+    /// Whether vertex `v` has no pair.
+    fn is_empty(&self, v: usize) -> bool {
+        self.start[v] == self.start[v + 1]
+    }
+
     /// Vertex `v`'s pairs and its slot in each.
     fn of(&self, v: usize) -> impl Iterator<Item = (usize, usize)> + Clone + '_ {
         self.entries[self.start[v] as usize..self.start[v + 1] as usize]
@@ -173,6 +182,13 @@ impl BarrierPush {
                 self.tail_rows.index(&[], self.head, n);
             }
             self.indexed = Some(version);
+            let (head_rows, tail_rows) = (&self.head_rows, &self.tail_rows);
+            self.in_pairs.clear();
+            self.in_pairs.par_extend(
+                (0..n as u32).into_par_iter().filter(|&v| {
+                    !head_rows.is_empty(v as usize) || !tail_rows.is_empty(v as usize)
+                }),
+            );
         }
         let reach = barrier.reach();
         self.felt.resize(pairs.len(), false);
@@ -200,33 +216,40 @@ impl BarrierPush {
         // what extended it since), the pairs and their terms do not, and a sum of floats
         // depends on its order. So a simulation restored into a fresh solver (fresh caches)
         // continues bit for bit.
-        sums.push
-            .par_iter_mut()
-            .zip(sums.alpha.par_iter_mut())
-            .zip(sums.curvature.par_iter_mut())
-            .enumerate()
-            .for_each_init(
-                Vec::<(&Term, usize)>::new,
-                |felt_here, (v, ((push, alpha), curvature))| {
-                    let slots = head_rows.of(v).chain(tail_rows.of(v));
-                    if !all && !slots.clone().any(|(k, _)| fresh[k]) {
-                        return;
-                    }
-                    (*push, *alpha, *curvature) =
-                        (Vector3::zeros(), 0.0, SymmetricMatrix3::zeros());
-                    gather_felt(slots, felt, terms, felt_here);
-                    debug_assert!(felt_here
-                        .iter()
-                        .all(|(t, slot)| t.pair.v[*slot] as usize == v));
-                    for &(term, slot) in felt_here.iter() {
-                        let w = term.weights[slot];
-                        *push += term.normal * (term.slope * w);
-                        *alpha += term.fade * w.abs();
-                        *curvature +=
-                            SymmetricMatrix3::outer(&term.normal, term.stiffness * w.abs());
-                    }
-                },
-            );
+        // Where every sum is taken afresh, those of the vertices without a pair are zero.
+        if all {
+            sums.push.par_iter_mut().for_each(|p| *p = Vector3::zeros());
+            sums.alpha.par_iter_mut().for_each(|a| *a = 0.0);
+            sums.curvature
+                .par_iter_mut()
+                .for_each(|c| *c = SymmetricMatrix3::zeros());
+        }
+        let summed: Vec<(u32, Vector3<f64>, f64, SymmetricMatrix3<f64>)> = self
+            .in_pairs
+            .par_iter()
+            .map_init(Vec::<(&Term, usize)>::new, |felt_here, &v| {
+                let slots = head_rows.of(v as usize).chain(tail_rows.of(v as usize));
+                if !all && !slots.clone().any(|(k, _)| fresh[k]) {
+                    return None;
+                }
+                let (mut push, mut alpha, mut curvature) =
+                    (Vector3::zeros(), 0.0, SymmetricMatrix3::zeros());
+                gather_felt(slots, felt, terms, felt_here);
+                debug_assert!(felt_here.iter().all(|(t, slot)| t.pair.v[*slot] == v));
+                for &(term, slot) in felt_here.iter() {
+                    let w = term.weights[slot];
+                    push += term.normal * (term.slope * w);
+                    alpha += term.fade * w.abs();
+                    curvature += SymmetricMatrix3::outer(&term.normal, term.stiffness * w.abs());
+                }
+                Some((v, push, alpha, curvature))
+            })
+            .flatten()
+            .collect();
+        for (v, push, alpha, curvature) in summed {
+            let v = v as usize;
+            (sums.push[v], sums.alpha[v], sums.curvature[v]) = (push, alpha, curvature);
+        }
     }
 }
 
