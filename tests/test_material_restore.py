@@ -44,6 +44,27 @@ def melt():
 
 
 SOLID = pd.Elastic.from_young(1e4, 0.3)
+HONEY = pd.ViscoelasticFluid(viscosity=1.0, shear_modulus=50.0)
+
+
+def honey():
+    s = solver()
+    body = pd.Particles(lattice((5, 5, 5), (0, 0, 0.006)), spacing=S, density=1400.0,
+                        material=HONEY)
+    s.add(body)
+    return s, [body]
+
+
+def jelly():
+    s = solver()
+    body = pd.Particles(lattice((5, 5, 5), (0, 0, 0.006)), spacing=S, density=1000.0,
+                        material=SOLID)
+    s.add(body)
+    return s, [body]
+
+
+def melts_to_honey(s, bodies):
+    bodies[0].set_material(HONEY)
 
 
 def region_solidifies(s, bodies):
@@ -62,6 +83,10 @@ CASES = {
     "wetted sand": (liquid_on_sand, nothing),
     "a region solidified": (melt, region_solidifies),
     "the whole body solidified": (melt, whole_solidifies),
+    # plastic after the change (a viscoelastic fluid: its bonds follow the material)
+    "a solid melted into honey": (jelly, melts_to_honey),
+    # plastic before it, elastic after
+    "honey solidified": (honey, whole_solidifies),
 }
 
 
@@ -141,6 +166,54 @@ def test_a_version_1_file_leaves_the_material_as_it_is(tmp_path):
     np.savez(tmp_path / "mixed.npz", **old)
     with pytest.raises(ValueError, match="unexpected entries"):
         pd.load_state(tmp_path / "mixed.npz", liquid_on_sand()[0])
+
+
+def entries(path):
+    with np.load(path) as data:
+        return {k: data[k] for k in data.files}
+
+
+def snapshot(bodies):
+    return [(b.positions.copy(), b.velocities.copy(), b.material_state) for b in bodies]
+
+
+def same(a, b):
+    return all(np.array_equal(x[0], y[0]) and np.array_equal(x[1], y[1])
+               and all(np.array_equal(x[2][k], y[2][k]) for k in x[2]) for x, y in zip(a, b))
+
+
+def test_a_refused_material_leaves_the_solver_as_it_was(tmp_path):
+    """A file whose material entry is malformed is refused before anything changes; one whose
+    material the body refuses (saturations for a liquid) is undone; either error names the
+    entry and the body."""
+    s, bodies = liquid_on_sand()
+    run(s, bodies, nothing, SAVE)
+    path = pd.save_state(tmp_path / "state.npz", s)
+    target, targets = liquid_on_sand()
+    run(target, targets, nothing, 3)
+    before = snapshot(targets)
+    e = entries(path)
+    bad = dict(e, material_reference_1=e["material_reference_1"][:-1])
+    np.savez(tmp_path / "short.npz", **bad)
+    with pytest.raises(ValueError, match="material_reference_1"):
+        pd.load_state(tmp_path / "short.npz", target)
+    assert same(snapshot(targets), before)
+    wet = dict(e, material_wetted_1=np.full(len(e["positions_1"]), 0.5))
+    np.savez(tmp_path / "wet.npz", **wet)
+    with pytest.raises(ValueError, match=r"body 1's material .*not sand"):
+        pd.load_state(tmp_path / "wet.npz", target)
+    assert same(snapshot(targets), before)
+
+
+def test_a_plastic_body_without_its_bonds_in_the_file_is_refused(tmp_path):
+    s, bodies = honey()
+    run(s, bodies, nothing, SAVE)
+    path = pd.save_state(tmp_path / "state.npz", s)
+    e = {k: v for k, v in entries(path).items() if not k.startswith("bonds_")}
+    np.savez(tmp_path / "bare.npz", **e)
+    target, _ = honey()
+    with pytest.raises(ValueError, match="body 0 is plastic but the file holds no entries"):
+        pd.load_state(tmp_path / "bare.npz", target)
 
 
 def test_bad_material_states_are_refused_by_name():

@@ -21,6 +21,16 @@ PathLike = Union[str, "os.PathLike[str]"]
 _FORMATS = ("ply", "obj")
 
 
+def __getattr__(name: str) -> Any:
+    """``save_state``, ``load_state`` and ``STATE_FORMAT_VERSION`` lived here before
+    :mod:`peridyn.state`; they are found there (imported late: it imports this module)."""
+    if name in ("save_state", "load_state", "STATE_FORMAT_VERSION"):
+        from . import state
+
+        return getattr(state, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 def write_mesh(path: PathLike, V: npt.ArrayLike, F: npt.ArrayLike) -> Path:
     """Write a triangle mesh to a PLY (binary) or OBJ file, chosen by the file suffix.
 

@@ -94,6 +94,19 @@ _BOND_ENTRIES = {
 }
 
 
+#: The entries of a particle body's material state (``Particles.material_state``) beside its
+#: region bonds (``region_<bond entry>``): dtype kind and the shapes allowed ("N": the
+#: body's particle count; an empty shape for a part the body does not have).
+_MATERIAL_ENTRIES = {
+    "elastic": ("f", [(3,)]),
+    "fluid": ("f", [(0,), (9,)]),
+    "horizon": ("f", [(0,), (1,)]),
+    "reference": ("f", [("N", 3)]),
+    "fluid_mask": ("b", [(0,), ("N",)]),
+    "wetted": ("f", [(0,), ("N",)]),
+}
+
+
 def _is_membrane(body: Any) -> bool:
     """Membranes have vertices and a self-contact switch; particle bodies have neither."""
     return hasattr(body, "num_vertices")
@@ -136,7 +149,7 @@ def _apply(solver: Any, state: _State) -> None:
     """Sets ``state`` into ``solver`` (checked against it beforehand)."""
     if state.dt is not None:
         solver.dt = state.dt
-    for body, b in zip(solver.bodies, state.bodies):
+    for index, (body, b) in enumerate(zip(solver.bodies, state.bodies)):
         body.positions = b.positions
         body.velocities = b.velocities
         body.unpin()
@@ -145,10 +158,18 @@ def _apply(solver: Any, state: _State) -> None:
         if b.self_contact is not None:
             body.self_contact = b.self_contact
         if b.material is not None:
-            body.material_state = b.material
-        # After the material: a body made plastic or not by it takes its bonds or none.
-        if not _is_membrane(body) and (body.plasticity is not None or b.bonds is not None):
-            body.rest_bonds = b.bonds
+            try:
+                body.material_state = b.material
+            except ValueError as e:
+                raise ValueError(f"body {index}'s material (entries 'material_<name>_{index}'): "
+                                 f"{e}") from e
+        # After the material: a body made plastic by it takes its bonds, another none.
+        if not _is_membrane(body):
+            if body.plasticity is not None and b.bonds is None:
+                raise ValueError(f"body {index} is plastic but the file holds no entries "
+                                 f"'bonds_<name>_{index}'")
+            if body.plasticity is not None or b.bonds is not None:
+                body.rest_bonds = b.bonds
     for c, (base, target) in enumerate(state.colliders):
         extra = {}
         if target is not None:
@@ -379,12 +400,12 @@ class _Entries:
                 raise _invalid(self.path, f"entry {key!r} is not sorted without repeats")
         return value.astype(np.int64)
 
-    def bonds(self, b: int) -> Dict[str, np.ndarray]:
-        """Body ``b``'s bonds (entries ``bonds_<name>_<b>``), of the dtypes and dimensions of
-        :data:`_BOND_ENTRIES`; whether they fit the body is checked when they are set."""
+    def bonds(self, b: int, prefix: str = "bonds_") -> Dict[str, np.ndarray]:
+        """Body ``b``'s bonds (entries ``<prefix><name>_<b>``), of the dtypes and dimensions
+        of :data:`_BOND_ENTRIES`; whether they fit the body is checked when they are set."""
         bonds = {}
         for name, (kind, columns) in _BOND_ENTRIES.items():
-            key = f"bonds_{name}_{b}"
+            key = f"{prefix}{name}_{b}"
             value = self._get(key)
             self._kind(key, value, "iu" if kind == "i" else "f",
                        "integers" if kind == "i" else "real floats")
@@ -399,11 +420,25 @@ class _Entries:
             bonds[name] = value
         return bonds
 
-    def material(self, b: int, like: Dict[str, Any]) -> Dict[str, np.ndarray]:
-        """Body ``b``'s material state (entries ``material_<name>_<b>``, one per entry of the
-        body's own ``like``), real numbers or bools of any shape, finite; whether they fit
-        the body is checked when they are set."""
-        return {name: self.numbers(f"material_{name}_{b}") for name in like}
+    def material(self, b: int, n: int) -> Dict[str, np.ndarray]:
+        """Body ``b``'s material state (entries ``material_<name>_<b>`` of
+        :data:`_MATERIAL_ENTRIES`) for a body of ``n`` particles: each of its dtype kind and
+        one of its shapes, finite; whether they fit the body is checked when they are set."""
+        material = {}
+        for name, (kind, shapes) in _MATERIAL_ENTRIES.items():
+            key = f"material_{name}_{b}"
+            value = self._get(key)
+            self._kind(key, value, kind, "bools" if kind == "b" else "real floats")
+            allowed = [tuple(n if d == "N" else d for d in shape) for shape in shapes]
+            if value.shape not in allowed:
+                raise _invalid(self.path, f"entry {key!r} has shape {value.shape}, expected "
+                                          + " or ".join(str(a) for a in allowed))
+            if kind == "f":
+                value = self.floats(key, value.shape)
+            material[name] = value
+        bonds = self.bonds(b, prefix="material_region_")
+        material.update({f"region_{name}": value for name, value in bonds.items()})
+        return material
 
     def leftovers(self) -> None:
         extra = sorted(set(self.entries) - self.taken)
@@ -445,7 +480,7 @@ def _parse(path: Any, entries: Dict[str, np.ndarray], solver: Any) -> _State:
         self_contact = e.boolean(f"self_contact_{b}") if version >= 1 and membrane else None
         material = None
         if version >= 2 and not membrane:
-            material = e.material(b, body.material_state)
+            material = e.material(b, n)
         bonds = None
         if not membrane and (e.has(f"bonds_offsets_{b}")
                              or (version < 2 and body.plasticity is not None)):

@@ -12,7 +12,8 @@ use nalgebra::Vector3;
 
 use crate::error::{invalid, Result};
 
-use super::{Elastic, ParticleParams, Particles, RestBonds, ViscoelasticFluid, FLUID_PLACEHOLDER};
+use super::transition::check_region_bonds;
+use super::{Elastic, ParticleParams, Particles, RestBonds, ViscoelasticFluid};
 
 /// A body's material as a run has left it (see the module's doc).
 #[derive(Debug, Clone, PartialEq)]
@@ -98,6 +99,12 @@ impl Particles {
                     ));
                 }
                 bonds.check(n)?;
+                let delta = ParticleParams {
+                    horizon: state.horizon,
+                    ..self.params
+                }
+                .delta();
+                check_region_bonds(bonds, mask, delta)?;
             }
             (None, None) => {}
             (Some(_), None) => return Err(invalid!("a fluid mask comes with its bonds")),
@@ -114,25 +121,31 @@ impl Particles {
             ));
         }
         // A mixed body's parameters hold its solid particles' material (a fluid body's
-        // placeholder until a region first turned solid), resolved before anything changes.
+        // placeholder until a region first turned solid), resolved before anything changes
+        // where a solid particle needs it.
         let mixed_moduli = match &state.fluid_mask {
-            Some(_) if state.elastic != FLUID_PLACEHOLDER => {
+            Some(mask) => {
                 let params = ParticleParams {
                     horizon: state.horizon,
                     material: state.elastic,
                     ..self.params
                 };
                 params.validate()?;
-                Some(state.elastic.resolve(params.spacing, params.delta())?)
+                match mask.iter().any(|&f| !f) {
+                    true => Some(state.elastic.resolve(params.spacing, params.delta())?),
+                    false => None,
+                }
             }
-            _ => None,
+            None => None,
         };
         if !same_material {
             // Checks (and refuses) before it changes anything.
             self.adopt_material(state.elastic, state.fluid, state.horizon, state.reference)?;
         }
-        if let Some(moduli) = mixed_moduli {
+        if state.fluid_mask.is_some() {
             self.params.material = state.elastic;
+        }
+        if let Some(moduli) = mixed_moduli {
             self.moduli = moduli;
         }
         let region = self.fluid_mask.as_ref().and(self.rest_bonds.as_ref());
@@ -230,12 +243,47 @@ mod tests {
         fresh.restore_material_state(state).unwrap();
         assert_eq!(fresh.material_state(), run.material_state());
         assert_eq!(fresh.fluid_mask(), run.fluid_mask());
+        assert_eq!(fresh.moduli(), run.moduli());
         // And back: a body mixed after the save returns to one material.
         let mut later = run;
         later
             .restore_material_state(water().material_state())
             .unwrap();
         assert_eq!(later.material_state(), water().material_state());
+    }
+
+    #[test]
+    fn a_mixed_body_of_any_elastic_material_keeps_its_moduli() {
+        // The paper's parameters mu = 1 Pa, lam = 0 (a fluid body's placeholder material).
+        let weak = Elastic::Paper { mu: 1.0, lam: 0.0 };
+        let mut run = water();
+        stir(&mut run);
+        let region: Vec<i64> = (0..40).collect();
+        run.set_material_of(&region, RegionMaterial::Solid(weak))
+            .unwrap();
+        assert!(run.moduli().mu > 0.0);
+        let mut fresh = water();
+        fresh.restore_material_state(run.material_state()).unwrap();
+        assert_eq!(fresh.moduli(), run.moduli());
+    }
+
+    #[test]
+    fn region_bonds_that_do_not_fit_the_mask_are_refused() {
+        let mut run = water();
+        stir(&mut run);
+        let region: Vec<i64> = (0..40).collect();
+        run.set_material_of(&region, RegionMaterial::Solid(solid()))
+            .unwrap();
+        let state = run.material_state();
+        let bonded = state.region_bonds.as_ref().unwrap().indices[0] as usize;
+        let mut wet = state.clone();
+        wet.fluid_mask.as_mut().unwrap()[bonded] = true;
+        let err = water().restore_material_state(wet).unwrap_err().to_string();
+        assert!(err.contains("one of them fluid"), "{err}");
+        let mut dry = state;
+        dry.fluid_mask = Some(vec![false; run.num_particles()]);
+        let err = water().restore_material_state(dry).unwrap_err().to_string();
+        assert!(err.contains("three-dimensional"), "{err}");
     }
 
     #[test]

@@ -220,13 +220,6 @@ impl Particles {
                         }),
                 );
                 row.sort_by_key(|e| e.0);
-                let mut shape = Matrix3::<f64>::zeros();
-                for (_, xi, born) in &row {
-                    shape += xi * xi.transpose() * influence(*born, delta);
-                }
-                if shape_inverse(&shape).is_none() {
-                    return Err(flat_neighbourhood(i, row.len(), delta));
-                }
             }
             for (j, xi, born) in &row {
                 out.indices.push(*j);
@@ -235,8 +228,39 @@ impl Particles {
             }
             out.offsets.push(out.indices.len() as u32);
         }
+        check_region_bonds(&out, fluid, delta)?;
         Ok(out)
     }
+}
+
+/// Checks a mixed body's bonds against its fluid mask `fluid` for the horizon `delta` (m):
+/// bonds join solid particles only, and every solid particle's bonds make a three-dimensional
+/// neighbourhood (its shape matrix invertible). Fails naming the first culprit.
+pub(super) fn check_region_bonds(bonds: &RestBonds, fluid: &[bool], delta: f64) -> Result<()> {
+    for (i, &is_fluid) in fluid.iter().enumerate() {
+        let row = bonds.offsets[i] as usize..bonds.offsets[i + 1] as usize;
+        if let Some(b) = row
+            .clone()
+            .find(|&b| is_fluid || fluid[bonds.indices[b] as usize])
+        {
+            return Err(invalid!(
+                "bond {b} joins particles {i} and {}, one of them fluid: a mixed body's bonds \
+                 join solid particles only",
+                bonds.indices[b]
+            ));
+        }
+        if is_fluid {
+            continue;
+        }
+        let mut shape = Matrix3::<f64>::zeros();
+        for b in row.clone() {
+            shape += bonds.xi[b] * bonds.xi[b].transpose() * influence(bonds.born[b], delta);
+        }
+        if shape_inverse(&shape).is_none() {
+            return Err(flat_neighbourhood(i, row.len(), delta));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
