@@ -218,11 +218,27 @@ mod tests {
         body.set_positions(y).unwrap();
     }
 
-    #[test]
-    fn a_body_that_solidified_whole_is_restored_into_a_fresh_one() {
+    /// Water moved as by a step, then solidified whole.
+    fn solidified() -> Particles {
         let mut run = water();
         stir(&mut run);
         run.set_material(solid(), None).unwrap();
+        run
+    }
+
+    /// Water moved as by a step, then its first 40 particles turned to `elastic`.
+    fn mixed(elastic: Elastic) -> Particles {
+        let mut run = water();
+        stir(&mut run);
+        let region: Vec<i64> = (0..40).collect();
+        run.set_material_of(&region, RegionMaterial::Solid(elastic))
+            .unwrap();
+        run
+    }
+
+    #[test]
+    fn a_body_that_solidified_whole_is_restored_into_a_fresh_one() {
+        let run = solidified();
         let mut fresh = water();
         fresh.restore_material_state(run.material_state()).unwrap();
         assert_eq!(fresh.material_state(), run.material_state());
@@ -232,11 +248,7 @@ mod tests {
 
     #[test]
     fn a_mixed_body_is_restored_with_its_mask_and_bonds() {
-        let mut run = water();
-        stir(&mut run);
-        let region: Vec<i64> = (0..40).collect();
-        run.set_material_of(&region, RegionMaterial::Solid(solid()))
-            .unwrap();
+        let run = mixed(solid());
         let state = run.material_state();
         assert!(state.fluid_mask.is_some() && state.region_bonds.is_some());
         let mut fresh = water();
@@ -256,11 +268,7 @@ mod tests {
     fn a_mixed_body_of_any_elastic_material_keeps_its_moduli() {
         // The paper's parameters mu = 1 Pa, lam = 0 (a fluid body's placeholder material).
         let weak = Elastic::Paper { mu: 1.0, lam: 0.0 };
-        let mut run = water();
-        stir(&mut run);
-        let region: Vec<i64> = (0..40).collect();
-        run.set_material_of(&region, RegionMaterial::Solid(weak))
-            .unwrap();
+        let run = mixed(weak);
         assert!(run.moduli().mu > 0.0);
         let mut fresh = water();
         fresh.restore_material_state(run.material_state()).unwrap();
@@ -269,11 +277,7 @@ mod tests {
 
     #[test]
     fn region_bonds_that_do_not_fit_the_mask_are_refused() {
-        let mut run = water();
-        stir(&mut run);
-        let region: Vec<i64> = (0..40).collect();
-        run.set_material_of(&region, RegionMaterial::Solid(solid()))
-            .unwrap();
+        let run = mixed(solid());
         let state = run.material_state();
         let bonded = state.region_bonds.as_ref().unwrap().indices[0] as usize;
         let mut wet = state.clone();
@@ -331,9 +335,7 @@ mod tests {
 
     #[test]
     fn a_refused_state_changes_nothing() {
-        let mut run = water();
-        stir(&mut run);
-        run.set_material(solid(), None).unwrap();
+        let run = solidified();
         let mut body = water();
         let before = body.material_state();
         let revision = body.bonds_revision();
