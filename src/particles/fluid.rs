@@ -8,8 +8,9 @@
 //! **Viscoelastic fluids (section 6: "Lame parameters as constants and phi = 0").** With
 //! `shear_modulus = G > 0` the body is also an elastoplastic particle body of the paper's
 //! sections 4-5, on top of the fluid terms: the elastic kernel with the calibrated material
-//! `E = 5 G / 2`, `nu = 1/4` (the bond model's own Poisson ratio, so no dilatation term and
-//! `G` is the continuum shear modulus along the lattice axes), and a Drucker-Prager law with
+//! `E = 5 G / 2`, `nu = 1/4` (near the bond model's own Poisson ratio: on the default lattice
+//! the calibration adds a small dilatation term, `kappa` about 0.05 of `c`; `G` is the
+//! continuum shear modulus `E / (2 (1 + nu))` of the asked E and nu), and a Drucker-Prager law with
 //! `phi = 0` (a von Mises cone: cohesion `c = yield_stress / 2`, so a bar in tension yields at
 //! `yield_stress`) whose return moves the bonds' rest shape with the flow, and whose
 //! neighbour rebuild on the deformed positions (eq. 20) gives a particle the neighbours it
