@@ -35,32 +35,29 @@ def liquid_on_sand():
     return s, [sand, water]
 
 
-def melt():
-    s = solver()
-    body = pd.Particles(lattice((5, 5, 5), (0, 0, 0.006)), spacing=S, density=1000.0,
-                        material=pd.ViscoelasticFluid(viscosity=1.0))
-    s.add(body)
-    return s, [body]
-
-
 SOLID = pd.Elastic.from_young(1e4, 0.3)
 HONEY = pd.ViscoelasticFluid(viscosity=1.0, shear_modulus=50.0)
 
 
-def honey():
+def block(material, density):
+    """A 5^3 block of ``material`` (kg/m^3) just above the floor, alone in a solver."""
     s = solver()
-    body = pd.Particles(lattice((5, 5, 5), (0, 0, 0.006)), spacing=S, density=1400.0,
-                        material=HONEY)
+    body = pd.Particles(lattice((5, 5, 5), (0, 0, 0.006)), spacing=S, density=density,
+                        material=material)
     s.add(body)
     return s, [body]
+
+
+def melt():
+    return block(pd.ViscoelasticFluid(viscosity=1.0), 1000.0)
+
+
+def honey():
+    return block(HONEY, 1400.0)
 
 
 def jelly():
-    s = solver()
-    body = pd.Particles(lattice((5, 5, 5), (0, 0, 0.006)), spacing=S, density=1000.0,
-                        material=SOLID)
-    s.add(body)
-    return s, [body]
+    return block(SOLID, 1000.0)
 
 
 def melts_to_honey(s, bodies):
