@@ -543,3 +543,15 @@ def test_internal_state_is_saved_checked_and_restored_all_or_nothing(tmp_path):
     s.refuse = False
     peridyn.load_state(write(tmp_path / "none.npz", e), s)
     assert s.internal_state() == {}
+
+
+def test_the_state_functions_still_answer_from_peridyn_io():
+    """save_state, load_state and STATE_FORMAT_VERSION moved to peridyn.state; code that took
+    them from peridyn.io (their home before) still finds the same objects there."""
+    import peridyn.io
+    import peridyn.state
+
+    for name in ("save_state", "load_state", "STATE_FORMAT_VERSION"):
+        assert getattr(peridyn.io, name) is getattr(peridyn.state, name)
+    with pytest.raises(AttributeError):
+        peridyn.io.no_such_name
