@@ -14,11 +14,19 @@
 //! collisions. The constraint is projected in the local step, where the colliders are: the
 //! global move proposes `p = y + alpha delta` for every particle, and each particle is moved by
 //! its share of every violated pair at the proposed positions,
-//! `c_i = sum_j m_j / (m_i + m_j) (d_ij - |p_i - p_j|) dir(p_i - p_j)` (m), a Jacobi pass of
-//! position-based dynamics: the two moves of a pair are equal and opposite in momentum, and
-//! together close the pair's gap exactly. The move `c_i` counts as a reaction in the
-//! convergence measure, as a collider's does, so at the iteration's fixed point (`c_i = -alpha
-//! delta_i`) an isolated pair sits exactly `d_ij` apart.
+//! `c_i = sum_j D_j / (D_i + D_j) (d_ij - |p_i - p_j|) dir(p_i - p_j)` (m) between bodies,
+//! a Jacobi pass of position-based dynamics in the metric of the Jacobi diagonal `D_i = m_i + h^2 L_ii` (kg),
+//! as the colliders project: the two moves of a pair close its gap exactly, and `D_i c_i =
+//! -D_j c_j`. The move `c_i` counts as a reaction in the convergence measure, as a collider's
+//! does, so at the iteration's fixed point (`c_i = -alpha delta_i`) an isolated pair sits
+//! exactly `d_ij` apart, and the pair's reactions in the residual, `r_i = -D_i c_i`, are equal
+//! and opposite: the converged step keeps the bodies' momentum, and the coarse step
+//! ([`super::coarse`]), which balances each body's net residual against its contacts, has
+//! nothing left to move at the fixed point. (Shares by mass, `m_j / (m_i + m_j)`, leave the
+//! pair a net force at the fixed point wherever its two particles' `D / m` differ, as between
+//! a block's corner and the face of another.) Grains of one granular body keep the mass
+//! shares: no coarse step moves them apart (the body's translation is one), and their
+//! calibration (tests/test_granular.py) was made with them.
 //!
 //! Candidates are found once per step, at its start, by cell lists ([`find_horizons`]) among
 //! the colliding particles within `2 d_max + 2 s`, with `d_max` the largest margin and `s` the
@@ -144,8 +152,15 @@ impl<T: Real> Repulsion<T> {
     }
 
     /// Each particle's move `c_i` (m) for the proposed moves `alpha delta` (m) from the
-    /// iterate, among the candidates of [`Self::start_step`].
-    pub fn correct(&mut self, points: &Points<T>, delta: &[Vector3<T>], alpha: T) {
+    /// iterate, among the candidates of [`Self::start_step`], `diagonal(i)` the Jacobi
+    /// diagonal `D_i` (kg) that weighs particle `i`'s share.
+    pub fn correct(
+        &mut self,
+        points: &Points<T>,
+        delta: &[Vector3<T>],
+        alpha: T,
+        diagonal: impl Fn(usize) -> T + Sync,
+    ) {
         let (y, pinned) = (&points.y, &points.pinned);
         self.proposed.par_iter_mut().enumerate().for_each(|(i, p)| {
             *p = if pinned[i] {
@@ -155,7 +170,8 @@ impl<T: Real> Repulsion<T> {
             };
         });
         let (proposed, offsets, indices) = (&self.proposed, &self.offsets, &self.indices);
-        let (mass, margin, start) = (&points.mass, &points.margin, &points.y_start);
+        let (mass, margin, start, body) =
+            (&points.mass, &points.margin, &points.y_start, &self.body);
         let friction = &self.friction;
         self.correction
             .par_iter_mut()
@@ -174,8 +190,11 @@ impl<T: Real> Repulsion<T> {
                     }
                     let share = if pinned[j] {
                         T::one()
-                    } else {
+                    } else if body[i] == body[j] {
                         mass[j] / (mass[i] + mass[j])
+                    } else {
+                        let (d_i, d_j) = (diagonal(i), diagonal(j));
+                        d_j / (d_i + d_j)
                     };
                     *c += gap * (share * (reach - distance) / distance);
                     let mu = friction.get(i).map_or(T::zero(), |&a| a.min(friction[j]));
