@@ -38,20 +38,19 @@
 //! unconstrained solution; the solution is the `M`-projection of `t0` onto a convex set that
 //! holds `t = 0`, so its `M`-norm is at most `t0`'s).
 //!
-//! The problem is solved through its dual by projected Gauss-Seidel on the contacts'
-//! multipliers `lambda_c >= 0` (N s^2; equality constraints unbounded), from `t = t0`, in a
-//! fixed order (the same for any thread count), until no sweep moves a translation by more
-//! than [`TOLERANCE`] of `max |t0|` or [`MAX_SWEEPS`] sweeps. Its inexactness only slows the
-//! outer iteration: the fixed point is left alone, since at the solution every body's net
+//! The problem is solved by projected Gauss-Seidel on its dual ([`super::coarse_problem`]).
+//! Its inexactness only slows the outer iteration: the fixed point is left alone, since at the solution every body's net
 //! residual is balanced by its contacts (`F_b = sum_c lambda_c n_c`, the KKT condition,
 //! holds with `t = 0`).
 //!
 //! **Who takes part.** A body with a pinned particle, or with a particle that another family
 //! holds (`coupled`, a membrane's reaction on it, [`crate::solve::coupling`]), is fixed (as a
 //! collider is). So is a granular body or one with fluid particles that a collider or another
-//! body touched in the last trial (`touched`): their grains and fluid particles are held by
-//! the repulsion within and the density constraints, not as one body; they take the coarse
-//! translation in free flight only. Rotations are left to the sweep: the deviatoric bond
+//! body touched in the step's last trial (`touched`): their grains and fluid particles are
+//! held by the repulsion within and the density constraints, not as one body; they take the
+//! coarse translation in free flight only. `touched` starts empty at each step (at its first
+//! iteration their contacts enter as constraints, as a solid body's), since no state file
+//! holds the last step's. Rotations are left to the sweep: the deviatoric bond
 //! forces (eq. 10) are not central, so their torques need not sum to zero over a body, and a
 //! rigid rotation fitted to them would spin it.
 //!
@@ -65,56 +64,8 @@ use crate::collider::ColliderModel;
 use crate::real::Real;
 use crate::solve::points::Points;
 
+use super::coarse_problem::{Coarse, Contact};
 use super::system::ParticleSystem;
-
-/// The projected Gauss-Seidel stops when no contact moves a translation by more than this
-/// fraction of the largest unconstrained translation `max |t0_b|`.
-pub const TOLERANCE: f64 = 1e-10;
-/// Most projected Gauss-Seidel sweeps over the contacts in one coarse solve.
-pub const MAX_SWEEPS: usize = 200;
-
-/// One linearised contact of the coarse problem: `n . (t_a - t_b) >= bound` (or `=` for an
-/// equality), `b` `None` for a collider or a fixed body.
-#[derive(Debug, Clone, Copy)]
-struct Contact {
-    a: usize,
-    b: Option<usize>,
-    n: Vector3<f64>,
-    bound: f64,
-    equality: bool,
-    lambda: f64,
-}
-
-/// The coarse problem's data, kept between iterations so that the loop allocates nothing once
-/// the buffers have grown to the scene's contacts.
-#[derive(Debug, Default)]
-pub(crate) struct Coarse {
-    /// Per body: whether it takes part while in contact (not granular, no fluid particle).
-    solid: Vec<bool>,
-    /// Per body: the inverse mass (1/kg; 0 for a fixed body), the net residual `F_b` (kg m)
-    /// and the translation (m).
-    inverse_mass: Vec<f64>,
-    force: Vec<Vector3<f64>>,
-    translation: Vec<Vector3<f64>>,
-    contacts: Vec<Contact>,
-    /// The projected Gauss-Seidel sweeps of the last coarse solve.
-    pub sweeps: usize,
-}
-
-impl Coarse {
-    /// The coarse problem of bodies of which `solid` says which take part while in contact.
-    pub fn new(solid: Vec<bool>) -> Self {
-        let n = solid.len();
-        Self {
-            solid,
-            inverse_mass: vec![0.0; n],
-            force: vec![Vector3::zeros(); n],
-            translation: vec![Vector3::zeros(); n],
-            contacts: Vec::new(),
-            sweeps: 0,
-        }
-    }
-}
 
 /// Adds every body's coarse translation (module doc) to `sys.delta`, the fine sweep's move
 /// from the residual `sys.current.residual`, and to the Chebyshev history. `coupled` holds
@@ -125,11 +76,10 @@ pub(crate) fn correct<T: Real>(
     coupled: &[Vector3<T>],
 ) {
     let mut coarse = std::mem::take(&mut sys.coarse);
-    coarse.sweeps = 0;
     let energy = net_residuals(sys, &mut coarse, coupled);
     if energy > 0.0 {
         gather_contacts(sys, &mut coarse, colliders, energy);
-        solve(&mut coarse);
+        coarse.solve();
         apply(sys, &coarse);
     }
     sys.coarse = coarse;
@@ -225,57 +175,6 @@ fn gather_contacts<T: Real>(
                 let b = b_free.then_some(b);
                 contacts.push(Contact::new(a, b, n, -gap.max(0.0), false));
             }
-        }
-    }
-}
-
-impl Contact {
-    fn new(a: usize, b: Option<usize>, n: Vector3<f64>, bound: f64, equality: bool) -> Self {
-        Self {
-            a,
-            b,
-            n,
-            bound,
-            equality,
-            lambda: 0.0,
-        }
-    }
-}
-
-/// Projected Gauss-Seidel on the contacts' multipliers from `t = t0` (module doc).
-fn solve(coarse: &mut Coarse) {
-    let Coarse {
-        inverse_mass: w,
-        translation: t,
-        contacts,
-        sweeps,
-        ..
-    } = coarse;
-    if contacts.is_empty() {
-        return;
-    }
-    let scale = t.iter().map(|t| t.norm()).fold(0.0, f64::max);
-    while *sweeps < MAX_SWEEPS {
-        *sweeps += 1;
-        let mut largest: f64 = 0.0;
-        for c in contacts.iter_mut() {
-            let w_b = c.b.map_or(0.0, |b| w[b]);
-            let relative = t[c.a] - c.b.map_or(Vector3::zeros(), |b| t[b]);
-            let k = w[c.a] + w_b;
-            let mut lambda = c.lambda + (c.bound - c.n.dot(&relative)) / k;
-            if !c.equality {
-                lambda = lambda.max(0.0);
-            }
-            let change = lambda - c.lambda;
-            c.lambda = lambda;
-            t[c.a] += c.n * (w[c.a] * change);
-            if let Some(b) = c.b {
-                t[b] -= c.n * (w_b * change);
-            }
-            largest = largest.max(change.abs() * k);
-        }
-        if largest <= TOLERANCE * scale {
-            break;
         }
     }
 }
