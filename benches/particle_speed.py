@@ -93,7 +93,8 @@ def main():
     ap.add_argument("--budget", type=float, default=120.0,
                     help="stop growing once a size took longer (s)")
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)  # one size, in a child process
-    ap.add_argument("--out", help="JSON path (default benches/results/particle_speed.json)")
+    ap.add_argument("--out", help="JSON path (default benches/results/particle_speed.json); "
+                    "the plot goes beside it, with the suffix .png")
     args = ap.parse_args()
 
     if args.n is not None:
@@ -142,7 +143,8 @@ def main():
             ax.set_ylabel("ms per step (f32, h = 1/30 s)")
             ax.legend()
             fig.tight_layout()
-            path = C.RESULTS / "particle_speed.png"
+            path = (Path(args.out) if args.out else C.RESULTS / "particle_speed.json")
+            path = path.with_suffix(".png")  # beside the JSON, so --out moves both
             fig.savefig(path, dpi=120)
             print(f"wrote {path}")
         except ImportError:

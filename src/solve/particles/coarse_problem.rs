@@ -74,8 +74,8 @@ impl Coarse {
     }
 
     /// Projected Gauss-Seidel on the contacts' multipliers from `t = t0` (module doc), which
-    /// `translation` holds on entry; returns the sweeps it took.
-    pub fn solve(&mut self) -> usize {
+    /// `translation` holds on entry.
+    pub fn solve(&mut self) {
         let Self {
             inverse_mass: w,
             translation: t,
@@ -83,12 +83,10 @@ impl Coarse {
             ..
         } = self;
         if contacts.is_empty() {
-            return 0;
+            return;
         }
         let scale = t.iter().map(|t| t.norm()).fold(0.0, f64::max);
-        let mut sweeps = 0;
-        while sweeps < MAX_SWEEPS {
-            sweeps += 1;
+        for _ in 0..MAX_SWEEPS {
             let mut largest: f64 = 0.0;
             for c in contacts.iter_mut() {
                 let w_b = c.b.map_or(0.0, |b| w[b]);
@@ -110,6 +108,5 @@ impl Coarse {
                 break;
             }
         }
-        sweeps
     }
 }
