@@ -14,6 +14,7 @@ use crate::symmetric::SymmetricMatrix3;
 
 use super::system::MembraneSystem;
 use crate::solve::point_system::PointSystem;
+use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
 
 /// What vertex `k`'s system is assembled from, read from the responses of the last evaluation.
@@ -368,6 +369,8 @@ fn finish_vertex<T: Real>(
         T::one()
     };
     let margin = sys.rest.vertices[k].half_thickness;
+    // The colliders this vertex meets: the same set the clearance was measured over.
+    let colliders = Points::colliders_of(&sys.points.collides, k, options.colliders);
     let free_move = sys.points.y[k] + delta * alpha;
     // A move that surely stays clear of every collider is left as it is, as the push would.
     let clear = sys
@@ -383,7 +386,7 @@ fn finish_vertex<T: Real>(
             &sys.points.y_start[k],
             &local.inverse,
             margin,
-            options.colliders,
+            colliders,
         )
     };
     // The colliders' reaction to the whole Jacobi move (see `free_residual`): the one just
@@ -391,7 +394,7 @@ fn finish_vertex<T: Real>(
     let collider_reaction = if alpha == T::one() {
         *next - free_move
     } else {
-        whole_move_reaction(sys, k, local, &delta, options.colliders)
+        whole_move_reaction(sys, k, local, &delta, colliders)
     };
     // Chebyshev extrapolates the unconstrained iteration only: a vertex a collider holds keeps
     // its projected position, else the extrapolation would push it along the contact past
