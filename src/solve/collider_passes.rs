@@ -4,6 +4,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use crate::collider::pose::ORTHONORMAL_TOLERANCE;
 use crate::collider::{push_out_of_colliders, ColliderModel, MoveStart, ShapeModel};
 use crate::real::Real;
 
@@ -43,6 +44,11 @@ pub(crate) fn push_next_out_of_colliders<T: Real>(
     let (y, pinned, margin) = (&points.y, &points.pinned, &points.margin);
     let collides = &points.collides;
     let clearance = &mut points.clearance;
+    // One measure per point, so that the zip below covers every point: a clearance not reset
+    // for this many points holds no measure of them.
+    if clearance.distance.len() != points.y_next.len() {
+        clearance.reset(points.y_next.len(), colliders);
+    }
     let extent = clearance.extent;
     points
         .y_next
@@ -111,10 +117,20 @@ impl<T: Real> Clearance<T> {
 }
 
 /// [`Clearance::clears`] for a point measured at `at` with the smallest signed distance
-/// `distance` (m). At `to` every collider's distance is at least `distance - |to - at|`, which
+/// `distance` (m). At `to` every collider's distance is at least `distance - L |to - at|`, which
 /// must be at least `margin` (no projection) and at least the move's length (the collider's
 /// `keep_side` then sees a path that cannot cross it), less a guard for the round-off of the
 /// distances and lengths (64 units in the last place of the coordinates' and colliders' scale).
+///
+/// `L` bounds how fast a collider's computed distance changes per metre moved. The shapes'
+/// distances are exact in their frame, but the frame is reached through the pose's rotation
+/// `R` and a box's axes `Q`, which [`crate::collider::rotation_matrix`] accepts with
+/// `|R^T R - I| < eps` entry by entry (`eps` = [`ORTHONORMAL_TOLERANCE`]): then
+/// `|R^T R - I|_2 <= |R^T R - I|_F < 3 eps`, so `|R|_2 <= sqrt(1 + 3 eps) <= 1 + 3 eps / 2`,
+/// and a box's distance, through `Q^T R^T`, changes by at most `(1 + 3 eps / 2)^2 < 1 + 4 eps`
+/// times the length moved. So `L = 1 + 4 eps`: a slack of `4 eps |to - at|` (5e-11 m for a
+/// 0.1 m move, where the guard is ~1e-14 m). Conversion to f32 adds ulps to `R`, within the
+/// guard.
 #[inline(always)]
 fn clears<T: Real>(
     (at, distance): (&Vector3<T>, T),
@@ -125,7 +141,7 @@ fn clears<T: Real>(
 ) -> bool {
     let scale = from.norm() + to.norm() + at.norm() + extent;
     let guard = T::default_epsilon() * T::of(64.0) * scale;
-    let left = distance - (to - at).norm() - guard;
+    let left = distance - (to - at).norm() * T::of(1.0 + 4.0 * ORTHONORMAL_TOLERANCE) - guard;
     let needed = (to - from).norm();
     left >= margin && left >= needed
 }
@@ -220,10 +236,21 @@ mod tests {
         }
     }
 
-    /// Every analytic shape, moving and turning during the step, with and without friction.
-    fn colliders<T: Real>() -> Vec<ColliderModel<T>> {
+    /// How far from orthonormal the tests' turns may be: their rows are stretched by `1 +-`
+    /// this, so that `R^T R` is off from `I` by up to 9e-10, just inside what the validator
+    /// accepts ([`ORTHONORMAL_TOLERANCE`]).
+    const SKEW: f64 = 4.5e-10;
+
+    /// Every analytic shape, moving and turning during the step, with and without friction;
+    /// the turns (the end pose's and the box's axes) have their rows stretched by
+    /// `1 + skew`, 1 and `1 - skew`.
+    fn colliders<T: Real>(skew: f64) -> Vec<ColliderModel<T>> {
         let (c, s) = (0.3f64.cos(), 0.3f64.sin());
-        let turn = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
+        let turn = [
+            [c * (1.0 + skew), -s * (1.0 + skew), 0.0],
+            [s, c, 0.0],
+            [0.0, 0.0, 1.0 - skew],
+        ];
         let start = Pose::new(
             [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             [0.0; 3],
@@ -250,8 +277,8 @@ mod tests {
     /// pass's and the global step's, with friction and a metric) return its end to the bit, in
     /// f32 and f64, for points measured near the surfaces and moves that reach the margin; and
     /// most short moves away from the surfaces are cleared (the skip is worth its test).
-    fn cleared_moves_are_left_alone<T: Real>() {
-        let colliders = colliders::<T>();
+    fn cleared_moves_are_left_alone<T: Real>(skew: f64) {
+        let colliders = colliders::<T>(skew);
         let mut clearance = Clearance::default();
         clearance.reset(1, &colliders);
         assert!(clearance.extent.is_finite());
@@ -300,19 +327,85 @@ mod tests {
 
     #[test]
     fn cleared_moves_are_left_alone_f64() {
-        cleared_moves_are_left_alone::<f64>();
+        cleared_moves_are_left_alone::<f64>(0.0);
+        cleared_moves_are_left_alone::<f64>(SKEW);
     }
 
     #[test]
     fn cleared_moves_are_left_alone_f32() {
-        cleared_moves_are_left_alone::<f32>();
+        cleared_moves_are_left_alone::<f32>(0.0);
+        cleared_moves_are_left_alone::<f32>(SKEW);
     }
 
-    /// An unmeasured point, or any point after a reset, is never cleared; a mesh collider
-    /// clears nothing (its extent is infinite).
+    /// The moves that [`Clearance::clears`] only just: straight towards the nearest collider
+    /// (down its distance's gradient, where a turn stretched by [`SKEW`] makes the distance
+    /// fall faster than the length moved, by up to 4.5e-10 of it) with the largest margin it
+    /// clears (bisected), are returned to the bit by both pushes, for exact and for skewed
+    /// turns. A bound that took the distance to change no faster than the length moved
+    /// clears margins up to ~1e-10 m too deep here, and the pushes move those points.
+    #[test]
+    fn moves_cleared_at_the_bound_are_left_alone() {
+        for skew in [0.0, SKEW] {
+            let colliders = colliders::<f64>(skew);
+            let mut clearance = Clearance::default();
+            clearance.reset(1, &colliders);
+            let inverse = SymmetricMatrix3 {
+                diagonal: [2.0, 0.5, 1.0],
+                upper: [0.3, -0.2, 0.1],
+            };
+            let mut rng = Lcg(7);
+            let mut tested = 0;
+            for _ in 0..4_000 {
+                let p = rng.vector(1.2);
+                let (nearest, distance) = colliders
+                    .iter()
+                    .map(|c| (c, c.signed_distance(&p)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .unwrap();
+                if distance < 1e-3 {
+                    continue;
+                }
+                let to = p - nearest.normal(&p).normalize() * (distance * (0.6 + 0.3 * rng.next()));
+                clearance.at[0] = p;
+                clearance.distance[0] = distance;
+                let (mut low, mut high) = (0.0, distance);
+                if !clearance.clears(0, &p, &to, low) {
+                    continue;
+                }
+                for _ in 0..80 {
+                    let middle = 0.5 * (low + high);
+                    if clearance.clears(0, &p, &to, middle) {
+                        low = middle;
+                    } else {
+                        high = middle;
+                    }
+                }
+                tested += 1;
+                let plain = push_out_of_colliders(&colliders, MoveStart::Now(p), to, low, None);
+                let with_friction = push_out_with_friction(&p, to, &p, &inverse, low, &colliders);
+                assert_eq!(plain, to, "skew {skew}: move from {p:?} to {to:?} pushed");
+                assert_eq!(
+                    with_friction, to,
+                    "skew {skew}: move from {p:?} to {to:?} pushed"
+                );
+            }
+            assert!(tested > 500, "skew {skew}: {tested} moves at the bound");
+        }
+    }
+
+    /// A small mesh collider (a cube of side 0.2 m at the origin, on a coarse grid).
+    fn mesh_collider() -> ColliderModel<f64> {
+        let (vertices, triangles) = crate::collider::sdf::tests::box_mesh([0.1; 3]);
+        let shape = Shape::mesh(vertices, triangles, 8, None).unwrap();
+        let collider = Collider::new(shape, 0.0, [0.0; 3]).unwrap();
+        ColliderModel::new(&collider, &Pose::IDENTITY, &Pose::IDENTITY)
+    }
+
+    /// An unmeasured point, or any point after a reset, is never cleared; with a mesh
+    /// collider among the step's colliders nothing is (its extent is infinite).
     #[test]
     fn nothing_is_cleared_unmeasured() {
-        let colliders = colliders::<f64>();
+        let mut colliders = colliders::<f64>(0.0);
         let mut clearance = Clearance::default();
         let (a, b) = (Vector3::new(5.0, 5.0, 5.0), Vector3::new(5.0, 5.0, 5.001));
         assert!(!clearance.clears(0, &a, &b, 0.0), "before any reset");
@@ -323,7 +416,9 @@ mod tests {
         assert!(!clearance.clears(1, &a, &b, 0.0), "a point not measured");
         clearance.reset(2, &colliders);
         assert!(!clearance.clears(0, &a, &b, 0.0), "after a reset");
-        clearance.extent = f64::INFINITY;
+        colliders.push(mesh_collider());
+        clearance.reset(2, &colliders);
+        assert_eq!(clearance.extent, f64::INFINITY);
         clearance.at[0] = a;
         clearance.distance[0] = smallest_distance(&colliders, &a);
         assert!(!clearance.clears(0, &a, &b, 0.0), "with a mesh collider");
