@@ -117,7 +117,10 @@ def assert_contact_figures_add_up(stats):
     if c["active_pairs"] > 0:
         assert c["local_iterations"] >= 1 and c["descent_ms"] > 0.0, c
     phases = c["broad_phase_ms"] + c["ccd_ms"] + c["descent_ms"]
-    assert 0.0 < phases <= stats.timings["total"], (c, stats.timings)
+    # The local steps' whole time holds their phases (timed within it; 1 us for round-off)
+    # and fits in the step's.
+    t = stats.timings
+    assert 0.0 < phases <= t["contact"] + 1e-3 and t["contact"] <= t["total"], (c, t)
 
 
 def test_three_layers_dropped_on_a_sphere_never_intersect():

@@ -53,8 +53,13 @@ impl Pose {
     }
 }
 
-/// Checks a rotation matrix given by rows: finite, orthonormal (`|R^T R - I| < 1e-9` entry by
-/// entry) and det +1. The error names `name` and the offending entry or property.
+/// How far from the identity `R^T R` of an accepted rotation may be, entry by entry: the
+/// round-off of rotations computed by a caller (e.g. composed turns), while a matrix that is
+/// not a rotation stays rejected.
+pub(crate) const ORTHONORMAL_TOLERANCE: f64 = 1e-9;
+
+/// Checks a rotation matrix given by rows: finite, orthonormal (`|R^T R - I| <`
+/// [`ORTHONORMAL_TOLERANCE`] entry by entry) and det +1. The error names `name` and the offending entry or property.
 pub fn rotation_matrix(name: &str, rows: [[f64; 3]; 3]) -> Result<Matrix3<f64>> {
     for (r, row) in rows.iter().enumerate() {
         if let Some(c) = row.iter().position(|v| !v.is_finite()) {
@@ -66,7 +71,7 @@ pub fn rotation_matrix(name: &str, rows: [[f64; 3]; 3]) -> Result<Matrix3<f64>> 
     }
     let m = Matrix3::from_row_slice(&rows.concat());
     let deviation = (m.transpose() * m - Matrix3::identity()).abs().max();
-    if deviation >= 1e-9 {
+    if deviation >= ORTHONORMAL_TOLERANCE {
         return Err(invalid!(
             "{name} must be a rotation matrix (orthonormal, det +1), but R^T R differs from I by {deviation:e}: {rows:?}"
         ));

@@ -103,6 +103,7 @@ impl PyStepStats {
             ("viscosity", t.viscosity),
             ("redistribution", t.redistribution),
             ("coupling", t.coupling),
+            ("contact", t.contact),
             ("total", t.total),
         ] {
             d.set_item(k, v)?;

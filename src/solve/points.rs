@@ -11,6 +11,7 @@ use crate::collider::ColliderModel;
 use crate::real::Real;
 
 use super::body::Body;
+use super::collider_passes::Clearance;
 
 /// The points of one family's bodies: identities and ranges, state and iterates.
 pub(crate) struct Points<T: Real> {
@@ -39,6 +40,8 @@ pub(crate) struct Points<T: Real> {
     pub collides: Vec<bool>,
     /// Partial sums of the energy reductions (reused).
     pub energy_chunks: Vec<f64>,
+    /// How far each point was from the colliders when last measured in this step.
+    pub clearance: Clearance<T>,
 }
 
 impl<T: Real> Points<T> {
@@ -70,6 +73,7 @@ impl<T: Real> Points<T> {
             pinned: vec![false; start],
             collides: vec![true; start],
             energy_chunks: Vec::new(),
+            clearance: Clearance::default(),
         }
     }
 

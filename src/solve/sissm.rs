@@ -517,8 +517,10 @@ impl<T: Real> Solver<T> {
                     .as_ref()
                     .filter(|_| params.method == Method::Newton)
                     .map(NewtonState::metric);
+                let t = Instant::now();
                 let (moved, figures) =
                     state.local_step(sys, h, contact_params, params.tol, &colliders, blocks);
+                timings.contact += millis(t);
                 updates[0].moved = moved;
                 update = updates.iter().copied().fold(Update::NONE, Update::merge);
                 stats.contact.accumulate(&figures);

@@ -39,6 +39,12 @@ pub struct Timings {
     /// The coupling of particles with membrane triangles: its pairs, its projections after
     /// every iteration and at the end (0 without both families).
     pub coupling: f64,
+    /// The membrane contact local step (Lu et al. 2023, Algorithm 2) after each global
+    /// iteration, whole: its broad phase, CCD and descent (the times of
+    /// [`StepStats::contact`]) and what those leave out, the proximal metric (eq. 47's
+    /// Jacobi blocks), the per-vertex set-up passes and the realised reaction of the
+    /// convergence measure (0 without contact).
+    pub contact: f64,
     /// The whole step.
     pub total: f64,
 }

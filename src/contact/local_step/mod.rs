@@ -86,8 +86,18 @@ pub use stats::ContactStats;
 pub use workspace::Piece;
 pub use workspace::Workspace;
 
-/// Sets `v` to `n` copies of `value`, reusing its allocation.
-fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
-    v.clear();
+use rayon::prelude::*;
+
+/// Sets `v` to `n` copies of `value`, reusing its allocation; the entries it keeps are
+/// overwritten in parallel (a local step refills about ten per-vertex buffers, each a pass
+/// over memory that one thread alone is slow to write).
+fn refill<T: Clone + Send + Sync>(v: &mut Vec<T>, n: usize, value: T) {
+    v.truncate(n);
+    v.par_iter_mut()
+        .with_min_len(REFILL_GRAIN)
+        .for_each(|x| x.clone_from(&value));
     v.resize(n, value);
 }
+
+/// Least entries per task of [`refill`].
+const REFILL_GRAIN: usize = 4096;

@@ -228,6 +228,12 @@ impl<T: Real> ContactState<T> {
             })
             .reduce(|| 0.0, f64::max);
         self.next = std::mem::replace(&mut self.safe, z);
+        // From now on the Jacobi move keeps its blocks for the metric.
+        let n = sys.points.y.len();
+        if params.proximal == ProximalMetric::Jacobi && sys.blocks.len() != n {
+            sys.blocks.resize(n, SymmetricMatrix3::zeros());
+            sys.blocks_fresh = false;
+        }
         (moved, stats)
     }
 
@@ -302,12 +308,17 @@ fn jacobi_weights<T: Real>(
     weights: &mut Vec<SymmetricMatrix3<f64>>,
 ) -> f64 {
     let h2 = h * h;
+    // The blocks the Jacobi move just assembled from the same responses, when it kept them.
+    let kept = (blocks.is_none() && sys.blocks_fresh).then_some(&sys.blocks[..]);
     (0..sys.points.y.len())
         .into_par_iter()
         .map(|k| {
-            blocks
-                .map_or_else(|| jacobi_block(sys, k, h2), |b| b[k].system)
-                .map(|x| x.to_f64())
+            let block = match (blocks, kept) {
+                (Some(b), _) => b[k].system,
+                (None, Some(kept)) => kept[k],
+                (None, None) => jacobi_block(sys, k, h2),
+            };
+            block.map(|x| x.to_f64())
         })
         .collect_into_vec(weights);
     let pinned = &sys.points.pinned;

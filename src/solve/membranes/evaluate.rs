@@ -29,6 +29,7 @@ pub(crate) fn evaluate<T: Real>(sys: &mut MembraneSystem<T>, mode: Preconditione
         bond_grad,
         response,
     );
+    sys.blocks_fresh = false;
 }
 
 /// `E(y) = sum_i m_i |y_i - y*_i|^2 / (2 h^2) + sum_i E_i(y)` (eq. 2 without the barrier, J), from

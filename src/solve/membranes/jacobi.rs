@@ -14,6 +14,7 @@ use crate::symmetric::SymmetricMatrix3;
 
 use super::system::MembraneSystem;
 use crate::solve::point_system::PointSystem;
+use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
 
 /// What vertex `k`'s system is assembled from, read from the responses of the last evaluation.
@@ -98,24 +99,39 @@ pub(crate) fn jacobi_update<T: Real>(
     // Without inner sweeps the systems are assembled and solved a SIMD pack at a time.
     let packed = !inner;
     let mut y_next = std::mem::take(&mut sys.points.y_next);
+    // The Jacobi blocks are kept for the contact local step once it asked for them.
+    let mut blocks = std::mem::take(&mut sys.blocks);
+    let keep = blocks.len() == y_next.len();
     let sys_ref = &*sys;
-    let update = y_next
-        .par_chunks_mut(GRAIN)
-        .enumerate()
-        .map(|(c, next)| {
-            isa::run(
-                #[inline(always)]
-                || {
-                    if packed {
-                        move_packs(sys_ref, c * GRAIN, next, h2, options)
-                    } else {
-                        move_vertices(sys_ref, c * GRAIN, next, h2, options)
-                    }
-                },
-            )
-        })
-        .reduce(|| Update::NONE, Update::merge);
+    let chunk = |c: usize, next: &mut [Vector3<T>], blocks: &mut [SymmetricMatrix3<T>]| {
+        isa::run(
+            #[inline(always)]
+            || {
+                if packed {
+                    move_packs(sys_ref, c * GRAIN, next, blocks, h2, options)
+                } else {
+                    move_vertices(sys_ref, c * GRAIN, next, blocks, h2, options)
+                }
+            },
+        )
+    };
+    let update = if keep {
+        y_next
+            .par_chunks_mut(GRAIN)
+            .zip(blocks.par_chunks_mut(GRAIN))
+            .enumerate()
+            .map(|(c, (next, blocks))| chunk(c, next, blocks))
+            .reduce(|| Update::NONE, Update::merge)
+    } else {
+        y_next
+            .par_chunks_mut(GRAIN)
+            .enumerate()
+            .map(|(c, next)| chunk(c, next, &mut []))
+            .reduce(|| Update::NONE, Update::merge)
+    };
     sys.points.y_next = y_next;
+    sys.blocks = blocks;
+    sys.blocks_fresh = keep;
     update
 }
 
@@ -186,6 +202,7 @@ fn move_packs<T: Real>(
     sys: &MembraneSystem<T>,
     first: usize,
     next: &mut [Vector3<T>],
+    blocks: &mut [SymmetricMatrix3<T>],
     h2: T,
     options: &MoveOptions<'_, T>,
 ) -> Update {
@@ -223,6 +240,15 @@ fn move_packs<T: Real>(
             lanes_of(gathered, |g| g.responses.energy()),
             T::Pack::splat(h2),
         );
+        if !blocks.is_empty() {
+            let system = &local.system;
+            for l in 0..lanes {
+                blocks[p * lanes + l] = SymmetricMatrix3 {
+                    diagonal: system.diagonal.map(|d| d.extract(l)),
+                    upper: system.upper.map(|u| u.extract(l)),
+                };
+            }
+        }
         let delta = local.solve();
         if !plain {
             for (l, out) in out.iter_mut().enumerate() {
@@ -270,7 +296,12 @@ fn move_packs<T: Real>(
             );
         }
     }
-    let tail = move_vertices(sys, first + whole, tail, h2, options);
+    let tail_blocks = if blocks.is_empty() {
+        &mut []
+    } else {
+        &mut blocks[whole..]
+    };
+    let tail = move_vertices(sys, first + whole, tail, tail_blocks, h2, options);
     Update::merge(measures.update(), tail)
 }
 
@@ -281,14 +312,18 @@ fn move_vertices<T: Real>(
     sys: &MembraneSystem<T>,
     first: usize,
     next: &mut [Vector3<T>],
+    blocks: &mut [SymmetricMatrix3<T>],
     h2: T,
     options: &MoveOptions<'_, T>,
 ) -> Update {
     let inner = options.inner_iters > 1;
     let mut measures = Measures::new();
-    for (k, next) in (first..).zip(next) {
+    for (i, (k, next)) in (first..).zip(next).enumerate() {
         if sys.points.pinned[k] {
             *next = sys.points.y[k];
+            if let Some(block) = blocks.get_mut(i) {
+                *block = jacobi_block(sys, k, h2);
+            }
             continue;
         }
         let (local, delta) = if inner {
@@ -297,6 +332,9 @@ fn move_vertices<T: Real>(
             let local = PointSystem::of(sys, k, h2);
             (local, local.solve())
         };
+        if let Some(block) = blocks.get_mut(i) {
+            *block = local.system;
+        }
         finish_vertex(sys, k, &local, delta, options, next, &mut measures);
     }
     measures.update()
@@ -331,21 +369,32 @@ fn finish_vertex<T: Real>(
         T::one()
     };
     let margin = sys.rest.vertices[k].half_thickness;
+    // The colliders this vertex meets: the same set the clearance was measured over.
+    let colliders = Points::colliders_of(&sys.points.collides, k, options.colliders);
     let free_move = sys.points.y[k] + delta * alpha;
-    *next = push_out_with_friction(
-        &sys.points.y[k],
-        free_move,
-        &sys.points.y_start[k],
-        &local.inverse,
-        margin,
-        options.colliders,
-    );
+    // A move that surely stays clear of every collider is left as it is, as the push would.
+    let clear = sys
+        .points
+        .clearance
+        .clears(k, &sys.points.y[k], &free_move, margin);
+    *next = if clear {
+        free_move
+    } else {
+        push_out_with_friction(
+            &sys.points.y[k],
+            free_move,
+            &sys.points.y_start[k],
+            &local.inverse,
+            margin,
+            colliders,
+        )
+    };
     // The colliders' reaction to the whole Jacobi move (see `free_residual`): the one just
     // computed unless the step length cut the move.
     let collider_reaction = if alpha == T::one() {
         *next - free_move
     } else {
-        whole_move_reaction(sys, k, local, &delta, options.colliders)
+        whole_move_reaction(sys, k, local, &delta, colliders)
     };
     // Chebyshev extrapolates the unconstrained iteration only: a vertex a collider holds keeps
     // its projected position, else the extrapolation would push it along the contact past
@@ -489,7 +538,8 @@ mod tests {
     use crate::solve::membranes::evaluate::evaluate;
     use crate::solve::tests::stiff_params;
 
-    /// [`move_packs`] and [`move_vertices`] on the same state give the same positions and the
+    /// [`move_packs`] and [`move_vertices`] on the same state give the same positions, the
+    /// same Jacobi blocks as [`jacobi_block`] (kept for the contact local step) and the
     /// same `Update` (largest move and residual, first non-finite vertex) bit for bit, in both
     /// precisions, plain and extrapolated, without and with a collider (with friction) and
     /// membrane contact reactions: a stiff sheet with vertices pulled out of it and
@@ -566,8 +616,27 @@ mod tests {
                 };
                 let mut packed = vec![Vector3::zeros(); n];
                 let mut per_vertex = vec![Vector3::zeros(); n];
-                let a = move_packs(&sys, 0, &mut packed, h2, &options);
-                let b = move_vertices(&sys, 0, &mut per_vertex, h2, &options);
+                let (mut packed_blocks, mut vertex_blocks) = (
+                    vec![SymmetricMatrix3::zeros(); n],
+                    vec![SymmetricMatrix3::zeros(); n],
+                );
+                let a = move_packs(&sys, 0, &mut packed, &mut packed_blocks, h2, &options);
+                let b = move_vertices(&sys, 0, &mut per_vertex, &mut vertex_blocks, h2, &options);
+                // The blocks kept for the contact local step's metric are its own, to the bit
+                // (pinned vertices included).
+                for k in 0..n {
+                    let block = jacobi_block(&sys, k, h2);
+                    assert_eq!(packed_blocks[k], block, "{}: packed block {k}", T::NAME);
+                    assert_eq!(vertex_blocks[k], block, "{}: block {k}", T::NAME);
+                }
+                // Without a buffer, the same moves.
+                let mut unkept = vec![Vector3::zeros(); n];
+                let c = move_packs(&sys, 0, &mut unkept, &mut [], h2, &options);
+                assert_eq!(c.first_bad, a.first_bad);
+                assert_eq!(
+                    (c.moved.to_bits(), c.residual.to_bits()),
+                    (a.moved.to_bits(), a.residual.to_bits())
+                );
                 let same = |x: T, y: T| x == y || (x != x && y != y);
                 for (k, (p, q)) in packed.iter().zip(&per_vertex).enumerate() {
                     assert!(

@@ -31,6 +31,14 @@ pub(crate) struct MembraneSystem<T: Real> {
     pub point_systems: Vec<PointSystem<T>>,
     pub delta: Vec<Vector3<T>>,
     pub delta_next: Vec<Vector3<T>>,
+    /// Per vertex, the Jacobi block `D_k = m_k I + h^2 (n_k C_k + sum_j C_j)` (kg) of eq. 25
+    /// that the last Jacobi move assembled, for the proximal metric of the contact local step
+    /// that follows it ([`crate::contact::ProximalMetric::Jacobi`]), which would otherwise
+    /// gather every vertex's responses again. Kept only once the local step asks for it (sized
+    /// to the vertices; else empty); `blocks_fresh` says whether they are those of the current
+    /// responses (no evaluation since the move).
+    pub blocks: Vec<SymmetricMatrix3<T>>,
+    pub blocks_fresh: bool,
 }
 
 impl<T: Real> MembraneSystem<T> {
@@ -82,6 +90,8 @@ impl<T: Real> MembraneSystem<T> {
             point_systems: Vec::new(),
             delta: Vec::new(),
             delta_next: Vec::new(),
+            blocks: Vec::new(),
+            blocks_fresh: false,
         })
     }
 }
