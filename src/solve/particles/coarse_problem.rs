@@ -110,3 +110,7 @@ impl Coarse {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "coarse_problem_tests.rs"]
+mod tests;
