@@ -143,6 +143,13 @@ impl<T: Real> ParticleRest<T> {
         self.len() == 0
     }
 
+    /// The Jacobi diagonal `D_i = m_i + h^2 L_ii` (kg) of particle `i` (eq. 12), `h2` the
+    /// squared time step (s^2).
+    #[inline(always)]
+    pub fn diagonal(&self, i: usize, h2: T) -> T {
+        self.mass[i] + h2 * self.stiffness[i]
+    }
+
     /// The neighbours of particle `i` and their bonds' range.
     #[inline(always)]
     pub fn row(&self, i: usize) -> std::ops::Range<usize> {

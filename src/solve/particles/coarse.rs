@@ -118,7 +118,9 @@ fn net_residuals<T: Real>(
 }
 
 /// The contacts (module doc) that a translation within the bound of `energy`
-/// (`sum_b M_b |t0_b|^2`, kg m^2) can reach, in particle order.
+/// (`sum_b M_b |t0_b|^2`, kg m^2) can reach, in particle order. Each particle's smallest
+/// collider gap is found in parallel first, so that the serial gathering evaluates the
+/// colliders only where one is within reach (the same contacts for any thread count).
 fn gather_contacts<T: Real>(
     sys: &ParticleSystem<T>,
     coarse: &mut Coarse,
@@ -126,19 +128,43 @@ fn gather_contacts<T: Real>(
     energy: f64,
 ) {
     let points = &sys.points;
-    let reach = |b: usize| (energy * coarse.inverse_mass[b]).sqrt();
     let body_of = |j: usize| points.ranges.partition_point(|r| r.end <= j);
     let at = |i: usize| points.y[i] + sys.delta[i];
-    let contacts = &mut coarse.contacts;
+    let Coarse {
+        inverse_mass,
+        contacts,
+        collider_gap,
+        ..
+    } = coarse;
+    let reach = |b: usize| (energy * inverse_mass[b]).sqrt();
+    collider_gap.resize(points.y.len(), f64::INFINITY);
+    collider_gap
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(i, gap)| {
+            *gap = f64::INFINITY;
+            if inverse_mass[body_of(i)] == 0.0 {
+                return;
+            }
+            let p = at(i);
+            for c in Points::colliders_of(&points.collides, i, colliders) {
+                *gap = gap.min((c.signed_distance(&p) - points.margin[i]).to_f64());
+            }
+        });
     contacts.clear();
     for (a, range) in points.ranges.iter().enumerate() {
-        if coarse.inverse_mass[a] == 0.0 {
+        if inverse_mass[a] == 0.0 {
             continue;
         }
         let s_a = reach(a);
         for i in range.clone() {
             let p = at(i);
-            for c in Points::colliders_of(&points.collides, i, colliders) {
+            let near = if collider_gap[i] < s_a {
+                Points::colliders_of(&points.collides, i, colliders)
+            } else {
+                &[]
+            };
+            for c in near {
                 let gap = (c.signed_distance(&p) - points.margin[i]).to_f64();
                 if gap >= s_a {
                     continue;
@@ -160,7 +186,7 @@ fn gather_contacts<T: Real>(
             for &j in repulsion.partners(i) {
                 let j = j as usize;
                 let b = body_of(j);
-                let b_free = coarse.inverse_mass[b] > 0.0;
+                let b_free = inverse_mass[b] > 0.0;
                 if b == a || (b_free && j < i) {
                     continue;
                 }

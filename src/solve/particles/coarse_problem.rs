@@ -58,6 +58,9 @@ pub(crate) struct Coarse {
     pub force: Vec<Vector3<f64>>,
     pub translation: Vec<Vector3<f64>>,
     pub contacts: Vec<Contact>,
+    /// Per particle: its smallest gap to a collider less its margin (m; infinite with none or
+    /// in a fixed body), the parallel first pass of the contacts' gathering.
+    pub collider_gap: Vec<f64>,
 }
 
 impl Coarse {
@@ -70,6 +73,7 @@ impl Coarse {
             force: vec![Vector3::zeros(); n],
             translation: vec![Vector3::zeros(); n],
             contacts: Vec::new(),
+            collider_gap: Vec::new(),
         }
     }
 
@@ -110,3 +114,7 @@ impl Coarse {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "coarse_problem_tests.rs"]
+mod tests;

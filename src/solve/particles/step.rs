@@ -238,7 +238,7 @@ fn propose<T: Real>(
     let started = Instant::now();
     if let Some(repulsion) = &mut sys.repulsion {
         let rest = &sys.rest;
-        let diagonal = |i: usize| rest.mass[i] + h2 * rest.stiffness[i];
+        let diagonal = |i: usize| rest.diagonal(i, h2);
         repulsion.correct(&sys.points, &sys.delta, alpha, diagonal);
     }
     let mut y_next = std::mem::take(&mut sys.points.y_next);

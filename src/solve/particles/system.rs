@@ -179,9 +179,9 @@ impl<T: Real> ParticleSystem<T> {
         Ok(())
     }
 
-    /// The Jacobi diagonal `D_i = m_i + h^2 L_ii` (kg) of particle `i`.
+    /// The Jacobi diagonal `D_i = m_i + h^2 L_ii` (kg) of particle `i` ([`ParticleRest::diagonal`]).
     #[inline(always)]
     pub fn diagonal(&self, i: usize, h2: T) -> T {
-        self.rest.mass[i] + h2 * self.rest.stiffness[i]
+        self.rest.diagonal(i, h2)
     }
 }
