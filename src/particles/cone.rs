@@ -7,17 +7,21 @@
 //! the local-global solve: every bond then stays elastic through the step's iterations and the
 //! solve finds the implicit step of an elastic body that yields only afterwards, so the bonds
 //! resist the step's motion like a viscosity of about `K_f h / 6` (a sand column ran out to
-//! dR/R = 0.47 where Lube et al. 2004 measure 1.24). For a body of pair springs only (`mu = 0`
-//! and no dilatation term: granular bodies) a bond's force depends on its reference vector
-//! through its length alone, so the kernel can take the return as part of its local step:
-//! at every evaluation it projects the particle's bond strains, measured from the step's
-//! reference bonds, onto the cone (`e'_b = (1 - alpha) e_iso + (1 - beta) e_dev,b`) and
-//! springs each bond to the length `|X'_b| = |Y_b| / (1 + e'_b)` that leaves it that strain.
-//! The reference bonds themselves are not touched within the step (the kernel stays a
-//! function of the positions, as the line search needs); the return at the step's end, from
-//! the same reference bonds at the final positions, stores exactly these lengths (and the
-//! directions of eq. 19). This is the implicit (backward Euler) return of the step's whole
-//! strain increment.
+//! dR/R = 0.47 where Lube et al. 2004 measure 1.24), and an elastic-plastic body's set
+//! depended on the step. So the kernel takes the return as part of its local step: at every
+//! evaluation it projects the particle's bond strains, measured from the step's reference
+//! bonds, onto the cone (`e'_b = (1 - alpha) e_iso + (1 - beta) e_dev,b`) and springs each
+//! bond to the length `|X'_b| = |Y_b| / (1 + e'_b)` that leaves it that strain (the
+//! dilatation term's mean strain too). The reference bonds themselves are not touched within
+//! the step (the kernel stays a function of the positions, as the line search needs); the
+//! return at the step's end, from the same reference bonds at the final positions, stores
+//! exactly these lengths, and the directions of eq. 19. This is the implicit (backward
+//! Euler) return of the step's whole strain increment. For a body of pair springs only
+//! (`mu = 0`, no dilatation term: granular bodies) a bond's force depends on its reference
+//! vector through its length alone, so the kernel's bonds are the stored ones exactly; with
+//! `mu > 0` the kernel keeps `F_i` and the deviatoric springs' directions `dir(F_i X)` from
+//! the step's bonds, which the stored ones (turned by eq. 19) reproduce where the
+//! neighbourhood deforms affinely (`F' X' = F X = Y`).
 
 use nalgebra::Vector3;
 

@@ -42,10 +42,9 @@ pub(crate) struct RestConstants {
 
 impl RestConstants {
     /// Whether the body's plastic return is taken within the local step ([`super::cone`]):
-    /// a plastic body of pair springs only (`mu = 0`, no dilatation term), as granular
-    /// bodies are, whose bonds' forces depend on their reference vectors' lengths alone.
+    /// every plastic body's is.
     pub fn returns_in_kernel(&self) -> bool {
-        self.plastic && self.moduli.mu == 0.0 && self.moduli.kappa == 0.0
+        self.plastic
     }
 
     pub fn of(body: &Particles) -> Self {
