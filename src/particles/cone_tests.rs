@@ -5,8 +5,8 @@ use nalgebra::Vector3;
 
 use crate::particles::tests::lattice;
 use crate::particles::{
-    evaluate_particles, DruckerPrager, Elastic, Granular, ParticleParams, ParticleRest,
-    Particles, PlasticLaw, RestBonds, RestConstants,
+    evaluate_particles, DruckerPrager, Elastic, Granular, ParticleParams, ParticleRest, Particles,
+    PlasticLaw, RestBonds, RestConstants,
 };
 
 /// A 6^3 block of dry sand on a lattice of 1 cm (30 degrees).
