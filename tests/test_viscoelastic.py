@@ -132,7 +132,8 @@ def test_adhesion_holds_a_liquid_film_at_its_ghost_ceiling():
                    reason="open (issue 40): with adhesion the blob parts from the film along a "
                    "plane at about 0.12-0.15 s and falls with no liquid between (10-100 Pa s, "
                    "yield stress 100-500 Pa, redistribution 0 or 1 alike); without adhesion it "
-                   "hangs on whole")
+                   "hangs on whole; a two-sided constraint on closed neighbourhoods either "
+                   "parts it the same way, hangs it, or diverges (docs/model.md)")
 def test_honey_dripping_from_its_ghost_ceiling_draws_a_thread():
     """After 0.4 s the blob has dripped (its lowest particle more than 10 spacings below the
     ceiling) and a thread joins it to the film at the ceiling: every spacing-tall slab

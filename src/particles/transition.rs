@@ -151,16 +151,16 @@ impl Particles {
             changed[i as usize] = true;
             mask[i as usize] = to_fluid;
         }
-        // The body's horizon: its own for a solid, the default for a fluid (whose
-        // parameters carry none), as the new parameters below keep it.
+        // The body's horizon: its own (a fluid body's parameters carry the default), kept by
+        // the new parameters below.
         let delta = self.params.delta();
         let bonds = self.region_bonds(&old_bonds, &mask, &changed, delta)?;
         // Every check passed: commit.
         match material {
             RegionMaterial::Solid(elastic) => {
                 if !any_solid {
+                    // The body keeps its horizon (the one its bonds were just found within).
                     let params = ParticleParams {
-                        horizon: None,
                         material: elastic,
                         ..self.params
                     };
@@ -344,5 +344,31 @@ mod tests {
         refused(body.set_granular(crate::particles::Granular::new(30.0, 0.0)));
         refused(body.set_plasticity(None));
         refused(body.restore_rest_bonds(None));
+    }
+
+    /// A solid body of its own horizon turned all fluid and then solid again keeps that
+    /// horizon: its parameters and its bonds (found within it) agree.
+    #[test]
+    fn a_body_turned_fluid_and_back_keeps_its_horizon() {
+        let spacing = 0.01;
+        let horizon = 3.1 * spacing;
+        let elastic = Elastic::Paper { mu: 1e3, lam: 1e3 };
+        let params = ParticleParams {
+            spacing,
+            density: 1000.0,
+            horizon: Some(horizon),
+            material: elastic,
+        };
+        let mut body = Particles::new(lattice([6, 3, 3], spacing), params).unwrap();
+        let all: Vec<i64> = (0..body.num_particles() as i64).collect();
+        body.set_material_of(&all, RegionMaterial::Fluid(ViscoelasticFluid::default()))
+            .unwrap();
+        body.set_material_of(&all, RegionMaterial::Solid(elastic))
+            .unwrap();
+        assert_eq!(body.params().delta(), horizon);
+        let bonds = body.rest_bonds().unwrap();
+        let longest = bonds.born.iter().cloned().fold(0.0, f64::max);
+        // Bonds of 3 spacings (beyond the default 2.2) exist, none beyond the horizon.
+        assert!(longest > 2.9 * spacing && longest <= horizon, "{longest}");
     }
 }

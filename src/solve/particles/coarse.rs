@@ -1,34 +1,58 @@
-//! The rigid coarse correction of the Jacobi global step: a two-level method whose coarse
-//! space is the translation of each free particle body (beyond the 2017 paper, issue 38).
+//! The coarse correction of the Jacobi global step: a two-level method whose coarse space is
+//! the translation of each particle body, with the contacts between bodies and with the
+//! colliders as linearised one-sided constraints (beyond the 2017 paper, issue 38).
 //!
 //! **Why.** One Jacobi sweep on `(M + h^2 L) delta = r` ([`super::directions::jacobi`]) moves
 //! a body's translation by only `m_i / D_i` of what its residual asks (`L` holds no stiffness
 //! against a translation: an error `e` of the whole body leaves `r_i = -m_i e`, and the sweep
 //! moves `m_i e / D_i`). At `h = 1/30` s a 25K-particle cube of E 2e5 Pa has `D_i / m_i` about
-//! 5e4: after an impact the body hovers above the floor for hundreds of iterations. And a body
-//! in free flight beside one in contact starts from the step's start positions (the family's
+//! 5e4: after an impact the body hovers above the floor for hundreds of iterations. A body in
+//! free flight beside one in contact starts from the step's start positions (the family's
 //! initial guess, [`crate::solve::sissm`], is chosen for all its bodies at once), a
-//! translation error of `h v + h^2 g` that the sweep removes at the same `m_i / D_i` rate.
+//! translation error of `h v + h^2 g`. And bodies in contact keep such modes too: two blocks
+//! stacked on a frictionless plane slide together along it, held by nothing but their masses
+//! in the sweep (their error decays by `1 - m / D` per iteration).
 //!
-//! **What.** After the sweep, each body that no collider or other body touched in the last
-//! trial (`touched`, [`super::step`]) and that has no pins moves by the translation `t` (m)
-//! that cancels the net force its residual leaves after the sweep, as a rigid body of its mass
-//! `M` (kg) would: `M t = sum_i (r_i - m_i delta_i)`, `delta_i += t`. This is the Galerkin
-//! coarse solve of eq. 12's linear system on the body's translations (`L` has no stiffness
-//! against them, and the kernel's internal forces sum to zero over a body, so
-//! `sum_i r_i = M (c* - c)` with `c`, `c*` the centres of mass of the iterate and of the
-//! inertial targets), applied after the fine sweep. It leaves the fixed point alone: at the
-//! solution every residual of a free body is zero, and so is the sum. Rotations are left to
-//! the sweep: the deviatoric bond forces (eq. 10) are not central, so their torques need not
-//! sum to zero over a body, and a rigid rotation fitted to them would spin it.
+//! **What.** After the sweep every body `b` that takes part (below) moves by a translation
+//! `t_b` (m), the solution of the Galerkin coarse problem of eq. 12's linear system on the
+//! bodies' translations `P` (`delta += P t`), with the contacts as constraints:
 //!
-//! **Contacts.** A body in contact is left to the fine iteration: the particles a collider,
-//! the repulsion or a membrane (a coupling's reaction) holds carry its reaction in their residual, which no translation of the body
-//! takes away (summing the reactions instead is wrong: measured in the Jacobi metric, `D_i` per
-//! metre, a reaction is some 5e4 times what the body's mass asks for the same move). The
-//! translation of a free body is shortened so that it carries no particle into a collider or
-//! another body's particle (moved by that body's own translation) beyond where the sweep put
-//! it: a body above the floor moves down until its lowest particle touches.
+//! `min_t  1/2 sum_b M_b |t_b|^2 - sum_b F_b . t_b`
+//! subject to `n_c . (t_a - t_b) >= -max(g_c, 0)` for every contact `c`,
+//!
+//! `M_b` (kg) the body's mass and `F_b = sum_(i in b) (r_i - m_i delta_i)` (kg m) the net
+//! residual the sweep leaves: `P^T (M + h^2 L) P = diag(M_b)` and `P^T (r - (M + h^2 L) delta)
+//! = F` because `L` (symmetric, bonds within a body) has no stiffness against a translation.
+//! A contact `c` is a particle `i` of body `a` at `p_i = y_i + delta_i` (where the sweep put
+//! it) and either a collider (`g_c` its signed distance less the margin, `n_c` its normal;
+//! `t_b = 0`) or a particle `j` of another body `b` among the repulsion's candidates
+//! (`g_c = |p_i - p_j| - margin_i - margin_j`, `n_c = (p_i - p_j) / |p_i - p_j|`): the
+//! translation may close a gap, but carries no particle deeper than the sweep put it. The
+//! constraints are the linearisation of the distance, which underestimates it for a pair and
+//! for a convex collider, so a feasible `t` keeps the contacts; the collider projection and the
+//! repulsion that follow ([`super::step`]) correct the rest. A contact with a frictional
+//! collider that the sweep put within the margin (`g_c <= 0`) holds the body's tangential
+//! translation too (two equality constraints: the Coulomb cone is the fine iteration's), so
+//! the coarse step slides no body a collider sticks. Only the contacts that a translation of
+//! at most `|t_b| <= sqrt(sum_c M_c |t0_c|^2 / M_b)` can reach enter (`t0 = F / M` the
+//! unconstrained solution; the solution is the `M`-projection of `t0` onto a convex set that
+//! holds `t = 0`, so its `M`-norm is at most `t0`'s).
+//!
+//! The problem is solved by projected Gauss-Seidel on its dual ([`super::coarse_problem`]).
+//! Its inexactness only slows the outer iteration: the fixed point is left alone, since at the solution every body's net
+//! residual is balanced by its contacts (`F_b = sum_c lambda_c n_c`, the KKT condition,
+//! holds with `t = 0`).
+//!
+//! **Who takes part.** A body with a pinned particle, or with a particle that another family
+//! holds (`coupled`, a membrane's reaction on it, [`crate::solve::coupling`]), is fixed (as a
+//! collider is). So is a granular body or one with fluid particles that a collider or another
+//! body touched in the step's last trial (`touched`): their grains and fluid particles are
+//! held by the repulsion within and the density constraints, not as one body; they take the
+//! coarse translation in free flight only. `touched` starts empty at each step (at its first
+//! iteration their contacts enter as constraints, as a solid body's), since no state file
+//! holds the last step's. Rotations are left to the sweep: the deviatoric bond
+//! forces (eq. 10) are not central, so their torques need not sum to zero over a body, and a
+//! rigid rotation fitted to them would spin it.
 //!
 //! The Chebyshev history `y_prev` moves with the body, so that the extrapolation acts on the
 //! fine iteration's error and does not repeat the translation.
@@ -40,119 +64,137 @@ use crate::collider::ColliderModel;
 use crate::real::Real;
 use crate::solve::points::Points;
 
+use super::coarse_problem::{Coarse, Contact};
 use super::system::ParticleSystem;
 
-/// Adds the translation of every free, unpinned body (module doc) to `sys.delta`, the fine
-/// sweep's move from the residual `sys.current.residual`, and to the Chebyshev history. A
-/// body with a particle that another family holds (`coupled`, a membrane's reaction on it,
-/// [`crate::solve::coupling`]) is in contact too.
+/// Adds every body's coarse translation (module doc) to `sys.delta`, the fine sweep's move
+/// from the residual `sys.current.residual`, and to the Chebyshev history. `coupled` holds
+/// another family's reaction per particle (a membrane's, [`crate::solve::coupling`]).
 pub(crate) fn correct<T: Real>(
     sys: &mut ParticleSystem<T>,
     colliders: &[ColliderModel<T>],
     coupled: &[Vector3<T>],
 ) {
-    let mut moves = std::mem::take(&mut sys.rigid);
-    moves.clear();
-    for range in sys.points.ranges.iter().cloned() {
-        let (points, touched) = (&sys.points, &sys.touched);
-        let held = range.clone().any(|i| {
+    let mut coarse = std::mem::take(&mut sys.coarse);
+    let energy = net_residuals(sys, &mut coarse, coupled);
+    if energy > 0.0 {
+        gather_contacts(sys, &mut coarse, colliders, energy);
+        coarse.solve();
+        apply(sys, &coarse);
+    }
+    sys.coarse = coarse;
+}
+
+/// Each body's inverse mass and net residual `F_b`, and the unconstrained translation
+/// `t0 = F / M` as the start of the solve (zero for a fixed body), summed in f64 in particle
+/// order (the same for any thread count); returns `sum_b M_b |t0_b|^2` (kg m^2).
+fn net_residuals<T: Real>(
+    sys: &ParticleSystem<T>,
+    coarse: &mut Coarse,
+    coupled: &[Vector3<T>],
+) -> f64 {
+    let points = &sys.points;
+    let (mass, r, delta) = (&points.mass, &sys.current.residual, &sys.delta);
+    let mut energy = 0.0;
+    for (b, range) in points.ranges.iter().enumerate() {
+        let fixed = range.clone().any(|i| {
             let coupled = coupled.get(i).is_some_and(|r| *r != Vector3::zeros());
-            points.pinned[i] || touched[i] || coupled
+            points.pinned[i] || coupled || (sys.touched[i] && !coarse.solid[b])
         });
-        moves.push(if held { None } else { translation(sys, range) });
+        let (mut total, mut force) = (0.0, Vector3::<f64>::zeros());
+        if !fixed {
+            for i in range.clone() {
+                total += mass[i].to_f64();
+                force += (r[i] - delta[i] * mass[i]).map(|c| c.to_f64());
+            }
+        }
+        let free = total > 0.0;
+        coarse.inverse_mass[b] = if free { 1.0 / total } else { 0.0 };
+        coarse.force[b] = if free { force } else { Vector3::zeros() };
+        coarse.translation[b] = coarse.force[b] * coarse.inverse_mass[b];
+        energy += coarse.force[b].dot(&coarse.translation[b]);
     }
-    let fractions: Vec<T> = (0..moves.len())
-        .map(|b| moves[b].map_or(T::zero(), |_| T::of(reach(sys, b, &moves, colliders))))
-        .collect();
-    for (t, s) in moves.iter_mut().zip(fractions) {
-        *t = t.filter(|_| s > T::zero()).map(|t| t * s);
-    }
-    let points = &mut sys.points;
-    let history = points.y_prev.len() == points.y.len();
-    for (range, t) in points.ranges.iter().zip(&moves) {
-        if let Some(t) = t {
-            sys.delta[range.clone()]
-                .par_iter_mut()
-                .for_each(|d| *d += t);
-            if history {
-                points.y_prev[range.clone()]
-                    .par_iter_mut()
-                    .for_each(|p| *p += t);
+    energy
+}
+
+/// The contacts (module doc) that a translation within the bound of `energy`
+/// (`sum_b M_b |t0_b|^2`, kg m^2) can reach, in particle order.
+fn gather_contacts<T: Real>(
+    sys: &ParticleSystem<T>,
+    coarse: &mut Coarse,
+    colliders: &[ColliderModel<T>],
+    energy: f64,
+) {
+    let points = &sys.points;
+    let reach = |b: usize| (energy * coarse.inverse_mass[b]).sqrt();
+    let body_of = |j: usize| points.ranges.partition_point(|r| r.end <= j);
+    let at = |i: usize| points.y[i] + sys.delta[i];
+    let contacts = &mut coarse.contacts;
+    contacts.clear();
+    for (a, range) in points.ranges.iter().enumerate() {
+        if coarse.inverse_mass[a] == 0.0 {
+            continue;
+        }
+        let s_a = reach(a);
+        for i in range.clone() {
+            let p = at(i);
+            for c in Points::colliders_of(&points.collides, i, colliders) {
+                let gap = (c.signed_distance(&p) - points.margin[i]).to_f64();
+                if gap >= s_a {
+                    continue;
+                }
+                let n = c.normal(&p).map(|x| x.to_f64());
+                contacts.push(Contact::new(a, None, n, -gap.max(0.0), false));
+                if c.friction > T::zero() && gap <= 0.0 {
+                    let u = n
+                        .cross(&Vector3::x())
+                        .try_normalize(0.5)
+                        .unwrap_or_else(|| n.cross(&Vector3::y()).normalize());
+                    contacts.push(Contact::new(a, None, u, 0.0, true));
+                    contacts.push(Contact::new(a, None, n.cross(&u), 0.0, true));
+                }
+            }
+            let Some(repulsion) = &sys.repulsion else {
+                continue;
+            };
+            for &j in repulsion.partners(i) {
+                let j = j as usize;
+                let b = body_of(j);
+                let b_free = coarse.inverse_mass[b] > 0.0;
+                if b == a || (b_free && j < i) {
+                    continue;
+                }
+                let offset = p - at(j);
+                let distance = offset.norm().to_f64();
+                let gap = distance - (points.margin[i] + points.margin[j]).to_f64();
+                let s_b = if b_free { reach(b) } else { 0.0 };
+                if gap >= s_a + s_b || distance == 0.0 {
+                    continue;
+                }
+                let n = offset.map(|x| x.to_f64()) / distance;
+                let b = b_free.then_some(b);
+                contacts.push(Contact::new(a, b, n, -gap.max(0.0), false));
             }
         }
     }
-    sys.rigid = moves;
 }
 
-/// The translation (m) of the body in `range` (module doc), summed in f64 in particle order
-/// (the same for any thread count); `None` for a body without mass.
-fn translation<T: Real>(
-    sys: &ParticleSystem<T>,
-    range: std::ops::Range<usize>,
-) -> Option<Vector3<T>> {
-    let (mass, r, delta) = (&sys.points.mass, &sys.current.residual, &sys.delta);
-    let (mut total, mut force) = (0.0, Vector3::<f64>::zeros());
-    for i in range {
-        total += mass[i].to_f64();
-        force += (r[i] - delta[i] * mass[i]).map(|c| c.to_f64());
-    }
-    (total > 0.0).then(|| (force / total).map(T::of))
-}
-
-/// The largest fraction (in `[0, 1]`) of body `b`'s translation that carries none of its
-/// particles from where the sweep put them (`y + delta`) into a collider beyond its margin, or
-/// into a particle of another body (moved by that body's translation) beyond the repulsion's
-/// distance, or deeper than it already is: linear in the distance between the two ends.
-fn reach<T: Real>(
-    sys: &ParticleSystem<T>,
-    b: usize,
-    moves: &[Option<Vector3<T>>],
-    colliders: &[ColliderModel<T>],
-) -> f64 {
-    let points = &sys.points;
-    let t = moves[b].expect("a body with a translation");
-    let body_of = |j: usize| points.ranges.partition_point(|r| r.end <= j);
-    let fraction = |d0: f64, d1: f64| {
-        if d1 >= d0.min(0.0) {
-            1.0
-        } else if d0 > 0.0 {
-            d0 / (d0 - d1)
-        } else {
-            0.0
+/// Adds each body's translation to its particles' moves and Chebyshev history.
+fn apply<T: Real>(sys: &mut ParticleSystem<T>, coarse: &Coarse) {
+    let points = &mut sys.points;
+    let history = points.y_prev.len() == points.y.len();
+    for (b, range) in points.ranges.iter().enumerate() {
+        if coarse.inverse_mass[b] == 0.0 || coarse.translation[b] == Vector3::zeros() {
+            continue;
         }
-    };
-    points.ranges[b]
-        .clone()
-        .into_par_iter()
-        .map(|i| {
-            let from = points.y[i] + sys.delta[i];
-            let to = from + t;
-            let margin = points.margin[i];
-            let walls = Points::colliders_of(&points.collides, i, colliders)
-                .iter()
-                .map(|c| {
-                    let d0 = (c.signed_distance(&from) - margin).to_f64();
-                    let d1 = (c.signed_distance(&to) - margin).to_f64();
-                    fraction(d0, d1)
-                })
-                .fold(1.0, f64::min);
-            let Some(repulsion) = &sys.repulsion else {
-                return walls;
-            };
-            repulsion
-                .partners(i)
-                .iter()
-                .map(|&j| (j as usize, body_of(j as usize)))
-                .filter(|&(_, c)| c != b)
-                .map(|(j, c)| {
-                    let other = points.y[j] + sys.delta[j];
-                    let moved = other + moves[c].unwrap_or_else(Vector3::zeros);
-                    let reach = (margin + points.margin[j]).to_f64();
-                    let d0 = (from - other).norm().to_f64() - reach;
-                    let d1 = (to - moved).norm().to_f64() - reach;
-                    fraction(d0, d1)
-                })
-                .fold(walls, f64::min)
-        })
-        .reduce(|| 1.0, f64::min)
+        let t = coarse.translation[b].map(T::of);
+        sys.delta[range.clone()]
+            .par_iter_mut()
+            .for_each(|d| *d += t);
+        if history {
+            points.y_prev[range.clone()]
+                .par_iter_mut()
+                .for_each(|p| *p += t);
+        }
+    }
 }

@@ -5,6 +5,7 @@
 
 mod chebyshev;
 mod coarse;
+mod coarse_problem;
 mod direct;
 mod directions;
 mod evaluation;

@@ -14,11 +14,24 @@
 //! collisions. The constraint is projected in the local step, where the colliders are: the
 //! global move proposes `p = y + alpha delta` for every particle, and each particle is moved by
 //! its share of every violated pair at the proposed positions,
-//! `c_i = sum_j m_j / (m_i + m_j) (d_ij - |p_i - p_j|) dir(p_i - p_j)` (m), a Jacobi pass of
-//! position-based dynamics: the two moves of a pair are equal and opposite in momentum, and
-//! together close the pair's gap exactly. The move `c_i` counts as a reaction in the
-//! convergence measure, as a collider's does, so at the iteration's fixed point (`c_i = -alpha
-//! delta_i`) an isolated pair sits exactly `d_ij` apart.
+//! `c_i = sum_j D_j / (D_i + D_j) (d_ij - |p_i - p_j|) dir(p_i - p_j)` (m) between solid
+//! bodies (elastic or plastic, no fluid particle, not granular: those the coarse step moves in
+//! contact), a Jacobi pass of position-based dynamics in the metric of the Jacobi diagonal `D_i = m_i + h^2 L_ii` (kg),
+//! as the colliders project: the two moves of a pair close its gap exactly, and `D_i c_i =
+//! -D_j c_j`. The move `c_i` counts as a reaction in the convergence measure, as a collider's
+//! does, so at the iteration's fixed point (`c_i = -alpha delta_i`) an isolated pair sits
+//! exactly `d_ij` apart, and the pair's reactions in the residual, `r_i = -D_i c_i`, are equal
+//! and opposite: the converged step keeps the bodies' momentum, and the coarse step
+//! ([`super::coarse`]), which balances each body's net residual against its contacts, has
+//! nothing left to move at the fixed point. (Shares by mass, `m_j / (m_i + m_j)`, leave the
+//! pair a net force at the fixed point wherever its two particles' `D / m` differ, as between
+//! a block's corner and the face of another.) Every other pair keeps the mass shares,
+//! `m_j / (m_i + m_j)`: grains of one granular body, and any pair with a grain or a fluid
+//! particle. No coarse step moves such a body while it touches anything, so the metric buys
+//! nothing there, and the granular and fluid calibrations (tests/test_granular.py,
+//! tests/test_wet_sand.py) were made with mass shares: with Jacobi-metric shares between sand
+//! and water, the sand bed spread differently under the water and a grain the water had wetted
+//! (theta 0.48) ended more than 2.5 spacings from it (test_wet_sand asks below 0.2).
 //!
 //! Candidates are found once per step, at its start, by cell lists ([`find_horizons`]) among
 //! the colliding particles within `2 d_max + 2 s`, with `d_max` the largest margin and `s` the
@@ -42,6 +55,9 @@ pub(crate) struct Repulsion<T: Real> {
     body: Vec<u32>,
     /// Per body, whether its own particles repel each other (a granular body).
     within: Vec<bool>,
+    /// Per body, whether it is solid: two solid bodies' pairs share their moves in the Jacobi
+    /// metric (module doc).
+    solid: Vec<bool>,
     /// Candidate pairs of this step in compressed rows (particles of other bodies only).
     offsets: Vec<u32>,
     indices: Vec<u32>,
@@ -79,6 +95,7 @@ impl<T: Real> Repulsion<T> {
         Some(Self {
             body,
             within,
+            solid: Vec::new(),
             offsets: vec![0; n + 1],
             indices: Vec::new(),
             proposed: vec![Vector3::zeros(); n],
@@ -94,6 +111,14 @@ impl<T: Real> Repulsion<T> {
             let of = |b: u32| per_body.get(b as usize).copied().unwrap_or(0.0);
             self.friction = self.body.iter().map(|&b| T::of(of(b))).collect();
         }
+        self
+    }
+
+    /// With the moves of pairs between the bodies marked in `solid` (per body) shared in the
+    /// Jacobi metric (module doc); mass shares for the rest.
+    pub fn with_solid(mut self, solid: &[bool]) -> Self {
+        self.solid = solid.to_vec();
+        self.solid.resize(self.within.len(), false);
         self
     }
 
@@ -144,8 +169,15 @@ impl<T: Real> Repulsion<T> {
     }
 
     /// Each particle's move `c_i` (m) for the proposed moves `alpha delta` (m) from the
-    /// iterate, among the candidates of [`Self::start_step`].
-    pub fn correct(&mut self, points: &Points<T>, delta: &[Vector3<T>], alpha: T) {
+    /// iterate, among the candidates of [`Self::start_step`], `diagonal(i)` the Jacobi
+    /// diagonal `D_i` (kg) that weighs particle `i`'s share.
+    pub fn correct(
+        &mut self,
+        points: &Points<T>,
+        delta: &[Vector3<T>],
+        alpha: T,
+        diagonal: impl Fn(usize) -> T + Sync,
+    ) {
         let (y, pinned) = (&points.y, &points.pinned);
         self.proposed.par_iter_mut().enumerate().for_each(|(i, p)| {
             *p = if pinned[i] {
@@ -155,8 +187,10 @@ impl<T: Real> Repulsion<T> {
             };
         });
         let (proposed, offsets, indices) = (&self.proposed, &self.offsets, &self.indices);
-        let (mass, margin, start) = (&points.mass, &points.margin, &points.y_start);
-        let friction = &self.friction;
+        let (mass, margin, start, body) =
+            (&points.mass, &points.margin, &points.y_start, &self.body);
+        let (friction, solid) = (&self.friction, &self.solid);
+        let in_metric = |b: u32| solid.get(b as usize).copied().unwrap_or(false);
         self.correction
             .par_iter_mut()
             .enumerate()
@@ -174,6 +208,9 @@ impl<T: Real> Repulsion<T> {
                     }
                     let share = if pinned[j] {
                         T::one()
+                    } else if body[i] != body[j] && in_metric(body[i]) && in_metric(body[j]) {
+                        let (d_i, d_j) = (diagonal(i), diagonal(j));
+                        d_j / (d_i + d_j)
                     } else {
                         mass[j] / (mass[i] + mass[j])
                     };

@@ -1,6 +1,6 @@
 //! One global iteration of the particle family (He et al. 2017, eq. 12-13): the residual at
-//! the current iterate, the global solver's move (for Jacobi and Chebyshev with the free
-//! bodies' coarse translation, [`super::coarse`]), Armijo backtracking on the merit, the
+//! the current iterate, the global solver's move (for Jacobi and Chebyshev with the bodies'
+//! coarse translation, [`super::coarse`]), Armijo backtracking on the merit, the
 //! colliders in the Jacobi metric with friction, Chebyshev extrapolation, and the measures.
 //!
 //! **Merit (eq. 13).** The deviatoric force (eq. 10) is not the gradient of any energy, so the
@@ -237,7 +237,9 @@ fn propose<T: Real>(
 ) -> Update {
     let started = Instant::now();
     if let Some(repulsion) = &mut sys.repulsion {
-        repulsion.correct(&sys.points, &sys.delta, alpha);
+        let rest = &sys.rest;
+        let diagonal = |i: usize| rest.mass[i] + h2 * rest.stiffness[i];
+        repulsion.correct(&sys.points, &sys.delta, alpha, diagonal);
     }
     let mut y_next = std::mem::take(&mut sys.points.y_next);
     let mut touched = std::mem::take(&mut sys.touched);

@@ -14,6 +14,7 @@ use crate::solve::{ParticleTimings, Timings};
 use crate::timing::millis;
 
 use super::chebyshev::Chebyshev;
+use super::coarse_problem::Coarse;
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
 use super::fluid::FluidStage;
@@ -36,7 +37,8 @@ pub(crate) struct ParticleSystem<T: Real> {
     /// factorisation, reported at the end of the step.
     pub direct: Option<DirectSolver>,
     pub held: Vec<bool>,
-    /// The particles a collider or the repulsion moved in the last trial ([`super::step`]).
+    /// The particles a collider or the repulsion moved in the step's last trial
+    /// ([`super::step`]; empty at the step's start).
     pub touched: Vec<bool>,
     /// The step's Chebyshev sequence, which the line search restarts ([`super::chebyshev`]).
     pub chebyshev: Chebyshev,
@@ -51,9 +53,8 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub fluid: Option<FluidStage<T>>,
     /// The step's phases so far ([`crate::solve::StepStats::particles`]).
     pub timings: ParticleTimings,
-    /// Each body's coarse translation in the last iteration (m, [`super::coarse`]; `None`
-    /// for a pinned body; reused).
-    pub rigid: Vec<Option<Vector3<T>>>,
+    /// The coarse problem on the bodies' translations ([`super::coarse`], [`super::coarse_problem`]; reused).
+    pub coarse: Coarse,
     /// The granular bodies' static friction (eq. 28), if any has it.
     pub static_friction: Option<StaticFriction<T>>,
     /// Per particle, whether it yielded at the end of the last step (reused).
@@ -85,7 +86,14 @@ impl<T: Real> ParticleSystem<T> {
             .iter()
             .map(|b| b.granular().map_or(0.0, |g| g.contact_friction))
             .collect();
-        let repulsion = Repulsion::of(&points, within, &fluid).map(|r| r.with_friction(&friction));
+        let solid: Vec<bool> = bodies
+            .iter()
+            .map(|b| {
+                b.granular().is_none() && !(0..b.num_particles()).any(|i| b.is_fluid_particle(i))
+            })
+            .collect();
+        let repulsion = Repulsion::of(&points, within, &fluid)
+            .map(|r| r.with_friction(&friction).with_solid(&solid));
         Ok(Self {
             points,
             rest,
@@ -103,7 +111,7 @@ impl<T: Real> ParticleSystem<T> {
             plastic: PlasticBodies::of(bodies),
             fluid: FluidStage::of(bodies)?,
             static_friction: StaticFriction::of(bodies),
-            rigid: Vec::with_capacity(bodies.len()),
+            coarse: Coarse::new(solid),
             yielded: vec![false; n],
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),

@@ -1,0 +1,115 @@
+//! The coarse problem of the particle bodies' translations (issue 38): each body `b` of mass
+//! `M_b` (kg) with net residual `F_b` (kg m) moves by the translation `t_b` (m) that solves
+//!
+//! `min_t  1/2 sum_b M_b |t_b|^2 - sum_b F_b . t_b`
+//! subject to `n_c . (t_a - t_b) >= bound_c` (or `=`) for every contact `c`,
+//!
+//! with `t_b = 0` for a collider or a fixed body (inverse mass 0). Where the contacts come from
+//! and why the problem is the Galerkin projection of the Jacobi step's system is in
+//! [`super::coarse`]; this file holds the problem's buffers and its solver.
+//!
+//! It is solved through its dual by projected Gauss-Seidel on the contacts' multipliers
+//! `lambda_c >= 0` (N s^2; an equality's unbounded), from the unconstrained `t0 = F / M`, in
+//! a fixed order (the same for any thread count), until no sweep moves a translation by more
+//! than [`TOLERANCE`] of `max |t0|` or [`MAX_SWEEPS`] sweeps.
+
+use nalgebra::Vector3;
+
+/// The projected Gauss-Seidel stops when no contact moves a translation by more than this
+/// fraction of the largest unconstrained translation `max |t0_b|`.
+pub const TOLERANCE: f64 = 1e-10;
+/// Most projected Gauss-Seidel sweeps over the contacts in one coarse solve.
+pub const MAX_SWEEPS: usize = 200;
+
+/// One linearised contact: `n . (t_a - t_b) >= bound` (m; or `=` for an equality), `b`
+/// `None` for a collider or a fixed body.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Contact {
+    pub a: usize,
+    pub b: Option<usize>,
+    pub n: Vector3<f64>,
+    pub bound: f64,
+    pub equality: bool,
+    lambda: f64,
+}
+
+impl Contact {
+    pub fn new(a: usize, b: Option<usize>, n: Vector3<f64>, bound: f64, equality: bool) -> Self {
+        Self {
+            a,
+            b,
+            n,
+            bound,
+            equality,
+            lambda: 0.0,
+        }
+    }
+}
+
+/// The coarse problem's data, kept between iterations so that the loop allocates nothing once
+/// the buffers have grown to the scene's contacts.
+#[derive(Debug, Default)]
+pub(crate) struct Coarse {
+    /// Per body: whether it takes part while in contact (not granular, no fluid particle).
+    pub solid: Vec<bool>,
+    /// Per body: the inverse mass (1/kg; 0 for a fixed body), the net residual `F_b` (kg m)
+    /// and the translation (m).
+    pub inverse_mass: Vec<f64>,
+    pub force: Vec<Vector3<f64>>,
+    pub translation: Vec<Vector3<f64>>,
+    pub contacts: Vec<Contact>,
+}
+
+impl Coarse {
+    /// The coarse problem of bodies of which `solid` says which take part while in contact.
+    pub fn new(solid: Vec<bool>) -> Self {
+        let n = solid.len();
+        Self {
+            solid,
+            inverse_mass: vec![0.0; n],
+            force: vec![Vector3::zeros(); n],
+            translation: vec![Vector3::zeros(); n],
+            contacts: Vec::new(),
+        }
+    }
+
+    /// Projected Gauss-Seidel on the contacts' multipliers from `t = t0` (module doc), which
+    /// `translation` holds on entry; returns the sweeps it took.
+    pub fn solve(&mut self) -> usize {
+        let Self {
+            inverse_mass: w,
+            translation: t,
+            contacts,
+            ..
+        } = self;
+        if contacts.is_empty() {
+            return 0;
+        }
+        let scale = t.iter().map(|t| t.norm()).fold(0.0, f64::max);
+        let mut sweeps = 0;
+        while sweeps < MAX_SWEEPS {
+            sweeps += 1;
+            let mut largest: f64 = 0.0;
+            for c in contacts.iter_mut() {
+                let w_b = c.b.map_or(0.0, |b| w[b]);
+                let relative = t[c.a] - c.b.map_or(Vector3::zeros(), |b| t[b]);
+                let k = w[c.a] + w_b;
+                let mut lambda = c.lambda + (c.bound - c.n.dot(&relative)) / k;
+                if !c.equality {
+                    lambda = lambda.max(0.0);
+                }
+                let change = lambda - c.lambda;
+                c.lambda = lambda;
+                t[c.a] += c.n * (w[c.a] * change);
+                if let Some(b) = c.b {
+                    t[b] -= c.n * (w_b * change);
+                }
+                largest = largest.max(change.abs() * k);
+            }
+            if largest <= TOLERANCE * scale {
+                break;
+            }
+        }
+        sweeps
+    }
+}
