@@ -20,8 +20,10 @@
 //! (`mu = 0`, no dilatation term: granular bodies) a bond's force depends on its reference
 //! vector through its length alone, so the kernel's bonds are the stored ones exactly; with
 //! `mu > 0` the kernel keeps `F_i` and the deviatoric springs' directions `dir(F_i X)` from
-//! the step's bonds, which the stored ones (turned by eq. 19) reproduce where the
-//! neighbourhood deforms affinely (`F' X' = F X = Y`).
+//! the step's bonds, which the stored ones (turned by eq. 19, each with its own length)
+//! reproduce where every bond of an affinely deformed neighbourhood is scaled alike
+//! (`F' X' = F X = Y`), and to first order in the plastic strain otherwise; the dilatation
+//! term's lengths and shares are the stored ones exactly ([`Factors::returned`]).
 
 use nalgebra::Vector3;
 
@@ -110,14 +112,19 @@ impl<T: Real> Factors<T> {
         (T::one() - self.alpha) * self.iso + (T::one() - self.beta) * (e - self.iso)
     }
 
-    /// `bond` with the length `|Y| / (1 + e')` that leaves it the strain `e'` = [`Self::target`]
-    /// at the bond vector `y` (m).
+    /// `bond` with the length `|X'| = |Y| / (1 + e')` that leaves it the strain `e'` =
+    /// [`Self::target`] at the bond vector `y` (m), and the share of the mean strain that the
+    /// rest rebuilt from `|X'|` gives it: `a' = w V_j / (A_i |X'|) = a |X| / |X'|` (1/m, see
+    /// [`super::bond`]). Exact for the uncorrected shares, which every plastic body has
+    /// ([`super::rest`]: the direction-based corrections skip plastic bodies).
     #[inline]
     pub fn returned(&self, bond: &BondRest<T>, y: &Vector3<T>) -> BondRest<T> {
         let norm = y.norm();
         let kept = self.target(norm / bond.length - T::one());
+        let length = norm / (T::one() + kept);
         BondRest {
-            length: norm / (T::one() + kept),
+            length,
+            share: bond.share * (bond.length / length),
             ..*bond
         }
     }

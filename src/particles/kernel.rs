@@ -43,12 +43,15 @@ pub fn particle_kernel<T: Real>(
         .and_then(|cone| cone.local_return(bonds, bond_out));
     // The dilatation term's mean strain from the returned bonds' lengths.
     let strain = match &factors {
-        Some(factors) if rest.dilatation[i] != T::zero() => bonds
-            .iter()
-            .zip(&*bond_out)
-            .fold(T::zero(), |s, (bond, y)| {
-                s + bond.share * (y.norm() - factors.returned(bond, y).length)
-            }),
+        Some(factors) if rest.dilatation[i] != T::zero() => {
+            bonds
+                .iter()
+                .zip(&*bond_out)
+                .fold(T::zero(), |s, (bond, y)| {
+                    let returned = factors.returned(bond, y);
+                    s + returned.share * (y.norm() - returned.length)
+                })
+        }
         _ => strain,
     };
     let pressure = rest.dilatation[i] * strain;
