@@ -112,16 +112,32 @@ impl<T: Real> Factors<T> {
         (T::one() - self.alpha) * self.iso + (T::one() - self.beta) * (e - self.iso)
     }
 
+    /// The weighted mean of the kept strains, `sum w_b e'_b / W = (1 - alpha) e_iso` (the
+    /// deviations have mean 0): the dilatation term's mean strain `sum a'_b (|Y_b| - |X'_b|)`
+    /// over the [`Self::returned`] bonds, without a pass over them (a bond squeezed to
+    /// nothing, which keeps its length, is off by its share of the difference).
+    #[inline]
+    pub fn kept_mean(&self) -> T {
+        (T::one() - self.alpha) * self.iso
+    }
+
     /// `bond` with the length `|X'| = |Y| / (1 + e')` that leaves it the strain `e'` =
     /// [`Self::target`] at the bond vector `y` (m), and the share of the mean strain that the
     /// rest rebuilt from `|X'|` gives it: `a' = w V_j / (A_i |X'|) = a |X| / |X'|` (1/m, see
     /// [`super::bond`]). Exact for the uncorrected shares, which every plastic body has
-    /// ([`super::rest`]: the direction-based corrections skip plastic bodies).
+    /// ([`super::rest`]: the direction-based corrections skip plastic bodies). `1 + e'` is
+    /// at least `1e-6` (a collapsed neighbourhood, `e_iso = -1`, would give `0 / 0`), and a
+    /// bond squeezed below `1e-6` of its length keeps it, as at the step's end
+    /// ([`super::plasticity`]).
     #[inline]
     pub fn returned(&self, bond: &BondRest<T>, y: &Vector3<T>) -> BondRest<T> {
+        let floor = T::of(1e-6);
         let norm = y.norm();
         let kept = self.target(norm / bond.length - T::one());
-        let length = norm / (T::one() + kept);
+        let length = norm / (T::one() + kept).max(floor);
+        if !(length > floor * bond.length) {
+            return *bond;
+        }
         BondRest {
             length,
             share: bond.share * (bond.length / length),

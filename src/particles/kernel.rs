@@ -7,6 +7,7 @@ use crate::parallel::for_each_vertex;
 use crate::real::Real;
 
 use super::bond::bond_force;
+use super::cone::Factors;
 use super::deformation::deformation_and_strain;
 use super::rest::ParticleRest;
 
@@ -41,19 +42,8 @@ pub fn particle_kernel<T: Real>(
         .copied()
         .flatten()
         .and_then(|cone| cone.local_return(bonds, bond_out));
-    // The dilatation term's mean strain from the returned bonds' lengths.
-    let strain = match &factors {
-        Some(factors) if rest.dilatation[i] != T::zero() => {
-            bonds
-                .iter()
-                .zip(&*bond_out)
-                .fold(T::zero(), |s, (bond, y)| {
-                    let returned = factors.returned(bond, y);
-                    s + returned.share * (y.norm() - returned.length)
-                })
-        }
-        _ => strain,
-    };
+    // The dilatation term's mean strain from the returned bonds' lengths and shares.
+    let strain = factors.as_ref().map_or(strain, Factors::kept_mean);
     let pressure = rest.dilatation[i] * strain;
     let mut energy = T::of(0.5) * pressure * strain;
     for (bond, out) in bonds.iter().zip(bond_out) {

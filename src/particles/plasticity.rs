@@ -348,7 +348,7 @@ impl Return {
         let d = yb - rx;
         let d_iso = rx * iso;
         let along = rx + d_iso * alpha + (d - d_iso) * beta;
-        let length = yb.norm() / (1.0 + self.factors.target(e));
+        let length = yb.norm() / (1.0 + self.factors.target(e)).max(1e-6);
         (along.norm() > 0.0 && length > 1e-6 * born).then(|| along * (length / along.norm()))
     }
 }
