@@ -55,7 +55,7 @@ fn deformed(body: &Particles, scale: f64, shear: f64) -> Vec<Vector3<f64>> {
 fn the_kernels_return_gives_the_forces_of_the_stored_return() {
     let body = block();
     let constants = RestConstants::of(&body);
-    assert!(constants.returns_in_kernel());
+    assert!(constants.plastic);
     let law = PlasticLaw::of(&body).unwrap();
     let bonds = body.current_rest_bonds();
     let lam = vec![1.2e5; body.num_particles()];
@@ -187,7 +187,7 @@ fn clays_return_in_the_kernel_gives_the_stored_returns_forces_at_the_apex() {
 fn clay_returns_within_the_local_step_to_first_order() {
     let body = clay(0.0);
     let constants = RestConstants::of(&body);
-    assert!(constants.returns_in_kernel() && constants.moduli.mu > 0.0);
+    assert!(constants.plastic && constants.moduli.mu > 0.0);
     assert!(constants.moduli.kappa != 0.0);
     let law = PlasticLaw::of(&body).unwrap();
     let bonds = body.current_rest_bonds();

@@ -41,12 +41,6 @@ pub(crate) struct RestConstants {
 }
 
 impl RestConstants {
-    /// Whether the body's plastic return is taken within the local step ([`super::cone`]):
-    /// every plastic body's is.
-    pub fn returns_in_kernel(&self) -> bool {
-        self.plastic
-    }
-
     pub fn of(body: &Particles) -> Self {
         Self {
             moduli: body.moduli(),
@@ -173,7 +167,8 @@ impl<T: Real> ParticleRest<T> {
             .transpose()?;
         let base = self.len();
         self.add_bonds(bonds, &constants, lam.as_deref())?;
-        if let Some(law) = PlasticLaw::of(body).filter(|_| constants.returns_in_kernel()) {
+        // Every plastic body returns within the local step ([`super::cone`]).
+        if let Some(law) = PlasticLaw::of(body) {
             let cohesion = constants
                 .granular
                 .zip(body.wetted())

@@ -183,7 +183,8 @@ impl PlasticBodies {
             .collect();
         rest.refill(&sources)?;
         for entry in &self.entries {
-            if let Some(law) = entry.law.filter(|_| entry.constants.returns_in_kernel()) {
+            // Every plastic body returns within the local step (`particles::cone`).
+            if let Some(law) = entry.law {
                 let (start, eps_p) = (entry.range.start, &entry.bonds.plastic_strain);
                 rest.set_cones(start, &law, eps_p, entry.cohesions().as_deref());
             }
