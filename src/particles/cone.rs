@@ -135,13 +135,14 @@ impl<T: Real> Factors<T> {
         let norm = y.norm();
         let kept = self.target(norm / bond.length - T::one());
         let length = norm / (T::one() + kept).max(floor);
-        if !(length > floor * bond.length) {
-            return *bond;
-        }
-        BondRest {
-            length,
-            share: bond.share * (bond.length / length),
-            ..*bond
+        if length > floor * bond.length {
+            BondRest {
+                length,
+                share: bond.share * (bond.length / length),
+                ..*bond
+            }
+        } else {
+            *bond
         }
     }
 }
