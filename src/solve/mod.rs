@@ -1,6 +1,7 @@
 //! Time stepping: implicit Euler solved by the semi-implicit successive substitution method.
 
 pub(crate) mod body;
+mod clearance;
 mod clock;
 mod collider_passes;
 mod coupling;

@@ -11,7 +11,7 @@ use crate::collider::ColliderModel;
 use crate::real::Real;
 
 use super::body::Body;
-use super::collider_passes::Clearance;
+use super::clearance::Clearance;
 
 /// The points of one family's bodies: identities and ranges, state and iterates.
 pub(crate) struct Points<T: Real> {
