@@ -43,6 +43,51 @@ fn deformed(body: &Particles, scale: f64, shear: f64) -> Vec<Vector3<f64>> {
         .collect()
 }
 
+/// The rest data of `body` with the bonds `bonds`, granular `lam` per particle (Pa) if any,
+/// and with `cones` the cones of its law (no plastic strain).
+fn rest_of(
+    body: &Particles,
+    bonds: &RestBonds,
+    lam: Option<&[f64]>,
+    cones: bool,
+) -> ParticleRest<f64> {
+    let mut rest = ParticleRest::<f64>::of_bodies(&[body]).unwrap();
+    rest.refill(&[(bonds, RestConstants::of(body), lam)])
+        .unwrap();
+    if cones {
+        let law = PlasticLaw::of(body).unwrap();
+        rest.set_cones(0, &law, &vec![0.0; body.num_particles()], None);
+    }
+    rest
+}
+
+/// Asserts that the kernel's bond forces `kernel` are the stored return's `after` to 1e-9 of
+/// the largest elastic force (in `before`), and that the elastic ones are not (more than 1 %
+/// of it apart).
+fn assert_the_stored_forces(
+    kernel: &[Vector3<f64>],
+    after: &[Vector3<f64>],
+    before: &[Vector3<f64>],
+) {
+    let largest = before.iter().map(|g| g.norm()).fold(0.0, f64::max);
+    let apart = |a: &[Vector3<f64>]| {
+        a.iter()
+            .zip(after)
+            .map(|(g, h)| (g - h).norm())
+            .fold(0.0, f64::max)
+    };
+    assert!(
+        apart(kernel) < 1e-9 * largest,
+        "{} {largest}",
+        apart(kernel)
+    );
+    assert!(
+        apart(before) > 1e-2 * largest,
+        "{} {largest}",
+        apart(before)
+    );
+}
+
 /// Sheared by 10 % and compressed (the return to the cone's side, `alpha = 0`) or stretched
 /// (to the apex, `beta = 1`: dry sand's bonds then carry nothing) by 1 %: the kernel with the
 /// cones gives every bond the force, and every particle the energy, of the bonds that the
@@ -59,16 +104,8 @@ fn the_kernels_return_gives_the_forces_of_the_stored_return() {
     let law = PlasticLaw::of(&body).unwrap();
     let bonds = body.current_rest_bonds();
     let lam = vec![1.2e5; body.num_particles()];
-    let rest_of = |bonds: &RestBonds, cones: bool| {
-        let mut rest = ParticleRest::<f64>::of_bodies(&[&body]).unwrap();
-        rest.refill(&[(bonds, constants, Some(&lam))]).unwrap();
-        if cones {
-            rest.set_cones(0, &law, &vec![0.0; lam.len()], None);
-        }
-        rest
-    };
-    let within = rest_of(&bonds, true);
-    let elastic = rest_of(&bonds, false);
+    let within = rest_of(&body, &bonds, Some(&lam), true);
+    let elastic = rest_of(&body, &bonds, Some(&lam), false);
     for scale in [0.99, 1.01] {
         let y = deformed(&body, scale, 0.1);
         let (kernel, kernel_energy) = forces(&within, &y);
@@ -76,25 +113,9 @@ fn the_kernels_return_gives_the_forces_of_the_stored_return() {
         let mut flags = vec![false; body.num_particles()];
         let yielded = law.apply(&mut stored, &y, &mut flags, None);
         assert!(yielded > body.num_particles() / 2, "{yielded}");
-        let (after, after_energy) = forces(&rest_of(&stored, false), &y);
+        let (after, after_energy) = forces(&rest_of(&body, &stored, Some(&lam), false), &y);
         let (before, _) = forces(&elastic, &y);
-        let largest = before.iter().map(|g| g.norm()).fold(0.0, f64::max);
-        let apart = |a: &[Vector3<f64>]| {
-            a.iter()
-                .zip(&after)
-                .map(|(g, h)| (g - h).norm())
-                .fold(0.0, f64::max)
-        };
-        assert!(
-            apart(&kernel) < 1e-9 * largest,
-            "{} {largest}",
-            apart(&kernel)
-        );
-        assert!(
-            apart(&before) > 1e-2 * largest,
-            "{} {largest}",
-            apart(&before)
-        );
+        assert_the_stored_forces(&kernel, &after, &before);
         for (a, b) in kernel_energy.iter().zip(&after_energy) {
             assert!((a - b).abs() <= 1e-9 * b.abs().max(1e-12), "{a} {b}");
         }
@@ -143,37 +164,13 @@ fn clays_return_in_the_kernel_gives_the_stored_returns_forces_at_the_apex() {
     let law = PlasticLaw::of(&body).unwrap();
     let bonds = body.current_rest_bonds();
     let n = body.num_particles();
-    let rest_of = |bonds: &RestBonds, cones: bool| {
-        let mut rest = ParticleRest::<f64>::of_bodies(&[&body]).unwrap();
-        rest.refill(&[(bonds, constants, None)]).unwrap();
-        if cones {
-            rest.set_cones(0, &law, &vec![0.0; n], None);
-        }
-        rest
-    };
     let y = deformed(&body, 1.01, 0.0);
-    let (kernel, _) = forces(&rest_of(&bonds, true), &y);
+    let (kernel, _) = forces(&rest_of(&body, &bonds, None, true), &y);
     let mut stored = bonds.clone();
     assert_eq!(law.apply(&mut stored, &y, &mut vec![false; n], None), n);
-    let (after, _) = forces(&rest_of(&stored, false), &y);
-    let (before, _) = forces(&rest_of(&bonds, false), &y);
-    let largest = before.iter().map(|g| g.norm()).fold(0.0, f64::max);
-    let apart = |a: &[Vector3<f64>]| {
-        a.iter()
-            .zip(&after)
-            .map(|(g, h)| (g - h).norm())
-            .fold(0.0, f64::max)
-    };
-    assert!(
-        apart(&kernel) < 1e-9 * largest,
-        "{} {largest}",
-        apart(&kernel)
-    );
-    assert!(
-        apart(&before) > 1e-2 * largest,
-        "{} {largest}",
-        apart(&before)
-    );
+    let (after, _) = forces(&rest_of(&body, &stored, None, false), &y);
+    let (before, _) = forces(&rest_of(&body, &bonds, None, false), &y);
+    assert_the_stored_forces(&kernel, &after, &before);
 }
 
 /// Clay (`mu > 0` and a dilatation term: E = 500 kPa, nu = 0.3, phi = 0, c = 2 kPa) returns
@@ -192,21 +189,13 @@ fn clay_returns_within_the_local_step_to_first_order() {
     let law = PlasticLaw::of(&body).unwrap();
     let bonds = body.current_rest_bonds();
     let n = body.num_particles();
-    let rest_of = |bonds: &RestBonds, cones: bool| {
-        let mut rest = ParticleRest::<f64>::of_bodies(&[&body]).unwrap();
-        rest.refill(&[(bonds, constants, None)]).unwrap();
-        if cones {
-            rest.set_cones(0, &law, &vec![0.0; n], None);
-        }
-        rest
-    };
     let y = deformed(&body, 0.99, 0.05);
-    let (kernel, _) = forces(&rest_of(&bonds, true), &y);
+    let (kernel, _) = forces(&rest_of(&body, &bonds, None, true), &y);
     let mut stored = bonds.clone();
     let yielded = law.apply(&mut stored, &y, &mut vec![false; n], None);
     assert_eq!(yielded, n);
-    let (after, _) = forces(&rest_of(&stored, false), &y);
-    let (before, _) = forces(&rest_of(&bonds, false), &y);
+    let (after, _) = forces(&rest_of(&body, &stored, None, false), &y);
+    let (before, _) = forces(&rest_of(&body, &bonds, None, false), &y);
     let apart = |a: &[Vector3<f64>]| {
         a.iter()
             .zip(&after)
@@ -220,4 +209,106 @@ fn clay_returns_within_the_local_step_to_first_order() {
         apart(&kernel),
         apart(&before)
     );
+}
+
+/// A clay particle's neighbourhood collapsed onto it (the interior particle and every
+/// particle within its horizon at one point, E = 500 kPa, nu = 0.3, phi = 0, c = 2 kPa):
+/// the collapsed particle (`e_iso = -1`, no deviation) stays inside its cone; its neighbours
+/// (bonds of zero length beside bonds stretched by up to 2 horizons) and the particles
+/// around the point yield; a bond of zero length, which no reference length gives another
+/// strain than -1, keeps its length and share ([`super::Factors::returned`]). The kernel with
+/// the cones gives finite forces and energies everywhere, and every particle that yields
+/// without a bond of zero length is left on its cone (`sqrt(J2)` within 1e-3 of `A + B I1`
+/// at the kernel's returned lengths, as the return at a step's end: `plasticity_tests`).
+/// At the floor itself (`1 + e'` below 1e-6, `e_iso = -1`) a returned bond keeps its length
+/// when it has no length to give and takes `|Y| / 1e-6` otherwise, both finite.
+#[test]
+fn a_collapsed_neighbourhood_returns_to_finite_forces_and_onto_its_cone() {
+    let body = clay(0.0);
+    let n = body.num_particles();
+    let rest = rest_of(&body, &body.current_rest_bonds(), None, true);
+    let x = body.positions();
+    let centre = (0..n)
+        .min_by(|&a, &b| {
+            let c = Vector3::repeat(0.025);
+            (x[a] - c).norm().total_cmp(&(x[b] - c).norm())
+        })
+        .unwrap();
+    let y: Vec<Vector3<f64>> = x
+        .iter()
+        .map(|p| match (p - x[centre]).norm() <= body.horizon() {
+            true => x[centre],
+            false => *p,
+        })
+        .collect();
+    let collapsed = y.iter().filter(|p| **p == x[centre]).count();
+    assert!(collapsed > 20, "{collapsed}");
+    let (forces, energy) = forces(&rest, &y);
+    assert!(forces.iter().all(|g| g.iter().all(|c| c.is_finite())));
+    assert!(energy.iter().all(|e| e.is_finite()));
+    let range = |i: usize| rest.offsets[i] as usize..rest.offsets[i + 1] as usize;
+    let bond_vectors = |i: usize| -> Vec<Vector3<f64>> {
+        range(i)
+            .map(|b| y[rest.indices[b] as usize] - y[i])
+            .collect()
+    };
+    let (mut on_cone, mut with_zero) = (0, 0);
+    for i in 0..n {
+        let cone = rest.cones[i].unwrap();
+        let (bonds_i, ys) = (&rest.bonds[range(i)], bond_vectors(i));
+        let Some(factors) = cone.local_return(bonds_i, &ys) else {
+            continue;
+        };
+        assert_ne!(
+            i, centre,
+            "the collapsed particle has no deviation to return"
+        );
+        let returned: Vec<_> = bonds_i
+            .iter()
+            .zip(&ys)
+            .map(|(b, y)| factors.returned(b, y))
+            .collect();
+        assert!(returned
+            .iter()
+            .all(|b| b.length.is_finite() && b.length > 0.0 && b.share.is_finite()));
+        if ys.iter().any(|y| y.norm() == 0.0) {
+            with_zero += 1;
+            continue;
+        }
+        let strain = |b: &super::BondRest<f64>, y: &Vector3<f64>| y.norm() / b.length - 1.0;
+        let weight: f64 = returned.iter().map(|b| b.weight).sum();
+        let iso = returned
+            .iter()
+            .zip(&ys)
+            .map(|(b, y)| b.weight * strain(b, y))
+            .sum::<f64>()
+            / weight;
+        let square: f64 = returned
+            .iter()
+            .zip(&ys)
+            .map(|(b, y)| b.weight * (strain(b, y) - iso).powi(2))
+            .sum();
+        let (sqrt_j2, strength) = cone.state(iso, (square / weight).sqrt());
+        assert!(
+            (sqrt_j2 - strength).abs() < 1e-3 * strength,
+            "{i}: {sqrt_j2} {strength}"
+        );
+        on_cone += 1;
+    }
+    assert!(on_cone > 20 && with_zero > 20, "{on_cone} {with_zero}");
+    // At the floor: a neighbourhood collapsed to `e_iso = -1` with a deviation left.
+    let factors = super::Factors {
+        alpha: 0.0,
+        beta: 0.5,
+        iso: -1.0,
+    };
+    let bond = rest.bonds[0];
+    assert_eq!(
+        factors.returned(&bond, &Vector3::zeros()).length,
+        bond.length
+    );
+    let tiny = bond.xi * 1e-7;
+    let floored = factors.returned(&bond, &tiny);
+    assert!((floored.length - tiny.norm() / 1e-6).abs() < 1e-12 * bond.length);
+    assert!(floored.share.is_finite() && floored.share > bond.share);
 }
