@@ -167,6 +167,56 @@ def test_a_plastic_body_stretched_beyond_its_horizon_stays_whole():
     assert t["plasticity"] + t["neighbours"] <= t["finish"]
 
 
+def clay_cube_height_loss(h):
+    """A clay cube (6^3 particles, spacing 1 cm, E = 500 kPa, nu = 0.3, phi = 0, c = 2 kPa,
+    1800 kg/m^3) thrown at 0.5 m/s onto a frictionless floor 0.1 mm below its margin, no
+    gravity, 30 iterations a step: its height's permanent loss (%, top and bottom layers'
+    mean heights, averaged over the last 20 ms of 0.1 s) after a step of ``h`` (s)."""
+    k = np.arange(6)
+    x = np.stack(np.meshgrid(k, k, k, indexing="ij"), -1).reshape(-1, 3) * S
+    x[:, 2] += 0.5 * S + 1e-4
+    cube = pd.Particles(x, spacing=S, density=1800.0, material=pd.Elastic.from_young(5e5, 0.3),
+                        plasticity=pd.DruckerPrager(friction_angle=0.0, cohesion=2e3))
+    cube.velocities = np.tile([0.0, 0.0, -0.5], (len(x), 1))
+    s = pd.Solver(dt=h, gravity=(0.0, 0.0, 0.0), max_iters=30)
+    s.add(cube)
+    s.add_collider(pd.Plane(friction=0.0))
+    top, bottom = x[:, 2] > x[:, 2].max() - 0.5 * S, x[:, 2] < x[:, 2].min() + 0.5 * S
+    steps, last = int(round(0.1 / h)), int(round(0.02 / h))
+    heights = []
+    for i in range(steps):
+        s.step()
+        if i >= steps - last:
+            p = cube.positions
+            heights.append(p[top, 2].mean() - p[bottom, 2].mean())
+    return 100.0 * (1.0 - np.mean(heights) / (x[top, 2].mean() - x[bottom, 2].mean()))
+
+
+def test_a_clay_cubes_set_converges_once_the_step_resolves_the_impact_wave():
+    """The clay cube's permanent height loss at h = 1/6400 and 1/12800 s agrees within 8 %
+    (measured 3.40 and 3.55 %; 3.65 % at 1/25600, converging as about h^0.6): steps of a
+    quarter and an eighth of the time an elastic wave takes to cross a spacing,
+    s / sqrt(E / rho) = 0.6 ms. Some set, less than the rigid-plastic estimate (the kinetic
+    energy over the yield stress 2c: 5.6 %)."""
+    fine, finer = clay_cube_height_loss(1 / 6400), clay_cube_height_loss(1 / 12800)
+    assert 1.0 < fine < 5.6 and 1.0 < finer < 5.6, (fine, finer)
+    assert abs(fine - finer) < 0.08 * finer, (fine, finer)
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="open (issue 39): at steps longer than the impact wave's crossing of "
+                   "a spacing (0.6 ms) the set depends on the step: 0, 1.31, 2.76 % at h = "
+                   "1/100, 1/400, 1/1600 s against 3.40-3.65 % at 1/6400-1/25600 (the same "
+                   "with the direct solver to 1e-9: not the iterations), with the return "
+                   "within the local step; implicit Euler damps the impact's stress wave "
+                   "(docs/model.md, plasticity section)")
+def test_a_clay_cubes_set_does_not_depend_on_a_long_step():
+    """At h = 1/400 and 1/1600 s the clay cube's set is within 8 % of its set at 1/6400."""
+    fine = clay_cube_height_loss(1 / 6400)
+    for h in (1 / 400, 1 / 1600):
+        assert abs(clay_cube_height_loss(h) - fine) < 0.08 * fine, h
+
+
 def test_an_elastic_body_reports_no_plastic_phases():
     body = bar(None)
     s = pd.Solver(dt=0.01)

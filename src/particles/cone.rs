@@ -7,17 +7,23 @@
 //! the local-global solve: every bond then stays elastic through the step's iterations and the
 //! solve finds the implicit step of an elastic body that yields only afterwards, so the bonds
 //! resist the step's motion like a viscosity of about `K_f h / 6` (a sand column ran out to
-//! dR/R = 0.47 where Lube et al. 2004 measure 1.24). For a body of pair springs only (`mu = 0`
-//! and no dilatation term: granular bodies) a bond's force depends on its reference vector
-//! through its length alone, so the kernel can take the return as part of its local step:
-//! at every evaluation it projects the particle's bond strains, measured from the step's
-//! reference bonds, onto the cone (`e'_b = (1 - alpha) e_iso + (1 - beta) e_dev,b`) and
-//! springs each bond to the length `|X'_b| = |Y_b| / (1 + e'_b)` that leaves it that strain.
-//! The reference bonds themselves are not touched within the step (the kernel stays a
-//! function of the positions, as the line search needs); the return at the step's end, from
-//! the same reference bonds at the final positions, stores exactly these lengths (and the
-//! directions of eq. 19). This is the implicit (backward Euler) return of the step's whole
-//! strain increment.
+//! dR/R = 0.47 where Lube et al. 2004 measure 1.24), and an elastic-plastic body's set
+//! depended on the step. So the kernel takes the return as part of its local step: at every
+//! evaluation it projects the particle's bond strains, measured from the step's reference
+//! bonds, onto the cone (`e'_b = (1 - alpha) e_iso + (1 - beta) e_dev,b`) and springs each
+//! bond to the length `|X'_b| = |Y_b| / (1 + e'_b)` that leaves it that strain (the
+//! dilatation term's mean strain too). The reference bonds themselves are not touched within
+//! the step (the kernel stays a function of the positions, as the line search needs); the
+//! return at the step's end, from the same reference bonds at the final positions, stores
+//! exactly these lengths, and the directions of eq. 19. This is the implicit (backward
+//! Euler) return of the step's whole strain increment. For a body of pair springs only
+//! (`mu = 0`, no dilatation term: granular bodies) a bond's force depends on its reference
+//! vector through its length alone, so the kernel's bonds are the stored ones exactly; with
+//! `mu > 0` the kernel keeps `F_i` and the deviatoric springs' directions `dir(F_i X)` from
+//! the step's bonds, which the stored ones (turned by eq. 19, each with its own length)
+//! reproduce where every bond of an affinely deformed neighbourhood is scaled alike
+//! (`F' X' = F X = Y`), and to first order in the plastic strain otherwise; the dilatation
+//! term's lengths and shares are the stored ones exactly ([`Factors::returned`]).
 
 use nalgebra::Vector3;
 
@@ -106,15 +112,37 @@ impl<T: Real> Factors<T> {
         (T::one() - self.alpha) * self.iso + (T::one() - self.beta) * (e - self.iso)
     }
 
-    /// `bond` with the length `|Y| / (1 + e')` that leaves it the strain `e'` = [`Self::target`]
-    /// at the bond vector `y` (m).
+    /// The weighted mean of the kept strains, `sum w_b e'_b / W = (1 - alpha) e_iso` (the
+    /// deviations have mean 0): the dilatation term's mean strain `sum a'_b (|Y_b| - |X'_b|)`
+    /// over the [`Self::returned`] bonds, without a pass over them (a bond squeezed to
+    /// nothing, which keeps its length, is off by its share of the difference).
+    #[inline]
+    pub fn kept_mean(&self) -> T {
+        (T::one() - self.alpha) * self.iso
+    }
+
+    /// `bond` with the length `|X'| = |Y| / (1 + e')` that leaves it the strain `e'` =
+    /// [`Self::target`] at the bond vector `y` (m), and the share of the mean strain that the
+    /// rest rebuilt from `|X'|` gives it: `a' = w V_j / (A_i |X'|) = a |X| / |X'|` (1/m, see
+    /// [`super::bond`]). Exact for the uncorrected shares, which every plastic body has
+    /// ([`super::rest`]: the direction-based corrections skip plastic bodies). `1 + e'` is
+    /// at least `1e-6` (a collapsed neighbourhood, `e_iso = -1`, would give `0 / 0`), and a
+    /// bond squeezed below `1e-6` of its length keeps it, as at the step's end
+    /// ([`super::plasticity`]).
     #[inline]
     pub fn returned(&self, bond: &BondRest<T>, y: &Vector3<T>) -> BondRest<T> {
+        let floor = T::of(1e-6);
         let norm = y.norm();
         let kept = self.target(norm / bond.length - T::one());
-        BondRest {
-            length: norm / (T::one() + kept),
-            ..*bond
+        let length = norm / (T::one() + kept).max(floor);
+        if length > floor * bond.length {
+            BondRest {
+                length,
+                share: bond.share * (bond.length / length),
+                ..*bond
+            }
+        } else {
+            *bond
         }
     }
 }

@@ -7,6 +7,7 @@ use crate::parallel::for_each_vertex;
 use crate::real::Real;
 
 use super::bond::bond_force;
+use super::cone::Factors;
 use super::deformation::deformation_and_strain;
 use super::rest::ParticleRest;
 
@@ -17,8 +18,9 @@ use super::rest::ParticleRest;
 /// Two passes over the bonds: the first reads each neighbour's position once, keeps the bond
 /// vector `Y = y_j - y_i` in `bond_out` (no other storage) and sums `F_i` and the mean strain;
 /// the second turns each `Y` into the bond's force in place. A particle with a cone in the
-/// rest data (granular) takes its Drucker-Prager return between them, over the kept `Y`
-/// ([`super::cone`]; its energy is then that of the returned bonds).
+/// rest data (a plastic body's) takes its Drucker-Prager return between them, over the kept
+/// `Y` ([`super::cone`]; its energy, and its dilatation term's mean strain, are then those of
+/// the returned bonds).
 #[inline]
 pub fn particle_kernel<T: Real>(
     i: usize,
@@ -33,15 +35,17 @@ pub fn particle_kernel<T: Real>(
         deformation_and_strain(i, neighbors, bonds, &rest.shape_inverse[i], y, |k, d| {
             bond_out[k] = d
         });
-    let pressure = rest.dilatation[i] * strain;
-    let mut energy = T::of(0.5) * pressure * strain;
-    // A granular particle's return within the local step ([`super::cone`]).
+    // A plastic particle's return within the local step ([`super::cone`]).
     let factors = rest
         .cones
         .get(i)
         .copied()
         .flatten()
         .and_then(|cone| cone.local_return(bonds, bond_out));
+    // The dilatation term's mean strain from the returned bonds' lengths and shares.
+    let strain = factors.as_ref().map_or(strain, Factors::kept_mean);
+    let pressure = rest.dilatation[i] * strain;
+    let mut energy = T::of(0.5) * pressure * strain;
     for (bond, out) in bonds.iter().zip(bond_out) {
         let (g, e) = match &factors {
             Some(factors) => bond_force(&factors.returned(bond, out), &f, out, pressure),

@@ -1,7 +1,7 @@
 //! Drucker-Prager plasticity of particle bodies (He et al. 2017, section 5, eq. 14-19 as
 //! corrected in DESIGN.md section 6): the yield test on each particle's bond strain state and
-//! the return that moves its reference bonds, once per step after the local-global solve (a
-//! granular body's is also taken within the local step: [`super::cone`]).
+//! the return that moves its reference bonds, stored once per step after the local-global
+//! solve (and taken within the local step, from the same bonds: [`super::cone`]).
 //!
 //! **Strain state.** Particle `i`'s bond `b` has the strain `e_b = |Y_b| / |X_b| - 1`; with
 //! the bonds' weights `w_b = w(born_b) V_j` and `W = sum w_b`, `e_iso = sum w_b e_b / W`
@@ -348,7 +348,7 @@ impl Return {
         let d = yb - rx;
         let d_iso = rx * iso;
         let along = rx + d_iso * alpha + (d - d_iso) * beta;
-        let length = yb.norm() / (1.0 + self.factors.target(e));
+        let length = yb.norm() / (1.0 + self.factors.target(e)).max(1e-6);
         (along.norm() > 0.0 && length > 1e-6 * born).then(|| along * (length / along.norm()))
     }
 }

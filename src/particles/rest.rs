@@ -41,13 +41,6 @@ pub(crate) struct RestConstants {
 }
 
 impl RestConstants {
-    /// Whether the body's plastic return is taken within the local step ([`super::cone`]):
-    /// a plastic body of pair springs only (`mu = 0`, no dilatation term), as granular
-    /// bodies are, whose bonds' forces depend on their reference vectors' lengths alone.
-    pub fn returns_in_kernel(&self) -> bool {
-        self.plastic && self.moduli.mu == 0.0 && self.moduli.kappa == 0.0
-    }
-
     pub fn of(body: &Particles) -> Self {
         Self {
             moduli: body.moduli(),
@@ -181,7 +174,8 @@ impl<T: Real> ParticleRest<T> {
             .transpose()?;
         let base = self.len();
         self.add_bonds(bonds, &constants, lam.as_deref())?;
-        if let Some(law) = PlasticLaw::of(body).filter(|_| constants.returns_in_kernel()) {
+        // Every plastic body returns within the local step ([`super::cone`]).
+        if let Some(law) = PlasticLaw::of(body) {
             let cohesion = constants
                 .granular
                 .zip(body.wetted())

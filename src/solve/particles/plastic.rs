@@ -1,7 +1,7 @@
 //! The end of a step for plastic particle bodies (He et al. 2017, section 5): once the
 //! local-global solve has finished, as the paper does it, the return of eq. 18-19 moves the
-//! reference bonds of the particles that yield (a granular body's kernel took the same return
-//! within the iterations, from the same bonds: [`crate::particles::Cone`]; here it is stored,
+//! reference bonds of the particles that yield (the kernel took the same return within the
+//! iterations, from the same bonds: [`crate::particles::Cone`]; here it is stored,
 //! and decides which particles static friction may hold), then the neighbours of bodies that ask for
 //! it are searched on the deformed positions (eq. 20), and the rest data the next step
 //! solves with is rebuilt from the new bonds, with a granular body's stiffness from its SPH
@@ -183,7 +183,8 @@ impl PlasticBodies {
             .collect();
         rest.refill(&sources)?;
         for entry in &self.entries {
-            if let Some(law) = entry.law.filter(|_| entry.constants.returns_in_kernel()) {
+            // Every plastic body returns within the local step (`particles::cone`).
+            if let Some(law) = entry.law {
                 let (start, eps_p) = (entry.range.start, &entry.bonds.plastic_strain);
                 rest.set_cones(start, &law, eps_p, entry.cohesions().as_deref());
             }
