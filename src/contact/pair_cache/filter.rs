@@ -172,17 +172,19 @@ impl PairCache {
         self.sweeps += 1;
         let mut swept = std::mem::take(&mut self.sweep.swept);
         self.sweep.record(safe, target, allowance, near);
+        self.packed_shift
+            .pack(&self.shift, allowance, &self.patches);
         let this = &*self;
+        let packed = &self.packed_shift;
         (0..near)
             .into_par_iter()
             .map(|k| {
                 let (pair, at_build) = &this.pairs[k];
                 let (a, b) = pair.sides();
                 // The bound from the build's distance and the moves since (`shift`, measured
-                // for this filter) costs no closest points; it is lower than the fresh bound,
-                // which is taken only where it might be needed.
-                let cheap =
-                    pair.relative_distance_bound(f64::from(*at_build), &this.shift, allowance);
+                // for this filter, packed) costs no closest points; it is lower than the fresh
+                // bound, which is taken only where it might be needed.
+                let cheap = packed.bound(pair, f64::from(*at_build));
                 let bound = if cheap - reach >= CHEAP_SLACK * reach {
                     cheap
                 } else {
@@ -190,7 +192,7 @@ impl PairCache {
                 };
                 SweptPair {
                     slack: round_down(bound - reach),
-                    patches: [a, b].map(|side| this.patches.of_side(side) as u32),
+                    patches: [a, b].map(|side| packed.patch(side)),
                 }
             })
             .collect_into_vec(&mut swept);

@@ -87,6 +87,7 @@
 
 mod build;
 mod filter;
+mod packed_shift;
 mod repair;
 #[cfg(test)]
 mod tests;
@@ -100,6 +101,7 @@ use super::patches::Patches;
 use super::primitive_pairs::{Owners, Pair};
 use super::regions::Regions;
 use super::sweep::{displacements, Sweep, NO_BODY};
+use packed_shift::PackedShift;
 
 /// The primitive pairs of the last build and their distances at its reference positions.
 #[derive(Default)]
@@ -160,6 +162,8 @@ pub(super) struct PairCache {
     shift: Vec<[Vector3<f64>; 2]>,
     /// The last full filter of the cached pairs into the live list.
     sweep: Sweep,
+    /// `shift`, the allowances and the patches as the last sweep read them.
+    packed_shift: PackedShift,
     /// Sweeps since the cache was made (a count, for [`super::local_step::ContactStats`]).
     sweeps: usize,
     /// The mesh's vertices in patches, for [`Sweep::patch_fall`].
