@@ -89,52 +89,13 @@ pub(super) struct Sweep {
     patch_motion: Vec<PatchMotion>,
 }
 
-/// What a sweep keeps of a near pair: the filters after it read only this, in order, until a
-/// bound says they must look at the pair itself.
+/// What a sweep keeps of a near pair: the filters after it read only this (and the patches
+/// of its sides, see `pair_cache/patch_groups.rs`) until a bound says they must look at the
+/// pair itself.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct SweptPair {
     /// `b^0 - reach` rounded down to `f32` (m), NaN where `b^0` is.
     pub slack: f32,
-    /// The patches whose halos hold its two sides ([`Patches::of_side`]).
-    pub patches: [u32; 2],
-}
-
-/// [`Sweep::patch_fall`] memoised by patch pair, direct-mapped in [`PATCH_FALL_SLOTS`] slots:
-/// a filter tests hundreds of thousands of swept pairs against the falls of a few thousand
-/// patch pairs, and neighbouring pairs (neighbours in the cache's order too) share theirs.
-pub(super) struct PatchFalls<'a> {
-    sweep: &'a Sweep,
-    /// Per slot: the patch pair (`[p, q]` as `p << 32 | q`, `u64::MAX` for none) and its fall.
-    slots: Vec<(u64, f64)>,
-}
-
-/// The slots of a [`PatchFalls`] (a power of two; a cost trade-off only).
-const PATCH_FALL_SLOTS: usize = 1 << 12;
-
-impl<'a> PatchFalls<'a> {
-    /// An empty memo of the falls that `sweep` last measured.
-    pub fn new(sweep: &'a Sweep) -> Self {
-        PatchFalls {
-            sweep,
-            slots: vec![(u64::MAX, 0.0); PATCH_FALL_SLOTS],
-        }
-    }
-
-    /// [`Sweep::patch_fall`] of the patches `[p, q]`, computed where it is not memoised.
-    pub fn of(&mut self, [p, q]: [u32; 2]) -> f64 {
-        let key = (u64::from(p) << 32) | u64::from(q);
-        if key == u64::MAX {
-            return self.sweep.patch_fall([p, q]);
-        }
-        // Fibonacci hashing: the top bits of the product mix both patches.
-        let slot =
-            (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - PATCH_FALL_SLOTS.ilog2())) as usize;
-        let (held, fall) = &mut self.slots[slot];
-        if *held != key {
-            (*held, *fall) = (key, self.sweep.patch_fall([p, q]));
-        }
-        *fall
-    }
 }
 
 /// How the vertices of a patch's halo moved since the sweep (see [`Sweep::measure_patches`]).
@@ -546,35 +507,5 @@ mod tests {
             }
         }
         assert!(tighter > 3000, "{tighter} of 4000 pairs");
-    }
-
-    /// [`PatchFalls`] returns exactly [`Sweep::patch_fall`] for every patch pair, asked in
-    /// any order and again, with more pairs than slots (so that slots are shared and evicted).
-    #[test]
-    fn memoised_patch_falls_are_the_patch_falls() {
-        let mut rng = Rng::new(3);
-        let (safe0, triangles) = spiral(60, 0.01, &mut rng);
-        let n = safe0.len();
-        let patches = Patches::with_size(&triangles, n, 4);
-        let count = patches.count() as u32;
-        assert!(
-            (count * count) as usize > 2 * PATCH_FALL_SLOTS,
-            "{count} patches"
-        );
-        let target0: Vec<_> = safe0.iter().map(|s| s + rng.vector() * 1e-3).collect();
-        let a0 = vec![1e-4; n];
-        let mut sweep = Sweep::default();
-        sweep.record(&safe0, &target0, &a0, 0);
-        let (safe, target): (Vec<_>, Vec<_>) = (0..n)
-            .map(|i| (target0[i], target0[i] + rng.vector() * 1e-3))
-            .unzip();
-        sweep.measure(&safe, &target);
-        sweep.measure_patches(&patches, &vec![2e-4; n]);
-        let mut memo = PatchFalls::new(&sweep);
-        for _ in 0..40_000 {
-            let pq = [0; 2].map(|_| (rng.vector().x.abs() * 1e6) as u32 % count);
-            let (held, exact) = (memo.of(pq), sweep.patch_fall(pq));
-            assert_eq!(held.to_bits(), exact.to_bits(), "{pq:?}");
-        }
     }
 }

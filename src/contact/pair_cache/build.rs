@@ -136,7 +136,7 @@ impl PairCache {
     }
 
     /// Indexes the build's pairs by vertex (the four vertices of a pair are distinct: its
-    /// primitives share none) and marks none of them live, none swept.
+    /// primitives share none) and marks none of them live, none swept (nor grouped).
     fn index_pairs(&mut self) {
         index_by_vertex(
             self.pairs.iter().map(|(pair, _)| pair.v),
@@ -148,6 +148,7 @@ impl PairCache {
         self.is_live.resize(self.pairs.len(), false);
         self.flagged = 0;
         self.sweep.valid = false;
+        self.patch_groups.clear();
     }
 }
 

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use super::super::broad_phase::ContactMesh;
 use super::super::primitive_pairs::Pair;
-use super::super::sweep::{PatchFalls, SweptPair};
+use super::super::sweep::SweptPair;
 use super::{below, PairCache, Renewal};
 use crate::geometry::bounds::round_down;
 
@@ -180,7 +180,6 @@ impl PairCache {
             .into_par_iter()
             .map(|k| {
                 let (pair, at_build) = &this.pairs[k];
-                let (a, b) = pair.sides();
                 // The bound from the build's distance and the moves since (`shift`, measured
                 // for this filter, packed) costs no closest points; it is lower than the fresh
                 // bound, which is taken only where it might be needed.
@@ -192,10 +191,17 @@ impl PairCache {
                 };
                 SweptPair {
                     slack: round_down(bound - reach),
-                    patches: [a, b].map(|side| packed.patch(side)),
                 }
             })
             .collect_into_vec(&mut swept);
+        if self.patch_groups.is_empty() {
+            let pairs = &self.pairs[..self.arranged];
+            self.patch_groups.group(pairs.par_iter().map(|(pair, _)| {
+                let (a, b) = pair.sides();
+                [a, b].map(|side| packed.patch(side))
+            }));
+        }
+        self.patch_groups.record(&swept);
         self.sweep.swept = swept;
         self.sweep.within = self
             .sweep
@@ -241,25 +247,38 @@ impl PairCache {
             }
         }
         // The pairs to look at again. Counted: the pairs within reach at the sweep (no test
-        // can leave them out), and those that took a patch test and a pair test. In chunks,
-        // each with its own memo of the patch falls (neighbouring pairs share patch pairs).
-        let chunks: Vec<(Vec<u32>, [usize; 3])> = self.sweep.swept[..swept]
+        // can leave them out), the patch falls taken and the members that took the patch
+        // test, and those that took a pair test. By patch
+        // pair (see `patch_groups.rs`): one patch fall per group, and the members only of the
+        // groups whose least slack is below both falls.
+        let (sweep, patch_groups) = (&self.sweep, &self.patch_groups);
+        let chunks: Vec<(Vec<u32>, [usize; 3])> = patch_groups
+            .groups()
             .par_chunks(REFILTER_CHUNK)
-            .enumerate()
-            .map(|(c, chunk)| {
+            .map(|chunk| {
                 let (mut again, mut tests) = (Vec::new(), [0_usize; 3]);
-                let mut patch_falls = PatchFalls::new(&self.sweep);
-                for (k, swept) in (c * REFILTER_CHUNK..).zip(chunk) {
-                    let s = f64::from(swept.slack);
-                    if s < 0.0 {
-                        tests[0] += 1;
-                        again.push(k as u32);
-                    } else if below(s, fall) {
-                        tests[1] += 1;
-                        if below(s, patch_falls.of(swept.patches)) {
-                            tests[2] += 1;
-                            if below(s, self.sweep.pair_fall(&self.pairs[k].0, allowance)) {
-                                again.push(k as u32);
+                for group in chunk {
+                    let least = f64::from(group.least);
+                    if least >= 0.0 && !below(least, fall) {
+                        continue;
+                    }
+                    let patch_fall = sweep.patch_fall(group.patches);
+                    tests[1] += 1;
+                    if least >= 0.0 && !below(least, patch_fall) {
+                        continue;
+                    }
+                    for member in patch_groups.members(group, swept) {
+                        let (k, s) = (member.pair as usize, f64::from(member.slack));
+                        if s < 0.0 {
+                            tests[0] += 1;
+                            again.push(k as u32);
+                        } else if below(s, fall) {
+                            tests[1] += 1;
+                            if below(s, patch_fall) {
+                                tests[2] += 1;
+                                if below(s, sweep.pair_fall(&self.pairs[k].0, allowance)) {
+                                    again.push(k as u32);
+                                }
                             }
                         }
                     }
@@ -274,6 +293,7 @@ impl PairCache {
             tests = [0, 1, 2].map(|t| tests[t] + more_tests[t]);
         }
         again.extend(swept as u32..near as u32);
+        again.par_sort_unstable();
         let [within, patch_tests, pair_tests] = tests;
         let sweep = &mut self.sweep;
         let beyond = again.len() - within;
@@ -398,9 +418,8 @@ pub(super) const OUTLYING_SHARE: f64 = 1.0 / 512.0;
 /// and made the next filters cheap).
 const REFILTER_SHARE: f64 = 1.0 / 16.0;
 
-/// The swept pairs a refilter's task takes at a time, each with its own memo of the patch
-/// falls (a cost trade-off only).
-const REFILTER_CHUNK: usize = 1 << 14;
+/// The patch groups a refilter's task takes at a time (a cost trade-off only).
+const REFILTER_CHUNK: usize = 1 << 6;
 
 /// The costs of a refilter's patch and pair tests ([`super::super::sweep::Sweep::patch_fall`],
 /// [`super::super::sweep::Sweep::pair_fall`]) in fresh bounds (a sweep costs one per near pair),

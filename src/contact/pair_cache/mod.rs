@@ -88,6 +88,7 @@
 mod build;
 mod filter;
 mod packed_shift;
+mod patch_groups;
 mod repair;
 #[cfg(test)]
 mod tests;
@@ -102,6 +103,7 @@ use super::primitive_pairs::{Owners, Pair};
 use super::regions::Regions;
 use super::sweep::{displacements, Sweep, NO_BODY};
 use packed_shift::PackedShift;
+use patch_groups::PatchGroups;
 
 /// The primitive pairs of the last build and their distances at its reference positions.
 #[derive(Default)]
@@ -164,6 +166,9 @@ pub(super) struct PairCache {
     sweep: Sweep,
     /// `shift`, the allowances and the patches as the last sweep read them.
     packed_shift: PackedShift,
+    /// The build's arranged pairs by the patches of their sides, with the last sweep's
+    /// slacks (grouped at the first sweep of a build).
+    patch_groups: PatchGroups,
     /// Sweeps since the cache was made (a count, for [`super::local_step::ContactStats`]).
     sweeps: usize,
     /// The mesh's vertices in patches, for [`Sweep::patch_fall`].
