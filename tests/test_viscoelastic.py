@@ -123,22 +123,23 @@ def test_adhesion_holds_a_liquid_film_at_its_ghost_ceiling():
     assert ((ceiling - fluid[:, 2]) < 1.3 * S).sum() == 25
 
 
-def test_without_adhesion_a_blob_hangs_on_exactly_when_its_yield_stress_carries_its_weight():
+def test_without_adhesion_a_blob_hangs_on_at_a_yield_stress_of_600_pa_and_parts_at_500():
     """Without adhesion the ghosts hold the blob by its bonds alone. With a yield stress of
-    1500 Pa, above its weight's stress at the top (824 Pa), it hangs on whole, elastically:
-    after 0.4 s its top layer is within 2 spacings of the ceiling (measured 1.43) and its
-    lowest particle less than 5 spacings below where it started (measured 1.3, the same at
-    dt = 2.5 ms; the elastic bounce moves it between 0.3 and 2.5). With 500 Pa, below its
-    weight's stress, the top yields and the blob parts from the ceiling: its lowest particle
-    more than 10 spacings down (measured 30; 38 at dt = 2.5 ms). (The plastic return at the
-    step's end alone, as the paper has it, hung the 500 Pa blob at dt = 5 ms, 2.2 spacings
-    down, by the elastic overshoot of each step's bonds, and let it fall at 2.5 and 1.25 ms:
-    docs/model.md, plasticity section.)"""
+    600 Pa it hangs on whole: after 0.4 s its top layer is within 2 spacings of the ceiling
+    (measured 1.49) and its lowest particle less than 5 spacings below where it started
+    (measured 1.88; 2.15 at dt = 2.5 ms). With 500 Pa the top yields and the blob parts from
+    the ceiling: its lowest particle more than 10 spacings down (measured 30; 38 at dt =
+    2.5 ms). The blob parts between 500 and 520 Pa at dt = 5 ms (between 520 and 600 Pa at
+    2.5 ms), at 0.61-0.73 of its weight's stress at the top, 824 Pa: the weight's stress
+    sets the yield stress that holds it only to within that factor. (The plastic return at
+    the step's end alone, as the paper has it, hung the 500 Pa blob at dt = 5 ms, 2.2
+    spacings down, by the elastic overshoot of each step's bonds, and let it fall at 2.5 and
+    1.25 ms: docs/model.md, plasticity section.)"""
     low0 = lambda ceiling: ceiling - 6.5 * S
-    fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=1500.0)
+    fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=600.0)
     assert 0.0 < low0(ceiling) - fluid[:, 2].min() < 5 * S, low0(ceiling) - fluid[:, 2].min()
     assert ceiling - fluid[:, 2].max() < 2 * S
-    fluid, ceiling = honey_under_a_ceiling(adhesion=False)
+    fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=500.0)
     assert low0(ceiling) - fluid[:, 2].min() > 10 * S, low0(ceiling) - fluid[:, 2].min()
 
 
