@@ -1,6 +1,7 @@
 //! The coarse correction of the Jacobi global step: a two-level method whose coarse space is
-//! the translation of each particle body, with the contacts between bodies and with the
-//! colliders as linearised one-sided constraints (beyond the 2017 paper, issue 38).
+//! the affine field of each particle body ([`super::coarse_space`]), with the contacts between
+//! bodies and with the colliders as linearised one-sided constraints (beyond the 2017 paper,
+//! issue 38).
 //!
 //! **Why.** One Jacobi sweep on `(M + h^2 L) delta = r` ([`super::directions::jacobi`]) moves
 //! a body's translation by only `m_i / D_i` of what its residual asks (`L` holds no stiffness
@@ -11,53 +12,64 @@
 //! initial guess, [`crate::solve::sissm`], is chosen for all its bodies at once), a
 //! translation error of `h v + h^2 g`. And bodies in contact keep such modes too: two blocks
 //! stacked on a frictionless plane slide together along it, held by nothing but their masses
-//! in the sweep (their error decays by `1 - m / D` per iteration).
+//! in the sweep (their error decays by `1 - m / D` per iteration). The smooth deformations
+//! fare little better: a body compressing against the floor, or spinning, is a field that
+//! varies over the whole body, which the sweep propagates by one bond per iteration. The
+//! affine field holds the uniform ones (compression, shear, a linearised rotation). A rotation
+//! enters as the antisymmetric part of `A` with the stiffness `L` gives it (the global matrix
+//! is not rotation-invariant: the local step's projections carry the rotations), so it is the
+//! linear system's own answer to the residual's torque, not a rigid rotation fitted to it
+//! (which the non-central deviatoric forces of eq. 10 would spin).
 //!
-//! **What.** After the sweep every body `b` that takes part (below) moves by a translation
-//! `t_b` (m), the solution of the Galerkin coarse problem of eq. 12's linear system on the
-//! bodies' translations `P` (`delta += P t`), with the contacts as constraints:
+//! **What.** After the sweep every body `b` that takes part (below) moves by the field
+//! `u_i = t_b + A_b l_i` (m, `l_i = x_i - c_b` the particle's lever from the mass centre of
+//! the step's start positions), the solution of the Galerkin coarse problem of eq. 12's linear
+//! system on the bodies' affine fields `P` (`delta += P (t, A)`), with the contacts as
+//! constraints ([`super::coarse_problem`]):
 //!
-//! `min_t  1/2 sum_b M_b |t_b|^2 - sum_b F_b . t_b`
-//! subject to `n_c . (t_a - t_b) >= -max(g_c, 0)` for every contact `c`,
+//! `min  sum_b [1/2 M_b |t_b|^2 + 1/2 tr(A_b K_b A_b^T) - F_b . t_b - tr(R_b A_b^T)]`
+//! subject to `n_c . (u_a(l_i) - u_b(l_j)) >= -max(g_c, 0)` for every contact `c`,
 //!
-//! `M_b` (kg) the body's mass and `F_b = sum_(i in b) (r_i - m_i delta_i)` (kg m) the net
-//! residual the sweep leaves: `P^T (M + h^2 L) P = diag(M_b)` and `P^T (r - (M + h^2 L) delta)
-//! = F` because `L` (symmetric, bonds within a body) has no stiffness against a translation.
-//! A contact `c` is a particle `i` of body `a` at `p_i = y_i + delta_i` (where the sweep put
-//! it) and either a collider (`g_c` its signed distance less the margin, `n_c` its normal;
-//! `t_b = 0`) or a particle `j` of another body `b` among the repulsion's candidates
-//! (`g_c = |p_i - p_j| - margin_i - margin_j`, `n_c = (p_i - p_j) / |p_i - p_j|`): the
-//! translation may close a gap, but carries no particle deeper than the sweep put it. The
-//! constraints are the linearisation of the distance, which underestimates it for a pair and
-//! for a convex collider, so a feasible `t` keeps the contacts; the collider projection and the
-//! repulsion that follow ([`super::step`]) correct the rest. A contact with a frictional
-//! collider that the sweep put within the margin (`g_c <= 0`) holds the body's tangential
-//! translation too (two equality constraints: the Coulomb cone is the fine iteration's), so
-//! the coarse step slides no body a collider sticks. Only the contacts that a translation of
-//! at most `|t_b| <= sqrt(sum_c M_c |t0_c|^2 / M_b)` can reach enter (`t0 = F / M` the
-//! unconstrained solution; the solution is the `M`-projection of `t0` onto a convex set that
-//! holds `t = 0`, so its `M`-norm is at most `t0`'s).
+//! `P^T (M + h^2 L) P = blockdiag(M_b, K_b)` and `(F_b, R_b) = P^T (r - (M + h^2 L) delta)`,
+//! the net residual and moment the sweep leaves ([`super::coarse_space`]), with the sweep's
+//! move taken as zero where it put a particle within a contact's margin ([`net_residuals`]:
+//! the contact takes it back). A contact `c` is a
+//! particle `i` of body `a` at `p_i = y_i + delta_i` (where the sweep put it) and either a
+//! collider (`g_c` its signed distance less the margin, `n_c` its normal; `u_b = 0`) or a
+//! particle `j` of another body `b` among the repulsion's candidates (`g_c = |p_i - p_j| -
+//! margin_i - margin_j`, `n_c = (p_i - p_j) / |p_i - p_j|`): the coarse move may close a gap,
+//! but carries no particle deeper than the sweep put it. The constraints are the
+//! linearisation of the distance, which underestimates it for a pair and for a convex
+//! collider, so a feasible move keeps the contacts; the collider projection and the repulsion
+//! that follow ([`super::step`]) correct the rest. A contact with a frictional collider that
+//! the sweep put within the margin (`g_c <= 0`) holds the particle's tangential move too (two
+//! equality constraints: the Coulomb cone is the fine iteration's), so the coarse step slides
+//! no body a collider sticks. Only the contacts that the coarse move can reach enter: the
+//! solution is the projection, in the operator's norm, of the unconstrained move onto a convex
+//! set that holds 0, so its energy is at most the unconstrained move's ([`gather_contacts`]).
 //!
 //! The problem is solved by projected Gauss-Seidel on its dual ([`super::coarse_problem`]).
-//! Its inexactness only slows the outer iteration: the fixed point is left alone, since at the solution every body's net
-//! residual is balanced by its contacts (`F_b = sum_c lambda_c n_c`, the KKT condition,
-//! holds with `t = 0`).
+//! Its inexactness only slows the outer iteration: the fixed point is left alone, since at
+//! the solution no particle moves, the sweep's move at a contact particle is the one its
+//! contact takes back, and every body's net residual and moment, `P^T r`, are balanced by its
+//! contacts (the KKT condition holds with `t = 0`, `A = 0`). So is the momentum: `sum_i m_i A l_i = 0`, and a
+//! pair's multiplier moves its two bodies' translations by equal and opposite momenta.
 //!
 //! **Who takes part.** A body with a pinned particle, or with a particle that another family
 //! holds (`coupled`, a membrane's reaction on it, [`crate::solve::coupling`]), is fixed (as a
 //! collider is). So is a granular body or one with fluid particles that a collider or another
 //! body touched in the step's last trial (`touched`): their grains and fluid particles are
 //! held by the repulsion within and the density constraints, not as one body; they take the
-//! coarse translation in free flight only. `touched` starts empty at each step (at its first
-//! iteration their contacts enter as constraints, as a solid body's), since no state file
-//! holds the last step's. Rotations are left to the sweep: the deviatoric bond
-//! forces (eq. 10) are not central, so their torques need not sum to zero over a body, and a
-//! rigid rotation fitted to them would spin it.
+//! coarse translation in free flight only, and never the affine part, which `L` does not
+//! describe for them ([`super::coarse_space`]). `touched` starts empty at each step (at its
+//! first iteration their contacts enter as constraints, as a solid body's), since no state
+//! file holds the last step's; the affine space is assembled from the step's start positions
+//! and bonds, so no state crosses the steps.
 //!
 //! The Chebyshev history `y_prev` moves with the body, so that the extrapolation acts on the
-//! fine iteration's error and does not repeat the translation.
+//! fine iteration's error and does not repeat the coarse move.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use crate::collider::ColliderModel;
@@ -67,16 +79,20 @@ use crate::solve::points::Points;
 use super::coarse_problem::{Coarse, Contact};
 use super::system::ParticleSystem;
 
-/// Adds every body's coarse translation (module doc) to `sys.delta`, the fine sweep's move
-/// from the residual `sys.current.residual`, and to the Chebyshev history. `coupled` holds
-/// another family's reaction per particle (a membrane's, [`crate::solve::coupling`]).
+/// Adds every body's coarse move (module doc) to `sys.delta`, the fine sweep's move from the
+/// residual `sys.current.residual` at the squared step `h2` (s^2), and to the Chebyshev
+/// history. `coupled` holds another family's reaction per particle (a membrane's,
+/// [`crate::solve::coupling`]).
 pub(crate) fn correct<T: Real>(
     sys: &mut ParticleSystem<T>,
     colliders: &[ColliderModel<T>],
     coupled: &[Vector3<T>],
+    h2: f64,
 ) {
     let mut coarse = std::mem::take(&mut sys.coarse);
-    let energy = net_residuals(sys, &mut coarse, coupled);
+    free_bodies(sys, &mut coarse, coupled);
+    contact_gaps(sys, &mut coarse, colliders);
+    let energy = net_residuals(sys, &mut coarse, h2);
     if energy > 0.0 {
         gather_contacts(sys, &mut coarse, colliders, energy);
         coarse.solve();
@@ -85,42 +101,132 @@ pub(crate) fn correct<T: Real>(
     sys.coarse = coarse;
 }
 
-/// Each body's inverse mass and net residual `F_b`, and the unconstrained translation
-/// `t0 = F / M` as the start of the solve (zero for a fixed body), summed in f64 in particle
-/// order (the same for any thread count); returns `sum_b M_b |t0_b|^2` (kg m^2).
-fn net_residuals<T: Real>(
-    sys: &ParticleSystem<T>,
-    coarse: &mut Coarse,
-    coupled: &[Vector3<T>],
-) -> f64 {
+/// Each body's inverse mass and `K_b^+` ([`super::coarse_space`]): zero for a fixed body
+/// (module doc), `K_b^+` also for a body that takes the translation only.
+fn free_bodies<T: Real>(sys: &ParticleSystem<T>, coarse: &mut Coarse, coupled: &[Vector3<T>]) {
     let points = &sys.points;
-    let (mass, r, delta) = (&points.mass, &sys.current.residual, &sys.delta);
-    let mut energy = 0.0;
     for (b, range) in points.ranges.iter().enumerate() {
         let fixed = range.clone().any(|i| {
             let coupled = coupled.get(i).is_some_and(|r| *r != Vector3::zeros());
             points.pinned[i] || coupled || (sys.touched[i] && !coarse.solid[b])
         });
-        let (mut total, mut force) = (0.0, Vector3::<f64>::zeros());
-        if !fixed {
-            for i in range.clone() {
-                total += mass[i].to_f64();
-                force += (r[i] - delta[i] * mass[i]).map(|c| c.to_f64());
-            }
-        }
+        let total: f64 = if fixed {
+            0.0
+        } else {
+            range.clone().map(|i| points.mass[i].to_f64()).sum()
+        };
         let free = total > 0.0;
         coarse.inverse_mass[b] = if free { 1.0 / total } else { 0.0 };
-        coarse.force[b] = if free { force } else { Vector3::zeros() };
-        coarse.translation[b] = coarse.force[b] * coarse.inverse_mass[b];
-        energy += coarse.force[b].dot(&coarse.translation[b]);
+        coarse.compliance[b] = if free {
+            sys.affine.compliance[b]
+        } else {
+            Matrix3::zeros()
+        };
+        coarse.radius[b] = sys.affine.radius[b];
+    }
+}
+
+/// Per particle of a free body, in parallel: its smallest gap to a collider less its margin
+/// at `p_i = y_i + delta_i` (where the sweep put it; m, infinite with none), and whether the
+/// sweep put it within a contact's margin (`held`: that gap, or a pair's with a particle of
+/// another body among the repulsion's candidates, below zero).
+fn contact_gaps<T: Real>(
+    sys: &ParticleSystem<T>,
+    coarse: &mut Coarse,
+    colliders: &[ColliderModel<T>],
+) {
+    let points = &sys.points;
+    let body_of = |j: usize| points.ranges.partition_point(|r| r.end <= j);
+    let at = |i: usize| points.y[i] + sys.delta[i];
+    let n = points.y.len();
+    let Coarse {
+        inverse_mass,
+        collider_gap,
+        held,
+        ..
+    } = coarse;
+    collider_gap.resize(n, f64::INFINITY);
+    held.resize(n, false);
+    collider_gap
+        .par_iter_mut()
+        .zip(held.par_iter_mut())
+        .enumerate()
+        .for_each(|(i, (gap, held))| {
+            *gap = f64::INFINITY;
+            *held = false;
+            let a = body_of(i);
+            if inverse_mass[a] == 0.0 {
+                return;
+            }
+            let p = at(i);
+            for c in Points::colliders_of(&points.collides, i, colliders) {
+                *gap = gap.min((c.signed_distance(&p) - points.margin[i]).to_f64());
+            }
+            let overlaps = |j: &u32| {
+                let j = *j as usize;
+                body_of(j) != a && (p - at(j)).norm() < points.margin[i] + points.margin[j]
+            };
+            *held = *gap < 0.0
+                || sys
+                    .repulsion
+                    .as_ref()
+                    .is_some_and(|r| r.partners(i).iter().any(overlaps));
+        });
+}
+
+/// Each body's net residual `F_b` and moment `R_b` ([`super::coarse_space`]) and the
+/// unconstrained move `t0 = F / M`, `A0 = R K^+` as the start of the solve (zero for a fixed
+/// body), summed in f64 in particle order (the same for any thread count), at the squared
+/// step `h2` (s^2); returns the move's energy `sum_b (M_b |t0_b|^2 + tr(A0_b K_b A0_b^T))`
+/// (kg m^2).
+///
+/// The sweep's move is taken as zero at the particles it put within a contact's margin
+/// (`held`): the collider or the repulsion that follows takes it back, and at the fixed point
+/// their whole move is zero, so that `(F_b, R_b) = P^T r` there, which the contacts balance (a
+/// contact particle's residual is its contact's reaction). With the sweep's move there, the
+/// stiffness `L` would carry it into its neighbours' share of `R_b`, which no contact
+/// balances: the coarse step would move a body resting on a floor.
+fn net_residuals<T: Real>(sys: &ParticleSystem<T>, coarse: &mut Coarse, h2: f64) -> f64 {
+    let (points, space) = (&sys.points, &sys.affine);
+    let (mass, r) = (&points.mass, &sys.current.residual);
+    let mut energy = 0.0;
+    for (b, range) in points.ranges.iter().enumerate() {
+        let free = coarse.inverse_mass[b] > 0.0;
+        let (mut force, mut moment) = (Vector3::<f64>::zeros(), Matrix3::<f64>::zeros());
+        if free {
+            for i in range.clone() {
+                let delta = if coarse.held[i] {
+                    Vector3::zeros()
+                } else {
+                    sys.delta[i]
+                };
+                let unbalanced = (r[i] - delta * mass[i]).map(|c| c.to_f64());
+                force += unbalanced;
+                let d = delta.map(|c| c.to_f64());
+                moment +=
+                    unbalanced * space.lever[i].transpose() - d * (space.pull[i] * h2).transpose();
+            }
+        }
+        coarse.force[b] = force;
+        coarse.moment[b] = moment;
+        coarse.translation[b] = force * coarse.inverse_mass[b];
+        coarse.affine[b] = moment * coarse.compliance[b];
+        energy += force.dot(&coarse.translation[b]) + coarse.affine[b].component_mul(&moment).sum();
     }
     energy
 }
 
-/// The contacts (module doc) that a translation within the bound of `energy`
-/// (`sum_b M_b |t0_b|^2`, kg m^2) can reach, in particle order. Each particle's smallest
-/// collider gap is found in parallel first, so that the serial gathering evaluates the
-/// colliders only where one is within reach (the same contacts for any thread count).
+/// The contacts (module doc) that a coarse move within the bound of `energy` (the unconstrained
+/// move's, kg m^2) can reach, in particle order: particle `i` of body `b` moves by at most
+/// `sqrt(energy (1 / M_b + l_i^T K_b^+ l_i))` (Cauchy-Schwarz in the operator's norm, per
+/// coordinate). The serial gathering evaluates the colliders only where the smallest gap
+/// ([`contact_gaps`]) is within reach (the same contacts for any thread count).
+///
+/// The multipliers start from the reaction the residual of a `held` particle asks of its
+/// contacts, `-r_i` (its component along each contact's direction, non-negative for an
+/// inequality, shared equally between its overlapping pairs): at the fixed point that is the
+/// contacts' reaction, so that the coarse move starts at zero there, however few sweeps the
+/// solve then makes (the fixed point does not rest on the solve's accuracy).
 fn gather_contacts<T: Real>(
     sys: &ParticleSystem<T>,
     coarse: &mut Coarse,
@@ -130,35 +236,33 @@ fn gather_contacts<T: Real>(
     let points = &sys.points;
     let body_of = |j: usize| points.ranges.partition_point(|r| r.end <= j);
     let at = |i: usize| points.y[i] + sys.delta[i];
+    let lever = &sys.affine.lever;
     let Coarse {
         inverse_mass,
+        compliance,
         contacts,
         collider_gap,
+        held,
         ..
     } = coarse;
-    let reach = |b: usize| (energy * inverse_mass[b]).sqrt();
-    collider_gap.resize(points.y.len(), f64::INFINITY);
-    collider_gap
-        .par_iter_mut()
-        .enumerate()
-        .for_each(|(i, gap)| {
-            *gap = f64::INFINITY;
-            if inverse_mass[body_of(i)] == 0.0 {
-                return;
-            }
-            let p = at(i);
-            for c in Points::colliders_of(&points.collides, i, colliders) {
-                *gap = gap.min((c.signed_distance(&p) - points.margin[i]).to_f64());
-            }
-        });
+    let reach = |b: usize, i: usize| {
+        let l = &lever[i];
+        (energy * (inverse_mass[b] + l.dot(&(compliance[b] * l)))).sqrt()
+    };
     contacts.clear();
     for (a, range) in points.ranges.iter().enumerate() {
         if inverse_mass[a] == 0.0 {
             continue;
         }
-        let s_a = reach(a);
         for i in range.clone() {
+            let s_a = reach(a, i);
             let p = at(i);
+            // The contacts' reaction on a held particle, the multipliers' first guess.
+            let pushed = if held[i] {
+                -sys.current.residual[i].map(|c| c.to_f64())
+            } else {
+                Vector3::zeros()
+            };
             let near = if collider_gap[i] < s_a {
                 Points::colliders_of(&points.collides, i, colliders)
             } else {
@@ -170,19 +274,37 @@ fn gather_contacts<T: Real>(
                     continue;
                 }
                 let n = c.normal(&p).map(|x| x.to_f64());
-                contacts.push(Contact::new(a, None, n, -gap.max(0.0), false));
+                let on = |n: Vector3<f64>, bound, equality| {
+                    let guess = match (gap > 0.0, equality) {
+                        (true, _) => 0.0,
+                        (false, true) => n.dot(&pushed),
+                        (false, false) => n.dot(&pushed).max(0.0),
+                    };
+                    let contact = Contact::new(a, None, n, bound, equality);
+                    contact.at(lever[i], Vector3::zeros()).guessed(guess)
+                };
+                contacts.push(on(n, -gap.max(0.0), false));
                 if c.friction > T::zero() && gap <= 0.0 {
                     let u = n
                         .cross(&Vector3::x())
                         .try_normalize(0.5)
                         .unwrap_or_else(|| n.cross(&Vector3::y()).normalize());
-                    contacts.push(Contact::new(a, None, u, 0.0, true));
-                    contacts.push(Contact::new(a, None, n.cross(&u), 0.0, true));
+                    contacts.push(on(u, 0.0, true));
+                    contacts.push(on(n.cross(&u), 0.0, true));
                 }
             }
             let Some(repulsion) = &sys.repulsion else {
                 continue;
             };
+            let overlap = |j: usize| {
+                let gap = (p - at(j)).norm() - (points.margin[i] + points.margin[j]);
+                body_of(j) != a && gap < T::zero()
+            };
+            let shared = repulsion
+                .partners(i)
+                .iter()
+                .filter(|&&j| overlap(j as usize));
+            let shares = shared.count().max(1) as f64;
             for &j in repulsion.partners(i) {
                 let j = j as usize;
                 let b = body_of(j);
@@ -193,34 +315,44 @@ fn gather_contacts<T: Real>(
                 let offset = p - at(j);
                 let distance = offset.norm().to_f64();
                 let gap = distance - (points.margin[i] + points.margin[j]).to_f64();
-                let s_b = if b_free { reach(b) } else { 0.0 };
+                let s_b = if b_free { reach(b, j) } else { 0.0 };
                 if gap >= s_a + s_b || distance == 0.0 {
                     continue;
                 }
                 let n = offset.map(|x| x.to_f64()) / distance;
                 let b = b_free.then_some(b);
-                contacts.push(Contact::new(a, b, n, -gap.max(0.0), false));
+                let guess = if gap < 0.0 {
+                    n.dot(&pushed).max(0.0) / shares
+                } else {
+                    0.0
+                };
+                let contact = Contact::new(a, b, n, -gap.max(0.0), false);
+                contacts.push(contact.at(lever[i], lever[j]).guessed(guess));
             }
         }
     }
 }
 
-/// Adds each body's translation to its particles' moves and Chebyshev history.
+/// Adds each body's coarse move `t_b + A_b l_i` to its particles' moves and Chebyshev
+/// history.
 fn apply<T: Real>(sys: &mut ParticleSystem<T>, coarse: &Coarse) {
-    let points = &mut sys.points;
+    let (points, lever) = (&mut sys.points, &sys.affine.lever);
     let history = points.y_prev.len() == points.y.len();
     for (b, range) in points.ranges.iter().enumerate() {
-        if coarse.inverse_mass[b] == 0.0 || coarse.translation[b] == Vector3::zeros() {
+        let (t, a) = (coarse.translation[b], coarse.affine[b]);
+        if coarse.inverse_mass[b] == 0.0 || (t == Vector3::zeros() && a == Matrix3::zeros()) {
             continue;
         }
-        let t = coarse.translation[b].map(T::of);
+        let moved = |i: usize| (t + a * lever[i]).map(T::of);
         sys.delta[range.clone()]
             .par_iter_mut()
-            .for_each(|d| *d += t);
+            .zip(range.clone())
+            .for_each(|(d, i)| *d += moved(i));
         if history {
             points.y_prev[range.clone()]
                 .par_iter_mut()
-                .for_each(|p| *p += t);
+                .zip(range.clone())
+                .for_each(|(p, i)| *p += moved(i));
         }
     }
 }

@@ -44,8 +44,9 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn threshold(&self, params: &SolverParams) -> f64 {
         params.particle_threshold()
     }
-    /// Readies the direct solver when it is asked for; the fluids' viscosity acts on the
-    /// velocities before the prediction ([`super::fluid`]).
+    /// Readies the direct solver when it is asked for, else the coarse step's affine space
+    /// at the step's start positions ([`super::coarse_space`]); the fluids' viscosity acts on
+    /// the velocities before the prediction ([`super::fluid`]).
     fn start_step(&mut self, params: &SolverParams) -> Result<()> {
         self.timings = ParticleTimings::default();
         self.chebyshev = Chebyshev::start(params);
@@ -53,8 +54,14 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         // ([`super::coarse`]) must not read the last step's, which no state file holds (a run
         // continued from one would part from the run that went on).
         self.touched.fill(false);
-        if params.global_solver == GlobalSolver::Direct {
-            prepare_direct(self)?;
+        match params.global_solver {
+            GlobalSolver::Direct => prepare_direct(self)?,
+            GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
+                let h = T::of(params.dt);
+                let (points, rest, solid) = (&self.points, &self.rest, &self.coarse.solid);
+                self.affine.assemble(points, rest, solid, (h * h).to_f64());
+            }
+            GlobalSolver::Position => {}
         }
         if let Some(fluid) = &mut self.fluid {
             let gravity = Vector3::from(params.gravity).map(T::of);

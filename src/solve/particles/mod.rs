@@ -6,6 +6,7 @@
 mod chebyshev;
 mod coarse;
 mod coarse_problem;
+mod coarse_space;
 mod direct;
 mod directions;
 mod evaluation;

@@ -87,7 +87,12 @@ pub(crate) fn global_move<T: Real>(
     match options.global_solver {
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
             jacobi(sys, h2, options.inner_iters);
-            coarse::correct(sys, options.colliders, options.contact_reaction);
+            coarse::correct(
+                sys,
+                options.colliders,
+                options.contact_reaction,
+                h2.to_f64(),
+            );
         }
         GlobalSolver::Position => position_averaging(sys, h2),
         GlobalSolver::Direct => direct_move(sys, h, options.colliders),

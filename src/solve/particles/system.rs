@@ -15,6 +15,7 @@ use crate::timing::millis;
 
 use super::chebyshev::Chebyshev;
 use super::coarse_problem::Coarse;
+use super::coarse_space::AffineSpace;
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
 use super::fluid::FluidStage;
@@ -53,8 +54,11 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub fluid: Option<FluidStage<T>>,
     /// The step's phases so far ([`crate::solve::StepStats::particles`]).
     pub timings: ParticleTimings,
-    /// The coarse problem on the bodies' translations ([`super::coarse`], [`super::coarse_problem`]; reused).
+    /// The coarse problem on the bodies' affine fields ([`super::coarse`],
+    /// [`super::coarse_problem`]; reused) and its space, assembled at each step's start
+    /// ([`super::coarse_space`]).
     pub coarse: Coarse,
+    pub affine: AffineSpace,
     /// The granular bodies' static friction (eq. 28), if any has it.
     pub static_friction: Option<StaticFriction<T>>,
     /// Per particle, whether it yielded at the end of the last step (reused).
@@ -112,6 +116,7 @@ impl<T: Real> ParticleSystem<T> {
             fluid: FluidStage::of(bodies)?,
             static_friction: StaticFriction::of(bodies),
             coarse: Coarse::new(solid),
+            affine: AffineSpace::default(),
             yielded: vec![false; n],
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
