@@ -71,12 +71,6 @@ impl Contact {
         self.lever_b = b;
         self
     }
-
-    /// The contact with its multiplier's first guess `lambda` (N s^2; 0 by default).
-    pub fn guessed(mut self, lambda: f64) -> Self {
-        self.lambda = lambda;
-        self
-    }
 }
 
 /// The coarse problem's data, kept between iterations so that the loop allocates nothing once
@@ -100,9 +94,6 @@ pub(crate) struct Coarse {
     /// Per particle: its smallest gap to a collider less its margin (m; infinite with none or
     /// in a fixed body), the parallel first pass of the contacts' gathering.
     pub collider_gap: Vec<f64>,
-    /// Per particle: whether the fine sweep put it within a contact's margin
-    /// ([`super::coarse`]).
-    pub held: Vec<bool>,
 }
 
 impl Coarse {
@@ -120,13 +111,11 @@ impl Coarse {
             radius: vec![0.0; n],
             contacts: Vec::new(),
             collider_gap: Vec::new(),
-            held: Vec::new(),
         }
     }
 
-    /// Projected Gauss-Seidel on the contacts' multipliers from their first guesses
-    /// ([`Contact::guessed`]), with `t = t0`, `A = A0` (module doc) on entry in `translation`
-    /// and `affine` (the guesses' moves are added here).
+    /// Projected Gauss-Seidel on the contacts' multipliers from `t = t0`, `A = A0` (module
+    /// doc), which `translation` and `affine` hold on entry.
     pub fn solve(&mut self) {
         let Self {
             inverse_mass: w,
@@ -148,14 +137,6 @@ impl Coarse {
             c.arm_b = c.b.map_or(Vector3::zeros(), |b| compliance[b] * c.lever_b);
             let w_b = c.b.map_or(0.0, |b| w[b]);
             c.inverse_mass = w[c.a] + c.lever_a.dot(&c.arm_a) + w_b + c.lever_b.dot(&c.arm_b);
-            if c.lambda != 0.0 {
-                t[c.a] += c.n * (w[c.a] * c.lambda);
-                affine[c.a] += c.n * (c.arm_a * c.lambda).transpose();
-                if let Some(b) = c.b {
-                    t[b] -= c.n * (w_b * c.lambda);
-                    affine[b] -= c.n * (c.arm_b * c.lambda).transpose();
-                }
-            }
         }
         let moved = |t: &Vector3<f64>, a: &Matrix3<f64>, l: &Vector3<f64>| t + a * l;
         for _ in 0..MAX_SWEEPS {

@@ -158,9 +158,8 @@ fn after_a_sweep_the_coarse_step_leaves_no_affine_residual() {
         .collect();
     sys.current.residual = r.clone();
     jacobi(&mut sys, H2, 1);
-    let projected = |delta: &[Vector3<f64>]| {
-        p.transpose() * (stacked(&r) - global_matrix(&sys) * stacked(delta))
-    };
+    let g = global_matrix(&sys);
+    let projected = |delta: &[Vector3<f64>]| p.transpose() * (stacked(&r) - &g * stacked(delta));
     let before = projected(&sys.delta).amax();
     correct(&mut sys, &[], &[], H2);
     let after = projected(&sys.delta).amax();
