@@ -65,16 +65,35 @@ impl Pair {
         shift: &[[Vector3<f64>; 2]],
         extra: &[f64],
     ) -> f64 {
+        self.relative_distance_bound_of(distance, 0.0, |v| shift[v], |v| extra[v])
+    }
+
+    /// [`Pair::relative_distance_bound`] of the per-vertex displacements `shift(v)` (m) and
+    /// allowances `extra(v)` (m), with the largest relative move taken `margin` (m) larger:
+    /// `distance - (max_{a in A, b in B} max_k |shift(a)[k] - shift(b)[k]| + margin) - max_A
+    /// extra - max_B extra`. A `margin` of 0 gives the bound itself (to the bit); a positive
+    /// one keeps it a lower bound where each displacement given lies within somewhat less
+    /// than `margin / 2` of the true one, the rest covering the round-off (the packed ones
+    /// of the pair cache's sweep). NaN if an input is NaN.
+    #[inline]
+    pub fn relative_distance_bound_of(
+        &self,
+        distance: f64,
+        margin: f64,
+        shift: impl Fn(usize) -> [Vector3<f64>; 2],
+        extra: impl Fn(usize) -> f64,
+    ) -> f64 {
         let (a, b) = self.sides();
         let mut apart_squared = 0.0;
         for &i in a {
+            let p = shift(i as usize);
             for &j in b {
-                for (p, q) in shift[i as usize].iter().zip(&shift[j as usize]) {
+                for (p, q) in p.iter().zip(&shift(j as usize)) {
                     apart_squared = nan_max(apart_squared, (p - q).norm_squared());
                 }
             }
         }
-        distance - apart_squared.sqrt() - self.spread(extra)
+        distance - (apart_squared.sqrt() + margin) - self.spread_of(extra)
     }
 
     /// The vertices of the two primitives.

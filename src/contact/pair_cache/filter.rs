@@ -421,8 +421,12 @@ const REFILTER_SHARE: f64 = 1.0 / 16.0;
 /// The patch groups a refilter's task takes at a time (a cost trade-off only).
 const REFILTER_CHUNK: usize = 1 << 6;
 
-/// The costs of a refilter's patch and pair tests ([`super::super::sweep::Sweep::patch_fall`],
-/// [`super::super::sweep::Sweep::pair_fall`]) in fresh bounds (a sweep costs one per near pair),
-/// for its rent (a cost trade-off only): their measured run times relative to a fresh bound.
+/// The costs of a refilter's tests in fresh bounds (a sweep costs one per near pair), for its
+/// rent (a cost trade-off only: they decide when a filter sweeps, never which pairs are live).
+/// A patch test is a patch group's fall ([`super::super::sweep::Sweep::patch_fall`], taken once
+/// per group whose least slack is below the common fall) or a member's slack read against it
+/// (each member below the common fall of a group that is read); both weigh what a patch fall
+/// costs, which overstates a read (the rent grows a little faster than the work). A pair test
+/// is a pair's own fall ([`super::super::sweep::Sweep::pair_fall`]).
 const PATCH_TEST_COST: f64 = 0.055;
 const PAIR_TEST_COST: f64 = 0.55;

@@ -10,9 +10,11 @@
 //! coordinate to the nearest `f32` moves it by at most `2^-24` of its size, so a vertex's
 //! packed displacement lies within `sqrt(3) 2^-24 M` (m) of the exact one, with `M` the
 //! largest coordinate of any displacement, and a difference of two within twice that:
-//! [`PackedShift::bound`] takes [`MARGIN`]` (M + f32::MIN_POSITIVE)` (m) more off the
-//! distance than [`Pair::relative_distance_bound`] (`f32::MIN_POSITIVE` covers the
-//! absolute error of subnormal values), and rounding the allowances up only lowers it. A NaN or
+//! [`PackedShift::bound`] is the same bound ([`Pair::relative_distance_bound_of`]) with the
+//! largest relative move taken [`MARGIN`]` (M + f32::MIN_POSITIVE)` (m) larger
+//! (`f32::MIN_POSITIVE` covers the absolute error of subnormal values), and rounding the
+//! allowances up only lowers it (the subtractions and the sum after the move round
+//! monotonically, so the packed bound is at most the exact one). A NaN or
 //! infinite displacement gives a NaN or infinite `M`, and then every pair a NaN or minus
 //! infinite bound (the exact bound only the pairs of that vertex): the sweep then takes the
 //! fresh bounds, slower and as correct.
@@ -78,22 +80,13 @@ impl PackedShift {
     /// A lower bound (m) of [`Pair::relative_distance_bound`] of `pair` with `distance` (m),
     /// the displacements and the allowances last packed (module doc).
     pub fn bound(&self, pair: &Pair, distance: f64) -> f64 {
-        let (a, b) = pair.sides();
-        let vertex = |i: &u32| &self.vertices[*i as usize];
-        let mut apart_squared: f64 = 0.0;
-        for p in a.iter().map(vertex) {
-            for q in b.iter().map(vertex) {
-                for (s, t) in p.shift.iter().zip(&q.shift) {
-                    let d = [0, 1, 2].map(|c| f64::from(s[c]) - f64::from(t[c]));
-                    apart_squared = nan_max(apart_squared, d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                }
-            }
-        }
-        let farthest = |side: &[u32]| {
-            side.iter()
-                .fold(0.0, |m, i| nan_max(m, f64::from(vertex(i).allowance)))
-        };
-        distance - (apart_squared.sqrt() + self.margin) - farthest(a) - farthest(b)
+        let vertex = |i: usize| &self.vertices[i];
+        pair.relative_distance_bound_of(
+            distance,
+            self.margin,
+            |i| vertex(i).shift.map(|s| Vector3::from(s.map(f64::from))),
+            |i| f64::from(vertex(i).allowance),
+        )
     }
 
     /// The patch of the side `side` ([`Patches::of_side`]) as packed.
