@@ -121,28 +121,36 @@ impl<T: Real> Factors<T> {
         (T::one() - self.alpha) * self.iso
     }
 
-    /// `bond` with the length `|X'| = |Y| / (1 + e')` that leaves it the strain `e'` =
-    /// [`Self::target`] at the bond vector `y` (m), and the share of the mean strain that the
-    /// rest rebuilt from `|X'|` gives it: `a' = w V_j / (A_i |X'|) = a |X| / |X'|` (1/m, see
-    /// [`super::bond`]). Exact for the uncorrected shares, which every plastic body has
-    /// ([`super::rest`]: the direction-based corrections skip plastic bodies). `1 + e'` is
-    /// at least `1e-6` (a collapsed neighbourhood, `e_iso = -1`, would give `0 / 0`), and a
-    /// bond squeezed below `1e-6` of its length keeps it, as at the step's end
-    /// ([`super::plasticity`]).
+    /// The length `|X'| = |Y| / (1 + e')` (m) that leaves a bond of the reference length
+    /// `length` (m), stretched to `norm = |Y|` (m), the strain `e'` = [`Self::target`];
+    /// `None` for a bond squeezed below `1e-6` of its reference length, which keeps its
+    /// reference (no length or direction to give it). `1 + e'` is at least `1e-6` (a
+    /// collapsed neighbourhood, `e_iso = -1`, would give `0 / 0`). The one test of both
+    /// returns: within the local step ([`Self::returned`]) and at the step's end
+    /// ([`super::plasticity`]), so they keep the same bonds.
+    #[inline]
+    pub fn kept_length(&self, norm: T, length: T) -> Option<T> {
+        let floor = T::of(1e-6);
+        let kept = self.target(norm / length - T::one());
+        let returned = norm / (T::one() + kept).max(floor);
+        (returned > floor * length).then_some(returned)
+    }
+
+    /// `bond` with the length `|X'|` of [`Self::kept_length`] at the bond vector `y` (m), and
+    /// the share of the mean strain that the rest rebuilt from `|X'|` gives it:
+    /// `a' = w V_j / (A_i |X'|) = a |X| / |X'|` (1/m, see [`super::bond`]). Exact for the
+    /// uncorrected shares, which every plastic body has ([`super::rest`]: the
+    /// direction-based corrections skip plastic bodies). A squeezed bond keeps its length,
+    /// as at the step's end.
     #[inline]
     pub fn returned(&self, bond: &BondRest<T>, y: &Vector3<T>) -> BondRest<T> {
-        let floor = T::of(1e-6);
-        let norm = y.norm();
-        let kept = self.target(norm / bond.length - T::one());
-        let length = norm / (T::one() + kept).max(floor);
-        if length > floor * bond.length {
-            BondRest {
+        match self.kept_length(y.norm(), bond.length) {
+            Some(length) => BondRest {
                 length,
                 share: bond.share * (bond.length / length),
                 ..*bond
-            }
-        } else {
-            *bond
+            },
+            None => *bond,
         }
     }
 }

@@ -280,7 +280,7 @@ impl PlasticLaw {
             let plan = self.plan(&view, i, y, plastic_strain[i], c)?;
             for (k, x) in xi.iter_mut().enumerate() {
                 let yb = y[indices[k] as usize] - y[i];
-                if let Some(moved) = plan.moved(x, &yb, born[k]) {
+                if let Some(moved) = plan.moved(x, &yb) {
                     *x = moved;
                 }
             }
@@ -327,29 +327,35 @@ impl PlasticLaw {
 }
 
 /// One particle's return (eq. 18-19, see the module's doc).
-struct Return {
+pub(super) struct Return {
     /// `alpha`, `beta` of eq. 18 and `e_iso` before the return (dimensionless).
-    factors: Factors<f64>,
+    pub(super) factors: Factors<f64>,
     /// The rotation `R` of `F_i`.
-    rotation: Matrix3<f64>,
+    pub(super) rotation: Matrix3<f64>,
     /// The plastic strain the return takes away (dimensionless).
-    increment: f64,
+    pub(super) increment: f64,
 }
 
 impl Return {
-    /// The new reference vector (m) of a bond with the vector `x` (m), the deformed vector
-    /// `yb` (m) and the birth length `born` (m); `None` for a bond squeezed to nothing, which
-    /// keeps its vector (no direction to give it).
+    /// The new reference vector (m) of a bond with the vector `x` (m) and the deformed vector
+    /// `yb` (m): the direction of eq. 19 with the length of [`Factors::kept_length`], the
+    /// kernel's (`None`, the bond keeping its vector, exactly when the kernel keeps it). Where
+    /// eq. 19 gives no direction (`along = 0`) the bond takes `yb`'s, which the kept length
+    /// (`> 0`) guarantees.
     #[inline]
-    fn moved(&self, x: &Vector3<f64>, yb: &Vector3<f64>, born: f64) -> Option<Vector3<f64>> {
+    pub(super) fn moved(&self, x: &Vector3<f64>, yb: &Vector3<f64>) -> Option<Vector3<f64>> {
         let Factors { alpha, beta, iso } = self.factors;
-        let e = yb.norm() / x.norm() - 1.0;
+        let length = self.factors.kept_length(yb.norm(), x.norm())?;
         let rx = self.rotation * x;
         let d = yb - rx;
         let d_iso = rx * iso;
         let along = rx + d_iso * alpha + (d - d_iso) * beta;
-        let length = yb.norm() / (1.0 + self.factors.target(e)).max(1e-6);
-        (along.norm() > 0.0 && length > 1e-6 * born).then(|| along * (length / along.norm()))
+        let norm = along.norm();
+        Some(if norm > 0.0 {
+            along * (length / norm)
+        } else {
+            yb * (length / yb.norm())
+        })
     }
 }
 

@@ -274,3 +274,55 @@ fn coincident_particles_get_no_bond_and_the_others_keep_theirs() {
         }
     }
 }
+
+/// The stored return keeps a bond's reference exactly when the kernel's does
+/// ([`super::Factors::kept_length`]), and gives it the kernel's length: where eq. 19 gives no
+/// direction (`alpha = 1`, `beta = 0`, `e_iso = -1`: `R X (1 + e_iso) = 0`) it takes the
+/// deformed bond's, and a bond squeezed below `1e-6` of its reference length keeps it in both.
+#[test]
+fn the_stored_return_keeps_and_returns_the_bonds_the_kernel_does() {
+    let spacing = 0.01;
+    let x = Vector3::new(spacing, 0.0, 0.0);
+    let bond = super::BondRest {
+        xi: x,
+        length: spacing,
+        weight: 1.0,
+        k_dev: 1.0,
+        k_iso: 1.0,
+        share: 1.0,
+    };
+    let undirected = super::plasticity::Return {
+        factors: super::Factors {
+            alpha: 1.0,
+            beta: 0.0,
+            iso: -1.0,
+        },
+        rotation: Matrix3::identity(),
+        increment: 0.0,
+    };
+    let yb = Vector3::new(0.3, 0.4, 0.0) * spacing;
+    let kernel = undirected.factors.returned(&bond, &yb).length;
+    assert!(kernel != spacing, "{kernel}");
+    let moved = undirected
+        .moved(&x, &yb)
+        .expect("a bond with a length is returned");
+    assert!((moved.norm() - kernel).abs() < 1e-15, "{moved} {kernel}");
+    assert!(
+        (moved / moved.norm() - yb / yb.norm()).norm() < 1e-15,
+        "{moved}"
+    );
+    let squeezing = super::plasticity::Return {
+        factors: super::Factors {
+            alpha: 0.0,
+            beta: 0.5,
+            iso: -1.0,
+        },
+        ..undirected
+    };
+    for (scale, kept) in [(1e-13, true), (1e-11, false)] {
+        let yb = x * scale;
+        let kernel = squeezing.factors.returned(&bond, &yb).length;
+        assert_eq!(kernel == spacing, kept, "{scale}: {kernel}");
+        assert_eq!(squeezing.moved(&x, &yb).is_none(), kept, "{scale}");
+    }
+}
