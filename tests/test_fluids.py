@@ -62,7 +62,8 @@ def column(n=4, height=16, layers=2, **fluid):
     return body, np.flatnonzero(inside)
 
 
-def test_a_hydrostatic_column_keeps_its_height_and_density():
+@pytest.mark.parametrize("density_solver", ["jacobi", "cg"])
+def test_a_hydrostatic_column_keeps_its_height_and_density(density_solver):
     """A 4 x 4 x 16 column (0.16 m) over 2 s at dt = 0.01 s keeps its top within 1 % of its
     height and its interior's SPH density within 1 % of the rest density (mean, at every
     0.1 s) and comes to rest (|v| < 0.05 m/s at the end). Smaller than a real column (the
@@ -70,9 +71,10 @@ def test_a_hydrostatic_column_keeps_its_height_and_density():
     particle has full kernel sums and the liquid's surface meets its walls at rest (measured:
     the top within 0.9 %, the interior's density 0.26 % above rest). Without adhesion the top
     particle wanders by 1-1.5 % and the top layer's mean sinks 3 % (surface particles, which
-    hold no density constraint of their own, settle into the hollows of the layer below)."""
+    hold no density constraint of their own, settle into the hollows of the layer below).
+    With either density solver (Jacobi projections or conjugate gradients)."""
     n, height = 4, 16
-    body, liquid = column(n, height, adhesion=True)
+    body, liquid = column(n, height, adhesion=True, density_solver=density_solver)
     solver = pd.Solver(dt=0.01, gravity=(0, 0, -G), global_solver="jacobi")
     solver.add(body)
     walls(solver, (0, 0, 0), (n * S, n * S, 1.0))
@@ -157,15 +159,19 @@ def density_gradients(x, mass):
     return (scale * mass) ** 2 * (grad**2).sum(axis=1)
 
 
-@pytest.mark.parametrize("redistribution", [0.0, 0.5])
-def test_the_dam_break_front_follows_martin_and_moyce(redistribution):
+@pytest.mark.parametrize("redistribution, density_solver",
+                         [(0.0, "jacobi"), (0.5, "jacobi"), (0.0, "cg")])
+def test_the_dam_break_front_follows_martin_and_moyce(redistribution, density_solver):
     """The front Z = (max x + S/2) / a at T = t sqrt(2 g / a) (the nearest step) within 10 % of
     Martin and Moyce's points, and the liquid stays within its tank (its walls' planes, to
     1e-9 m) at every step; with redistribution too (strength 0.5, 5 passes: a position
-    correction whose moves do not become velocity, one-sided at the free surface)."""
+    correction whose moves do not become velocity, one-sided at the free surface); with the
+    conjugate-gradient density solver too."""
     body, solver, a, lo, hi = dam_break(
-        redistribution=redistribution, redistribution_iterations=5
+        redistribution=redistribution, redistribution_iterations=5,
+        density_solver=density_solver,
     )
+    assert body.material.density_solver == density_solver
     c = np.sqrt(2 * G / a)
     dt, k, errors = 0.005, 0, []
     for T, Z in MARTIN_MOYCE:
@@ -179,12 +185,15 @@ def test_the_dam_break_front_follows_martin_and_moyce(redistribution):
     assert np.max(np.abs(errors)) < 0.10, errors
 
 
-def test_threads_are_bit_identical_and_f32_follows_f64():
+@pytest.mark.parametrize("density_solver", ["jacobi", "cg"])
+def test_threads_are_bit_identical_and_f32_follows_f64(density_solver):
     """1 and 2 threads give the same bits; f32 stays within 2 spacings of f64 after 20 steps
-    of the dam break (the flow's round-off grows as it splashes)."""
+    of the dam break (the flow's round-off grows as it splashes); with either density solver
+    (the conjugate gradients' inner products sum fixed chunks in order)."""
     runs = {}
     for key, threads, precision in [("one", 1, "f64"), ("two", 2, "f64"), ("f32", 2, "f32")]:
-        body, solver, *_ = dam_break(threads=threads, precision=precision)
+        body, solver, *_ = dam_break(threads=threads, precision=precision,
+                                     density_solver=density_solver)
         for _ in range(20):
             solver.step()
         runs[key] = (body.positions.copy(), body.velocities.copy())
@@ -270,6 +279,7 @@ def test_a_resting_column_with_redistribution_stays_at_rest():
         ({"density_tolerance": 0.0}, "density_tolerance"),
         ({"density_tolerance": 0.5}, "density_tolerance"),
         ({"relaxation": 0.0}, "relaxation"),
+        ({"density_solver": "gauss"}, "density_solver"),
         ({"relaxation": float("inf")}, "relaxation"),
         ({"redistribution": 1.5}, "redistribution"),
         ({"redistribution": -0.1}, "redistribution"),
@@ -312,3 +322,4 @@ def test_two_fluids_of_different_spacings_in_one_solver_are_refused():
     solver.add(b)
     with pytest.raises(ValueError, match="spacing"):
         solver.step()
+

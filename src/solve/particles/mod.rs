@@ -6,6 +6,7 @@
 mod chebyshev;
 mod coarse;
 mod coarse_problem;
+mod density_system;
 mod direct;
 mod directions;
 mod evaluation;
