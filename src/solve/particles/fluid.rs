@@ -185,6 +185,11 @@ const ADHESION_STEP: f64 = 0.25;
 /// nonlinearity and the colliders, not the linear solve's remainder.
 const CG_RESIDUAL: f64 = 0.5;
 
+/// The most conjugate-gradient iterations per linearisation (an inexact Newton step): the
+/// active set, the walls and the kernel's curvature change as the liquid moves, so a
+/// relinearisation gains more than a further iteration on the old system.
+const CG_ITERATIONS: usize = 10;
+
 /// How far (in spacings) a member with a wall normal is probed into its wall at a step's
 /// start: it keeps the normal while the colliders push the probe back.
 const WALL_PROBE: f64 = 0.01;
@@ -579,10 +584,32 @@ impl<T: Real> FluidStage<T> {
     /// ([`DensitySolver`]), and the passes they took: Jacobi, `lambda_i = b_i / A_ii`
     /// (Macklin and Mueller 2013, eq. 11, every member's share in `A_ii`), one pass; or the
     /// conjugate gradients on the coupled system ([`super::density_system`]) to within
-    /// [`CG_RESIDUAL`] of the tolerance, one pass per iteration.
+    /// [`CG_RESIDUAL`] of the tolerance or [`CG_ITERATIONS`], one pass per iteration.
     fn multipliers(&mut self) -> usize {
-        let conjugate = self.solver == DensitySolver::ConjugateGradients;
-        let system = DensitySystem {
+        let mut lambda = std::mem::take(&mut self.lambda);
+        let passes = if self.solver == DensitySolver::ConjugateGradients {
+            let most = (self.iterations - self.passes).min(CG_ITERATIONS);
+            let bound = CG_RESIDUAL * self.tolerance;
+            let mut cg = std::mem::take(&mut self.cg);
+            let done = cg.solve(&self.system(), &self.rhs, &mut lambda, bound, most);
+            self.cg = cg;
+            done
+        } else {
+            let mut diagonal = std::mem::take(&mut self.diagonal);
+            self.system().diagonal(&self.share, &mut diagonal);
+            (lambda.par_iter_mut())
+                .zip(self.rhs.par_iter().zip(&diagonal))
+                .for_each(|(lambda, (&b, &d))| *lambda = b / d);
+            self.diagonal = diagonal;
+            1
+        };
+        self.lambda = lambda;
+        passes
+    }
+
+    /// The constraints linearised by [`Self::linearise`] (see [`super::density_system`]).
+    fn system(&self) -> DensitySystem<'_, T> {
+        DensitySystem {
             offsets: &self.offsets,
             indices: &self.indices,
             own: &self.own,
@@ -593,37 +620,15 @@ impl<T: Real> FluidStage<T> {
             mobility: &self.mobility,
             walls: &self.walls,
             active: &self.active,
-        };
-        if conjugate {
-            let most = self.iterations - self.passes;
-            let bound = CG_RESIDUAL * self.tolerance;
-            self.cg
-                .solve(&system, &self.rhs, &mut self.lambda, bound, most)
-        } else {
-            system.diagonal(&self.share, &mut self.diagonal);
-            (self.lambda.par_iter_mut())
-                .zip(self.rhs.par_iter().zip(&self.diagonal))
-                .for_each(|(lambda, (&b, &d))| *lambda = b / d);
-            1
         }
     }
 
     /// Every member moved by `dy = W J^T lambda` (Macklin and Mueller 2013, eq. 12, with the
     /// mobilities), then out of the colliders.
     fn take_moves(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
-        let system = DensitySystem {
-            offsets: &self.offsets,
-            indices: &self.indices,
-            own: &self.own,
-            grads: &self.grads,
-            mirror: &self.mirror,
-            rest: &self.rest_density,
-            eps: &self.eps,
-            mobility: &self.mobility,
-            walls: &self.walls,
-            active: &self.active,
-        };
-        system.spread(&self.lambda, &mut self.next);
+        let mut next = std::mem::take(&mut self.next);
+        self.system().spread(&self.lambda, &mut next);
+        self.next = next;
         let (y, members) = (&self.y, &self.members);
         let conjugate = self.solver == DensitySolver::ConjugateGradients;
         (self.next.par_iter_mut().zip(self.walls.par_iter_mut()))
