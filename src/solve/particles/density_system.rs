@@ -27,6 +27,30 @@ use rayon::prelude::*;
 use crate::parallel::GRAIN;
 use crate::real::Real;
 
+/// Up to three orthonormal normals (unit, or zero when unused) of the walls a member is
+/// pressed against: its linearised moves slide along all of them (an edge or a corner of a
+/// tank holds a member by two or three walls at once).
+pub(super) type Walls<T> = [Vector3<T>; 3];
+
+/// `v` less its parts along the normals of `walls` (`(I - sum_n n n^T) v`: the normals are
+/// orthonormal, so this projects onto the walls' common tangent space).
+pub(super) fn slide<T: Real>(walls: &Walls<T>, v: Vector3<T>) -> Vector3<T> {
+    walls.iter().fold(v, |v, n| v - n * n.dot(&v))
+}
+
+/// Adds the direction of a push `d` out of a wall to `walls` (Gram-Schmidt against the normals
+/// there: nothing when `d` lies within their span, to a relative `1e-3`).
+pub(super) fn add_wall<T: Real>(walls: &mut Walls<T>, d: Vector3<T>) {
+    let free = slide(walls, d);
+    let norm = free.norm();
+    if norm.to_f64() <= 1e-3 * d.norm().to_f64() {
+        return;
+    }
+    if let Some(slot) = walls.iter_mut().find(|n| **n == Vector3::zeros()) {
+        *slot = free / norm;
+    }
+}
+
 /// Entries per partial sum of an inner product (fixed, so that the sum's order does not depend
 /// on the threads).
 const DOT_CHUNK: usize = 1024;
@@ -47,9 +71,9 @@ pub(super) struct DensitySystem<'a, T: Real> {
     pub eps: &'a [T],
     /// Per member, its mobility `w_k` (dimensionless; 0 for a member that does not move).
     pub mobility: &'a [T],
-    /// Per member, the unit normal of a wall it slides on (its moves lose their normal part:
-    /// `W_k = w_k (I - n n^T)`), or zero.
-    pub walls: &'a [Vector3<T>],
+    /// Per member, the walls it slides on ([`Walls`]: its moves lose their normal parts,
+    /// `W_k = w_k (I - sum_n n n^T)`).
+    pub walls: &'a [Walls<T>],
     /// Per member, whether its constraint is in the system.
     pub active: &'a [bool],
 }
@@ -71,8 +95,7 @@ impl<T: Real> DensitySystem<'_, T> {
                     let j = indices[b] as usize;
                     sum += grads[mirror[b] as usize] * (p[j] / rest[j]);
                 }
-                let n = walls[k];
-                *u = (sum - n * n.dot(&sum)) * mobility[k];
+                *u = slide(&walls[k], sum) * mobility[k];
             });
     }
 
@@ -99,12 +122,13 @@ impl<T: Real> DensitySystem<'_, T> {
             });
     }
 
-    /// The diagonal `A_ii = sum_k w_k |(I - n_k n_k^T) grad_k C_i|^2 + eps_i` (1/m^2) of the
+    /// The diagonal `A_ii = sum_k w_k |P_k grad_k C_i|^2 + eps_i` (1/m^2, `P_k` the slide of
+    /// [`slide`]) of the
     /// active constraints, with the members' weights `w` (1 on the inactive ones).
     pub fn diagonal(&self, weights: &[T], out: &mut [T]) {
         let (offsets, indices, own, grads) = (self.offsets, self.indices, self.own, self.grads);
         let walls = self.walls;
-        let slide = |g: &Vector3<T>, k: usize| g.norm_squared() - g.dot(&walls[k]).powi(2);
+        let slide = |g: &Vector3<T>, k: usize| slide(&walls[k], *g).norm_squared();
         let (rest, eps, active) = (self.rest, self.eps, self.active);
         out.par_iter_mut()
             .with_min_len(GRAIN)

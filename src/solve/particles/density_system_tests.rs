@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use super::{ConjugateGradients, DensitySystem};
+use super::{add_wall, slide, ConjugateGradients, DensitySystem, Walls};
 use crate::geometry::find_horizons;
 use crate::particles::sph::{Kernel, Sph};
 use crate::real::Real;
@@ -104,7 +104,7 @@ fn solve<T: Real>(s: &Block, eps: f64, relative: f64) -> (Vec<f64>, usize, f64) 
     let cast = |v: &[f64]| v.iter().map(|&x| T::of(x)).collect::<Vec<T>>();
     let cast3 = |v: &[Vector3<f64>]| v.iter().map(|x| x.map(T::of)).collect::<Vec<_>>();
     let (own, grads) = (cast3(own), cast3(grads));
-    let walls = vec![Vector3::zeros(); n];
+    let walls = vec![[Vector3::zeros(); 3]; n];
     let (rest, eps, mobility, b) = (
         cast(&vec![RHO0; n]),
         cast(&vec![eps; n]),
@@ -177,4 +177,27 @@ fn conjugate_gradients_match_a_dense_solve_of_the_linearised_constraints() {
             "{iterations} iterations for {active} constraints"
         );
     }
+}
+
+/// A member pushed out of a floor and then out of a tilted side wall keeps both normals
+/// (orthonormalised): its slid moves have no part along either wall's normal, keep the part
+/// along the edge, and a third push along a direction already held adds nothing.
+#[test]
+fn a_member_on_an_edge_slides_along_both_walls() {
+    let mut walls: Walls<f64> = [Vector3::zeros(); 3];
+    let floor = Vector3::new(0.0, 0.0, 1.0);
+    let side = Vector3::new(1.0, 0.0, 0.5).normalize();
+    add_wall(&mut walls, floor * 2e-4);
+    add_wall(&mut walls, side * 3e-4);
+    add_wall(&mut walls, (floor + side) * 1e-4);
+    let held = walls.iter().filter(|n| **n != Vector3::zeros()).count();
+    assert_eq!(held, 2);
+    let v = Vector3::new(-0.3, 0.7, -1.1);
+    let slid = slide(&walls, v);
+    assert!(
+        slid.dot(&floor).abs() < 1e-12 && slid.dot(&side).abs() < 1e-12,
+        "{slid}"
+    );
+    let edge = floor.cross(&side).normalize();
+    assert!((slid - edge * edge.dot(&v)).norm() < 1e-12, "{slid}");
 }

@@ -89,7 +89,7 @@ use crate::solve::points::Points;
 use crate::solve::Timings;
 use crate::timing::millis;
 
-use super::density_system::{ConjugateGradients, DensitySystem};
+use super::density_system::{add_wall, ConjugateGradients, DensitySystem, Walls};
 use super::fluid_viscosity::{lattice_laplacian_scale, Fluid, Viscosity};
 
 #[path = "fluid_partners.rs"]
@@ -138,10 +138,10 @@ pub(crate) struct FluidStage<T: Real> {
     diagonal: Vec<T>,
     /// Per member, its mobility: its share, 0 when pinned (dimensionless).
     mobility: Vec<T>,
-    /// Per member, the normal (unit) of the collider its last conjugate-gradient move was
-    /// pushed out of while it stays against it, else zero: the linearised system lets it
-    /// slide along the wall, not into it (see [`super::density_system`]).
-    walls: Vec<Vector3<T>>,
+    /// Per member, the normals of the colliders its conjugate-gradient moves were pushed out
+    /// of while it stays against them (one per wall of an edge or a corner): the linearised
+    /// system lets it slide along the walls, not into them (see [`super::density_system`]).
+    walls: Vec<Walls<T>>,
     /// The conjugate gradients' work vectors.
     cg: ConjugateGradients<T>,
     /// Projections of the last step and the violation they left ([`Self::violation`],
@@ -261,7 +261,7 @@ impl<T: Real> FluidStage<T> {
             stage.rhs = vec![T::zero(); n];
             stage.diagonal = vec![T::zero(); n];
             stage.mobility = vec![T::zero(); n];
-            stage.walls = vec![Vector3::zeros(); n];
+            stage.walls = vec![[Vector3::zeros(); 3]; n];
             stage.cg.resize(n);
             stage.own = vec![Vector3::zeros(); n];
             stage.viscosity = Viscosity::new(n, lattice_laplacian_scale(&stage.sph, spacing));
@@ -633,48 +633,55 @@ impl<T: Real> FluidStage<T> {
         let conjugate = self.solver == DensitySolver::ConjugateGradients;
         (self.next.par_iter_mut().zip(self.walls.par_iter_mut()))
             .enumerate()
-            .for_each(|(i, (next, wall))| {
+            .for_each(|(i, (next, walls))| {
                 let k = members[i] as usize;
                 if points.pinned[k] {
                     *next = y[i];
                     return;
                 }
-                let free = y[i] + *next;
-                *next = push_out_of_colliders(
-                    Points::colliders_of(&points.collides, k, colliders),
-                    MoveStart::Now(y[i]),
-                    free,
-                    points.margin[k],
-                    None,
-                );
-                if conjugate && *next != free {
-                    *wall = (*next - free).normalize();
+                // Collider by collider, as `push_out_of_colliders` takes them, so that each
+                // push's direction joins the member's walls.
+                *next += y[i];
+                for c in Points::colliders_of(&points.collides, k, colliders) {
+                    let free = *next;
+                    let one = std::slice::from_ref(c);
+                    *next = push_out_of_colliders(
+                        one,
+                        MoveStart::Now(y[i]),
+                        free,
+                        points.margin[k],
+                        None,
+                    );
+                    if conjugate && *next != free {
+                        add_wall(walls, *next - free);
+                    }
                 }
             });
         std::mem::swap(&mut self.y, &mut self.next);
     }
 
-    /// Keeps the wall normal of each member still against its wall at the step's start (the
-    /// colliders push back a probe [`WALL_PROBE`] spacings into it), and clears the others.
+    /// Keeps each member's wall normals whose wall it is still against at the step's start
+    /// (the colliders push back a probe [`WALL_PROBE`] spacings into it), and clears the others.
     fn keep_walls(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
         let depth = T::of(WALL_PROBE * self.sph.radius / FLUID_SUPPORT);
         let (y, members) = (&self.y, &self.members);
-        (self.walls.par_iter_mut().enumerate()).for_each(|(i, wall)| {
-            if *wall == Vector3::zeros() {
-                return;
-            }
+        (self.walls.par_iter_mut().enumerate()).for_each(|(i, walls)| {
             let k = members[i] as usize;
-            let probe = y[i] - *wall * depth;
-            let pushed = push_out_of_colliders(
-                Points::colliders_of(&points.collides, k, colliders),
-                MoveStart::Now(y[i]),
-                probe,
-                points.margin[k],
-                None,
-            );
-            if pushed == probe {
-                *wall = Vector3::zeros();
+            let mut kept: Walls<T> = [Vector3::zeros(); 3];
+            for n in walls.iter().filter(|n| **n != Vector3::zeros()) {
+                let probe = y[i] - *n * depth;
+                let pushed = push_out_of_colliders(
+                    Points::colliders_of(&points.collides, k, colliders),
+                    MoveStart::Now(y[i]),
+                    probe,
+                    points.margin[k],
+                    None,
+                );
+                if pushed != probe {
+                    add_wall(&mut kept, *n);
+                }
             }
+            *walls = kept;
         });
     }
 
