@@ -5,9 +5,10 @@
 //! / rho0_i`, 1/m), `W` the members' mobilities (`w_k`, the inverse-mass shares of
 //! [`super::fluid`], 0 for a pinned member: it does not move) and `eps_i` (1/m^2) a
 //! regulariser, the multipliers of one linearisation solve the Schur complement
-//! `(J W J^T + eps) lambda = b` on the active constraints (`lambda` in m^2, `b = -C`,
-//! dimensionless), and the members move by `dy = W J^T lambda` (m). This is Macklin and
-//! Mueller's (2013) eq. 9-12 with all constraints coupled: their Jacobi iteration takes
+//! `(J W J^T + eps) lambda = b` on the active constraints (`lambda` in m^2, `b_i = -ask_i
+//! C_i`, dimensionless, `ask_i` the fraction of its violation row `i` asks), and the members
+//! move by `dy = W J^T lambda` (m). This is Macklin and Mueller's (2013) eq. 9-12 with all
+//! constraints coupled: their Jacobi iteration takes
 //! `lambda_i = b_i / A_ii` (eq. 11, the diagonal of this matrix) and relinearises; here the
 //! coupled system is solved first, so that a correction travels across the whole liquid in
 //! one linearisation and not one kernel support per pass. Inactive constraints (a surface
@@ -15,8 +16,9 @@
 //! 0`: `A` is symmetric positive definite on the active set (`eps > 0`).
 //!
 //! **The solver.** Conjugate gradients preconditioned by `diag(A)` (the Jacobi denominators),
-//! from `lambda = 0`, until the largest residual `|b_i - (A lambda)_i|` (relative density, the
-//! constraints' units) is within the asked bound or after the iterations allowed. Each
+//! from `lambda = 0`, until every constraint's remainder `|b_i - (A lambda)_i| / ask_i` (the
+//! part of `C_i` its linearised moves still owe, relative density; `ask_i` the fraction of the
+//! violation its `b_i` asks) is within the asked bound or after the iterations allowed. Each
 //! iteration applies `J^T` and `J` once (the work of one Jacobi pass without its gradients).
 //! Inner products sum fixed chunks of [`DOT_CHUNK`] entries in `f64` in parallel and then the
 //! chunks in order: the same bits for any number of threads.
@@ -24,32 +26,11 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use crate::geometry::bounds::nan_max;
 use crate::parallel::GRAIN;
 use crate::real::Real;
 
-/// Up to three orthonormal normals (unit, or zero when unused) of the walls a member is
-/// pressed against: its linearised moves slide along all of them (an edge or a corner of a
-/// tank holds a member by two or three walls at once).
-pub(super) type Walls<T> = [Vector3<T>; 3];
-
-/// `v` less its parts along the normals of `walls` (`(I - sum_n n n^T) v`: the normals are
-/// orthonormal, so this projects onto the walls' common tangent space).
-pub(super) fn slide<T: Real>(walls: &Walls<T>, v: Vector3<T>) -> Vector3<T> {
-    walls.iter().fold(v, |v, n| v - n * n.dot(&v))
-}
-
-/// Adds the direction of a push `d` out of a wall to `walls` (Gram-Schmidt against the normals
-/// there: nothing when `d` lies within their span, to a relative `1e-3`).
-pub(super) fn add_wall<T: Real>(walls: &mut Walls<T>, d: Vector3<T>) {
-    let free = slide(walls, d);
-    let norm = free.norm();
-    if norm.to_f64() <= 1e-3 * d.norm().to_f64() {
-        return;
-    }
-    if let Some(slot) = walls.iter_mut().find(|n| **n == Vector3::zeros()) {
-        *slot = free / norm;
-    }
-}
+use super::density_walls::{slide, Walls};
 
 /// Entries per partial sum of an inner product (fixed, so that the sum's order does not depend
 /// on the threads).
@@ -72,31 +53,40 @@ pub(super) struct DensitySystem<'a, T: Real> {
     /// Per member, its mobility `w_k` (dimensionless; 0 for a member that does not move).
     pub mobility: &'a [T],
     /// Per member, the walls it slides on ([`Walls`]: its moves lose their normal parts,
-    /// `W_k = w_k (I - sum_n n n^T)`).
+    /// `W_k = w_k (I - sum_n n n^T)`; [`super::density_walls`]).
     pub walls: &'a [Walls<T>],
     /// Per member, whether its constraint is in the system.
     pub active: &'a [bool],
 }
 
 impl<T: Real> DensitySystem<'_, T> {
-    /// The moves `u = W J^T p` (m for `p` in m^2) of every member.
+    /// The move of member `k` before its walls' slide, `w_k (J^T p)_k` (m for `p` in m^2):
+    /// `w_k (grad_k C_k p_k + sum_j grad_k C_j p_j)`, where `grad_k C_j` is the entry of `k` in
+    /// `j`'s row.
+    pub fn unslid(&self, k: usize, p: &[T]) -> Vector3<T> {
+        let (offsets, indices, mirror, grads, rest) = (
+            self.offsets,
+            self.indices,
+            self.mirror,
+            self.grads,
+            self.rest,
+        );
+        let mut sum = self.own[k] * (p[k] / rest[k]);
+        for b in offsets[k] as usize..offsets[k + 1] as usize {
+            let j = indices[b] as usize;
+            sum += grads[mirror[b] as usize] * (p[j] / rest[j]);
+        }
+        sum * self.mobility[k]
+    }
+
+    /// The moves `u = W J^T p` (m for `p` in m^2) of every member: [`Self::unslid`] less its
+    /// parts along the member's walls.
     pub fn spread(&self, p: &[T], u: &mut [Vector3<T>]) {
-        let (offsets, indices, mirror) = (self.offsets, self.indices, self.mirror);
-        let (own, grads, rest, mobility) = (self.own, self.grads, self.rest, self.mobility);
         let walls = self.walls;
         u.par_iter_mut()
             .with_min_len(GRAIN)
             .enumerate()
-            .for_each(|(k, u)| {
-                // u_k = w_k (grad_k C_k p_k + sum_j grad_k C_j p_j), where grad_k C_j is the
-                // entry of `k` in `j`'s row.
-                let mut sum = own[k] * (p[k] / rest[k]);
-                for b in offsets[k] as usize..offsets[k + 1] as usize {
-                    let j = indices[b] as usize;
-                    sum += grads[mirror[b] as usize] * (p[j] / rest[j]);
-                }
-                *u = slide(&walls[k], sum) * mobility[k];
-            });
+            .for_each(|(k, u)| *u = slide(&walls[k], self.unslid(k, p)));
     }
 
     /// `q = A p` (see the module's doc), with `u` the scratch of the moves `W J^T p`; `p` must
@@ -123,8 +113,8 @@ impl<T: Real> DensitySystem<'_, T> {
     }
 
     /// The diagonal `A_ii = sum_k w_k |P_k grad_k C_i|^2 + eps_i` (1/m^2, `P_k` the slide of
-    /// [`slide`]) of the
-    /// active constraints, with the members' weights `w` (1 on the inactive ones).
+    /// [`slide`]) of the active constraints, with the members' weights `w` (1 on the inactive
+    /// ones).
     pub fn diagonal(&self, weights: &[T], out: &mut [T]) {
         let (offsets, indices, own, grads) = (self.offsets, self.indices, self.own, self.grads);
         let walls = self.walls;
@@ -177,12 +167,21 @@ impl<T: Real> ConjugateGradients<T> {
     }
 
     /// Solves `A lambda = b` (`b` 0 on the inactive constraints) from `lambda = 0` until
-    /// `max_i |b - A lambda|_i <= bound` (relative density) or after `most` iterations; the
+    /// every constraint's remainder is within `bound` or after `most` iterations; the
     /// iterations taken. After [`Self::resize`].
+    ///
+    /// The remainder is in the constraint's own units: row `i` asks the fraction `ask_i` of its
+    /// violation (`b_i = -ask_i C_i`; 1, or the adhesion's relaxation), so `|b - A lambda|_i /
+    /// ask_i` is the part of `C_i` the linearised moves still owe, and a linearisation whose
+    /// largest violation is above `bound` takes at least one iteration (with `bound` on the
+    /// residual itself, a relaxed row's `|b_i|` below `bound` stopped the solve before it
+    /// started). A NaN remainder (a non-finite gradient, an overflow) stops the solve with
+    /// `lambda` NaN: the moves carry it into the positions, and the step's check for non-finite
+    /// velocities raises, as a diverged step does elsewhere.
     pub fn solve(
         &mut self,
         system: &DensitySystem<T>,
-        b: &[T],
+        (b, ask): (&[T], &[T]),
         lambda: &mut [T],
         bound: f64,
         most: usize,
@@ -193,7 +192,15 @@ impl<T: Real> ConjugateGradients<T> {
         let mut iterations = 0;
         let mut rz = self.precondition();
         self.direction.copy_from_slice(&self.preconditioned);
-        while iterations < most && largest(&self.residual) > bound {
+        while iterations < most {
+            let left = remainder(&self.residual, ask);
+            if left.is_nan() {
+                lambda.fill(T::of(f64::NAN));
+                break;
+            }
+            if left <= bound {
+                break;
+            }
             system.apply(&self.direction, &mut self.moves, &mut self.product);
             iterations += 1;
             let pq = dot(&self.direction, &self.product, &mut self.partial);
@@ -241,12 +248,12 @@ fn dot<T: Real>(a: &[T], b: &[T], partial: &mut [f64]) -> f64 {
     partial.iter().sum()
 }
 
-/// `max_i |r_i|`.
-fn largest<T: Real>(r: &[T]) -> f64 {
-    r.par_iter()
+/// `max_i |r_i| / ask_i` (see [`ConjugateGradients::solve`]), NaN if any term is.
+fn remainder<T: Real>(r: &[T], ask: &[T]) -> f64 {
+    (r.par_iter().zip(ask))
         .with_min_len(GRAIN)
-        .map(|x| x.to_f64().abs())
-        .reduce(|| 0.0, f64::max)
+        .map(|(x, a)| (x.to_f64() / a.to_f64()).abs())
+        .reduce(|| 0.0, nan_max)
 }
 
 #[cfg(test)]

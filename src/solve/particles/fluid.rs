@@ -78,6 +78,7 @@ use rayon::prelude::*;
 
 use crate::collider::{push_out_of_colliders, ColliderModel, MoveStart};
 use crate::error::Result;
+use crate::geometry::bounds::nan_max;
 use crate::geometry::find_horizons;
 use crate::parallel::for_each_vertex;
 use crate::particles::redistribution::Redistribution;
@@ -89,7 +90,8 @@ use crate::solve::points::Points;
 use crate::solve::Timings;
 use crate::timing::millis;
 
-use super::density_system::{add_wall, ConjugateGradients, DensitySystem, Walls};
+use super::density_system::{ConjugateGradients, DensitySystem};
+use super::density_walls::{add_wall, none, release, slide, touching, Walls};
 use super::fluid_viscosity::{lattice_laplacian_scale, Fluid, Viscosity};
 
 #[path = "fluid_partners.rs"]
@@ -131,16 +133,18 @@ pub(crate) struct FluidStage<T: Real> {
     adhesion: bool,
     lambda: Vec<T>,
     /// Per member of the last linearisation: whether its constraint is active, the
-    /// right-hand side `b_i` (relative density; 0 when inactive) and the diagonal `A_ii`
+    /// right-hand side `b_i` (relative density; 0 when inactive), the fraction `ask_i` of the
+    /// violation it asks (`b_i = -ask_i C_i`: 1, or [`ADHESION_STEP`]) and the diagonal `A_ii`
     /// (1/m^2; the Jacobi's, with the pinned members' shares).
     active: Vec<bool>,
     rhs: Vec<T>,
+    ask: Vec<T>,
     diagonal: Vec<T>,
     /// Per member, its mobility: its share, 0 when pinned (dimensionless).
     mobility: Vec<T>,
-    /// Per member, the normals of the colliders its conjugate-gradient moves were pushed out
-    /// of while it stays against them (one per wall of an edge or a corner): the linearised
-    /// system lets it slide along the walls, not into them (see [`super::density_system`]).
+    /// Per member, the walls its conjugate-gradient moves slide on during this step
+    /// ([`super::density_walls`]; found anew at each step's start, so nothing of them
+    /// carries over to the next step or needs saving with a state).
     walls: Vec<Walls<T>>,
     /// The conjugate gradients' work vectors.
     cg: ConjugateGradients<T>,
@@ -190,8 +194,8 @@ const CG_RESIDUAL: f64 = 0.5;
 /// relinearisation gains more than a further iteration on the old system.
 const CG_ITERATIONS: usize = 10;
 
-/// How far (in spacings) a member with a wall normal is probed into its wall at a step's
-/// start: it keeps the normal while the colliders push the probe back.
+/// How far (in spacings) beyond its collider margin a member counts as touching a wall at a
+/// step's start ([`touching`]).
 const WALL_PROBE: f64 = 0.01;
 
 /// The denominator `sum_k |grad_k C_i|^2` (1/m^2) of an interior particle of the simple cubic
@@ -259,9 +263,10 @@ impl<T: Real> FluidStage<T> {
             stage.lambda = vec![T::zero(); n];
             stage.active = vec![false; n];
             stage.rhs = vec![T::zero(); n];
+            stage.ask = vec![T::one(); n];
             stage.diagonal = vec![T::zero(); n];
             stage.mobility = vec![T::zero(); n];
-            stage.walls = vec![[Vector3::zeros(); 3]; n];
+            stage.walls = vec![none(); n];
             stage.cg.resize(n);
             stage.own = vec![Vector3::zeros(); n];
             stage.viscosity = Viscosity::new(n, lattice_laplacian_scale(&stage.sph, spacing));
@@ -293,6 +298,7 @@ impl<T: Real> FluidStage<T> {
             lambda: Vec::new(),
             active: Vec::new(),
             rhs: Vec::new(),
+            ask: Vec::new(),
             diagonal: Vec::new(),
             mobility: Vec::new(),
             walls: Vec::new(),
@@ -384,20 +390,10 @@ impl<T: Real> FluidStage<T> {
             *y = from[k as usize];
         }
         let found = find_horizons(&self.y, self.sph.radius)?;
+        found.mirrors_into(&mut self.mirror);
         self.offsets = found.offsets;
         self.indices = found.indices;
         self.grads.resize(self.indices.len(), Vector3::zeros());
-        self.mirror.resize(self.indices.len(), 0);
-        let (offsets, indices) = (&self.offsets, &self.indices);
-        let mut unit = vec![(); self.y.len()];
-        for_each_vertex(offsets, &mut self.mirror, &mut unit, &|i, row| {
-            let start = offsets[i] as usize;
-            for (m, &j) in row.iter_mut().zip(&indices[start..]) {
-                let j = j as usize;
-                let theirs = &indices[offsets[j] as usize..offsets[j + 1] as usize];
-                *m = offsets[j] + theirs.binary_search(&(i as u32)).unwrap_or(0) as u32;
-            }
-        });
         Ok(())
     }
 
@@ -426,17 +422,15 @@ impl<T: Real> FluidStage<T> {
             };
         }
         if self.solver == DensitySolver::ConjugateGradients {
-            self.keep_walls(points, colliders);
+            self.find_walls(points, colliders);
         }
         self.passes = 0;
         self.error = self.violation();
         while self.error > self.tolerance && self.passes < self.iterations {
             self.linearise();
-            let passes = self.multipliers();
-            if passes == 0 {
-                break;
-            }
-            self.passes += passes;
+            // At least one: a linearisation entered above the tolerance always iterates
+            // (`ConjugateGradients::solve`), and the count bounds this loop regardless.
+            self.passes += self.multipliers().max(1);
             self.take_moves(points, colliders);
             self.error = self.violation();
         }
@@ -544,14 +538,14 @@ impl<T: Real> FluidStage<T> {
                     c.max(0.0)
                 }
             })
-            .reduce(|| 0.0, f64::max)
+            .reduce(|| 0.0, nan_max)
     }
 
     /// The constraints linearised at `self.y` and the densities [`Self::violation`] left:
     /// each member's own gradient and its neighbours' (`own`, `grads`: of `rho~_i`, not yet
     /// divided by `rho0_i`), which constraints are active (`C_i > 0`, or adhered; partners
-    /// carry none) and their right-hand sides `b_i`: `-C_i`, or `-ADHESION_STEP C_i` for an
-    /// adhered member below rest.
+    /// carry none) and their right-hand sides `b_i = -ask_i C_i`: `ask_i` is 1, or
+    /// [`ADHESION_STEP`] for an adhered member below rest.
     fn linearise(&mut self) {
         let (sph, deficiency, y, mass) = (&self.sph, &self.deficiency, &self.y, &self.mass);
         let (offsets, indices) = (&self.offsets, &self.indices);
@@ -565,18 +559,18 @@ impl<T: Real> FluidStage<T> {
             }
         });
         let (density, rest, partner) = (&self.density, &self.rest_density, &self.partner);
-        (self.active.par_iter_mut().zip(self.rhs.par_iter_mut()))
+        (self.active.par_iter_mut())
+            .zip(self.rhs.par_iter_mut().zip(self.ask.par_iter_mut()))
             .enumerate()
-            .for_each(|(i, (active, b))| {
+            .for_each(|(i, (active, (b, ask)))| {
                 let c = density[i] / rest[i] - T::one();
                 *active = (c > T::zero() || adhered[i]) && !partner[i];
-                *b = if !*active {
-                    T::zero()
-                } else if c > T::zero() {
-                    -c
+                *ask = if *active && c <= T::zero() {
+                    T::of(ADHESION_STEP)
                 } else {
-                    -c * T::of(ADHESION_STEP)
+                    T::one()
                 };
+                *b = if *active { -c * *ask } else { T::zero() };
             });
     }
 
@@ -591,7 +585,8 @@ impl<T: Real> FluidStage<T> {
             let most = (self.iterations - self.passes).min(CG_ITERATIONS);
             let bound = CG_RESIDUAL * self.tolerance;
             let mut cg = std::mem::take(&mut self.cg);
-            let done = cg.solve(&self.system(), &self.rhs, &mut lambda, bound, most);
+            let rhs = (&self.rhs[..], &self.ask[..]);
+            let done = cg.solve(&self.system(), rhs, &mut lambda, bound, most);
             self.cg = cg;
             done
         } else {
@@ -624,14 +619,16 @@ impl<T: Real> FluidStage<T> {
     }
 
     /// Every member moved by `dy = W J^T lambda` (Macklin and Mueller 2013, eq. 12, with the
-    /// mobilities), then out of the colliders.
+    /// mobilities), then out of the colliders. With the conjugate gradients, first each wall
+    /// the member's move leaves is released and the move slides along the others
+    /// ([`super::density_walls`]); each collider that then pushes the move back adds a wall.
     fn take_moves(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
         let mut next = std::mem::take(&mut self.next);
-        self.system().spread(&self.lambda, &mut next);
-        self.next = next;
+        let mut walls = std::mem::take(&mut self.walls);
+        let (system, lambda) = (self.system(), &self.lambda);
         let (y, members) = (&self.y, &self.members);
         let conjugate = self.solver == DensitySolver::ConjugateGradients;
-        (self.next.par_iter_mut().zip(self.walls.par_iter_mut()))
+        (next.par_iter_mut().zip(walls.par_iter_mut()))
             .enumerate()
             .for_each(|(i, (next, walls))| {
                 let k = members[i] as usize;
@@ -639,9 +636,14 @@ impl<T: Real> FluidStage<T> {
                     *next = y[i];
                     return;
                 }
+                let mut dy = system.unslid(i, lambda);
+                if conjugate {
+                    release(walls, &dy);
+                    dy = slide(walls, dy);
+                }
                 // Collider by collider, as `push_out_of_colliders` takes them, so that each
                 // push's direction joins the member's walls.
-                *next += y[i];
+                *next = dy + y[i];
                 for c in Points::colliders_of(&points.collides, k, colliders) {
                     let free = *next;
                     let one = std::slice::from_ref(c);
@@ -657,31 +659,20 @@ impl<T: Real> FluidStage<T> {
                     }
                 }
             });
+        self.next = next;
+        self.walls = walls;
         std::mem::swap(&mut self.y, &mut self.next);
     }
 
-    /// Keeps each member's wall normals whose wall it is still against at the step's start
-    /// (the colliders push back a probe [`WALL_PROBE`] spacings into it), and clears the others.
-    fn keep_walls(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
+    /// Each member's walls at the step's start: those it touches ([`touching`], within
+    /// [`WALL_PROBE`] spacings of its margin), found anew every step.
+    fn find_walls(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
         let depth = T::of(WALL_PROBE * self.sph.radius / FLUID_SUPPORT);
         let (y, members) = (&self.y, &self.members);
         (self.walls.par_iter_mut().enumerate()).for_each(|(i, walls)| {
             let k = members[i] as usize;
-            let mut kept: Walls<T> = [Vector3::zeros(); 3];
-            for n in walls.iter().filter(|n| **n != Vector3::zeros()) {
-                let probe = y[i] - *n * depth;
-                let pushed = push_out_of_colliders(
-                    Points::colliders_of(&points.collides, k, colliders),
-                    MoveStart::Now(y[i]),
-                    probe,
-                    points.margin[k],
-                    None,
-                );
-                if pushed != probe {
-                    add_wall(&mut kept, *n);
-                }
-            }
-            *walls = kept;
+            let mine = Points::colliders_of(&points.collides, k, colliders);
+            *walls = touching(mine, &y[i], points.margin[k], depth);
         });
     }
 
