@@ -44,7 +44,10 @@ fn a_member_on_an_edge_slides_along_both_walls() {
 fn no_walls_leave_a_move_as_it_is() {
     let v: Vector3<f64> = Vector3::new(-0.3, 1e-300, -0.0);
     let slid = slide(&none(), v);
-    assert!(slid.iter().zip(&v).all(|(a, b): (&f64, &f64)| a.to_bits() == b.to_bits()));
+    assert!(slid
+        .iter()
+        .zip(&v)
+        .all(|(a, b): (&f64, &f64)| a.to_bits() == b.to_bits()));
 }
 
 /// In the corner of a floor (z = 0) and a side wall (x = 0), with margin 1 mm and probe depth
