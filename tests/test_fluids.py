@@ -70,8 +70,8 @@ def column(n=4, height=16, layers=2, **fluid):
         "left); with the CG the top sits 0.6-1.5 % low at the samples from 0.2 s (Jacobi "
         "-0.9 to +0.7 %) while the interior's density is Jacobi's (0.24-0.35 % against 0.26 "
         "% above rest): the surface layer sinks, not the liquid below it; also without "
-        "adhesion (-1.0 to -1.4 %). Not yet shown: that a linear solve's equalities let the "
-        "rows under the surface pull it down (Jacobi never pulls)")),
+        "adhesion (-1.0 to -1.4 %). Not the linear solve's pulls: with pulling multipliers "
+        "dropped after each solve the top was still 0.5-1.4 % low")),
 ])
 def test_a_hydrostatic_column_keeps_its_height_and_density(density_solver):
     """A 4 x 4 x 16 column (0.16 m) over 2 s at dt = 0.01 s keeps its top within 1 % of its
