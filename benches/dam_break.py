@@ -17,8 +17,16 @@ per-step cost is fitted as ``c N^p`` over the sizes run and extrapolated to the 
 particles (a trend, not a measurement). The machine is shared with other builds: timings
 are upper bounds.
 
+Solvers:  ``--density-solver jacobi cg`` runs each size with each density solver in turn in
+one process (``ViscoelasticFluid(density_solver=...)``), and the hydrostatic column of
+tests/test_fluids.py (4 x 4 x 16 particles between two layers of ghosts with adhesion, dt =
+0.01 s, 200 steps) with each: passes per step (median, max), steps at the cap, worst excess
+density and ms per step.
+
 Default:  python benches/dam_break.py                 (na = 8, 12, 16: 1K, 3.5K, 8K particles)
 Run:      python benches/dam_break.py --na 6 8 10     (the committed JSON: 0.4K-2K particles)
+Compare:  python benches/dam_break.py --na 6 8 10 --density-solver jacobi cg \
+              --out benches/results/dam_break_density_solvers.json
 Paper:    python benches/dam_break.py --na 6 8 10 --paper-steps 3 --out benches/results/dam_break_paper.json
           (and the paper's size itself, 315K particles at h = 1/500 s, for 3 steps from rest)
 Peers:    python benches/dam_break.py --na 6 8 --peers --out benches/results/dam_break_peers.json
@@ -47,14 +55,16 @@ PAPER = {"particles": 312_000, "ms_per_step": 412.0, "machine": "Intel i7-2600, 
 PAPER_NA = 54  # 2 x 54^3 = 314,928 particles, the paper's 312K
 
 
-def dam_break(na: int, a: float, dt: float, threads: int, redistribution: float):
+def dam_break(na: int, a: float, dt: float, threads: int, redistribution: float,
+              density_solver: str = "jacobi"):
     s = a / na
     k = np.stack(np.meshgrid(np.arange(na), np.arange(na), np.arange(2 * na), indexing="ij"),
                  -1).reshape(-1, 3)
     x = (k + 0.5) * s
     body = pd.Particles(x, spacing=s, density=1000.0,
                         material=pd.ViscoelasticFluid(viscosity=1e-3,
-                                                      redistribution=redistribution))
+                                                      redistribution=redistribution,
+                                                      density_solver=density_solver))
     solver = pd.Solver(dt=dt, gravity=(0, 0, -G), global_solver="jacobi", threads=threads)
     solver.add(body)
     length, depth = 8 * a, a
@@ -65,9 +75,9 @@ def dam_break(na: int, a: float, dt: float, threads: int, redistribution: float)
     return body, solver, s
 
 
-def run(na: int, args) -> dict:
+def run(na: int, args, density_solver: str = "jacobi") -> dict:
     a, dt = args.a, args.dt
-    body, solver, s = dam_break(na, a, dt, args.threads, args.redistribution)
+    body, solver, s = dam_break(na, a, dt, args.threads, args.redistribution, density_solver)
     c = np.sqrt(2 * G / a)
     phases: dict = {}
     totals, fronts, passes, errors = [], [], [], []
@@ -84,18 +94,56 @@ def run(na: int, args) -> dict:
             errors.append(stats.particles["density_error"])
         front = (body.positions[:, 0].max() + 0.5 * s) / a
         fronts.append({"T": T, "Z_martin_moyce": Z, "Z": front, "error": front / Z - 1.0})
-        print(f"  na={na}: T={T} Z={front:.3f} (Martin and Moyce {Z})", flush=True)
+        print(f"  na={na} {density_solver}: T={T} Z={front:.3f} (Martin and Moyce {Z})",
+              flush=True)
     wall = time.perf_counter() - started
     return {
-        "na": na, "spacing_m": s, "particles": body.positions.shape[0], "steps": k,
+        "na": na, "density_solver": density_solver, "spacing_m": s,
+        "particles": body.positions.shape[0], "steps": k,
         "ms_per_step_median": C.median(totals),
         "phases_ms_median": {key: C.median(v) for key, v in phases.items()},
-        "density_passes_median": C.median(passes),
+        "density_passes_median": C.median(passes), "density_passes_max": max(passes),
         "steps_at_the_pass_cap": int(sum(p >= 50 for p in passes)),
         "density_error_median": C.median(errors), "density_error_max": max(errors),
         "wall_seconds_per_simulated_second": wall / (k * dt),
         "fronts": fronts,
     }
+
+
+def column(density_solver: str, threads: int) -> dict:
+    """The hydrostatic column of tests/test_fluids.py (4 x 4 x 16 particles of spacing 1 cm
+    in a container of two layers of pinned ghosts, adhesion, planes on its faces; dt = 0.01
+    s, 200 steps): density passes (median, max, steps at the cap), the worst excess density
+    each step left, ms per step, and the top's largest relative drift."""
+    s, n, height, layers = 0.01, 4, 16, 2
+    axes = [np.arange(-layers, n + layers)] * 2 + [np.arange(-layers, height)]
+    k = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    inside = (k[:, 0] >= 0) & (k[:, 0] < n) & (k[:, 1] >= 0) & (k[:, 1] < n) & (k[:, 2] >= 0)
+    body = pd.Particles((k + 0.5) * s, spacing=s, density=1000.0,
+                        material=pd.ViscoelasticFluid(adhesion=True,
+                                                      density_solver=density_solver))
+    body.pin(np.flatnonzero(~inside))
+    solver = pd.Solver(dt=0.01, gravity=(0, 0, -G), global_solver="jacobi", threads=threads)
+    solver.add(body)
+    for point, normal in [((0, 0, 0), (0, 0, 1)), ((0, 0, 0), (1, 0, 0)),
+                          ((n * s, 0, 0), (-1, 0, 0)), ((0, 0, 0), (0, 1, 0)),
+                          ((0, n * s, 0), (0, -1, 0))]:
+        solver.add_collider(pd.Plane(point=point, normal=normal))
+    top0 = (height - 0.5) * s
+    passes, errors, totals, tops = [], [], [], []
+    for _ in range(200):
+        stats = solver.step()
+        passes.append(stats.particles["density_passes"])
+        errors.append(stats.particles["density_error"])
+        totals.append(stats.timings["total"])
+        tops.append(abs(body.positions[inside, 2].max() / top0 - 1.0))
+    print(f"  column {density_solver}: {C.median(passes)} passes, worst excess "
+          f"{max(errors):.4f}, top drift {max(tops):.4f}", flush=True)
+    return {"density_solver": density_solver, "particles": int(inside.sum()),
+            "density_passes_median": C.median(passes), "density_passes_max": max(passes),
+            "steps_at_the_pass_cap": int(sum(p >= 50 for p in passes)),
+            "density_error_median": C.median(errors), "density_error_max": max(errors),
+            "ms_per_step_median": C.median(totals), "top_drift_max": max(tops)}
 
 
 def paper_size(args) -> dict:
@@ -107,7 +155,7 @@ def paper_size(args) -> dict:
     base = C.vm_kib("VmHWM")
     started = time.perf_counter()
     body, solver, s = dam_break(PAPER_NA, args.a, 1.0 / 500.0, args.threads,
-                                args.redistribution)
+                                args.redistribution, args.density_solver[0])
     setup = time.perf_counter() - started
     steps = []
     for _ in range(args.paper_steps):
@@ -192,7 +240,8 @@ def plot(result: dict, path: Path) -> None:
     for r in result["runs"]:
         f = r["fronts"]
         left.plot([p["T"] for p in f], [p["Z"] for p in f], "o-",
-                  label=f"peridyn, {r['particles']} particles")
+                  label=f"peridyn {r.get('density_solver', 'jacobi')}, "
+                  f"{r['particles']} particles")
     for r in result.get("peers", []):
         if "fronts" in r:
             f = r["fronts"]
@@ -230,19 +279,27 @@ def main() -> None:
                     "Taichi MLS-MPM (benches/_mpm.py) at each size")
     ap.add_argument("--paper-steps", type=int, default=0,
                     help="also run the paper's size (315K particles, h = 1/500 s) this many steps")
+    ap.add_argument("--density-solver", nargs="+", default=["jacobi"],
+                    choices=["jacobi", "cg"],
+                    help="density solvers to run side by side (with more than one, also the "
+                    "hydrostatic column)")
     ap.add_argument("--out", help="JSON path (default benches/results/dam_break.json)")
     args = ap.parse_args()
     rec = C.Record("dam_break", args)
     runs = []
     for na in args.na:
-        print(f"na = {na}", flush=True)
-        runs.append(run(na, args))
-    n = np.log([r["particles"] for r in runs])
-    ms = np.log([r["ms_per_step_median"] for r in runs])
-    p, logc = np.polyfit(n, ms, 1) if len(runs) > 1 else (1.0, ms[0] - n[0])
+        for density_solver in args.density_solver:
+            print(f"na = {na}, {density_solver}", flush=True)
+            runs.append(run(na, args, density_solver))
+    first = [r for r in runs if r["density_solver"] == args.density_solver[0]]
+    n = np.log([r["particles"] for r in first])
+    ms = np.log([r["ms_per_step_median"] for r in first])
+    p, logc = np.polyfit(n, ms, 1) if len(first) > 1 else (1.0, ms[0] - n[0])
     trend = {"c": float(np.exp(logc)), "p": float(p),
              "ms_per_step_at_312K": float(np.exp(logc) * PAPER["particles"] ** p)}
     rec.data.update({"paper": PAPER, "runs": runs, "trend": trend})
+    if len(args.density_solver) > 1:
+        rec.data["column"] = [column(d, args.threads) for d in args.density_solver]
     if args.paper_steps:
         print(f"paper size, na = {PAPER_NA}", flush=True)
         rec.data["paper_size"] = paper_size(args)

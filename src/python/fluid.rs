@@ -2,7 +2,7 @@
 
 use pyo3::prelude::*;
 
-use crate::particles::ViscoelasticFluid;
+use crate::particles::{DensitySolver, ViscoelasticFluid};
 
 use super::errors::IntoPyResult;
 use super::scalars::Real;
@@ -18,18 +18,21 @@ pub struct PyViscoelasticFluid {
 #[pymethods]
 impl PyViscoelasticFluid {
     /// `viscosity` (dynamic, Pa s, >= 0), `density_iterations` (most projections per step,
-    /// >= 1), `density_tolerance` (relative, in (0, 0.1]) and `relaxation` (the constraints'
+    /// >= 1; a conjugate-gradient iteration counts as one), `density_solver` (`"jacobi"`:
+    /// Macklin and Mueller's Jacobi projections; `"cg"`: each linearisation's coupled
+    /// system by preconditioned conjugate gradients), `density_tolerance` (relative, in (0, 0.1]) and `relaxation` (the constraints'
     /// eps as a fraction of their rest-lattice denominator, > 0), `redistribution` (strength
     /// in [0, 1] of eq. 21-24, 0: none) and `redistribution_iterations` (passes per step, in
     /// [1, 100]), `shear_modulus` (Pa, >= 0: a viscoelastic fluid's elasticity; 0: Newtonian)
     /// and `yield_stress` (Pa, > 0; None: the shear modulus), `adhesion` (the liquid sticks to
     /// the body's pinned ghost particles by two-sided density constraints).
     #[new]
-    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, adhesion = false))]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_solver = "jacobi", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, adhesion = false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         viscosity: Real,
         density_iterations: i64,
+        density_solver: &str,
         density_tolerance: Real,
         relaxation: Real,
         redistribution: Real,
@@ -51,6 +54,7 @@ impl PyViscoelasticFluid {
         let inner = ViscoelasticFluid {
             viscosity: viscosity.get("viscosity")?,
             density_iterations: iterations,
+            density_solver: DensitySolver::of_name(density_solver).py()?,
             density_tolerance: density_tolerance.get("density_tolerance")?,
             relaxation: relaxation.get("relaxation")?,
             redistribution: redistribution.get("redistribution")?,
@@ -70,6 +74,11 @@ impl PyViscoelasticFluid {
     #[getter]
     fn density_iterations(&self) -> usize {
         self.inner.density_iterations
+    }
+    /// `"jacobi"` or `"cg"`.
+    #[getter]
+    fn density_solver(&self) -> &'static str {
+        self.inner.density_solver.name()
     }
     #[getter]
     fn density_tolerance(&self) -> f64 {
@@ -106,8 +115,8 @@ impl PyViscoelasticFluid {
         let f = &self.inner;
         let yield_stress = f.yield_stress.map_or("None".to_string(), |y| y.to_string());
         format!(
-            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={}, adhesion={})",
-            f.viscosity, f.density_iterations, f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress, if f.adhesion { "True" } else { "False" }
+            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_solver=\"{}\", density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={}, adhesion={})",
+            f.viscosity, f.density_iterations, f.density_solver.name(), f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress, if f.adhesion { "True" } else { "False" }
         )
     }
 }

@@ -7,7 +7,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::particles::{Elastic, MaterialState, ViscoelasticFluid};
+use crate::particles::{DensitySolver, Elastic, MaterialState, ViscoelasticFluid};
 
 use super::arrays::{exact_entries, flags, reals_1d, to_numpy, to_numpy_1d, vec3s};
 use super::rest_bonds;
@@ -39,7 +39,8 @@ fn names() -> Vec<String> {
 
 /// A fluid's parameters as numbers: viscosity (Pa s), density iterations, density tolerance,
 /// relaxation, redistribution, redistribution iterations, shear modulus (Pa), yield stress
-/// (Pa; 0 for the default), adhesion (0 or 1).
+/// (Pa; 0 for the default), adhesion (0 or 1), density solver (0 Jacobi, 1 conjugate
+/// gradients; absent in states written before it, which were Jacobi).
 fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
     let ViscoelasticFluid {
         viscosity,
@@ -51,6 +52,7 @@ fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
         shear_modulus,
         yield_stress,
         adhesion,
+        density_solver,
     } = *f;
     vec![
         viscosity,
@@ -62,6 +64,9 @@ fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
         shear_modulus,
         yield_stress.unwrap_or(0.0),
         f64::from(u8::from(adhesion)),
+        f64::from(u8::from(
+            density_solver == DensitySolver::ConjugateGradients,
+        )),
     ]
 }
 
@@ -76,13 +81,26 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
             )))
         }
     };
+    let (v, solver) = match v {
+        [head @ .., solver] if v.len() == 10 => (head, *solver),
+        _ => (v, 0.0),
+    };
     let &[viscosity, iterations, density_tolerance, relaxation, redistribution, passes, shear_modulus, yield_stress, adhesion] =
         v
     else {
         return Err(PyValueError::new_err(format!(
-            "{FLUID} must hold 9 numbers or none, got {}",
+            "{FLUID} must hold 10 numbers (9 before the density solver) or none, got {}",
             v.len()
         )));
+    };
+    let density_solver = match solver {
+        0.0 => DensitySolver::Jacobi,
+        1.0 => DensitySolver::ConjugateGradients,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "{FLUID}: the density solver must be 0 or 1, got {solver}"
+            )))
+        }
     };
     if adhesion != 0.0 && adhesion != 1.0 {
         return Err(PyValueError::new_err(format!(
@@ -99,6 +117,7 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
         shear_modulus,
         yield_stress: (yield_stress != 0.0).then_some(yield_stress),
         adhesion: adhesion == 1.0,
+        density_solver,
     })
 }
 

@@ -61,6 +61,25 @@ impl Horizons {
     pub fn of(&self, i: usize) -> &[u32] {
         &self.indices[self.offsets[i] as usize..self.offsets[i + 1] as usize]
     }
+
+    /// Per entry `(i, j)` of `indices` (`j` in `i`'s list), the index in `indices` of its
+    /// mirror `(j, i)`, into `out` (resized to the bonds). The lists are symmetric (see
+    /// [`find_horizons`]), so every entry has its mirror; a missing one is a broken invariant
+    /// of the search and panics naming the pair.
+    pub fn mirrors_into(&self, out: &mut Vec<u32>) {
+        out.resize(self.indices.len(), 0);
+        let mut unit = vec![(); self.len()];
+        let (offsets, indices) = (&self.offsets, &self.indices);
+        for_each_vertex(offsets, out, &mut unit, &|i, row| {
+            let start = offsets[i] as usize;
+            for (m, &j) in row.iter_mut().zip(&indices[start..]) {
+                let Ok(at) = self.of(j as usize).binary_search(&(i as u32)) else {
+                    panic!("neighbour lists not symmetric: {j} in {i}'s list, not {i} in {j}'s");
+                };
+                *m = offsets[j as usize] + at as u32;
+            }
+        });
+    }
 }
 
 /// The horizon neighbourhoods of `positions` (m) for the horizon radius `delta` (m): for every

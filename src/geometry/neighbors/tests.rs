@@ -104,6 +104,36 @@ fn clustered_clouds_match_brute_force() {
     }
 }
 
+/// Every entry's mirror is the reverse pair, and the mirror of the mirror is the entry.
+#[test]
+fn each_entry_finds_its_mirror() {
+    let h = find_horizons(&clustered(2000, 3), 0.02).unwrap();
+    let mut mirror = Vec::new();
+    h.mirrors_into(&mut mirror);
+    assert_eq!(mirror.len(), h.indices.len());
+    for i in 0..h.len() {
+        for e in h.offsets[i] as usize..h.offsets[i + 1] as usize {
+            let m = mirror[e] as usize;
+            let j = h.indices[e] as usize;
+            assert!((h.offsets[j] as usize..h.offsets[j + 1] as usize).contains(&m));
+            assert_eq!(h.indices[m] as usize, i);
+            assert_eq!(mirror[m] as usize, e);
+        }
+    }
+}
+
+/// Lists that are not symmetric (made by hand: 1 in 0's list, 0 not in 1's) are refused.
+#[test]
+#[should_panic(expected = "not symmetric: 1 in 0's list")]
+fn asymmetric_lists_have_no_mirrors() {
+    let h = Horizons {
+        offsets: vec![0, 1, 1],
+        indices: vec![1],
+        order: vec![0, 1],
+    };
+    h.mirrors_into(&mut Vec::new());
+}
+
 #[test]
 fn lattices_exclude_pairs_exactly_at_the_horizon() {
     // Integer coordinates: every distance is exact. Offsets with |d|^2 in {1, 2, 3} are inside

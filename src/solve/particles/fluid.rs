@@ -40,6 +40,10 @@
 //! are reported in the step's particle figures). Pinned particles count in the densities and
 //! do not move.
 //!
+//! **Two solvers** (`ViscoelasticFluid::density_solver`): the Jacobi projection above, or per
+//! linearisation the coupled system of the active constraints by conjugate gradients
+//! ([`super::density_system`]; a member pushed out of a wall slides along it in that solve).
+//!
 //! **Adhesion to ghost particles (the paper's section 6: "fixed ghost particles make a fluid
 //! stick to a wall or ceiling"; `ViscoelasticFluid::adhesion`).** A ghost (a pinned fluid
 //! particle of the stage) with a free fluid neighbour holds a two-sided constraint on its
@@ -74,16 +78,20 @@ use rayon::prelude::*;
 
 use crate::collider::{push_out_of_colliders, ColliderModel, MoveStart};
 use crate::error::Result;
+use crate::geometry::bounds::nan_max;
 use crate::geometry::find_horizons;
+use crate::parallel::for_each_vertex;
 use crate::particles::redistribution::Redistribution;
 use crate::particles::sph::{Kernel, Sph};
 use crate::particles::sph_deficiency::Deficiency;
-use crate::particles::{Particles, ViscoelasticFluid, FLUID_SUPPORT};
+use crate::particles::{DensitySolver, Particles, ViscoelasticFluid, FLUID_SUPPORT};
 use crate::real::Real;
 use crate::solve::points::Points;
 use crate::solve::Timings;
 use crate::timing::millis;
 
+use super::density_system::{ConjugateGradients, DensitySystem};
+use super::density_walls::{add_wall, none, release, slide, touching, Walls};
 use super::fluid_viscosity::{lattice_laplacian_scale, Fluid, Viscosity};
 
 #[path = "fluid_partners.rs"]
@@ -104,9 +112,13 @@ pub(crate) struct FluidStage<T: Real> {
     deficiency: Deficiency,
     iterations: usize,
     tolerance: f64,
-    /// Neighbour lists of the last search (CSR over the members).
+    /// The density solver (conjugate gradients when a fluid of the stage asks for them).
+    solver: DensitySolver,
+    /// Neighbour lists of the last search (CSR over the members), and per entry `(i, j)` the
+    /// index of the entry `(j, i)`.
     offsets: Vec<u32>,
     indices: Vec<u32>,
+    mirror: Vec<u32>,
     /// Working positions (and the next ones), densities, multipliers and gradients of the
     /// members.
     y: Vec<Vector3<T>>,
@@ -120,6 +132,22 @@ pub(crate) struct FluidStage<T: Real> {
     /// Whether a fluid of the stage asks for adhesion to its ghosts.
     adhesion: bool,
     lambda: Vec<T>,
+    /// Per member of the last linearisation: whether its constraint is active, the
+    /// right-hand side `b_i` (relative density; 0 when inactive), the fraction `ask_i` of the
+    /// violation it asks (`b_i = -ask_i C_i`: 1, or [`ADHESION_STEP`]) and the diagonal `A_ii`
+    /// (1/m^2; the Jacobi's, with the pinned members' shares).
+    active: Vec<bool>,
+    rhs: Vec<T>,
+    ask: Vec<T>,
+    diagonal: Vec<T>,
+    /// Per member, its mobility: its share, 0 when pinned (dimensionless).
+    mobility: Vec<T>,
+    /// Per member, the walls its conjugate-gradient moves slide on during this step
+    /// ([`super::density_walls`]; found anew at each step's start, so nothing of them
+    /// carries over to the next step or needs saving with a state).
+    walls: Vec<Walls<T>>,
+    /// The conjugate gradients' work vectors.
+    cg: ConjugateGradients<T>,
     /// Projections of the last step and the violation they left ([`Self::violation`],
     /// relative).
     pub passes: usize,
@@ -155,6 +183,20 @@ pub(crate) struct FluidStage<T: Real> {
 /// particles beside the ghosts) a hanging blob's constraints diverged within 10 steps, at
 /// 0.25 a resting column between ghost walls and a blob under a ghost ceiling stay stable.
 const ADHESION_STEP: f64 = 0.25;
+
+/// The conjugate gradients stop once every linearised constraint is within this fraction of
+/// the density tolerance (dimensionless): the relinearisation then sees the kernel's
+/// nonlinearity and the colliders, not the linear solve's remainder.
+const CG_RESIDUAL: f64 = 0.5;
+
+/// The most conjugate-gradient iterations per linearisation (an inexact Newton step): the
+/// active set, the walls and the kernel's curvature change as the liquid moves, so a
+/// relinearisation gains more than a further iteration on the old system.
+const CG_ITERATIONS: usize = 10;
+
+/// How far (in spacings) beyond its collider margin a member counts as touching a wall at a
+/// step's start ([`touching`]).
+const WALL_PROBE: f64 = 0.01;
 
 /// The denominator `sum_k |grad_k C_i|^2` (1/m^2) of an interior particle of the simple cubic
 /// lattice of `spacing` (m) for the kernel `sph`: `sum_p |m grad W(p)|^2 / rho0^2` with
@@ -215,9 +257,17 @@ impl<T: Real> FluidStage<T> {
             }
             let n = stage.members.len();
             stage.y = vec![Vector3::zeros(); n];
+            stage.next = vec![Vector3::zeros(); n];
             stage.density = vec![T::zero(); n];
             stage.moment = vec![Vector3::zeros(); n];
             stage.lambda = vec![T::zero(); n];
+            stage.active = vec![false; n];
+            stage.rhs = vec![T::zero(); n];
+            stage.ask = vec![T::one(); n];
+            stage.diagonal = vec![T::zero(); n];
+            stage.mobility = vec![T::zero(); n];
+            stage.walls = vec![none(); n];
+            stage.cg.resize(n);
             stage.own = vec![Vector3::zeros(); n];
             stage.viscosity = Viscosity::new(n, lattice_laplacian_scale(&stage.sph, spacing));
         }
@@ -235,8 +285,10 @@ impl<T: Real> FluidStage<T> {
             deficiency,
             iterations: 1,
             tolerance: 1.0,
+            solver: DensitySolver::Jacobi,
             offsets: vec![0],
             indices: Vec::new(),
+            mirror: Vec::new(),
             y: Vec::new(),
             next: Vec::new(),
             density: Vec::new(),
@@ -244,6 +296,13 @@ impl<T: Real> FluidStage<T> {
             adhered: Vec::new(),
             adhesion: false,
             lambda: Vec::new(),
+            active: Vec::new(),
+            rhs: Vec::new(),
+            ask: Vec::new(),
+            diagonal: Vec::new(),
+            mobility: Vec::new(),
+            walls: Vec::new(),
+            cg: ConjugateGradients::default(),
             passes: 0,
             error: 0.0,
             grads: Vec::new(),
@@ -282,6 +341,9 @@ impl<T: Real> FluidStage<T> {
         self.tolerance = self.tolerance.min(fluid.density_tolerance);
         self.redistribution = self.redistribution.max(fluid.redistribution);
         self.adhesion |= fluid.adhesion;
+        if fluid.density_solver == DensitySolver::ConjugateGradients {
+            self.solver = DensitySolver::ConjugateGradients;
+        }
         if fluid.redistribution > 0.0 {
             self.redistribution_iterations = self
                 .redistribution_iterations
@@ -328,6 +390,7 @@ impl<T: Real> FluidStage<T> {
             *y = from[k as usize];
         }
         let found = find_horizons(&self.y, self.sph.radius)?;
+        found.mirrors_into(&mut self.mirror);
         self.offsets = found.offsets;
         self.indices = found.indices;
         self.grads.resize(self.indices.len(), Vector3::zeros());
@@ -351,11 +414,24 @@ impl<T: Real> FluidStage<T> {
         self.find_adhered(&points.pinned);
         timings.neighbours += search + millis(started);
         let started = Instant::now();
+        for ((w, &k), &share) in self.mobility.iter_mut().zip(&self.members).zip(&self.share) {
+            *w = if points.pinned[k as usize] {
+                T::zero()
+            } else {
+                share
+            };
+        }
+        if self.solver == DensitySolver::ConjugateGradients {
+            self.find_walls(points, colliders);
+        }
         self.passes = 0;
         self.error = self.violation();
         while self.error > self.tolerance && self.passes < self.iterations {
-            self.project_once(points, colliders);
-            self.passes += 1;
+            self.linearise();
+            // At least one: a linearisation entered above the tolerance always iterates
+            // (`ConjugateGradients::solve`), and the count bounds this loop regardless.
+            self.passes += self.multipliers().max(1);
+            self.take_moves(points, colliders);
             self.error = self.violation();
         }
         timings.density += millis(started);
@@ -462,77 +538,142 @@ impl<T: Real> FluidStage<T> {
                     c.max(0.0)
                 }
             })
-            .reduce(|| 0.0, f64::max)
+            .reduce(|| 0.0, nan_max)
     }
 
-    /// One Jacobi projection of every density constraint on `self.y` at the densities
-    /// [`Self::violation`] left (partners carry none).
-    fn project_once(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
+    /// The constraints linearised at `self.y` and the densities [`Self::violation`] left:
+    /// each member's own gradient and its neighbours' (`own`, `grads`: of `rho~_i`, not yet
+    /// divided by `rho0_i`), which constraints are active (`C_i > 0`, or adhered; partners
+    /// carry none) and their right-hand sides `b_i = -ask_i C_i`: `ask_i` is 1, or
+    /// [`ADHESION_STEP`] for an adhered member below rest.
+    fn linearise(&mut self) {
         let (sph, deficiency, y, mass) = (&self.sph, &self.deficiency, &self.y, &self.mass);
         let (offsets, indices) = (&self.offsets, &self.indices);
-        let (density, rest, eps) = (&self.density, &self.rest_density, &self.eps);
-        let (partner, share) = (&self.partner, &self.share);
         let (adhered, moment) = (&self.adhered, &self.moment);
-        // Multipliers, and each particle's own gradient and its neighbours' (`grads`), of
-        // `rho~_i` (not yet divided by `rho0_i`).
-        self.lambda
-            .par_iter_mut()
-            .zip(self.own.par_iter_mut())
-            .zip(split_rows(offsets, &mut self.grads))
+        for_each_vertex(offsets, &mut self.grads, &mut self.own, &|i, row| {
+            if adhered[i] {
+                let csr = (&offsets[..], &indices[..]);
+                deficiency.gradient(sph, i, y, csr, mass, &moment[i], row)
+            } else {
+                sph.density_gradient(i, y, offsets, indices, mass, row)
+            }
+        });
+        let (density, rest, partner) = (&self.density, &self.rest_density, &self.partner);
+        (self.active.par_iter_mut())
+            .zip(self.rhs.par_iter_mut().zip(self.ask.par_iter_mut()))
             .enumerate()
-            .for_each(|(i, ((lambda, own), row))| {
-                *own = if adhered[i] {
-                    let csr = (&offsets[..], &indices[..]);
-                    deficiency.gradient(sph, i, y, csr, mass, &moment[i], row)
-                } else {
-                    sph.density_gradient(i, y, offsets, indices, mass, row)
-                };
+            .for_each(|(i, (active, (b, ask)))| {
                 let c = density[i] / rest[i] - T::one();
-                *lambda = if (c > T::zero() || adhered[i]) && !partner[i] {
-                    let mut norm2 = own.norm_squared() * share[i];
-                    let neighbours = &indices[offsets[i] as usize..offsets[i + 1] as usize];
-                    for (g, &j) in row.iter().zip(neighbours) {
-                        norm2 += g.norm_squared() * share[j as usize];
-                    }
-                    let step = if c > T::zero() {
-                        -c
-                    } else {
-                        -c * T::of(ADHESION_STEP)
-                    };
-                    step / (norm2 / (rest[i] * rest[i]) + eps[i])
+                *active = (c > T::zero() || adhered[i]) && !partner[i];
+                *ask = if *active && c <= T::zero() {
+                    T::of(ADHESION_STEP)
                 } else {
-                    T::zero()
+                    T::one()
                 };
+                *b = if *active { -c * *ask } else { T::zero() };
             });
-        let (lambda, own, grads) = (&self.lambda, &self.own, &self.grads);
-        let (members, share) = (&self.members, &self.share);
-        (0..y.len())
-            .into_par_iter()
-            .map(|i| {
+    }
+
+    /// The multipliers `lambda` of the last linearisation by the stage's solver
+    /// ([`DensitySolver`]), and the passes they took: Jacobi, `lambda_i = b_i / A_ii`
+    /// (Macklin and Mueller 2013, eq. 11, every member's share in `A_ii`), one pass; or the
+    /// conjugate gradients on the coupled system ([`super::density_system`]) to within
+    /// [`CG_RESIDUAL`] of the tolerance or [`CG_ITERATIONS`], one pass per iteration.
+    fn multipliers(&mut self) -> usize {
+        let mut lambda = std::mem::take(&mut self.lambda);
+        let passes = if self.solver == DensitySolver::ConjugateGradients {
+            let most = (self.iterations - self.passes).min(CG_ITERATIONS);
+            let bound = CG_RESIDUAL * self.tolerance;
+            let mut cg = std::mem::take(&mut self.cg);
+            let rhs = (&self.rhs[..], &self.ask[..]);
+            let done = cg.solve(&self.system(), rhs, &mut lambda, bound, most);
+            self.cg = cg;
+            done
+        } else {
+            let mut diagonal = std::mem::take(&mut self.diagonal);
+            self.system().diagonal(&self.share, &mut diagonal);
+            (lambda.par_iter_mut())
+                .zip(self.rhs.par_iter().zip(&diagonal))
+                .for_each(|(lambda, (&b, &d))| *lambda = b / d);
+            self.diagonal = diagonal;
+            1
+        };
+        self.lambda = lambda;
+        passes
+    }
+
+    /// The constraints linearised by [`Self::linearise`] (see [`super::density_system`]).
+    fn system(&self) -> DensitySystem<'_, T> {
+        DensitySystem {
+            offsets: &self.offsets,
+            indices: &self.indices,
+            own: &self.own,
+            grads: &self.grads,
+            mirror: &self.mirror,
+            rest: &self.rest_density,
+            eps: &self.eps,
+            mobility: &self.mobility,
+            walls: &self.walls,
+            active: &self.active,
+        }
+    }
+
+    /// Every member moved by `dy = W J^T lambda` (Macklin and Mueller 2013, eq. 12, with the
+    /// mobilities), then out of the colliders. With the conjugate gradients, first each wall
+    /// the member's move leaves is released and the move slides along the others
+    /// ([`super::density_walls`]); each collider that then pushes the move back adds a wall.
+    fn take_moves(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
+        let mut next = std::mem::take(&mut self.next);
+        let mut walls = std::mem::take(&mut self.walls);
+        let (system, lambda) = (self.system(), &self.lambda);
+        let (y, members) = (&self.y, &self.members);
+        let conjugate = self.solver == DensitySolver::ConjugateGradients;
+        (next.par_iter_mut().zip(walls.par_iter_mut()))
+            .enumerate()
+            .for_each(|(i, (next, walls))| {
                 let k = members[i] as usize;
                 if points.pinned[k] {
-                    return y[i];
+                    *next = y[i];
+                    return;
                 }
-                // dy_i = lambda_i grad_i C_i + sum_j lambda_j grad_i C_j, where
-                // grad_i C_j = d rho_j / d y_i / rho0_j is the entry of `i` in `j`'s row.
-                let mut dy = own[i] * (lambda[i] / rest[i]);
-                for &j in &indices[offsets[i] as usize..offsets[i + 1] as usize] {
-                    let j = j as usize;
-                    let row = &indices[offsets[j] as usize..offsets[j + 1] as usize];
-                    let b = offsets[j] as usize + row.binary_search(&(i as u32)).unwrap_or(0);
-                    dy += grads[b] * (lambda[j] / rest[j]);
+                let mut dy = system.unslid(i, lambda);
+                if conjugate {
+                    release(walls, &dy);
+                    dy = slide(walls, dy);
                 }
-                dy *= share[i];
-                push_out_of_colliders(
-                    Points::colliders_of(&points.collides, k, colliders),
-                    MoveStart::Now(y[i]),
-                    y[i] + dy,
-                    points.margin[k],
-                    None,
-                )
-            })
-            .collect_into_vec(&mut self.next);
+                // Collider by collider, as `push_out_of_colliders` takes them, so that each
+                // push's direction joins the member's walls.
+                *next = dy + y[i];
+                for c in Points::colliders_of(&points.collides, k, colliders) {
+                    let free = *next;
+                    let one = std::slice::from_ref(c);
+                    *next = push_out_of_colliders(
+                        one,
+                        MoveStart::Now(y[i]),
+                        free,
+                        points.margin[k],
+                        None,
+                    );
+                    if conjugate && *next != free {
+                        add_wall(walls, *next - free);
+                    }
+                }
+            });
+        self.next = next;
+        self.walls = walls;
         std::mem::swap(&mut self.y, &mut self.next);
+    }
+
+    /// Each member's walls at the step's start: those it touches ([`touching`], within
+    /// [`WALL_PROBE`] spacings of its margin), found anew every step.
+    fn find_walls(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
+        let depth = T::of(WALL_PROBE * self.sph.radius / FLUID_SUPPORT);
+        let (y, members) = (&self.y, &self.members);
+        (self.walls.par_iter_mut().enumerate()).for_each(|(i, walls)| {
+            let k = members[i] as usize;
+            let mine = Points::colliders_of(&points.collides, k, colliders);
+            *walls = touching(mine, &y[i], points.margin[k], depth);
+        });
     }
 
     /// The redistribution's displacement taken out of the velocities the step took.
@@ -542,19 +683,4 @@ impl<T: Real> FluidStage<T> {
             points.velocity[k as usize] -= s * inv_h;
         }
     }
-}
-
-/// `grads` split into the rows of `offsets`, in parallel.
-fn split_rows<'a, V: Send>(
-    offsets: &'a [u32],
-    grads: &'a mut [V],
-) -> impl IndexedParallelIterator<Item = &'a mut [V]> + 'a {
-    let mut rows = Vec::with_capacity(offsets.len() - 1);
-    let mut rest = grads;
-    for w in offsets.windows(2) {
-        let (row, tail) = rest.split_at_mut((w[1] - w[0]) as usize);
-        rows.push(row);
-        rest = tail;
-    }
-    rows.into_par_iter()
 }

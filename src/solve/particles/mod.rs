@@ -6,6 +6,8 @@
 mod chebyshev;
 mod coarse;
 mod coarse_problem;
+mod density_system;
+mod density_walls;
 mod direct;
 mod directions;
 mod evaluation;
