@@ -158,40 +158,52 @@ def test_a_pile_at_rest_stays_at_rest_with_static_friction():
     assert np.linalg.norm(body.positions - before, axis=1).max() < 1e-6
 
 
-def test_a_pile_creeps_without_static_friction_and_stays_put_with_it():
-    """A low column (R = 4 cm, a = 0.5: two layers on a frictional floor) settled for 0.4 s
-    at the default 10 iterations a step, then stepped 0.3 s more by 4 iterations a step (short
-    of convergence, as the paper's few iterations). Without static friction the pile creeps
-    on (measured: largest displacement 72 um after 0.1 s, 202 um after 0.3 s); with it (eq.
-    28) every particle is held and none moves at all. Measured beside it, with the return
-    within the local step: at 5 to 8 iterations the settled pile no longer creeps without
-    static friction either (0.2 to 2 um, then at rest; it crept 35 then 203 um at 8 when the
-    return ran after the iterations), and settled at 8 iterations from the start the column
-    is still spreading after 0.4 s (17 mm in the next 0.3 s, with static friction or
-    without). The numbers hold for this lattice only: the free pile's creep is chaotic (the
-    lattice perturbed by 1e-9 m, ten draws: 31 um to 1.4 mm after 0.1 s, grown 1.0 to 60
-    times by 0.3 s; a one-rounding change of the stored return gave 40 then 69 um), and with
-    static friction four draws of ten moved 1.5 to 17 um before every particle was held
-    (docs/model.md)."""
-    moves = []
-    for eta in (0.8, None):
-        body = column(0.04, 0.02, sand(30.0, static_friction=eta))
-        settle(body, 0.4)
-        s = ground_solver(max_iters=4)
-        s.add(body)
-        before = body.positions.copy()
-        largest = []
-        for k in range(150):
-            stats = s.step()
-            if k in (49, 149):
-                largest.append(np.linalg.norm(body.positions - before, axis=1).max())
-        moves.append(largest)
-        if eta is not None:
-            assert stats.particles["held_static"] == body.num_particles
-            assert np.array_equal(body.positions, before)
-    (held_early, held_late), (free_early, free_late) = moves
-    assert held_late == 0.0, moves
-    assert free_early > 5e-6 and free_late > 2.0 * free_early, moves
+def stepped_pile(eta, seed):
+    """The creep test's pile: a low column (R = 4 cm, a = 0.5: two layers on a frictional
+    floor) with static friction ``eta`` (None: none), its lattice perturbed by 1e-9 m (normal
+    draws of ``seed``), settled for 0.4 s at the default 10 iterations a step, then stepped
+    by 4 iterations a step: 0.1 s, and a window of 0.2 s more. Returns each particle's move
+    over the window (m), whether it moved at any step of it, and the held count at each."""
+    body = column(0.04, 0.02, sand(30.0, static_friction=eta))
+    rng = np.random.default_rng(seed)
+    body.positions = body.positions + 1e-9 * rng.standard_normal(body.positions.shape)
+    settle(body, 0.4)
+    s = ground_solver(max_iters=4)
+    s.add(body)
+    for _ in range(50):
+        s.step()
+    start = body.positions.copy()
+    moved = np.zeros(body.num_particles, dtype=bool)
+    held = []
+    for _ in range(100):
+        last = body.positions.copy()
+        held.append(s.step().particles["held_static"])
+        moved |= np.any(body.positions != last, axis=1)
+    return np.linalg.norm(body.positions - start, axis=1), moved, held
+
+
+def test_a_pile_creeps_without_static_friction_and_comes_to_rest_with_it():
+    """A settled low pile stepped short of convergence (4 iterations, as the paper's few)
+    comes to rest with static friction (eq. 28) and creeps on without it. Over the window
+    0.1 to 0.3 s after the switch to 4 iterations, with static friction no particle moves at
+    any step and every particle is held at every step; without it the largest move exceeds
+    2 um. Measured over the unperturbed lattice and 30 draws of a 1e-9 m perturbation (seeds
+    0 to 29): with static friction every draw at rest over the window, every particle held
+    (before it, the largest move 0 to 16.6 um, draw 2); without, the largest move over the
+    window 9.8 um (draw 2, at rest by 0.3 s) to 17.0 mm (draw 9), the mean 0.29 um to 2.8
+    mm, 37 to 92 of the 98 particles moving: how far the free pile creeps is chaotic, that it
+    creeps over the window is not. The test runs draws 2 (the closest to failing on both
+    counts) and 23 (the next smallest free move, 67 um). At 3 iterations the free pile
+    flows (largest move 15 to 17 mm over the window, 20 draws) but with static friction one
+    draw in ten to thirty flows as well (eta 0.8, 0.65, 0.5); with the gravity tilted 5 or
+    10 degrees static friction holds 50 to 98 of the 98 particles; at 4 iterations a taller
+    pile (a = 0.75) moves up to 4.8 mm with static friction (docs/model.md)."""
+    for seed in (2, 23):
+        window, moved, held = stepped_pile(0.8, seed)
+        assert not moved.any(), (seed, np.flatnonzero(moved))
+        assert min(held) == len(moved), (seed, held)
+        window, moved, held = stepped_pile(None, seed)
+        assert window.max() > 2e-6, (seed, window.max())
 
 
 def test_sand_does_not_pass_through_colliders():
