@@ -22,6 +22,13 @@
 //! trial (a moved particle's residual carries the collider's reaction, which no move takes
 //! away), and a plain trial that a collider touched is taken without halvings (the projected
 //! move is no descent direction of the free particles' merit).
+//!
+//! **Projected extrapolation.** A particle against frictionless colliders only, and which the
+//! repulsion did not move, is extrapolated like every other and then kept out of the colliders
+//! again: `y^{k+1} = P(w (P(y + delta) - y^{k-1}) + y^{k-1})`, `P` the projection in the
+//! Jacobi metric. Left plain (as particles against frictional colliders still are), a body's
+//! contact layer slides along the collider at the plain Jacobi rate while Chebyshev accelerates
+//! the body above it, and its sideways residual is what stalls an impact step.
 
 use std::time::Instant;
 
@@ -221,9 +228,11 @@ fn merit_floor<T: Real>(sys: &mut ParticleSystem<T>, h2: T) -> f64 {
 }
 
 /// The trial `y_next = y + alpha delta` (with the repulsion's move), kept out of the colliders
-/// in the metric of the Jacobi diagonal (with friction) and, where no collider touched it,
-/// extrapolated by `omega` (Chebyshev) unless that could reach into a collider
-/// ([`extrapolated`]); `sys.touched` marks the particles a collider or the repulsion moved. The measures: the
+/// in the metric of the Jacobi diagonal (with friction), and extrapolated by `omega`
+/// (Chebyshev): against frictionless colliders and without a repulsion move, then kept out
+/// again (the module's doc); otherwise only where no collider touched it and the extrapolation
+/// cannot reach into a collider ([`extrapolated`]). `sys.touched` marks the particles a
+/// collider or the repulsion moved. The measures: the
 /// largest move, and the convergence measure: the largest residual per unit mass at `y` with
 /// the colliders' reaction to the whole move added (as for membranes,
 /// [`crate::solve::membranes::jacobi::free_residual`]), less its round-off floor
@@ -277,8 +286,17 @@ fn propose<T: Real>(
                 push(whole + repelled) - whole
             };
             *touched = *next != free_move;
-            if let Some(w) = omega.filter(|_| !*touched) {
-                *next = extrapolated(next, &points.y_prev[i], w, margin, colliders);
+            if let Some(w) = omega {
+                let previous = &points.y_prev[i];
+                if repelled == Vector3::zeros() && colliders.iter().all(|c| c.friction == T::zero())
+                {
+                    // Projected extrapolation: the contact layer is accelerated with the rest.
+                    let moved = (*next - previous) * w + previous;
+                    *next = push(moved);
+                    *touched |= *next != moved;
+                } else if !*touched {
+                    *next = extrapolated(next, previous, w, margin, colliders);
+                }
             }
             // With another family's reaction on the particle (a membrane's, `crate::solve::coupling`).
             let coupled = options.contact_reaction.get(i).copied().unwrap_or_default();
