@@ -140,30 +140,17 @@ impl PairCache {
         let wanted = |k: u32| {
             !this.is_live[k as usize] && this.may_come_within(k as usize, allowance, reach)
         };
-        // The grown vertices' pairs that are not live, each once: grown vertices come in
-        // clusters (a fold, a patch hitting the floor), so a pair often has several, and a
-        // look at its bounds costs its vertices' positions where the index costs a `u32`.
-        let mut candidates: Vec<u32> = grown
+        let mut found: Vec<u32> = grown
             .par_iter()
-            .flat_map_iter(|&v| {
-                this.pairs_of(v)
-                    .iter()
-                    .copied()
-                    .filter(|&k| !this.is_live[k as usize])
-            })
+            .flat_map_iter(|&v| this.pairs_of(v).iter().copied().filter(|&k| wanted(k)))
             .collect();
-        candidates.par_sort_unstable();
-        candidates.dedup();
-        let mut found: Vec<u32> = candidates
-            .into_par_iter()
-            .filter(|&k| this.may_come_within(k as usize, allowance, reach))
-            .collect();
-        // The repaired pairs are not indexed by vertex: few enough to look at each (after
-        // the build's pairs: `found` stays increasing).
+        // The repaired pairs are not indexed by vertex: few enough to look at each.
         found.par_extend(this.repaired().filter(|&k| {
             let pair = &this.pairs[k as usize].0;
             pair.v.iter().any(|v| grown.binary_search(v).is_ok()) && wanted(k)
         }));
+        found.par_sort_unstable();
+        found.dedup();
         if let Some(&last) = found.last() {
             self.flagged = self.flagged.max(last as usize + 1);
         }
