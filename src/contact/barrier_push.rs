@@ -30,10 +30,6 @@ pub(super) struct BarrierPush {
     tail_rows: Rows,
     /// The version of the live list the rows are for (None: none yet).
     indexed: Option<u64>,
-    /// The vertices with a pair in either rows, increasing: the only ones whose sums an
-    /// update may change (the others stay zero), so that an update costs what the contact
-    /// holds, not what the mesh does (most of a draping cloth's vertices have no live pair).
-    in_pairs: Vec<u32>,
     /// Per pair, whether it felt the barrier at its last evaluation; `false` for a pair that
     /// adds nothing to the sums, not even to `alpha`. A list of its own, a byte per pair, so
     /// that a vertex's sum skips the many live pairs beyond the barrier's reach without reading
@@ -92,40 +88,43 @@ pub(super) struct VertexSums<'a> {
 
 /// Compressed rows of pair slots: the entries of vertex `v` are `entries[start[v]..start[v +
 /// 1]]`, each `SLOTS k + s` for the pair `k` that holds `v` in its slot `s`, in the order of
-/// the pairs themselves (the order a vertex sums its terms in, see [`BarrierPush::update`]):
-/// sorted once per index, not at every sum.
+/// the pairs themselves (the order a vertex sums its terms in, see [`BarrierPush::update`]).
 #[derive(Default)]
 struct Rows {
     start: Vec<u32>,
     entries: Vec<u32>,
+    /// The pairs indexed last with their places in the list, sorted by pair (kept for its
+    /// capacity).
+    by_pair: Vec<(Pair, u32)>,
 }
 
 impl Rows {
     /// Indexes by their vertices (of `vertices`) `pairs`, those from `first` on of the list.
+    /// The pairs are sorted once and then counted into the rows in that order (a stable
+    /// counting sort), so that every row comes out in the order of the pairs.
     fn index(&mut self, pairs: &[Pair], first: usize, vertices: usize) {
         assert!(
             (first + pairs.len()) * SLOTS <= u32::MAX as usize,
             "{} live pairs: more than the index by vertex holds",
             first + pairs.len()
         );
+        let by_pair = &mut self.by_pair;
+        by_pair.clear();
+        by_pair.par_extend(
+            pairs
+                .par_iter()
+                .enumerate()
+                .map(|(k, &pair)| (pair, (first + k) as u32)),
+        );
+        by_pair.par_sort_unstable();
         index_incidences(
-            pairs.iter().enumerate().flat_map(move |(k, pair)| {
-                (0..SLOTS).map(move |s| (((first + k) * SLOTS + s) as u32, pair.v[s]))
+            by_pair.iter().flat_map(|&(pair, k)| {
+                (0..SLOTS).map(move |s| (k * SLOTS as u32 + s as u32, pair.v[s]))
             }),
             vertices,
             &mut self.start,
             &mut self.entries,
         );
-        let mut rows = Vec::with_capacity(vertices);
-        let mut rest = &mut self.entries[..];
-        for v in 0..vertices {
-            let (row, tail) = rest.split_at_mut((self.start[v + 1] - self.start[v]) as usize);
-            rows.push(row);
-            rest = tail;
-        }
-        rows.into_par_iter()
-            .filter(|row| row.len() > 1)
-            .for_each(|row| row.sort_unstable_by_key(|&e| pairs[e as usize / SLOTS - first]));
     }
 
     /// Whether vertex `v` has no pair.
@@ -182,13 +181,6 @@ impl BarrierPush {
                 self.tail_rows.index(&[], self.head, n);
             }
             self.indexed = Some(version);
-            let (head_rows, tail_rows) = (&self.head_rows, &self.tail_rows);
-            self.in_pairs.clear();
-            self.in_pairs.par_extend(
-                (0..n as u32).into_par_iter().filter(|&v| {
-                    !head_rows.is_empty(v as usize) || !tail_rows.is_empty(v as usize)
-                }),
-            );
         }
         let reach = barrier.reach();
         self.felt.resize(pairs.len(), false);
@@ -209,80 +201,77 @@ impl BarrierPush {
                     *term = evaluated.unwrap_or(STALE);
                 }
             });
-        let (head_rows, tail_rows) = (&self.head_rows, &self.tail_rows);
+        let rows = [&self.head_rows, &self.tail_rows];
         let (felt, terms) = (&self.felt, &self.terms);
         // Each vertex sums its terms in the order of the pairs themselves, not of their places
         // in the list: the list's order depends on its history (when the pair cache was built,
         // what extended it since), the pairs and their terms do not, and a sum of floats
         // depends on its order. So a simulation restored into a fresh solver (fresh caches)
-        // continues bit for bit.
-        // Where every sum is taken afresh, those of the vertices without a pair are zero.
-        if all {
-            sums.push.par_iter_mut().for_each(|p| *p = Vector3::zeros());
-            sums.alpha.par_iter_mut().for_each(|a| *a = 0.0);
-            sums.curvature
-                .par_iter_mut()
-                .for_each(|c| *c = SymmetricMatrix3::zeros());
-        }
-        let summed: Vec<(u32, Vector3<f64>, f64, SymmetricMatrix3<f64>)> = self
-            .in_pairs
-            .par_iter()
-            .map_init(Vec::<(&Term, usize)>::new, |felt_here, &v| {
-                let slots = head_rows.of(v as usize).chain(tail_rows.of(v as usize));
-                if !all && !slots.clone().any(|(k, _)| fresh[k]) {
-                    return None;
+        // continues bit for bit. Where every sum is taken afresh, those of the vertices without
+        // a pair are zero; elsewhere a vertex none of whose pairs is fresh keeps its sums.
+        sums.push
+            .par_iter_mut()
+            .zip(sums.alpha.par_iter_mut())
+            .zip(sums.curvature.par_iter_mut())
+            .enumerate()
+            .for_each(|(v, ((push, alpha), curvature))| {
+                if rows.iter().all(|r| r.is_empty(v)) {
+                    if all {
+                        (*push, *alpha, *curvature) =
+                            (Vector3::zeros(), 0.0, SymmetricMatrix3::zeros());
+                    }
+                    return;
                 }
-                let (mut push, mut alpha, mut curvature) =
-                    (Vector3::zeros(), 0.0, SymmetricMatrix3::zeros());
-                gather_felt(slots, felt, terms, felt_here);
-                debug_assert!(felt_here.iter().all(|(t, slot)| t.pair.v[*slot] == v));
-                for &(term, slot) in felt_here.iter() {
+                if !all && !rows.iter().any(|r| r.of(v).any(|(k, _)| fresh[k])) {
+                    return;
+                }
+                (*push, *alpha, *curvature) = (Vector3::zeros(), 0.0, SymmetricMatrix3::zeros());
+                for (term, slot) in felt_in_pair_order(rows, v, felt, terms) {
                     let w = term.weights[slot];
-                    push += term.normal * (term.slope * w);
-                    alpha += term.fade * w.abs();
-                    curvature += SymmetricMatrix3::outer(&term.normal, term.stiffness * w.abs());
+                    *push += term.normal * (term.slope * w);
+                    *alpha += term.fade * w.abs();
+                    *curvature += SymmetricMatrix3::outer(&term.normal, term.stiffness * w.abs());
                 }
-                Some((v, push, alpha, curvature))
-            })
-            .flatten()
-            .collect();
-        for (v, push, alpha, curvature) in summed {
-            let v = v as usize;
-            (sums.push[v], sums.alpha[v], sums.curvature[v]) = (push, alpha, curvature);
-        }
+            });
     }
 }
 
 impl BarrierPush {
-    /// Writes into `out` vertex `v`'s terms of the pairs that felt the barrier at their last
+    /// Vertex `v`'s terms of the pairs that felt the barrier at their last
     /// [`BarrierPush::update`], each with `v`'s slot in it, in the order of the pairs (the
     /// order the sums take them in).
-    pub(super) fn felt_terms<'a>(&'a self, v: usize, out: &mut Vec<(&'a Term, usize)>) {
-        let slots = self.head_rows.of(v).chain(self.tail_rows.of(v));
-        gather_felt(slots, &self.felt, &self.terms, out);
+    pub(super) fn felt_terms(&self, v: usize) -> impl Iterator<Item = (&Term, usize)> + '_ {
+        felt_in_pair_order(
+            [&self.head_rows, &self.tail_rows],
+            v,
+            &self.felt,
+            &self.terms,
+        )
     }
 }
 
-/// Writes into `out` the terms of the pairs among `slots` (a vertex's pairs and its slot in
-/// each: its head row, then its tail row, each sorted by pair) that `felt` the barrier, sorted
-/// by pair.
-fn gather_felt<'a>(
-    slots: impl Iterator<Item = (usize, usize)>,
-    felt: &[bool],
+/// The terms of vertex `v`'s pairs in `rows` (its head row, then its tail row, each sorted by
+/// pair) that `felt` the barrier, each with `v`'s slot in it, in the order of the pairs: the
+/// two rows merged (the head's first among equal pairs, as a stable sort of the two would
+/// put them), with no list gathered and no sort.
+fn felt_in_pair_order<'a>(
+    rows: [&'a Rows; 2],
+    v: usize,
+    felt: &'a [bool],
     terms: &'a [Term],
-    out: &mut Vec<(&'a Term, usize)>,
-) {
-    out.clear();
-    out.extend(
-        slots
-            .filter(|&(k, _)| felt[k])
-            .map(|(k, slot)| (&terms[k], slot)),
-    );
-    // At most two sorted runs: a stable sort merges them in one pass, and checks a single
-    // run in one more.
-    if out.len() > 1 {
-        out.sort_by_key(|t| t.0.pair);
-    }
+) -> impl Iterator<Item = (&'a Term, usize)> + 'a {
+    let side = move |rows: &'a Rows| {
+        rows.of(v)
+            .filter(move |&(k, _)| felt[k])
+            .map(move |(k, slot)| (&terms[k], slot))
+            .peekable()
+    };
+    let (mut head, mut tail) = (side(rows[0]), side(rows[1]));
+    std::iter::from_fn(move || match (head.peek(), tail.peek()) {
+        (Some(a), Some(b)) if b.0.pair < a.0.pair => tail.next(),
+        (Some(_), _) => head.next(),
+        (None, _) => tail.next(),
+    })
 }
 
 /// The [`Term`] of `pair` at its closest points `c`, with its fade `m` and its barrier scale
@@ -526,6 +515,73 @@ pub(super) mod tests {
             &vec![true; fewer.len()],
         );
         assert_from_scratch(&sums, &fewer, &x);
+    }
+
+    /// A list that grew by a tail indexed on its own, whose pairs interleave with the head's in
+    /// pair order (every other pair of a rolled-up grid's list, then the rest): each vertex's
+    /// felt terms come in increasing pair order, one for each pair that holds the vertex and
+    /// lies within the barrier's reach, and for some vertices a tail pair comes between head
+    /// pairs (the merge is needed).
+    #[test]
+    fn felt_terms_merge_head_and_tail_in_pair_order() {
+        let (x, pairs, barrier) = rolled_up_grid(7);
+        let list: Vec<Pair> = pairs
+            .iter()
+            .step_by(2)
+            .chain(pairs.iter().skip(1).step_by(2))
+            .copied()
+            .collect();
+        let head = list.len() * 19 / 20;
+        let closest: Vec<Closest> = list.iter().map(|p| p.closest(&x)).collect();
+        let fades = vec![1.0; list.len()];
+        let n = x.len();
+        let mut sums: Sums = (
+            vec![Vector3::zeros(); n],
+            vec![0.0; n],
+            vec![SymmetricMatrix3::zeros(); n],
+        );
+        let mut kept = BarrierPush::default();
+        for (version, (len, unchanged)) in [(head, 0), (list.len(), head)].into_iter().enumerate() {
+            let fresh: Vec<bool> = (0..len).map(|k| k >= unchanged).collect();
+            kept.update(
+                &list[..len],
+                (version as u64, unchanged),
+                &closest[..len],
+                (&fades[..len], &[]),
+                &fresh,
+                &barrier,
+                MU,
+                VertexSums {
+                    push: &mut sums.0,
+                    alpha: &mut sums.1,
+                    curvature: &mut sums.2,
+                },
+            );
+        }
+        assert_eq!(kept.head, head, "the tail indexed on its own");
+        let mut interleaved = 0;
+        for v in 0..n as u32 {
+            let felt: Vec<Pair> = kept.felt_terms(v as usize).map(|(t, _)| t.pair).collect();
+            assert!(felt.windows(2).all(|w| w[0] < w[1]), "vertex {v}: {felt:?}");
+            let within = list
+                .iter()
+                .zip(&closest)
+                .filter(|(p, c)| {
+                    let d = c.separation.norm();
+                    p.v.contains(&v) && d > 0.0 && d < barrier.reach()
+                })
+                .count();
+            assert_eq!(felt.len(), within, "vertex {v}");
+            let from_tail = |p: &Pair| list[head..].contains(p);
+            interleaved += usize::from(
+                felt.windows(2)
+                    .any(|w| from_tail(&w[0]) && !from_tail(&w[1])),
+            );
+        }
+        assert!(
+            interleaved > 10,
+            "{interleaved} vertices with a tail pair before a head pair"
+        );
     }
 
     /// A rolled-up grid (turns 6 mm apart, seeded jitter `seed`), its primitive pairs within a

@@ -91,12 +91,18 @@ pub fn resolve_contacts(
         work.live.rescale(0);
     }
     stats.broad_phase_ms += millis(t);
-    refill(&mut work.push, n, Vector3::zeros());
     work.weights.clear();
     if work.live.pairs.is_empty() {
+        refill(&mut work.push, n, Vector3::zeros());
         work.warm.clear();
         return stats;
     }
+    // The sums of eq. 49 and 53 need no reset: the local step's first update of them (in the
+    // loop or, with no iteration, at the final positions) has no unchanged pair and writes
+    // every vertex's, and nothing reads them before it.
+    work.push.resize(n, Vector3::zeros());
+    work.alpha.resize(n, 0.0);
+    work.curvature.resize(n, SymmetricMatrix3::zeros());
     if let Some(fill) = weights {
         fill(&mut work.weights);
     }
@@ -111,8 +117,6 @@ pub fn resolve_contacts(
         .collect_into_vec(&mut work.motion);
     let bound = barrier.derivative_bound();
     refill(&mut work.drift, n, 0.0);
-    refill(&mut work.alpha, n, 0.0);
-    refill(&mut work.curvature, n, SymmetricMatrix3::zeros());
     refill(&mut work.last_move, n, Vector3::zeros());
     refill(&mut work.damping, n, 1.0);
     // Vertices moved since the last CCD: a pair none of whose vertices moved keeps its time.

@@ -59,17 +59,16 @@ pub(super) fn friction_moves(
     moves
         .par_iter_mut()
         .enumerate()
-        .map_init(Vec::new, |felt, (i, out)| {
+        .map(|(i, out)| {
             *out = Vector3::zeros();
             let normal_force = push[i].norm();
             if fixed[i] || coefficient[i] == 0.0 || normal_force == 0.0 {
                 return false;
             }
-            terms.felt_terms(i, felt);
             // Sums over the vertex's pairs of `l_c`, `l_c o_c` and `l_c mu_c`.
             let (mut load, mut other, mut mu) = (0.0, Vector3::zeros(), 0.0);
             let mut other_side_fixed = true;
-            for &(term, slot) in felt.iter() {
+            for (term, slot) in terms.felt_terms(i) {
                 let own = term.weights[slot];
                 let l = term.slope * own.abs();
                 if l <= 0.0 {
