@@ -52,7 +52,7 @@ def one_size(args) -> dict:
     body = peridyn.Particles(x, spacing=args.side / args.n, density=1000.0,
                              material=peridyn.Elastic.from_young(2e5, 0.25))
     solver = peridyn.Solver(dt=args.dt, gravity=(0, 0, -9.81), precision="f32",
-                            threads=args.threads)
+                            threads=args.threads, chebyshev_rho=args.chebyshev_rho)
     solver.add(body)
     solver.add_collider(peridyn.Plane())
     first = solver.step()  # builds the rest data and working set
@@ -90,6 +90,8 @@ def main():
     ap.add_argument("--dt", type=float, default=1 / 30)
     ap.add_argument("--steps", type=int, default=10, help="timed steps per size")
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--chebyshev-rho", type=float, default=None,
+                    help="the particles' Chebyshev rho (default: the solver's, 0.99)")
     ap.add_argument("--budget", type=float, default=120.0,
                     help="stop growing once a size took longer (s)")
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)  # one size, in a child process
@@ -106,6 +108,8 @@ def main():
         argv = [sys.executable, __file__, "--n", str(n), "--side", str(args.side),
                 "--lift", str(args.lift), "--dt", str(args.dt), "--steps", str(args.steps),
                 "--threads", str(args.threads)]
+        if args.chebyshev_rho is not None:
+            argv += ["--chebyshev-rho", str(args.chebyshev_rho)]
         t = time.perf_counter()
         out = subprocess.run(argv, capture_output=True, text=True)
         took = time.perf_counter() - t

@@ -871,7 +871,10 @@ class Solver:
         positions and a step always ends on them. Pick rho near the plain iteration's
         per-iteration decay of ``StepStats.residuals`` (about 0.8 on stacked layers
         landing, where rho = 0.85 saved a fifth of the iterations).
-    chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier).
+    chebyshev_rho : spectral-radius estimate in (0, 1) for Chebyshev (higher: stronger, riskier);
+        None: 0.99. A value given applies to membranes with ``acceleration="chebyshev"`` and
+        to particle bodies with ``global_solver="chebyshev"`` or an acceleration; given with
+        neither, ValueError.
     chebyshev_delay : plain iterations before extrapolating (>= 1).
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
     method : "sissm" (the paper's method) or "descent" (the baseline of Fig. 13, Wang and Yang
@@ -898,8 +901,8 @@ class Solver:
         al. 2017, Fig. 7; membranes ignore it): "direct" (a sparse Cholesky factor of
         ``M + h^2 L``, computed when dt or the pins change; exact solve per iteration; it does
         not yet converge at collider contact), "jacobi" (``inner_iters`` Jacobi sweeps),
-        "chebyshev" (Jacobi with Chebyshev acceleration, ``chebyshev_rho`` when
-        ``acceleration="chebyshev"``, else 0.99) or "position" (position-based averaging over
+        "chebyshev" (Jacobi with Chebyshev acceleration, ``chebyshev_rho`` when given, else
+        0.99) or "position" (position-based averaging over
         bonds). Every one has the implicit Euler solution as its fixed point; each iteration's
         step length is chosen by Armijo backtracking (eq. 13) on the residual of eq. 12.
         ``method="descent"`` and the GPU backend refuse particle bodies.
@@ -925,7 +928,7 @@ class Solver:
         precision: Optional[Precision] = None,
         preconditioner: Preconditioner = "tangent",
         acceleration: Optional[Acceleration] = None,
-        chebyshev_rho: float = 0.99,
+        chebyshev_rho: Optional[float] = None,
         chebyshev_delay: int = 3,
         record_energy: bool = False,
         method: Method = "sissm",

@@ -7,7 +7,9 @@ use pyo3::types::PyDict;
 use crate::collider::{Collider, MovingCollider, Pose};
 use crate::error::Result;
 use crate::gpu::GpuSolver;
-use crate::solve::{Acceleration, BodyMut, Clock, Solver, SolverParams, SolverState, StepStats};
+use crate::solve::{
+    Acceleration, BodyMut, Clock, GlobalSolver, Solver, SolverParams, SolverState, StepStats,
+};
 
 use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, vec3};
 use super::body::{LockedBody, PyBody, SharedBody};
@@ -89,7 +91,7 @@ impl PySolver {
     #[pyo3(signature = (*, dt, gravity = None, tol = Real::of(1e-4), max_iters = Int::of(100),
                         threads = None, step_length = true, precision = None,
                         preconditioner = "tangent", acceleration = None,
-                        chebyshev_rho = Real::of(Acceleration::DEFAULT_RHO),
+                        chebyshev_rho = None,
                         chebyshev_delay = Int::of(Acceleration::DEFAULT_DELAY as i64),
                         record_energy = false, method = "sissm", inner_iters = Int::of(1),
                         backend = "cpu", contact = None, global_solver = "chebyshev",
@@ -105,7 +107,7 @@ impl PySolver {
         precision: Option<&str>,
         preconditioner: &str,
         acceleration: Option<&str>,
-        chebyshev_rho: Real,
+        chebyshev_rho: Option<Real>,
         chebyshev_delay: Int,
         record_energy: bool,
         method: &str,
@@ -120,7 +122,9 @@ impl PySolver {
         let particle_tol = particle_tol.get("particle_tol")?;
         let max_iters = max_iters.get("max_iters")?;
         let threads = threads.map(|t| t.get("threads")).transpose()?;
-        let chebyshev_rho = chebyshev_rho.get("chebyshev_rho")?;
+        let chebyshev_rho = chebyshev_rho
+            .map(|rho| rho.get("chebyshev_rho"))
+            .transpose()?;
         let chebyshev_delay = chebyshev_delay.get("chebyshev_delay")?;
         let inner_iters = inner_iters.get("inner_iters")?;
         let method = METHOD.parse(method)?;
@@ -132,7 +136,7 @@ impl PySolver {
         let acceleration = match ACCELERATION.parse_optional(acceleration)? {
             AccelerationKind::Plain => Acceleration::None,
             AccelerationKind::Chebyshev => Acceleration::Chebyshev {
-                rho: chebyshev_rho,
+                rho: chebyshev_rho.unwrap_or(Acceleration::DEFAULT_RHO),
                 delay: usize::try_from(chebyshev_delay).map_err(|_| {
                     PyValueError::new_err(format!(
                         "chebyshev_delay must be >= 1, got {chebyshev_delay}"
@@ -140,6 +144,17 @@ impl PySolver {
                 })?,
             },
         };
+        let global_solver = GLOBAL_SOLVER.parse(global_solver)?;
+        if chebyshev_rho.is_some()
+            && acceleration == Acceleration::None
+            && global_solver != GlobalSolver::Chebyshev
+        {
+            return Err(PyValueError::new_err(format!(
+                "chebyshev_rho applies to acceleration='chebyshev' or global_solver='chebyshev'; \
+                 got neither (global_solver={global_solver:?}): pass acceleration='chebyshev' \
+                 or leave chebyshev_rho out"
+            )));
+        }
         let gravity = gravity
             .map(|g| vec3(g, "gravity"))
             .transpose()?
@@ -171,7 +186,8 @@ impl PySolver {
             inner_iters: inner_iters as usize,
             record_energy,
             contact: contact.map(|c| c.inner),
-            global_solver: GLOBAL_SOLVER.parse(global_solver)?,
+            global_solver,
+            particle_chebyshev_rho: chebyshev_rho,
         };
         let backend = BACKEND.parse(backend)?;
         let precision = precision.map(|p| PRECISION.parse(p)).transpose()?;

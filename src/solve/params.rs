@@ -38,6 +38,9 @@ pub struct SolverParams {
     /// How particle bodies solve the linear system of their global step (He et al. 2017,
     /// Fig. 7); membranes ignore it.
     pub global_solver: GlobalSolver,
+    /// The spectral-radius estimate `rho` in (0, 1) of the particles' Chebyshev acceleration,
+    /// over the `acceleration`'s (`None`: as [`GlobalSolver::acceleration`] says).
+    pub particle_chebyshev_rho: Option<f64>,
 }
 
 /// The global solver of particle bodies (He et al. 2017, section 4.2, Fig. 7): how the move
@@ -50,8 +53,8 @@ pub enum GlobalSolver {
     Direct,
     /// `inner_iters` Jacobi sweeps.
     Jacobi,
-    /// Jacobi sweeps with Chebyshev acceleration (the paper's default): the solver's
-    /// `acceleration` when it sets one, else Chebyshev with [`GlobalSolver::CHEBYSHEV_RHO`].
+    /// Jacobi sweeps with Chebyshev acceleration (the paper's default), as
+    /// [`GlobalSolver::acceleration`] sets it.
     #[default]
     Chebyshev,
     /// Position-based averaging: each bond solves its own two-particle system and each
@@ -60,18 +63,25 @@ pub enum GlobalSolver {
 }
 
 impl GlobalSolver {
-    /// The spectral-radius estimate of the particles' Chebyshev acceleration when the solver
-    /// sets none.
+    /// The spectral-radius estimate of the particles' Chebyshev acceleration when neither
+    /// [`SolverParams::particle_chebyshev_rho`] nor the solver's `acceleration` sets one.
     pub const CHEBYSHEV_RHO: f64 = 0.99;
 
-    /// The acceleration particle bodies iterate with under `params`.
+    /// The acceleration particle bodies iterate with under `params`: Chebyshev with
+    /// "chebyshev" or an `acceleration` (its delay, else [`Acceleration::DEFAULT_DELAY`]), its
+    /// `rho` [`SolverParams::particle_chebyshev_rho`], else the `acceleration`'s, else
+    /// [`Self::CHEBYSHEV_RHO`]; else none.
     pub fn acceleration(self, params: &SolverParams) -> Acceleration {
-        match (self, params.acceleration) {
-            (Self::Chebyshev, Acceleration::None) => Acceleration::Chebyshev {
-                rho: Self::CHEBYSHEV_RHO,
-                delay: Acceleration::DEFAULT_DELAY,
-            },
-            (_, acceleration) => acceleration,
+        let (rho, delay) = match (self, params.acceleration) {
+            (_, Acceleration::Chebyshev { rho, delay }) => (rho, delay),
+            (Self::Chebyshev, Acceleration::None) => {
+                (Self::CHEBYSHEV_RHO, Acceleration::DEFAULT_DELAY)
+            }
+            (_, Acceleration::None) => return Acceleration::None,
+        };
+        Acceleration::Chebyshev {
+            rho: params.particle_chebyshev_rho.unwrap_or(rho),
+            delay,
         }
     }
 }
@@ -157,6 +167,7 @@ impl Default for SolverParams {
             record_energy: false,
             contact: None,
             global_solver: GlobalSolver::default(),
+            particle_chebyshev_rho: None,
         }
     }
 }
@@ -192,6 +203,9 @@ impl SolverParams {
                     "chebyshev delay must be >= 1 iteration, got {delay}"
                 ));
             }
+        }
+        if let Some(rho) = self.particle_chebyshev_rho {
+            check_param("chebyshev rho", rho, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
         }
         if self.method == Method::Newton && self.acceleration != Acceleration::None {
             return Err(invalid!(
