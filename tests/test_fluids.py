@@ -62,18 +62,24 @@ def column(n=4, height=16, layers=2, **fluid):
     return body, np.flatnonzero(inside)
 
 
-@pytest.mark.parametrize("density_solver", [
-    "jacobi",
-    pytest.param("cg", marks=pytest.mark.xfail(
+@pytest.mark.parametrize("density_solver, passes", [
+    ("jacobi", 50),
+    pytest.param("cg", 50, marks=pytest.mark.xfail(
         strict=True,
-        reason="open: both solvers run to the pass cap (the ghosts' two-sided targets, 6.7 % "
-        "left); with the CG the top sits 0.6-1.5 % low at the samples from 0.2 s (Jacobi "
-        "-0.9 to +0.7 %) while the interior's density is Jacobi's (0.24-0.35 % against 0.26 "
-        "% above rest): the surface layer sinks, not the liquid below it; also without "
-        "adhesion (-1.0 to -1.4 %). Not the linear solve's pulls: with pulling multipliers "
-        "dropped after each solve the top was still 0.5-1.4 % low")),
+        reason="open: at the default cap (50 passes) the CG does not converge the column: "
+        "every step runs to the cap (5 linearisations of 10 iterations; the outer ghost "
+        "layer's top edge stays 6.7 % below its corrected rest, unreachable), the interior "
+        "sits 0.24-0.87 % above rest and the highest particle 0.6-1.5 % low from 0.2 s. A "
+        "budget, not a bias: with 150 passes (the case below) the top holds within 0.7 %; not "
+        "the "
+        "split of the budget (25 or 50 iterations per linearisation: top 1.5 % low; a residual "
+        "bound of 0.1 of the tolerance: 1.3 % low). Jacobi passes at 50 by its one-sided "
+        "overshoot: its top layer's mean sinks further (15.08 against the CG's 15.17 "
+        "spacings, rest 15.5) but its middle 2 x 2 stays at 15.4-15.5 while its corners drop "
+        "to 14.4")),
+    ("cg", 150),
 ])
-def test_a_hydrostatic_column_keeps_its_height_and_density(density_solver):
+def test_a_hydrostatic_column_keeps_its_height_and_density(density_solver, passes):
     """A 4 x 4 x 16 column (0.16 m) over 2 s at dt = 0.01 s keeps its top within 1 % of its
     height and its interior's SPH density within 1 % of the rest density (mean, at every
     0.1 s) and comes to rest (|v| < 0.05 m/s at the end). Smaller than a real column (the
@@ -82,9 +88,11 @@ def test_a_hydrostatic_column_keeps_its_height_and_density(density_solver):
     the top within 0.9 %, the interior's density 0.26 % above rest). Without adhesion the top
     particle wanders by 1-1.5 % and the top layer's mean sinks 3 % (surface particles, which
     hold no density constraint of their own, settle into the hollows of the layer below).
-    With either density solver (Jacobi projections or conjugate gradients)."""
+    With either density solver (Jacobi projections, or conjugate gradients with 150 passes per
+    step: measured the top within 0.67 %, the interior 0.01-0.02 % above rest)."""
     n, height = 4, 16
-    body, liquid = column(n, height, adhesion=True, density_solver=density_solver)
+    body, liquid = column(n, height, adhesion=True, density_solver=density_solver,
+                          density_iterations=passes)
     solver = pd.Solver(dt=0.01, gravity=(0, 0, -G), global_solver="jacobi")
     solver.add(body)
     walls(solver, (0, 0, 0), (n * S, n * S, 1.0))
