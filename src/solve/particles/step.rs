@@ -254,6 +254,9 @@ fn propose<T: Real>(
     let mut touched = std::mem::take(&mut sys.touched);
     let sys_ref = &*sys;
     let (points, residual) = (&sys_ref.points, &sys_ref.current.residual);
+    // Whether every collider is frictionless (the projected extrapolation's condition), once
+    // per trial rather than per particle: a particle's colliders are all of them or none.
+    let frictionless = options.colliders.iter().all(|c| c.friction == T::zero());
     let update = y_next
         .par_iter_mut()
         .zip(touched.par_iter_mut())
@@ -288,8 +291,7 @@ fn propose<T: Real>(
             *touched = *next != free_move;
             if let Some(w) = omega {
                 let previous = &points.y_prev[i];
-                if repelled == Vector3::zeros() && colliders.iter().all(|c| c.friction == T::zero())
-                {
+                if repelled == Vector3::zeros() && (frictionless || colliders.is_empty()) {
                     // Projected extrapolation: the contact layer is accelerated with the rest.
                     let moved = (*next - previous) * w + previous;
                     *next = push(moved);
