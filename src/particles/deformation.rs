@@ -45,7 +45,13 @@ pub fn deformation_and_strain<T: Real>(
     let (mut sum, mut strain) = (Matrix3::zeros(), T::zero());
     let y_i = y[i];
     let lanes = <T::Pack as SimdValue>::LANES;
-    // One pack's bond vectors by component (at most eight lanes).
+    const {
+        assert!(
+            <T::Pack as SimdValue>::LANES <= 8,
+            "a pack holds at most eight bonds"
+        )
+    };
+    // One pack's bond vectors by component.
     let mut pack = [[T::zero(); 8]; 3];
     let mut k = 0;
     for (js, group) in neighbors.chunks(lanes).zip(bonds.chunks(lanes)) {

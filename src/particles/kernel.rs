@@ -19,10 +19,9 @@ use super::rest::ParticleRest;
 /// Two passes over the bonds: the first reads each neighbour's position once, keeps the bond
 /// vector `Y = y_j - y_i` in `bond_out` (no other storage) and sums `F_i` and the mean strain;
 /// the second turns each `Y` into the bond's force in place, a SIMD pack of bonds at a time
-/// ([`bond_forces_packed`]). A particle with a cone in the
-/// rest data (a plastic body's) takes its Drucker-Prager return between them, over the kept
-/// `Y` ([`super::cone`]; its energy, and its dilatation term's mean strain, are then those of
-/// the returned bonds).
+/// ([`bond_forces_packed`]). A particle with a cone in the rest data (a plastic body's) takes
+/// its Drucker-Prager return between them, over the kept `Y` ([`super::cone`]; its energy,
+/// and its dilatation term's mean strain, are then those of the returned bonds).
 #[inline(always)]
 pub fn particle_kernel<T: Real>(
     i: usize,
