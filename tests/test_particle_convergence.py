@@ -314,3 +314,24 @@ def test_chebyshev_rho_takes_effect_without_acceleration():
     with pytest.raises(ValueError, match="chebyshev rho"):
         pd.Solver(dt=0.01, chebyshev_rho=1.5)
 
+
+
+def test_chebyshev_delay_takes_effect_without_acceleration():
+    """`chebyshev_delay` sets when the particles' Chebyshev acceleration starts with the
+    default global_solver="chebyshev" and no `acceleration` (issue 38: it was ignored, the
+    delay staying 3): with delay 6 the first six residuals are the plain iteration's (those
+    of global_solver="jacobi", to round-off) and later ones part from it (by more than 1 %),
+    while with delay 3 some of the fifth to sixth already do; with `acceleration="chebyshev"` the same delay
+    gives the same iterates; given where no Chebyshev runs, or below 1, it is a ValueError."""
+    plain = landing_residuals(global_solver="jacobi")
+    late = landing_residuals(chebyshev_delay=6)
+    early = landing_residuals(chebyshev_delay=3)
+    assert np.allclose(late[:6], plain[:6], rtol=1e-12, atol=0)
+    assert np.max(np.abs(late[7:] / plain[7:] - 1)) > 0.01
+    assert np.max(np.abs(early[4:6] / plain[4:6] - 1)) > 0.01
+    both = landing_residuals(chebyshev_delay=6, acceleration="chebyshev")
+    np.testing.assert_array_equal(both, late)
+    with pytest.raises(ValueError, match="chebyshev_delay"):
+        pd.Solver(dt=0.01, global_solver="jacobi", chebyshev_delay=5)
+    with pytest.raises(ValueError, match="chebyshev delay"):
+        pd.Solver(dt=0.01, chebyshev_delay=0)

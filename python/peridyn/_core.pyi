@@ -875,7 +875,10 @@ class Solver:
         None: 0.99. A value given applies to membranes with ``acceleration="chebyshev"`` and
         to particle bodies with ``global_solver="chebyshev"`` or an acceleration; given with
         neither, ValueError.
-    chebyshev_delay : plain iterations before extrapolating (>= 1).
+    chebyshev_delay : plain iterations before extrapolating (>= 1); None: 3. Like
+        ``chebyshev_rho``, a value given applies to membranes with ``acceleration="chebyshev"``
+        and to particle bodies with ``global_solver="chebyshev"`` or an acceleration; given
+        with neither, ValueError.
     record_energy : record the variational energy of every iterate in ``StepStats.energies``.
     method : "sissm" (the paper's method) or "descent" (the baseline of Fig. 13, Wang and Yang
         2016: gradient descent preconditioned by the diagonal of the energy's Hessian, with a
@@ -929,7 +932,7 @@ class Solver:
         preconditioner: Preconditioner = "tangent",
         acceleration: Optional[Acceleration] = None,
         chebyshev_rho: Optional[float] = None,
-        chebyshev_delay: int = 3,
+        chebyshev_delay: Optional[int] = None,
         record_energy: bool = False,
         method: Method = "sissm",
         inner_iters: int = 1,

@@ -92,7 +92,7 @@ impl PySolver {
                         threads = None, step_length = true, precision = None,
                         preconditioner = "tangent", acceleration = None,
                         chebyshev_rho = None,
-                        chebyshev_delay = Int::of(Acceleration::DEFAULT_DELAY as i64),
+                        chebyshev_delay = None,
                         record_energy = false, method = "sissm", inner_iters = Int::of(1),
                         backend = "cpu", contact = None, global_solver = "chebyshev",
                         particle_tol = Real::of(SolverParams::DEFAULT_PARTICLE_TOL)))]
@@ -108,7 +108,7 @@ impl PySolver {
         preconditioner: &str,
         acceleration: Option<&str>,
         chebyshev_rho: Option<Real>,
-        chebyshev_delay: Int,
+        chebyshev_delay: Option<Int>,
         record_energy: bool,
         method: &str,
         inner_iters: Int,
@@ -125,7 +125,14 @@ impl PySolver {
         let chebyshev_rho = chebyshev_rho
             .map(|rho| rho.get("chebyshev_rho"))
             .transpose()?;
-        let chebyshev_delay = chebyshev_delay.get("chebyshev_delay")?;
+        let chebyshev_delay = chebyshev_delay
+            .map(|delay| {
+                let delay = delay.get("chebyshev_delay")?;
+                usize::try_from(delay).map_err(|_| {
+                    PyValueError::new_err(format!("chebyshev_delay must be >= 1, got {delay}"))
+                })
+            })
+            .transpose()?;
         let inner_iters = inner_iters.get("inner_iters")?;
         let method = METHOD.parse(method)?;
         if inner_iters < 1 {
@@ -137,23 +144,23 @@ impl PySolver {
             AccelerationKind::Plain => Acceleration::None,
             AccelerationKind::Chebyshev => Acceleration::Chebyshev {
                 rho: chebyshev_rho.unwrap_or(Acceleration::DEFAULT_RHO),
-                delay: usize::try_from(chebyshev_delay).map_err(|_| {
-                    PyValueError::new_err(format!(
-                        "chebyshev_delay must be >= 1, got {chebyshev_delay}"
-                    ))
-                })?,
+                delay: chebyshev_delay.unwrap_or(Acceleration::DEFAULT_DELAY),
             },
         };
         let global_solver = GLOBAL_SOLVER.parse(global_solver)?;
-        if chebyshev_rho.is_some()
-            && acceleration == Acceleration::None
-            && global_solver != GlobalSolver::Chebyshev
-        {
-            return Err(PyValueError::new_err(format!(
-                "chebyshev_rho applies to acceleration='chebyshev' or global_solver='chebyshev'; \
-                 got neither (global_solver={global_solver:?}): pass acceleration='chebyshev' \
-                 or leave chebyshev_rho out"
-            )));
+        let chebyshev_runs =
+            acceleration != Acceleration::None || global_solver == GlobalSolver::Chebyshev;
+        for (name, given) in [
+            ("chebyshev_rho", chebyshev_rho.is_some()),
+            ("chebyshev_delay", chebyshev_delay.is_some()),
+        ] {
+            if given && !chebyshev_runs {
+                return Err(PyValueError::new_err(format!(
+                    "{name} applies to acceleration='chebyshev' or global_solver='chebyshev'; \
+                     got neither (global_solver={global_solver:?}): pass \
+                     acceleration='chebyshev' or leave {name} out"
+                )));
+            }
         }
         let gravity = gravity
             .map(|g| vec3(g, "gravity"))
@@ -188,6 +195,7 @@ impl PySolver {
             contact: contact.map(|c| c.inner),
             global_solver,
             particle_chebyshev_rho: chebyshev_rho,
+            particle_chebyshev_delay: chebyshev_delay,
         };
         let backend = BACKEND.parse(backend)?;
         let precision = precision.map(|p| PRECISION.parse(p)).transpose()?;

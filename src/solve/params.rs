@@ -41,6 +41,9 @@ pub struct SolverParams {
     /// The spectral-radius estimate `rho` in (0, 1) of the particles' Chebyshev acceleration,
     /// over the `acceleration`'s (`None`: as [`GlobalSolver::acceleration`] says).
     pub particle_chebyshev_rho: Option<f64>,
+    /// The plain iterations (>= 1) before the particles' Chebyshev acceleration extrapolates,
+    /// over the `acceleration`'s (`None`: as [`GlobalSolver::acceleration`] says).
+    pub particle_chebyshev_delay: Option<usize>,
 }
 
 /// The global solver of particle bodies (He et al. 2017, section 4.2, Fig. 7): how the move
@@ -68,9 +71,10 @@ impl GlobalSolver {
     pub const CHEBYSHEV_RHO: f64 = 0.99;
 
     /// The acceleration particle bodies iterate with under `params`: Chebyshev with
-    /// "chebyshev" or an `acceleration` (its delay, else [`Acceleration::DEFAULT_DELAY`]), its
-    /// `rho` [`SolverParams::particle_chebyshev_rho`], else the `acceleration`'s, else
-    /// [`Self::CHEBYSHEV_RHO`]; else none.
+    /// "chebyshev" or an `acceleration`, its `rho` [`SolverParams::particle_chebyshev_rho`],
+    /// else the `acceleration`'s, else [`Self::CHEBYSHEV_RHO`], and its delay
+    /// [`SolverParams::particle_chebyshev_delay`], else the `acceleration`'s, else
+    /// [`Acceleration::DEFAULT_DELAY`]; else none.
     pub fn acceleration(self, params: &SolverParams) -> Acceleration {
         let (rho, delay) = match (self, params.acceleration) {
             (_, Acceleration::Chebyshev { rho, delay }) => (rho, delay),
@@ -81,7 +85,7 @@ impl GlobalSolver {
         };
         Acceleration::Chebyshev {
             rho: params.particle_chebyshev_rho.unwrap_or(rho),
-            delay,
+            delay: params.particle_chebyshev_delay.unwrap_or(delay),
         }
     }
 }
@@ -168,6 +172,7 @@ impl Default for SolverParams {
             contact: None,
             global_solver: GlobalSolver::default(),
             particle_chebyshev_rho: None,
+            particle_chebyshev_delay: None,
         }
     }
 }
@@ -206,6 +211,13 @@ impl SolverParams {
         }
         if let Some(rho) = self.particle_chebyshev_rho {
             check_param("chebyshev rho", rho, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
+        }
+        if let Some(delay) = self.particle_chebyshev_delay {
+            if delay < 1 {
+                return Err(invalid!(
+                    "chebyshev delay must be >= 1 iteration, got {delay}"
+                ));
+            }
         }
         if self.method == Method::Newton && self.acceleration != Acceleration::None {
             return Err(invalid!(
