@@ -1,7 +1,8 @@
 """Granular particle bodies: dry and wet sand (He et al. 2017, section 7, eq. 25-28; issue
 39), at small sizes: a column's collapse against Lube et al. 2004, the deposit's slope
-against the friction angle, wet sand standing taller than dry, a pile held by static
-friction and creeping without, sand poured into a pile, sand kept out of colliders, threads bit-identical, bad input."""
+against the friction angle, the angle of repose measured by tilting a layer, wet sand
+standing taller than dry, a pile held by static friction and creeping without, sand poured
+into a pile, sand kept out of colliders, threads bit-identical, bad input."""
 
 import functools
 
@@ -93,7 +94,10 @@ SLOPES = ("measured deposit slopes 4.8, 6.2 and 7.1 degrees at friction angles 2
 @pytest.mark.xfail(strict=True, raises=AssertionError, reason=SLOPES)
 def test_the_deposit_slope_grows_with_the_friction_angle():
     """Columns (R = 6 cm, a = 1) of sand with friction angles 20, 30 and 40 degrees: the
-    deposit's slope grows with the angle, by more than 4 degrees over the range."""
+    deposit's slope grows with the angle, by more than 4 degrees over the range. The flank of
+    a collapse deposit is not the angle of repose (at a = 1 Lube et al. find the deposit
+    independent of the material); the issue's angle of repose is measured by tilting a layer
+    (test_the_angle_of_repose_lies_within_10_degrees_of_the_friction_angle)."""
     slopes = deposit_slopes()
     assert slopes[0] < slopes[1] < slopes[2], slopes
     assert slopes[2] - slopes[0] > 4.0, slopes
@@ -116,6 +120,78 @@ def test_the_deposit_slope_lies_within_10_degrees_of_the_friction_angle():
     """The same deposits' slopes lie within 10 degrees of their friction angles."""
     slopes = deposit_slopes()
     assert np.all(np.abs(np.array(slopes) - [20.0, 30.0, 40.0]) < 10.0), slopes
+
+
+def tilted_layer(angle, tilt):
+    """The angle of repose as it is defined, the steepest slope at which the sand stands at
+    rest, measured by tilting a box: a layer of sand (12 x 6 x 4 spacings, friction angle
+    ``angle``) on a base layer of the same body pinned on the floor (a floor as rough as the
+    sand) in an open box of frictionless walls with a gap of 3 spacings at its lower end,
+    settled for 0.3 s under vertical gravity, then gravity turned by ``tilt`` degrees about
+    y (the box tilted, +x downhill). Returns the surface layer's mean move (m) over the 0.3 s
+    after the tilt and over the last 0.1 s of them."""
+    nx, ny, nz, gap = 12, 6, 4, 3
+    x, y, z = np.meshgrid((np.arange(nx) + 0.5) * S, (np.arange(ny) + 0.5) * S,
+                          (np.arange(nz + 1) + 0.5) * S, indexing="ij")
+    p = np.stack([x, y, z], -1).reshape(-1, 3)
+    body = pd.Particles(p, spacing=S, density=RHO, material=sand(angle))
+    body.pin(np.flatnonzero(p[:, 2] < S))
+    length, width, t = (nx + gap) * S, ny * S, 0.01
+    walls = [pd.Box(center=(c, width / 2, 0.1), half_extents=(t, width / 2 + 2 * t, 0.1))
+             for c in (-t, length + t)]
+    walls += [pd.Box(center=(length / 2, c, 0.1), half_extents=(length / 2 + 2 * t, t, 0.1))
+              for c in (-t, width + t)]
+
+    def solver(tilt):
+        b = np.radians(tilt)
+        gravity = (9.81 * np.sin(b), 0.0, -9.81 * np.cos(b))
+        s = pd.Solver(dt=DT, max_iters=10, tol=0.0, gravity=gravity)
+        s.add_collider(pd.Plane(friction=0.3))
+        for wall in walls:
+            s.add_collider(wall)
+        s.add(body)
+        return s
+
+    s = solver(0.0)
+    for _ in range(int(round(0.3 / DT))):
+        s.step()
+    start = body.positions.copy()
+    surface = start[:, 2] > start[:, 2].max() - 0.5 * S
+    s = solver(tilt)
+    steps, late = int(round(0.3 / DT)), int(round(0.1 / DT))
+    for k in range(steps):
+        if k == steps - late:
+            last = body.positions.copy()
+        s.step()
+    moved = np.linalg.norm(body.positions - start, axis=1)[surface].mean()
+    return moved, np.linalg.norm(body.positions - last, axis=1)[surface].mean()
+
+
+REPOSE = ("the model has no angle of repose that follows the friction angle: tilted layers flow "
+          "from 2, 10 and 12 degrees at 20, 30 and 40 on the perfect lattice, from 3 degrees at "
+          "20 and 40 with the lattice perturbed by 1e-9 m; cones cut at 25-50 degrees "
+          "slump to 3-11 degrees whatever the angle. The bonds' cone sees a quarter to a third "
+          "of the pressure (the frictionless repulsion carries the rest), so the layer yields at "
+          "tan(beta) ~ f 3B with f ~ 0.25 where the inner cone's 3B gives 19.5, 26.3, 31.4 "
+          "degrees (docs/model.md, granular section, 'Angle of repose')")
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=REPOSE)
+def test_the_angle_of_repose_lies_within_10_degrees_of_the_friction_angle():
+    """Issue 39: the angle of repose (the steepest tilt at which a layer of sand stands at rest,
+    `tilted_layer`) lies within 10 degrees of the friction angle, at 20, 30 and 40 degrees:
+    tilted 10 degrees less than its friction angle the layer stands (its surface moves less
+    than 0.1 mm, a hundredth of a spacing, in the last 0.1 s of 0.3 s), tilted 10 degrees
+    more it flows (more than a spacing in 0.3 s). Measured (the perfect lattice): tilted 10,
+    20 and 30 degrees the surface moves 3.8, 19 and 19 mm in the last 0.1 s, so the first
+    check fails (untilted, 0.01 mm); in steps of 2 degrees the layer flows from 2 (at 20
+    degrees; 1.6 mm in 0.3 s), 10 and 12 degrees (at 30 and 40; at rest at 8 and 10). The infinite slope on the inner cone,
+    the bonds carrying the whole pressure, stands to 19.5, 26.3 and 31.4 degrees."""
+    for angle in (20.0, 30.0, 40.0):
+        _, late = tilted_layer(angle, angle - 10.0)
+        assert late < 1e-4, (angle, late)
+        moved, _ = tilted_layer(angle, angle + 10.0)
+        assert moved > S, (angle, moved)
 
 
 def test_wet_sand_stands_taller_than_dry():
