@@ -194,9 +194,9 @@ def test_a_drucker_prager_continuum_stands_within_10_degrees_of_its_friction_ang
     repulsion) in `tilted_layer` is at rest (less than 0.01 mm in the last 0.1 s) tilted 10
     degrees less than its friction angle and still moves (more than 0.05 mm) tilted 10 degrees
     more, at 20 and 40 degrees. Measured: 0.0 mm at 10, 20 and 30 degrees tilt (friction
-    angles 20, 30, 40), and 0.134, 0.089 and 27.7 mm at 30, 40 and 50 (at 20 degrees: at
-    rest at 15, 20, 25 degrees; flowing 11 mm/s at 35 and 0.3 m/s at 40): the test tells a
-    20-degree material (0.134 mm at 30) from a 40-degree one (0.0 mm at 30). An infinite slope
+    angles 20, 30, 40), and 0.134, 0.089 and 27.7 mm at 30, 40 and 50 (at friction angle 20:
+    0.0, 0.0001, 0.011, 0.134, 1.1 and 32 mm at 15, 20, 25, 30, 35, 40 degrees): the test tells
+    a 20-degree material (0.134 mm at 30) from a 40-degree one (0.0 mm at 30). An infinite slope
     on the inner cone, `tan(beta) = 3 B` under isotropic stress, stands to 19.5, 26.3 and 31.4
     degrees; the box's walls add to that."""
     for angle in (20.0, 40.0):
