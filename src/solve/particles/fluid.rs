@@ -187,7 +187,8 @@ pub(crate) struct FluidStage<T: Real> {
     /// single fluid). Until the stage is built, the members' masses (kg).
     share: Vec<T>,
     /// Per member, the density (kg/m^3) the redistribution's hold bounds it by,
-    /// `max(rho0_i, rho_i)` before the redistribution (see the module's doc).
+    /// `max(rho0_i, rho_i)` before the redistribution (`rho~_i` if adhered; see
+    /// [`Self::hold_densities`]).
     ceiling: Vec<T>,
 }
 
@@ -505,7 +506,9 @@ impl<T: Real> FluidStage<T> {
 
     /// The density constraints projected again after the redistribution (see the module's
     /// doc), each member's density bounded by its ceiling `max(rho0_i, rho_i)`, `rho_i` as the
-    /// last [`Self::violation`] left it (before the redistribution): the ceilings stand in for
+    /// last [`Self::violation`] left it (before the redistribution; an adhered member's
+    /// two-sided constraint holds it at `rho~_i`, so the hold does not do adhesion's work as a
+    /// position correction): the ceilings stand in for
     /// the rest densities during these passes, so the constraints and the solver are the
     /// projection's. At most `redistribution_iterations` passes (and no more than
     /// `density_iterations`), to the density tolerance; they add to `self.passes`, and
@@ -513,9 +516,19 @@ impl<T: Real> FluidStage<T> {
     fn hold_densities(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
         let mut ceiling = std::mem::take(&mut self.ceiling);
         ceiling.clear();
+        let adhered = &self.adhered;
         ceiling.extend(
             (self.density.iter().zip(&self.rest_density))
-                .map(|(&rho, &rho0)| if rho > rho0 { rho } else { rho0 }),
+                .zip(adhered)
+                .map(
+                    |((&rho, &rho0), &two_sided)| {
+                        if two_sided || rho > rho0 {
+                            rho
+                        } else {
+                            rho0
+                        }
+                    },
+                ),
         );
         std::mem::swap(&mut self.rest_density, &mut ceiling);
         let projected = std::mem::replace(&mut self.passes, 0);
