@@ -176,13 +176,7 @@ mod tests {
         }
         assert_eq!((corners, rims), (4, 4));
         ghosts
-            .update(
-                std::iter::repeat(false).take(n),
-                &sph,
-                &mass,
-                &rest,
-                &partner,
-            )
+            .update(std::iter::repeat_n(false, n), &sph, &mass, &rest, &partner)
             .unwrap();
         assert!(ghosts.density().iter().all(Option::is_none));
     }
