@@ -541,19 +541,15 @@ impl<T: Real> FluidStage<T> {
         let mut ceiling = std::mem::take(&mut self.ceiling);
         ceiling.clear();
         let adhered = &self.adhered;
-        ceiling.extend(
-            (self.density.iter().zip(&self.target))
-                .zip(adhered)
-                .map(
-                    |((&rho, &rho0), &two_sided)| {
-                        if two_sided || rho > rho0 {
-                            rho
-                        } else {
-                            rho0
-                        }
-                    },
-                ),
-        );
+        ceiling.extend((self.density.iter().zip(&self.target)).zip(adhered).map(
+            |((&rho, &rho0), &two_sided)| {
+                if two_sided || rho > rho0 {
+                    rho
+                } else {
+                    rho0
+                }
+            },
+        ));
         std::mem::swap(&mut self.target, &mut ceiling);
         let projected = std::mem::replace(&mut self.passes, 0);
         let budget = self.redistribution_iterations.min(self.iterations);
