@@ -464,15 +464,7 @@ impl<T: Real> FluidStage<T> {
             self.find_walls(points, colliders);
         }
         self.passes = 0;
-        self.error = self.violation();
-        while self.error > self.tolerance && self.passes < self.iterations {
-            self.linearise();
-            // At least one: a linearisation entered above the tolerance always iterates
-            // (`ConjugateGradients::solve`), and the count bounds this loop regardless.
-            self.passes += self.multipliers().max(1);
-            self.take_moves(points, colliders);
-            self.error = self.violation();
-        }
+        self.project_passes(points, colliders, self.iterations);
         timings.density += millis(started);
         if self.redistribution > 0.0 {
             let started = Instant::now();
@@ -552,18 +544,34 @@ impl<T: Real> FluidStage<T> {
         ));
         std::mem::swap(&mut self.target, &mut ceiling);
         let projected = std::mem::replace(&mut self.passes, 0);
-        let budget = self.redistribution_iterations.min(self.iterations);
-        self.error = self.violation();
-        while self.error > self.tolerance && self.passes < budget {
-            self.linearise();
-            self.passes += self.multipliers().max(1);
-            self.take_moves(points, colliders);
-            self.error = self.violation();
-        }
+        self.project_passes(
+            points,
+            colliders,
+            self.redistribution_iterations.min(self.iterations),
+        );
         std::mem::swap(&mut self.target, &mut ceiling);
         self.ceiling = ceiling;
         self.passes += projected;
         self.error = self.violation();
+    }
+
+    /// The density projection's passes from `self.passes` up to `budget`: linearise, solve
+    /// for the multipliers, move, until the violation `self.error` is within the tolerance.
+    fn project_passes(
+        &mut self,
+        points: &Points<T>,
+        colliders: &[ColliderModel<T>],
+        budget: usize,
+    ) {
+        self.error = self.violation();
+        while self.error > self.tolerance && self.passes < budget {
+            self.linearise();
+            // At least one: a linearisation entered above the tolerance always iterates
+            // (`ConjugateGradients::solve`), and the count bounds this loop regardless.
+            self.passes += self.multipliers().max(1);
+            self.take_moves(points, colliders);
+            self.error = self.violation();
+        }
     }
 
     /// Marks the adhered members (see the module's doc) when a fluid of the stage asks for
