@@ -58,13 +58,7 @@ pub fn bond_force<T: Real>(
     y: &Vector3<T>,
     pressure: T,
 ) -> (Vector3<T>, T) {
-    let lanes = BondLanes {
-        xi: bond.xi,
-        length: bond.length,
-        k_dev: bond.k_dev,
-        k_iso: bond.k_iso,
-        share: bond.share,
-    };
+    let lanes = BondLanes::<T>::gather(std::slice::from_ref(bond));
     let (g, e, directed) = bond_force_lanes(&lanes, f, y, pressure);
     if directed {
         return (g, e);
