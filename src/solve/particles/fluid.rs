@@ -4,24 +4,8 @@
 //! ([`super::fluid_viscosity`]); once the local-global iterations have finished (`t_e` of the
 //! paper's Table 1), the fluid particles' neighbours are searched on their positions (`t_n`),
 //! their density constraints are projected (`t_rho`), the particles are redistributed (`t_d`,
-//! [`crate::particles::redistribution`]), and after the velocities are taken, the
-//! redistribution's moves are taken out of them.
-//!
-//! **Redistribution is a position correction only.** It evens the particles' spacing; it is
-//! no force. Its displacement `s_i` (with the push out of colliders and the density hold that
-//! follow it) is kept, and once `finish` has taken the velocities `(y - y_t) / h`, `s_i / h` is
-//! subtracted from them: the velocity is the one the step took without it, the position keeps
-//! it. Pinned members and partners neither move in it nor are pushed out of colliders (a
-//! ghost below a floor stays there).
-//!
-//! **The redistribution held to the density constraints (beyond the paper).** Its moves
-//! raise some particles' densities above what the projection left; the next step's projection
-//! then pushes them apart again as velocity, and the moves become a force after all (a dam
-//! break's `sum ||grad rho||^2` ended 4 % above the run without). So after it the density
-//! constraints are projected again with each member's density bounded by its *ceiling*
-//! `max(rho0_i, rho_i)`, `rho_i` its density before the redistribution: only what the
-//! redistribution added is taken back, as part of the position correction, and the violation
-//! the projection left (at its cap) stays for the next step as without redistribution.
+//! [`redistribution`]: a position correction held to the density constraints), and after the
+//! velocities are taken, the redistribution's moves are taken out of them.
 //!
 //! **Why a projection stage.** The density constraints are position projections without an
 //! energy: the Armijo search of [`super::step`] has no merit to ask of them, and the
@@ -112,6 +96,8 @@ use super::fluid_viscosity::{lattice_laplacian_scale, Fluid, Viscosity};
 
 #[path = "fluid_partners.rs"]
 mod partners;
+#[path = "fluid_redistribution.rs"]
+mod redistribution;
 
 /// The fluid particles of a particle family and their constants.
 pub(crate) struct FluidStage<T: Real> {
@@ -477,84 +463,6 @@ impl<T: Real> FluidStage<T> {
         Ok(())
     }
 
-    /// The redistribution passes on `self.y` over the step's neighbour lists (pinned members
-    /// and partners fixed), the others out of the colliders from where each was, then held to
-    /// the density constraints ([`Self::hold_densities`]); the displacement is kept in
-    /// `self.shift` for [`Self::end_step`].
-    fn redistribute(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) -> Result<()> {
-        self.fixed.clear();
-        self.fixed.extend(
-            (self.members.iter().zip(&self.partner)).map(|(&k, &p)| p || points.pinned[k as usize]),
-        );
-        self.shift.clone_from(&self.y);
-        self.redistributor.run(
-            &self.sph,
-            &mut self.y,
-            &self.offsets,
-            &self.indices,
-            &self.mass,
-            &self.rest_density,
-            &self.fixed,
-            self.redistribution,
-            self.redistribution_iterations,
-        )?;
-        let (before, members, fixed) = (&self.shift, &self.members, &self.fixed);
-        self.y.par_iter_mut().enumerate().for_each(|(i, y)| {
-            if fixed[i] {
-                return;
-            }
-            let k = members[i] as usize;
-            *y = push_out_of_colliders(
-                Points::colliders_of(&points.collides, k, colliders),
-                MoveStart::Now(before[i]),
-                *y,
-                points.margin[k],
-                None,
-            );
-        });
-        self.hold_densities(points, colliders);
-        for (shift, y) in self.shift.iter_mut().zip(&self.y) {
-            *shift = y - *shift;
-        }
-        Ok(())
-    }
-
-    /// The density constraints projected again after the redistribution (see the module's
-    /// doc), each member's density bounded by its ceiling `max(rho*_i, rho_i)` (`rho*_i` its
-    /// constraint's target, [`Self::find_targets`]), `rho_i` as the
-    /// last [`Self::violation`] left it (before the redistribution; an adhered member's
-    /// two-sided constraint holds it at `rho~_i`, so the hold does not do adhesion's work as a
-    /// position correction): the ceilings stand in for
-    /// the rest densities during these passes, so the constraints and the solver are the
-    /// projection's. At most `redistribution_iterations` passes (and no more than
-    /// `density_iterations`), to the density tolerance; they add to `self.passes`, and
-    /// `self.error` is then the violation of the rest densities again.
-    fn hold_densities(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
-        let mut ceiling = std::mem::take(&mut self.ceiling);
-        ceiling.clear();
-        let adhered = &self.adhered;
-        ceiling.extend((self.density.iter().zip(&self.target)).zip(adhered).map(
-            |((&rho, &rho0), &two_sided)| {
-                if two_sided || rho > rho0 {
-                    rho
-                } else {
-                    rho0
-                }
-            },
-        ));
-        std::mem::swap(&mut self.target, &mut ceiling);
-        let projected = std::mem::replace(&mut self.passes, 0);
-        self.project_passes(
-            points,
-            colliders,
-            self.redistribution_iterations.min(self.iterations),
-        );
-        std::mem::swap(&mut self.target, &mut ceiling);
-        self.ceiling = ceiling;
-        self.passes += projected;
-        self.error = self.violation();
-    }
-
     /// The density projection's passes from `self.passes` up to `budget`: linearise, solve
     /// for the multipliers, move, until the violation `self.error` is within the tolerance.
     fn project_passes(
@@ -785,13 +693,5 @@ impl<T: Real> FluidStage<T> {
             let mine = Points::colliders_of(&points.collides, k, colliders);
             *walls = touching(mine, &y[i], points.margin[k], depth);
         });
-    }
-
-    /// The redistribution's displacement taken out of the velocities the step took.
-    pub fn end_step(&mut self, points: &mut Points<T>) {
-        let inv_h = T::one() / self.h;
-        for (s, &k) in self.shift.iter().zip(&self.members) {
-            points.velocity[k as usize] -= s * inv_h;
-        }
     }
 }
