@@ -17,9 +17,12 @@ pub(crate) struct Evaluation<T: Real> {
     pub valid: bool,
     /// Per bond its force on its particle (N, [`crate::particles::bond_force`]).
     pub bond_force: Vec<Vector3<T>>,
-    /// Per particle `V_i Psi_i` (J) and the internal force (N).
+    /// Per particle `V_i Psi_i` (J) and the internal force (N), the latter gathered from the
+    /// bond forces only when a residual asks for it (`gathered`): the initial guess reads the
+    /// energy alone of the evaluation it does not keep.
     pub energy: Vec<T>,
-    pub force: Vec<Vector3<T>>,
+    force: Vec<Vector3<T>>,
+    gathered: bool,
     /// Per particle the residual of eq. 12, `r = m (y* - y) + h^2 f` (kg m; zero at pins).
     pub residual: Vec<Vector3<T>>,
 }
@@ -32,6 +35,7 @@ impl<T: Real> Evaluation<T> {
             bond_force: vec![Vector3::zeros(); bonds],
             energy: vec![T::zero(); particles],
             force: vec![Vector3::zeros(); particles],
+            gathered: false,
             residual: vec![Vector3::zeros(); particles],
         }
     }
@@ -49,21 +53,33 @@ impl<T: Real> Evaluation<T> {
         self.valid && self.at == y
     }
 
-    /// Runs the kernel at `self.at` and gathers the forces.
+    /// Runs the kernel at `self.at`: the bond forces and energies (the particles' forces are
+    /// gathered by the first [`Self::residual_merit`]).
     pub fn run(&mut self, rest: &ParticleRest<T>) {
         evaluate_particles(rest, &self.at, &mut self.bond_force, &mut self.energy);
-        let bond_force = &self.bond_force;
-        self.force
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, f)| *f = particle_force(i, rest, bond_force));
+        self.gathered = false;
         self.valid = true;
     }
 
     /// The residual of eq. 12 at `self.at` for the points' inertial targets, `h2 = h^2`
-    /// (s^2), into `self.residual`; returns the merit `sum_i |r_i|^2 / m_i` (kg m^2) summed
+    /// (s^2), into `self.residual`, the internal forces gathered first if they are not yet
+    /// (eq. 12, [`particle_force`]); returns the merit `sum_i |r_i|^2 / m_i` (kg m^2) summed
     /// in fixed chunks (the same for any thread count).
-    pub fn residual_merit(&mut self, points: &Points<T>, h2: T, chunks: &mut Vec<f64>) -> f64 {
+    pub fn residual_merit(
+        &mut self,
+        rest: &ParticleRest<T>,
+        points: &Points<T>,
+        h2: T,
+        chunks: &mut Vec<f64>,
+    ) -> f64 {
+        if !self.gathered {
+            let bond_force = &self.bond_force;
+            self.force
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(i, f)| *f = particle_force(i, rest, bond_force));
+            self.gathered = true;
+        }
         let (at, force) = (&self.at, &self.force);
         let (mass, star, pinned) = (&points.mass, &points.y_star, &points.pinned);
         self.residual.par_iter_mut().enumerate().for_each(|(i, r)| {

@@ -88,7 +88,9 @@ pub(crate) fn global_move<T: Real>(
 ) -> Update {
     let h2 = h * h;
     let started = Instant::now();
-    let merit = sys.current.residual_merit(&sys.points, h2, &mut sys.chunks);
+    let merit = sys
+        .current
+        .residual_merit(&sys.rest, &sys.points, h2, &mut sys.chunks);
     sys.timings.residual += millis(started);
     let started = Instant::now();
     match options.global_solver {
@@ -171,7 +173,9 @@ fn line_search<T: Real>(
         sys.trial.at.copy_from_slice(&sys.points.y_next);
         sys.trial.run(&sys.rest);
         sys.timings.evaluations += 1;
-        let whole = sys.trial.residual_merit(&sys.points, h2, &mut sys.chunks);
+        let whole = sys
+            .trial
+            .residual_merit(&sys.rest, &sys.points, h2, &mut sys.chunks);
         let passes = if omega.is_some() {
             whole <= GROWTH * sys.chebyshev.start_merit + noise
         } else {

@@ -26,7 +26,8 @@ use super::static_friction::StaticFriction;
 pub(crate) struct ParticleSystem<T: Real> {
     pub points: Points<T>,
     pub rest: ParticleRest<T>,
-    /// The evaluation at the current iterate, and a line search's trial.
+    /// The evaluation at the current iterate, and a line search's trial (between trials, the
+    /// evaluation before the current one, [`Self::evaluate`]).
     pub current: Evaluation<T>,
     pub trial: Evaluation<T>,
     /// The global step's move and a Jacobi sweep's scratch (m).
@@ -131,9 +132,17 @@ impl<T: Real> ParticleSystem<T> {
                 .all(|(&r, b)| r == b.bonds_revision())
     }
 
-    /// The kernel at the current iterate `y`, unless the current evaluation is there already
-    /// (a line search's accepted trial).
+    /// The kernel at the current iterate `y`, unless one of the two evaluations held is there
+    /// already: the current one (a line search's accepted trial), or the other, which keeps
+    /// the one before it. The other serves the initial guess ([`crate::solve::sissm`]), which
+    /// evaluates the prediction `y*` first and then the step's start `y_t`, where the last
+    /// step's accepted trial was taken (the positions' bits are the key, and the kernel
+    /// depends on nothing else but the rest data, whose changes clear both).
     pub fn evaluate(&mut self) {
+        if self.current.is_at(&self.points.y) {
+            return;
+        }
+        std::mem::swap(&mut self.current, &mut self.trial);
         if self.current.is_at(&self.points.y) {
             return;
         }
