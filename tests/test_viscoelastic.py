@@ -147,8 +147,9 @@ def test_without_adhesion_a_blob_hangs_on_at_a_yield_stress_of_600_pa_and_parts_
                    reason="open (issue 40): with adhesion the blob parts from the film along a "
                    "plane at about 0.12-0.15 s and falls with no liquid between (10-100 Pa s, "
                    "yield stress 100-500 Pa, redistribution 0 or 1 alike), as it parts from the "
-                   "ceiling without adhesion; a two-sided constraint on closed neighbourhoods "
-                   "either parts it the same way, hangs it, or diverges (docs/model.md)")
+                   "ceiling without adhesion; a two-sided constraint on closed neighbourhoods, "
+                   "surface tension, bonds kept past the horizon or a grad-div viscosity "
+                   "either part it the same way, hang it, or diverge (docs/model.md)")
 def test_honey_dripping_from_its_ghost_ceiling_draws_a_thread():
     """After 0.4 s the blob has dripped (its lowest particle more than 10 spacings below the
     ceiling) and a thread joins it to the film at the ceiling: every spacing-tall slab
