@@ -118,3 +118,7 @@ impl<T: Real> FluidStage<T> {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "fluid_redistribution_tests.rs"]
+mod tests;
