@@ -114,15 +114,22 @@ fn hold_excess(solver: DensitySolver) -> (f64, f64, f64) {
 fn the_hold_keeps_every_density_within_its_ceiling() {
     let (without, with, tolerance) = hold_excess(DensitySolver::Jacobi);
     assert!(without > 0.01, "{without}");
-    assert!(with <= tolerance, "{with} (without {without})");
+    assert!(
+        with <= tolerance,
+        "{with} over its ceiling after the hold (without {without})"
+    );
 }
 
-/// The same with the conjugate-gradient density solver: open, its hold leaves 0.76 % over a
-/// ceiling within its 10 passes (5.1 % without the hold; docs/performance.md).
+/// The same with the conjugate-gradient density solver: open (an expected failure that fails
+/// once fixed, as a strict xfail): its hold leaves 0.76 % over a ceiling within its 10 passes
+/// (5.1 % without the hold; docs/performance.md).
 #[test]
-#[ignore = "open: the conjugate-gradient hold leaves 0.76 % over a ceiling in its 10 passes"]
+#[should_panic(expected = "over its ceiling after the hold")]
 fn the_conjugate_gradient_hold_keeps_every_density_within_its_ceiling() {
     let (without, with, tolerance) = hold_excess(DensitySolver::ConjugateGradients);
     assert!(without > 0.01, "{without}");
-    assert!(with <= tolerance, "{with} (without {without})");
+    assert!(
+        with <= tolerance,
+        "{with} over its ceiling after the hold (without {without})"
+    );
 }
