@@ -463,17 +463,24 @@ impl<T: Real> FluidStage<T> {
         Ok(())
     }
 
-    /// The density projection's passes from `self.passes` up to `budget`: linearise, solve
-    /// for the multipliers, move, until the violation `self.error` is within the tolerance.
+    /// The density projection's passes from `self.passes` up to `self.iterations`, in at most
+    /// `linearisations` linearisations: linearise, solve for the multipliers, move, until the
+    /// violation `self.error` is within the tolerance. (A Jacobi linearisation is one pass, a
+    /// conjugate-gradient one up to [`CG_ITERATIONS`].)
     fn project_passes(
         &mut self,
         points: &Points<T>,
         colliders: &[ColliderModel<T>],
-        budget: usize,
+        linearisations: usize,
     ) {
         self.error = self.violation();
-        while self.error > self.tolerance && self.passes < budget {
+        let mut linearised = 0;
+        while self.error > self.tolerance
+            && self.passes < self.iterations
+            && linearised < linearisations
+        {
             self.linearise();
+            linearised += 1;
             // At least one: a linearisation entered above the tolerance always iterates
             // (`ConjugateGradients::solve`), and the count bounds this loop regardless.
             self.passes += self.multipliers().max(1);

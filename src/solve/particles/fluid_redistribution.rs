@@ -81,9 +81,11 @@ impl<T: Real> FluidStage<T> {
     /// two-sided constraint holds it at `rho~_i`, so the hold does not do adhesion's work as a
     /// position correction): the ceilings stand in for
     /// the rest densities during these passes, so the constraints and the solver are the
-    /// projection's. At most `redistribution_iterations` passes (and no more than
-    /// `density_iterations`), to the density tolerance; they add to `self.passes`, and
-    /// `self.error` is then the violation of the rest densities again.
+    /// projection's. At most `redistribution_iterations` linearisations (a Jacobi pass each,
+    /// or a conjugate-gradient solve of up to [`super::CG_ITERATIONS`] iterations: what a
+    /// solve leaves is the linearisation's, which only a relinearisation takes back), no more than
+    /// `density_iterations` passes, to the density tolerance; the passes add to
+    /// `self.passes`, and `self.error` is then the violation of the rest densities again.
     fn hold_densities(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
         let mut ceiling = std::mem::take(&mut self.ceiling);
         ceiling.clear();
@@ -99,11 +101,7 @@ impl<T: Real> FluidStage<T> {
         ));
         std::mem::swap(&mut self.target, &mut ceiling);
         let projected = std::mem::replace(&mut self.passes, 0);
-        self.project_passes(
-            points,
-            colliders,
-            self.redistribution_iterations.min(self.iterations),
-        );
+        self.project_passes(points, colliders, self.redistribution_iterations);
         std::mem::swap(&mut self.target, &mut ceiling);
         self.ceiling = ceiling;
         self.passes += projected;
