@@ -177,7 +177,7 @@ fn a_grain_sticking_to_four_partners_does_not_overshoot() {
         let zeros = vec![Vector3::zeros(); 5];
         let points = Points::<f64> {
             ids: vec![0],
-            ranges: vec![0..5],
+            ranges: std::iter::once(0..5).collect(),
             mass: vec![1.0; 5],
             margin: vec![0.5 * S; 5],
             y_start: sites.clone(),
