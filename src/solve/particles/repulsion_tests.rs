@@ -157,7 +157,7 @@ fn colliding_bodies_step_the_same_on_one_and_two_threads() {
 /// Open (issue 39): the summed moves carry the held grain three slips back, so the first
 /// check fails; this test fails once a fix makes it pass (then drop `should_panic`).
 #[test]
-#[should_panic(expected = "left of")]
+#[should_panic(expected = "overshoot: the held grain")]
 fn a_grain_sticking_to_four_partners_does_not_overshoot() {
     use crate::solve::clearance::Clearance;
     use crate::solve::points::Points;
@@ -208,7 +208,7 @@ fn a_grain_sticking_to_four_partners_does_not_overshoot() {
     let left = slip + held[0];
     assert!(
         left.norm() < 1e-5 * slip.norm(),
-        "{left:?} left of {slip:?}"
+        "overshoot: the held grain keeps {left:?} of its slip {slip:?}"
     );
     let free = friction(false);
     let total: Vector3<f64> = free.iter().sum();
