@@ -162,10 +162,11 @@ class ViscoelasticFluid:
     The defaults make a Newtonian liquid (water-like, no elasticity).
 
     ``viscosity`` (dynamic, Pa s, >= 0), ``density_iterations`` (most projections per step,
-    >= 1; a conjugate-gradient iteration counts as one), ``density_solver`` (``"jacobi"``:
-    Macklin and Mueller's Jacobi projections, each pass relinearising; ``"cg"``: per
-    linearisation, the coupled system of the active constraints by diagonally preconditioned
-    conjugate gradients, which carry a correction across a deep liquid in fewer passes),
+    >= 1; a conjugate-gradient iteration counts as one), ``density_solver`` (``"cg"``,
+    the default: per linearisation, the coupled system of the active constraints by
+    diagonally preconditioned conjugate gradients, which carry a correction across a deep
+    liquid in fewer passes; ``"jacobi"``: Macklin and Mueller's Jacobi projections, each pass
+    relinearising),
     ``density_tolerance`` (the projections stop once no particle is denser than
     ``density * (1 + density_tolerance)``; in (0, 0.1]), ``relaxation`` (the constraints'
     eps as a fraction of their denominator on the rest lattice, > 0), ``redistribution``
@@ -185,7 +186,7 @@ class ViscoelasticFluid:
         *,
         viscosity: float = 1e-3,
         density_iterations: int = 50,
-        density_solver: str = "jacobi",
+        density_solver: str = "cg",
         density_tolerance: float = 1e-3,
         relaxation: float = 0.1,
         redistribution: float = 0.0,

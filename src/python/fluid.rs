@@ -18,16 +18,16 @@ pub struct PyViscoelasticFluid {
 #[pymethods]
 impl PyViscoelasticFluid {
     /// `viscosity` (dynamic, Pa s, >= 0), `density_iterations` (most projections per step,
-    /// >= 1; a conjugate-gradient iteration counts as one), `density_solver` (`"jacobi"`:
-    /// Macklin and Mueller's Jacobi projections; `"cg"`: each linearisation's coupled
-    /// system by preconditioned conjugate gradients), `density_tolerance` (relative, in (0, 0.1]) and `relaxation` (the constraints'
+    /// >= 1; a conjugate-gradient iteration counts as one), `density_solver` (`"cg"`,
+    /// the default: each linearisation's coupled system by preconditioned conjugate
+    /// gradients; `"jacobi"`: Macklin and Mueller's Jacobi projections), `density_tolerance` (relative, in (0, 0.1]) and `relaxation` (the constraints'
     /// eps as a fraction of their rest-lattice denominator, > 0), `redistribution` (strength
     /// in [0, 1] of eq. 21-24, 0: none) and `redistribution_iterations` (passes per step, in
     /// [1, 100]), `shear_modulus` (Pa, >= 0: a viscoelastic fluid's elasticity; 0: Newtonian)
     /// and `yield_stress` (Pa, > 0; None: the shear modulus), `adhesion` (the liquid sticks to
     /// the body's pinned ghost particles by two-sided density constraints).
     #[new]
-    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_solver = "jacobi", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, adhesion = false))]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_solver = "cg", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, adhesion = false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         viscosity: Real,

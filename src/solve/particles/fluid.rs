@@ -450,7 +450,7 @@ impl<T: Real> FluidStage<T> {
             self.find_walls(points, colliders);
         }
         self.passes = 0;
-        self.project_passes(points, colliders, self.iterations);
+        self.project_passes(points, colliders, self.iterations, self.solver);
         timings.density += millis(started);
         if self.redistribution > 0.0 {
             let started = Instant::now();
@@ -464,14 +464,15 @@ impl<T: Real> FluidStage<T> {
     }
 
     /// The density projection's passes from `self.passes` up to `self.iterations`, in at most
-    /// `linearisations` linearisations: linearise, solve for the multipliers, move, until the
-    /// violation `self.error` is within the tolerance. (A Jacobi linearisation is one pass, a
-    /// conjugate-gradient one up to [`CG_ITERATIONS`].)
+    /// `linearisations` linearisations by `solver`: linearise, solve for the multipliers, move,
+    /// until the violation `self.error` is within the tolerance. (A Jacobi linearisation is one
+    /// pass, a conjugate-gradient one up to [`CG_ITERATIONS`].)
     fn project_passes(
         &mut self,
         points: &Points<T>,
         colliders: &[ColliderModel<T>],
         linearisations: usize,
+        solver: DensitySolver,
     ) {
         self.error = self.violation();
         let mut linearised = 0;
@@ -483,8 +484,8 @@ impl<T: Real> FluidStage<T> {
             linearised += 1;
             // At least one: a linearisation entered above the tolerance always iterates
             // (`ConjugateGradients::solve`), and the count bounds this loop regardless.
-            self.passes += self.multipliers().max(1);
-            self.take_moves(points, colliders);
+            self.passes += self.multipliers(solver).max(1);
+            self.take_moves(points, colliders, solver);
             self.error = self.violation();
         }
     }
@@ -600,20 +601,22 @@ impl<T: Real> FluidStage<T> {
             });
     }
 
-    /// The multipliers `lambda` of the last linearisation by the stage's solver
-    /// ([`DensitySolver`]), and the passes they took: Jacobi, `lambda_i = b_i / A_ii`
-    /// (Macklin and Mueller 2013, eq. 11, every member's share in `A_ii`), one pass; or the
-    /// conjugate gradients on the coupled system ([`super::density_system`]) to within
-    /// [`CG_RESIDUAL`] of the tolerance or [`CG_ITERATIONS`], one pass per iteration.
-    fn multipliers(&mut self) -> usize {
+    /// The multipliers `lambda` of the last linearisation by `solver` ([`DensitySolver`]),
+    /// and the passes they took: Jacobi, `lambda_i = b_i / A_ii` (Macklin and Mueller 2013,
+    /// eq. 11, every member's share in `A_ii`), one pass; or the conjugate gradients on the
+    /// coupled system ([`super::density_system`]) to within [`CG_RESIDUAL`] of the tolerance
+    /// or [`CG_ITERATIONS`], one pass per iteration, then no pull beside a partner
+    /// ([`Self::no_pull_beside_partners`]).
+    fn multipliers(&mut self, solver: DensitySolver) -> usize {
         let mut lambda = std::mem::take(&mut self.lambda);
-        let passes = if self.solver == DensitySolver::ConjugateGradients {
+        let passes = if solver == DensitySolver::ConjugateGradients {
             let most = (self.iterations - self.passes).min(CG_ITERATIONS);
             let bound = CG_RESIDUAL * self.tolerance;
             let mut cg = std::mem::take(&mut self.cg);
             let rhs = (&self.rhs[..], &self.ask[..]);
             let done = cg.solve(&self.system(), rhs, &mut lambda, bound, most);
             self.cg = cg;
+            self.no_pull_beside_partners(&mut lambda);
             done
         } else {
             let mut diagonal = std::mem::take(&mut self.diagonal);
@@ -626,6 +629,31 @@ impl<T: Real> FluidStage<T> {
         };
         self.lambda = lambda;
         passes
+    }
+
+    /// A conjugate-gradient multiplier that pulls (`lambda_i > 0`: the moves `W J^T lambda`
+    /// draw row `i`'s neighbours towards it) set to 0 where a partner is among the
+    /// neighbours (an adhered member's two-sided constraint aside). Why: a one-sided
+    /// constraint `C_i <= 0` never pulls (its multiplier is a pressure; Jacobi's never does),
+    /// but the solve holds its active set as equalities, and a row whose neighbours' pushes
+    /// overshoot it pulls them back. A liquid neighbour so pulled is held by its own row; a
+    /// partner has none, so nothing in the system answers the pull: liquid poured on a sand
+    /// bed drew the bed's grains into itself and opened gaps in the bottom layer, down which
+    /// water reached the ground (docs/model.md, fluids). Rows among liquid alone keep their
+    /// pulls: clamped everywhere, a deep liquid's solve no longer converged within its passes
+    /// (docs/performance.md).
+    fn no_pull_beside_partners(&self, lambda: &mut [T]) {
+        if !self.partner.contains(&true) {
+            return;
+        }
+        let (offsets, indices, partner) = (&self.offsets, &self.indices, &self.partner);
+        let adhered = &self.adhered;
+        lambda.par_iter_mut().enumerate().for_each(|(i, lambda)| {
+            let row = &indices[offsets[i] as usize..offsets[i + 1] as usize];
+            if *lambda > T::zero() && !adhered[i] && row.iter().any(|&j| partner[j as usize]) {
+                *lambda = T::zero();
+            }
+        });
     }
 
     /// The constraints linearised by [`Self::linearise`] (see [`super::density_system`]).
@@ -645,15 +673,20 @@ impl<T: Real> FluidStage<T> {
     }
 
     /// Every member moved by `dy = W J^T lambda` (Macklin and Mueller 2013, eq. 12, with the
-    /// mobilities), then out of the colliders. With the conjugate gradients, first each wall
-    /// the member's move leaves is released and the move slides along the others
+    /// mobilities), then out of the colliders. With the conjugate gradients (`solver`), first
+    /// each wall the member's move leaves is released and the move slides along the others
     /// ([`super::density_walls`]); each collider that then pushes the move back adds a wall.
-    fn take_moves(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
+    fn take_moves(
+        &mut self,
+        points: &Points<T>,
+        colliders: &[ColliderModel<T>],
+        solver: DensitySolver,
+    ) {
         let mut next = std::mem::take(&mut self.next);
         let mut walls = std::mem::take(&mut self.walls);
         let (system, lambda) = (self.system(), &self.lambda);
         let (y, members) = (&self.y, &self.members);
-        let conjugate = self.solver == DensitySolver::ConjugateGradients;
+        let conjugate = solver == DensitySolver::ConjugateGradients;
         (next.par_iter_mut().zip(walls.par_iter_mut()))
             .enumerate()
             .for_each(|(i, (next, walls))| {

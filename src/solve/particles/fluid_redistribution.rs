@@ -22,6 +22,7 @@ use rayon::prelude::*;
 
 use crate::collider::{push_out_of_colliders, ColliderModel, MoveStart};
 use crate::error::Result;
+use crate::particles::DensitySolver;
 use crate::real::Real;
 use crate::solve::points::Points;
 
@@ -79,12 +80,16 @@ impl<T: Real> FluidStage<T> {
     /// constraint's target, [`Self::find_targets`]), `rho_i` as the
     /// last [`Self::violation`] left it (before the redistribution; an adhered member's
     /// two-sided constraint holds it at `rho~_i`, so the hold does not do adhesion's work as a
-    /// position correction): the ceilings stand in for
-    /// the rest densities during these passes, so the constraints and the solver are the
-    /// projection's. At most `redistribution_iterations` linearisations (a Jacobi pass each,
-    /// or a conjugate-gradient solve of up to [`super::CG_ITERATIONS`] iterations: what a
-    /// solve leaves is the linearisation's, which only a relinearisation takes back), no more than
-    /// `density_iterations` passes, to the density tolerance; the passes add to
+    /// position correction): the ceilings stand in for the rest densities during these
+    /// passes, so the constraints are the projection's. The passes are Jacobi's whatever the
+    /// stage's solver: the bound is one-sided, and what the redistribution added is local
+    /// (within a kernel support of its moves), so each member over its ceiling is pushed off
+    /// its neighbours along its own gradient and nothing is pulled; the conjugate gradients
+    /// hold their active set as equalities, so their hold pulled members back to their
+    /// ceilings and gave back the spacing the redistribution had evened (a dam break's
+    /// `sum ||grad rho||^2` rose over some steps' redistribution and hold; docs/model.md). At
+    /// most `redistribution_iterations` passes (one linearisation each),
+    /// no more than `density_iterations`, to the density tolerance; the passes add to
     /// `self.passes`, and `self.error` is then the violation of the rest densities again.
     fn hold_densities(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
         let mut ceiling = std::mem::take(&mut self.ceiling);
@@ -101,7 +106,8 @@ impl<T: Real> FluidStage<T> {
         ));
         std::mem::swap(&mut self.target, &mut ceiling);
         let projected = std::mem::replace(&mut self.passes, 0);
-        self.project_passes(points, colliders, self.redistribution_iterations);
+        let linearisations = self.redistribution_iterations;
+        self.project_passes(points, colliders, linearisations, DensitySolver::Jacobi);
         std::mem::swap(&mut self.target, &mut ceiling);
         self.ceiling = ceiling;
         self.passes += projected;
