@@ -17,9 +17,10 @@
 //!
 //! `lambda_ij <- clamp((I - n n^T) (lambda_ij - w_ij ((q_i - y_i^t) - (q_j - y_j^t))), mu_c g)`
 //!
-//! with `y^t` the step's start (m), `n` the pair's unit normal at `p`, `g = d_ij - |p_i - p_j|
-//! > 0` the pair's overlap (m, the repulsion's normal move of the pair), `mu_c` the smaller of
-//! the two particles' coefficients, `clamp(v, l) = v min(1, l / |v|)`, and the relaxation
+//! with `y^t` the step's start (m), `n` the pair's unit normal at `p`,
+//! `g = d_ij - |p_i - p_j| > 0` the pair's overlap (m, the repulsion's normal move of the
+//! pair), `mu_c` the smaller of the two particles' coefficients,
+//! `clamp(v, l) = v min(1, l / |v|)`, and the relaxation
 //! `w_ij = 1 / (S_i + S_j)`, `S_i = sum_k s_i` over particle `i`'s frictional pairs at `p`
 //! (0 for a pinned particle): the largest step for which the pairs' Jacobi iteration cannot
 //! overshoot (Gershgorin: a pair's slip changes by at most `S_i + S_j` per unit change of
@@ -107,7 +108,7 @@ impl<T: Real> GrainFriction<T> {
         self.owner.clear();
         for (i, row) in offsets.windows(2).enumerate() {
             self.owner
-                .extend(std::iter::repeat(i as u32).take((row[1] - row[0]) as usize));
+                .extend(std::iter::repeat_n(i as u32, (row[1] - row[0]) as usize));
         }
         self.trial.clear();
         self.trial.resize(entries, Vector3::zeros());
