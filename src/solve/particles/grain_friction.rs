@@ -4,43 +4,216 @@
 //! carry a pile's weight while sliding freely over each other. With the material's contact
 //! friction `mu_c` (`Granular::contact_friction`, dimensionless) a touching pair's relative
 //! tangential move within the step is limited, in the position-based style of the repulsion
-//! (a constraint projected in the local step), by `mu_c` times the pair's normal correction:
+//! (a constraint projected in the local step), by `mu_c` times the pair's normal correction.
 //!
-//! `t = (I - n n^T) ((p_i - y_i^t) - (p_j - y_j^t))`, `c_i^f = -s_i t min(1, mu_c g / |t|)`
+//! Each touching pair keeps its accumulated tangential correction `lambda_ij` (m, in the
+//! pair's tangent plane; `lambda_ji = -lambda_ij`), which moves particle `i` by
+//! `s_i lambda_ij` and `j` by `-s_j lambda_ij`, with `s_i` the repulsion's share of `i` in the
+//! pair (`m_j / (m_i + m_j)` between grains, 1 against a pinned partner). At each iteration the
+//! proposed positions `p` (m) are corrected by the repulsion's normal moves and the friction
+//! moves of the accepted multipliers, `q_i = p_i + c_i^n + sum_j s_i lambda_ij`, and every
+//! multiplier takes a relaxed step against the pair's relative slip within the step at `q`,
+//! its total kept in Coulomb's disc (a projected Jacobi iteration on the pairs):
 //!
-//! with `p` the proposed positions (m), `y^t` the step's start (m), `n` the pair's unit
-//! normal, `g = d_ij - |p_i - p_j| > 0` the pair's overlap (m, the repulsion's normal move of
-//! the pair), `s_i = m_j / (m_i + m_j)` particle `i`'s share, and `mu_c` the smaller of the
-//! two particles' coefficients. A contact that slips less than `mu_c g` in the step sticks
-//! (its relative tangential move is taken away); one that slips more keeps all but `mu_c g`
-//! of it. At the iteration's fixed point the repulsion's normal and tangential reactions are
-//! its moves in the same (Jacobi) metric, so the tangential reaction is at most `mu_c` times
-//! the normal one: Coulomb's law, one coefficient for sticking and sliding. The pair's two
-//! moves are equal and opposite in momentum (`m_i s_i = m_j s_j`), and each particle's sum
-//! runs over its partners in a fixed order, so the result is the same for any thread count.
+//! `lambda_ij <- clamp((I - n n^T) (lambda_ij - w_ij ((q_i - y_i^t) - (q_j - y_j^t))), mu_c g)`
+//!
+//! with `y^t` the step's start (m), `n` the pair's unit normal at `p`,
+//! `g = d_ij - |p_i - p_j| > 0` the pair's overlap (m, the repulsion's normal move of the
+//! pair), `mu_c` the smaller of the two particles' coefficients,
+//! `clamp(v, l) = v min(1, l / |v|)`, and the relaxation
+//! `w_ij = 1 / (S_i + S_j)`, `S_i = sum_k s_i` over particle `i`'s frictional pairs at `p`
+//! (0 for a pinned particle): the largest step for which the pairs' Jacobi iteration cannot
+//! overshoot (Gershgorin: a pair's slip changes by at most `S_i + S_j` per unit change of
+//! every multiplier at `i` or `j`), where the whole slip from every pair would carry a grain
+//! sticking to `n` pinned partners back by `n - 1` slips. The relaxation sets how fast the
+//! multipliers converge, not where: at the iteration's fixed point (`q` the iterate itself) a
+//! pair inside the disc does not slip within the step (it sticks) and one on its rim slips
+//! against its friction, whose move is `mu_c` times its normal one: Coulomb's law, one
+//! coefficient for sticking and sliding. (A relaxed correction recomputed from the positions
+//! alone would instead keep the fraction `1 - w` of the slip at its fixed point: a softer
+//! contact, not a slower one.) A step's multipliers start from the pair's accepted ones of
+//! the previous step (0 for a new pair): a resting contact carries the same load step after
+//! step, so its multiplier starts converged, where from 0 the iterations would leave part of
+//! each step's slip (docs/model.md). A pair's two moves are equal and opposite in momentum
+//! (`m_i s_i = m_j s_j`) at every iteration, as its two copies of `lambda` are computed from
+//! exactly negated inputs; each particle's sums run over its partners in a fixed order, so the
+//! result is the same for any thread count.
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use crate::real::Real;
 
-/// Particle `i`'s friction move `c_i^f` (m; see the module's doc) in its pair with `j`: the
-/// pair's unit normal `normal` (from `j` to `i`), its overlap `overlap` (m, > 0), the
-/// relative move within the step `slip = (p_i - y_i^t) - (p_j - y_j^t)` (m), `i`'s share
-/// `share` and the pair's coefficient `mu` (dimensionless).
-#[inline(always)]
-pub(crate) fn friction_move<T: Real>(
-    normal: &Vector3<T>,
-    overlap: T,
-    slip: &Vector3<T>,
-    share: T,
-    mu: T,
-) -> Vector3<T> {
-    let tangential = slip - normal * normal.dot(slip);
-    let length = tangential.norm();
-    let limit = mu * overlap;
-    if length <= limit {
-        -tangential * share
-    } else {
-        -tangential * (share * limit / length)
+/// The pairs of touching particles at the proposed positions, as the repulsion found them.
+pub(crate) struct Pairs<'a, T: Real> {
+    /// The proposed positions `p` (m) and the step's start `y^t` (m).
+    pub proposed: &'a [Vector3<T>],
+    pub start: &'a [Vector3<T>],
+    /// Each particle's collider margin (m) and whether it is pinned.
+    pub margin: &'a [T],
+    pub pinned: &'a [bool],
+    /// The candidate partners of each particle, in compressed rows.
+    pub offsets: &'a [u32],
+    pub indices: &'a [u32],
+}
+
+impl<T: Real> Pairs<'_, T> {
+    /// The candidate entries of particle `i`'s row.
+    fn row(&self, i: usize) -> std::ops::Range<usize> {
+        self.offsets[i] as usize..self.offsets[i + 1] as usize
     }
+}
+
+/// The friction at the grains' contacts (module doc): the coefficients and the per-pair
+/// multipliers, with their scratch.
+pub(crate) struct GrainFriction<T: Real> {
+    /// Each particle's `mu_c` (dimensionless; 0 for a particle of a body without one).
+    coefficient: Vec<T>,
+    /// The particle whose row holds each candidate entry.
+    owner: Vec<u32>,
+    /// Each candidate entry's multiplier `lambda_ij` (m) as accepted by the last iteration,
+    /// and as computed by the last trial.
+    accepted: Vec<Vector3<T>>,
+    trial: Vec<Vector3<T>>,
+    /// Each particle's sum of its shares in its frictional pairs `S_i` and its corrected
+    /// position `q_i` (m).
+    shares: Vec<T>,
+    corrected: Vec<Vector3<T>>,
+    /// The previous step's candidate pairs, whose multipliers start the next step's.
+    previous_offsets: Vec<u32>,
+    previous_indices: Vec<u32>,
+}
+
+impl<T: Real> GrainFriction<T> {
+    /// The friction of particles with the coefficients `coefficient`, or `None` if none
+    /// is above 0.
+    pub fn of(coefficient: Vec<T>) -> Option<Self> {
+        let n = coefficient.len();
+        coefficient.iter().any(|&mu| mu > T::zero()).then(|| Self {
+            coefficient,
+            owner: Vec::new(),
+            accepted: Vec::new(),
+            trial: Vec::new(),
+            shares: vec![T::zero(); n],
+            previous_offsets: Vec::new(),
+            previous_indices: Vec::new(),
+            corrected: vec![Vector3::zeros(); n],
+        })
+    }
+
+    /// The multipliers that start a step with the candidate pairs `indices` in the rows of
+    /// `offsets`: each pair's accepted one of the previous step, 0 for a new pair.
+    pub fn start_step(&mut self, offsets: &[u32], indices: &[u32]) {
+        let entries = *offsets.last().unwrap_or(&0) as usize;
+        self.owner.clear();
+        for (i, row) in offsets.windows(2).enumerate() {
+            self.owner
+                .extend(std::iter::repeat_n(i as u32, (row[1] - row[0]) as usize));
+        }
+        self.trial.clear();
+        self.trial.resize(entries, Vector3::zeros());
+        if self.previous_offsets.len() == offsets.len() {
+            for (e, t) in self.trial.iter_mut().enumerate() {
+                let (i, j) = (self.owner[e] as usize, indices[e]);
+                let old = self.previous_offsets[i] as usize..self.previous_offsets[i + 1] as usize;
+                if let Some(k) = self.previous_indices[old.clone()]
+                    .iter()
+                    .position(|&l| l == j)
+                {
+                    *t = self.accepted[old.start + k];
+                }
+            }
+        }
+        std::mem::swap(&mut self.accepted, &mut self.trial);
+        self.trial.clear();
+        self.trial.resize(entries, Vector3::zeros());
+        self.previous_offsets.clear();
+        self.previous_offsets.extend_from_slice(offsets);
+        self.previous_indices.clear();
+        self.previous_indices.extend_from_slice(indices);
+    }
+
+    /// Takes the multipliers of the last trial as the iteration's.
+    pub fn accept(&mut self) {
+        std::mem::swap(&mut self.accepted, &mut self.trial);
+    }
+
+    /// Adds each particle's friction move to `correction`, which holds its normal move
+    /// `c_i^n` (m), after one relaxed step of the multipliers (module doc); `share(i, j)` is
+    /// particle `i`'s share of its pair with `j`.
+    pub fn add_moves(
+        &mut self,
+        pairs: &Pairs<'_, T>,
+        share: &(impl Fn(usize, usize) -> T + Sync),
+        correction: &mut [Vector3<T>],
+    ) {
+        let coefficient = &self.coefficient;
+        // The pair's unit normal (from `j` to `i`), overlap (m) and coefficient, if it touches
+        // and has friction; computed from exactly negated inputs for `(j, i)`.
+        let touching = |i: usize, j: usize| -> Option<(Vector3<T>, T, T)> {
+            let mu = coefficient[i].min(coefficient[j]);
+            let gap = pairs.proposed[i] - pairs.proposed[j];
+            let (distance, reach) = (gap.norm(), pairs.margin[i] + pairs.margin[j]);
+            (mu > T::zero() && distance < reach && distance > T::zero())
+                .then(|| (gap / distance, reach - distance, mu))
+        };
+        let accepted = &self.accepted;
+        let normal_move = &*correction;
+        self.shares
+            .par_iter_mut()
+            .zip(self.corrected.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (shares, q))| {
+                *shares = T::zero();
+                *q = pairs.proposed[i] + normal_move[i];
+                if pairs.pinned[i] {
+                    return;
+                }
+                for e in pairs.row(i) {
+                    let j = pairs.indices[e] as usize;
+                    if let Some((normal, _, _)) = touching(i, j) {
+                        let s = share(i, j);
+                        *shares += s;
+                        *q += tangential(&normal, &accepted[e]) * s;
+                    }
+                }
+            });
+        let (owner, shares, corrected) = (&self.owner, &self.shares, &self.corrected);
+        self.trial
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(e, lambda)| {
+                *lambda = Vector3::zeros();
+                let (i, j) = (owner[e] as usize, pairs.indices[e] as usize);
+                if pairs.pinned[i] {
+                    return;
+                }
+                let Some((normal, overlap, mu)) = touching(i, j) else {
+                    return;
+                };
+                let relaxation = T::one() / (shares[i] + shares[j]);
+                let slip = (corrected[i] - pairs.start[i]) - (corrected[j] - pairs.start[j]);
+                let free = tangential(&normal, &(accepted[e] - slip * relaxation));
+                let (length, limit) = (free.norm(), mu * overlap);
+                *lambda = if length <= limit {
+                    free
+                } else {
+                    free * (limit / length)
+                };
+            });
+        let trial = &self.trial;
+        correction.par_iter_mut().enumerate().for_each(|(i, c)| {
+            for e in pairs.row(i) {
+                if trial[e] != Vector3::zeros() {
+                    *c += trial[e] * share(i, pairs.indices[e] as usize);
+                }
+            }
+        });
+    }
+}
+
+/// The part of `v` in the plane normal to the unit vector `normal`, `(I - n n^T) v`.
+#[inline(always)]
+fn tangential<T: Real>(normal: &Vector3<T>, v: &Vector3<T>) -> Vector3<T> {
+    v - normal * normal.dot(v)
 }

@@ -47,7 +47,7 @@ use crate::geometry::find_horizons;
 use crate::real::Real;
 use crate::solve::points::Points;
 
-use super::grain_friction::friction_move;
+use super::grain_friction::{GrainFriction, Pairs};
 
 /// The repulsion of the particle bodies of one family, with its scratch.
 pub(crate) struct Repulsion<T: Real> {
@@ -64,10 +64,9 @@ pub(crate) struct Repulsion<T: Real> {
     /// The proposed positions `p` (m) and each particle's move `c_i` (m).
     proposed: Vec<Vector3<T>>,
     correction: Vec<Vector3<T>>,
-    /// Each particle's contact friction coefficient `mu_c` (dimensionless,
-    /// [`super::grain_friction`]; 0 for a particle of a body without one), empty when no body
-    /// has one.
-    friction: Vec<T>,
+    /// The friction at the contacts ([`super::grain_friction`]), if a body has a contact
+    /// friction coefficient `mu_c` above 0.
+    friction: Option<GrainFriction<T>>,
 }
 
 impl<T: Real> Repulsion<T> {
@@ -100,17 +99,15 @@ impl<T: Real> Repulsion<T> {
             indices: Vec::new(),
             proposed: vec![Vector3::zeros(); n],
             correction: vec![Vector3::zeros(); n],
-            friction: Vec::new(),
+            friction: None,
         })
     }
 
     /// With Coulomb friction at the contacts ([`super::grain_friction`]) of the particles of
     /// the bodies whose coefficient `mu_c` in `per_body` (dimensionless) is above 0.
     pub fn with_friction(mut self, per_body: &[f64]) -> Self {
-        if per_body.iter().any(|&mu| mu > 0.0) {
-            let of = |b: u32| per_body.get(b as usize).copied().unwrap_or(0.0);
-            self.friction = self.body.iter().map(|&b| T::of(of(b))).collect();
-        }
+        let of = |b: u32| per_body.get(b as usize).copied().unwrap_or(0.0);
+        self.friction = GrainFriction::of(self.body.iter().map(|&b| T::of(of(b))).collect());
         self
     }
 
@@ -165,6 +162,9 @@ impl<T: Real> Repulsion<T> {
             }
             self.offsets.push(self.indices.len() as u32);
         }
+        if let Some(friction) = &mut self.friction {
+            friction.start_step(&self.offsets, &self.indices);
+        }
         Ok(())
     }
 
@@ -187,10 +187,19 @@ impl<T: Real> Repulsion<T> {
             };
         });
         let (proposed, offsets, indices) = (&self.proposed, &self.offsets, &self.indices);
-        let (mass, margin, start, body) =
-            (&points.mass, &points.margin, &points.y_start, &self.body);
-        let (friction, solid) = (&self.friction, &self.solid);
+        let (mass, margin, body, solid) = (&points.mass, &points.margin, &self.body, &self.solid);
         let in_metric = |b: u32| solid.get(b as usize).copied().unwrap_or(false);
+        // Particle `i`'s share of its pair with `j` (module doc).
+        let share = |i: usize, j: usize| -> T {
+            if pinned[j] {
+                T::one()
+            } else if body[i] != body[j] && in_metric(body[i]) && in_metric(body[j]) {
+                let (d_i, d_j) = (diagonal(i), diagonal(j));
+                d_j / (d_i + d_j)
+            } else {
+                mass[j] / (mass[i] + mass[j])
+            }
+        };
         self.correction
             .par_iter_mut()
             .enumerate()
@@ -206,23 +215,28 @@ impl<T: Real> Repulsion<T> {
                     if distance >= reach || distance == T::zero() {
                         continue;
                     }
-                    let share = if pinned[j] {
-                        T::one()
-                    } else if body[i] != body[j] && in_metric(body[i]) && in_metric(body[j]) {
-                        let (d_i, d_j) = (diagonal(i), diagonal(j));
-                        d_j / (d_i + d_j)
-                    } else {
-                        mass[j] / (mass[i] + mass[j])
-                    };
-                    *c += gap * (share * (reach - distance) / distance);
-                    let mu = friction.get(i).map_or(T::zero(), |&a| a.min(friction[j]));
-                    if mu > T::zero() {
-                        let slip = (proposed[i] - start[i]) - (proposed[j] - start[j]);
-                        let normal = gap / distance;
-                        *c += friction_move(&normal, reach - distance, &slip, share, mu);
-                    }
+                    *c += gap * (share(i, j) * (reach - distance) / distance);
                 }
             });
+        if let Some(friction) = &mut self.friction {
+            let pairs = Pairs {
+                proposed,
+                start: &points.y_start,
+                margin,
+                pinned,
+                offsets,
+                indices,
+            };
+            friction.add_moves(&pairs, &share, &mut self.correction);
+        }
+    }
+
+    /// Takes the friction's multipliers of the last [`Self::correct`] as the iteration's (the
+    /// trial the line search accepted, [`super::grain_friction`]).
+    pub fn accept(&mut self) {
+        if let Some(friction) = &mut self.friction {
+            friction.accept();
+        }
     }
 
     /// The candidate partners of particle `i` this step (particles of other bodies, or of its

@@ -103,10 +103,16 @@ pub(crate) fn global_move<T: Real>(
     }
     sys.timings.solve += millis(started);
     let omega = sys.chebyshev.next(merit);
-    if !options.step_length {
-        return propose(sys, h2, T::one(), omega, options);
+    let update = if options.step_length {
+        line_search(sys, h2, merit, omega, options)
+    } else {
+        propose(sys, h2, T::one(), omega, options)
+    };
+    // The accepted trial is the last one proposed: its friction multipliers are the iterate's.
+    if let Some(repulsion) = &mut sys.repulsion {
+        repulsion.accept();
     }
-    line_search(sys, h2, merit, omega, options)
+    update
 }
 
 /// Readies the direct solver for a step: the matrix's pattern and symbolic factor on the
