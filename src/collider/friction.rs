@@ -25,7 +25,7 @@ use super::ColliderModel;
 /// takes, `k |s_t|` with `k = |s_t|^2 / (s_t . D^-1 s_t)` the stiffness along it, is within
 /// the Coulomb cone `friction * lambda` (sticking), and shortened by `friction * lambda / k`
 /// otherwise (sliding).
-#[inline]
+#[inline(always)]
 pub fn push_out_with_friction<T: Real>(
     from: &Vector3<T>,
     mut y: Vector3<T>,

@@ -423,6 +423,7 @@ impl<T: Real> MoveStart<T> {
 /// back to each surface by the shortest move in the metric whose inverse is `inverse`
 /// ([`ColliderModel::push_out`]; `None`: the identity), then onto it wherever the surface's
 /// curvature left `x` inside (for `None`, the normal projection alone).
+#[inline]
 pub fn push_out_of_colliders<T: Real>(
     colliders: &[ColliderModel<T>],
     from: MoveStart<T>,
@@ -471,6 +472,12 @@ pub enum ShapeModel<T: Real> {
     Mesh(Arc<SdfGrid>),
 }
 
+/// The signed distance (m) of `x` from the plane `n . x = offset` (`n` a unit normal).
+#[inline(always)]
+fn plane_distance<T: Real>(x: &Vector3<T>, normal: &Vector3<T>, offset: T) -> T {
+    x.dot(normal) - offset
+}
+
 /// `x` in f64.
 #[inline]
 fn wide<T: Real>(x: &Vector3<T>) -> Vector3<f64> {
@@ -480,11 +487,22 @@ fn wide<T: Real>(x: &Vector3<T>) -> Vector3<f64> {
 impl<T: Real> ShapeModel<T> {
     /// Signed distance from the surface (m), positive outside: exact Euclidean distance for
     /// every analytic shape, so that moving along [`Self::normal`] changes it one for one; the
-    /// grid's interpolated distance for a mesh (see [`SdfGrid`] for its accuracy).
-    #[inline]
+    /// grid's interpolated distance for a mesh (see [`SdfGrid`] for its accuracy). A plane's
+    /// is taken where it is asked (this dispatch is always inlined: the floor under a body
+    /// is asked for every particle in every trial), the other shapes' in [`Self::distance`].
+    #[inline(always)]
     pub fn signed_distance(&self, x: &Vector3<T>) -> T {
         match *self {
-            Self::Plane { normal, offset } => x.dot(&normal) - offset,
+            Self::Plane { normal, offset } => plane_distance(x, &normal, offset),
+            _ => self.distance(x),
+        }
+    }
+
+    /// [`Self::signed_distance`] of any shape, out of line.
+    #[inline]
+    fn distance(&self, x: &Vector3<T>) -> T {
+        match *self {
+            Self::Plane { normal, offset } => plane_distance(x, &normal, offset),
             Self::Sphere { center, radius } => (x - center).norm() - radius,
             Self::Box {
                 center,

@@ -127,9 +127,24 @@ pub fn bond_force_lanes<S: Lanes>(
     let along_y =
         bond.k_dev + bond.k_iso + (pressure * bond.share - bond.k_iso * bond.length) * over_y;
     let g = y * along_y - fxi * (bond.k_dev * bond.length * over_f);
+    (g, spring_energy(bond, fxi_norm, y_norm), directed)
+}
+
+/// The spring energy alone (J) of the bonds in the lanes of `bond` at `Y = y` with the
+/// deformation gradient `f`, in every lane (with or without a direction): the `e` of
+/// [`bond_force_lanes`], the same operations, without the force's divisions.
+#[inline(always)]
+pub fn bond_energy_lanes<S: Lanes>(bond: &BondLanes<S>, f: &Matrix3<S>, y: &Vector3<S>) -> S {
+    let fxi = f * bond.xi;
+    spring_energy(bond, fxi.norm(), y.norm())
+}
+
+/// `e = k_dev / 2 (|F xi| - |xi|)^2 + k_iso / 2 (|Y| - |xi|)^2` (J; eq. 8 times `V_i V_j`,
+/// the module's doc) from the norms `|F xi|` and `|Y|` (m).
+#[inline(always)]
+fn spring_energy<S: Lanes>(bond: &BondLanes<S>, fxi_norm: S, y_norm: S) -> S {
     let half = S::lit(0.5);
     let dev = fxi_norm - bond.length;
     let iso = y_norm - bond.length;
-    let e = half * (bond.k_dev * dev * dev + bond.k_iso * iso * iso);
-    (g, e, directed)
+    half * (bond.k_dev * dev * dev + bond.k_iso * iso * iso)
 }

@@ -2,12 +2,13 @@
 //! energy), and the gathered force on each particle (He et al. 2017, eq. 8-12).
 
 use nalgebra::{Matrix3, SimdBool, SimdValue, Vector3};
+use rayon::prelude::*;
 
 use crate::isa;
 use crate::parallel::for_each_vertex;
 use crate::real::{Lanes, Real};
 
-use super::bond::{bond_force, bond_force_lanes, BondLanes, BondRest};
+use super::bond::{bond_energy_lanes, bond_force, bond_force_lanes, BondLanes, BondRest};
 use super::cone::Factors;
 use super::deformation::deformation_and_strain;
 use super::rest::ParticleRest;
@@ -126,6 +127,77 @@ pub fn evaluate_particles<T: Real>(
         )
     });
 }
+
+/// Particle `i`'s energy `V_i Psi_i` (J) at the positions `y` (m) without its bonds' forces:
+/// the bits of [`particle_kernel`]'s, the same operations summed in the same order (the
+/// deformation gradient and mean strain, the dilatation energy, then each bond's spring energy,
+/// [`Lanes`] bonds at a time), without the forces' divisions and with nothing written per
+/// bond: each bond's `Y = y_j - y_i` is formed again where [`particle_kernel`] keeps it.
+/// Not for a particle with a cone (its return reads the kept `Y`; [`evaluate_energies`]).
+#[inline(always)]
+pub fn particle_energy<T: Real>(i: usize, rest: &ParticleRest<T>, y: &[Vector3<T>]) -> T {
+    let row = rest.row(i);
+    let neighbors = &rest.indices[row.clone()];
+    let bonds = &rest.bonds[row];
+    let shape_inverse = &rest.shape_inverse[i];
+    let (f, strain) = deformation_and_strain(i, neighbors, bonds, shape_inverse, y, |_, _| {});
+    let pressure = rest.dilatation[i] * strain;
+    let mut energy = T::of(0.5) * pressure * strain;
+    let y_i = y[i];
+    let lanes = <T::Pack as SimdValue>::LANES;
+    let whole = bonds.len() - bonds.len() % lanes;
+    let f_pack = f.map(<T::Pack as SimdValue>::splat);
+    for (js, group) in neighbors[..whole]
+        .chunks_exact(lanes)
+        .zip(bonds[..whole].chunks_exact(lanes))
+    {
+        let mut pack = [[T::zero(); 8]; 3];
+        for (l, &j) in js.iter().enumerate() {
+            let d = y[j as usize] - y_i;
+            for (c, component) in pack.iter_mut().enumerate() {
+                component[l] = d[c];
+            }
+        }
+        let component = |c: usize| T::Pack::gather(|l| pack[c][l]);
+        let d = Vector3::new(component(0), component(1), component(2));
+        let e = bond_energy_lanes(&BondLanes::gather(group), &f_pack, &d);
+        for l in 0..lanes {
+            energy += e.extract(l);
+        }
+    }
+    for (&j, bond) in neighbors[whole..].iter().zip(&bonds[whole..]) {
+        let d = y[j as usize] - y_i;
+        energy += bond_energy_lanes(&BondLanes::gather(std::slice::from_ref(bond)), &f, &d);
+    }
+    energy
+}
+
+/// The energy `V_i Psi_i` (J) of every particle at `y` (m) into `energy` ([`particle_energy`],
+/// in parallel): the energies [`evaluate_particles`] gives, bit for bit, for a caller that
+/// needs no force. Rest data with a cone (a granular body's) is refused: its particles' energy
+/// comes from the return only [`evaluate_particles`] takes.
+pub fn evaluate_energies<T: Real>(rest: &ParticleRest<T>, y: &[Vector3<T>], energy: &mut [T]) {
+    assert!(
+        rest.cones.is_empty(),
+        "the energy alone is not taken with cones"
+    );
+    energy
+        .par_chunks_mut(ENERGY_CHUNK)
+        .enumerate()
+        .for_each(|(chunk, out)| {
+            isa::run(
+                #[inline(always)]
+                || {
+                    for (k, e) in out.iter_mut().enumerate() {
+                        *e = particle_energy(chunk * ENERGY_CHUNK + k, rest, y);
+                    }
+                },
+            )
+        });
+}
+
+/// Particles per parallel task of [`evaluate_energies`].
+const ENERGY_CHUNK: usize = 512;
 
 /// The internal force on particle `i` (N): its bonds' forces on it minus their reverses',
 /// `sum_j (g_ij - g_ji)` (eq. 12, `V_i sum_j V_j (T_i<xi> - T_j<-xi>)`).

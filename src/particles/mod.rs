@@ -41,7 +41,7 @@ pub use fluid::{DensitySolver, ViscoelasticFluid, FLUID_SUPPORT};
 pub(crate) use granular::density_ratios;
 pub use granular::{holds, Granular};
 pub use influence::influence;
-pub use kernel::{evaluate_particles, particle_force, particle_kernel};
+pub use kernel::{evaluate_energies, evaluate_particles, particle_force, particle_kernel};
 pub use neighbour_rebuild::{rebuild as rebuild_neighbours, MIN_STRETCH};
 pub(crate) use plasticity::PlasticLaw;
 pub use plasticity::{shear_and_bulk, DruckerPrager, YieldState};

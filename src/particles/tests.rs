@@ -209,11 +209,23 @@ fn single_precision_forces_match_double() {
 }
 
 /// The kernel at `y` against the local step taken one bond at a time in bond order (`F_i`,
-/// the mean strain, then [`bond_force`] per bond): the same bits, forces and energies.
+/// the mean strain, then [`bond_force`] per bond): the same bits, forces and energies; and
+/// the energies alone ([`evaluate_energies`]) the same bits as the kernel's.
 fn assert_kernel_is_bondwise<T: crate::real::Real>(rest: &ParticleRest<T>, y: &[Vector3<T>]) {
     let mut g = vec![Vector3::zeros(); rest.indices.len()];
     let mut energy = vec![T::zero(); y.len()];
     evaluate_particles(rest, y, &mut g, &mut energy);
+    let mut alone = vec![T::of(f64::NAN); y.len()];
+    evaluate_energies(rest, y, &mut alone);
+    for (i, (e, a)) in energy.iter().zip(&alone).enumerate() {
+        let (e, a) = (e.to_f64(), a.to_f64());
+        assert_eq!(
+            e.to_bits(),
+            a.to_bits(),
+            "{} energy alone of particle {i}",
+            T::NAME
+        );
+    }
     for i in 0..y.len() {
         let row = rest.row(i);
         let (mut sum, mut strain) = (Matrix3::zeros(), T::zero());
@@ -237,7 +249,8 @@ fn assert_kernel_is_bondwise<T: crate::real::Real>(rest: &ParticleRest<T>, y: &[
 
 /// The kernel's SIMD packs of bonds (eight f32 or four f64 lanes) give bit for bit the local
 /// step of one bond at a time, in both precisions: on a deformed block whose rows have every
-/// length (corners, edges, faces), with a collapsed bond (`Y = 0`, no direction) in a pack.
+/// length (corners, edges, faces), with a collapsed bond (`Y = 0`, no direction) in a pack;
+/// the energies alone too.
 #[test]
 fn packed_bonds_match_one_bond_at_a_time_bit_for_bit() {
     let mut b = young_body([6, 5, 4], 0.02, 2e5, 0.3);

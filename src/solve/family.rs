@@ -24,6 +24,13 @@ pub(crate) trait Family<T: Real>: Send {
     /// preconditioner blocks that the next [`Self::global_move`] and
     /// [`Self::total_energy`] read (`mode` picks the membrane kernel's preconditioner).
     fn evaluate(&mut self, mode: Preconditioner);
+    /// [`Self::evaluate`] for a caller that reads [`Self::total_energy`] alone before it
+    /// evaluates elsewhere or moves (the initial guess's prediction): a family may leave the
+    /// rest to the next [`Self::evaluate`] or [`Self::global_move`], which completes it. The
+    /// whole evaluation by default.
+    fn evaluate_energy(&mut self, mode: Preconditioner) {
+        self.evaluate(mode);
+    }
     /// `E(y) = sum_i m_i |y_i - y*_i|^2 / (2 h^2) + U(y)` (J; Lu et al. 2023, eq. 2 without
     /// the barrier) from the last [`Self::evaluate`], `h` in s.
     fn total_energy(&mut self, h: T) -> f64;

@@ -664,7 +664,7 @@ fn initial_guess<T: Real>(
     colliders: &[ColliderModel<T>],
 ) -> f64 {
     push_iterate_out_of_colliders(family.points_mut(), colliders);
-    family.evaluate(mode);
+    family.evaluate_energy(mode);
     let at_prediction = family.total_energy(h);
     let inertia_of_previous = family.inertial_energy_at_start(h);
     if at_prediction <= inertia_of_previous {

@@ -5,7 +5,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::parallel::chunked_sum;
-use crate::particles::{evaluate_particles, particle_force, ParticleRest};
+use crate::particles::{evaluate_energies, evaluate_particles, particle_force, ParticleRest};
 use crate::real::Real;
 use crate::solve::points::Points;
 
@@ -15,8 +15,10 @@ pub(crate) struct Evaluation<T: Real> {
     /// positions skip the kernel.
     pub at: Vec<Vector3<T>>,
     pub valid: bool,
-    /// Per bond its force on its particle (N, [`crate::particles::bond_force`]).
+    /// Per bond its force on its particle (N, [`crate::particles::bond_force`]), unless the
+    /// evaluation holds the energy alone (`forces` false, [`Self::run_energy`]).
     pub bond_force: Vec<Vector3<T>>,
+    forces: bool,
     /// Per particle `V_i Psi_i` (J) and the internal force (N), the latter gathered from the
     /// bond forces only when a residual asks for it (`gathered`): the initial guess reads the
     /// energy alone of the evaluation it does not keep.
@@ -33,6 +35,7 @@ impl<T: Real> Evaluation<T> {
             at: vec![Vector3::zeros(); particles],
             valid: false,
             bond_force: vec![Vector3::zeros(); bonds],
+            forces: false,
             energy: vec![T::zero(); particles],
             force: vec![Vector3::zeros(); particles],
             gathered: false,
@@ -48,9 +51,19 @@ impl<T: Real> Evaluation<T> {
         self.valid = false;
     }
 
-    /// Whether this evaluation was taken at `y`, bit for bit.
+    /// Whether this evaluation was taken at `y`, bit for bit, forces and all.
     pub fn is_at(&self, y: &[Vector3<T>]) -> bool {
+        self.forces && self.holds_energy_at(y)
+    }
+
+    /// Whether this evaluation holds at least the energies at `y`, bit for bit.
+    pub fn holds_energy_at(&self, y: &[Vector3<T>]) -> bool {
         self.valid && self.at == y
+    }
+
+    /// Whether this evaluation holds its bond forces (not the energy alone).
+    pub fn has_forces(&self) -> bool {
+        self.valid && self.forces
     }
 
     /// Runs the kernel at `self.at`: the bond forces and energies (the particles' forces are
@@ -58,6 +71,16 @@ impl<T: Real> Evaluation<T> {
     pub fn run(&mut self, rest: &ParticleRest<T>) {
         evaluate_particles(rest, &self.at, &mut self.bond_force, &mut self.energy);
         self.gathered = false;
+        self.forces = true;
+        self.valid = true;
+    }
+
+    /// Runs the kernel's energies alone at `self.at` ([`evaluate_energies`]: the bits
+    /// [`Self::run`] gives them, no bond force written); rest data without cones only.
+    pub fn run_energy(&mut self, rest: &ParticleRest<T>) {
+        evaluate_energies(rest, &self.at, &mut self.energy);
+        self.gathered = false;
+        self.forces = false;
         self.valid = true;
     }
 
@@ -72,6 +95,7 @@ impl<T: Real> Evaluation<T> {
         h2: T,
         chunks: &mut Vec<f64>,
     ) -> f64 {
+        debug_assert!(self.forces, "a residual of an evaluation without forces");
         if !self.gathered {
             let bond_force = &self.bond_force;
             self.force

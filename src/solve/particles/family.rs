@@ -27,6 +27,11 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn evaluate(&mut self, _mode: Preconditioner) {
         ParticleSystem::evaluate(self);
     }
+    /// The energies alone where the last initial guess's prediction was not kept
+    /// ([`ParticleSystem::evaluate_energy`]).
+    fn evaluate_energy(&mut self, _mode: Preconditioner) {
+        ParticleSystem::evaluate_energy(self);
+    }
     /// `sum_i m_i |y_i - y*_i|^2 / (2 h^2) + sum_i V_i Psi_i(y)` (J; eq. 8 for the elastic
     /// part, which the deviatoric force is not the gradient of: see
     /// [`super::step`] for the merit the line search uses instead).
@@ -34,6 +39,7 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         inertial_energy(&mut self.points, h, false) + self.current.elastic_energy(&mut self.chunks)
     }
     fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update {
+        self.complete();
         global_move(self, h, options)
     }
     /// The line search's trials are the next iterates, kept out of the colliders there.

@@ -64,6 +64,14 @@ pub(crate) struct ParticleSystem<T: Real> {
     revisions: Vec<u64>,
     /// Whether the rest data was left partly built by a failed end of a step.
     stale: bool,
+    /// Whether the initial guess's next evaluation at the prediction `y*` takes the energy
+    /// alone ([`Self::evaluate_energy`]): it does when the last one was not kept (a resting
+    /// body, whose start `y_t` has the lower energy), and it is whole when the last one was (a
+    /// body in flight, which moves from `y*`).
+    energy_alone: bool,
+    /// Whether the evaluation at the iterate is the initial guess's at `y*`, not yet known
+    /// to be kept or dropped ([`Self::evaluate`] learns which).
+    probing: bool,
 }
 
 impl<T: Real> ParticleSystem<T> {
@@ -117,6 +125,8 @@ impl<T: Real> ParticleSystem<T> {
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
             stale: false,
+            energy_alone: false,
+            probing: false,
         })
     }
 
@@ -137,8 +147,12 @@ impl<T: Real> ParticleSystem<T> {
     /// the one before it. The other serves the initial guess ([`crate::solve::sissm`]), which
     /// evaluates the prediction `y*` first and then the step's start `y_t`, where the last
     /// step's accepted trial was taken (the positions' bits are the key, and the kernel
-    /// depends on nothing else but the rest data, whose changes clear both).
+    /// depends on nothing else but the rest data, whose changes clear both). An evaluation
+    /// at `y` that holds the energy alone ([`Self::evaluate_energy`]) is completed.
     pub fn evaluate(&mut self) {
+        if std::mem::take(&mut self.probing) {
+            self.energy_alone = !self.current.holds_energy_at(&self.points.y);
+        }
         if self.current.is_at(&self.points.y) {
             return;
         }
@@ -151,6 +165,39 @@ impl<T: Real> ParticleSystem<T> {
         self.current.run(&self.rest);
         self.timings.kernel += millis(started);
         self.timings.evaluations += 1;
+    }
+
+    /// The energies at the current iterate, for a caller that reads
+    /// [`crate::solve::family::Family::total_energy`] before it evaluates elsewhere or moves
+    /// (the initial guess at `y*`): the energy alone ([`Evaluation::run_energy`], no bond
+    /// force written, bit for bit the whole kernel's energies) when the last such evaluation
+    /// was not kept and no body has cones, else the whole kernel ([`Self::evaluate`]). The
+    /// next [`Self::evaluate`] or [`Self::complete`] completes it if it is kept.
+    pub fn evaluate_energy(&mut self) {
+        let y = &self.points.y;
+        let alone = self.energy_alone
+            && self.rest.cones.is_empty()
+            && !self.current.is_at(y)
+            && !self.trial.is_at(y);
+        if alone {
+            std::mem::swap(&mut self.current, &mut self.trial);
+            let started = Instant::now();
+            self.current.at.copy_from_slice(&self.points.y);
+            self.current.run_energy(&self.rest);
+            self.timings.kernel += millis(started);
+            self.timings.evaluations += 1;
+        } else {
+            self.evaluate();
+        }
+        self.probing = true;
+    }
+
+    /// Readies the evaluation at the current iterate for a move: completes one that holds the
+    /// energy alone ([`Self::evaluate_energy`]); nothing otherwise.
+    pub fn complete(&mut self) {
+        if self.probing || !self.current.has_forces() {
+            self.evaluate();
+        }
     }
 
     /// The plastic end of a step ([`super::plastic`]): the rest data rebuilt from the returned
