@@ -49,6 +49,7 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn start_step(&mut self, params: &SolverParams) -> Result<()> {
         self.timings = ParticleTimings::default();
         self.chebyshev = Chebyshev::start(params);
+        self.exact.forget();
         // Which particles a collider or the repulsion moved is the step's own: the coarse step
         // ([`super::coarse`]) must not read the last step's, which no state file holds (a run
         // continued from one would part from the run that went on).

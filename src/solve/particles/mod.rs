@@ -12,6 +12,7 @@ mod density_walls;
 mod direct;
 mod directions;
 mod evaluation;
+mod exact_iterate;
 mod family;
 mod fluid;
 mod fluid_viscosity;

@@ -38,7 +38,7 @@ use rayon::prelude::*;
 use crate::collider::{push_out_with_friction, ColliderModel};
 use crate::parallel::chunked_sum;
 use crate::real::Real;
-use crate::solve::collider_passes::extrapolated;
+use crate::solve::collider_passes::clear_of_colliders;
 use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
 use crate::solve::GlobalSolver;
@@ -48,6 +48,7 @@ use super::chebyshev::GROWTH;
 use super::coarse;
 use super::direct::DirectSolver;
 use super::directions::{jacobi, position_averaging};
+use super::exact_iterate::known;
 use super::system::ParticleSystem;
 use crate::timing::millis;
 
@@ -87,6 +88,7 @@ pub(crate) fn global_move<T: Real>(
     options: &MoveOptions<'_, T>,
 ) -> Update {
     let h2 = h * h;
+    sys.exact.advance();
     let started = Instant::now();
     let merit = sys
         .current
@@ -256,6 +258,7 @@ fn propose<T: Real>(
     }
     let mut y_next = std::mem::take(&mut sys.points.y_next);
     let mut touched = std::mem::take(&mut sys.touched);
+    let mut exact_next = std::mem::take(&mut sys.exact.next);
     let sys_ref = &*sys;
     let (points, residual) = (&sys_ref.points, &sys_ref.current.residual);
     // Whether every collider is frictionless (the projected extrapolation's condition), once
@@ -264,12 +267,14 @@ fn propose<T: Real>(
     let update = y_next
         .par_iter_mut()
         .zip(touched.par_iter_mut())
+        .zip(exact_next.par_iter_mut())
         .enumerate()
-        .map(|(i, (next, touched))| {
+        .map(|(i, ((next, touched), exact_next))| {
             let y = &points.y[i];
             *touched = false;
             if points.pinned[i] {
                 *next = *y;
+                *exact_next = wide(y);
                 return Update::NONE;
             }
             let d = sys_ref.diagonal(i, h2);
@@ -293,17 +298,29 @@ fn propose<T: Real>(
                 push(whole + repelled) - whole
             };
             *touched = *next != free_move;
+            // The trial unrounded ([`super::exact_iterate`]): an untouched particle's move
+            // `y + alpha delta` formed in f64, extrapolated from the unrounded `y^{k-1}` and
+            // rounded once.
+            let mut exact = if *touched {
+                wide(next)
+            } else {
+                wide(y) + wide(&sys_ref.delta[i]) * alpha.to_f64()
+            };
             if let Some(w) = omega {
-                let previous = &points.y_prev[i];
+                let previous = sys_ref.exact.previous(i, &points.y_prev[i]);
+                let moved = (exact - previous) * w.to_f64() + previous;
+                let rounded = moved.map(T::of);
                 if repelled == Vector3::zeros() && (frictionless || colliders.is_empty()) {
                     // Projected extrapolation: the contact layer is accelerated with the rest.
-                    let moved = (*next - previous) * w + previous;
-                    *next = push(moved);
-                    *touched |= *next != moved;
-                } else if !*touched {
-                    *next = extrapolated(next, previous, w, margin, colliders);
+                    *next = push(rounded);
+                    *touched |= *next != rounded;
+                    exact = moved;
+                } else if !*touched && clear_of_colliders(next, &rounded, margin, colliders) {
+                    *next = rounded;
+                    exact = moved;
                 }
             }
+            *exact_next = known(&exact, next);
             // With another family's reaction on the particle (a membrane's, `crate::solve::coupling`).
             let coupled = options.contact_reaction.get(i).copied().unwrap_or_default();
             let free = (residual[i] + (reaction + coupled) * d) / points.mass[i];
@@ -315,8 +332,15 @@ fn propose<T: Real>(
         .reduce(|| Update::NONE, Update::merge);
     sys.points.y_next = y_next;
     sys.touched = touched;
+    sys.exact.next = exact_next;
     sys.timings.project += millis(started);
     update
+}
+
+/// `v` in f64 (m).
+#[inline(always)]
+fn wide<T: Real>(v: &Vector3<T>) -> Vector3<f64> {
+    v.map(|c| c.to_f64())
 }
 
 /// How close to its margin (a fraction of the margin) a particle counts as touching a

@@ -17,6 +17,7 @@ use super::chebyshev::Chebyshev;
 use super::coarse_problem::Coarse;
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
+use super::exact_iterate::ExactIterates;
 use super::fluid::FluidStage;
 use super::plastic::PlasticBodies;
 use super::repulsion::Repulsion;
@@ -41,8 +42,10 @@ pub(crate) struct ParticleSystem<T: Real> {
     /// The particles a collider or the repulsion moved in the step's last trial
     /// ([`super::step`]; empty at the step's start).
     pub touched: Vec<bool>,
-    /// The step's Chebyshev sequence, which the line search restarts ([`super::chebyshev`]).
+    /// The step's Chebyshev sequence, which the line search restarts ([`super::chebyshev`]),
+    /// and its iterates before rounding ([`super::exact_iterate`]).
     pub chebyshev: Chebyshev,
+    pub exact: ExactIterates,
     pub failure: Option<crate::error::Error>,
     /// The minimum distance between bodies (none for a single body).
     pub repulsion: Option<Repulsion<T>>,
@@ -107,6 +110,7 @@ impl<T: Real> ParticleSystem<T> {
             held: vec![false; n],
             touched: vec![false; n],
             chebyshev: Chebyshev::default(),
+            exact: ExactIterates::new(n),
             failure: None,
             chunks: Vec::new(),
             plastic: PlasticBodies::of(bodies),
