@@ -20,6 +20,7 @@ mod repulsion;
 mod static_friction;
 mod step;
 mod system;
+mod two_level;
 
 pub(crate) use system::ParticleSystem;
 

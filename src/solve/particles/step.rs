@@ -49,6 +49,7 @@ use super::coarse;
 use super::direct::DirectSolver;
 use super::directions::{jacobi, position_averaging};
 use super::system::ParticleSystem;
+use super::two_level;
 use crate::timing::millis;
 
 /// The sufficient-decrease constant of the Armijo condition.
@@ -95,6 +96,7 @@ pub(crate) fn global_move<T: Real>(
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
             jacobi(sys, h2, options.inner_iters);
             coarse::correct(sys, options.colliders, options.contact_reaction);
+            two_level::correct(sys, h, options.colliders, options.contact_reaction);
         }
         GlobalSolver::Position => position_averaging(sys, h2),
         GlobalSolver::Direct => direct_move(sys, h, options.colliders),
