@@ -295,7 +295,17 @@ fn propose<T: Real>(
                 let previous = &points.y_prev[i];
                 if repelled == Vector3::zeros() && (frictionless || colliders.is_empty()) {
                     // Projected extrapolation: the contact layer is accelerated with the rest.
-                    let moved = (*next - previous) * w + previous;
+                    // Rounded once (f64 within): an untouched particle's `y + alpha delta`
+                    // is not rounded to T before the extrapolation, whose `w` near 2 would
+                    // double that rounding.
+                    let moved = if *touched {
+                        (*next - previous) * w + previous
+                    } else {
+                        let z = y.map(|c| c.to_f64())
+                            + sys_ref.delta[i].map(|c| c.to_f64()) * alpha.to_f64();
+                        let p = previous.map(|c| c.to_f64());
+                        ((z - p) * w.to_f64() + p).map(T::of)
+                    };
                     *next = push(moved);
                     *touched |= *next != moved;
                 } else if !*touched {
