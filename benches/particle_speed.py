@@ -8,7 +8,8 @@ h = 1/30 s in f32 with the default global solver (chebyshev) and tolerance, ``--
 (StepStats.particles: kernel, residual, solve, line search, projection), the median CPU time per
 step of the process (all threads: on a shared machine the wall time is an upper bound, the CPU
 time what the step itself cost), median iterations (and each step's count) and
-kernel passes per step, whether every step converged, the body's build time, and the process's
+kernel passes per step, the cost of one iteration (wall and CPU ms: each summed over the
+steps and divided by their iterations summed), whether every step converged, the body's build time, and the process's
 peak resident memory growth over the build and run divided by the particle count (KiB).
 
 Scaling: the same scene at each ``--sizes`` (n per side), each in a fresh process (so that peak
@@ -66,6 +67,8 @@ def one_size(args) -> dict:
                      "converged": s.converged, **s.particles})
     peak = C.vm_kib("VmHWM")
     med = lambda k: float(np.median([r[k] for r in rows]))  # noqa: E731
+    total = lambda k: float(sum(r[k] for r in rows))  # noqa: E731
+    iterations = total("iterations")
     return {
         "n": args.n, "particles": len(x), "build_and_first_step_s": build_s,
         "first_step_ms": first.timings["total"],
@@ -73,6 +76,10 @@ def one_size(args) -> dict:
         "iterations_median": med("iterations"),
         "iterations_per_step": [r["iterations"] for r in rows],
         "evaluations_median": med("evaluations"),
+        # The cost of one iteration: the steps' times summed over their iterations summed.
+        "ms_per_iteration": total("total_ms") / iterations,
+        "cpu_ms_per_iteration": total("cpu_ms") / iterations,
+        "cpu_ns_per_iteration_per_particle": 1e6 * total("cpu_ms") / iterations / len(x),
         "all_converged": all(r["converged"] for r in rows),
         "phases_ms_median": {k: med(k) for k in PHASES},
         "us_per_step_per_particle": 1e3 * med("total_ms") / len(x),
@@ -123,7 +130,10 @@ def main():
         print(f"{row['particles']:>8} particles: {row['ms_per_step']:8.1f} ms/step "
               f"(CPU {row['cpu_ms_per_step']:.1f} ms, all threads; "
               f"{row['us_per_step_per_particle']:.2f} us/particle), {row['iterations_median']:.0f} "
-              f"iterations, {row['evaluations_median']:.0f} kernel passes, converged "
+              f"iterations (median; per iteration {row['ms_per_iteration']:.2f} ms, CPU "
+              f"{row['cpu_ms_per_iteration']:.2f} ms, "
+              f"{row['cpu_ns_per_iteration_per_particle']:.0f} ns/particle), "
+              f"{row['evaluations_median']:.0f} kernel passes, converged "
               f"{row['all_converged']}; " + ", ".join(f"{k} {v:.1f}" for k, v in p.items())
               + f"; {row['peak_rss_growth_kib_per_particle']:.2f} KiB/particle", flush=True)
         if took > args.budget:

@@ -20,7 +20,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::real::Real;
+use crate::real::{Lanes, Real};
 
 /// `|len| dir(v)` for `v` of norm `norm`: `v` scaled to the length `len` (m); `fallback`
 /// (already of length `len`) where `v` has no direction.
@@ -58,31 +58,78 @@ pub fn bond_force<T: Real>(
     y: &Vector3<T>,
     pressure: T,
 ) -> (Vector3<T>, T) {
+    let lanes = BondLanes::<T>::gather(std::slice::from_ref(bond));
+    let (g, e, directed) = bond_force_lanes(&lanes, f, y, pressure);
+    if directed {
+        return (g, e);
+    }
+    // Without a direction (a collapsed bond), each projection takes the other's, then the
+    // rest direction.
     let fxi = f * bond.xi;
     let (fxi_norm, y_norm) = (fxi.norm(), y.norm());
-    let zero = T::zero();
-    let g = if fxi_norm > zero && y_norm > zero {
-        // `p_iso = |xi| Y / |Y|`, `p_dev = |xi| F xi / |F xi|` and the dilatation
-        // `P a p_iso / |xi|`, gathered on `Y` and `F xi` (two divisions per bond).
-        let (over_y, over_f) = (T::one() / y_norm, T::one() / fxi_norm);
-        let along_y =
-            bond.k_dev + bond.k_iso + (pressure * bond.share - bond.k_iso * bond.length) * over_y;
-        y * along_y - fxi * (bond.k_dev * bond.length * over_f)
-    } else {
-        // Without a direction (a collapsed bond), each projection takes the other's, then
-        // the rest direction.
-        let p_iso = projected(
-            y,
-            y_norm,
-            bond.length,
-            projected(&fxi, fxi_norm, bond.length, bond.xi),
-        );
-        let p_dev = projected(&fxi, fxi_norm, bond.length, p_iso);
-        let dilatation = p_iso * (pressure * bond.share / bond.length);
-        (y - p_dev) * bond.k_dev + (y - p_iso) * bond.k_iso + dilatation
-    };
-    let half = T::of(0.5);
+    let p_iso = projected(
+        y,
+        y_norm,
+        bond.length,
+        projected(&fxi, fxi_norm, bond.length, bond.xi),
+    );
+    let p_dev = projected(&fxi, fxi_norm, bond.length, p_iso);
+    let dilatation = p_iso * (pressure * bond.share / bond.length);
+    let g = (y - p_dev) * bond.k_dev + (y - p_iso) * bond.k_iso + dilatation;
+    (g, e)
+}
+
+/// The constants of [`BondRest`] that the local step reads, one bond per lane of `S` (a
+/// scalar: one bond; a SIMD pack: [`Lanes`] bonds of one particle at once).
+#[derive(Clone, Copy, Debug)]
+pub struct BondLanes<S: Lanes> {
+    pub xi: Vector3<S>,
+    pub length: S,
+    pub k_dev: S,
+    pub k_iso: S,
+    pub share: S,
+}
+
+impl<S: Lanes> BondLanes<S> {
+    /// The bonds `bonds[0..LANES]`, one per lane.
+    #[inline(always)]
+    pub fn gather(bonds: &[BondRest<S::Scalar>]) -> Self {
+        let field = |get: fn(&BondRest<S::Scalar>) -> S::Scalar| S::gather(|l| get(&bonds[l]));
+        Self {
+            xi: Vector3::new(field(|b| b.xi.x), field(|b| b.xi.y), field(|b| b.xi.z)),
+            length: field(|b| b.length),
+            k_dev: field(|b| b.k_dev),
+            k_iso: field(|b| b.k_iso),
+            share: field(|b| b.share),
+        }
+    }
+}
+
+/// [`bond_force`] of the bonds in the lanes of `bond` where both `F xi` and `Y` have a
+/// direction (the third value: in which lanes they have; the other lanes' forces are not
+/// numbers): `g = k_dev (Y - p_dev) + k_iso (Y - p_iso) + P a p_iso / |xi|` with
+/// `p_iso = |xi| Y / |Y|` and `p_dev = |xi| F xi / |F xi|`, gathered on `Y` and `F xi` (two
+/// divisions per bond), and the spring energy `e` in every lane. Every lane performs the
+/// scalar operations in the scalar order, so a pack's lanes are bit-identical to the bonds
+/// computed one at a time ([`Lanes`]).
+#[inline(always)]
+pub fn bond_force_lanes<S: Lanes>(
+    bond: &BondLanes<S>,
+    f: &Matrix3<S>,
+    y: &Vector3<S>,
+    pressure: S,
+) -> (Vector3<S>, S, S::SimdBool) {
+    let fxi = f * bond.xi;
+    let (fxi_norm, y_norm) = (fxi.norm(), y.norm());
+    let zero = S::zero();
+    let directed = fxi_norm.simd_gt(zero) & y_norm.simd_gt(zero);
+    let (over_y, over_f) = (S::one() / y_norm, S::one() / fxi_norm);
+    let along_y =
+        bond.k_dev + bond.k_iso + (pressure * bond.share - bond.k_iso * bond.length) * over_y;
+    let g = y * along_y - fxi * (bond.k_dev * bond.length * over_f);
+    let half = S::lit(0.5);
     let dev = fxi_norm - bond.length;
     let iso = y_norm - bond.length;
-    (g, half * (bond.k_dev * dev * dev + bond.k_iso * iso * iso))
+    let e = half * (bond.k_dev * dev * dev + bond.k_iso * iso * iso);
+    (g, e, directed)
 }

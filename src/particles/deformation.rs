@@ -1,11 +1,11 @@
 //! The deformation gradient of a particle (He et al. 2017, section 3) and the treatment of
 //! inverted neighbourhoods.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, SimdValue, Vector3};
 
 use crate::error::Result;
 use crate::geometry::Horizons;
-use crate::real::Real;
+use crate::real::{Lanes, Real};
 
 use super::bond::BondRest;
 use super::influence::influence;
@@ -29,6 +29,10 @@ pub fn deformation_gradient<T: Real>(
 /// read once), particle `i`'s weighted mean bond strain `s_i = sum_j a_j (|Y_j| - |xi_j|)`
 /// (dimensionless; `a_j` the bonds' `share`, see [`super::bond`]); `keep(k, Y)` receives the
 /// `k`-th bond's vector `Y = y_j - y_i` (m), for a caller that needs it again.
+///
+/// The bonds go [`Lanes`] at a time: their lengths `|Y|` are taken in one SIMD pack (one square
+/// root instruction for eight `f32` bonds), the sums stay in the bonds' order, so the result
+/// is bit for bit that of one bond at a time.
 #[inline(always)]
 pub fn deformation_and_strain<T: Real>(
     i: usize,
@@ -40,11 +44,38 @@ pub fn deformation_and_strain<T: Real>(
 ) -> (Matrix3<T>, T) {
     let (mut sum, mut strain) = (Matrix3::zeros(), T::zero());
     let y_i = y[i];
-    for (k, (&j, bond)) in neighbors.iter().zip(bonds).enumerate() {
-        let d = y[j as usize] - y_i;
-        sum += (d * bond.weight) * bond.xi.transpose();
-        strain += bond.share * (d.norm() - bond.length);
-        keep(k, d);
+    let lanes = <T::Pack as SimdValue>::LANES;
+    const {
+        assert!(
+            <T::Pack as SimdValue>::LANES <= 8,
+            "a pack holds at most eight bonds"
+        )
+    };
+    // One pack's bond vectors by component.
+    let mut pack = [[T::zero(); 8]; 3];
+    let mut k = 0;
+    for (js, group) in neighbors.chunks(lanes).zip(bonds.chunks(lanes)) {
+        for (l, (&j, bond)) in js.iter().zip(group).enumerate() {
+            let d = y[j as usize] - y_i;
+            sum += (d * bond.weight) * bond.xi.transpose();
+            keep(k + l, d);
+            for (c, component) in pack.iter_mut().enumerate() {
+                component[l] = d[c];
+            }
+        }
+        if group.len() == lanes {
+            let component = |c: usize| T::Pack::gather(|l| pack[c][l]);
+            let norm = Vector3::new(component(0), component(1), component(2)).norm();
+            for (l, bond) in group.iter().enumerate() {
+                strain += bond.share * (norm.extract(l) - bond.length);
+            }
+        } else {
+            for (l, bond) in group.iter().enumerate() {
+                let d = Vector3::new(pack[0][l], pack[1][l], pack[2][l]);
+                strain += bond.share * (d.norm() - bond.length);
+            }
+        }
+        k += group.len();
     }
     (uninverted(sum * shape_inverse), strain)
 }
@@ -56,11 +87,19 @@ pub fn deformation_and_strain<T: Real>(
 /// and the deviatoric projections `dir(F' xi)` push the neighbourhood back towards its
 /// orientation at rest. (The paper swaps the first two rows of `F`, which changes the
 /// deformation it describes whatever the inversion looks like.)
-#[inline]
+#[inline(always)]
 pub fn uninverted<T: Real>(f: Matrix3<T>) -> Matrix3<T> {
     if f.determinant() >= T::zero() {
         return f;
     }
+    turned_back(f)
+}
+
+/// [`uninverted`] of an inverted `f` (`det f < 0`): the rare case, kept out of the kernel's
+/// loop.
+#[cold]
+#[inline(never)]
+fn turned_back<T: Real>(f: Matrix3<T>) -> Matrix3<T> {
     let svd = f.svd(true, true);
     let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
         return f;
