@@ -13,9 +13,9 @@ use crate::solve::update::{MoveOptions, Update};
 use crate::solve::{Acceleration, GlobalSolver, ParticleTimings, SolverParams, StepStats, Timings};
 
 use super::chebyshev::Chebyshev;
+use super::directions::prepare_two_level;
 use super::step::{global_move, prepare_direct};
 use super::system::ParticleSystem;
-use super::two_level;
 
 impl<T: Real> Family<T> for ParticleSystem<T> {
     fn points(&self) -> &Points<T> {
@@ -56,7 +56,10 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         self.touched.fill(false);
         match params.global_solver {
             GlobalSolver::Direct => prepare_direct(self)?,
-            GlobalSolver::Jacobi | GlobalSolver::Chebyshev => two_level::prepare(self)?,
+            GlobalSolver::Jacobi | GlobalSolver::Chebyshev if params.particle_two_level => {
+                prepare_two_level(self)?
+            }
+            GlobalSolver::Jacobi | GlobalSolver::Chebyshev => self.two_level = None,
             GlobalSolver::Position => {}
         }
         if let Some(fluid) = &mut self.fluid {

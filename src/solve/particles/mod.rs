@@ -6,6 +6,7 @@
 mod chebyshev;
 mod coarse;
 mod coarse_problem;
+mod contact_gap;
 mod density_rest;
 mod density_system;
 mod density_walls;

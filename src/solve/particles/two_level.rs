@@ -19,12 +19,33 @@
 //!
 //! **Held particles.** A pinned particle, one another family holds (a membrane's reaction,
 //! [`crate::solve::coupling`]), one a collider or the repulsion moved in the last trial
-//! (`touched`) and one within [`CONTACT_GAP`] of a collider's margin at the current iterate
-//! has no column in `P`: the correction leaves it where the sweep put it, and the body's
-//! aggregates above a floor compress against it (the contact held in the coarse space, as the
-//! direct solver holds it, [`super::direct`]). The colliders, the repulsion and the
-//! translations' coarse problem ([`super::coarse`], which keeps the contacts one-sided) follow.
-//! Since the correction is a Galerkin projection it leaves the fixed point `r = 0` alone.
+//! (`touched`), and one within [`super::contact_gap::contact_reach`] of a collider at the
+//! current iterate or at the sweep's move has no column in `P`: the correction leaves it
+//! where the sweep put it, and the body's aggregates above a floor compress against it (the
+//! contact held in the coarse space, as the direct solver holds it, [`super::direct`]). A
+//! held particle enters the restriction with its move pushed out of the colliders (where it
+//! goes). The colliders, the repulsion and the translations' coarse problem
+//! ([`super::coarse`], which keeps the contacts one-sided) follow. Since the correction is a
+//! Galerkin projection it leaves the fixed point `r = 0` alone.
+//!
+//! **Who takes part.** A body that holds no particle (no pin, no contact) takes no correction.
+//! The coarse matrix is the constant `A`, the tangent of eq. 12 only near the rest shape;
+//! where a large deformation makes the true tangent indefinite, the coarse step along the
+//! aggregates goes astray: a flattened inverted 5^3 block (`tests/test_particles.py`) ran its
+//! first step to the cap of 200 iterations at 1.3e-3 m with it (134 iterations to 1e-7 m
+//! without), and the unconverged iterate left it spinning (turned over within 1 s). Taking
+//! the rigid rotation out of a free body's correction did not help (3.3e-3 m after 200).
+//! A held particle anchors the body, and the slow modes the correction is for (a body's
+//! compression against a floor, a stretched body between pins) are there. Nor does a body
+//! within the contact reach of another body's particle (the repulsion's partners): at a
+//! contact between two bodies the correction kept two stacked 4^3 blocks at rest from
+//! converging (300 iterations a step at 5e-3 m, against 2 iterations without; holding the
+//! particles within reach of a partner and moving them by the repulsion's last move in the
+//! restriction left 2e-3 m), a cause not found (issue 38).
+//!
+//! **When.** The correction is skipped where the merit is below its round-off floor (a body
+//! at rest or in free fall, whose move is round-off), and off with `two_level=False`
+//! ([`crate::solve::SolverParams::particle_two_level`]).
 //!
 //! **Aggregates.** Plain aggregation on the bond graph, once per working set, in particle
 //! order (the same for any thread count): a particle whose neighbours are all unaggregated
@@ -44,8 +65,8 @@ use crate::real::Real;
 use crate::solve::points::Points;
 use crate::sparse_llt::SparseLlt;
 
-use super::step::CONTACT_GAP;
-use super::system::ParticleSystem;
+use super::contact_gap::contact_reach;
+use super::repulsion::Repulsion;
 
 /// No aggregate (a particle of a body that takes no part), or no slot (a bond whose entry is
 /// in the upper triangle or outside the coarse matrix).
@@ -191,54 +212,48 @@ impl TwoLevel {
         self.factored_free.copy_from_slice(&self.free);
         Ok(())
     }
-}
 
-/// Whether particle `i` takes part in the two-level correction: every particle of a solid
-/// body (not granular, no fluid particle) when no body is plastic.
-fn takes_part<T: Real>(sys: &ParticleSystem<T>) -> Vec<bool> {
-    let mut part = vec![false; sys.points.y.len()];
-    if sys.plastic.is_some() {
-        return part;
-    }
-    for (b, range) in sys.points.ranges.iter().enumerate() {
-        if sys.coarse.solid[b] {
-            part[range.clone()].fill(true);
+    /// The correction for the particle bodies `ranges` of the working set `rest`, if some
+    /// particle takes part: every particle of a solid body (`solid[b]`: not granular, no
+    /// fluid particle) when no body is plastic (`plastic`).
+    pub fn of_bodies<T: Real>(
+        rest: &ParticleRest<T>,
+        ranges: &[std::ops::Range<usize>],
+        solid: &[bool],
+        plastic: bool,
+    ) -> Result<Option<Self>> {
+        let mut part = vec![false; rest.len()];
+        if !plastic {
+            for (range, &solid) in ranges.iter().zip(solid) {
+                part[range.clone()].fill(solid);
+            }
         }
-    }
-    part
-}
-
-/// Builds the aggregates and the coarse matrix's pattern on the first step that asks for the
-/// correction, if some particle takes part ([`takes_part`]).
-pub(crate) fn prepare<T: Real>(sys: &mut ParticleSystem<T>) -> Result<()> {
-    if sys.two_level.is_none() {
-        let part = takes_part(sys);
-        if part.iter().any(|&p| p) {
-            sys.two_level = Some(TwoLevel::new(&sys.rest, &part)?);
+        if !part.iter().any(|&p| p) {
+            return Ok(None);
         }
+        Self::new(rest, &part).map(Some)
     }
-    Ok(())
-}
 
-/// Adds the two-level correction (module doc) to the sweep's move `sys.delta` from the
-/// residual `sys.current.residual`; `coupled` holds another family's reaction per particle.
-/// A failed factorisation leaves the move alone and is reported at the end of the step.
-pub(crate) fn correct<T: Real>(
-    sys: &mut ParticleSystem<T>,
-    h: T,
-    colliders: &[ColliderModel<T>],
-    coupled: &[Vector3<T>],
-) {
-    let Some(mut two) = sys.two_level.take() else {
-        return;
-    };
-    let h2 = h * h;
-    {
-        let (points, touched, delta) = (&sys.points, &sys.touched, &sys.delta);
-        let aggregate = &two.aggregate;
-        two.free
+    /// Marks the particles the correction holds at the sweep's move `delta` (m; module doc):
+    /// pinned, touched in the last trial (`touched`), with another family's reaction
+    /// (`coupled`), or within the contact reach of a collider at `y` or `y + delta`; and
+    /// stores a held particle's move: the sweep's, out of the colliders along their normals.
+    /// Then frees no particle of a body that holds none or that is within the contact reach
+    /// of one of its `repulsion` partners (another body's particle, at `y` or `y + delta`):
+    /// module doc, "Who takes part".
+    pub fn hold<T: Real>(
+        &mut self,
+        points: &Points<T>,
+        touched: &[bool],
+        delta: &[Vector3<T>],
+        colliders: &[ColliderModel<T>],
+        coupled: &[Vector3<T>],
+        repulsion: Option<&Repulsion<T>>,
+    ) {
+        let aggregate = &self.aggregate;
+        self.free
             .par_iter_mut()
-            .zip(two.held_move.par_iter_mut())
+            .zip(self.held_move.par_iter_mut())
             .enumerate()
             .for_each(|(i, (free, held_move))| {
                 *held_move = Vector3::zeros();
@@ -247,7 +262,7 @@ pub(crate) fn correct<T: Real>(
                     return;
                 }
                 let margin = points.margin[i];
-                let reach = margin * (T::one() + T::of(CONTACT_GAP));
+                let reach = contact_reach(margin);
                 let to = points.y[i] + delta[i];
                 let mut moved = delta[i];
                 let mut near = false;
@@ -263,66 +278,83 @@ pub(crate) fn correct<T: Real>(
                 *free = aggregate[i] != NONE && !held;
                 *held_move = moved.map(|c| c.to_f64());
             });
-    }
-    if let Err(e) = two.factor(&sys.rest, h.to_f64()) {
-        sys.failure.get_or_insert(e);
-        sys.two_level = Some(two);
-        return;
-    }
-    {
-        let (rest, residual, delta) = (&sys.rest, &sys.current.residual, &sys.delta);
-        let (free, held_move) = (&two.free, &two.held_move);
-        two.remainder
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, out)| {
-                if !free[i] {
-                    return;
-                }
-                let mut coupled = Vector3::<f64>::zeros();
-                for b in rest.row(i) {
-                    let j = rest.indices[b] as usize;
-                    let d = if free[j] {
-                        delta[j].map(|c| c.to_f64())
-                    } else {
-                        held_move[j]
-                    };
-                    coupled += d * rest.coupling[b].to_f64();
-                }
-                // In f64 whatever the body's precision (mixed precision: the restriction sums
-                // some 30 nearly cancelling terms per aggregate).
-                let d_i = rest.mass[i].to_f64() + h2.to_f64() * rest.stiffness[i].to_f64();
-                let r = residual[i].map(|c| c.to_f64()) - delta[i].map(|c| c.to_f64()) * d_i;
-                *out = r + coupled * h2.to_f64();
+        for range in &points.ranges {
+            let touches_a_body = repulsion.is_some_and(|rep| {
+                range.clone().any(|i| {
+                    rep.partners(i).iter().any(|&j| {
+                        let j = j as usize;
+                        let reach = contact_reach(points.margin[i] + points.margin[j]);
+                        (points.y[i] - points.y[j]).norm() <= reach
+                            || (points.y[i] + delta[i] - points.y[j] - delta[j]).norm() <= reach
+                    })
+                })
             });
-    }
-    let rhs = two.llt.rhs_mut();
-    for a in 0..rhs.nrows() {
-        for c in 0..3 {
-            rhs[(a, c)] = 0.0;
-        }
-    }
-    for (i, &a) in two.aggregate.iter().enumerate() {
-        if two.free[i] {
-            for c in 0..3 {
-                rhs[(a, c)] += two.remainder[i][c];
+            if touches_a_body || self.free[range.clone()].iter().all(|&f| f) {
+                self.free[range.clone()].fill(false);
             }
         }
     }
-    two.llt.solve();
-    {
+
+    /// Adds the coarse-grid correction `P e` and one Jacobi post-smoothing sweep to the
+    /// sweep's move `delta` (m) from the residual `residual` (kg m) of eq. 12 at time step
+    /// `h` (s), with the held set of the last [`Self::hold`]. On a failed factorisation the
+    /// move is left alone.
+    pub fn correct<T: Real>(
+        &mut self,
+        rest: &ParticleRest<T>,
+        residual: &[Vector3<T>],
+        delta: &mut [Vector3<T>],
+        h: T,
+    ) -> Result<()> {
+        let h2 = h.to_f64() * h.to_f64();
+        self.factor(rest, h.to_f64())?;
+        {
+            let (free, held_move) = (&self.free, &self.held_move);
+            let delta = &*delta;
+            self.remainder
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(i, out)| {
+                    if !free[i] {
+                        return;
+                    }
+                    let mut coupled = Vector3::<f64>::zeros();
+                    for b in rest.row(i) {
+                        let j = rest.indices[b] as usize;
+                        let d = if free[j] {
+                            delta[j].map(|c| c.to_f64())
+                        } else {
+                            held_move[j]
+                        };
+                        coupled += d * rest.coupling[b].to_f64();
+                    }
+                    // In f64 whatever the body's precision (mixed precision: the restriction
+                    // sums some 30 nearly cancelling terms per aggregate).
+                    let d_i = rest.mass[i].to_f64() + h2 * rest.stiffness[i].to_f64();
+                    let r = residual[i].map(|c| c.to_f64()) - delta[i].map(|c| c.to_f64()) * d_i;
+                    *out = r + coupled * h2;
+                });
+        }
+        let rhs = self.llt.rhs_mut();
+        rhs.fill(0.0);
+        for (i, &a) in self.aggregate.iter().enumerate() {
+            if self.free[i] {
+                for c in 0..3 {
+                    rhs[(a, c)] += self.remainder[i][c];
+                }
+            }
+        }
+        self.llt.solve();
         // The prolonged correction, then one Jacobi sweep on what it leaves,
         // `r - A (delta_J + P e)`, at the free particles (post-smoothing: the piecewise-constant
         // correction's jumps between aggregates are the sweep's to smooth).
         let (x, aggregate, free, remainder) =
-            (two.llt.rhs(), &two.aggregate, &two.free, &two.remainder);
-        let rest = &sys.rest;
+            (self.llt.rhs(), &self.aggregate, &self.free, &self.remainder);
         let at = |i: usize| {
             let a = aggregate[i];
             Vector3::new(x[(a, 0)], x[(a, 1)], x[(a, 2)])
         };
-        let h2 = h2.to_f64();
-        sys.delta.par_iter_mut().enumerate().for_each(|(i, d)| {
+        delta.par_iter_mut().enumerate().for_each(|(i, d)| {
             if !free[i] {
                 return;
             }
@@ -338,6 +370,6 @@ pub(crate) fn correct<T: Real>(
             let left = remainder[i] - e * d_i + coupled * h2;
             *d += (e + left / d_i).map(T::of);
         });
+        Ok(())
     }
-    sys.two_level = Some(two);
 }
