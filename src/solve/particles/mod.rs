@@ -6,6 +6,7 @@
 mod chebyshev;
 mod coarse;
 mod coarse_problem;
+mod contact_gap;
 mod density_rest;
 mod density_system;
 mod density_walls;
@@ -22,6 +23,7 @@ mod repulsion;
 mod static_friction;
 mod step;
 mod system;
+mod two_level;
 
 pub(crate) use system::ParticleSystem;
 

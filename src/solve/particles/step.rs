@@ -46,8 +46,9 @@ use crate::symmetric::SymmetricMatrix3;
 
 use super::chebyshev::GROWTH;
 use super::coarse;
+use super::contact_gap::contact_reach;
 use super::direct::DirectSolver;
-use super::directions::{jacobi, position_averaging};
+use super::directions::{jacobi, position_averaging, two_level_correction};
 use super::exact_iterate::known;
 use super::system::ParticleSystem;
 use crate::timing::millis;
@@ -93,12 +94,18 @@ pub(crate) fn global_move<T: Real>(
     let merit = sys
         .current
         .residual_merit(&sys.rest, &sys.points, h2, &mut sys.chunks);
+    let noise = merit_floor(sys, h2);
     sys.timings.residual += millis(started);
     let started = Instant::now();
     match options.global_solver {
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
             jacobi(sys, h2, options.inner_iters);
             coarse::correct(sys, options.colliders, options.contact_reaction);
+            // Below the merit's round-off floor the move is round-off (a body at rest or in
+            // free fall): the correction would only cost.
+            if merit > noise {
+                two_level_correction(sys, h, options.colliders, options.contact_reaction);
+            }
         }
         GlobalSolver::Position => position_averaging(sys, h2),
         GlobalSolver::Direct => direct_move(sys, h, options.colliders),
@@ -108,7 +115,7 @@ pub(crate) fn global_move<T: Real>(
     if !options.step_length {
         return propose(sys, h2, T::one(), omega, options);
     }
-    line_search(sys, h2, merit, omega, options)
+    line_search(sys, h2, merit, noise, omega, options)
 }
 
 /// Readies the direct solver for a step: the matrix's pattern and symbolic factor on the
@@ -124,7 +131,7 @@ pub(crate) fn prepare_direct<T: Real>(sys: &mut ParticleSystem<T>) -> crate::err
 }
 
 /// The direct solver's move into `sys.delta`: the held set grows by the particles that touch
-/// a collider at the current iterate (within [`CONTACT_GAP`] of their margin) and keeps the
+/// a collider at the current iterate ([`contact_reach`]) and keeps the
 /// ones that touched earlier in the step, so that it changes, and the matrix is refactored,
 /// only as contacts form (see [`DirectSolver`]). Should a factorisation fail, the move is one
 /// Jacobi sweep and the failure is reported at the end of the step.
@@ -132,7 +139,7 @@ fn direct_move<T: Real>(sys: &mut ParticleSystem<T>, h: T, colliders: &[Collider
     {
         let points = &sys.points;
         sys.held.par_iter_mut().enumerate().for_each(|(i, held)| {
-            let reach = points.margin[i] * (T::one() + T::of(CONTACT_GAP));
+            let reach = contact_reach(points.margin[i]);
             *held |= points.pinned[i]
                 || Points::colliders_of(&points.collides, i, colliders)
                     .iter()
@@ -150,7 +157,8 @@ fn direct_move<T: Real>(sys: &mut ParticleSystem<T>, h: T, colliders: &[Collider
 }
 
 /// The line search of the module's doc over the trials `y_next` ([`propose`]), from the merit
-/// `merit` (kg m^2) at `y` and the sequence's weight `omega`; returns the accepted trial's
+/// `merit` (kg m^2) at `y`, its round-off floor `noise` ([`merit_floor`]) and the sequence's
+/// weight `omega`; returns the accepted trial's
 /// measures and leaves its evaluation as the current one.
 ///
 /// Below the merit's round-off floor ([`merit_floor`]) the merit cannot tell a decrease from
@@ -161,10 +169,10 @@ fn line_search<T: Real>(
     sys: &mut ParticleSystem<T>,
     h2: T,
     merit: f64,
+    noise: f64,
     mut omega: Option<T>,
     options: &MoveOptions<'_, T>,
 ) -> Update {
-    let noise = merit_floor(sys, h2);
     let (mut alpha, mut halvings) = (T::one(), 0);
     loop {
         let update = propose(sys, h2, alpha, omega, options);
@@ -342,7 +350,3 @@ fn propose<T: Real>(
 fn wide<T: Real>(v: &Vector3<T>) -> Vector3<f64> {
     v.map(|c| c.to_f64())
 }
-
-/// How close to its margin (a fraction of the margin) a particle counts as touching a
-/// collider for the direct solver ([`direct_move`]).
-pub const CONTACT_GAP: f64 = 1e-3;

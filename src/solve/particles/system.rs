@@ -22,6 +22,7 @@ use super::fluid::FluidStage;
 use super::plastic::PlasticBodies;
 use super::repulsion::Repulsion;
 use super::static_friction::StaticFriction;
+use super::two_level::TwoLevel;
 
 /// The particle family's working set.
 pub(crate) struct ParticleSystem<T: Real> {
@@ -59,6 +60,9 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub timings: ParticleTimings,
     /// The coarse problem on the bodies' translations ([`super::coarse`], [`super::coarse_problem`]; reused).
     pub coarse: Coarse,
+    /// The two-level correction of the Jacobi sweep on aggregates ([`super::two_level`]),
+    /// once a step asked for it and some body takes part.
+    pub two_level: Option<TwoLevel>,
     /// The granular bodies' static friction (eq. 28), if any has it.
     pub static_friction: Option<StaticFriction<T>>,
     /// Per particle, whether it yielded at the end of the last step (reused).
@@ -117,6 +121,7 @@ impl<T: Real> ParticleSystem<T> {
             fluid: FluidStage::of(bodies)?,
             static_friction: StaticFriction::of(bodies),
             coarse: Coarse::new(solid),
+            two_level: None,
             yielded: vec![false; n],
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
@@ -185,6 +190,7 @@ impl<T: Real> ParticleSystem<T> {
             self.current.resize_bonds(bonds);
             self.trial.resize_bonds(bonds);
             self.direct = None;
+            self.two_level = None;
         } else {
             self.current.valid = false;
             self.trial.valid = false;
