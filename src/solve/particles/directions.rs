@@ -95,19 +95,26 @@ pub(crate) fn position_averaging<T: Real>(sys: &mut ParticleSystem<T>, h2: T) {
 }
 
 /// Builds the two-level correction ([`super::two_level`]) on the first step that asks for it,
-/// if some particle takes part.
+/// if some particle takes part (of a solid body that is not plastic), and readies it for the
+/// step.
 pub(crate) fn prepare_two_level<T: Real>(sys: &mut ParticleSystem<T>) -> Result<()> {
     if sys.two_level.is_none() {
-        let plastic = sys.plastic.is_some();
-        sys.two_level =
-            TwoLevel::of_bodies(&sys.rest, &sys.points.ranges, &sys.coarse.solid, plastic)?;
+        let plastic = sys.plastic.as_ref();
+        let takes_part: Vec<bool> = (sys.coarse.solid.iter().enumerate())
+            .map(|(b, &solid)| solid && !plastic.is_some_and(|p| p.is_plastic(b)))
+            .collect();
+        sys.two_level = TwoLevel::of_bodies(&sys.rest, &sys.points.ranges, &takes_part)?;
+    }
+    if let Some(two) = &mut sys.two_level {
+        two.start_step();
     }
     Ok(())
 }
 
 /// Adds the two-level correction to the sweep's move `sys.delta` from the residual at the
-/// current iterate; `coupled` holds another family's reaction per particle. A failed
-/// factorisation leaves the move alone and is reported at the end of the step.
+/// current iterate, after the step's first iteration ([`super::two_level`], "When");
+/// `coupled` holds another family's reaction per particle. A failed factorisation leaves the
+/// move alone and is reported at the end of the step.
 pub(crate) fn two_level_correction<T: Real>(
     sys: &mut ParticleSystem<T>,
     h: T,
@@ -117,8 +124,14 @@ pub(crate) fn two_level_correction<T: Real>(
     let Some(two) = &mut sys.two_level else {
         return;
     };
+    if !two.past_first_iteration() {
+        return;
+    }
     let (points, repulsion) = (&sys.points, sys.repulsion.as_ref());
     two.hold(
+        &sys.rest,
+        &sys.current.residual,
+        h,
         points,
         &sys.touched,
         &sys.delta,

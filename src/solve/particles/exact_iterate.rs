@@ -8,7 +8,7 @@
 //! by only `sqrt(w - 1)` per iteration, so the rounding it meets at every iteration adds up to
 //! several ulps; the residual changes by `D_i` per metre a particle moves, so those ulps leave
 //! `|r_i| / m_i` at several times its round-off floor `eps |y_i| D_i / m_i`
-//! ([`super::step::residual_floor`]) all over the body, and the step never converges. Kept here
+//! ([`super::roundoff::residual_floor`]) all over the body, and the step never converges. Kept here
 //! in `f64`, the sequence's own iterates carry no rounding: the kernel sees `y^k` rounded, and
 //! the Jacobi move from it, `z = y^k + D^-1 r(y^k)`, is the move from the unrounded iterate but
 //! for the off-diagonal couplings of the rounding (the diagonal part of `A (y - y_rounded)` is

@@ -20,6 +20,7 @@ mod fluid_viscosity;
 mod grain_friction;
 mod plastic;
 mod repulsion;
+mod roundoff;
 mod static_friction;
 mod step;
 mod system;

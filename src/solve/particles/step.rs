@@ -50,6 +50,7 @@ use super::contact_gap::contact_reach;
 use super::direct::DirectSolver;
 use super::directions::{jacobi, position_averaging, two_level_correction};
 use super::exact_iterate::known;
+use super::roundoff::residual_floor;
 use super::system::ParticleSystem;
 use crate::timing::millis;
 
@@ -57,26 +58,6 @@ use crate::timing::millis;
 pub const ARMIJO_SIGMA: f64 = 1e-4;
 /// Most halvings of the step length in one line search (`alpha >= 1/16`).
 pub const MAX_HALVINGS: usize = 4;
-/// The round-off floor of a particle's residual per unit mass, in units of
-/// `eps |y_i| D_i / m_i` (m; [`residual_floor`]). Where an f32 iteration stalls it can leave
-/// more (about 3 on a 12^3 cube after an impact: the extrapolation rounds every position
-/// again at each iteration, and a particle's residual sums its neighbours' errors): such a
-/// step reports not converged. A larger factor would let it stop, but lets f32 stop further
-/// from f64 (a clamped beam at tol 1e-7 m: 2e-5 m apart with 4, within 1e-5 m with 1).
-pub const ROUNDOFF_FACTOR: f64 = 1.0;
-
-/// The round-off floor (m) of particle `i`'s residual per unit mass `|r_i| / m_i` at `y_i`,
-/// with the Jacobi diagonal `d = D_i` and mass `m = m_i` (kg): `c eps |y_i| D_i / m_i`
-/// (`c` = [`ROUNDOFF_FACTOR`], `eps` the precision's machine epsilon). A position is stored to
-/// `eps |y_i|`, and the residual changes by `D_i` per metre a particle moves, so no stored
-/// iterate brings `|r_i| / m_i` much lower, whatever the iteration (docs/model.md,
-/// "Convergence measure"): 25K particles of E 2e5 Pa in a 0.1 m cube at h = 1/30 s have
-/// `D_i / m_i` about 5e4, a floor near 5e-4 m in f32 (1e-12 m in f64).
-#[inline(always)]
-pub(crate) fn residual_floor<T: Real>(y: &Vector3<T>, d: T, m: T) -> f64 {
-    ROUNDOFF_FACTOR * T::default_epsilon().to_f64() * y.norm().to_f64() * (d / m).to_f64()
-}
-
 /// The move of one global iteration, from the evaluation at the current iterate `y`, into
 /// `y_next`, and its measures (the direct solver factored by [`prepare_direct`]). With a line
 /// search the evaluation at `y_next` is left as the current one (see the module's doc); the
@@ -101,11 +82,7 @@ pub(crate) fn global_move<T: Real>(
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
             jacobi(sys, h2, options.inner_iters);
             coarse::correct(sys, options.colliders, options.contact_reaction);
-            // Below the merit's round-off floor the move is round-off (a body at rest or in
-            // free fall): the correction would only cost.
-            if merit > noise {
-                two_level_correction(sys, h, options.colliders, options.contact_reaction);
-            }
+            two_level_correction(sys, h, options.colliders, options.contact_reaction);
         }
         GlobalSolver::Position => position_averaging(sys, h2),
         GlobalSolver::Direct => direct_move(sys, h, options.colliders),

@@ -43,8 +43,13 @@
 //! particles within reach of a partner and moving them by the repulsion's last move in the
 //! restriction left 2e-3 m), a cause not found (issue 38).
 //!
-//! **When.** The correction is skipped where the merit is below its round-off floor (a body
-//! at rest or in free fall, whose move is round-off), and off with `two_level=False`
+//! **When.** Not in a step's first iteration: its convergence measure is taken at the
+//! iterate before the move, so a step that converges there (a body at rest) gains nothing from
+//! the correction, whose held set differs from the last step's (`touched` starts empty) and
+//! would refactor the coarse matrix every step. A body whose merit `sum_i |r_i|^2 / m_i`
+//! (kg m^2, over its own particles) is below its round-off floor is held whole (its move is
+//! round-off: at rest or in free fall), each body by its own merit, so that a body's iterates
+//! do not depend on another body's it does not touch. Off with `two_level=False`
 //! ([`crate::solve::SolverParams::particle_two_level`]).
 //!
 //! **Aggregates.** Plain aggregation on the bond graph, once per working set, in particle
@@ -52,14 +57,16 @@
 //! founds an aggregate of itself and them (about the 30 particles of a horizon); a leftover
 //! joins the aggregate of its first aggregated neighbour, else founds one with its
 //! unaggregated neighbours. Granular and fluid bodies take no part (their particles are held
-//! by their own constraints, not by bonds), nor does a family with a plastic body (its bonds
-//! change every step); their particles have no aggregate.
+//! by their own constraints, not by bonds), nor does a plastic body (its bonds change every
+//! step); their particles have no aggregate. When a plastic body's neighbourhoods change the
+//! family's bonds are renumbered, and the correction is built anew ([`super::plastic`]).
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::collider::ColliderModel;
 use crate::error::{invalid, Result};
+use crate::parallel::chunked_sum;
 use crate::particles::ParticleRest;
 use crate::real::Real;
 use crate::solve::points::Points;
@@ -67,6 +74,7 @@ use crate::sparse_llt::SparseLlt;
 
 use super::contact_gap::contact_reach;
 use super::repulsion::Repulsion;
+use super::roundoff::residual_floor;
 
 /// No aggregate (a particle of a body that takes no part), or no slot (a bond whose entry is
 /// in the upper triangle or outside the coarse matrix).
@@ -92,6 +100,10 @@ pub(crate) struct TwoLevel {
     held_move: Vec<Vector3<f64>>,
     /// Numeric factorisations since the last [`Self::take_factorizations`].
     factorizations: usize,
+    /// Whether the step's first iteration is still to come ([`Self::past_first_iteration`]).
+    first_iteration: bool,
+    /// Partial sums of a body's merit and its floor (reused).
+    chunks: Vec<f64>,
 }
 
 impl TwoLevel {
@@ -165,7 +177,20 @@ impl TwoLevel {
             remainder: vec![Vector3::zeros(); n],
             held_move: vec![Vector3::zeros(); n],
             factorizations: 0,
+            first_iteration: true,
+            chunks: Vec::new(),
         })
+    }
+
+    /// Readies the correction for a step: it waits for the step's second iteration (module
+    /// doc, "When").
+    pub fn start_step(&mut self) {
+        self.first_iteration = true;
+    }
+
+    /// Whether the step's first iteration is over; marks it over.
+    pub fn past_first_iteration(&mut self) -> bool {
+        !std::mem::replace(&mut self.first_iteration, false)
     }
 
     /// Numeric factorisations since the last call (a measure for [`crate::solve::StepStats`]).
@@ -214,19 +239,16 @@ impl TwoLevel {
     }
 
     /// The correction for the particle bodies `ranges` of the working set `rest`, if some
-    /// particle takes part: every particle of a solid body (`solid[b]`: not granular, no
-    /// fluid particle) when no body is plastic (`plastic`).
+    /// particle takes part: every particle of a body that `takes_part` marks (an elastic
+    /// solid: not granular, no fluid particle, not plastic).
     pub fn of_bodies<T: Real>(
         rest: &ParticleRest<T>,
         ranges: &[std::ops::Range<usize>],
-        solid: &[bool],
-        plastic: bool,
+        takes_part: &[bool],
     ) -> Result<Option<Self>> {
         let mut part = vec![false; rest.len()];
-        if !plastic {
-            for (range, &solid) in ranges.iter().zip(solid) {
-                part[range.clone()].fill(solid);
-            }
+        for (range, &takes_part) in ranges.iter().zip(takes_part) {
+            part[range.clone()].fill(takes_part);
         }
         if !part.iter().any(|&p| p) {
             return Ok(None);
@@ -238,11 +260,16 @@ impl TwoLevel {
     /// pinned, touched in the last trial (`touched`), with another family's reaction
     /// (`coupled`), or within the contact reach of a collider at `y` or `y + delta`; and
     /// stores a held particle's move: the sweep's, out of the colliders along their normals.
-    /// Then frees no particle of a body that holds none or that is within the contact reach
-    /// of one of its `repulsion` partners (another body's particle, at `y` or `y + delta`):
-    /// module doc, "Who takes part".
+    /// Then frees no particle of a body that holds none, that is within the contact reach
+    /// of one of its `repulsion` partners (another body's particle, at `y` or `y + delta`),
+    /// or whose merit from the `residual` (kg m) at time step `h` (s) is below its round-off
+    /// floor: module doc, "Who takes part" and "When".
+    #[allow(clippy::too_many_arguments)]
     pub fn hold<T: Real>(
         &mut self,
+        rest: &ParticleRest<T>,
+        residual: &[Vector3<T>],
+        h: T,
         points: &Points<T>,
         touched: &[bool],
         delta: &[Vector3<T>],
@@ -278,7 +305,21 @@ impl TwoLevel {
                 *free = aggregate[i] != NONE && !held;
                 *held_move = moved.map(|c| c.to_f64());
             });
+        let h2 = h * h;
         for range in &points.ranges {
+            if !self.free[range.clone()].iter().any(|&f| f) {
+                continue;
+            }
+            let start = range.start;
+            let merit = chunked_sum(range.len(), &mut self.chunks, |k| {
+                let i = start + k;
+                residual[i].norm_squared().to_f64() / points.mass[i].to_f64()
+            });
+            let floor = chunked_sum(range.len(), &mut self.chunks, |k| {
+                let i = start + k;
+                let nu = residual_floor(&points.y[i], rest.diagonal(i, h2), points.mass[i]);
+                points.mass[i].to_f64() * nu * nu
+            });
             let touches_a_body = repulsion.is_some_and(|rep| {
                 range.clone().any(|i| {
                     rep.partners(i).iter().any(|&j| {
@@ -289,7 +330,8 @@ impl TwoLevel {
                     })
                 })
             });
-            if touches_a_body || self.free[range.clone()].iter().all(|&f| f) {
+            let holds_none = self.free[range.clone()].iter().all(|&f| f);
+            if merit <= floor || touches_a_body || holds_none {
                 self.free[range.clone()].fill(false);
             }
         }
@@ -297,8 +339,8 @@ impl TwoLevel {
 
     /// Adds the coarse-grid correction `P e` and one Jacobi post-smoothing sweep to the
     /// sweep's move `delta` (m) from the residual `residual` (kg m) of eq. 12 at time step
-    /// `h` (s), with the held set of the last [`Self::hold`]. On a failed factorisation the
-    /// move is left alone.
+    /// `h` (s), with the held set of the last [`Self::hold`] (nothing when it frees no
+    /// particle). On a failed factorisation the move is left alone.
     pub fn correct<T: Real>(
         &mut self,
         rest: &ParticleRest<T>,
@@ -306,6 +348,9 @@ impl TwoLevel {
         delta: &mut [Vector3<T>],
         h: T,
     ) -> Result<()> {
+        if !self.free.iter().any(|&f| f) {
+            return Ok(());
+        }
         let h2 = h.to_f64() * h.to_f64();
         self.factor(rest, h.to_f64())?;
         {
