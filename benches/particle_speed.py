@@ -75,6 +75,9 @@ def one_size(args) -> dict:
         "ms_per_step": med("total_ms"), "cpu_ms_per_step": med("cpu_ms"),
         "iterations_median": med("iterations"),
         "iterations_per_step": [r["iterations"] for r in rows],
+        "ms_each_step": [r["total_ms"] for r in rows],
+        "cpu_ms_each_step": [r["cpu_ms"] for r in rows],
+        "factorizations_per_step": [r.get("factorizations", 0) for r in rows],
         "evaluations_median": med("evaluations"),
         # The cost of one iteration: the steps' times summed over their iterations summed.
         "ms_per_iteration": total("total_ms") / iterations,

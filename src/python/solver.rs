@@ -95,7 +95,8 @@ impl PySolver {
                         chebyshev_delay = None,
                         record_energy = false, method = "sissm", inner_iters = Int::of(1),
                         backend = "cpu", contact = None, global_solver = "chebyshev",
-                        particle_tol = Real::of(SolverParams::DEFAULT_PARTICLE_TOL)))]
+                        particle_tol = Real::of(SolverParams::DEFAULT_PARTICLE_TOL),
+                        two_level = true))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: Real,
@@ -116,6 +117,7 @@ impl PySolver {
         contact: Option<PyRef<'_, PyContact>>,
         global_solver: &str,
         particle_tol: Real,
+        two_level: bool,
     ) -> PyResult<Self> {
         let dt = dt.get("dt")?;
         let tol = tol.get("tol")?;
@@ -196,6 +198,7 @@ impl PySolver {
             global_solver,
             particle_chebyshev_rho: chebyshev_rho,
             particle_chebyshev_delay: chebyshev_delay,
+            particle_two_level: two_level,
         };
         let backend = BACKEND.parse(backend)?;
         let precision = precision.map(|p| PRECISION.parse(p)).transpose()?;

@@ -108,10 +108,22 @@ pub(crate) fn extrapolated<T: Real>(
     colliders: &[ColliderModel<T>],
 ) -> Vector3<T> {
     let moved = (z - previous) * w + previous;
-    let reach = (moved - z).norm() + margin;
-    if colliders.iter().all(|c| c.signed_distance(z) > reach) {
+    if clear_of_colliders(z, &moved, margin, colliders) {
         moved
     } else {
         *z
     }
+}
+
+/// Whether the move from `z` to `moved` cannot reach into a collider: the signed distance of
+/// `z` to each, beyond `margin` (m), exceeds the move's length.
+#[inline(always)]
+pub(crate) fn clear_of_colliders<T: Real>(
+    z: &Vector3<T>,
+    moved: &Vector3<T>,
+    margin: T,
+    colliders: &[ColliderModel<T>],
+) -> bool {
+    let reach = (moved - z).norm() + margin;
+    colliders.iter().all(|c| c.signed_distance(z) > reach)
 }

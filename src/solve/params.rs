@@ -44,6 +44,12 @@ pub struct SolverParams {
     /// The plain iterations (>= 1) before the particles' Chebyshev acceleration extrapolates,
     /// over the `acceleration`'s (`None`: as [`GlobalSolver::acceleration`] says).
     pub particle_chebyshev_delay: Option<usize>,
+    /// Whether particle bodies' Jacobi and Chebyshev sweeps take the two-level correction on
+    /// aggregates of about 30 particles (`src/solve/particles/two_level.rs`): a sparse
+    /// Cholesky factor of the coarse matrix each time the time step or the held set (pins,
+    /// contacts) changes, and two passes over the bonds per iteration, for fewer iterations
+    /// wherever a body's slow elastic modes hold the step (a landing, a stretched body).
+    pub particle_two_level: bool,
 }
 
 /// The global solver of particle bodies (He et al. 2017, section 4.2, Fig. 7): how the move
@@ -173,6 +179,7 @@ impl Default for SolverParams {
             global_solver: GlobalSolver::default(),
             particle_chebyshev_rho: None,
             particle_chebyshev_delay: None,
+            particle_two_level: true,
         }
     }
 }

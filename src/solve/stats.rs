@@ -68,7 +68,8 @@ pub struct ParticleTimings {
     pub project: f64,
     /// Kernel passes of the step (at the iterates and at the line search's trials).
     pub evaluations: usize,
-    /// Numeric factorisations of the direct solver's matrix.
+    /// Numeric factorisations of the direct solver's matrix or of the two-level correction's
+    /// coarse matrix (`src/solve/particles/two_level.rs`).
     pub factorizations: usize,
     /// Particles of granular bodies that static friction held at the end of the step (He et
     /// al. 2017, eq. 28).

@@ -218,9 +218,9 @@ fn apply<T: Real>(sys: &mut ParticleSystem<T>, coarse: &Coarse) {
             .par_iter_mut()
             .for_each(|d| *d += t);
         if history {
-            points.y_prev[range.clone()]
-                .par_iter_mut()
-                .for_each(|p| *p += t);
+            let exact = &coarse.translation[b];
+            sys.exact
+                .shift_previous(range.clone(), &mut points.y_prev, exact);
         }
     }
 }

@@ -11,15 +11,21 @@
 //!   averaging of position-based dynamics, in residual form);
 //! - direct: [`super::direct::DirectSolver`].
 //!
+//! Jacobi and Chebyshev's sweep is followed by the bodies' coarse translations
+//! ([`super::coarse`]) and the two-level correction on aggregates ([`super::two_level`]).
+//!
 //! Each particle's move is computed alone from the previous sweep, so the results are the same
 //! for any number of threads.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use crate::collider::ColliderModel;
+use crate::error::Result;
 use crate::real::Real;
 
 use super::system::ParticleSystem;
+use super::two_level::TwoLevel;
 
 /// `inner` Jacobi sweeps on `(M + h^2 L) delta = r` from `delta = 0`, into `sys.delta`.
 pub(crate) fn jacobi<T: Real>(sys: &mut ParticleSystem<T>, h2: T, inner: usize) {
@@ -86,4 +92,54 @@ pub(crate) fn position_averaging<T: Real>(sys: &mut ParticleSystem<T>, h2: T) {
         });
     }
     sys.delta = delta;
+}
+
+/// Builds the two-level correction ([`super::two_level`]) on the first step that asks for it,
+/// if some particle takes part (of a solid body that is not plastic), and readies it for the
+/// step.
+pub(crate) fn prepare_two_level<T: Real>(sys: &mut ParticleSystem<T>) -> Result<()> {
+    if sys.two_level.is_none() {
+        let plastic = sys.plastic.as_ref();
+        let takes_part: Vec<bool> = (sys.coarse.solid.iter().enumerate())
+            .map(|(b, &solid)| solid && !plastic.is_some_and(|p| p.is_plastic(b)))
+            .collect();
+        sys.two_level = TwoLevel::of_bodies(&sys.rest, &sys.points.ranges, &takes_part)?;
+    }
+    if let Some(two) = &mut sys.two_level {
+        two.start_step();
+    }
+    Ok(())
+}
+
+/// Adds the two-level correction to the sweep's move `sys.delta` from the residual at the
+/// current iterate, after the step's first iteration ([`super::two_level`], "When");
+/// `coupled` holds another family's reaction per particle. A failed factorisation leaves the
+/// move alone and is reported at the end of the step.
+pub(crate) fn two_level_correction<T: Real>(
+    sys: &mut ParticleSystem<T>,
+    h: T,
+    colliders: &[ColliderModel<T>],
+    coupled: &[Vector3<T>],
+) {
+    let Some(two) = &mut sys.two_level else {
+        return;
+    };
+    if !two.past_first_iteration() {
+        return;
+    }
+    let (points, repulsion) = (&sys.points, sys.repulsion.as_ref());
+    two.hold(
+        &sys.rest,
+        &sys.current.residual,
+        h,
+        points,
+        &sys.touched,
+        &sys.delta,
+        colliders,
+        coupled,
+        repulsion,
+    );
+    if let Err(e) = two.correct(&sys.rest, &sys.current.residual, &mut sys.delta, h) {
+        sys.failure.get_or_insert(e);
+    }
 }

@@ -13,6 +13,7 @@ use crate::solve::update::{MoveOptions, Update};
 use crate::solve::{Acceleration, GlobalSolver, ParticleTimings, SolverParams, StepStats, Timings};
 
 use super::chebyshev::Chebyshev;
+use super::directions::prepare_two_level;
 use super::step::{global_move, prepare_direct};
 use super::system::ParticleSystem;
 
@@ -50,17 +51,23 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn threshold(&self, params: &SolverParams) -> f64 {
         params.particle_threshold()
     }
-    /// Readies the direct solver when it is asked for; the fluids' viscosity acts on the
+    /// Readies the direct solver or the two-level correction when it is asked for; the fluids' viscosity acts on the
     /// velocities before the prediction ([`super::fluid`]).
     fn start_step(&mut self, params: &SolverParams) -> Result<()> {
         self.timings = ParticleTimings::default();
         self.chebyshev = Chebyshev::start(params);
+        self.exact.forget();
         // Which particles a collider or the repulsion moved is the step's own: the coarse step
         // ([`super::coarse`]) must not read the last step's, which no state file holds (a run
         // continued from one would part from the run that went on).
         self.touched.fill(false);
-        if params.global_solver == GlobalSolver::Direct {
-            prepare_direct(self)?;
+        match params.global_solver {
+            GlobalSolver::Direct => prepare_direct(self)?,
+            GlobalSolver::Jacobi | GlobalSolver::Chebyshev if params.particle_two_level => {
+                prepare_two_level(self)?
+            }
+            GlobalSolver::Jacobi | GlobalSolver::Chebyshev => self.two_level = None,
+            GlobalSolver::Position => {}
         }
         if let Some(fluid) = &mut self.fluid {
             let gravity = Vector3::from(params.gravity).map(T::of);
@@ -112,6 +119,9 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn report(&mut self, stats: &mut StepStats) {
         if let Some(direct) = &mut self.direct {
             self.timings.factorizations += direct.take_factorizations();
+        }
+        if let Some(two_level) = &mut self.two_level {
+            self.timings.factorizations += two_level.take_factorizations();
         }
         stats.particles = std::mem::take(&mut self.timings);
     }

@@ -6,21 +6,25 @@
 mod chebyshev;
 mod coarse;
 mod coarse_problem;
+mod contact_gap;
 mod density_rest;
 mod density_system;
 mod density_walls;
 mod direct;
 mod directions;
 mod evaluation;
+mod exact_iterate;
 mod family;
 mod fluid;
 mod fluid_viscosity;
 mod grain_friction;
 mod plastic;
 mod repulsion;
+mod roundoff;
 mod static_friction;
 mod step;
 mod system;
+mod two_level;
 
 pub(crate) use system::ParticleSystem;
 

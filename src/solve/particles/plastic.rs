@@ -90,6 +90,11 @@ impl PlasticBodies {
         })
     }
 
+    /// Whether body `b` of the family is plastic (has a yield law).
+    pub fn is_plastic(&self, b: usize) -> bool {
+        self.entries[b].law.is_some()
+    }
+
     /// The returns of eq. 18-19 at the solved positions `y` (m), the first half of the
     /// plastic end of a step: marks in `yielded` (one flag per particle of the family) the
     /// particles that yielded, and returns how many did.

@@ -38,7 +38,7 @@ use rayon::prelude::*;
 use crate::collider::{push_out_with_friction, ColliderModel};
 use crate::parallel::chunked_sum;
 use crate::real::Real;
-use crate::solve::collider_passes::extrapolated;
+use crate::solve::collider_passes::clear_of_colliders;
 use crate::solve::points::Points;
 use crate::solve::update::{MoveOptions, Update};
 use crate::solve::GlobalSolver;
@@ -46,8 +46,11 @@ use crate::symmetric::SymmetricMatrix3;
 
 use super::chebyshev::GROWTH;
 use super::coarse;
+use super::contact_gap::contact_reach;
 use super::direct::DirectSolver;
-use super::directions::{jacobi, position_averaging};
+use super::directions::{jacobi, position_averaging, two_level_correction};
+use super::exact_iterate::known;
+use super::roundoff::residual_floor;
 use super::system::ParticleSystem;
 use crate::timing::millis;
 
@@ -55,26 +58,6 @@ use crate::timing::millis;
 pub const ARMIJO_SIGMA: f64 = 1e-4;
 /// Most halvings of the step length in one line search (`alpha >= 1/16`).
 pub const MAX_HALVINGS: usize = 4;
-/// The round-off floor of a particle's residual per unit mass, in units of
-/// `eps |y_i| D_i / m_i` (m; [`residual_floor`]). Where an f32 iteration stalls it can leave
-/// more (about 3 on a 12^3 cube after an impact: the extrapolation rounds every position
-/// again at each iteration, and a particle's residual sums its neighbours' errors): such a
-/// step reports not converged. A larger factor would let it stop, but lets f32 stop further
-/// from f64 (a clamped beam at tol 1e-7 m: 2e-5 m apart with 4, within 1e-5 m with 1).
-pub const ROUNDOFF_FACTOR: f64 = 1.0;
-
-/// The round-off floor (m) of particle `i`'s residual per unit mass `|r_i| / m_i` at `y_i`,
-/// with the Jacobi diagonal `d = D_i` and mass `m = m_i` (kg): `c eps |y_i| D_i / m_i`
-/// (`c` = [`ROUNDOFF_FACTOR`], `eps` the precision's machine epsilon). A position is stored to
-/// `eps |y_i|`, and the residual changes by `D_i` per metre a particle moves, so no stored
-/// iterate brings `|r_i| / m_i` much lower, whatever the iteration (docs/model.md,
-/// "Convergence measure"): 25K particles of E 2e5 Pa in a 0.1 m cube at h = 1/30 s have
-/// `D_i / m_i` about 5e4, a floor near 5e-4 m in f32 (1e-12 m in f64).
-#[inline(always)]
-pub(crate) fn residual_floor<T: Real>(y: &Vector3<T>, d: T, m: T) -> f64 {
-    ROUNDOFF_FACTOR * T::default_epsilon().to_f64() * y.norm().to_f64() * (d / m).to_f64()
-}
-
 /// The move of one global iteration, from the evaluation at the current iterate `y`, into
 /// `y_next`, and its measures (the direct solver factored by [`prepare_direct`]). With a line
 /// search the evaluation at `y_next` is left as the current one (see the module's doc); the
@@ -87,16 +70,19 @@ pub(crate) fn global_move<T: Real>(
     options: &MoveOptions<'_, T>,
 ) -> Update {
     let h2 = h * h;
+    sys.exact.advance();
     let started = Instant::now();
     let merit = sys
         .current
         .residual_merit(&sys.rest, &sys.points, h2, &mut sys.chunks);
+    let noise = merit_floor(sys, h2);
     sys.timings.residual += millis(started);
     let started = Instant::now();
     match options.global_solver {
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
             jacobi(sys, h2, options.inner_iters);
             coarse::correct(sys, options.colliders, options.contact_reaction);
+            two_level_correction(sys, h, options.colliders, options.contact_reaction);
         }
         GlobalSolver::Position => position_averaging(sys, h2),
         GlobalSolver::Direct => direct_move(sys, h, options.colliders),
@@ -104,7 +90,7 @@ pub(crate) fn global_move<T: Real>(
     sys.timings.solve += millis(started);
     let omega = sys.chebyshev.next(merit);
     let update = if options.step_length {
-        line_search(sys, h2, merit, omega, options)
+        line_search(sys, h2, merit, noise, omega, options)
     } else {
         propose(sys, h2, T::one(), omega, options)
     };
@@ -128,7 +114,7 @@ pub(crate) fn prepare_direct<T: Real>(sys: &mut ParticleSystem<T>) -> crate::err
 }
 
 /// The direct solver's move into `sys.delta`: the held set grows by the particles that touch
-/// a collider at the current iterate (within [`CONTACT_GAP`] of their margin) and keeps the
+/// a collider at the current iterate ([`contact_reach`]) and keeps the
 /// ones that touched earlier in the step, so that it changes, and the matrix is refactored,
 /// only as contacts form (see [`DirectSolver`]). Should a factorisation fail, the move is one
 /// Jacobi sweep and the failure is reported at the end of the step.
@@ -136,7 +122,7 @@ fn direct_move<T: Real>(sys: &mut ParticleSystem<T>, h: T, colliders: &[Collider
     {
         let points = &sys.points;
         sys.held.par_iter_mut().enumerate().for_each(|(i, held)| {
-            let reach = points.margin[i] * (T::one() + T::of(CONTACT_GAP));
+            let reach = contact_reach(points.margin[i]);
             *held |= points.pinned[i]
                 || Points::colliders_of(&points.collides, i, colliders)
                     .iter()
@@ -154,7 +140,8 @@ fn direct_move<T: Real>(sys: &mut ParticleSystem<T>, h: T, colliders: &[Collider
 }
 
 /// The line search of the module's doc over the trials `y_next` ([`propose`]), from the merit
-/// `merit` (kg m^2) at `y` and the sequence's weight `omega`; returns the accepted trial's
+/// `merit` (kg m^2) at `y`, its round-off floor `noise` ([`merit_floor`]) and the sequence's
+/// weight `omega`; returns the accepted trial's
 /// measures and leaves its evaluation as the current one.
 ///
 /// Below the merit's round-off floor ([`merit_floor`]) the merit cannot tell a decrease from
@@ -165,10 +152,10 @@ fn line_search<T: Real>(
     sys: &mut ParticleSystem<T>,
     h2: T,
     merit: f64,
+    noise: f64,
     mut omega: Option<T>,
     options: &MoveOptions<'_, T>,
 ) -> Update {
-    let noise = merit_floor(sys, h2);
     let (mut alpha, mut halvings) = (T::one(), 0);
     loop {
         let update = propose(sys, h2, alpha, omega, options);
@@ -262,6 +249,7 @@ fn propose<T: Real>(
     }
     let mut y_next = std::mem::take(&mut sys.points.y_next);
     let mut touched = std::mem::take(&mut sys.touched);
+    let mut exact_next = std::mem::take(&mut sys.exact.next);
     let sys_ref = &*sys;
     let (points, residual) = (&sys_ref.points, &sys_ref.current.residual);
     // Whether every collider is frictionless (the projected extrapolation's condition), once
@@ -270,12 +258,14 @@ fn propose<T: Real>(
     let update = y_next
         .par_iter_mut()
         .zip(touched.par_iter_mut())
+        .zip(exact_next.par_iter_mut())
         .enumerate()
-        .map(|(i, (next, touched))| {
+        .map(|(i, ((next, touched), exact_next))| {
             let y = &points.y[i];
             *touched = false;
             if points.pinned[i] {
                 *next = *y;
+                *exact_next = wide(y);
                 return Update::NONE;
             }
             let d = sys_ref.diagonal(i, h2);
@@ -299,17 +289,29 @@ fn propose<T: Real>(
                 push(whole + repelled) - whole
             };
             *touched = *next != free_move;
+            // The trial unrounded ([`super::exact_iterate`]): an untouched particle's move
+            // `y + alpha delta` formed in f64, extrapolated from the unrounded `y^{k-1}` and
+            // rounded once.
+            let mut exact = if *touched {
+                wide(next)
+            } else {
+                wide(y) + wide(&sys_ref.delta[i]) * alpha.to_f64()
+            };
             if let Some(w) = omega {
-                let previous = &points.y_prev[i];
+                let previous = sys_ref.exact.previous(i, &points.y_prev[i]);
+                let moved = (exact - previous) * w.to_f64() + previous;
+                let rounded = moved.map(T::of);
                 if repelled == Vector3::zeros() && (frictionless || colliders.is_empty()) {
                     // Projected extrapolation: the contact layer is accelerated with the rest.
-                    let moved = (*next - previous) * w + previous;
-                    *next = push(moved);
-                    *touched |= *next != moved;
-                } else if !*touched {
-                    *next = extrapolated(next, previous, w, margin, colliders);
+                    *next = push(rounded);
+                    *touched |= *next != rounded;
+                    exact = moved;
+                } else if !*touched && clear_of_colliders(next, &rounded, margin, colliders) {
+                    *next = rounded;
+                    exact = moved;
                 }
             }
+            *exact_next = known(&exact, next);
             // With another family's reaction on the particle (a membrane's, `crate::solve::coupling`).
             let coupled = options.contact_reaction.get(i).copied().unwrap_or_default();
             let free = (residual[i] + (reaction + coupled) * d) / points.mass[i];
@@ -321,10 +323,13 @@ fn propose<T: Real>(
         .reduce(|| Update::NONE, Update::merge);
     sys.points.y_next = y_next;
     sys.touched = touched;
+    sys.exact.next = exact_next;
     sys.timings.project += millis(started);
     update
 }
 
-/// How close to its margin (a fraction of the margin) a particle counts as touching a
-/// collider for the direct solver ([`direct_move`]).
-pub const CONTACT_GAP: f64 = 1e-3;
+/// `v` in f64 (m).
+#[inline(always)]
+fn wide<T: Real>(v: &Vector3<T>) -> Vector3<f64> {
+    v.map(|c| c.to_f64())
+}

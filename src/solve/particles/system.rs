@@ -17,10 +17,12 @@ use super::chebyshev::Chebyshev;
 use super::coarse_problem::Coarse;
 use super::direct::DirectSolver;
 use super::evaluation::Evaluation;
+use super::exact_iterate::ExactIterates;
 use super::fluid::FluidStage;
 use super::plastic::PlasticBodies;
 use super::repulsion::Repulsion;
 use super::static_friction::StaticFriction;
+use super::two_level::TwoLevel;
 
 /// The particle family's working set.
 pub(crate) struct ParticleSystem<T: Real> {
@@ -41,8 +43,10 @@ pub(crate) struct ParticleSystem<T: Real> {
     /// The particles a collider or the repulsion moved in the step's last trial
     /// ([`super::step`]; empty at the step's start).
     pub touched: Vec<bool>,
-    /// The step's Chebyshev sequence, which the line search restarts ([`super::chebyshev`]).
+    /// The step's Chebyshev sequence, which the line search restarts ([`super::chebyshev`]),
+    /// and its iterates before rounding ([`super::exact_iterate`]).
     pub chebyshev: Chebyshev,
+    pub exact: ExactIterates,
     pub failure: Option<crate::error::Error>,
     /// The minimum distance between bodies (none for a single body).
     pub repulsion: Option<Repulsion<T>>,
@@ -56,6 +60,9 @@ pub(crate) struct ParticleSystem<T: Real> {
     pub timings: ParticleTimings,
     /// The coarse problem on the bodies' translations ([`super::coarse`], [`super::coarse_problem`]; reused).
     pub coarse: Coarse,
+    /// The two-level correction of the Jacobi sweep on aggregates ([`super::two_level`]),
+    /// once a step asked for it and some body takes part.
+    pub two_level: Option<TwoLevel>,
     /// The granular bodies' static friction (eq. 28), if any has it.
     pub static_friction: Option<StaticFriction<T>>,
     /// Per particle, whether it yielded at the end of the last step (reused).
@@ -115,12 +122,14 @@ impl<T: Real> ParticleSystem<T> {
             held: vec![false; n],
             touched: vec![false; n],
             chebyshev: Chebyshev::default(),
+            exact: ExactIterates::new(n),
             failure: None,
             chunks: Vec::new(),
             plastic: PlasticBodies::of(bodies),
             fluid: FluidStage::of(bodies)?,
             static_friction: StaticFriction::of(bodies),
             coarse: Coarse::new(solid),
+            two_level: None,
             yielded: vec![false; n],
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
@@ -228,6 +237,7 @@ impl<T: Real> ParticleSystem<T> {
             self.current.resize_bonds(bonds);
             self.trial.resize_bonds(bonds);
             self.direct = None;
+            self.two_level = None;
         } else {
             self.current.valid = false;
             self.trial.valid = false;
