@@ -148,8 +148,10 @@ def test_the_two_level_correction_cuts_the_stretched_blocks_residual():
 def test_a_falling_body_pays_nothing_for_the_two_level_correction():
     """A free-falling unstressed block (the move of each step is round-off once the
     prediction is implicit Euler's) converges in one iteration a step and never factors
-    the two-level coarse matrix: the correction is skipped below the merit's round-off
-    floor (a scene pays only for what it uses)."""
+    the two-level coarse matrix (a scene pays only for what it uses). The correction waits
+    for a step's second iteration and takes no body that holds no particle, so this checks
+    the step count and that no factorisation slips in through either rule; the round-off
+    skip itself is not what it exercises."""
     x = np.stack(np.meshgrid(*(np.arange(6) * 0.01,) * 3, indexing="ij"), -1).reshape(-1, 3)
     body = pd.Particles(x, spacing=0.01, density=1000.0, material=pd.Elastic.from_young(2e5, 0.25))
     solver = pd.Solver(dt=1 / 30)
