@@ -67,6 +67,19 @@ def cg_water():
     return block(pd.ViscoelasticFluid(viscosity=1e-3, density_solver="cg"), 1000.0)
 
 
+def rough_sand():
+    """Sand whose grains' contacts have friction (per-pair multipliers carried from step to
+    step, unsaved before format version 3: the continuation parted from the run) settling on
+    the floor; its lattice offset so that the grains land on each other unevenly."""
+    s = solver()
+    rng = np.random.default_rng(3)
+    x = lattice((5, 5, 4), (0, 0, 0.006)) + rng.uniform(-0.1, 0.1, (100, 3)) * S
+    sand = pd.Particles(x, spacing=S, density=1600.0,
+                        material=pd.Granular(friction_angle=30.0, contact_friction=0.5))
+    s.add(sand)
+    return s, [sand]
+
+
 def melts_to_honey(s, bodies):
     bodies[0].set_material(HONEY)
 
@@ -96,6 +109,7 @@ CASES = {
 #: Continuations whose material stays as set up: nothing else a step keeps may go unsaved.
 UNCHANGED = {
     "water by conjugate gradients on a floor": (cg_water, nothing),
+    "sand with contact friction": (rough_sand, nothing),
 }
 
 
@@ -127,9 +141,11 @@ def test_a_run_continued_from_a_file_equals_the_run_that_went_on(case, tmp_path)
             assert np.array_equal(copy.material_state[name], value), name
     if case == "wetted sand":
         assert bodies[0].saturation.max() > 0.1  # the liquid did wet the grains
-    if case in UNCHANGED:  # the water reached the floor and its constraints were solved
-        assert bodies[0].positions[:, 2].min() < 0.0051
+    if case == "water by conjugate gradients on a floor":  # the water reached the floor
+        assert bodies[0].positions[:, 2].min() < 0.0051  # and its constraints were solved
         assert s.step().particles["density_passes"] > 0
+    if case == "sand with contact friction":  # contacts carried friction into the next step
+        assert len(s.internal_state()["grain_contact_pairs"]) > 0
 
 
 def test_the_restore_matters():
@@ -248,3 +264,63 @@ def test_bad_material_states_are_refused_by_name():
     with pytest.raises(ValueError, match="wetted"):
         water.material_state = missing
     assert np.array_equal(sand.saturation, np.zeros(sand.num_particles))
+
+
+def test_a_moved_body_or_an_old_file_starts_the_grains_contact_friction_from_0(tmp_path):
+    """The grains' contact friction belongs to their contacts at the positions the run left:
+    positions set from outside start it from 0 (even the same positions: the solver cannot
+    tell), as a file of format version 2 (saved without it) does; both continuations agree to
+    the bit, and differ from the run that kept it."""
+    s, bodies = rough_sand()
+    run(s, bodies, nothing, SAVE)
+    path = pd.save_state(tmp_path / "state.npz", s)
+    old = {k: v for k, v in entries(path).items() if not k.startswith("internal_grain_contact_")}
+    old["format_version"] = np.array(2)
+    np.savez(tmp_path / "v2.npz", **old)
+    kept, kept_bodies = rough_sand()
+    pd.load_state(path, kept)
+    assert len(kept.internal_state()["grain_contact_pairs"]) > 0
+    fresh, copies = rough_sand()
+    pd.load_state(tmp_path / "v2.npz", fresh)
+    assert len(fresh.internal_state()["grain_contact_pairs"]) == 0
+    bodies[0].positions = bodies[0].positions
+    for solver, b in [(s, bodies), (fresh, copies), (kept, kept_bodies)]:
+        run(solver, b, nothing, MORE)
+    assert np.array_equal(copies[0].positions, bodies[0].positions)
+    assert np.array_equal(copies[0].velocities, bodies[0].velocities)
+    assert not np.array_equal(kept_bodies[0].positions, bodies[0].positions)
+
+
+def test_bad_grain_contacts_are_refused_by_name():
+    s, bodies = rough_sand()
+    run(s, bodies, nothing, SAVE)
+    good = s.internal_state()
+    pairs, multipliers = good["grain_contact_pairs"], good["grain_contact_multipliers"]
+
+    def refused(match, **changes):
+        with pytest.raises(ValueError, match=match):
+            s.set_internal_state(dict(good, **changes))
+        assert all(np.array_equal(s.internal_state()[k], v) for k, v in good.items())
+
+    beyond = pairs.copy()
+    beyond[2] = [7, 100]
+    refused(r"grain contact 2 joins particles \[7, 100\], but the particle bodies have 100",
+            grain_contact_pairs=beyond)
+    itself = pairs.copy()
+    itself[1] = [4, 4]
+    refused("grain contact 1 joins particle 4 to itself", grain_contact_pairs=itself)
+    twice = pairs.copy()
+    twice[3] = twice[0]
+    refused(r"grain contacts 0 and 3 both join particles", grain_contact_pairs=twice)
+    nan = multipliers.copy()
+    nan[5, 1] = np.nan
+    refused("multiplier of grain contact 5 .* not finite", grain_contact_multipliers=nan)
+    refused("must describe the same contacts", grain_contact_multipliers=multipliers[:-1])
+    refused("-1, not a particle index", grain_contact_pairs=np.where(beyond == 100, -1, beyond))
+    one = dict(good)
+    del one["grain_contact_multipliers"]
+    with pytest.raises(ValueError, match=r"missing \[\"grain_contact_multipliers\"\]"):
+        s.set_internal_state(one)
+    water, _ = block(pd.ViscoelasticFluid(viscosity=1e-3), 1000.0)
+    with pytest.raises(ValueError, match="no particle body has contact friction"):
+        water.set_internal_state(good)  # its 125 particles would hold the pairs

@@ -426,10 +426,10 @@ def test_loading_into_a_different_scene_names_both_counts(tmp_path):
 def test_a_newer_format_version_is_refused_naming_both(saved, tmp_path):
     s, path = saved
     e = entries(path)
-    assert int(e["format_version"]) == STATE_FORMAT_VERSION == 2
+    assert int(e["format_version"]) == STATE_FORMAT_VERSION == 3
     e["format_version"] = np.array(STATE_FORMAT_VERSION + 1)
     before = snapshot(s)
-    with pytest.raises(ValueError, match=r"format version 3, newer than .*\(0 to 2\)"):
+    with pytest.raises(ValueError, match=r"format version 4, newer than .*\(0 to 3\)"):
         peridyn.load_state(write(tmp_path / "new.npz", e), s)
     assert_same(snapshot(s), before)
 

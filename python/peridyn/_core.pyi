@@ -981,12 +981,16 @@ class Solver:
         the rest gaps of the contact pairs that started within the barrier's reach:
         ``contact_rest_gaps_seeded`` (bool), ``contact_rest_gap_reach`` (m),
         ``contact_rest_gap_vertices`` (G, 4) int64, ``contact_rest_gap_edge_edge`` (G,) bool,
-        ``contact_rest_gap_distances`` (G,) m. The GPU backend has no contact: all empty."""
+        ``contact_rest_gap_distances`` (G,) m; the friction at the grains' contacts the next
+        step starts from: ``grain_contact_pairs`` (P, 2) int64, particle indices over the
+        particle bodies in order (each touching pair in both orders), and
+        ``grain_contact_multipliers`` (P, 3) m. The GPU backend has no contact: all empty."""
     def set_internal_state(self, state: Dict[str, ArrayLike]) -> None:
         """Restores a dict read with :meth:`internal_state` into a solver set up the same way
         (same bodies in the same order, parameters and colliders); the next step takes it.
         Checked whole before anything changes (``ValueError`` naming the entry); an empty dict
-        resets it (the next contact step starts afresh)."""
+        resets it (the next contact step starts afresh); a dict without the two
+        ``grain_contact_`` entries (saved before them) starts the grains' friction from 0."""
     def step(self) -> StepStats: ...
     @property
     def dt(self) -> float: ...

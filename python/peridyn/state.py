@@ -15,9 +15,11 @@ __all__ = ["save_state", "load_state", "STATE_FORMAT_VERSION"]
 
 #: The version of the state file format :func:`save_state` writes (its ``format_version`` entry).
 #: 0 is the format before versions (no ``format_version``, ``dt`` or ``self_contact_<b>``); 1
-#: adds those; 2 adds each particle body's material state (``material_<name>_<b>``).
-#: :func:`load_state` reads versions 0 to 2.
-STATE_FORMAT_VERSION = 2
+#: adds those; 2 adds each particle body's material state (``material_<name>_<b>``); 3 adds the
+#: friction at the grains' contacts to the solver's internal state
+#: (``internal_grain_contact_<name>``; from an earlier file it starts from 0).
+#: :func:`load_state` reads versions 0 to 3.
+STATE_FORMAT_VERSION = 3
 
 
 class _StateError(ValueError):

@@ -116,6 +116,9 @@ pub struct Particles {
     /// How many times the bonds were replaced from outside ([`Self::restore_rest_bonds`]):
     /// a solver whose working set was built at another count builds it anew.
     bonds_revision: u64,
+    /// How many times the positions were replaced from outside ([`Self::set_positions`]): a
+    /// solver forgets what it kept of the contacts at the old ones (their friction).
+    positions_revision: u64,
     /// The fluid material, if the body is a fluid ([`Self::fluid`]) or has fluid particles.
     fluid: Option<ViscoelasticFluid>,
     /// Per particle, whether it is a fluid particle, once a region changed its material
@@ -178,6 +181,7 @@ impl Particles {
             plasticity: None,
             rest_bonds: None,
             bonds_revision: 0,
+            positions_revision: 0,
             fluid: None,
             fluid_mask: None,
             wetted: None,
@@ -300,7 +304,12 @@ impl Particles {
         self.state
             .check_field("positions", "particle", &positions)?;
         self.state.positions = positions;
+        self.positions_revision += 1;
         Ok(())
+    }
+    /// See [`Self::set_positions`].
+    pub fn positions_revision(&self) -> u64 {
+        self.positions_revision
     }
     /// Replaces the velocities (m/s); every value must be finite.
     pub fn set_velocities(&mut self, velocities: Vec<Vector3<f64>>) -> Result<()> {

@@ -352,7 +352,10 @@ impl PySolver {
     /// (``contact_warm_start``, (N, 3) m; (0, 3) before the first contact step) and the rest
     /// gaps of the contact pairs that started within the barrier's reach (whether they were
     /// seeded, the reach in m, and per gap its pair's four vertices, whether it is edge-edge,
-    /// and its distance in m). The GPU backend has no contact: its arrays are empty.
+    /// and its distance in m), and the friction at the grains' contacts the next step starts
+    /// from (``grain_contact_pairs``, (P, 2) particle indices over the particle bodies in
+    /// order, each touching pair in both orders, and ``grain_contact_multipliers``, (P, 3) m).
+    /// The GPU backend has no contact: its arrays are empty.
     fn internal_state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let state = match &self.core {
             Precision::F64(s) => s.saved_state(),
@@ -368,15 +371,24 @@ impl PySolver {
     /// vertex indices within the membranes); an empty dict resets the state (the next contact
     /// step starts afresh).
     fn set_internal_state(&mut self, py: Python<'_>, state: &Bound<'_, PyDict>) -> PyResult<()> {
-        let vertices: usize = self
-            .bodies
-            .iter()
-            .map(|b| match b.shared(py).lock() {
-                LockedBody::Membrane(m) => m.num_vertices(),
-                LockedBody::Particles(_) => 0,
-            })
-            .sum();
-        let state = solver_state::from_dict(state, vertices)?;
+        let (mut vertices, mut particles, mut frictional) = (0, 0, false);
+        for body in &self.bodies {
+            match body.shared(py).lock() {
+                LockedBody::Membrane(m) => vertices += m.num_vertices(),
+                LockedBody::Particles(p) => {
+                    particles += p.num_particles();
+                    frictional |= p.granular().is_some_and(|g| g.contact_friction > 0.0);
+                }
+            }
+        }
+        let state = solver_state::from_dict(state, vertices, particles)?;
+        if !frictional && !state.grain_contacts.is_empty() {
+            return Err(PyValueError::new_err(format!(
+                "the internal state holds {} grain contacts with friction, but no particle body \
+                 has contact friction",
+                state.grain_contacts.len()
+            )));
+        }
         match &mut self.core {
             Precision::F64(s) => s.restore_state(state).py(),
             Precision::F32(s) => s.restore_state(state).py(),

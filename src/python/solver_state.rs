@@ -7,7 +7,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::contact::{SavedRestGap, SavedRestGaps};
-use crate::solve::SolverState;
+use crate::solve::{SavedGrainContact, SolverState};
 
 use super::arrays::{exact_entries, flags, integer_rows, real_array, to_numpy, to_numpy_1d, vec3s};
 use super::errors::to_py;
@@ -25,8 +25,25 @@ const EDGE_EDGE: &str = "contact_rest_gap_edge_edge";
 /// Per gap, the distance at which its barrier starts, (G,) m.
 const DISTANCES: &str = "contact_rest_gap_distances";
 
+/// Per grain contact with friction, its two particles `(i, j)`, (P, 2) int64.
+const GRAIN_PAIRS: &str = "grain_contact_pairs";
+/// Per grain contact, its friction multiplier `lambda_ij`, (P, 3) m.
+const GRAIN_MULTIPLIERS: &str = "grain_contact_multipliers";
+
 /// Every entry of the dict, in order.
-const NAMES: [&str; 6] = [WARM_START, SEEDED, REACH, VERTICES, EDGE_EDGE, DISTANCES];
+const NAMES: [&str; 8] = [
+    WARM_START,
+    SEEDED,
+    REACH,
+    VERTICES,
+    EDGE_EDGE,
+    DISTANCES,
+    GRAIN_PAIRS,
+    GRAIN_MULTIPLIERS,
+];
+/// The entries of a dict saved before the grains' contact friction was (state files of
+/// format version 2 and before): that friction starts from 0.
+const CONTACT_NAMES: [&str; 6] = [WARM_START, SEEDED, REACH, VERTICES, EDGE_EDGE, DISTANCES];
 
 /// `state` as a dict of every entry in [`NAMES`] (empty arrays and `seeded` false where there
 /// is nothing yet).
@@ -52,17 +69,36 @@ pub fn to_dict<'py>(py: Python<'py>, state: SolverState) -> PyResult<Bound<'py, 
     dict.set_item(EDGE_EDGE, to_numpy_1d(py, edge_edge))?;
     let distances: Vec<f64> = saved.gaps.iter().map(|g| g.distance).collect();
     dict.set_item(DISTANCES, to_numpy_1d(py, distances))?;
+    let contacts = &state.grain_contacts;
+    let flat: Vec<i64> = contacts
+        .iter()
+        .flat_map(|c| c.particles.map(i64::from))
+        .collect();
+    let pairs = to_numpy_1d(py, flat).call_method1("reshape", ((contacts.len(), 2),))?;
+    dict.set_item(GRAIN_PAIRS, pairs)?;
+    dict.set_item(
+        GRAIN_MULTIPLIERS,
+        to_numpy(py, contacts.iter().map(|c| c.multiplier))?,
+    )?;
     Ok(dict)
 }
 
 /// The state a dict from [`to_dict`] holds, checked for a solver whose membranes have
-/// `vertices` vertices in all. An empty dict is the default state (nothing carried over: the
-/// next contact step seeds afresh); otherwise every entry must be there, and no other.
-pub fn from_dict(dict: &Bound<'_, PyDict>, vertices: usize) -> PyResult<SolverState> {
+/// `vertices` vertices in all and whose particle bodies have `particles` particles. An empty
+/// dict is the default state (nothing carried over: the next contact step seeds afresh);
+/// otherwise every entry must be there, and no other, but for the grain contacts' two, which
+/// a dict saved before them lacks (their friction then starts from 0).
+pub fn from_dict(
+    dict: &Bound<'_, PyDict>,
+    vertices: usize,
+    particles: usize,
+) -> PyResult<SolverState> {
     if dict.is_empty() {
         return Ok(SolverState::default());
     }
-    exact_entries(dict, &NAMES, "the internal state (or none)")?;
+    let has_grains = dict.contains(GRAIN_PAIRS)? || dict.contains(GRAIN_MULTIPLIERS)?;
+    let names: &[&str] = if has_grains { &NAMES } else { &CONTACT_NAMES };
+    exact_entries(dict, names, "the internal state (or none)")?;
     let item = |name: &str| dict.get_item(name).map(|v| v.expect("checked above"));
     let warm = vec3s(&item(WARM_START)?, WARM_START, None)?;
     let seeded = flag(&item(SEEDED)?, SEEDED)?;
@@ -105,13 +141,52 @@ pub fn from_dict(dict: &Bound<'_, PyDict>, vertices: usize) -> PyResult<SolverSt
             distance,
         });
     }
+    let grain_contacts = if has_grains {
+        grain_contacts(&item(GRAIN_PAIRS)?, &item(GRAIN_MULTIPLIERS)?)?
+    } else {
+        Vec::new()
+    };
     let state = SolverState {
         contact_warm_start: warm,
         contact_rest_gaps: seeded.then_some(SavedRestGaps { reach, gaps }),
+        grain_contacts,
     };
     state.validate().map_err(to_py)?;
-    state.check_against(vertices).map_err(to_py)?;
+    state.check_against(vertices, particles).map_err(to_py)?;
     Ok(state)
+}
+
+/// The grain contacts of the entries `pairs` and `multipliers` (one row each per contact).
+fn grain_contacts(
+    pairs: &Bound<'_, PyAny>,
+    multipliers: &Bound<'_, PyAny>,
+) -> PyResult<Vec<SavedGrainContact>> {
+    let pairs = integer_rows::<2>(pairs, GRAIN_PAIRS)?;
+    let multipliers = vec3s(multipliers, GRAIN_MULTIPLIERS, None)?;
+    if multipliers.len() != pairs.len() {
+        return Err(PyValueError::new_err(format!(
+            "{GRAIN_PAIRS} and {GRAIN_MULTIPLIERS} must describe the same contacts: they hold \
+             {} and {}",
+            pairs.len(),
+            multipliers.len()
+        )));
+    }
+    let mut contacts = Vec::with_capacity(pairs.len());
+    for (k, (pair, &multiplier)) in pairs.iter().zip(&multipliers).enumerate() {
+        let mut particles = [0u32; 2];
+        for (slot, &index) in particles.iter_mut().zip(pair) {
+            *slot = u32::try_from(index).map_err(|_| {
+                PyValueError::new_err(format!(
+                    "{GRAIN_PAIRS}[{k}] names particle {index}, not a particle index"
+                ))
+            })?;
+        }
+        contacts.push(SavedGrainContact {
+            particles,
+            multiplier,
+        });
+    }
+    Ok(contacts)
 }
 
 /// A 0-d real array (or a number) as a float.

@@ -1,12 +1,13 @@
 //! The families of one body list, one per body kind present, in a fixed order.
 
-use crate::error::Result;
+use crate::error::{invalid, Result};
 use crate::real::Real;
 
 use super::body::ByKind;
 use super::family::Family;
 use super::membranes::MembraneSystem;
 use super::particles::ParticleSystem;
+use super::SolverState;
 
 /// The families of one body list: membranes first, then particles (the order of
 /// [`Self::each`], of [`ByKind::list_indices`], of the updates and of the contact reactions).
@@ -48,13 +49,39 @@ impl<T: Real> Families<T> {
         membranes && particles
     }
 
-    /// Copies the bodies' positions, velocities and pins into their families.
+    /// Checks a restored state's grain contacts against the particle family: some body must
+    /// have contact friction to hold them (the rest is [`SolverState::check_against`]).
+    pub fn check_restored(&self, state: &SolverState) -> Result<()> {
+        let frictional = self
+            .particles
+            .as_ref()
+            .is_some_and(ParticleSystem::has_friction);
+        if state.grain_contacts.is_empty() || frictional {
+            return Ok(());
+        }
+        Err(invalid!(
+            "the restored state holds {} grain contacts with friction, but no particle body has \
+             contact friction",
+            state.grain_contacts.len()
+        ))
+    }
+
+    /// Sets the grains' contact friction of a restored state (checked by
+    /// [`Self::check_restored`]), after [`Self::load`]: the next step starts from it.
+    pub fn restore(&mut self, state: &SolverState) {
+        if let Some(p) = &mut self.particles {
+            p.restore_friction(&state.grain_contacts);
+        }
+    }
+
+    /// Copies the bodies' positions, velocities and pins into their families (forgetting the
+    /// grains' contact friction of a particle body whose positions were replaced).
     pub fn load(&mut self, bodies: &ByKind<'_>) {
         if let Some(m) = &mut self.membranes {
             m.points.load(&bodies.membranes);
         }
         if let Some(p) = &mut self.particles {
-            p.points.load(&bodies.particles);
+            p.load(&bodies.particles);
         }
     }
 

@@ -24,7 +24,7 @@ pub use params::{Acceleration, GlobalSolver, Method, SolverParams};
 #[cfg(test)]
 pub(crate) use sissm::Forget;
 pub use sissm::Solver;
-pub use state::SolverState;
+pub use state::{SavedGrainContact, SolverState};
 pub use stats::{NewtonTimings, ParticleTimings, StepStats, Timings};
 
 #[cfg(test)]

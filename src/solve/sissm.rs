@@ -184,6 +184,11 @@ impl<T: Real> Solver<T> {
         SolverState {
             contact_warm_start: contact.map(|c| c.warm_start().to_vec()).unwrap_or_default(),
             contact_rest_gaps: contact.and_then(|c| c.rest_gaps()),
+            grain_contacts: self
+                .families
+                .as_ref()
+                .and_then(|f| f.particles.as_ref())
+                .map_or_else(Vec::new, |p| p.saved_friction()),
         }
     }
 
@@ -244,8 +249,17 @@ impl<T: Real> Solver<T> {
             .iter()
             .map(|m| m.num_vertices())
             .sum::<usize>();
+        let particles = by_kind
+            .particles
+            .iter()
+            .map(|p| p.num_particles())
+            .sum::<usize>();
         if let Some(restored) = &self.restored {
-            restored.check_against(vertices)?;
+            restored.check_against(vertices, particles)?;
+            self.families
+                .as_ref()
+                .expect("built above")
+                .check_restored(restored)?;
             // The contact state restarts from what was restored (its caches are rebuilt).
             self.contact = None;
         }
@@ -284,6 +298,9 @@ impl<T: Real> Solver<T> {
         by_kind.sync()?;
         families.load(&by_kind);
         let restored = self.restored.take();
+        if let Some(restored) = &restored {
+            families.restore(restored);
+        }
         if let (Some(sys), true) = (families.membranes.as_mut(), params.contact.is_some()) {
             let contact = self
                 .contact

@@ -34,7 +34,9 @@
 //! contact, not a slower one.) A step's multipliers start from the pair's accepted ones of
 //! the previous step (0 for a new pair): a resting contact carries the same load step after
 //! step, so its multiplier starts converged, where from 0 the iterations would leave part of
-//! each step's slip (docs/model.md). A pair's two moves are equal and opposite in momentum
+//! each step's slip (docs/model.md). They are a run's state: a state file saves them
+//! ([`crate::solve::SolverState::grain_contacts`]), and positions set from outside start the
+//! body's from 0 ([`GrainFriction::forget`]). A pair's two moves are equal and opposite in momentum
 //! (`m_i s_i = m_j s_j`) at every iteration, as its two copies of `lambda` are computed from
 //! exactly negated inputs; each particle's sums run over its partners in a fixed order, so the
 //! result is the same for any thread count.
@@ -43,6 +45,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::real::Real;
+use crate::solve::SavedGrainContact;
 
 /// The pairs of touching particles at the proposed positions, as the repulsion found them.
 pub(crate) struct Pairs<'a, T: Real> {
@@ -131,6 +134,63 @@ impl<T: Real> GrainFriction<T> {
         self.previous_offsets.extend_from_slice(offsets);
         self.previous_indices.clear();
         self.previous_indices.extend_from_slice(indices);
+    }
+
+    /// The nonzero multipliers the next step starts from (the accepted ones of the last
+    /// step, or those restored), each with its pair.
+    pub fn saved(&self) -> Vec<SavedGrainContact> {
+        let mut saved = Vec::new();
+        for (i, row) in self.previous_offsets.windows(2).enumerate() {
+            for e in row[0] as usize..row[1] as usize {
+                if self.accepted[e] != Vector3::zeros() {
+                    saved.push(SavedGrainContact {
+                        particles: [i as u32, self.previous_indices[e]],
+                        multiplier: self.accepted[e].map(|c| c.to_f64()),
+                    });
+                }
+            }
+        }
+        saved
+    }
+
+    /// Makes `contacts` (checked: distinct pairs of the family's particles) the multipliers
+    /// the next step starts from, every other pair's from 0.
+    pub fn restore(&mut self, contacts: &[SavedGrainContact]) {
+        let n = self.coefficient.len();
+        self.previous_offsets.clear();
+        self.previous_offsets.resize(n + 1, 0);
+        for c in contacts {
+            self.previous_offsets[c.particles[0] as usize + 1] += 1;
+        }
+        for i in 0..n {
+            self.previous_offsets[i + 1] += self.previous_offsets[i];
+        }
+        let mut next: Vec<u32> = self.previous_offsets[..n].to_vec();
+        self.previous_indices.clear();
+        self.previous_indices.resize(contacts.len(), 0);
+        self.accepted.clear();
+        self.accepted.resize(contacts.len(), Vector3::zeros());
+        for c in contacts {
+            let [i, j] = c.particles;
+            let e = next[i as usize] as usize;
+            next[i as usize] += 1;
+            self.previous_indices[e] = j;
+            self.accepted[e] = c.multiplier.map(T::of);
+        }
+    }
+
+    /// Starts the friction of every pair with a particle in `particles` from 0 at the next
+    /// step (their positions were replaced: the contacts' loads are another configuration's).
+    pub fn forget(&mut self, particles: std::ops::Range<usize>) {
+        for (i, row) in self.previous_offsets.windows(2).enumerate() {
+            for e in row[0] as usize..row[1] as usize {
+                if particles.contains(&i)
+                    || particles.contains(&(self.previous_indices[e] as usize))
+                {
+                    self.accepted[e] = Vector3::zeros();
+                }
+            }
+        }
     }
 
     /// Takes the multipliers of the last trial as the iteration's.

@@ -46,6 +46,7 @@ use crate::error::Result;
 use crate::geometry::find_horizons;
 use crate::real::Real;
 use crate::solve::points::Points;
+use crate::solve::SavedGrainContact;
 
 use super::grain_friction::{GrainFriction, Pairs};
 
@@ -236,6 +237,34 @@ impl<T: Real> Repulsion<T> {
     pub fn accept(&mut self) {
         if let Some(friction) = &mut self.friction {
             friction.accept();
+        }
+    }
+
+    /// The grains' contact friction multipliers the next step starts from
+    /// ([`GrainFriction::saved`]); none without friction.
+    pub fn saved_friction(&self) -> Vec<SavedGrainContact> {
+        self.friction
+            .as_ref()
+            .map_or_else(Vec::new, GrainFriction::saved)
+    }
+
+    /// Whether some body has contact friction.
+    pub fn has_friction(&self) -> bool {
+        self.friction.is_some()
+    }
+
+    /// Restores the multipliers of [`Self::saved_friction`] ([`GrainFriction::restore`]).
+    pub fn restore_friction(&mut self, contacts: &[SavedGrainContact]) {
+        if let Some(friction) = &mut self.friction {
+            friction.restore(contacts);
+        }
+    }
+
+    /// Starts the contact friction of the particles in `particles` from 0
+    /// ([`GrainFriction::forget`]).
+    pub fn forget_friction(&mut self, particles: std::ops::Range<usize>) {
+        if let Some(friction) = &mut self.friction {
+            friction.forget(particles);
         }
     }
 

@@ -10,6 +10,7 @@ use crate::error::Result;
 use crate::particles::{ParticleRest, Particles};
 use crate::real::Real;
 use crate::solve::points::Points;
+use crate::solve::SavedGrainContact;
 use crate::solve::{ParticleTimings, Timings};
 use crate::timing::millis;
 
@@ -69,6 +70,8 @@ pub(crate) struct ParticleSystem<T: Real> {
     yielded: Vec<bool>,
     /// Each body's [`Particles::bonds_revision`] when this working set was built.
     revisions: Vec<u64>,
+    /// Each body's [`Particles::positions_revision`] when its state was last loaded.
+    placements: Vec<u64>,
     /// Whether the rest data was left partly built by a failed end of a step.
     stale: bool,
     /// Whether the initial guess's next evaluation at the prediction `y*` takes the energy
@@ -133,6 +136,7 @@ impl<T: Real> ParticleSystem<T> {
             yielded: vec![false; n],
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
+            placements: bodies.iter().map(|b| b.positions_revision()).collect(),
             stale: false,
             energy_alone: false,
             probing: false,
@@ -149,6 +153,46 @@ impl<T: Real> ParticleSystem<T> {
                 .iter()
                 .zip(bodies)
                 .all(|(&r, b)| r == b.bonds_revision())
+    }
+
+    /// Copies the bodies' positions, velocities and pins in ([`Points::load`]); the contact
+    /// friction of a body whose positions were replaced since starts from 0
+    /// ([`Repulsion::forget_friction`]).
+    pub fn load(&mut self, bodies: &[&mut Particles]) {
+        self.points.load(bodies);
+        for ((placed, body), range) in self
+            .placements
+            .iter_mut()
+            .zip(bodies)
+            .zip(&self.points.ranges)
+        {
+            if *placed != body.positions_revision() {
+                *placed = body.positions_revision();
+                if let Some(repulsion) = &mut self.repulsion {
+                    repulsion.forget_friction(range.clone());
+                }
+            }
+        }
+    }
+
+    /// The grains' contact friction the next step starts from ([`Repulsion::saved_friction`]).
+    pub fn saved_friction(&self) -> Vec<SavedGrainContact> {
+        self.repulsion
+            .as_ref()
+            .map_or_else(Vec::new, Repulsion::saved_friction)
+    }
+
+    /// Whether some body has contact friction between its grains.
+    pub fn has_friction(&self) -> bool {
+        self.repulsion.as_ref().is_some_and(Repulsion::has_friction)
+    }
+
+    /// Restores the grains' contact friction of [`Self::saved_friction`] (checked beforehand:
+    /// distinct pairs of this family's particles).
+    pub fn restore_friction(&mut self, contacts: &[SavedGrainContact]) {
+        if let Some(repulsion) = &mut self.repulsion {
+            repulsion.restore_friction(contacts);
+        }
     }
 
     /// The kernel at the current iterate `y`, unless one of the two evaluations held is there
