@@ -151,8 +151,9 @@ impl PyStepStats {
     /// The particle bodies' share of the step (zeros without them), from its start (the
     /// initial guess included): milliseconds `kernel_ms` (the local step and forces at the
     /// iterates), `residual_ms` (the residual of eq. 12 and its merit), `solve_ms` (the global
-    /// solver's move, refactorisations included), `line_search_ms` (the trials of eq. 13),
-    /// `project_ms` (collider projection, extrapolation, measures); `evaluations` (kernel
+    /// solver's move, refactorisations included; of it `coarse_ms`, the bodies' coarse
+    /// translation, and `two_level_ms`, the two-level correction), `line_search_ms` (the
+    /// trials of eq. 13; of it `trial_kernel_ms`, their kernel passes), `project_ms` (collider projection, extrapolation, measures); `evaluations` (kernel
     /// passes, trials included), `factorizations` (of the direct solver's matrix) and
     /// `held_static` (granular particles that static friction held, eq. 28); for fluids
     /// `density_passes` (density projections) and `density_error` (the largest relative
@@ -165,7 +166,10 @@ impl PyStepStats {
             ("kernel_ms", p.kernel),
             ("residual_ms", p.residual),
             ("solve_ms", p.solve),
+            ("coarse_ms", p.coarse),
+            ("two_level_ms", p.two_level),
             ("line_search_ms", p.line_search),
+            ("trial_kernel_ms", p.trial_kernel),
             ("project_ms", p.project),
         ] {
             d.set_item(k, v)?;

@@ -62,8 +62,16 @@ pub struct ParticleTimings {
     /// The global solver's move (Jacobi sweeps, averaging, or the direct solve with its
     /// refactorisations).
     pub solve: f64,
+    /// Of `solve`: the bodies' coarse translation (`src/solve/particles/coarse.rs`) and the
+    /// two-level correction, its held set and refactorisations included
+    /// (`src/solve/particles/two_level.rs`).
+    pub coarse: f64,
+    pub two_level: f64,
     /// The line search's trials (eq. 13), each a kernel pass and a residual.
     pub line_search: f64,
+    /// Of `line_search`: the trials' kernel passes (the rest gathers the particles' forces
+    /// and forms the residuals and merits).
+    pub trial_kernel: f64,
     /// The move's collider projection with friction, Chebyshev extrapolation and measures.
     pub project: f64,
     /// Kernel passes of the step (at the iterates and at the line search's trials).

@@ -27,6 +27,11 @@ pub(crate) struct Evaluation<T: Real> {
     gathered: bool,
     /// Per particle the residual of eq. 12, `r = m (y* - y) + h^2 f` (kg m; zero at pins).
     pub residual: Vec<Vector3<T>>,
+    /// The merit of `residual` (kg m^2) once [`Self::residual_merit`] formed it, until the
+    /// kernel runs again or the step's inertial targets change ([`Self::forget_residual`]):
+    /// an accepted line-search trial is the next iteration's iterate, whose residual is then
+    /// not formed twice.
+    merit: Option<f64>,
 }
 
 impl<T: Real> Evaluation<T> {
@@ -40,6 +45,7 @@ impl<T: Real> Evaluation<T> {
             force: vec![Vector3::zeros(); particles],
             gathered: false,
             residual: vec![Vector3::zeros(); particles],
+            merit: None,
         }
     }
 
@@ -49,6 +55,13 @@ impl<T: Real> Evaluation<T> {
         self.bond_force.clear();
         self.bond_force.resize(bonds, Vector3::zeros());
         self.valid = false;
+        self.merit = None;
+    }
+
+    /// Forgets the residual (at a step's start: its inertial targets `y*`, masses and pins
+    /// are the new step's).
+    pub fn forget_residual(&mut self) {
+        self.merit = None;
     }
 
     /// Whether this evaluation was taken at `y`, bit for bit, forces and all.
@@ -71,6 +84,7 @@ impl<T: Real> Evaluation<T> {
     pub fn run(&mut self, rest: &ParticleRest<T>) {
         evaluate_particles(rest, &self.at, &mut self.bond_force, &mut self.energy);
         self.gathered = false;
+        self.merit = None;
         self.forces = true;
         self.valid = true;
     }
@@ -80,6 +94,7 @@ impl<T: Real> Evaluation<T> {
     pub fn run_energy(&mut self, rest: &ParticleRest<T>) {
         evaluate_energies(rest, &self.at, &mut self.energy);
         self.gathered = false;
+        self.merit = None;
         self.forces = false;
         self.valid = true;
     }
@@ -87,7 +102,8 @@ impl<T: Real> Evaluation<T> {
     /// The residual of eq. 12 at `self.at` for the points' inertial targets, `h2 = h^2`
     /// (s^2), into `self.residual`, the internal forces gathered first if they are not yet
     /// (eq. 12, [`particle_force`]); returns the merit `sum_i |r_i|^2 / m_i` (kg m^2) summed
-    /// in fixed chunks (the same for any thread count).
+    /// in fixed chunks (the same for any thread count). Formed once per kernel pass and step
+    /// (`h2` is the step's): a second call returns the first's merit and leaves the residual.
     pub fn residual_merit(
         &mut self,
         rest: &ParticleRest<T>,
@@ -96,6 +112,9 @@ impl<T: Real> Evaluation<T> {
         chunks: &mut Vec<f64>,
     ) -> f64 {
         debug_assert!(self.forces, "a residual of an evaluation without forces");
+        if let Some(merit) = self.merit {
+            return merit;
+        }
         if !self.gathered {
             let bond_force = &self.bond_force;
             self.force
@@ -114,9 +133,11 @@ impl<T: Real> Evaluation<T> {
             };
         });
         let residual = &self.residual;
-        chunked_sum(residual.len(), chunks, |i| {
+        let merit = chunked_sum(residual.len(), chunks, |i| {
             residual[i].norm_squared().to_f64() / mass[i].to_f64()
-        })
+        });
+        self.merit = Some(merit);
+        merit
     }
 
     /// `sum_i V_i Psi_i` (J) summed in fixed chunks.

@@ -57,6 +57,8 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         self.timings = ParticleTimings::default();
         self.chebyshev = Chebyshev::start(params);
         self.exact.forget();
+        self.current.forget_residual();
+        self.trial.forget_residual();
         // Which particles a collider or the repulsion moved is the step's own: the coarse step
         // ([`super::coarse`]) must not read the last step's, which no state file holds (a run
         // continued from one would part from the run that went on).

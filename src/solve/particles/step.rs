@@ -81,8 +81,12 @@ pub(crate) fn global_move<T: Real>(
     match options.global_solver {
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
             jacobi(sys, h2, options.inner_iters);
+            let coarse_started = Instant::now();
             coarse::correct(sys, options.colliders, options.contact_reaction);
+            sys.timings.coarse += millis(coarse_started);
+            let two_level_started = Instant::now();
             two_level_correction(sys, h, options.colliders, options.contact_reaction);
+            sys.timings.two_level += millis(two_level_started);
         }
         GlobalSolver::Position => position_averaging(sys, h2),
         GlobalSolver::Direct => direct_move(sys, h, options.colliders),
@@ -165,6 +169,7 @@ fn line_search<T: Real>(
         let started = Instant::now();
         sys.trial.at.copy_from_slice(&sys.points.y_next);
         sys.trial.run(&sys.rest);
+        sys.timings.trial_kernel += millis(started);
         sys.timings.evaluations += 1;
         let whole = sys
             .trial
