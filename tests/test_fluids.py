@@ -411,6 +411,9 @@ def test_a_resting_column_with_redistribution_stays_at_rest():
         ({"shear_modulus": float("nan")}, "shear_modulus"),
         ({"shear_modulus": 10.0, "yield_stress": 0.0}, "yield_stress"),
         ({"shear_modulus": 10.0, "yield_stress": float("inf")}, "yield_stress"),
+        ({"shear_modulus": 10.0, "bulk_modulus": 100.0}, "bulk_modulus"),
+        ({"shear_modulus": 10.0, "bulk_modulus": 6.0}, "bulk_modulus"),
+        ({"bulk_modulus": -1.0}, "bulk_modulus"),
     ],
 )
 def test_bad_fluid_parameters_are_value_errors_naming_the_value(kwargs, needle):

@@ -176,7 +176,9 @@ class ViscoelasticFluid:
     ``redistribution_iterations`` (its passes per step, in [1, 100]), ``shear_modulus`` (Pa,
     >= 0: a viscoelastic fluid, elastic bonds of continuum shear modulus ``G`` whose rest shape
     follows the flow beyond ``yield_stress``; 0: a Newtonian liquid) and ``yield_stress``
-    (uniaxial von Mises yield stress, Pa, > 0; None: the shear modulus), ``adhesion`` (the
+    (uniaxial von Mises yield stress, Pa, > 0; None: the shear modulus), ``bulk_modulus``
+    (Pa, the elasticity's bulk modulus, which alone holds the volume in tension, from 2/3 to
+    29/3 of the shear modulus, Poisson ratio 0 to 0.45; None: 5/3 of it), ``adhesion`` (the
     liquid sticks to the body's pinned ghost particles: each ghost with a free liquid
     neighbour holds a two-sided density constraint on its free-surface-corrected density).
     ValueError naming the bad parameter."""
@@ -193,6 +195,7 @@ class ViscoelasticFluid:
         redistribution_iterations: int = 5,
         shear_modulus: float = 0.0,
         yield_stress: float | None = None,
+        bulk_modulus: float | None = None,
         adhesion: bool = False,
     ) -> None: ...
     @property
@@ -213,6 +216,8 @@ class ViscoelasticFluid:
     def shear_modulus(self) -> float: ...
     @property
     def yield_stress(self) -> float | None: ...
+    @property
+    def bulk_modulus(self) -> float | None: ...
     @property
     def adhesion(self) -> bool: ...
 

@@ -101,7 +101,7 @@ _BOND_ENTRIES = {
 #: body's particle count; an empty shape for a part the body does not have).
 _MATERIAL_ENTRIES = {
     "elastic": ("f", [(3,)]),
-    "fluid": ("f", [(0,), (9,), (10,)]),  # 9: written before the density solver
+    "fluid": ("f", [(0,), (9,), (10,), (11,)]),  # 9, 10: before the density solver, bulk modulus
     "horizon": ("f", [(0,), (1,)]),
     "reference": ("f", [("N", 3)]),
     "fluid_mask": ("b", [(0,), ("N",)]),

@@ -19,13 +19,17 @@
 
 use crate::error::{check_param, Result};
 
-use super::elastic::Elastic;
+use super::elastic::{Elastic, POISSON_RANGE};
 use super::plasticity::DruckerPrager;
 
 /// SPH support radius of a fluid, in particle spacings: 32 neighbours on a cubic lattice
 /// (distances 1, sqrt 2, sqrt 3 and 2 spacings), as the elastic horizon
 /// ([`super::DEFAULT_HORIZON`]).
 pub const FLUID_SUPPORT: f64 = 2.2;
+
+/// The bulk moduli a viscoelastic fluid accepts, in shear moduli: those of the Poisson ratios
+/// of [`POISSON_RANGE`], `K / G = 2 (1 + nu) / (3 (1 - 2 nu))`, 0 to 0.45.
+pub const BULK_RANGE: (f64, f64) = (2.0 / 3.0, 29.0 / 3.0);
 
 /// How a fluid's density constraints are solved (`crate::solve::particles`' fluid stage).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -95,6 +99,13 @@ pub struct ViscoelasticFluid {
     /// `None`: equal to the shear modulus (a yield strain of 0.4 in tension). Unused at
     /// `shear_modulus = 0`.
     pub yield_stress: Option<f64>,
+    /// The bulk modulus `K` (Pa) of a viscoelastic fluid's elasticity, in
+    /// [[`BULK_RANGE`]`.0 G`, [`BULK_RANGE`]`.1 G`] (Poisson ratio 0 to 0.45): what holds its
+    /// volume in tension, where the one-sided density constraints do not (a bar under the
+    /// uniaxial stress `sigma` dilates by `sigma (1 - 2 nu) / E = sigma / (3 K)` elastically;
+    /// its plastic flow keeps its bonds' mean strain). `None`: `5 G / 3` (`nu = 1/4`). Unused
+    /// at `shear_modulus = 0`.
+    pub bulk_modulus: Option<f64>,
     /// Adhesion to the body's ghost particles (its pinned particles: a wall or ceiling):
     /// each ghost with a free fluid neighbour holds a two-sided density constraint on its
     /// free-surface-corrected density, which pulls the liquid back when it draws away
@@ -115,6 +126,7 @@ impl Default for ViscoelasticFluid {
             redistribution_iterations: 5,
             shear_modulus: 0.0,
             yield_stress: None,
+            bulk_modulus: None,
             adhesion: false,
         }
     }
@@ -168,6 +180,19 @@ impl ViscoelasticFluid {
         if let Some(y) = self.yield_stress {
             check_param("yield_stress", y, |v| v > 0.0, "a finite stress > 0 Pa")?;
         }
+        if let Some(k) = self.bulk_modulus {
+            let g = self.shear_modulus;
+            let (lo, hi) = (BULK_RANGE.0 * g, BULK_RANGE.1 * g);
+            check_param(
+                "bulk_modulus",
+                k,
+                |v| v > 0.0 && (g == 0.0 || (lo..=hi).contains(&v)),
+                &format!(
+                    "a finite stress > 0 Pa within [{lo}, {hi}] Pa ({} to {} times the shear modulus)",
+                    BULK_RANGE.0, BULK_RANGE.1
+                ),
+            )?;
+        }
         Ok(())
     }
 
@@ -178,9 +203,19 @@ impl ViscoelasticFluid {
             return None;
         }
         let g = self.shear_modulus;
-        let material = Elastic::Young {
-            e: 2.5 * g,
-            nu: 0.25,
+        // The continuum's `nu = (3 K - 2 G) / (2 (3 K + G))`, `E = 2 G (1 + nu)`.
+        let material = match self.bulk_modulus {
+            None => Elastic::Young {
+                e: 2.5 * g,
+                nu: 0.25,
+            },
+            Some(k) => {
+                let nu = (3.0 * k - 2.0 * g) / (2.0 * (3.0 * k + g));
+                Elastic::Young {
+                    e: 2.0 * g * (1.0 + nu),
+                    nu: nu.clamp(POISSON_RANGE.0, POISSON_RANGE.1),
+                }
+            }
         };
         let law = DruckerPrager {
             friction_angle: 0.0,

@@ -24,10 +24,11 @@ impl PyViscoelasticFluid {
     /// eps as a fraction of their rest-lattice denominator, > 0), `redistribution` (strength
     /// in [0, 1] of eq. 21-24, 0: none) and `redistribution_iterations` (passes per step, in
     /// [1, 100]), `shear_modulus` (Pa, >= 0: a viscoelastic fluid's elasticity; 0: Newtonian)
-    /// and `yield_stress` (Pa, > 0; None: the shear modulus), `adhesion` (the liquid sticks to
+    /// and `yield_stress` (Pa, > 0; None: the shear modulus), `bulk_modulus` (Pa, the
+    /// elasticity's, 2/3 to 29/3 of the shear modulus; None: 5/3 of it), `adhesion` (the liquid sticks to
     /// the body's pinned ghost particles by two-sided density constraints).
     #[new]
-    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_solver = "cg", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, adhesion = false))]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_solver = "cg", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, bulk_modulus = None, adhesion = false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         viscosity: Real,
@@ -39,6 +40,7 @@ impl PyViscoelasticFluid {
         redistribution_iterations: i64,
         shear_modulus: Real,
         yield_stress: Option<Real>,
+        bulk_modulus: Option<Real>,
         adhesion: bool,
     ) -> PyResult<Self> {
         let iterations = usize::try_from(density_iterations).map_err(|_| {
@@ -61,6 +63,7 @@ impl PyViscoelasticFluid {
             redistribution_iterations: passes,
             shear_modulus: shear_modulus.get("shear_modulus")?,
             yield_stress: yield_stress.map(|y| y.get("yield_stress")).transpose()?,
+            bulk_modulus: bulk_modulus.map(|k| k.get("bulk_modulus")).transpose()?,
             adhesion,
         };
         inner.validate().py()?;
@@ -106,6 +109,11 @@ impl PyViscoelasticFluid {
     fn yield_stress(&self) -> Option<f64> {
         self.inner.yield_stress
     }
+    /// Bulk modulus of the elasticity (Pa; None: 5/3 of the shear modulus).
+    #[getter]
+    fn bulk_modulus(&self) -> Option<f64> {
+        self.inner.bulk_modulus
+    }
     /// Whether the liquid adheres to the body's ghost (pinned) particles.
     #[getter]
     fn adhesion(&self) -> bool {
@@ -113,10 +121,11 @@ impl PyViscoelasticFluid {
     }
     fn __repr__(&self) -> String {
         let f = &self.inner;
-        let yield_stress = f.yield_stress.map_or("None".to_string(), |y| y.to_string());
+        let optional = |v: Option<f64>| v.map_or("None".to_string(), |v| v.to_string());
+        let (yield_stress, bulk_modulus) = (optional(f.yield_stress), optional(f.bulk_modulus));
         format!(
-            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_solver=\"{}\", density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={}, adhesion={})",
-            f.viscosity, f.density_iterations, f.density_solver.name(), f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress, if f.adhesion { "True" } else { "False" }
+            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_solver=\"{}\", density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={}, bulk_modulus={}, adhesion={})",
+            f.viscosity, f.density_iterations, f.density_solver.name(), f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress, bulk_modulus, if f.adhesion { "True" } else { "False" }
         )
     }
 }

@@ -40,7 +40,8 @@ fn names() -> Vec<String> {
 /// A fluid's parameters as numbers: viscosity (Pa s), density iterations, density tolerance,
 /// relaxation, redistribution, redistribution iterations, shear modulus (Pa), yield stress
 /// (Pa; 0 for the default), adhesion (0 or 1), density solver (0 Jacobi, 1 conjugate
-/// gradients; absent in states written before it, which were Jacobi).
+/// gradients; absent in states written before it, which were Jacobi), bulk modulus (Pa; 0 for
+/// the default; absent in states written before it).
 fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
     let ViscoelasticFluid {
         viscosity,
@@ -53,6 +54,7 @@ fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
         yield_stress,
         adhesion,
         density_solver,
+        bulk_modulus,
     } = *f;
     vec![
         viscosity,
@@ -67,6 +69,7 @@ fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
         f64::from(u8::from(
             density_solver == DensitySolver::ConjugateGradients,
         )),
+        bulk_modulus.unwrap_or(0.0),
     ]
 }
 
@@ -81,6 +84,10 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
             )))
         }
     };
+    let (v, bulk_modulus) = match v {
+        [head @ .., bulk] if v.len() == 11 => (head, *bulk),
+        _ => (v, 0.0),
+    };
     let (v, solver) = match v {
         [head @ .., solver] if v.len() == 10 => (head, *solver),
         _ => (v, 0.0),
@@ -89,7 +96,7 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
         v
     else {
         return Err(PyValueError::new_err(format!(
-            "{FLUID} must hold 10 numbers (9 before the density solver) or none, got {}",
+            "{FLUID} must hold 11 numbers (10 before the bulk modulus, 9 before the density solver) or none, got {}",
             v.len()
         )));
     };
@@ -118,6 +125,7 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
         yield_stress: (yield_stress != 0.0).then_some(yield_stress),
         adhesion: adhesion == 1.0,
         density_solver,
+        bulk_modulus: (bulk_modulus != 0.0).then_some(bulk_modulus),
     })
 }
 
