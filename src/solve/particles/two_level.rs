@@ -118,6 +118,10 @@ pub(crate) struct TwoLevel {
     /// another family's last moves, out of the colliders along their normals.
     remainder: Vec<Vector3<f64>>,
     held_move: Vec<Vector3<f64>>,
+    /// Per aggregate the restricted residual `P^T (r - A delta_J)` (kg m), then the coarse
+    /// solution `e` (m): the prolongation and the post-smoothing read it once per bond, from
+    /// here rather than through the factor's right-hand-side matrix.
+    coarse: Vec<Vector3<f64>>,
     /// Numeric factorisations since the last [`Self::take_factorizations`].
     factorizations: usize,
     /// Whether the step's first iteration is still to come ([`Self::past_first_iteration`]).
@@ -196,6 +200,7 @@ impl TwoLevel {
             bond_slot,
             remainder: vec![Vector3::zeros(); n],
             held_move: vec![Vector3::zeros(); n],
+            coarse: vec![Vector3::zeros(); count],
             factorizations: 0,
             first_iteration: true,
             chunks: Vec::new(),
@@ -402,25 +407,30 @@ impl TwoLevel {
                     *out = r + coupled * h2;
                 });
         }
-        let rhs = self.llt.rhs_mut();
-        rhs.fill(0.0);
+        self.coarse.fill(Vector3::zeros());
         for (i, &a) in self.aggregate.iter().enumerate() {
             if self.free[i] {
-                for c in 0..3 {
-                    rhs[(a, c)] += self.remainder[i][c];
-                }
+                self.coarse[a] += self.remainder[i];
+            }
+        }
+        let rhs = self.llt.rhs_mut();
+        for c in 0..3 {
+            for (out, sum) in rhs.col_as_slice_mut(c).iter_mut().zip(&self.coarse) {
+                *out = sum[c];
             }
         }
         self.llt.solve();
+        let x = self.llt.rhs();
+        let (x0, x1, x2) = (x.col_as_slice(0), x.col_as_slice(1), x.col_as_slice(2));
+        for (a, e) in self.coarse.iter_mut().enumerate() {
+            *e = Vector3::new(x0[a], x1[a], x2[a]);
+        }
         // The prolonged correction, then one Jacobi sweep on what it leaves,
         // `r - A (delta_J + P e)`, at the free particles (post-smoothing: the piecewise-constant
         // correction's jumps between aggregates are the sweep's to smooth).
-        let (x, aggregate, free, remainder) =
-            (self.llt.rhs(), &self.aggregate, &self.free, &self.remainder);
-        let at = |i: usize| {
-            let a = aggregate[i];
-            Vector3::new(x[(a, 0)], x[(a, 1)], x[(a, 2)])
-        };
+        let (coarse, aggregate, free, remainder) =
+            (&self.coarse, &self.aggregate, &self.free, &self.remainder);
+        let at = |i: usize| coarse[aggregate[i]];
         delta.par_iter_mut().enumerate().for_each(|(i, d)| {
             if !free[i] {
                 return;
