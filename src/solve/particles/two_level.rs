@@ -27,11 +27,9 @@
 //! moves of the repulsion and of another family's reaction (the coupling's, which acts after
 //! the move), pushed out of the colliders (where it goes). At the fixed point these reactions
 //! take back the sweep's move (`y_next = y`), so the settled moves, the restriction and the
-//! correction vanish there; with the sweep's move alone a held particle on a membrane entered
-//! the restriction as if it sank by `r_i / D_i` every iteration, the correction pulled its
-//! body into the cloth, and a 3 x 3 x 2 block on a pinned cloth (tests/test_couplings.py)
-//! ran every step from its landing to the cap of 1000 iterations with the cloth's pins
-//! carrying 1.74 times the weight. The colliders, the repulsion and the translations' coarse problem
+//! correction vanish there (with the sweep's move alone, the correction would pull a body
+//! resting on a cloth into it every iteration: docs/model.md has the measurements).
+//! The colliders, the repulsion and the translations' coarse problem
 //! ([`super::coarse`], which keeps the contacts one-sided) follow. Since the correction is a
 //! Galerkin projection it leaves the fixed point `r = 0` alone.
 //!
@@ -50,14 +48,9 @@
 //! particles within reach of a partner and moving them by the repulsion's last move in the
 //! restriction left 2e-3 m). There the settled moves (above) keep the fixed point, but the
 //! support is itself a slow mode: the interface between the bodies sinks as the lower one
-//! compresses, and a held contact layer leaves that to the sweep (two stacked 4^3 blocks,
-//! issue 38: with the layers within reach of a partner held at their settled moves, every
-//! step from the landing to the 33rd ran to the cap of 300 iterations; steps 4-23 without
-//! the correction). Freeing the contact particles instead, with the pairs as springs of the two
-//! Jacobi diagonals in series in one coarse matrix for the bodies in contact and the
-//! repulsion's last moves as their reaction, drove the residual to 1e-2 m (1e-4 m without the
-//! correction) whatever the springs' stiffness (0.1 to 1000 times): the repulsion's move is
-//! the projection's answer to the whole last move, the last correction included, not a
+//! compresses, and a held contact layer leaves that to the sweep; pair springs fed by the
+//! repulsion's last moves fail too, since the repulsion's move is the projection's answer to
+//! the whole last move, the last correction included, not a
 //! force that the next correction may take as given. A body on a membrane takes part: the
 //! membrane is not in the coarse problem, and its reaction enters as the held particles'
 //! settled moves.
