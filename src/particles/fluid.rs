@@ -28,8 +28,16 @@ use super::plasticity::DruckerPrager;
 pub const FLUID_SUPPORT: f64 = 2.2;
 
 /// The bulk moduli a viscoelastic fluid accepts, in shear moduli: those of the Poisson ratios
-/// of [`POISSON_RANGE`], `K / G = 2 (1 + nu) / (3 (1 - 2 nu))`, 0 to 0.45.
-pub const BULK_RANGE: (f64, f64) = (2.0 / 3.0, 29.0 / 3.0);
+/// of [`POISSON_RANGE`] (2/3 to 29/3 for 0 to 0.45).
+pub const BULK_RANGE: (f64, f64) = (
+    bulk_over_shear(POISSON_RANGE.0),
+    bulk_over_shear(POISSON_RANGE.1),
+);
+
+/// An isotropic solid's `K / G = 2 (1 + nu) / (3 (1 - 2 nu))` at Poisson ratio `nu`.
+const fn bulk_over_shear(nu: f64) -> f64 {
+    2.0 * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu))
+}
 
 /// How a fluid's density constraints are solved (`crate::solve::particles`' fluid stage).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
