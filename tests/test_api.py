@@ -328,6 +328,34 @@ def test_solver_properties_and_step_stats(grid44):
     assert s.time == pytest.approx(0.05, rel=1e-12)
 
 
+def test_solver_tolerances_and_iteration_cap_are_settable_between_steps(grid44):
+    """tol, particle_tol and max_iters trade speed for accuracy between steps: a cap of one
+    iteration stops the next step after one, a looser tol stops it earlier than a tight one,
+    and bad values are refused by name, leaving the old value."""
+    v, t = grid44
+    s = peridyn.Solver(dt=0.01, tol=1e-9)
+    m = membrane(v, t)
+    m.pin([0, 3])  # hangs from two corners, so a step takes iterations
+    s.add(m)
+    tight = s.step()
+    assert tight.iterations > 1
+    s.max_iters = 1
+    assert s.max_iters == 1 and s.step().iterations == 1
+    s.max_iters = 100
+    s.tol = 1e-4
+    assert s.tol == 1e-4
+    loose = s.step()
+    assert loose.converged and loose.iterations < tight.iterations
+    s.particle_tol = 0.5
+    assert s.particle_tol == 0.5
+    for name, bad in [("max_iters", 0), ("tol", -1.0), ("tol", float("nan")),
+                      ("particle_tol", 0.0)]:
+        before = getattr(s, name)
+        with pytest.raises(ValueError, match=name):
+            setattr(s, name, bad)
+        assert getattr(s, name) == before
+
+
 def test_solver_run_and_callback(grid44):
     """run(steps) takes the steps, calls callback(solver, stats) after each; returning False stops
     the run after that step."""

@@ -443,18 +443,50 @@ impl PySolver {
     fn gravity(&self) -> Vec<f64> {
         with_solver!(&self.core, s => s.params().gravity.to_vec())
     }
+    /// The membranes' convergence tolerance (m); settable, as the speed/accuracy trade of a
+    /// run can change between steps.
     #[getter]
     fn tol(&self) -> f64 {
         with_solver!(&self.core, s => s.params().tol)
     }
-    /// The particles' force-imbalance tolerance (m/s^2).
+    #[setter]
+    fn set_tol(&mut self, tol: Real) -> PyResult<()> {
+        let tol = tol.get("tol")?;
+        with_solver!(&mut self.core, s => {
+            let p = SolverParams { tol, ..*s.params() };
+            s.set_params(p).py()
+        })
+    }
+    /// The particles' force-imbalance tolerance (m/s^2); settable.
     #[getter]
     fn particle_tol(&self) -> f64 {
         with_solver!(&self.core, s => s.params().particle_tol)
     }
+    #[setter]
+    fn set_particle_tol(&mut self, particle_tol: Real) -> PyResult<()> {
+        let particle_tol = particle_tol.get("particle_tol")?;
+        with_solver!(&mut self.core, s => {
+            let p = SolverParams { particle_tol, ..*s.params() };
+            s.set_params(p).py()
+        })
+    }
+    /// Most global iterations of one step; settable.
     #[getter]
     fn max_iters(&self) -> usize {
         with_solver!(&self.core, s => s.params().max_iters)
+    }
+    #[setter]
+    fn set_max_iters(&mut self, max_iters: Int) -> PyResult<()> {
+        let max_iters = max_iters.get("max_iters")?;
+        if max_iters < 1 {
+            return Err(PyValueError::new_err(format!(
+                "max_iters must be >= 1, got {max_iters}"
+            )));
+        }
+        with_solver!(&mut self.core, s => {
+            let p = SolverParams { max_iters: max_iters as usize, ..*s.params() };
+            s.set_params(p).py()
+        })
     }
     #[getter]
     fn step_length(&self) -> bool {
