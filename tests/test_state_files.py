@@ -120,6 +120,16 @@ def test_the_path_written_is_the_path_returned(tmp_path, name):
     assert_same(snapshot(s2), snapshot(s))
 
 
+def test_a_solver_passed_where_the_path_belongs_is_refused_by_name(tmp_path):
+    s = stepped()
+    with pytest.raises(TypeError, match=r"save_state\(path, solver\)"):
+        peridyn.save_state(s, tmp_path / "state.npz")
+    assert not list(tmp_path.iterdir())
+    path = peridyn.save_state(tmp_path / "state.npz", s)
+    with pytest.raises(TypeError, match=r"load_state\(path, solver\)"):
+        peridyn.load_state(s, path)
+
+
 def test_saving_over_a_file_replaces_it(tmp_path):
     s = stepped()
     path = peridyn.save_state(tmp_path / "state.npz", s)

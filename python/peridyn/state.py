@@ -119,6 +119,14 @@ def _count(body: Any) -> int:
     return int(body.num_vertices if _is_membrane(body) else body.num_particles)
 
 
+def _path_first(func: str, path: Any) -> None:
+    """Refuses a solver given where the path belongs (the arguments are ``(path, solver)``,
+    as for every writer of :mod:`peridyn.io`), which pathlib would report obscurely."""
+    if hasattr(path, "step") and hasattr(path, "bodies"):
+        raise TypeError(f"{func}(path, solver): the first argument is a solver; "
+                        f"pass the file's path first")
+
+
 def _capture(solver: Any) -> _State:
     """The solver's state now (copies)."""
     bodies = []
@@ -224,6 +232,7 @@ def save_state(path: PathLike, solver: Any) -> Path:
     Path
         The file written: ``path``.
     """
+    _path_first("save_state", path)
     path = Path(path)
     state = _capture(solver)
     arrays: Dict[str, np.ndarray] = {
@@ -549,6 +558,7 @@ def load_state(path: PathLike, solver: Any) -> None:
     OSError
         If the file cannot be opened (``FileNotFoundError`` if it does not exist).
     """
+    _path_first("load_state", path)
     entries = _read_npz(path)
     state = _parse(path, entries, solver)
     before = _capture(solver)
