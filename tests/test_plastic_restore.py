@@ -13,21 +13,22 @@ N, LENGTH = 3, 8  # bar cross-section and length in particles
 STRETCH, STEPS = 0.5, 24  # the top end is pulled by STRETCH of the span over STEPS steps
 
 
-def bar():
+def bar(friction_angle=20.0):
     x = np.stack(
         np.meshgrid(np.arange(N), np.arange(N), np.arange(LENGTH), indexing="ij"), -1
     ).reshape(-1, 3) * S
     body = pd.Particles(
         x, spacing=S, density=1000.0, material=pd.Elastic.from_young(1e5, 0.3),
-        plasticity=pd.DruckerPrager(friction_angle=20.0, cohesion=50.0, hardening=500.0),
+        plasticity=pd.DruckerPrager(friction_angle=friction_angle, cohesion=50.0,
+                                    hardening=500.0),
     )
     z = x[:, 2]
     body.pin(np.flatnonzero((z < 0.5 * S) | (z > (LENGTH - 1.5) * S)))
     return body
 
 
-def scene():
-    body = bar()
+def scene(friction_angle=20.0):
+    body = bar(friction_angle)
     s = pd.Solver(dt=0.01, gravity=(0.0, 0.0, -9.81), max_iters=20)
     s.add(body)
     return s, body
@@ -70,6 +71,30 @@ def test_a_plastic_body_that_yielded_and_rebuilt_its_neighbours_restores_to_the_
         assert np.array_equal(copy.rest_bonds[name], value), name
 
 
+def test_a_body_whose_return_keeps_its_rest_volume_restores_its_volume_ratios(tmp_path):
+    """Without friction the return keeps each particle's rest volume from the volume ratios
+    of its reference bonds (docs/model.md, plasticity section), which change as it yields
+    and rebuilds: they travel with the file, and the continued run equals the run that went
+    on, to the bit. A file written before them (no 'bonds_volume_0') loads them as 1."""
+    s, body = scene(friction_angle=0.0)
+    pull(s, body, 14)
+    bonds = body.rest_bonds
+    assert np.abs(bonds["volume"] - 1.0).max() > 1e-3, bonds["volume"]
+    path = pd.save_state(tmp_path / "plastic.npz", s)
+    pull(s, body, 8)
+    fresh, copy = scene(friction_angle=0.0)
+    pd.load_state(path, fresh)
+    assert np.array_equal(copy.rest_bonds["volume"], bonds["volume"])
+    pull(fresh, copy, 8)
+    assert np.array_equal(copy.positions, body.positions)
+    entries = dict(np.load(path))
+    del entries["bonds_volume_0"]
+    np.savez(tmp_path / "old.npz", **entries)
+    older, copy = scene(friction_angle=0.0)
+    pd.load_state(tmp_path / "old.npz", older)
+    assert np.array_equal(copy.rest_bonds["volume"], np.ones(len(bonds["volume"])))
+
+
 def test_bonds_loaded_into_a_solver_that_has_stepped_replace_its_own(tmp_path):
     """A solver that stepped on (its working set built from the later bonds) takes the
     loaded bonds on its next step: loading the file back into it repeats the continuation."""
@@ -109,6 +134,7 @@ def elastic_bar():
         (lambda b: b["vectors"].__setitem__((3, 1), np.nan), "vector of bond 3 must be finite"),
         (lambda b: b["born"].__setitem__(5, -1.0), "birth length of bond 5 must be finite and > 0"),
         (lambda b: b["plastic_strain"].__setitem__(7, -0.5), "plastic strain of particle 7"),
+        (lambda b: b["volume"].__setitem__(4, 0.0), "volume ratio of particle 4"),
         (lambda b: b.pop("born"), 'missing ["born"]'),
         (lambda b: b.update(extra=np.zeros(3)), 'unknown ["extra"]'),
         (lambda b: b.update(vectors=b["vectors"][:, :2]), "vectors must have shape (N, 3)"),

@@ -4,13 +4,12 @@ its yield stress. An imposed shear partly springs back where a Newtonian liquid 
 honey under a ceiling of ghost particles keeps a film on it with adhesion (the thread it
 should draw as it drips is a strict xfail); without adhesion a blob hangs on exactly when its
 yield stress carries its weight; threads agree. A bar pulled apart keeps its volume only with
-a stiff bulk modulus, and then its bonds' stress climbs past the yield stress (a strict
-xfail: the return keeps the mean bond strain, not the volume)."""
+a stiff bulk modulus, and then flows at its yield stress (the return keeps the particles'
+rest volume, not their mean bond strain)."""
 
 import numpy as np
 import pytest
 from scipy.linalg import polar
-from scipy.spatial import ConvexHull
 
 import peridyn as pd
 from fluid_scenes import blob_under_a_ceiling
@@ -99,11 +98,14 @@ def test_the_material_reports_its_parameters():
     assert pd.ViscoelasticFluid().shear_modulus == 0.0
 
 
-def layer_area(p):
-    """Area (m^2) of a layer of particles: the hull of their centres grown by half a spacing
-    (a 4 x 4 lattice layer: 15.8 S^2)."""
-    hull = ConvexHull(p[:, :2])
-    return hull.volume + hull.area * S / 2 + np.pi * S * S / 4
+def layer_area(p, p0):
+    """Area (m^2) of a layer of particles ``p`` that started as the lattice layer ``p0`` (S^2
+    per particle): its start's times ``sqrt(det C / det C0)``, ``C`` the covariance of the
+    particles' horizontal positions, exact for any affine map of the layer. (The hull of the
+    centres grown by a fixed half spacing, used until issue 40's round t, reads a 4 x 4 layer
+    contracted uniformly to 0.714 of its area as 0.777.)"""
+    cov = lambda q: np.linalg.det(np.cov(q[:, :2].T))
+    return len(p0) * S * S * np.sqrt(cov(p) / cov(p0))
 
 
 def pulled_bar(times=(0.1, 0.15, 0.2), **fluid):
@@ -131,7 +133,7 @@ def pulled_bar(times=(0.1, 0.15, 0.2), **fluid):
 
     def measure():
         y = bar.positions
-        area = np.array([layer_area(y[m]) for m in layers])
+        area = np.array([layer_area(y[m], x[m]) for m in layers])
         z = np.array([y[m, 2].mean() for m in layers])
         volume = (0.5 * (area[1:] + area[:-1]) * np.diff(z)).sum()
         force = bar.internal_forces()[k[:, 2] < length // 2, 2].sum()
@@ -155,29 +157,34 @@ STIFF_BULK = 29.0 / 3.0 * 500.0  # Pa: the largest bulk modulus at G = 500 Pa (n
 def test_a_pulled_viscoelastic_bar_keeps_its_volume_only_with_a_stiff_bulk():
     """Nothing else holds a viscoelastic fluid's volume in tension (its density constraints are
     one-sided, its viscosity a Laplacian): pulled to 1.2, 1.3 and 1.4 times its length, the
-    bar with the bulk modulus 29 G / 3 keeps its volume within 4 % (measured 2.0-2.2 %) and
-    its narrowest layer contracts as a constant volume needs (area within 5 % of the inverse
-    stretch or below; measured 0.83, 0.78, 0.72 at 0.83, 0.77, 0.71), while with the default,
-    5 G / 3 = 833 Pa, it dilates by more than 8 % by 1.3 (measured 14.7 %: about the elastic
-    dilatation at yield, sigma_y / (3 K) = 0.2)."""
+    bar with the bulk modulus K = 29 G / 3 keeps its volume within 5 % (measured 0.973, 1.011,
+    1.043) and its narrowest layer contracts as a constant volume needs (area within 5 % of the
+    inverse stretch or below; measured 0.79, 0.77, 0.72 at 0.83, 0.77, 0.71), while with the
+    default, 5 G / 3 = 833 Pa, it dilates by more than 8 % by 1.3 (measured 10.6 %). Why 5 %:
+    the return keeps each particle's rest volume (docs/model.md, Fluids, round t), so what
+    is left is the elastic dilatation of the bar's mean stress, a third of its axial stress
+    (700-790 Pa, `test_..._flows_at_its_yield_stress`) over K: 4.8-5.4 %; the particles'
+    own volumes `R det F` mid-bar are 1.042 at 1.4 and 1.5. (With the areas of the hull
+    grown by half a spacing, which overstate a contracted layer's, the volumes read 1.020,
+    1.093, 1.130; until round t, whose return ratcheted the reference short and resisted the
+    flow with a pressure, 1.020-1.022 by that measure.)"""
     stiff = pulled_bar(bulk_modulus=STIFF_BULK)
-    assert np.all(np.abs(stiff[:, 1] - 1.0) < 0.04), stiff
+    assert np.all(np.abs(stiff[:, 1] - 1.0) < 0.05), stiff
     assert np.all(stiff[:, 2] < 1.05 / stiff[:, 0]), stiff
     soft = pulled_bar(times=(0.15,))
     assert soft[0, 1] > 1.08, soft
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="open (issue 40): the von Mises return keeps each particle's mean bond "
-                   "strain, which a large deviatoric strain and an anisotropic neighbourhood "
-                   "raise without a change of volume; the excess ratchets into the reference "
-                   "and the bulk modulus resists the flow as if it hardened (docs/model.md)")
 def test_a_pulled_viscoelastic_bar_with_a_stiff_bulk_flows_at_its_yield_stress():
     """A perfectly plastic bar (no hardening) flows at its yield stress: the bonds' axial
     stress across the middle of the bar with the stiff bulk stays below 1.6 times the yield
     stress (500 Pa) at 1.3 and 1.4 times its length (allowing 1.31 for a bar four particles
     across, whose surface correction stiffens it, and the elastic strain's area change).
-    Measured about 2 and 3 times."""
+    Measured 732 and 790 Pa (719 at 1.2; 928 at 1.5, still rising: not analysed). Until
+    issue 40's round t the return kept each particle's mean bond strain, which a large
+    deviatoric strain and an anisotropic neighbourhood raise without a change of volume: the
+    excess ratcheted into the reference and the bulk modulus resisted the flow as if it
+    hardened (about 2 and 3 times the yield stress, by the hull areas then used)."""
     stiff = pulled_bar(bulk_modulus=STIFF_BULK, times=(0.15, 0.2))
     assert np.all(stiff[:, 3] < 1.6 * 500.0), stiff
 
@@ -211,23 +218,25 @@ def test_adhesion_holds_a_liquid_film_at_its_ghost_ceiling():
     assert ((ceiling - fluid[:, 2]) < 1.3 * S).sum() == 25
 
 
-def test_without_adhesion_a_blob_hangs_on_at_a_yield_stress_of_600_pa_and_parts_at_500():
+def test_without_adhesion_a_blob_hangs_on_at_a_yield_stress_of_700_pa_and_parts_at_600():
     """Without adhesion the ghosts hold the blob by its bonds alone. With a yield stress of
-    600 Pa it hangs on whole: after 0.4 s its top layer is within 2 spacings of the ceiling
-    (measured 1.49) and its lowest particle less than 5 spacings below where it started
-    (measured 1.88; 2.15 at dt = 2.5 ms). With 500 Pa the top yields and the blob parts from
-    the ceiling: its lowest particle more than 10 spacings down (measured 30; 38 at dt =
-    2.5 ms). The blob parts between 500 and 520 Pa at dt = 5 ms (between 520 and 600 Pa at
-    2.5 ms), at 0.61-0.73 of its weight's stress at the top, 824 Pa: the weight's stress
-    sets the yield stress that holds it only to within that factor. (The plastic return at
-    the step's end alone, as the paper has it, hung the 500 Pa blob at dt = 5 ms, 2.2
-    spacings down, by the elastic overshoot of each step's bonds, and let it fall at 2.5 and
-    1.25 ms: docs/model.md, plasticity section.)"""
+    700 Pa it hangs on whole: after 0.4 s its top layer is within 2 spacings of the ceiling
+    (measured 1.56) and its lowest particle less than 5 spacings below where it started
+    (measured 1.91). With 600 Pa the top yields and the blob parts from the ceiling: its
+    lowest particle more than 10 spacings down (measured 21; 35 at 500 Pa). At dt = 5 ms the
+    blob parts between 600 and 610 Pa (610 Pa hangs 2.42 spacings down), at 0.73-0.74 of
+    its weight's stress at the top, 824 Pa: the weight's stress sets the yield stress that
+    holds it only to within that factor. (Until issue 40's round t the return kept the mean
+    bond strain, whose ratchet hardened the blob: it parted between 500 and 520 Pa at 5 ms
+    and between 520 and 600 Pa at 2.5 ms, 0.61-0.73 of the weight's stress. The plastic
+    return at the step's end alone, as the paper has it, hung the 500 Pa blob at dt = 5 ms,
+    2.2 spacings down, by the elastic overshoot of each step's bonds, and let it fall at
+    2.5 and 1.25 ms: docs/model.md, plasticity section.)"""
     low0 = lambda ceiling: ceiling - 6.5 * S
-    fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=600.0)
+    fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=700.0)
     assert 0.0 < low0(ceiling) - fluid[:, 2].min() < 5 * S, low0(ceiling) - fluid[:, 2].min()
     assert ceiling - fluid[:, 2].max() < 2 * S
-    fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=500.0)
+    fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=600.0)
     assert low0(ceiling) - fluid[:, 2].min() > 10 * S, low0(ceiling) - fluid[:, 2].min()
 
 

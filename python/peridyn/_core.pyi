@@ -428,8 +428,9 @@ class Particles:
     @property
     def rest_bonds(self) -> Optional[Dict[str, np.ndarray]]:
         """A plastic body's current reference bonds (``offsets`` (N + 1,), ``neighbours``
-        (B,) int64; ``vectors`` (B, 3) m, ``born`` (B,) m, ``plastic_strain`` (N,)); None for
-        an elastic body. Settable (checked; None: the reference positions' bonds)."""
+        (B,) int64; ``vectors`` (B, 3) m, ``born`` (B,) m, ``plastic_strain`` (N,), ``volume`` (N,): the
+        volume each particle's reference bonds span over its rest volume); None for an
+        elastic body. Settable (checked; None: the reference positions' bonds)."""
     @rest_bonds.setter
     def rest_bonds(self, value: Optional[Dict[str, np.ndarray]]) -> None: ...
     @property

@@ -93,7 +93,11 @@ _BOND_ENTRIES = {
     "vectors": ("f", 3),
     "born": ("f", None),
     "plastic_strain": ("f", None),
+    "volume": ("f", None),
 }
+#: Bond entries a file written before them may lack, with the value each particle then takes:
+#: the volume of its reference bonds over its rest volume (as for bonds of the rest state).
+_BOND_DEFAULTS = {"volume": 1.0}
 
 
 #: The entries of a particle body's material state (``Particles.material_state``) beside its
@@ -417,6 +421,10 @@ class _Entries:
         bonds = {}
         for name, (kind, columns) in _BOND_ENTRIES.items():
             key = f"{prefix}{name}_{b}"
+            if name in _BOND_DEFAULTS and not self.has(key):
+                particles = max(len(bonds["offsets"]) - 1, 0)
+                bonds[name] = np.full(particles, _BOND_DEFAULTS[name])
+                continue
             value = self._get(key)
             self._kind(key, value, "iu" if kind == "i" else "f",
                        "integers" if kind == "i" else "real floats")

@@ -24,6 +24,26 @@
 //! reproduce where every bond of an affinely deformed neighbourhood is scaled alike
 //! (`F' X' = F X = Y`), and to first order in the plastic strain otherwise; the dilatation
 //! term's lengths and shares are the stored ones exactly ([`Factors::returned`]).
+//!
+//! **What the return keeps of the mean strain: the rest volume (departure, issue 40).** Eq. 18
+//! keeps `(1 - alpha) e_iso`, the weighted mean bond strain. On a cone without friction
+//! (`B = 0`: von Mises, whose flow is isochoric) the kept mean is the particle's elastic
+//! dilatation, which must then be its whole dilatation from the rest state. The mean bond
+//! strain measures that only to first order, and each return stores its error in the reference:
+//! an increment `d eps` adds `tr(M d eps)` to it (`M = sum w n n^T / W`, not `I / 3` where a
+//! surface or the flow has made the bond directions anisotropic), and a deviatoric strain of RMS
+//! `d` adds about `d^2`; so an isochoric flow ratchets the reference short and the bulk term
+//! resists it as a hardening (docs/model.md, Fluids, rounds q-t). Such a cone carries the
+//! volume ratio `R_i` of the particle's reference bonds to its rest volume
+//! ([`super::RestBonds::volume`]) and the return keeps, instead,
+//! `e_kept = cbrt(J_i) - 1` with `J_i = R_i det F_i` (`F_i` from the step's reference bonds):
+//! the particle's volume over its rest volume, so that the returned bonds
+//! `|X'_b| = |Y_b| / (1 + e_kept + (1 - beta) (e_b - e_iso))` leave the dilatation term's mean
+//! strain at the particle's true volume change, and an isochoric flow (`J_i = 1`) keeps none.
+//! At the step's end `R_i` is set anew from the returned (and rebuilt) bonds at the same
+//! positions, `R_i = J_i / det F_i(X')`, so `J_i` changes only as the positions do
+//! ([`super::PlasticLaw::reanchor`]). Where `J_i` is not positive (no three-dimensional
+//! neighbourhood) the return keeps eq. 18's mean.
 
 use nalgebra::Vector3;
 
@@ -42,6 +62,10 @@ pub struct Cone<T: Real> {
     /// `9 K` and `sqrt(15) G` (Pa).
     pub bulk9: T,
     pub shear15: T,
+    /// For a return that keeps the rest volume (see the module's doc), the volume ratio `R_i`
+    /// of the particle's reference bonds to its rest volume (dimensionless); `None`: eq. 18's
+    /// mean.
+    pub volume: Option<T>,
 }
 
 /// The factors of eq. 18 (corrected) for one particle beyond its cone, with its mean strain.
@@ -52,6 +76,9 @@ pub struct Factors<T: Real> {
     pub beta: T,
     /// `e_iso` before the return (dimensionless).
     pub iso: T,
+    /// The mean strain the return keeps (dimensionless): `(1 - alpha) e_iso` (eq. 18), or
+    /// `cbrt(J_i) - 1` on a cone that keeps the rest volume (see the module's doc).
+    pub kept: T,
 }
 
 impl<T: Real> Cone<T> {
@@ -78,15 +105,40 @@ impl<T: Real> Cone<T> {
         } else {
             (T::zero(), T::one())
         };
-        Some(Factors { alpha, beta, iso })
+        Some(Factors {
+            alpha,
+            beta,
+            iso,
+            kept: (T::one() - alpha) * iso,
+        })
+    }
+
+    /// [`Self::factors`] of a particle whose deformation gradient from the step's reference
+    /// bonds has the determinant `det`: on a cone that keeps the rest volume, with the kept
+    /// mean `cbrt(R_i det) - 1` where `R_i det > 0` (see the module's doc).
+    #[inline]
+    pub fn factors_at(&self, iso: T, dev: T, det: T) -> Option<Factors<T>> {
+        let mut factors = self.factors(iso, dev)?;
+        if let Some(reference) = self.volume {
+            let volume = reference * det;
+            if volume > T::zero() {
+                factors.kept = volume.cbrt() - T::one();
+            }
+        }
+        Some(factors)
     }
 
     /// The return within the local step (see the module's doc) of a particle with the bonds
-    /// `bonds` at the bond vectors `y` (`Y_b`, m): its factors, or `None` inside the cone or
-    /// without weighted bonds. The strains are `|Y_b| / |X_b| - 1`, weighted by the bonds'
-    /// `w V_j`.
+    /// `bonds` at the bond vectors `y` (`Y_b`, m) and the deformation gradient's determinant
+    /// `det`: its factors ([`Self::factors_at`]), or `None` inside the cone or without
+    /// weighted bonds. The strains are `|Y_b| / |X_b| - 1`, weighted by the bonds' `w V_j`.
     #[inline]
-    pub fn local_return(&self, bonds: &[BondRest<T>], y: &[Vector3<T>]) -> Option<Factors<T>> {
+    pub fn local_return(
+        &self,
+        bonds: &[BondRest<T>],
+        y: &[Vector3<T>],
+        det: T,
+    ) -> Option<Factors<T>> {
         let strain = |bond: &BondRest<T>, y: &Vector3<T>| y.norm() / bond.length - T::one();
         let (mut weight, mut mean) = (T::zero(), T::zero());
         for (bond, y) in bonds.iter().zip(y) {
@@ -101,24 +153,25 @@ impl<T: Real> Cone<T> {
             let e = strain(bond, y) - iso;
             s + bond.weight * e * e
         });
-        self.factors(iso, (square / weight).sqrt())
+        self.factors_at(iso, (square / weight).sqrt(), det)
     }
 }
 
 impl<T: Real> Factors<T> {
-    /// The strain a bond of strain `e` keeps, `(1 - alpha) e_iso + (1 - beta) (e - e_iso)`.
+    /// The strain a bond of strain `e` keeps, `e_kept + (1 - beta) (e - e_iso)` (eq. 18:
+    /// `e_kept = (1 - alpha) e_iso`).
     #[inline]
     pub fn target(&self, e: T) -> T {
-        (T::one() - self.alpha) * self.iso + (T::one() - self.beta) * (e - self.iso)
+        self.kept + (T::one() - self.beta) * (e - self.iso)
     }
 
-    /// The weighted mean of the kept strains, `sum w_b e'_b / W = (1 - alpha) e_iso` (the
-    /// deviations have mean 0): the dilatation term's mean strain `sum a'_b (|Y_b| - |X'_b|)`
-    /// over the [`Self::returned`] bonds, without a pass over them (a bond squeezed to
-    /// nothing, which keeps its length, is off by its share of the difference).
+    /// The weighted mean of the kept strains, `sum w_b e'_b / W = e_kept` (the deviations
+    /// have mean 0): the dilatation term's mean strain `sum a'_b (|Y_b| - |X'_b|)` over the
+    /// [`Self::returned`] bonds, without a pass over them (a bond squeezed to nothing, which
+    /// keeps its length, is off by its share of the difference).
     #[inline]
     pub fn kept_mean(&self) -> T {
-        (T::one() - self.alpha) * self.iso
+        self.kept
     }
 
     /// The length `|X'| = |Y| / (1 + e')` (m) that leaves a bond of the reference length

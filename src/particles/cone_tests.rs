@@ -3,6 +3,7 @@
 
 use nalgebra::Vector3;
 
+use crate::particles::deformation::deformation_gradient;
 use crate::particles::tests::lattice;
 use crate::particles::{
     evaluate_particles, DruckerPrager, Elastic, Granular, ParticleParams, ParticleRest, Particles,
@@ -44,7 +45,7 @@ fn deformed(body: &Particles, scale: f64, shear: f64) -> Vec<Vector3<f64>> {
 }
 
 /// The rest data of `body` with the bonds `bonds`, granular `lam` per particle (Pa) if any,
-/// and with `cones` the cones of its law (no plastic strain).
+/// and with `cones` the cones of its law (the bonds' plastic strains and volume ratios).
 fn rest_of(
     body: &Particles,
     bonds: &RestBonds,
@@ -56,7 +57,7 @@ fn rest_of(
         .unwrap();
     if cones {
         let law = PlasticLaw::of(body).unwrap();
-        rest.set_cones(0, &law, &vec![0.0; body.num_particles()], None);
+        rest.set_cones(0, &law, bonds, None);
     }
     rest
 }
@@ -256,7 +257,9 @@ fn a_collapsed_neighbourhood_returns_to_finite_forces_and_onto_its_cone() {
     for i in 0..n {
         let cone = rest.cones[i].unwrap();
         let (bonds_i, ys) = (&rest.bonds[range(i)], bond_vectors(i));
-        let Some(factors) = cone.local_return(bonds_i, &ys) else {
+        let neighbours = &rest.indices[range(i)];
+        let f = deformation_gradient(i, neighbours, bonds_i, &rest.shape_inverse[i], &y);
+        let Some(factors) = cone.local_return(bonds_i, &ys, f.determinant()) else {
             continue;
         };
         assert_ne!(
@@ -301,6 +304,7 @@ fn a_collapsed_neighbourhood_returns_to_finite_forces_and_onto_its_cone() {
         alpha: 0.0,
         beta: 0.5,
         iso: -1.0,
+        kept: -1.0,
     };
     let bond = rest.bonds[0];
     assert_eq!(

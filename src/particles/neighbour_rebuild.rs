@@ -99,6 +99,7 @@ pub fn rebuild(
         xi,
         born,
         plastic_strain: bonds.plastic_strain.clone(),
+        volume: bonds.volume.clone(),
     };
     drop_coincident(&mut rebuilt, y);
     Ok((!rebuilt.same_pairs(bonds)).then_some(rebuilt))

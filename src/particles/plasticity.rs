@@ -35,6 +35,12 @@
 //! return `e'_iso = (1 - alpha) e_iso` and `||e'_dev|| = (1 - beta) ||e_dev||`: the state lies
 //! on the yield surface up to round-off (a departure from the paper, whose state drifts off
 //! the surface by the square of the strain).
+//!
+//! **The kept mean on a cone without friction: the rest volume (departure).** A body whose
+//! cone has no friction (`phi = 0`, von Mises: an isochoric flow), neither granular nor thin,
+//! keeps `cbrt(J_i) - 1` instead of `e_iso` (`J_i = R_i det F_i`, its volume over its rest
+//! volume): [`super::cone`]'s module doc derives it; [`PlasticLaw::volumes`] and
+//! [`PlasticLaw::reanchor`] carry `R_i` across the returns and the neighbour rebuild.
 
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -209,22 +215,21 @@ pub(crate) struct PlasticLaw {
     /// Horizon (m) and particle volume (m^3).
     pub delta: f64,
     pub volume: f64,
+    /// Whether the return keeps the rest volume (a cone without friction, a body neither
+    /// granular nor thin: [`super::cone`]).
+    pub anchored: bool,
 }
 
 impl PlasticLaw {
     /// The yield measure of a [`LocalStrain`] for a particle with the plastic strain `eps_p`.
     pub fn measure(&self, local: &LocalStrain, eps_p: f64) -> YieldState {
-        self.measure_at(local, eps_p, self.law.cohesion)
-    }
-
-    /// [`Self::measure`] with the particle's own cohesion `c` (Pa) before hardening.
-    fn measure_at(&self, local: &LocalStrain, eps_p: f64, c: f64) -> YieldState {
-        let (sqrt_j2, strength) = self.cone_at(c, eps_p).state(local.iso, local.dev);
+        let cone = self.cone_at(self.law.cohesion, eps_p);
+        let (sqrt_j2, strength) = cone.state(local.iso, local.dev);
         YieldState { sqrt_j2, strength }
     }
 
     /// The cone of a particle with the cohesion `c` (Pa) before hardening and the plastic
-    /// strain `eps_p`.
+    /// strain `eps_p`, with eq. 18's kept mean (see [`Self::anchored_cone`]).
     pub fn cone_at(&self, c: f64, eps_p: f64) -> Cone<f64> {
         let (a, b) = self.law.cone(c + self.law.hardening * eps_p);
         Cone {
@@ -232,7 +237,52 @@ impl PlasticLaw {
             b,
             bulk9: 9.0 * self.bulk,
             shear15: 15f64.sqrt() * self.shear,
+            volume: None,
         }
+    }
+
+    /// [`Self::cone_at`] of a particle whose reference bonds span the volume ratio `volume`
+    /// ([`RestBonds::volume`]): where the law is [`Self::anchored`], a cone whose return keeps
+    /// the rest volume ([`super::cone`]).
+    pub fn anchored_cone(&self, c: f64, eps_p: f64, volume: f64) -> Cone<f64> {
+        Cone {
+            volume: self.anchored.then_some(volume),
+            ..self.cone_at(c, eps_p)
+        }
+    }
+
+    /// Every particle's volume over its rest volume, `J_i = R_i det F_i` (dimensionless; 0
+    /// where it has no deformation gradient), at the positions `y` (m) from `bonds`, into
+    /// `out` (see [`super::cone`]).
+    pub fn volumes(&self, bonds: &RestBonds, y: &[Vector3<f64>], out: &mut Vec<f64>) {
+        (0..bonds.len())
+            .into_par_iter()
+            .map(|i| {
+                local_strain(bonds, i, y, self.delta, self.volume)
+                    .map_or(0.0, |l| bonds.volume[i] * l.f.determinant())
+            })
+            .collect_into_vec(out);
+    }
+
+    /// Sets each particle's [`RestBonds::volume`] anew from its bonds `bonds` (the returned
+    /// and rebuilt ones) at the positions `y` (m) where [`Self::volumes`] gave it the volume
+    /// `J_i > 0` with the step's bonds: `R_i = J_i / det F_i`, so that `J_i` changes only as
+    /// the positions do. A particle with `J_i` or the new `det F_i` not positive keeps its
+    /// `R_i`.
+    pub fn reanchor(&self, bonds: &mut RestBonds, y: &[Vector3<f64>], volumes: &[f64]) {
+        let ratios: Vec<f64> = (0..bonds.len())
+            .into_par_iter()
+            .map(|i| {
+                let det = local_strain(bonds, i, y, self.delta, self.volume)
+                    .map_or(0.0, |l| l.f.determinant());
+                if volumes[i] > 0.0 && det > 0.0 {
+                    volumes[i] / det
+                } else {
+                    bonds.volume[i]
+                }
+            })
+            .collect();
+        bonds.volume = ratios;
     }
 
     /// Every particle's yield measure at the positions `y` (m; `None` for a particle without
@@ -267,6 +317,7 @@ impl PlasticLaw {
             xi,
             born,
             plastic_strain,
+            volume,
         } = bonds;
         let mut increments = vec![None; plastic_strain.len()];
         for_each_vertex(offsets, xi, &mut increments, &|i,
@@ -277,7 +328,7 @@ impl PlasticLaw {
             let (indices, born) = (&indices[row.clone()], &born[row]);
             let view = BondRow { indices, xi, born };
             let c = cohesion.map_or(self.law.cohesion, |c| c[i]);
-            let plan = self.plan(&view, i, y, plastic_strain[i], c)?;
+            let plan = self.plan(&view, i, y, (plastic_strain[i], volume[i]), c)?;
             for (k, x) in xi.iter_mut().enumerate() {
                 let yb = y[indices[k] as usize] - y[i];
                 if let Some(moved) = plan.moved(x, &yb) {
@@ -297,18 +348,20 @@ impl PlasticLaw {
         yielded
     }
 
-    /// The return of particle `i` with its bonds `row` and plastic strain `eps_p` at the
-    /// positions `y` (m), if it yields with the cohesion `c` (Pa) before hardening.
+    /// The return of particle `i` with its bonds `row`, plastic strain and volume ratio
+    /// `(eps_p, volume)` at the positions `y` (m), if it yields with the cohesion `c` (Pa)
+    /// before hardening.
     fn plan(
         &self,
         row: &BondRow<'_>,
         i: usize,
         y: &[Vector3<f64>],
-        eps_p: f64,
+        (eps_p, volume): (f64, f64),
         c: f64,
     ) -> Option<Return> {
         let local = row.strain(i, y, self.delta, self.volume)?;
-        let factors = self.cone_at(c, eps_p).factors(local.iso, local.dev)?;
+        let cone = self.anchored_cone(c, eps_p, volume);
+        let factors = cone.factors_at(local.iso, local.dev, local.f.determinant())?;
         let mut plan = Return {
             factors,
             rotation: rotation(&local.f),
@@ -344,7 +397,9 @@ impl Return {
     /// (`> 0`) guarantees.
     #[inline]
     pub(super) fn moved(&self, x: &Vector3<f64>, yb: &Vector3<f64>) -> Option<Vector3<f64>> {
-        let Factors { alpha, beta, iso } = self.factors;
+        let Factors {
+            alpha, beta, iso, ..
+        } = self.factors;
         let length = self.factors.kept_length(yb.norm(), x.norm())?;
         let rx = self.rotation * x;
         let d = yb - rx;
@@ -363,12 +418,14 @@ impl PlasticLaw {
     /// The law of a plastic body (`None` for an elastic one).
     pub fn of(body: &super::Particles) -> Option<Self> {
         let (shear, bulk) = shear_and_bulk(&body.params().material);
+        let thin = body.num_real() < body.num_particles();
         body.plasticity().map(|&law| Self {
             law,
             shear,
             bulk,
             delta: body.horizon(),
             volume: body.volume(),
+            anchored: law.friction_angle == 0.0 && body.granular().is_none() && !thin,
         })
     }
 }

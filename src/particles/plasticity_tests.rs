@@ -296,6 +296,7 @@ fn the_stored_return_keeps_and_returns_the_bonds_the_kernel_does() {
             alpha: 1.0,
             beta: 0.0,
             iso: -1.0,
+            kept: 0.0,
         },
         rotation: Matrix3::identity(),
         increment: 0.0,
@@ -316,6 +317,7 @@ fn the_stored_return_keeps_and_returns_the_bonds_the_kernel_does() {
             alpha: 0.0,
             beta: 0.5,
             iso: -1.0,
+            kept: -1.0,
         },
         ..undirected
     };
@@ -324,5 +326,58 @@ fn the_stored_return_keeps_and_returns_the_bonds_the_kernel_does() {
         let kernel = squeezing.factors.returned(&bond, &yb).length;
         assert_eq!(kernel == spacing, kept, "{scale}: {kernel}");
         assert_eq!(squeezing.moved(&x, &yb).is_none(), kept, "{scale}");
+    }
+}
+
+/// On a cone without friction the return keeps the rest volume (`super::cone`): clay-like
+/// (E = 100 kPa, nu = 0.3, phi = 0, c = 300 Pa) stretched without a change of volume
+/// (`F = diag(1.15, 1 / sqrt 1.15, 1 / sqrt 1.15)`, `det F = 1`) far beyond yield: every
+/// particle yields, its mean bond strain before the return is not 0 (the deviatoric strain's
+/// second-order part, and at the surface its anisotropic bond directions' first-order part:
+/// up to more than 4e-3 in size) and the bonds it stores leave it the mean strain
+/// `cbrt(J_i) - 1` = 0 at the same positions (1e-12: eq. 18 would keep `e_iso`). Each
+/// particle's volume `J_i = R_i det F_i` is the same before and after the return (1e-12:
+/// [`PlasticLaw::reanchor`]), and 1 (1e-12: the stretch is affine). A frictional cone
+/// (20 degrees) keeps eq. 18's mean `(1 - alpha) e_iso`.
+#[test]
+fn a_return_without_friction_keeps_the_rest_volume() {
+    let s = 1.15f64;
+    let f = Matrix3::from_diagonal(&Vector3::new(s, 1.0 / s.sqrt(), 1.0 / s.sqrt()));
+    for phi in [0.0, 20.0] {
+        let b = body([6, 6, 6], Some(law(phi, 300.0, false)));
+        let y: Vec<Vector3<f64>> = b.reference().iter().map(|x| f * x).collect();
+        let plastic = PlasticLaw::of(&b).unwrap();
+        assert_eq!(plastic.anchored, phi == 0.0);
+        let mut bonds = b.current_rest_bonds();
+        let (delta, volume) = (plastic.delta, plastic.volume);
+        let before: Vec<_> = (0..y.len())
+            .map(|i| super::plasticity::local_strain(&bonds, i, &y, delta, volume).unwrap())
+            .collect();
+        let mut volumes = Vec::new();
+        plastic.volumes(&bonds, &y, &mut volumes);
+        let n = plastic.apply(&mut bonds, &y, &mut vec![false; y.len()], None);
+        assert_eq!(n, y.len(), "{phi}");
+        plastic.reanchor(&mut bonds, &y, &volumes);
+        let largest = before.iter().map(|l| l.iso.abs()).fold(0.0, f64::max);
+        assert!(largest > 4e-3, "{phi}: {largest}");
+        for (i, old) in before.iter().enumerate() {
+            let new = super::plasticity::local_strain(&bonds, i, &y, delta, volume).unwrap();
+            let eq18 = plastic
+                .cone_at(300.0, 0.0)
+                .factors(old.iso, old.dev)
+                .unwrap();
+            let kept = if phi == 0.0 { 0.0 } else { eq18.kept };
+            assert!(
+                (new.iso - kept).abs() < 1e-12,
+                "{phi} {i}: {} {}",
+                new.iso,
+                kept
+            );
+            if phi == 0.0 {
+                assert!((volumes[i] - 1.0).abs() < 1e-12, "{i}: {}", volumes[i]);
+                let j = bonds.volume[i] * new.f.determinant();
+                assert!((j - volumes[i]).abs() < 1e-12, "{i}: {j} {}", volumes[i]);
+            }
+        }
     }
 }

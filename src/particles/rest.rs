@@ -180,30 +180,34 @@ impl<T: Real> ParticleRest<T> {
                 .granular
                 .zip(body.wetted())
                 .map(|(g, theta)| g.cohesions(theta));
-            self.set_cones(base, &law, &bonds.plastic_strain, cohesion.as_deref());
+            self.set_cones(base, &law, bonds, cohesion.as_deref());
         }
         Ok(())
     }
 
-    /// The cones of the particles `base..base + eps_p.len()` (one body's, its law `law`, its
-    /// particles' plastic strains `eps_p` and, for wetted sand, cohesions `cohesion` in Pa):
-    /// the kernel returns them within the local step ([`super::cone`]).
+    /// The cones of the particles `base..base + n` (one body's: its law `law`, its `n`
+    /// particles' plastic strains and volume ratios from its `bonds` and, for wetted sand,
+    /// cohesions `cohesion` in Pa): the kernel returns them within the local step
+    /// ([`super::cone`]).
     pub(crate) fn set_cones(
         &mut self,
         base: usize,
         law: &PlasticLaw,
-        eps_p: &[f64],
+        bonds: &RestBonds,
         cohesion: Option<&[f64]>,
     ) {
         self.cones.resize(self.len(), None);
-        for (k, (cone, &eps)) in self.cones[base..].iter_mut().zip(eps_p).enumerate() {
+        let particles = bonds.plastic_strain.iter().zip(&bonds.volume);
+        for (k, (cone, (&eps, &volume))) in self.cones[base..].iter_mut().zip(particles).enumerate()
+        {
             let c = cohesion.map_or(law.law.cohesion, |c| c[k]);
-            let f = law.cone_at(c, eps);
+            let f = law.anchored_cone(c, eps, volume);
             *cone = Some(Cone {
                 a: T::of(f.a),
                 b: T::of(f.b),
                 bulk9: T::of(f.bulk9),
                 shear15: T::of(f.shear15),
+                volume: f.volume.map(T::of),
             });
         }
     }

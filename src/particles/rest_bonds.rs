@@ -33,6 +33,12 @@ pub struct RestBonds {
     /// Per particle the accumulated plastic strain (dimensionless; the weighted RMS of the
     /// bond strains each return took away), which hardening raises the cohesion with.
     pub plastic_strain: Vec<f64>,
+    /// Per particle the volume its reference bonds span over its rest volume,
+    /// `R_i = J_i / det F_i` (dimensionless; 1 for the bonds of the reference positions):
+    /// `J_i` the particle's volume over its rest volume, carried from step to step, and `F_i`
+    /// its deformation gradient from these bonds. A return that keeps the rest volume
+    /// ([`super::cone`]) reads `J_i = R_i det F_i` from it.
+    pub volume: Vec<f64>,
 }
 
 /// `clone_from` copies into the vectors at hand (the solver writes a plastic body's bonds
@@ -45,6 +51,7 @@ impl Clone for RestBonds {
             xi: self.xi.clone(),
             born: self.born.clone(),
             plastic_strain: self.plastic_strain.clone(),
+            volume: self.volume.clone(),
         }
     }
 
@@ -54,6 +61,7 @@ impl Clone for RestBonds {
         self.xi.clone_from(&source.xi);
         self.born.clone_from(&source.born);
         self.plastic_strain.clone_from(&source.plastic_strain);
+        self.volume.clone_from(&source.volume);
     }
 }
 
@@ -67,7 +75,7 @@ pub(crate) struct BondRow<'a> {
 
 impl RestBonds {
     /// The bonds of the reference positions `x` (m) with their `horizons`: `X = x_j - x_i`,
-    /// born at `|X|`, no plastic strain.
+    /// born at `|X|`, no plastic strain, at the rest volume.
     pub fn from_reference(x: &[Vector3<f64>], horizons: &Horizons) -> Self {
         let mut xi = Vec::with_capacity(horizons.indices.len());
         for i in 0..horizons.len() {
@@ -79,6 +87,7 @@ impl RestBonds {
             born: xi.iter().map(|v| v.norm()).collect(),
             xi,
             plastic_strain: vec![0.0; horizons.len()],
+            volume: vec![1.0; horizons.len()],
         }
     }
 
@@ -118,7 +127,7 @@ impl RestBonds {
     /// the first culprit: `n + 1` offsets from 0, non-decreasing, to the bond count; per bond
     /// a neighbour in `[0, n)` other than the particle, increasing within each row, with the
     /// reverse bond present; a finite nonzero vector `X` (m) and a finite length > 0 (m) it
-    /// was born at; per particle a finite plastic strain >= 0.
+    /// was born at; per particle a finite plastic strain >= 0 and a finite volume ratio > 0.
     pub fn check(&self, n: usize) -> Result<()> {
         let bonds = self.indices.len();
         if self.offsets.len() != n + 1 {
@@ -153,6 +162,12 @@ impl RestBonds {
             return Err(invalid!(
                 "the plastic strain must hold one entry per particle ({n}), got {}",
                 self.plastic_strain.len()
+            ));
+        }
+        if self.volume.len() != n {
+            return Err(invalid!(
+                "the volume ratios must hold one entry per particle ({n}), got {}",
+                self.volume.len()
             ));
         }
         for i in 0..n {
@@ -192,6 +207,12 @@ impl RestBonds {
             if !(p.is_finite() && p >= 0.0) {
                 return Err(invalid!(
                     "the plastic strain of particle {i} must be finite and >= 0, got {p}"
+                ));
+            }
+            let v = self.volume[i];
+            if !(v.is_finite() && v > 0.0) {
+                return Err(invalid!(
+                    "the volume ratio of particle {i} must be finite and > 0, got {v}"
                 ));
             }
         }

@@ -144,6 +144,7 @@ impl Particles {
                 xi: Vec::new(),
                 born: Vec::new(),
                 plastic_strain: vec![0.0; n],
+                volume: vec![1.0; n],
             },
         };
         let mut changed = vec![false; n];
@@ -195,6 +196,7 @@ impl Particles {
             xi: Vec::new(),
             born: Vec::new(),
             plastic_strain: vec![0.0; n],
+            volume: vec![1.0; n],
         };
         let mut row: Vec<(u32, Vector3<f64>, f64)> = Vec::new();
         for i in 0..n {

@@ -155,6 +155,7 @@ pub fn to_dict<'py>(py: Python<'py>, state: MaterialState) -> PyResult<Bound<'py
         xi: Vec::new(),
         born: Vec::new(),
         plastic_strain: Vec::new(),
+        volume: Vec::new(),
     });
     for (name, value) in rest_bonds::to_dict(py, bonds)?.iter() {
         dict.set_item(format!("{REGION}{}", name.extract::<String>()?), value)?;

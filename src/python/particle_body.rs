@@ -424,7 +424,8 @@ impl PyParticles {
     }
     /// A plastic body's current reference bonds as a dict of arrays (``offsets`` (N + 1,) and
     /// ``neighbours`` (B,) int64 in CSR, ``vectors`` (B, 3) m, ``born`` (B,) m the length
-    /// each bond's weight was set at, ``plastic_strain`` (N,)), which the returns and the
+    /// each bond's weight was set at, ``plastic_strain`` (N,), ``volume`` (N,) the volume each
+    /// particle's reference bonds span over its rest volume), which the returns and the
     /// neighbour rebuilds of the steps so far have made; None for an elastic body. Settable
     /// (checked whole; None goes back to the reference positions' bonds): what
     /// ``peridyn.save_state`` saves and ``load_state`` restores.

@@ -20,9 +20,11 @@ const VECTORS: &str = "vectors";
 const BORN: &str = "born";
 /// Per particle the accumulated plastic strain, (N,) dimensionless.
 const PLASTIC_STRAIN: &str = "plastic_strain";
+/// Per particle the volume its reference bonds span over its rest volume, (N,) dimensionless.
+const VOLUME: &str = "volume";
 
 /// Every entry of the dict, in order.
-pub const NAMES: [&str; 5] = [OFFSETS, NEIGHBOURS, VECTORS, BORN, PLASTIC_STRAIN];
+pub const NAMES: [&str; 6] = [OFFSETS, NEIGHBOURS, VECTORS, BORN, PLASTIC_STRAIN, VOLUME];
 
 /// `bonds` as a dict of every entry in [`NAMES`].
 pub fn to_dict<'py>(py: Python<'py>, bonds: RestBonds) -> PyResult<Bound<'py, PyDict>> {
@@ -33,6 +35,7 @@ pub fn to_dict<'py>(py: Python<'py>, bonds: RestBonds) -> PyResult<Bound<'py, Py
     dict.set_item(VECTORS, to_numpy(py, bonds.xi.into_iter())?)?;
     dict.set_item(BORN, to_numpy_1d(py, bonds.born))?;
     dict.set_item(PLASTIC_STRAIN, to_numpy_1d(py, bonds.plastic_strain))?;
+    dict.set_item(VOLUME, to_numpy_1d(py, bonds.volume))?;
     Ok(dict)
 }
 
@@ -59,5 +62,6 @@ pub fn from_dict(dict: &Bound<'_, PyDict>) -> PyResult<RestBonds> {
         xi: vec3s(&item(VECTORS)?, VECTORS, None)?,
         born: reals(BORN)?,
         plastic_strain: reals(PLASTIC_STRAIN)?,
+        volume: reals(VOLUME)?,
     })
 }

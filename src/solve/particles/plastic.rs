@@ -42,6 +42,10 @@ struct Entry {
     /// A sand body's saturation per particle once a liquid wetted it (empty before:
     /// the material's; [`crate::particles::wetted`]).
     wetted: Vec<f64>,
+    /// A body whose return keeps the rest volume: per particle its volume over its rest
+    /// volume at the step's positions with the step's bonds ([`PlasticLaw::volumes`];
+    /// reused, empty for other bodies).
+    volumes: Vec<f64>,
 }
 
 impl Entry {
@@ -81,6 +85,7 @@ impl PlasticBodies {
                     range,
                     lam: Vec::new(),
                     wetted: b.wetted().map_or_else(Vec::new, <[f64]>::to_vec),
+                    volumes: Vec::new(),
                 }
             })
             .collect();
@@ -113,6 +118,9 @@ impl PlasticBodies {
                     &self.y[entry.range.clone()],
                     &mut yielded[entry.range.clone()],
                 );
+                if law.anchored {
+                    law.volumes(&entry.bonds, y, &mut entry.volumes);
+                }
                 let cohesion = entry.cohesions();
                 count += law.apply(&mut entry.bonds, y, marks, cohesion.as_deref());
             }
@@ -178,6 +186,12 @@ impl PlasticBodies {
             return Ok(None);
         }
         let t = Instant::now();
+        for entry in &mut self.entries {
+            if let Some(law) = entry.law.filter(|l| l.anchored) {
+                let y = &y[entry.range.clone()];
+                law.reanchor(&mut entry.bonds, y, &entry.volumes);
+            }
+        }
         let sources: Vec<(&RestBonds, RestConstants, Option<&[f64]>)> = self
             .entries
             .iter()
@@ -190,8 +204,8 @@ impl PlasticBodies {
         for entry in &self.entries {
             // Every plastic body returns within the local step (`particles::cone`).
             if let Some(law) = entry.law {
-                let (start, eps_p) = (entry.range.start, &entry.bonds.plastic_strain);
-                rest.set_cones(start, &law, eps_p, entry.cohesions().as_deref());
+                let cohesion = entry.cohesions();
+                rest.set_cones(entry.range.start, &law, &entry.bonds, cohesion.as_deref());
             }
         }
         timings.plasticity += millis(t);
