@@ -234,8 +234,10 @@ class Granular:
     eq. 25, ``cohesion_stiffness`` ``K_c`` (Pa, >= 0) of eq. 26, ``cohesion_falloff``
     ``H_0`` (> 0) and ``debonding`` ``b`` (in [0, 1]) of eq. 27, ``static_friction``
     ``eta`` (in (0, 1], None for none) of eq. 28, ``contact_friction`` ``mu_c`` (>= 0): the
-    Coulomb friction coefficient at the contacts of touching grains (0: frictionless balls).
-    docs/model.md gives the defaults' reasons.
+    Coulomb friction coefficient at the contacts of touching grains (0: frictionless balls),
+    ``wicking`` ``D`` (m^2/s, in [0, 0.01]; 0: none): the capillary diffusivity of the water
+    the grains hold, which moves from grain to grain conserved (a wetting front advances
+    about ``sqrt(D t)``). docs/model.md gives the defaults' reasons.
     ValueError naming the bad parameter."""
 
     def __init__(
@@ -250,6 +252,7 @@ class Granular:
         debonding: float = 1.0,
         static_friction: Optional[float] = 0.8,
         contact_friction: float = 0.0,
+        wicking: float = 1e-5,
     ) -> None: ...
     @property
     def friction_angle(self) -> float: ...
@@ -269,6 +272,8 @@ class Granular:
     def contact_friction(self) -> float: ...
     @property
     def static_friction(self) -> Optional[float]: ...
+    @property
+    def wicking(self) -> float: ...
     def stiffness(self, density_ratio: float) -> float:
         """``k_f + k_c`` (Pa) at the density ratio ``rho / rho_0`` (eq. 25-27)."""
 
@@ -411,7 +416,8 @@ class Particles:
     @property
     def saturation(self) -> Optional[np.ndarray]:
         """A sand body's water saturation per particle (in [0, 1]): the material's, risen
-        where a liquid in the same solver reached the grains; None for other bodies."""
+        where a liquid in the same solver reached the grains and wicked on from grain to
+        grain (``Granular(wicking=)``); None for other bodies."""
     @property
     def fluid_particles(self) -> np.ndarray:
         """Per particle, True for a fluid particle (bool): all for a fluid body, none for a

@@ -40,7 +40,8 @@
 //! uses `H_f = 1` and no cohesion): the defaults here are chosen for sand at a few mm
 //! spacing at time steps of a few ms, `K_f = 100 kPa` (a continuum Young's modulus
 //! `K_f / 6`), `H_f = 10`, `K_c = 20 kPa`, `H_0 = 10`, `b = 1` and `eta = 0.8` (the
-//! paper's).
+//! paper's); the capillary diffusivity of the held water `D = 1e-5 m^2/s`, fine sand's
+//! ([`super::wicking`]).
 //!
 //! **Grains keep apart.** A granular body's particles repel each other as the particles of
 //! different bodies do ([`crate::solve`]'s repulsion: balls of half a spacing): its bonds,
@@ -56,6 +57,7 @@ use crate::real::Real;
 use super::plasticity::DruckerPrager;
 use super::rest_bonds::RestBonds;
 use super::sph::{Kernel, Sph};
+use super::wicking::{DEFAULT_WICKING, MAX_WICKING};
 
 /// A granular particle material (see the module's doc).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,6 +82,9 @@ pub struct Granular {
     /// Coulomb friction coefficient `mu_c` (dimensionless, >= 0) at the contacts of touching
     /// grains (`crate::solve`'s grain friction; 0: frictionless balls, the default).
     pub contact_friction: f64,
+    /// Capillary diffusivity `D` (m^2/s, in [0, [`MAX_WICKING`]]) of the water the grains
+    /// hold, which wicks from grain to grain ([`super::wicking`]; 0: none).
+    pub wicking: f64,
 }
 
 impl Granular {
@@ -96,6 +101,7 @@ impl Granular {
             debonding: 1.0,
             static_friction: Some(0.8),
             contact_friction: 0.0,
+            wicking: DEFAULT_WICKING,
         }
     }
 
@@ -148,6 +154,12 @@ impl Granular {
             self.contact_friction,
             |v| v >= 0.0,
             "a finite coefficient >= 0",
+        )?;
+        check_param(
+            "wicking",
+            self.wicking,
+            |v| (0.0..=MAX_WICKING).contains(&v),
+            "a capillary diffusivity in [0, 0.01] m^2/s",
         )?;
         if let Some(eta) = self.static_friction {
             check_param(

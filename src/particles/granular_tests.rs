@@ -67,6 +67,9 @@ fn bad_parameters_name_themselves() {
     let mut g = sand(0.0);
     g.debonding = -0.1;
     assert!(message(g).contains("debonding"));
+    let mut g = sand(0.0);
+    g.wicking = 0.02;
+    assert!(message(g).contains("wicking must be a capillary diffusivity in [0, 0.01] m^2/s"));
     assert!(sand(1.0).validate().is_ok());
 }
 

@@ -28,6 +28,7 @@ pub mod sph_deficiency;
 pub mod surface;
 mod thin;
 mod wet_sand;
+mod wicking;
 
 pub use body::{
     MaterialState, ParticleParams, Particles, RegionMaterial, DEFAULT_HORIZON, FLUID_PLACEHOLDER,
@@ -51,6 +52,8 @@ pub use rest_bonds::RestBonds;
 pub use sampling::{sample_surface, sample_volume, MAX_PARTICLES, MAX_SURFACE_CANDIDATES};
 pub use thin::MAX_SECTION;
 pub use wet_sand::{wetted, WETTING_FRACTION};
+pub(crate) use wicking::Wicking;
+pub use wicking::{DEFAULT_WICKING, MAX_WICKING, POROSITY};
 
 #[cfg(test)]
 mod plasticity_tests;

@@ -6,11 +6,16 @@
 //! **Rule.** After each step, a grain with the liquid volume fraction `phi` around it (the
 //! lattice-normalised SPH sum of the liquid particles' volumes, dimensionless: 1 inside a
 //! liquid; `crate::solve::particles::fluid::partners`) takes the saturation
-//! `theta <- max(theta, min(1, phi / WETTING_FRACTION))`: it never dries, and nothing seeps
-//! from grain to grain (no capillary wicking). The kernel (spiky, 2.2 spacings) is peaked:
-//! under liquid standing on a flat sand face, the face's grains see `phi = 0.1475`, the
-//! layer below `0.0003`, so a liquid wets one layer of grains where it touches the sand (a
-//! stated limit). The liquid keeps its particles (no absorption).
+//! `theta <- max(theta, min(1, phi / WETTING_FRACTION))`. The kernel (spiky, 2.2 spacings)
+//! is peaked: under liquid standing on a flat sand face, the face's grains see
+//! `phi = 0.1475`, the layer below `0.0003`, so the liquid saturates the layer of grains it
+//! touches, which it keeps saturated while it stays (a ponded face); from there the held
+//! water wicks into the sand by capillary diffusion ([`super::wicking`]), which conserves
+//! it. **Departure: no absorption.** The water the face's grains take is not taken from the
+//! liquid, which keeps its particles and their volume: a body's particle count and its
+//! particles' mass (`density spacing^3`, one per body) are fixed for the life of the body
+//! (the working sets, the global matrix and the state files are built on them), so a
+//! liquid particle can neither be removed nor shrink.
 //!
 //! **Cohesion.** A grain's saturation enters its own stiffness (eq. 26-27: `H_c = H_0
 //! theta^-1/2`, `rho_1 = (1 - b theta) rho_0`) and its yield law's capillary cohesion

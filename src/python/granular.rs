@@ -2,7 +2,7 @@
 
 use pyo3::prelude::*;
 
-use crate::particles::Granular;
+use crate::particles::{Granular, DEFAULT_WICKING};
 
 use super::errors::IntoPyResult;
 use super::scalars::Real;
@@ -21,14 +21,15 @@ impl PyGranular {
     /// reference friction stiffness `K_f` (Pa) and its hardening `H_f`, the reference
     /// cohesion stiffness `K_c` (Pa) and falloff `H_0`, the debonding scale `b`, and the
     /// static friction `eta` (in (0, 1], None for none), the grains' contact friction
-    /// coefficient `mu_c` (>= 0): docs/model.md.
+    /// coefficient `mu_c` (>= 0), the capillary diffusivity `wicking` (m^2/s, in [0, 0.01])
+    /// of the water the grains hold: docs/model.md.
     #[new]
     #[pyo3(signature = (
         *, friction_angle, saturation = Real::of(0.0),
         friction_stiffness = Real::of(1e5), friction_hardening = Real::of(10.0),
         cohesion_stiffness = Real::of(2e4), cohesion_falloff = Real::of(10.0),
         debonding = Real::of(1.0), static_friction = Some(Real::of(0.8)),
-        contact_friction = Real::of(0.0),
+        contact_friction = Real::of(0.0), wicking = Real::of(DEFAULT_WICKING),
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -41,6 +42,7 @@ impl PyGranular {
         debonding: Real,
         static_friction: Option<Real>,
         contact_friction: Real,
+        wicking: Real,
     ) -> PyResult<Self> {
         let inner = Granular {
             friction_angle: friction_angle.get("friction_angle")?,
@@ -54,6 +56,7 @@ impl PyGranular {
                 .map(|s| s.get("static_friction"))
                 .transpose()?,
             contact_friction: contact_friction.get("contact_friction")?,
+            wicking: wicking.get("wicking")?,
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -103,6 +106,11 @@ impl PyGranular {
     fn contact_friction(&self) -> f64 {
         self.inner.contact_friction
     }
+    /// Capillary diffusivity `D` (m^2/s) of the water the grains hold.
+    #[getter]
+    fn wicking(&self) -> f64 {
+        self.inner.wicking
+    }
     /// `k_f + k_c` (Pa) at the density ratio `rho / rho_0` (eq. 25-27).
     fn stiffness(&self, density_ratio: Real) -> PyResult<f64> {
         Ok(self.inner.stiffness(density_ratio.get("density_ratio")?))
@@ -112,7 +120,7 @@ impl PyGranular {
         format!(
             "Granular(friction_angle={}, saturation={}, friction_stiffness={}, \
              friction_hardening={}, cohesion_stiffness={}, cohesion_falloff={}, debonding={}, \
-             static_friction={}, contact_friction={})",
+             static_friction={}, contact_friction={}, wicking={})",
             g.friction_angle,
             g.saturation,
             g.friction_stiffness,
@@ -122,7 +130,8 @@ impl PyGranular {
             g.debonding,
             g.static_friction
                 .map_or("None".to_string(), |e| e.to_string()),
-            g.contact_friction
+            g.contact_friction,
+            g.wicking
         )
     }
 }

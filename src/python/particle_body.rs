@@ -360,8 +360,9 @@ impl PyParticles {
         })
     }
     /// A sand body's water saturation per particle (float64, in [0, 1]): the material's,
-    /// risen where a liquid in the same solver has reached the grains (docs/model.md, "Liquid
-    /// with wet sand"); None for a body that is not sand.
+    /// risen where a liquid in the same solver has reached the grains and wicked on from
+    /// grain to grain (docs/model.md, "Liquid with wet sand"); None for a body that is not
+    /// sand.
     #[getter]
     fn saturation<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
         self.lock().saturation().map(|t| to_numpy_1d(py, t))

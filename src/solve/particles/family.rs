@@ -81,6 +81,9 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         if let Some(friction) = &mut self.static_friction {
             friction.start_step(&self.points);
         }
+        if let Some(plastic) = &mut self.plastic {
+            plastic.start_step(params.dt);
+        }
         Ok(())
     }
     fn start_millis_timed_elsewhere(&self) -> f64 {

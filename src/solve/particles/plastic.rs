@@ -5,9 +5,10 @@
 //! and decides which particles static friction may hold), then the neighbours of bodies that ask for
 //! it are searched on the deformed positions (eq. 20), and the rest data the next step
 //! solves with is rebuilt from the new bonds, with a granular body's stiffness from its SPH
-//! density on the new neighbours (eq. 25-27, [`crate::particles::Granular`]). Each phase is
-//! timed (`Timings::plasticity`, `Timings::neighbours`, `Timings::density`: the columns
-//! `t_p`, `t_n` and `t_d` of the paper's Table 1).
+//! density on the new neighbours (eq. 25-27, [`crate::particles::Granular`]) after the water
+//! its grains hold wicked along them over the step ([`crate::particles::Wicking`], timed
+//! with the density). Each phase is timed (`Timings::plasticity`, `Timings::neighbours`,
+//! `Timings::density`: the columns `t_p`, `t_n` and `t_d` of the paper's Table 1).
 //!
 //! The bonds of every body of the family are kept here in f64 (the master copy, whatever the
 //! solver's precision), and the plastic bodies' go back into the bodies with their state
@@ -22,7 +23,7 @@ use nalgebra::Vector3;
 use crate::error::Result;
 use crate::particles::{
     density_ratios, rebuild_neighbours, wetted, ParticleRest, Particles, PlasticLaw, RestBonds,
-    RestConstants,
+    RestConstants, Wicking,
 };
 use crate::real::Real;
 use crate::solve::Timings;
@@ -46,6 +47,8 @@ struct Entry {
     /// volume at the step's positions with the step's bonds ([`PlasticLaw::volumes`];
     /// reused, empty for other bodies).
     volumes: Vec<f64>,
+    /// A sand body's capillary wicking of its held water, when its diffusivity is not 0.
+    wicking: Option<Wicking>,
 }
 
 impl Entry {
@@ -64,6 +67,8 @@ pub(crate) struct PlasticBodies {
     entries: Vec<Entry>,
     /// The family's positions in f64 (reused).
     y: Vec<Vector3<f64>>,
+    /// The time step (s) the wicking moves the held water over ([`Self::start_step`]).
+    dt: f64,
 }
 
 impl PlasticBodies {
@@ -86,13 +91,22 @@ impl PlasticBodies {
                     lam: Vec::new(),
                     wetted: b.wetted().map_or_else(Vec::new, <[f64]>::to_vec),
                     volumes: Vec::new(),
+                    wicking: b
+                        .granular()
+                        .and_then(|g| Wicking::new(g.wicking, b.horizon(), b.params().spacing)),
                 }
             })
             .collect();
         Some(Self {
             entries,
             y: vec![Vector3::zeros(); start],
+            dt: 0.0,
         })
+    }
+
+    /// Readies the step of `dt` (s).
+    pub fn start_step(&mut self, dt: f64) {
+        self.dt = dt;
     }
 
     /// Whether body `b` of the family is plastic (has a yield law).
@@ -168,6 +182,9 @@ impl PlasticBodies {
         for entry in &mut self.entries {
             if let Some(material) = entry.constants.granular {
                 let y = &y[entry.range.clone()];
+                if let (Some(wicking), false) = (&mut entry.wicking, entry.wetted.is_empty()) {
+                    wicking.wick(&entry.bonds, y, &mut entry.wetted, self.dt);
+                }
                 let ratios = density_ratios(
                     &entry.bonds,
                     y,
