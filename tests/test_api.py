@@ -348,7 +348,7 @@ def test_solver_tolerances_and_iteration_cap_are_settable_between_steps(grid44):
     assert loose.converged and loose.iterations < tight.iterations
     s.particle_tol = 0.5
     assert s.particle_tol == 0.5
-    for name, bad in [("max_iters", 0), ("tol", -1.0), ("tol", float("nan")),
+    for name, bad in [("max_iters", 0), ("max_iters", -1), ("tol", -1.0), ("tol", float("nan")),
                       ("particle_tol", 0.0)]:
         before = getattr(s, name)
         with pytest.raises(ValueError, match=name):

@@ -168,11 +168,7 @@ impl PySolver {
             .map(|g| vec3(g, "gravity"))
             .transpose()?
             .unwrap_or([0.0, 0.0, -9.81]);
-        if max_iters < 1 {
-            return Err(PyValueError::new_err(format!(
-                "max_iters must be >= 1, got {max_iters}"
-            )));
-        }
+        let max_iters = iteration_cap(max_iters)?;
         let threads = match threads {
             None => None,
             Some(n) if (1..=MAX_THREADS).contains(&n) => Some(n as usize),
@@ -187,7 +183,7 @@ impl PySolver {
             gravity,
             tol,
             particle_tol,
-            max_iters: max_iters as usize,
+            max_iters,
             step_length,
             preconditioner: PRECONDITIONER.parse(preconditioner)?,
             acceleration,
@@ -477,14 +473,9 @@ impl PySolver {
     }
     #[setter]
     fn set_max_iters(&mut self, max_iters: Int) -> PyResult<()> {
-        let max_iters = max_iters.get("max_iters")?;
-        if max_iters < 1 {
-            return Err(PyValueError::new_err(format!(
-                "max_iters must be >= 1, got {max_iters}"
-            )));
-        }
+        let max_iters = iteration_cap(max_iters.get("max_iters")?)?;
         with_solver!(&mut self.core, s => {
-            let p = SolverParams { max_iters: max_iters as usize, ..*s.params() };
+            let p = SolverParams { max_iters, ..*s.params() };
             s.set_params(p).py()
         })
     }
@@ -694,6 +685,13 @@ fn pose_arg(
 /// kick and the inertia weights) must stay a normal number and `1/h` (the velocities) finite,
 /// or every step would produce non-finite or zero velocities. `dt` not finite or not > 0 is
 /// left to the core, which names it.
+/// `max_iters` as a count: a negative value is refused here by name (the core's
+/// [`SolverParams::validate`] refuses 0).
+fn iteration_cap(max_iters: i64) -> PyResult<usize> {
+    usize::try_from(max_iters)
+        .map_err(|_| PyValueError::new_err(format!("max_iters must be >= 1, got {max_iters}")))
+}
+
 fn check_dt(dt: f64, float: Float) -> PyResult<()> {
     if !(dt.is_finite() && dt > 0.0) {
         return Ok(());
