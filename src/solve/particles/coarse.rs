@@ -20,9 +20,10 @@
 //! `min_t  1/2 sum_b M_b |t_b|^2 - sum_b F_b . t_b`
 //! subject to `n_c . (t_a - t_b) >= -max(g_c, 0)` for every contact `c`,
 //!
-//! `M_b` (kg) the body's mass and `F_b = sum_(i in b) (r_i - m_i delta_i)` (kg m) the net
-//! residual the sweep leaves: `P^T (M + h^2 L) P = diag(M_b)` and `P^T (r - (M + h^2 L) delta)
-//! = F` because `L` (symmetric, bonds within a body) has no stiffness against a translation.
+//! `M_b` (kg) the body's mass and `F_b = sum_(i in b) (r_i - m_i s_i)` (kg m) the net
+//! residual the settled moves `s` leave (below, "Fixed point"): `P^T (M + h^2 L) P =
+//! diag(M_b)` and `P^T (r - (M + h^2 L) s) = F` because `L` (symmetric, bonds within a body)
+//! has no stiffness against a translation.
 //! A contact `c` is a particle `i` of body `a` at `p_i = y_i + delta_i` (where the sweep put
 //! it) and either a collider (`g_c` its signed distance less the margin, `n_c` its normal;
 //! `t_b = 0`) or a particle `j` of another body `b` among the repulsion's candidates
@@ -39,9 +40,25 @@
 //! holds `t = 0`, so its `M`-norm is at most `t0`'s).
 //!
 //! The problem is solved by projected Gauss-Seidel on its dual ([`super::coarse_problem`]).
-//! Its inexactness only slows the outer iteration: the fixed point is left alone, since at the solution every body's net
-//! residual is balanced by its contacts (`F_b = sum_c lambda_c n_c`, the KKT condition,
-//! holds with `t = 0`).
+//!
+//! **Fixed point.** The residual is taken at the settled moves `s_i`: the sweep's move, the
+//! repulsion's answer to it and the push out of the colliders along their normals, where the
+//! projection that follows will put the particle. At the fixed point the projection takes
+//! back the sweep's move (`s = 0`), the residual is the contacts' reactions, `r_i = -D_i c_i`
+//! with `c_i` the particle's projection move (`D_i = m_i + h^2 L_ii`, kg), and the repulsion's
+//! reactions are pairwise equal and opposite (they share in the Jacobi metric): so
+//! `F_b = sum_c lambda_c n_c` holds with `t = 0` and the multipliers of the projection,
+//! `lambda_c = D_i (margin - gap)` at a collider and `D_i D_j / (D_i + D_j)` times the overlap
+//! at a pair (the share of [`super::repulsion::Repulsion::share`]), the gaps at the sweep's
+//! positions. The solve starts from these multipliers, so at the fixed point it starts at its
+//! solution and moves nothing, whatever the number of sweeps; elsewhere they are a warm start.
+//! (From the sweep's moves, `F_b = sum_i (r_i - m_i delta_i)`, and from zero multipliers, the
+//! redundant contacts of bodies in contact are not solved within the sweeps, and the
+//! translation left at an unconverged step carries momentum: docs/model.md, round s.) A
+//! granular body and one with fluid particles keep the sweep's moves and start their contacts
+//! from zero: their pairs share by mass and carry friction, whose reactions are not the coarse
+//! problem's rows (docs/model.md); the repulsion answers the sweep's move for the settled
+//! moves only where two solid bodies may touch.
 //!
 //! **Who takes part.** A body with a pinned particle, or with a particle that another family
 //! holds (`coupled`, a membrane's reaction on it, [`crate::solve::coupling`]), is fixed (as a
@@ -68,24 +85,76 @@ use super::coarse_problem::{Coarse, Contact};
 use super::system::ParticleSystem;
 
 /// Adds every body's coarse translation (module doc) to `sys.delta`, the fine sweep's move
-/// from the residual `sys.current.residual`, and to the Chebyshev history. `coupled` holds
-/// another family's reaction per particle (a membrane's, [`crate::solve::coupling`]).
+/// from the residual `sys.current.residual` at time step squared `h2` (s^2), and to the
+/// Chebyshev history. `coupled` holds another family's reaction per particle (a membrane's,
+/// [`crate::solve::coupling`]).
 pub(crate) fn correct<T: Real>(
     sys: &mut ParticleSystem<T>,
     colliders: &[ColliderModel<T>],
     coupled: &[Vector3<T>],
+    h2: T,
 ) {
     let mut coarse = std::mem::take(&mut sys.coarse);
+    settle(sys, &mut coarse, colliders, h2);
     let energy = net_residuals(sys, &mut coarse, coupled);
     if energy > 0.0 {
-        gather_contacts(sys, &mut coarse, colliders, energy);
+        gather_contacts(sys, &mut coarse, colliders, energy, h2);
         coarse.solve();
         apply(sys, &coarse);
     }
     sys.coarse = coarse;
 }
 
-/// Each body's inverse mass and net residual `F_b`, and the unconstrained translation
+/// Every particle's settled move `s_i` (m; module doc, "Fixed point"): in a solid body the
+/// sweep's move, the repulsion's answer to it (its [`super::repulsion::Repulsion::correct`] at
+/// `y + delta` in the Jacobi metric of time step squared `h2`, s^2, when two solid bodies
+/// may touch) and out of the colliders along their normals, zero for a pinned particle; in a
+/// granular body or one with fluid particles the sweep's move.
+fn settle<T: Real>(
+    sys: &mut ParticleSystem<T>,
+    coarse: &mut Coarse,
+    colliders: &[ColliderModel<T>],
+    h2: T,
+) {
+    let solid_pairs = coarse.solid.iter().filter(|&&s| s).count() >= 2;
+    if let (Some(repulsion), true) = (&mut sys.repulsion, solid_pairs) {
+        let rest = &sys.rest;
+        repulsion.correct(&sys.points, &sys.delta, T::one(), |i| rest.diagonal(i, h2));
+    }
+    let repulsion = sys.repulsion.as_ref().filter(|_| solid_pairs);
+    let (points, delta) = (&sys.points, &sys.delta);
+    coarse.settled.resize(points.y.len(), Vector3::zeros());
+    for (range, &solid) in points.ranges.iter().zip(&coarse.solid) {
+        let start = range.start;
+        coarse.settled[range.clone()]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(k, settled)| {
+                let i = start + k;
+                *settled = delta[i].map(|c| c.to_f64());
+                if !solid {
+                    return;
+                }
+                if points.pinned[i] {
+                    *settled = Vector3::zeros();
+                    return;
+                }
+                let to = points.y[i] + delta[i];
+                let mut moved = delta[i] + repulsion.map_or(Vector3::zeros(), |r| r.of_particle(i));
+                let margin = points.margin[i];
+                for c in Points::colliders_of(&points.collides, i, colliders) {
+                    let gap = c.signed_distance(&to);
+                    if gap < margin {
+                        moved += c.normal(&to) * (margin - gap);
+                    }
+                }
+                *settled = moved.map(|c| c.to_f64());
+            });
+    }
+}
+
+/// Each body's inverse mass and net residual `F_b` at the settled moves, and the
+/// unconstrained translation
 /// `t0 = F / M` as the start of the solve (zero for a fixed body), summed in f64 in particle
 /// order (the same for any thread count); returns `sum_b M_b |t0_b|^2` (kg m^2).
 fn net_residuals<T: Real>(
@@ -94,7 +163,7 @@ fn net_residuals<T: Real>(
     coupled: &[Vector3<T>],
 ) -> f64 {
     let points = &sys.points;
-    let (mass, r, delta) = (&points.mass, &sys.current.residual, &sys.delta);
+    let (mass, r, settled) = (&points.mass, &sys.current.residual, &coarse.settled);
     let mut energy = 0.0;
     for (b, range) in points.ranges.iter().enumerate() {
         let fixed = range.clone().any(|i| {
@@ -105,7 +174,7 @@ fn net_residuals<T: Real>(
         if !fixed {
             for i in range.clone() {
                 total += mass[i].to_f64();
-                force += (r[i] - delta[i] * mass[i]).map(|c| c.to_f64());
+                force += r[i].map(|c| c.to_f64()) - settled[i] * mass[i].to_f64();
             }
         }
         let free = total > 0.0;
@@ -120,17 +189,22 @@ fn net_residuals<T: Real>(
 /// The contacts (module doc) that a translation within the bound of `energy`
 /// (`sum_b M_b |t0_b|^2`, kg m^2) can reach, in particle order. Each particle's smallest
 /// collider gap is found in parallel first, so that the serial gathering evaluates the
-/// colliders only where one is within reach (the same contacts for any thread count).
+/// colliders only where one is within reach (the same contacts for any thread count). Each
+/// starts from the projection's reaction (module doc, "Fixed point"; `h2` the time step
+/// squared, s^2).
 fn gather_contacts<T: Real>(
     sys: &ParticleSystem<T>,
     coarse: &mut Coarse,
     colliders: &[ColliderModel<T>],
     energy: f64,
+    h2: T,
 ) {
     let points = &sys.points;
+    let diagonal = |i: usize| sys.rest.diagonal(i, h2);
     let body_of = |j: usize| points.ranges.partition_point(|r| r.end <= j);
     let at = |i: usize| points.y[i] + sys.delta[i];
     let Coarse {
+        solid,
         inverse_mass,
         contacts,
         collider_gap,
@@ -170,7 +244,13 @@ fn gather_contacts<T: Real>(
                     continue;
                 }
                 let n = c.normal(&p).map(|x| x.to_f64());
-                contacts.push(Contact::new(a, None, n, -gap.max(0.0), false));
+                let reaction = if solid[a] {
+                    diagonal(i).to_f64() * (-gap).max(0.0)
+                } else {
+                    0.0
+                };
+                contacts
+                    .push(Contact::new(a, None, n, -gap.max(0.0), false).starting_from(reaction));
                 if c.friction > T::zero() && gap <= 0.0 {
                     let u = n
                         .cross(&Vector3::x())
@@ -199,7 +279,13 @@ fn gather_contacts<T: Real>(
                 }
                 let n = offset.map(|x| x.to_f64()) / distance;
                 let b = b_free.then_some(b);
-                contacts.push(Contact::new(a, b, n, -gap.max(0.0), false));
+                let reaction = if solid[a] && solid[body_of(j)] {
+                    let share = repulsion.share(points, &diagonal, i, j).to_f64();
+                    diagonal(i).to_f64() * share * (-gap).max(0.0)
+                } else {
+                    0.0
+                };
+                contacts.push(Contact::new(a, b, n, -gap.max(0.0), false).starting_from(reaction));
             }
         }
     }

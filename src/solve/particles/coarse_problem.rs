@@ -9,9 +9,10 @@
 //! [`super::coarse`]; this file holds the problem's buffers and its solver.
 //!
 //! It is solved through its dual by projected Gauss-Seidel on the contacts' multipliers
-//! `lambda_c >= 0` (N s^2; an equality's unbounded), from the unconstrained `t0 = F / M`, in
-//! a fixed order (the same for any thread count), until no sweep moves a translation by more
-//! than [`TOLERANCE`] of `max |t0|` or [`MAX_SWEEPS`] sweeps.
+//! `lambda_c >= 0` (N s^2; an equality's unbounded), from the multipliers the contacts start
+//! with (the projection's reactions, [`super::coarse`], "Fixed point") and the translation
+//! they give, in a fixed order (the same for any thread count), until no sweep moves a
+//! translation by more than [`TOLERANCE`] of `max |t0|` or [`MAX_SWEEPS`] sweeps.
 
 use nalgebra::Vector3;
 
@@ -22,7 +23,8 @@ pub const TOLERANCE: f64 = 1e-10;
 pub const MAX_SWEEPS: usize = 200;
 
 /// One linearised contact: `n . (t_a - t_b) >= bound` (m; or `=` for an equality), `b`
-/// `None` for a collider or a fixed body.
+/// `None` for a collider or a fixed body, and its multiplier `lambda` (N s^2), which the solve
+/// starts from ([`Contact::starting_from`]; 0 by default).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Contact {
     pub a: usize,
@@ -44,6 +46,14 @@ impl Contact {
             lambda: 0.0,
         }
     }
+
+    /// The contact with its multiplier to start from, `lambda >= 0` (N s^2): the reaction the
+    /// projection gave it, with which the solve starts at the solution at the fixed point
+    /// ([`super::coarse`], "Fixed point").
+    pub fn starting_from(mut self, lambda: f64) -> Self {
+        self.lambda = lambda;
+        self
+    }
 }
 
 /// The coarse problem's data, kept between iterations so that the loop allocates nothing once
@@ -61,6 +71,8 @@ pub(crate) struct Coarse {
     /// Per particle: its smallest gap to a collider less its margin (m; infinite with none or
     /// in a fixed body), the parallel first pass of the contacts' gathering.
     pub collider_gap: Vec<f64>,
+    /// Per particle: its settled move (m; [`super::coarse`], "Fixed point").
+    pub settled: Vec<Vector3<f64>>,
 }
 
 impl Coarse {
@@ -74,11 +86,12 @@ impl Coarse {
             translation: vec![Vector3::zeros(); n],
             contacts: Vec::new(),
             collider_gap: Vec::new(),
+            settled: Vec::new(),
         }
     }
 
-    /// Projected Gauss-Seidel on the contacts' multipliers from `t = t0` (module doc), which
-    /// `translation` holds on entry.
+    /// Projected Gauss-Seidel on the contacts' multipliers from their starting multipliers and
+    /// `t = t0 + W G^T lambda` (module doc), `t0` held by `translation` on entry.
     pub fn solve(&mut self) {
         let Self {
             inverse_mass: w,
@@ -90,6 +103,12 @@ impl Coarse {
             return;
         }
         let scale = t.iter().map(|t| t.norm()).fold(0.0, f64::max);
+        for c in contacts.iter() {
+            t[c.a] += c.n * (w[c.a] * c.lambda);
+            if let Some(b) = c.b {
+                t[b] -= c.n * (w[b] * c.lambda);
+            }
+        }
         for _ in 0..MAX_SWEEPS {
             let mut largest: f64 = 0.0;
             for c in contacts.iter_mut() {

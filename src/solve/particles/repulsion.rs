@@ -188,19 +188,8 @@ impl<T: Real> Repulsion<T> {
             };
         });
         let (proposed, offsets, indices) = (&self.proposed, &self.offsets, &self.indices);
-        let (mass, margin, body, solid) = (&points.mass, &points.margin, &self.body, &self.solid);
-        let in_metric = |b: u32| solid.get(b as usize).copied().unwrap_or(false);
-        // Particle `i`'s share of its pair with `j` (module doc).
-        let share = |i: usize, j: usize| -> T {
-            if pinned[j] {
-                T::one()
-            } else if body[i] != body[j] && in_metric(body[i]) && in_metric(body[j]) {
-                let (d_i, d_j) = (diagonal(i), diagonal(j));
-                d_j / (d_i + d_j)
-            } else {
-                mass[j] / (mass[i] + mass[j])
-            }
-        };
+        let (margin, body, solid) = (&points.margin, &self.body, &self.solid);
+        let share = |i: usize, j: usize| share_of(body, solid, points, &diagonal, i, j);
         self.correction
             .par_iter_mut()
             .enumerate()
@@ -275,9 +264,43 @@ impl<T: Real> Repulsion<T> {
         &self.indices[self.offsets[i] as usize..self.offsets[i + 1] as usize]
     }
 
+    /// Particle `i`'s share of its pair with particle `j` (module doc), `diagonal(i)` the
+    /// Jacobi diagonal `D_i` (kg): the fraction of the pair's overlap that `i` moves.
+    pub fn share(
+        &self,
+        points: &Points<T>,
+        diagonal: &impl Fn(usize) -> T,
+        i: usize,
+        j: usize,
+    ) -> T {
+        share_of(&self.body, &self.solid, points, diagonal, i, j)
+    }
+
     /// Particle `i`'s move (m) from the last [`Self::correct`].
     #[inline(always)]
     pub fn of_particle(&self, i: usize) -> Vector3<T> {
         self.correction[i]
+    }
+}
+
+/// Particle `i`'s share of its pair with `j` (module doc) for the bodies `body` (per particle)
+/// of which `solid` marks those that share in the Jacobi metric `diagonal` (kg).
+#[inline(always)]
+fn share_of<T: Real>(
+    body: &[u32],
+    solid: &[bool],
+    points: &Points<T>,
+    diagonal: &impl Fn(usize) -> T,
+    i: usize,
+    j: usize,
+) -> T {
+    let in_metric = |b: u32| solid.get(b as usize).copied().unwrap_or(false);
+    if points.pinned[j] {
+        T::one()
+    } else if body[i] != body[j] && in_metric(body[i]) && in_metric(body[j]) {
+        let (d_i, d_j) = (diagonal(i), diagonal(j));
+        d_j / (d_i + d_j)
+    } else {
+        points.mass[j] / (points.mass[i] + points.mass[j])
     }
 }

@@ -82,7 +82,7 @@ pub(crate) fn global_move<T: Real>(
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
             jacobi(sys, h2, options.inner_iters);
             let coarse_started = Instant::now();
-            coarse::correct(sys, options.colliders, options.contact_reaction);
+            coarse::correct(sys, options.colliders, options.contact_reaction, h2);
             sys.timings.coarse += millis(coarse_started);
             let two_level_started = Instant::now();
             two_level_correction(sys, h, options.colliders, options.contact_reaction);
