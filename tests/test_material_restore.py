@@ -244,6 +244,21 @@ def test_a_plastic_body_without_its_bonds_in_the_file_is_refused(tmp_path):
         pd.load_state(tmp_path / "bare.npz", target)
 
 
+def test_a_material_state_without_region_volume_ratios_gives_every_particle_1():
+    """A material state written before the volume ratios (no 'region_volume') sets the
+    region bonds it holds with every particle at its rest volume (ratio 1)."""
+    s, bodies = melt()
+    run(s, bodies, region_solidifies, 8)
+    state = bodies[0].material_state
+    assert len(state["region_volume"]) == bodies[0].num_particles
+    older = {k: v for k, v in state.items() if k != "region_volume"}
+    bodies[0].material_state = older
+    for name, value in older.items():
+        assert np.array_equal(bodies[0].material_state[name], value), name
+    assert np.array_equal(bodies[0].material_state["region_volume"],
+                          np.ones(bodies[0].num_particles))
+
+
 def test_bad_material_states_are_refused_by_name():
     s, (sand, water) = liquid_on_sand()
     state = sand.material_state

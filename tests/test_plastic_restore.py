@@ -95,6 +95,21 @@ def test_a_body_whose_return_keeps_its_rest_volume_restores_its_volume_ratios(tm
     assert np.array_equal(copy.rest_bonds["volume"], np.ones(len(bonds["volume"])))
 
 
+def test_rest_bonds_without_volume_ratios_give_every_particle_1():
+    """A ``rest_bonds`` dict written before the volume ratios (no 'volume') sets the bonds
+    it holds, each particle's reference bonds at its rest volume (ratio 1), as a file
+    without them loads."""
+    s, body = scene(friction_angle=0.0)
+    pull(s, body, 14)
+    bonds = body.rest_bonds
+    assert np.abs(bonds["volume"] - 1.0).max() > 1e-3, bonds["volume"]
+    older = {k: v for k, v in bonds.items() if k != "volume"}
+    body.rest_bonds = older
+    for name, value in older.items():
+        assert np.array_equal(body.rest_bonds[name], value), name
+    assert np.array_equal(body.rest_bonds["volume"], np.ones(body.num_particles))
+
+
 def test_bonds_loaded_into_a_solver_that_has_stepped_replace_its_own(tmp_path):
     """A solver that stepped on (its working set built from the later bonds) takes the
     loaded bonds on its next step: loading the file back into it repeats the continuation."""

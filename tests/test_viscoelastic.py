@@ -189,6 +189,20 @@ def test_a_pulled_viscoelastic_bar_with_a_stiff_bulk_flows_at_its_yield_stress()
     assert np.all(stiff[:, 3] < 1.6 * 500.0), stiff
 
 
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="open (issue 40): the bar with the stiff bulk still hardens past 1.4 "
+                   "times its length (measured 732, 790, 928 Pa at 1.3, 1.4, 1.5), as its "
+                   "mid-bar bond count falls from 26.8 to 22.8 and its surface factors grow; "
+                   "not analysed")
+def test_a_pulled_viscoelastic_bar_with_a_stiff_bulk_flows_at_a_plateau():
+    """A perfectly plastic bar flowing at its yield stress keeps its stress: the axial stress
+    across the middle of the bar with the stiff bulk at 1.5 times its length is within 10 %
+    of that at 1.3 (the elastic strain's area change and the thinning surface allow a few
+    per cent)."""
+    stiff = pulled_bar(bulk_modulus=STIFF_BULK, times=(0.15, 0.25))
+    assert abs(stiff[1, 3] / stiff[0, 3] - 1.0) < 0.1, stiff
+
+
 def honey_under_a_ceiling(adhesion, steps=80, yield_stress=500.0):
     """A honey-like blob (5 x 5 x 6 particles, 1400 kg/m^3, 10 Pa s, G = 500 Pa, yield stress
     500 Pa by default: its weight's stress at the top, 1400 * 9.81 * 0.06 = 824 Pa, is beyond
@@ -218,12 +232,13 @@ def test_adhesion_holds_a_liquid_film_at_its_ghost_ceiling():
     assert ((ceiling - fluid[:, 2]) < 1.3 * S).sum() == 25
 
 
-def test_without_adhesion_a_blob_hangs_on_at_a_yield_stress_of_700_pa_and_parts_at_600():
+def test_without_adhesion_a_blob_hangs_on_at_a_yield_stress_of_700_pa_and_parts_at_550():
     """Without adhesion the ghosts hold the blob by its bonds alone. With a yield stress of
     700 Pa it hangs on whole: after 0.4 s its top layer is within 2 spacings of the ceiling
     (measured 1.56) and its lowest particle less than 5 spacings below where it started
-    (measured 1.91). With 600 Pa the top yields and the blob parts from the ceiling: its
-    lowest particle more than 10 spacings down (measured 21; 35 at 500 Pa). At dt = 5 ms the
+    (measured 1.91). With 550 Pa the top yields and the blob parts from the ceiling: its
+    lowest particle more than 10 spacings down (measured 31; 21 at 600 Pa, 35 at 500 Pa;
+    550 Pa keeps clear of the transition, 10 Pa above 600). At dt = 5 ms the
     blob parts between 600 and 610 Pa (610 Pa hangs 2.42 spacings down), at 0.73-0.74 of
     its weight's stress at the top, 824 Pa: the weight's stress sets the yield stress that
     holds it only to within that factor. (Until issue 40's round t the return kept the mean
@@ -236,7 +251,7 @@ def test_without_adhesion_a_blob_hangs_on_at_a_yield_stress_of_700_pa_and_parts_
     fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=700.0)
     assert 0.0 < low0(ceiling) - fluid[:, 2].min() < 5 * S, low0(ceiling) - fluid[:, 2].min()
     assert ceiling - fluid[:, 2].max() < 2 * S
-    fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=600.0)
+    fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=550.0)
     assert low0(ceiling) - fluid[:, 2].min() > 10 * S, low0(ceiling) - fluid[:, 2].min()
 
 

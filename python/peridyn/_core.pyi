@@ -134,7 +134,10 @@ class DruckerPrager:
     0), ``hardening`` (Pa per unit of accumulated plastic strain, >= 0; 0: perfectly
     plastic), ``rebuild_neighbours`` (search the neighbours anew on the deformed positions
     after every step, eq. 20). The inner cone of eq. 15, its invariants from the body's
-    continuum moduli (docs/model.md). ValueError naming the bad parameter."""
+    continuum moduli (docs/model.md). With ``friction_angle`` exactly 0 (von Mises) a solid,
+    non-granular body's return keeps each particle's rest volume (an isochoric flow);
+    any positive angle, however small, keeps the paper's mean bond strain instead.
+    ValueError naming the bad parameter."""
 
     def __init__(
         self,
@@ -175,7 +178,8 @@ class ViscoelasticFluid:
     not become velocity and which never pushes a free surface out; 0: none),
     ``redistribution_iterations`` (its passes per step, in [1, 100]), ``shear_modulus`` (Pa,
     >= 0: a viscoelastic fluid, elastic bonds of continuum shear modulus ``G`` whose rest shape
-    follows the flow beyond ``yield_stress``; 0: a Newtonian liquid) and ``yield_stress``
+    follows the flow beyond ``yield_stress``, a von Mises cone (friction angle 0) whose return
+    keeps each particle's rest volume; 0: a Newtonian liquid) and ``yield_stress``
     (uniaxial von Mises yield stress, Pa, > 0; None: the shear modulus), ``bulk_modulus``
     (Pa, the elasticity's bulk modulus, which alone holds the volume in tension, from 2/3 to
     29/3 of the shear modulus, Poisson ratio 0 to 0.45; None: 5/3 of it), ``adhesion`` (the
@@ -436,7 +440,8 @@ class Particles:
         """A plastic body's current reference bonds (``offsets`` (N + 1,), ``neighbours``
         (B,) int64; ``vectors`` (B, 3) m, ``born`` (B,) m, ``plastic_strain`` (N,), ``volume`` (N,): the
         volume each particle's reference bonds span over its rest volume); None for an
-        elastic body. Settable (checked; None: the reference positions' bonds)."""
+        elastic body. Settable (checked; None: the reference positions' bonds; a dict without
+        ``volume``, as written before it, gives every particle 1)."""
     @rest_bonds.setter
     def rest_bonds(self, value: Optional[Dict[str, np.ndarray]]) -> None: ...
     @property

@@ -95,9 +95,9 @@ _BOND_ENTRIES = {
     "plastic_strain": ("f", None),
     "volume": ("f", None),
 }
-#: Bond entries a file written before them may lack, with the value each particle then takes:
-#: the volume of its reference bonds over its rest volume (as for bonds of the rest state).
-_BOND_DEFAULTS = {"volume": 1.0}
+#: Bond entries a file written before them may lack: left out of the bonds read, the core
+#: takes its default (``volume``: 1 for every particle, as for the bonds of the rest state).
+_BOND_OPTIONAL = {"volume"}
 
 
 #: The entries of a particle body's material state (``Particles.material_state``) beside its
@@ -421,9 +421,7 @@ class _Entries:
         bonds = {}
         for name, (kind, columns) in _BOND_ENTRIES.items():
             key = f"{prefix}{name}_{b}"
-            if name in _BOND_DEFAULTS and not self.has(key):
-                particles = max(len(bonds["offsets"]) - 1, 0)
-                bonds[name] = np.full(particles, _BOND_DEFAULTS[name])
+            if name in _BOND_OPTIONAL and not self.has(key):
                 continue
             value = self._get(key)
             self._kind(key, value, "iu" if kind == "i" else "f",

@@ -25,7 +25,7 @@
 //! (`F' X' = F X = Y`), and to first order in the plastic strain otherwise; the dilatation
 //! term's lengths and shares are the stored ones exactly ([`Factors::returned`]).
 //!
-//! **What the return keeps of the mean strain: the rest volume (departure, issue 40).** Eq. 18
+//! **What the return keeps of the mean strain: the rest volume (departure).** Eq. 18
 //! keeps `(1 - alpha) e_iso`, the weighted mean bond strain. On a cone without friction
 //! (`B = 0`: von Mises, whose flow is isochoric) the kept mean is the particle's elastic
 //! dilatation, which must then be its whole dilatation from the rest state. The mean bond
@@ -33,7 +33,7 @@
 //! an increment `d eps` adds `tr(M d eps)` to it (`M = sum w n n^T / W`, not `I / 3` where a
 //! surface or the flow has made the bond directions anisotropic), and a deviatoric strain of RMS
 //! `d` adds about `d^2`; so an isochoric flow ratchets the reference short and the bulk term
-//! resists it as a hardening (docs/model.md, Fluids, rounds q-t). Such a cone carries the
+//! resists it as a hardening (docs/model.md, Fluids). Such a cone carries the
 //! volume ratio `R_i` of the particle's reference bonds to its rest volume
 //! ([`super::RestBonds::volume`]) and the return keeps, instead,
 //! `e_kept = cbrt(J_i) - 1` with `J_i = R_i det F_i` (`F_i` from the step's reference bonds):
@@ -42,8 +42,13 @@
 //! strain at the particle's true volume change, and an isochoric flow (`J_i = 1`) keeps none.
 //! At the step's end `R_i` is set anew from the returned (and rebuilt) bonds at the same
 //! positions, `R_i = J_i / det F_i(X')`, so `J_i` changes only as the positions do
-//! ([`super::PlasticLaw::reanchor`]). Where `J_i` is not positive (no three-dimensional
-//! neighbourhood) the return keeps eq. 18's mean.
+//! ([`super::PlasticLaw::reanchor`]; kept where the new ratio leaves
+//! [`super::plasticity::VOLUME_RATIOS`]). `F_i` is the uninverted one
+//! ([`super::deformation::uninverted`]), so `det F_i >= 0`: an inverted neighbourhood counts
+//! by the volume of its mirror image, `|det F|`, and its return keeps that volume while the
+//! deviatoric springs push it back to its orientation. Where `J_i` is not positive (`F_i`
+//! singular, a neighbourhood collapsed to a plane, or no three-dimensional neighbourhood
+//! among the bonds) the return keeps eq. 18's mean.
 
 use nalgebra::Vector3;
 

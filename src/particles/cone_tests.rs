@@ -112,7 +112,7 @@ fn the_kernels_return_gives_the_forces_of_the_stored_return() {
         let (kernel, kernel_energy) = forces(&within, &y);
         let mut stored = bonds.clone();
         let mut flags = vec![false; body.num_particles()];
-        let yielded = law.apply(&mut stored, &y, &mut flags, None);
+        let yielded = law.apply(&mut stored, &y, &mut flags, None, &mut Vec::new());
         assert!(yielded > body.num_particles() / 2, "{yielded}");
         let (after, after_energy) = forces(&rest_of(&body, &stored, Some(&lam), false), &y);
         let (before, _) = forces(&elastic, &y);
@@ -168,7 +168,10 @@ fn clays_return_in_the_kernel_gives_the_stored_returns_forces_at_the_apex() {
     let y = deformed(&body, 1.01, 0.0);
     let (kernel, _) = forces(&rest_of(&body, &bonds, None, true), &y);
     let mut stored = bonds.clone();
-    assert_eq!(law.apply(&mut stored, &y, &mut vec![false; n], None), n);
+    assert_eq!(
+        law.apply(&mut stored, &y, &mut vec![false; n], None, &mut Vec::new()),
+        n
+    );
     let (after, _) = forces(&rest_of(&body, &stored, None, false), &y);
     let (before, _) = forces(&rest_of(&body, &bonds, None, false), &y);
     assert_the_stored_forces(&kernel, &after, &before);
@@ -193,7 +196,7 @@ fn clay_returns_within_the_local_step_to_first_order() {
     let y = deformed(&body, 0.99, 0.05);
     let (kernel, _) = forces(&rest_of(&body, &bonds, None, true), &y);
     let mut stored = bonds.clone();
-    let yielded = law.apply(&mut stored, &y, &mut vec![false; n], None);
+    let yielded = law.apply(&mut stored, &y, &mut vec![false; n], None, &mut Vec::new());
     assert_eq!(yielded, n);
     let (after, _) = forces(&rest_of(&body, &stored, None, false), &y);
     let (before, _) = forces(&rest_of(&body, &bonds, None, false), &y);

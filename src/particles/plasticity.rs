@@ -54,7 +54,9 @@ use super::elastic::Elastic;
 use super::influence::influence;
 use super::rest_bonds::{BondRow, RestBonds};
 
-/// A Drucker-Prager plastic law for a particle body.
+/// A Drucker-Prager plastic law for a particle body. With `friction_angle` exactly 0 (von
+/// Mises) the return of a body neither granular nor thin keeps each particle's rest volume
+/// ([`super::cone`]); any positive angle keeps eq. 18's mean.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DruckerPrager {
     /// Internal friction angle `phi` (degrees, in [0, 90)).
@@ -198,6 +200,29 @@ fn rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
     u * v_t
 }
 
+/// The volume ratios [`RestBonds::volume`] a particle's reference bonds may be given
+/// (dimensionless): `MIN_STRETCH^3` to its inverse, the bounds the neighbour rebuild's inverse
+/// map puts on a neighbourhood's stretches ([`super::neighbour_rebuild::MIN_STRETCH`], 0.1
+/// in each direction). A ratio beyond them says the reference bonds span almost no volume
+/// (or their neighbourhood is nearly flat at the positions), where `det F_i` measures that
+/// flatness rather than the particle's volume.
+pub const VOLUME_RATIOS: (f64, f64) = (1e-3, 1e3);
+
+/// A particle's volume ratio `R_i = J_i / det F_i` (dimensionless) for its volume over its
+/// rest volume `volume` (`J_i`, kept from the bonds it had) and the determinant `det` of its
+/// deformation gradient from its new bonds: the old ratio `ratio` where `J_i` or `det` is not
+/// positive or the new ratio is not within [`VOLUME_RATIOS`] (so a state a body steps with is
+/// one [`RestBonds::check`] accepts, and `J_i` stays continuous where `det F_i` says nothing).
+pub(crate) fn reanchored(ratio: f64, volume: f64, det: f64) -> f64 {
+    let (low, high) = VOLUME_RATIOS;
+    let new = volume / det;
+    if volume > 0.0 && det > 0.0 && (low..=high).contains(&new) {
+        new
+    } else {
+        ratio
+    }
+}
+
 /// A particle's yield measure: `sqrt(J2)` and the cone's `A + B I1` (Pa).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct YieldState {
@@ -215,8 +240,9 @@ pub(crate) struct PlasticLaw {
     /// Horizon (m) and particle volume (m^3).
     pub delta: f64,
     pub volume: f64,
-    /// Whether the return keeps the rest volume (a cone without friction, a body neither
-    /// granular nor thin: [`super::cone`]).
+    /// Whether the return keeps the rest volume ([`super::cone`]): a cone without friction,
+    /// `friction_angle` exactly 0 (then and only then `B = 0`: any positive angle, however
+    /// small, keeps eq. 18's mean), on a body neither granular nor thin.
     pub anchored: bool,
 }
 
@@ -251,38 +277,18 @@ impl PlasticLaw {
         }
     }
 
-    /// Every particle's volume over its rest volume, `J_i = R_i det F_i` (dimensionless; 0
-    /// where it has no deformation gradient), at the positions `y` (m) from `bonds`, into
-    /// `out` (see [`super::cone`]).
-    pub fn volumes(&self, bonds: &RestBonds, y: &[Vector3<f64>], out: &mut Vec<f64>) {
-        (0..bonds.len())
-            .into_par_iter()
-            .map(|i| {
-                local_strain(bonds, i, y, self.delta, self.volume)
-                    .map_or(0.0, |l| bonds.volume[i] * l.f.determinant())
-            })
-            .collect_into_vec(out);
-    }
-
     /// Sets each particle's [`RestBonds::volume`] anew from its bonds `bonds` (the returned
-    /// and rebuilt ones) at the positions `y` (m) where [`Self::volumes`] gave it the volume
-    /// `J_i > 0` with the step's bonds: `R_i = J_i / det F_i`, so that `J_i` changes only as
-    /// the positions do. A particle with `J_i` or the new `det F_i` not positive keeps its
-    /// `R_i`.
-    pub fn reanchor(&self, bonds: &mut RestBonds, y: &[Vector3<f64>], volumes: &[f64]) {
-        let ratios: Vec<f64> = (0..bonds.len())
-            .into_par_iter()
-            .map(|i| {
-                let det = local_strain(bonds, i, y, self.delta, self.volume)
-                    .map_or(0.0, |l| l.f.determinant());
-                if volumes[i] > 0.0 && det > 0.0 {
-                    volumes[i] / det
-                } else {
-                    bonds.volume[i]
-                }
-            })
-            .collect();
-        bonds.volume = ratios;
+    /// and rebuilt ones) at the positions `y` (m), given in `volumes` its volume `J_i` with the
+    /// step's bonds ([`Self::apply`]): `R_i = J_i / det F_i` ([`reanchored`]), so that `J_i`
+    /// changes only as the positions do. `volumes` is left holding the old ratios (a buffer
+    /// the next [`Self::apply`] refills).
+    pub fn reanchor(&self, bonds: &mut RestBonds, y: &[Vector3<f64>], volumes: &mut Vec<f64>) {
+        volumes.par_iter_mut().enumerate().for_each(|(i, v)| {
+            let det = local_strain(bonds, i, y, self.delta, self.volume)
+                .map_or(0.0, |l| l.f.determinant());
+            *v = reanchored(bonds.volume[i], *v, det);
+        });
+        std::mem::swap(&mut bonds.volume, volumes);
     }
 
     /// Every particle's yield measure at the positions `y` (m; `None` for a particle without
@@ -303,13 +309,16 @@ impl PlasticLaw {
     /// bonds only (in parallel), so the result does not depend on the number of threads.
     /// The particles that yield are marked in `yielded_flags` (one per particle; the others
     /// are left as they are). `cohesion`, per particle (Pa), replaces the law's (wetted
-    /// sand, [`super::wet_sand`]).
+    /// sand, [`super::wet_sand`]). `volumes` receives every particle's volume over its rest
+    /// volume before the return, `J_i = R_i det F_i` (dimensionless; 0 where it has no
+    /// deformation gradient), which [`Self::reanchor`] keeps across the new bonds.
     pub fn apply(
         &self,
         bonds: &mut RestBonds,
         y: &[Vector3<f64>],
         yielded_flags: &mut [bool],
         cohesion: Option<&[f64]>,
+        volumes: &mut Vec<f64>,
     ) -> usize {
         let RestBonds {
             offsets,
@@ -319,26 +328,32 @@ impl PlasticLaw {
             plastic_strain,
             volume,
         } = bonds;
-        let mut increments = vec![None; plastic_strain.len()];
-        for_each_vertex(offsets, xi, &mut increments, &|i,
-                                                        xi: &mut [Vector3<
-            f64,
-        >]| {
+        let mut outcomes = vec![(None, 0.0); plastic_strain.len()];
+        for_each_vertex(offsets, xi, &mut outcomes, &|i, xi: &mut [Vector3<f64>]| {
             let row = offsets[i] as usize..offsets[i + 1] as usize;
             let (indices, born) = (&indices[row.clone()], &born[row]);
             let view = BondRow { indices, xi, born };
+            let Some(local) = view.strain(i, y, self.delta, self.volume) else {
+                return (None, 0.0);
+            };
             let c = cohesion.map_or(self.law.cohesion, |c| c[i]);
-            let plan = self.plan(&view, i, y, (plastic_strain[i], volume[i]), c)?;
+            let j = volume[i] * local.f.determinant();
+            let Some(plan) = self.plan(&view, &local, i, y, (plastic_strain[i], volume[i]), c)
+            else {
+                return (None, j);
+            };
             for (k, x) in xi.iter_mut().enumerate() {
                 let yb = y[indices[k] as usize] - y[i];
                 if let Some(moved) = plan.moved(x, &yb) {
                     *x = moved;
                 }
             }
-            Some(plan.increment)
+            (Some(plan.increment), j)
         });
+        volumes.clear();
+        volumes.extend(outcomes.iter().map(|o| o.1));
         let mut yielded = 0;
-        for (i, increment) in increments.into_iter().enumerate() {
+        for (i, (increment, _)) in outcomes.into_iter().enumerate() {
             if let Some(strain) = increment {
                 plastic_strain[i] += strain;
                 yielded_flags[i] = true;
@@ -348,18 +363,18 @@ impl PlasticLaw {
         yielded
     }
 
-    /// The return of particle `i` with its bonds `row`, plastic strain and volume ratio
-    /// `(eps_p, volume)` at the positions `y` (m), if it yields with the cohesion `c` (Pa)
-    /// before hardening.
+    /// The return of particle `i` with its bonds `row` and their [`LocalStrain`] `local`,
+    /// plastic strain and volume ratio `(eps_p, volume)` at the positions `y` (m), if it
+    /// yields with the cohesion `c` (Pa) before hardening.
     fn plan(
         &self,
         row: &BondRow<'_>,
+        local: &LocalStrain,
         i: usize,
         y: &[Vector3<f64>],
         (eps_p, volume): (f64, f64),
         c: f64,
     ) -> Option<Return> {
-        let local = row.strain(i, y, self.delta, self.volume)?;
         let cone = self.anchored_cone(c, eps_p, volume);
         let factors = cone.factors_at(local.iso, local.dev, local.f.determinant())?;
         let mut plan = Return {

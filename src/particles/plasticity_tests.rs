@@ -68,7 +68,13 @@ fn the_return_puts_the_state_on_the_yield_surface() {
         let plastic = PlasticLaw::of(&b).unwrap();
         let mut bonds = b.current_rest_bonds();
         let before = plastic.yield_states(&bonds, &y);
-        let yielded = plastic.apply(&mut bonds, &y, &mut vec![false; y.len()], None);
+        let yielded = plastic.apply(
+            &mut bonds,
+            &y,
+            &mut vec![false; y.len()],
+            None,
+            &mut Vec::new(),
+        );
         assert!(yielded > 100, "{name}: {yielded} of 216 yielded");
         let after = plastic.yield_states(&bonds, &y);
         let mut apex = 0;
@@ -354,10 +360,17 @@ fn a_return_without_friction_keeps_the_rest_volume() {
             .map(|i| super::plasticity::local_strain(&bonds, i, &y, delta, volume).unwrap())
             .collect();
         let mut volumes = Vec::new();
-        plastic.volumes(&bonds, &y, &mut volumes);
-        let n = plastic.apply(&mut bonds, &y, &mut vec![false; y.len()], None);
+        let n = plastic.apply(
+            &mut bonds,
+            &y,
+            &mut vec![false; y.len()],
+            None,
+            &mut volumes,
+        );
         assert_eq!(n, y.len(), "{phi}");
-        plastic.reanchor(&mut bonds, &y, &volumes);
+        let volumes_before = volumes.clone();
+        plastic.reanchor(&mut bonds, &y, &mut volumes);
+        let volumes = volumes_before;
         let largest = before.iter().map(|l| l.iso.abs()).fold(0.0, f64::max);
         assert!(largest > 4e-3, "{phi}: {largest}");
         for (i, old) in before.iter().enumerate() {
@@ -379,5 +392,30 @@ fn a_return_without_friction_keeps_the_rest_volume() {
                 assert!((j - volumes[i]).abs() < 1e-12, "{i}: {j} {}", volumes[i]);
             }
         }
+    }
+}
+
+/// A particle's volume ratio is set anew only where it is meaningful
+/// ([`super::plasticity::reanchored`]): where its new reference bonds are squeezed flat
+/// (their `z` components scaled by 1e-9, so `det F_i = 1e9` at the rest positions and
+/// `R_i = J_i / det F_i = 1e-9`) or stretched flat the other way (by 1e9: the shape matrix
+/// near singular) it keeps its old ratio, and the bonds pass [`RestBonds::check`]; an
+/// unflattened neighbour takes `J_i / det F_i` (1 at rest, 1e-12).
+#[test]
+fn a_flattened_neighbourhood_keeps_its_volume_ratio() {
+    let b = body([6, 6, 6], Some(law(0.0, 300.0, false)));
+    let plastic = PlasticLaw::of(&b).unwrap();
+    let y = b.reference().to_vec();
+    for scale in [1e-9, 1e9] {
+        let mut bonds = b.current_rest_bonds();
+        bonds.volume[0] = 1.25;
+        for k in bonds.row(0) {
+            bonds.xi[k].z *= scale;
+        }
+        let mut volumes = vec![1.0; y.len()];
+        plastic.reanchor(&mut bonds, &y, &mut volumes);
+        assert_eq!(bonds.volume[0], 1.25, "{scale}");
+        assert!((bonds.volume[1] - 1.0).abs() < 1e-12, "{}", bonds.volume[1]);
+        bonds.check(y.len()).unwrap();
     }
 }

@@ -32,6 +32,7 @@ use crate::geometry::find_horizons;
 
 use crate::particles::deformation::{flat_neighbourhood, shape_inverse};
 use crate::particles::influence::influence;
+use crate::particles::plasticity::{local_strain, reanchored};
 use crate::particles::{Elastic, ParticleParams, Particles, RestBonds, ViscoelasticFluid};
 
 /// What a region becomes.
@@ -179,7 +180,11 @@ impl Particles {
 
     /// The bonds after a change (see the module's doc): `old` kept between unchanged solid
     /// particles, new ones born at the current positions for every solid pair within `delta`
-    /// (m) with a changed end; each solid particle's shape matrix checked.
+    /// (m) with a changed end; each solid particle's shape matrix checked. An unchanged
+    /// particle keeps its plastic strain (from a plasticity it had before) and its volume
+    /// ratio [`RestBonds::volume`], re-anchored as the neighbour rebuild does where its bonds
+    /// changed (its volume `R_i det F_i` kept across them: [`reanchored`]); a changed particle
+    /// starts anew (no plastic strain, its current volume its rest volume).
     fn region_bonds(
         &self,
         old: &RestBonds,
@@ -195,9 +200,21 @@ impl Particles {
             indices: Vec::new(),
             xi: Vec::new(),
             born: Vec::new(),
-            plastic_strain: vec![0.0; n],
-            volume: vec![1.0; n],
+            plastic_strain: (0..n)
+                .map(|i| {
+                    if changed[i] {
+                        0.0
+                    } else {
+                        old.plastic_strain[i]
+                    }
+                })
+                .collect(),
+            volume: (0..n)
+                .map(|i| if changed[i] { 1.0 } else { old.volume[i] })
+                .collect(),
         };
+        // The unchanged particles whose bonds change.
+        let mut touched = vec![false; n];
         let mut row: Vec<(u32, Vector3<f64>, f64)> = Vec::new();
         for i in 0..n {
             row.clear();
@@ -212,6 +229,7 @@ impl Particles {
                             .map(|b| (old.indices[b], old.xi[b], old.born[b])),
                     );
                 }
+                let kept = row.len();
                 row.extend(
                     now.of(i)
                         .iter()
@@ -221,6 +239,7 @@ impl Particles {
                             (j, xi, xi.norm())
                         }),
                 );
+                touched[i] = !changed[i] && (kept < old.of(i).len() || row.len() > kept);
                 row.sort_by_key(|e| e.0);
             }
             for (j, xi, born) in &row {
@@ -231,6 +250,13 @@ impl Particles {
             out.offsets.push(out.indices.len() as u32);
         }
         check_region_bonds(&out, fluid, delta)?;
+        let det = |bonds: &RestBonds, i: usize| {
+            local_strain(bonds, i, y, delta, self.volume()).map_or(0.0, |l| l.f.determinant())
+        };
+        for i in (0..n).filter(|&i| touched[i]) {
+            let volume = old.volume[i] * det(old, i);
+            out.volume[i] = reanchored(old.volume[i], volume, det(&out, i));
+        }
         Ok(out)
     }
 }
@@ -372,5 +398,64 @@ mod tests {
         let longest = bonds.born.iter().cloned().fold(0.0, f64::max);
         // Bonds of 3 spacings (beyond the default 2.2) exist, none beyond the horizon.
         assert!(longest > 2.9 * spacing && longest <= horizon, "{longest}");
+    }
+
+    /// A region change keeps what an unchanged particle's bonds carry from a plasticity the
+    /// body had: a solid body given returned bonds (every particle with the plastic strain
+    /// 0.2 and the volume ratio 1.1), made elastic, bent (`z += 2 mm sin(x / 2 cm)`) and its
+    /// particle 0 (a corner) made fluid. A particle beyond the horizon of particle 0 keeps its
+    /// strain and ratio exactly; a neighbour of it, which lost its bond to it, keeps its
+    /// strain and its volume `R det F` (1e-12) with a new ratio; particle 0 starts anew.
+    #[test]
+    fn a_region_change_keeps_the_plastic_strain_and_volume_of_unchanged_particles() {
+        let spacing = 0.01;
+        let params = ParticleParams {
+            spacing,
+            density: 1000.0,
+            horizon: None,
+            material: Elastic::Paper { mu: 1e3, lam: 1e3 },
+        };
+        let mut body = Particles::new(lattice([6, 3, 3], spacing), params).unwrap();
+        let n = body.num_particles();
+        body.set_plasticity(Some(crate::particles::DruckerPrager {
+            friction_angle: 0.0,
+            cohesion: 300.0,
+            hardening: 0.0,
+            rebuild_neighbours: false,
+        }))
+        .unwrap();
+        let mut bonds = body.current_rest_bonds();
+        bonds.plastic_strain = vec![0.2; n];
+        bonds.volume = vec![1.1; n];
+        body.restore_rest_bonds(Some(bonds.clone())).unwrap();
+        body.set_plasticity(None).unwrap();
+        let bent: Vec<_> = body
+            .positions()
+            .iter()
+            .map(|p| p + Vector3::z() * 0.002 * (p.x / 0.02).sin())
+            .collect();
+        body.set_positions(bent).unwrap();
+        body.set_material_of(&[0], RegionMaterial::Fluid(ViscoelasticFluid::default()))
+            .unwrap();
+        let after = body.rest_bonds().unwrap();
+        let (y, delta, volume) = (body.positions(), body.params().delta(), body.volume());
+        let det = |b: &RestBonds, i: usize| {
+            local_strain(b, i, y, delta, volume)
+                .unwrap()
+                .f
+                .determinant()
+        };
+        let far = (0..n).find(|&i| (y[i] - y[0]).norm() > 0.03).unwrap();
+        assert_eq!((after.plastic_strain[far], after.volume[far]), (0.2, 1.1));
+        let near = bonds.indices[bonds.row(0).start] as usize;
+        assert!(after.of(near).len() < bonds.of(near).len());
+        assert_eq!(after.plastic_strain[near], 0.2);
+        assert_ne!(after.volume[near], 1.1);
+        let (kept, was) = (
+            after.volume[near] * det(after, near),
+            1.1 * det(&bonds, near),
+        );
+        assert!((kept - was).abs() < 1e-12, "{kept} {was}");
+        assert_eq!((after.plastic_strain[0], after.volume[0]), (0.0, 1.0));
     }
 }

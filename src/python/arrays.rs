@@ -198,6 +198,17 @@ pub fn rotation_rows(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[[f64; 3]; 
 /// Checks that `dict` holds exactly the string keys `names` (no other, none missing), naming
 /// what is unknown and what is missing; `what` says whose entries they are in the message.
 pub fn exact_entries(dict: &Bound<'_, PyDict>, names: &[&str], what: &str) -> PyResult<()> {
+    entries_of(dict, names, &[], what)
+}
+
+/// [`exact_entries`] where the keys `optional` (among `names`) may be missing: entries added
+/// after dicts without them were written.
+pub fn entries_of(
+    dict: &Bound<'_, PyDict>,
+    names: &[&str],
+    optional: &[&str],
+    what: &str,
+) -> PyResult<()> {
     let mut keys = Vec::with_capacity(dict.len());
     for key in dict.keys() {
         keys.push(key.extract::<String>().map_err(|_| {
@@ -210,7 +221,7 @@ pub fn exact_entries(dict: &Bound<'_, PyDict>, names: &[&str], what: &str) -> Py
         .collect();
     let missing: Vec<&&str> = names
         .iter()
-        .filter(|n| !keys.iter().any(|k| k == *n))
+        .filter(|n| !optional.contains(n) && !keys.iter().any(|k| k == *n))
         .collect();
     if unknown.is_empty() && missing.is_empty() {
         return Ok(());

@@ -9,7 +9,7 @@ use pyo3::types::PyDict;
 
 use crate::particles::{DensitySolver, Elastic, MaterialState, ViscoelasticFluid};
 
-use super::arrays::{exact_entries, flags, reals_1d, to_numpy, to_numpy_1d, vec3s};
+use super::arrays::{entries_of, flags, reals_1d, to_numpy, to_numpy_1d, vec3s};
 use super::rest_bonds;
 
 /// `[0, mu, lam]` (Pa) for `Elastic(mu=, lam=)`, `[1, E, nu]` (Pa, 1) for `from_young`.
@@ -163,12 +163,14 @@ pub fn to_dict<'py>(py: Python<'py>, state: MaterialState) -> PyResult<Bound<'py
     Ok(dict)
 }
 
-/// The state a dict from [`to_dict`] holds (every entry, no other; shapes and dtypes checked
+/// The state a dict from [`to_dict`] holds (every entry, the region bonds' volume ratios
+/// optional as in [`rest_bonds::from_dict`], no other; shapes and dtypes checked
 /// here, the state itself by the core against the body).
 pub fn from_dict(dict: &Bound<'_, PyDict>) -> PyResult<MaterialState> {
     let names = names();
     let refs: Vec<&str> = names.iter().map(String::as_str).collect();
-    exact_entries(dict, &refs, "material state")?;
+    let optional = format!("{REGION}{}", rest_bonds::VOLUME);
+    entries_of(dict, &refs, &[optional.as_str()], "material state")?;
     let item = |name: &str| dict.get_item(name).map(|v| v.expect("checked above"));
     let reals = |name: &str| reals_1d(&item(name)?, name);
     let elastic = match reals(ELASTIC)?.as_slice() {
@@ -198,7 +200,9 @@ pub fn from_dict(dict: &Bound<'_, PyDict>) -> PyResult<MaterialState> {
     let wetted = reals(WETTED)?;
     let region = PyDict::new(dict.py());
     for name in rest_bonds::NAMES {
-        region.set_item(name, item(&format!("{REGION}{name}"))?)?;
+        if let Some(value) = dict.get_item(format!("{REGION}{name}"))? {
+            region.set_item(name, value)?;
+        }
     }
     let bonds = rest_bonds::from_dict(&region)?;
     Ok(MaterialState {

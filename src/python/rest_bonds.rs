@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 
 use crate::particles::RestBonds;
 
-use super::arrays::{exact_entries, indices, reals_1d, to_numpy, to_numpy_1d, vec3s};
+use super::arrays::{entries_of, indices, reals_1d, to_numpy, to_numpy_1d, vec3s};
 
 /// Per particle `p` its bonds `offsets[p]..offsets[p + 1]`, (N + 1,) int64.
 const OFFSETS: &str = "offsets";
@@ -20,8 +20,10 @@ const VECTORS: &str = "vectors";
 const BORN: &str = "born";
 /// Per particle the accumulated plastic strain, (N,) dimensionless.
 const PLASTIC_STRAIN: &str = "plastic_strain";
-/// Per particle the volume its reference bonds span over its rest volume, (N,) dimensionless.
-const VOLUME: &str = "volume";
+/// Per particle the volume its reference bonds span over its rest volume, (N,) dimensionless;
+/// optional (dicts written before it lack it): 1 for every particle, as for the bonds of the
+/// rest state.
+pub const VOLUME: &str = "volume";
 
 /// Every entry of the dict, in order.
 pub const NAMES: [&str; 6] = [OFFSETS, NEIGHBOURS, VECTORS, BORN, PLASTIC_STRAIN, VOLUME];
@@ -39,10 +41,11 @@ pub fn to_dict<'py>(py: Python<'py>, bonds: RestBonds) -> PyResult<Bound<'py, Py
     Ok(dict)
 }
 
-/// The bonds a dict from [`to_dict`] holds (every entry, no other; shapes and dtypes
-/// checked here, the bonds themselves by [`RestBonds::check`] against the body).
+/// The bonds a dict from [`to_dict`] holds (every entry but the optional [`VOLUME`], no
+/// other; shapes and dtypes checked here, the bonds themselves by [`RestBonds::check`]
+/// against the body).
 pub fn from_dict(dict: &Bound<'_, PyDict>) -> PyResult<RestBonds> {
-    exact_entries(dict, &NAMES, "rest bonds")?;
+    entries_of(dict, &NAMES, &[VOLUME], "rest bonds")?;
     let item = |name: &str| dict.get_item(name).map(|v| v.expect("checked above"));
     let unsigned = |name: &str| -> PyResult<Vec<u32>> {
         indices(&item(name)?, name)?
@@ -56,12 +59,17 @@ pub fn from_dict(dict: &Bound<'_, PyDict>) -> PyResult<RestBonds> {
             .collect()
     };
     let reals = |name: &str| reals_1d(&item(name)?, name);
+    let offsets = unsigned(OFFSETS)?;
+    let volume = match dict.get_item(VOLUME)? {
+        Some(v) => reals_1d(&v, VOLUME)?,
+        None => vec![1.0; offsets.len().saturating_sub(1)],
+    };
     Ok(RestBonds {
-        offsets: unsigned(OFFSETS)?,
+        offsets,
         indices: unsigned(NEIGHBOURS)?,
         xi: vec3s(&item(VECTORS)?, VECTORS, None)?,
         born: reals(BORN)?,
         plastic_strain: reals(PLASTIC_STRAIN)?,
-        volume: reals(VOLUME)?,
+        volume,
     })
 }

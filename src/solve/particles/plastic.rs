@@ -43,9 +43,9 @@ struct Entry {
     /// A sand body's saturation per particle once a liquid wetted it (empty before:
     /// the material's; [`crate::particles::wetted`]).
     wetted: Vec<f64>,
-    /// A body whose return keeps the rest volume: per particle its volume over its rest
-    /// volume at the step's positions with the step's bonds ([`PlasticLaw::volumes`];
-    /// reused, empty for other bodies).
+    /// A plastic body's volume per particle over its rest volume at the step's positions
+    /// with the step's bonds ([`PlasticLaw::apply`]; reused, empty for an elastic body), which
+    /// a body whose return keeps the rest volume keeps across its new bonds.
     volumes: Vec<f64>,
     /// A sand body's capillary wicking of its held water, when its diffusivity is not 0.
     wicking: Option<Wicking>,
@@ -132,11 +132,14 @@ impl PlasticBodies {
                     &self.y[entry.range.clone()],
                     &mut yielded[entry.range.clone()],
                 );
-                if law.anchored {
-                    law.volumes(&entry.bonds, y, &mut entry.volumes);
-                }
                 let cohesion = entry.cohesions();
-                count += law.apply(&mut entry.bonds, y, marks, cohesion.as_deref());
+                count += law.apply(
+                    &mut entry.bonds,
+                    y,
+                    marks,
+                    cohesion.as_deref(),
+                    &mut entry.volumes,
+                );
             }
         }
         timings.plasticity += millis(t);
@@ -206,7 +209,7 @@ impl PlasticBodies {
         for entry in &mut self.entries {
             if let Some(law) = entry.law.filter(|l| l.anchored) {
                 let y = &y[entry.range.clone()];
-                law.reanchor(&mut entry.bonds, y, &entry.volumes);
+                law.reanchor(&mut entry.bonds, y, &mut entry.volumes);
             }
         }
         let sources: Vec<(&RestBonds, RestConstants, Option<&[f64]>)> = self
