@@ -202,6 +202,35 @@ def test_wicking_in_a_falling_block_conserves_the_held_water():
             assert np.array_equal(theta, start)
 
 
+def test_a_step_whose_wicking_needs_too_many_substeps_is_refused_and_keeps_the_state():
+    """The explicit wicking's substeps grow as `D dt / spacing^2` (docs/model.md, "Liquid
+    with wet sand"): the largest diffusivity (0.01 m^2/s) over 10 ms steps on a 1 mm lattice
+    would need about a thousand, more than the 100 allowed. The step is refused with a
+    ValueError naming `wicking` and the substeps, and the bar keeps its positions and
+    saturations; the same bar at a tenth of the diffusivity over 1 ms steps wicks."""
+    def bar(wicking, dt):
+        grains = pd.Particles(lattice((12, 3, 3), (0.0, 0.0, 0.0)) * 0.1, spacing=1e-3,
+                              density=RHO,
+                              material=pd.Granular(friction_angle=30.0, wicking=wicking))
+        state = grains.material_state
+        state["wetted"] = np.where(np.arange(grains.num_particles) < 54, 1.0, 0.0)
+        grains.material_state = state
+        grains.pin(np.arange(grains.num_particles))
+        s = pd.Solver(dt=dt, gravity=(0.0, 0.0, 0.0))
+        s.add(grains)
+        return s, grains
+    s, grains = bar(0.01, 0.01)
+    positions, theta = grains.positions.copy(), grains.saturation.copy()
+    with pytest.raises(ValueError, match=r"wicking=0\.01.*needs \d+ substeps"):
+        s.step()
+    assert np.array_equal(grains.positions, positions)
+    assert np.array_equal(grains.saturation, theta)
+    s, grains = bar(1e-3, 1e-3)
+    s.step()
+    assert grains.saturation[54:].max() > 0.0
+    assert abs(grains.saturation.sum() - theta.sum()) < 1e-12 * theta.sum()
+
+
 @pytest.mark.parametrize("wicking", [-1e-6, 0.011, float("nan")])
 def test_a_bad_wicking_diffusivity_is_refused_by_name(wicking):
     with pytest.raises(ValueError, match="wicking"):

@@ -241,7 +241,9 @@ class Granular:
     Coulomb friction coefficient at the contacts of touching grains (0: frictionless balls),
     ``wicking`` ``D`` (m^2/s, in [0, 0.01]; 0: none): the capillary diffusivity of the water
     the grains hold, which moves from grain to grain conserved (a wetting front advances
-    about ``sqrt(D t)``). docs/model.md gives the defaults' reasons.
+    about ``sqrt(D t)``); a step whose wicking would need more than 100 explicit substeps
+    (they grow as ``D dt / spacing^2``) raises a ValueError naming ``wicking`` and keeps the
+    last good state. docs/model.md gives the defaults' reasons.
     ValueError naming the bad parameter."""
 
     def __init__(

@@ -16,6 +16,7 @@ mod fluid;
 mod granular;
 mod influence;
 mod kernel;
+mod lattice;
 mod measure;
 mod neighbour_rebuild;
 mod plasticity;
@@ -43,6 +44,7 @@ pub(crate) use granular::density_ratios;
 pub use granular::{holds, Granular};
 pub use influence::influence;
 pub use kernel::{evaluate_energies, evaluate_particles, particle_force, particle_kernel};
+pub(crate) use lattice::{brookshaw_scale, lattice_sum};
 pub use neighbour_rebuild::{rebuild as rebuild_neighbours, MIN_STRETCH};
 pub(crate) use plasticity::PlasticLaw;
 pub use plasticity::{shear_and_bulk, DruckerPrager, YieldState};
@@ -53,7 +55,7 @@ pub use sampling::{sample_surface, sample_volume, MAX_PARTICLES, MAX_SURFACE_CAN
 pub use thin::MAX_SECTION;
 pub use wet_sand::{wetted, WETTING_FRACTION};
 pub(crate) use wicking::Wicking;
-pub use wicking::{DEFAULT_WICKING, MAX_WICKING, POROSITY};
+pub use wicking::{DEFAULT_WICKING, MAX_WICKING, MAX_WICKING_SUBSTEPS};
 
 #[cfg(test)]
 mod plasticity_tests;

@@ -26,6 +26,7 @@
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
+use super::lattice::lattice_sum;
 use crate::error::{check_param, invalid, Result};
 use crate::parallel::GRAIN;
 use crate::real::Real;
@@ -93,21 +94,11 @@ impl Sph {
     /// `sum_p W(|p|)` (1/m^3, unscaled) over the points `p` of the simple cubic lattice of
     /// spacing `spacing` (m), the origin included.
     pub fn lattice_sum(&self, spacing: f64) -> f64 {
-        let reach = (self.radius / spacing).ceil() as i64;
         let unit = Self {
             scale: 1.0,
             ..*self
         };
-        let mut sum = 0.0;
-        for a in -reach..=reach {
-            for b in -reach..=reach {
-                for c in -reach..=reach {
-                    let p = Vector3::new(a as f64, b as f64, c as f64) * spacing;
-                    sum += unit.value(p.norm());
-                }
-            }
-        }
-        sum
+        lattice_sum(self.radius, spacing, |p| unit.value(p.norm()))
     }
 
     /// `s W(r)` (1/m^3) at the distance `r >= 0` (m).
@@ -177,7 +168,8 @@ impl Sph {
             Kernel::Poly6 => {
                 let c = s * T::of(315.0 / 64.0) / (pi * h.powi(9));
                 let q = h * h - r2;
-                (Matrix3::identity() * (q * q) - outer * (T::of(4.0) * q)) * (-T::of(6.0) * c)
+                (Matrix3::identity() * poly6_slope(h, r2) - outer * (T::of(4.0) * q))
+                    * (-T::of(6.0) * c)
             }
             Kernel::Spiky => {
                 let r = r2.sqrt();
@@ -250,6 +242,20 @@ impl Sph {
             *g = -grad;
         }
         own
+    }
+}
+
+/// `(H^2 - r^2)^2` (m^4) at the squared distance `r2` (m^2) inside the support radius `h`
+/// (m), else 0: the poly6 kernel's `-W'(r) / r` over its constant `945 / (32 pi H^9)`, the
+/// shape of its Hessian's isotropic part and the pair weight of the sand's wicking
+/// ([`super::wicking`]).
+#[inline]
+pub(crate) fn poly6_slope<T: Real>(h: T, r2: T) -> T {
+    let q = h * h - r2;
+    if q > T::zero() {
+        q * q
+    } else {
+        T::zero()
     }
 }
 

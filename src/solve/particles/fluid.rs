@@ -83,7 +83,7 @@ use crate::parallel::for_each_vertex;
 use crate::particles::redistribution::Redistribution;
 use crate::particles::sph::{Kernel, Sph};
 use crate::particles::sph_deficiency::Deficiency;
-use crate::particles::{DensitySolver, Particles, ViscoelasticFluid, FLUID_SUPPORT};
+use crate::particles::{lattice_sum, DensitySolver, Particles, ViscoelasticFluid, FLUID_SUPPORT};
 use crate::real::Real;
 use crate::solve::points::Points;
 use crate::solve::Timings;
@@ -215,17 +215,9 @@ const WALL_PROBE: f64 = 0.01;
 /// lattice of `spacing` (m) for the kernel `sph`: `sum_p |m grad W(p)|^2 / rho0^2` with
 /// `m / rho0 = spacing^3` (the particle's own gradient is zero by symmetry).
 fn lattice_denominator(sph: &Sph, spacing: f64) -> f64 {
-    let reach = (sph.radius / spacing).ceil() as i64;
-    let mut sum = 0.0;
-    for a in -reach..=reach {
-        for b in -reach..=reach {
-            for c in -reach..=reach {
-                let p = Vector3::new(a as f64, b as f64, c as f64) * spacing;
-                sum += (sph.gradient(&p) * spacing.powi(3)).norm_squared();
-            }
-        }
-    }
-    sum
+    lattice_sum(sph.radius, spacing, |p| {
+        (sph.gradient(&p) * spacing.powi(3)).norm_squared()
+    })
 }
 
 impl<T: Real> FluidStage<T> {

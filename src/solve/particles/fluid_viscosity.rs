@@ -39,6 +39,7 @@ use crate::parallel::chunked_sum;
 use crate::real::Real;
 use crate::solve::points::Points;
 
+use crate::particles::brookshaw_scale;
 use crate::particles::sph::Sph;
 
 /// What the viscosity solve reads of the fluid particles (one entry per particle unless said):
@@ -65,19 +66,10 @@ pub const MAX_CG: usize = 200;
 /// fields on the cubic lattice of `spacing` (m): `2 / sum_p d^3 p_x^2 2 |p . grad W(p)| /
 /// (|p|^2 + 0.01 H^2)` over the lattice vectors `p` (see the module's doc; dimensionless).
 pub(crate) fn lattice_laplacian_scale(sph: &Sph, spacing: f64) -> f64 {
-    let reach = (sph.radius / spacing).ceil() as i64;
     let support2 = 0.01 * sph.radius * sph.radius;
-    let mut sum = 0.0;
-    for a in -reach..=reach {
-        for b in -reach..=reach {
-            for c in -reach..=reach {
-                let p = Vector3::new(a as f64, b as f64, c as f64) * spacing;
-                let w = 2.0 * p.dot(&sph.gradient(&p)).abs() / (p.norm_squared() + support2);
-                sum += spacing.powi(3) * p.x * p.x * w;
-            }
-        }
-    }
-    2.0 / sum
+    brookshaw_scale(sph.radius, spacing, spacing.powi(3), |p| {
+        2.0 * p.dot(&sph.gradient(p)).abs() / (p.norm_squared() + support2)
+    })
 }
 
 /// The viscosity solve's buffers (one entry per fluid particle, one coefficient per bond).

@@ -186,7 +186,7 @@ impl PlasticBodies {
             if let Some(material) = entry.constants.granular {
                 let y = &y[entry.range.clone()];
                 if let (Some(wicking), false) = (&mut entry.wicking, entry.wetted.is_empty()) {
-                    wicking.wick(&entry.bonds, y, &mut entry.wetted, self.dt);
+                    wicking.wick(&entry.bonds, y, &mut entry.wetted, self.dt)?;
                 }
                 let ratios = density_ratios(
                     &entry.bonds,
