@@ -58,8 +58,10 @@ use crate::real::Real;
 use super::bond::BondRest;
 
 /// The most a return that keeps the rest volume moves the kept mean strain away from eq. 18's
-/// (dimensionless, per return): `cbrt(J_i) - 1` corrects the mean bond strain's slow drift
-/// (second order in a step's strain, see the module's doc); where the two differ by more, `det
+/// (dimensionless, per return): `cbrt(J_i) - 1` corrects the mean bond strain's drift (of the
+/// order of a step's strain at a surface, its square inside, see the module's doc; a larger
+/// drift is corrected over several returns while the particle yields); where the two differ
+/// by far more, `det
 /// F_i` measures a flattened or inverted neighbourhood (an impact), not the particle's volume,
 /// and the whole correction would spring the bonds to lengths the next step's elasticity
 /// answers with an enormous force. The kept mean then moves toward it by this much per return.
