@@ -37,7 +37,8 @@
 //! volume ratio `R_i` of the particle's reference bonds to its rest volume
 //! ([`super::RestBonds::volume`]) and the return keeps, instead,
 //! `e_kept = cbrt(J_i) - 1` with `J_i = R_i det F_i` (`F_i` from the step's reference bonds):
-//! the particle's volume over its rest volume, so that the returned bonds
+//! the particle's volume over its rest volume (moved from eq. 18's mean by at most
+//! [`KEPT_CORRECTION`] per return), so that the returned bonds
 //! `|X'_b| = |Y_b| / (1 + e_kept + (1 - beta) (e_b - e_iso))` leave the dilatation term's mean
 //! strain at the particle's true volume change, and an isochoric flow (`J_i = 1`) keeps none.
 //! At the step's end `R_i` is set anew from the returned (and rebuilt) bonds at the same
@@ -55,6 +56,16 @@ use nalgebra::Vector3;
 use crate::real::Real;
 
 use super::bond::BondRest;
+
+/// The most a return that keeps the rest volume moves the kept mean strain away from eq. 18's
+/// (dimensionless, per return): `cbrt(J_i) - 1` corrects the mean bond strain's drift (of the
+/// order of a step's strain at a surface, its square inside, see the module's doc; a larger
+/// drift is corrected over several returns while the particle yields); where the two differ
+/// by far more, `det
+/// F_i` measures a flattened or inverted neighbourhood (an impact), not the particle's volume,
+/// and the whole correction would spring the bonds to lengths the next step's elasticity
+/// answers with an enormous force. The kept mean then moves toward it by this much per return.
+pub const KEPT_CORRECTION: f64 = 0.01;
 
 /// One particle's yield cone `sqrt(J2) <= A + B I1` with `I1 = -9 K e_iso` and
 /// `sqrt(J2) = sqrt(15) G ||e_dev||` ([`super::plasticity`]).
@@ -120,14 +131,17 @@ impl<T: Real> Cone<T> {
 
     /// [`Self::factors`] of a particle whose deformation gradient from the step's reference
     /// bonds has the determinant `det`: on a cone that keeps the rest volume, with the kept
-    /// mean `cbrt(R_i det) - 1` where `R_i det > 0` (see the module's doc).
+    /// mean `cbrt(R_i det) - 1` where `R_i det > 0` (see the module's doc), moved from eq. 18's
+    /// by at most [`KEPT_CORRECTION`].
     #[inline]
     pub fn factors_at(&self, iso: T, dev: T, det: T) -> Option<Factors<T>> {
         let mut factors = self.factors(iso, dev)?;
         if let Some(reference) = self.volume {
             let volume = reference * det;
             if volume > T::zero() {
-                factors.kept = volume.cbrt() - T::one();
+                let bound = T::of(KEPT_CORRECTION);
+                let correction = volume.cbrt() - T::one() - factors.kept;
+                factors.kept += correction.max(-bound).min(bound);
             }
         }
         Some(factors)

@@ -319,3 +319,39 @@ fn a_collapsed_neighbourhood_returns_to_finite_forces_and_onto_its_cone() {
     assert!((floored.length - tiny.norm() / 1e-6).abs() < 1e-12 * bond.length);
     assert!(floored.share.is_finite() && floored.share > bond.share);
 }
+
+/// A return that keeps the rest volume takes `cbrt(J_i) - 1` where it is within
+/// [`super::KEPT_CORRECTION`] of eq. 18's mean (to 1e-15), and moves that mean by the bound
+/// only where `det F_i` says the volume is far off (a flattened neighbourhood: `J_i` = 8 or
+/// 1/8 at `e_iso` = 0.001, so the kept mean is 0.011 or -0.009), in both precisions.
+#[test]
+fn the_rest_volume_moves_the_kept_mean_by_a_bounded_step() {
+    let cone = |ratio: f64| super::Cone {
+        a: 100.0,
+        b: 0.0,
+        bulk9: 1e6,
+        shear15: 1e6,
+        volume: Some(ratio),
+    };
+    let (iso, dev) = (0.001, 0.01);
+    let near = cone(1.0).factors_at(iso, dev, 1.005f64).unwrap();
+    assert!(
+        (near.kept - (1.005f64.cbrt() - 1.0)).abs() < 1e-15,
+        "{near:?}"
+    );
+    for (det, kept) in [(8.0, iso + 0.01), (0.125, iso - 0.01)] {
+        let far = cone(1.0).factors_at(iso, dev, det).unwrap();
+        assert!((far.kept - kept).abs() < 1e-15, "{det}: {far:?}");
+        let single = super::Cone::<f32> {
+            a: 100.0,
+            b: 0.0,
+            bulk9: 1e6,
+            shear15: 1e6,
+            volume: Some(1.0),
+        };
+        let far32 = single
+            .factors_at(iso as f32, dev as f32, det as f32)
+            .unwrap();
+        assert!((far32.kept as f64 - kept).abs() < 1e-6, "{det}: {far32:?}");
+    }
+}
