@@ -149,14 +149,14 @@ impl<T: Real> Cone<T> {
 
     /// The return within the local step (see the module's doc) of a particle with the bonds
     /// `bonds` at the bond vectors `y` (`Y_b`, m) and the deformation gradient's determinant
-    /// `det`: its factors ([`Self::factors_at`]), or `None` inside the cone or without
+    /// `det` (evaluated only on a cone that keeps the rest volume): its factors ([`Self::factors_at`]), or `None` inside the cone or without
     /// weighted bonds. The strains are `|Y_b| / |X_b| - 1`, weighted by the bonds' `w V_j`.
     #[inline]
     pub fn local_return(
         &self,
         bonds: &[BondRest<T>],
         y: &[Vector3<T>],
-        det: T,
+        det: impl FnOnce() -> T,
     ) -> Option<Factors<T>> {
         let strain = |bond: &BondRest<T>, y: &Vector3<T>| y.norm() / bond.length - T::one();
         let (mut weight, mut mean) = (T::zero(), T::zero());
@@ -172,6 +172,12 @@ impl<T: Real> Cone<T> {
             let e = strain(bond, y) - iso;
             s + bond.weight * e * e
         });
+        // The determinant only where the cone keeps the rest volume (the kernel's hot path).
+        let det = if self.volume.is_some() {
+            det()
+        } else {
+            T::zero()
+        };
         self.factors_at(iso, (square / weight).sqrt(), det)
     }
 }

@@ -262,7 +262,7 @@ fn a_collapsed_neighbourhood_returns_to_finite_forces_and_onto_its_cone() {
         let (bonds_i, ys) = (&rest.bonds[range(i)], bond_vectors(i));
         let neighbours = &rest.indices[range(i)];
         let f = deformation_gradient(i, neighbours, bonds_i, &rest.shape_inverse[i], &y);
-        let Some(factors) = cone.local_return(bonds_i, &ys, f.determinant()) else {
+        let Some(factors) = cone.local_return(bonds_i, &ys, || f.determinant()) else {
             continue;
         };
         assert_ne!(

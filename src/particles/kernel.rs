@@ -43,7 +43,7 @@ pub fn particle_kernel<T: Real>(
         .get(i)
         .copied()
         .flatten()
-        .and_then(|cone| cone.local_return(bonds, bond_out, f.determinant()));
+        .and_then(|cone| cone.local_return(bonds, bond_out, || f.determinant()));
     // The dilatation term's mean strain from the returned bonds' lengths and shares.
     let strain = factors.as_ref().map_or(strain, Factors::kept_mean);
     let pressure = rest.dilatation[i] * strain;
