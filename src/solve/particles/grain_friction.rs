@@ -78,6 +78,12 @@ pub(crate) struct GrainFriction<T: Real> {
     /// and as computed by the last trial.
     accepted: Vec<Vector3<T>>,
     trial: Vec<Vector3<T>>,
+    /// Each touching frictional entry's demand on its friction, as accepted by the last
+    /// iteration and as computed by the last trial: the length of its multiplier before the
+    /// clamp over its Coulomb limit `mu_c g` (dimensionless; 1 at the rim, `None` for an
+    /// entry whose pair does not touch).
+    demand: Vec<Option<T>>,
+    demand_trial: Vec<Option<T>>,
     /// Each particle's sum of its shares in its frictional pairs `S_i` and its corrected
     /// position `q_i` (m).
     shares: Vec<T>,
@@ -97,6 +103,8 @@ impl<T: Real> GrainFriction<T> {
             owner: Vec::new(),
             accepted: Vec::new(),
             trial: Vec::new(),
+            demand: Vec::new(),
+            demand_trial: Vec::new(),
             shares: vec![T::zero(); n],
             previous_offsets: Vec::new(),
             previous_indices: Vec::new(),
@@ -130,6 +138,10 @@ impl<T: Real> GrainFriction<T> {
         std::mem::swap(&mut self.accepted, &mut self.trial);
         self.trial.clear();
         self.trial.resize(entries, Vector3::zeros());
+        self.demand.clear();
+        self.demand.resize(entries, None);
+        self.demand_trial.clear();
+        self.demand_trial.resize(entries, None);
         self.previous_offsets.clear();
         self.previous_offsets.extend_from_slice(offsets);
         self.previous_indices.clear();
@@ -196,6 +208,19 @@ impl<T: Real> GrainFriction<T> {
     /// Takes the multipliers of the last trial as the iteration's.
     pub fn accept(&mut self) {
         std::mem::swap(&mut self.accepted, &mut self.trial);
+        std::mem::swap(&mut self.demand, &mut self.demand_trial);
+    }
+
+    /// Whether particle `i`'s contacts stick at the step's last iteration by the test of eq.
+    /// 28 put to its contact friction: it touches a frictional partner, and at every such
+    /// contact the friction takes away at least `eta` of the tangential correction that
+    /// sticking asks, `eta |lambda_free| <= mu_c g` (`lambda_free` the pair's multiplier
+    /// before the clamp; [`super::static_friction`]).
+    pub fn sticks(&self, i: usize, eta: T) -> bool {
+        let row = self.previous_offsets[i] as usize..self.previous_offsets[i + 1] as usize;
+        let demands = self.demand.get(row).unwrap_or_default();
+        let mut touching = demands.iter().flatten().peekable();
+        touching.peek().is_some() && touching.all(|&demand| eta * demand <= T::one())
     }
 
     /// Adds each particle's friction move to `correction`, which holds its normal move
@@ -241,9 +266,11 @@ impl<T: Real> GrainFriction<T> {
         let (owner, shares, corrected) = (&self.owner, &self.shares, &self.corrected);
         self.trial
             .par_iter_mut()
+            .zip(self.demand_trial.par_iter_mut())
             .enumerate()
-            .for_each(|(e, lambda)| {
+            .for_each(|(e, (lambda, demand))| {
                 *lambda = Vector3::zeros();
+                *demand = None;
                 let (i, j) = (owner[e] as usize, pairs.indices[e] as usize);
                 if pairs.pinned[i] {
                     return;
@@ -255,6 +282,7 @@ impl<T: Real> GrainFriction<T> {
                 let slip = (corrected[i] - pairs.start[i]) - (corrected[j] - pairs.start[j]);
                 let free = tangential(&normal, &(accepted[e] - slip * relaxation));
                 let (length, limit) = (free.norm(), mu * overlap);
+                *demand = Some(length / limit);
                 *lambda = if length <= limit {
                     free
                 } else {

@@ -237,6 +237,12 @@ impl<T: Real> Repulsion<T> {
             .map_or_else(Vec::new, GrainFriction::saved)
     }
 
+    /// Whether particle `i`'s contacts stick by eq. 28's test with `eta`
+    /// ([`GrainFriction::sticks`]); false without contact friction.
+    pub fn sticks(&self, i: usize, eta: T) -> bool {
+        self.friction.as_ref().is_some_and(|f| f.sticks(i, eta))
+    }
+
     /// Whether some body has contact friction.
     pub fn has_friction(&self) -> bool {
         self.friction.is_some()

@@ -4,12 +4,19 @@
 //! ([`crate::particles::holds`]). Without it a pile of sand, solved by a few iterations each
 //! step, creeps down under its own weight.
 //!
-//! **Departure: only where the sand did not yield.** The paper holds every particle that
-//! passes eq. 28. A particle of a stiff column then passes it every step (the elastic
-//! response holds it up within the step), is put back where it started, never strains and
-//! never yields: a column of dry sand would stand for ever. Here a particle that yielded in
-//! the step's return (its friction cone exceeded: it slides) is not held; static friction
-//! holds what the friction cone holds.
+//! **Departure: only where the sand did not yield, or its contacts stuck.** The paper holds
+//! every particle that passes eq. 28. A particle of a stiff column then passes it every step
+//! (the elastic response holds it up within the step), is put back where it started, never
+//! strains and never yields: a column of dry sand would stand for ever. Here a particle that
+//! yielded in the step's return (its friction cone exceeded: it slides) is not held; static
+//! friction holds what the friction cone holds. A yielded particle is held all the same when
+//! it touches grains with contact friction (`Granular::contact_friction`) and every such
+//! contact stuck by eq. 28's test put to the contact: its friction took away at least `eta`
+//! of the tangential correction that sticking asks, `eta |lambda_free| <= mu_c g`
+//! ([`super::grain_friction::GrainFriction::sticks`]). A grain whose contacts stick does not
+//! slide whatever its bonds do; without this, a resting packing with contact friction never
+//! came to rest, its bonds on their cone yielding again each step as contacts at their
+//! Coulomb limit slipped a micrometre (docs/model.md, granular section).
 
 use std::ops::Range;
 
@@ -52,9 +59,16 @@ impl<T: Real> StaticFriction<T> {
     }
 
     /// Eq. 28 once the step's velocities are set ([`Points::finish`]): a particle held goes
-    /// back to its start with no velocity. Pinned particles and those marked in `yielded`
-    /// are left as they are. Returns how many were held.
-    pub fn apply(&self, points: &mut Points<T>, yielded: &[bool]) -> usize {
+    /// back to its start with no velocity. Pinned particles are left as they are, and so are
+    /// those marked in `yielded` unless `sticks(i, eta)` says particle `i`'s grain contacts
+    /// stuck by the same test ([`super::grain_friction::GrainFriction::sticks`]). Returns
+    /// how many were held.
+    pub fn apply(
+        &self,
+        points: &mut Points<T>,
+        yielded: &[bool],
+        sticks: &(impl Fn(usize, T) -> bool + Sync),
+    ) -> usize {
         let mut held = 0;
         for (range, eta) in &self.bodies {
             let (starts, star, pinned, yielded) = (
@@ -70,7 +84,8 @@ impl<T: Real> StaticFriction<T> {
                 .zip(points.velocity[r].par_iter_mut())
                 .enumerate()
                 .map(|(k, ((y, start), velocity))| {
-                    if pinned[k] || yielded[k] || !holds(*eta, y, &starts[k], &star[k]) {
+                    let slides = yielded[k] && !sticks(range.start + k, T::of(*eta));
+                    if pinned[k] || slides || !holds(*eta, y, &starts[k], &star[k]) {
                         return 0;
                     }
                     *y = starts[k];
