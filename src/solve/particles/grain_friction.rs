@@ -217,8 +217,16 @@ impl<T: Real> GrainFriction<T> {
     /// sticking asks, `eta |lambda_free| <= mu_c g` (`lambda_free` the pair's multiplier
     /// before the clamp; [`super::static_friction`]).
     pub fn sticks(&self, i: usize, eta: T) -> bool {
-        let row = self.previous_offsets[i] as usize..self.previous_offsets[i + 1] as usize;
-        let demands = self.demand.get(row).unwrap_or_default();
+        let (Some(&first), Some(&end)) = (
+            self.previous_offsets.get(i),
+            self.previous_offsets.get(i + 1),
+        ) else {
+            return false;
+        };
+        let demands = self
+            .demand
+            .get(first as usize..end as usize)
+            .unwrap_or_default();
         let mut touching = demands.iter().flatten().peekable();
         touching.peek().is_some() && touching.all(|&demand| eta * demand <= T::one())
     }
