@@ -265,36 +265,30 @@ fn the_friction_moves_keep_momentum_between_grains_of_different_contact_counts()
     }
 }
 
-/// Eq. 28's test put to a grain's contacts ([`Repulsion::sticks`], `mu_c` 0.5): a grain
-/// pressed 0.1 spacings into a pinned one (overlap 1e-3 m, Coulomb limit 5e-4 m) and proposed
-/// a sideways slip of 1e-4, 5.5e-4 or 2e-3 m. The first contact sticks; the second is
-/// clamped (the friction takes away 0.89 of the slip at the overlap the slip leaves, 9.8e-4
-/// m), so it sticks with `eta` 0.8 and not with 0.95; the third slides. A grain touching
-/// nothing does not stick.
+/// The hold of a yielded grain by its contacts ([`Repulsion::sticks`], `mu_c` 0.5): a grain
+/// pressed 0.1 spacings into a pinned one below it (overlap `g` 1e-3 m). Its contact takes
+/// back a sideways move up to `mu_c min(g, |y* - y^t|)`: 1e-4 m with an inertial move of
+/// 1e-3 m (limit 5e-4 m) but not with one of 1e-4 m (limit 5e-5 m), nor 6e-4 m sideways
+/// with an inertial move of 2e-3 m (the overlap's limit, 5e-4 m); a move along the normal
+/// has no sideways part. A grain touching nothing is not held.
 #[test]
-fn a_grain_sticks_when_its_contact_friction_takes_away_eta_of_its_slip() {
+fn a_contact_holds_a_grain_whose_sideways_move_lies_within_coulombs_limit() {
     let sites = [
         Vector3::new(0.0, 0.0, 0.9 * S),
         Vector3::zeros(),
         Vector3::new(5.0 * S, 0.0, 0.0),
     ];
     let points = grains(&sites, &[1.0; 3], &[false, true, false]);
-    let sticks = |slip: f64, eta: f64| -> (bool, bool) {
-        let mut repulsion = Repulsion::of(&points, vec![true], &[false; 3])
-            .unwrap()
-            .with_friction(&[0.5]);
-        repulsion.start_step(&points, 1e-3, [0.0; 3]).unwrap();
-        let delta = vec![
-            Vector3::new(slip, 0.0, 0.0),
-            Vector3::zeros(),
-            Vector3::zeros(),
-        ];
-        repulsion.correct(&points, &delta, 1.0, |_| 1.0);
-        repulsion.accept();
-        (repulsion.sticks(0, eta), repulsion.sticks(2, eta))
-    };
-    assert_eq!(sticks(1e-4, 0.8), (true, false));
-    assert_eq!(sticks(5.5e-4, 0.8), (true, false));
-    assert_eq!(sticks(5.5e-4, 0.95), (false, false));
-    assert_eq!(sticks(2e-3, 0.8), (false, false));
+    let mut repulsion = Repulsion::of(&points, vec![true], &[false; 3])
+        .unwrap()
+        .with_friction(&[0.5]);
+    repulsion.start_step(&points, 1e-3, [0.0; 3]).unwrap();
+    repulsion.correct(&points, &[Vector3::zeros(); 3], 1.0, |_| 1.0);
+    repulsion.accept();
+    let sideways = |d: f64| Vector3::new(d, 0.0, 0.0);
+    assert!(repulsion.sticks(0, &sideways(1e-4), 1e-3));
+    assert!(!repulsion.sticks(0, &sideways(1e-4), 1e-4));
+    assert!(!repulsion.sticks(0, &sideways(6e-4), 2e-3));
+    assert!(repulsion.sticks(0, &Vector3::new(0.0, 0.0, 5e-3), 1e-4));
+    assert!(!repulsion.sticks(2, &Vector3::zeros(), 1e-3));
 }

@@ -260,7 +260,7 @@ impl<T: Real> ParticleSystem<T> {
     ///
     /// Between the returns and the rebuild, the static friction of granular bodies (eq. 28,
     /// [`super::static_friction`]) holds the particles that did not yield or whose contacts
-    /// stuck.
+    /// can hold them.
     pub(crate) fn plastic_end_step(&mut self, timings: &mut Timings) -> Result<()> {
         let Some(plastic) = self.plastic.as_mut() else {
             return Ok(());
@@ -269,7 +269,9 @@ impl<T: Real> ParticleSystem<T> {
         let yielded = plastic.returns(&self.points.y, &mut self.yielded, timings);
         if let Some(friction) = &self.static_friction {
             let repulsion = self.repulsion.as_ref();
-            let sticks = |i: usize, eta: T| repulsion.is_some_and(|r| r.sticks(i, eta));
+            let sticks = |i: usize, moved: &Vector3<T>, inertial: T| {
+                repulsion.is_some_and(|r| r.sticks(i, moved, inertial))
+            };
             self.timings.held_static = friction.apply(&mut self.points, &self.yielded, &sticks);
         }
         let rebuilt = plastic.rebuild(&self.points.y, yielded, &mut self.rest, timings);
