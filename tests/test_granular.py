@@ -216,8 +216,8 @@ def test_a_disordered_frictional_layer_at_rest_stays_at_rest():
     holds a grain whose bonds yield when its contacts can take back its sideways move
     (src/solve/particles/static_friction.rs). Measured: 0.0, 0.0, 0.0 um (seeds 0 to 4: 14
     of 15 below 10 um, the other 10.4 um); holding only the grains that did not yield, 3.8,
-    5.1, 24.7 um. With contact friction `tan(angle)` the layer has not settled by then
-    (docs/model.md, granular section, rounds t and u)."""
+    5.1, 24.7 um. With contact friction `tan(angle)`: 0.0, 0.0, 0.0 um (round t's rule, the
+    contacts' relative slip: 18, 467, 40 um; docs/model.md, granular section, rounds t, u)."""
     for angle in (20.0, 30.0, 40.0):
         _, largest = layer_moves(0.0, jitter=0.1, seed=0, window=0.5,
                                  material=disordered_sand(angle))
