@@ -262,7 +262,8 @@ def test_without_adhesion_a_blob_hangs_on_at_a_yield_stress_of_700_pa_and_parts_
                    "ceiling without adhesion; a two-sided constraint on closed neighbourhoods, "
                    "surface tension, bonds kept past the horizon, a grad-div viscosity or a "
                    "bounded tension in the density constraints (round w: a Newtonian honey "
-                   "then draws a thread, this one hangs, necks into a divergence or parts) "
+                   "draws a thread by the surface sum's pull, this one hangs, necks into a "
+                   "divergence or parts) "
                    "either part it the same way, hang it, or diverge (docs/model.md)")
 def test_honey_dripping_from_its_ghost_ceiling_draws_a_thread():
     """After 0.4 s the blob has dripped (its lowest particle more than 10 spacings below the
