@@ -166,8 +166,10 @@ class Particles:
         """A plastic body's current reference bonds (``offsets`` (N + 1,), ``neighbours``
         (B,) int64; ``vectors`` (B, 3) m, ``born`` (B,) m, ``plastic_strain`` (N,), ``volume`` (N,): the
         volume each particle's reference bonds span over its rest volume); None for an
-        elastic body. Settable (checked; None: the reference positions' bonds; a dict without
-        ``volume``, as written before it, gives every particle 1)."""
+        elastic body. Settable (checked: symmetric rows, finite nonzero vectors, lengths > 0,
+        plastic strain >= 0, ``volume`` within [1e-3, 1e3], each culprit named; None: the
+        reference positions' bonds; a dict without ``volume``, as written before it, gives every
+        particle 1)."""
     @rest_bonds.setter
     def rest_bonds(self, value: Optional[Dict[str, np.ndarray]]) -> None: ...
     @property
