@@ -203,7 +203,8 @@ def test_the_angle_of_repose_lies_within_10_degrees_of_the_friction_angle():
     Drucker-Prager continuum of the next test does; so the angle grows with the friction
     angle (at 30 degrees tilt the 20-degree sand flows and the 40-degree one stands).
     Measured, seeds 0 to 4 (docs/model.md, granular section, round t): at rest 0.0 to 0.0003
-    mm, flowing 8 to 17 mm (seed 1: 0.0002, 0.00007, 0.00009 and 9.9, 12.7, 10.8 mm). Without
+    mm, flowing 8 to 17 mm (seed 1: 0.0002, 0.00007, 0.00009 and 9.9, 12.7, 10.8 mm; with
+    round u's static friction 0.0 mm at rest and 14.1, 18.9, 13.8 mm flowing). Without
     contact friction the packing fails on seeds 1, 2 and 4 (seed 1: 1.1 mm at 10 degrees for
     the 20-degree sand, 7.4 mm at 30 for the 40-degree one), and the perfect lattice jams
     (0.0 mm at 30, 40 and 50 degrees, static friction holding every grain)."""
