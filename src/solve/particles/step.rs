@@ -294,14 +294,10 @@ fn propose<T: Real>(
                 push(whole + repelled) - whole
             };
             *touched = *next != free_move;
-            // The trial unrounded ([`super::exact_iterate`]): an untouched particle's move
-            // `y + alpha delta` formed in f64, extrapolated from the unrounded `y^{k-1}` and
-            // rounded once.
-            let mut exact = if *touched {
-                wide(next)
-            } else {
-                wide(y) + wide(&sys_ref.delta[i]) * alpha.to_f64()
-            };
+            // The trial unrounded ([`super::exact_iterate`]): the move `y + alpha delta`
+            // formed in f64, extrapolated from the unrounded `y^{k-1}` and rounded once; in
+            // the coordinates a collider or the repulsion moved, the stored trial's.
+            let mut exact = known(&(wide(y) + wide(&sys_ref.delta[i]) * alpha.to_f64()), next);
             if let Some(w) = omega {
                 let previous = sys_ref.exact.previous(i, &points.y_prev[i]);
                 let moved = (exact - previous) * w.to_f64() + previous;
