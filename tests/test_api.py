@@ -1,4 +1,4 @@
-"""Contract of the Python API (python/peridyn/_core.pyi and the peridyn package)."""
+"""Contract of the Python API (the stubs python/peridyn/_core/*.pyi and the peridyn package)."""
 
 import numpy as np
 import pytest

@@ -209,25 +209,36 @@ def test_the_angle_of_repose_lies_within_10_degrees_of_the_friction_angle():
         assert tilted_layer(angle + 10.0, **material) > 5e-5, angle
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "issue 39, open: the layer creeps, 3.8, 5.1, 24.7 um at 20, 30, 40 degrees: yielded grains "
-    "are never held by static friction while contacts at their Coulomb limit slip and re-yield "
-    "the bonds. Holding a yielded grain whose contacts stick (branch plastic-t) passes it "
-    "(3.8, 0.0, 2.9 um) but makes a perfect-lattice frictional column stand (docs/model.md, "
-    "granular section, round t)"))
 def test_a_disordered_frictional_layer_at_rest_stays_at_rest():
     """The repose test's packing (`layer_moves`, jitter 0.1 spacings, seed 0) of
     `disordered_sand` at 20, 30 and 40 degrees, settled 0.3 s and stepped 0.5 s more by the
-    same solver: no particle moves by 1e-3 of a spacing (10 um). Measured, holding only the
-    grains that did not yield (eq. 28): 3.8, 5.1, 24.7 um; holding also a yielded grain
-    whose contacts stick: 3.8, 0.0, 2.9 um (seeds 0 to 4: 13 of 15 below 10 um, the others
-    10.2 and 19 um). With contact friction `tan(angle)` the layer has not settled
-    by then: 18, 467, 40 um (seeds 0 to 4: 9 um to 1.6 mm), the largest moves along the
-    box's frictionless walls (docs/model.md, granular section, round t)."""
+    same solver: no particle moves by 1e-3 of a spacing (10 um). Static friction (eq. 28)
+    holds a grain whose bonds yield when its contacts can take back its sideways move
+    (src/solve/particles/static_friction.rs). Measured: 0.0, 0.0, 0.0 um (seeds 0 to 4: 14
+    of 15 below 10 um, the other 10.4 um); holding only the grains that did not yield, 3.8,
+    5.1, 24.7 um. With contact friction `tan(angle)`: 0.0, 0.0, 0.0 um (round t's rule, the
+    contacts' relative slip: 18, 467, 40 um; docs/model.md, granular section, rounds t, u)."""
     for angle in (20.0, 30.0, 40.0):
         _, largest = layer_moves(0.0, jitter=0.1, seed=0, window=0.5,
                                  material=disordered_sand(angle))
         assert largest < 1e-3 * S, (angle, largest)
+
+
+def test_a_perfect_lattice_frictional_column_collapses():
+    """The hold of a yielded grain by its contacts (the previous test) must not make a column
+    stand: a perfect-lattice column (R = 6 cm, a = 1, as in the collapse test) of
+    `disordered_sand` at 30 and 40 degrees spreads by more than half its radius in 0.5 s.
+    Its stacked grains move together, so a test of their relative slip held every yielded
+    grain from the first step (round t: runout 0.01 and 0.00). Measured 0.79 and 0.77
+    (holding only the grains that did not yield: 0.84 and 0.74; with its frictionless
+    contacts the collapse test's Lube band holds, 1.21; docs/model.md, granular section,
+    round u)."""
+    radius = 0.06
+    for angle in (30.0, 40.0):
+        body = column(radius, radius, disordered_sand(angle))
+        settle(body, 0.5)
+        spread = (runout(body) - radius) / radius
+        assert spread > 0.5, (angle, spread)
 
 
 def test_a_drucker_prager_continuum_stands_within_10_degrees_of_its_friction_angle():

@@ -150,6 +150,7 @@ def elastic_bar():
         (lambda b: b["born"].__setitem__(5, -1.0), "birth length of bond 5 must be finite and > 0"),
         (lambda b: b["plastic_strain"].__setitem__(7, -0.5), "plastic strain of particle 7"),
         (lambda b: b["volume"].__setitem__(4, 0.0), "volume ratio of particle 4"),
+        (lambda b: b["volume"].__setitem__(6, 2e3), "volume ratio of particle 6 must lie within"),
         (lambda b: b.pop("born"), 'missing ["born"]'),
         (lambda b: b.update(extra=np.zeros(3)), 'unknown ["extra"]'),
         (lambda b: b.update(vectors=b["vectors"][:, :2]), "vectors must have shape (N, 3)"),

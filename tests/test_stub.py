@@ -1,4 +1,6 @@
-"""The type stub `_core.pyi` describes exactly what the compiled module exposes."""
+"""The type stubs of the stub package `_core/` describe exactly what the compiled module
+exposes: `__init__.pyi` re-exports what the concept files (`_materials.pyi`, `_bodies.pyi`, ...)
+declare, and `contact.pyi` is the `contact` submodule."""
 
 import ast
 import re
@@ -8,14 +10,24 @@ import pytest
 
 import peridyn._core as core
 
-STUB = Path(core.__file__).with_name("_core.pyi")
+STUBS = Path(core.__file__).with_name("_core")
+INIT = STUBS / "__init__.pyi"
+SUBMODULES = {"contact"}
+
+
+def concept_files():
+    """The stub files whose names the module's top level re-exports (not the submodules)."""
+    return [p for p in sorted(STUBS.glob("*.pyi")) if p.stem not in SUBMODULES]
+
+
+def top_level_nodes():
+    return [node for path in concept_files() for node in ast.parse(path.read_text()).body]
 
 
 def stub_classes():
     """Every class of the stub with its members, inherited members (from stub bases) included."""
-    tree = ast.parse(STUB.read_text())
     own, bases = {}, {}
-    for node in tree.body:
+    for node in top_level_nodes():
         if isinstance(node, ast.ClassDef):
             own[node.name] = {
                 item.name
@@ -59,7 +71,7 @@ def test_every_public_class_and_member_of_the_module_is_in_the_stub():
 def stub_literals():
     """The stub's module-level ``Literal`` aliases: name -> the strings they allow."""
     out = {}
-    for node in ast.parse(STUB.read_text()).body:
+    for node in top_level_nodes():
         value = getattr(node, "value", None)
         if (isinstance(node, ast.Assign) and isinstance(value, ast.Subscript)
                 and isinstance(value.value, ast.Name) and value.value.id == "Literal"):
@@ -98,3 +110,33 @@ def test_the_stub_literals_are_the_strings_the_core_accepts(name):
 
 def test_every_option_alias_of_the_stub_is_tested():
     assert set(stub_literals()) == set(OPTIONS)
+
+
+def test_the_stub_package_re_exports_every_name_its_concept_files_declare():
+    """A type checker sees `peridyn._core.X` only through `__init__.pyi`: each class, function
+    and alias of a concept file is re-exported there under its own name (`import X as X`)."""
+    declared = set()
+    for path in concept_files():
+        if path == INIT:
+            continue
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, (ast.ClassDef, ast.FunctionDef)):
+                declared.add(node.name)
+            elif isinstance(node, ast.Assign):
+                declared.update(t.id for t in node.targets if isinstance(t, ast.Name))
+    exported = {
+        alias.name
+        for node in ast.parse(INIT.read_text()).body
+        if isinstance(node, ast.ImportFrom)
+        for alias in node.names
+        if alias.asname == alias.name
+    }
+    assert declared - exported == set(), sorted(declared - exported)
+    assert SUBMODULES <= exported
+
+
+@pytest.mark.parametrize("name", sorted(SUBMODULES))
+def test_each_submodule_stub_declares_exactly_the_submodules_functions(name):
+    tree = ast.parse((STUBS / f"{name}.pyi").read_text())
+    declared = {node.name for node in tree.body if isinstance(node, ast.FunctionDef)}
+    assert declared == public(getattr(core, name))

@@ -260,7 +260,10 @@ def test_without_adhesion_a_blob_hangs_on_at_a_yield_stress_of_700_pa_and_parts_
                    "plane at about 0.12-0.15 s and falls with no liquid between (10-100 Pa s, "
                    "yield stress 100-500 Pa, redistribution 0 or 1 alike), as it parts from the "
                    "ceiling without adhesion; a two-sided constraint on closed neighbourhoods, "
-                   "surface tension, bonds kept past the horizon or a grad-div viscosity "
+                   "surface tension, bonds kept past the horizon, a grad-div viscosity or a "
+                   "bounded tension in the density constraints (round w: a Newtonian honey "
+                   "draws a thread by the surface sum's pull, this one hangs, necks into a "
+                   "divergence or parts) "
                    "either part it the same way, hang it, or diverge (docs/model.md)")
 def test_honey_dripping_from_its_ghost_ceiling_draws_a_thread():
     """After 0.4 s the blob has dripped (its lowest particle more than 10 spacings below the

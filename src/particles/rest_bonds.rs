@@ -15,6 +15,7 @@
 
 use nalgebra::Vector3;
 
+use super::plasticity::VOLUME_RATIOS;
 use crate::error::{invalid, Result};
 use crate::geometry::Horizons;
 
@@ -127,7 +128,9 @@ impl RestBonds {
     /// the first culprit: `n + 1` offsets from 0, non-decreasing, to the bond count; per bond
     /// a neighbour in `[0, n)` other than the particle, increasing within each row, with the
     /// reverse bond present; a finite nonzero vector `X` (m) and a finite length > 0 (m) it
-    /// was born at; per particle a finite plastic strain >= 0 and a finite volume ratio > 0.
+    /// was born at; per particle a finite plastic strain >= 0 and a volume ratio within
+    /// [`VOLUME_RATIOS`] (the bounds the solver keeps it in, so a restored state is one a body
+    /// could have stepped to).
     pub fn check(&self, n: usize) -> Result<()> {
         let bonds = self.indices.len();
         if self.offsets.len() != n + 1 {
@@ -210,9 +213,10 @@ impl RestBonds {
                 ));
             }
             let v = self.volume[i];
-            if !(v.is_finite() && v > 0.0) {
+            let (low, high) = VOLUME_RATIOS;
+            if !(low..=high).contains(&v) {
                 return Err(invalid!(
-                    "the volume ratio of particle {i} must be finite and > 0, got {v}"
+                    "the volume ratio of particle {i} must lie within [{low}, {high}], got {v}"
                 ));
             }
         }

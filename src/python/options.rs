@@ -1,7 +1,7 @@
 //! The one place where the Python edge maps option strings to core values, and core values
 //! back to strings for the getters: one table per option. A string no table holds is a
 //! ValueError naming the option, the accepted strings and the value given. The stub
-//! `python/peridyn/_core.pyi` spells each table as a `Literal` type.
+//! `python/peridyn/_core/_options.pyi` spells each table as a `Literal` type.
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;

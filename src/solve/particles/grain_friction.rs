@@ -78,6 +78,11 @@ pub(crate) struct GrainFriction<T: Real> {
     /// and as computed by the last trial.
     accepted: Vec<Vector3<T>>,
     trial: Vec<Vector3<T>>,
+    /// Each candidate entry's contact (its normal, overlap and coefficient) as accepted by the
+    /// last iteration and as computed by the last trial; `None` for an entry whose pair does
+    /// not touch or has no friction. Read by [`GrainFriction::sticks`].
+    contacts: Vec<Option<Contact<T>>>,
+    contacts_trial: Vec<Option<Contact<T>>>,
     /// Each particle's sum of its shares in its frictional pairs `S_i` and its corrected
     /// position `q_i` (m).
     shares: Vec<T>,
@@ -97,6 +102,8 @@ impl<T: Real> GrainFriction<T> {
             owner: Vec::new(),
             accepted: Vec::new(),
             trial: Vec::new(),
+            contacts: Vec::new(),
+            contacts_trial: Vec::new(),
             shares: vec![T::zero(); n],
             previous_offsets: Vec::new(),
             previous_indices: Vec::new(),
@@ -130,6 +137,10 @@ impl<T: Real> GrainFriction<T> {
         std::mem::swap(&mut self.accepted, &mut self.trial);
         self.trial.clear();
         self.trial.resize(entries, Vector3::zeros());
+        self.contacts.clear();
+        self.contacts.resize(entries, None);
+        self.contacts_trial.clear();
+        self.contacts_trial.resize(entries, None);
         self.previous_offsets.clear();
         self.previous_offsets.extend_from_slice(offsets);
         self.previous_indices.clear();
@@ -196,6 +207,34 @@ impl<T: Real> GrainFriction<T> {
     /// Takes the multipliers of the last trial as the iteration's.
     pub fn accept(&mut self) {
         std::mem::swap(&mut self.accepted, &mut self.trial);
+        std::mem::swap(&mut self.contacts, &mut self.contacts_trial);
+    }
+
+    /// Whether particle `i`'s contacts can hold it where it started (static friction, eq. 28,
+    /// for a grain that yielded: [`super::static_friction`]): it touches a frictional
+    /// partner at the step's last iteration, and at every such contact the tangential part
+    /// of its move in the step `d` (m, the move the hold takes back) lies within Coulomb's
+    /// limit, `|(I - n n^T) d| <= mu_c min(g, |y* - y^t|)`, with `n`, `g` and `mu_c` the
+    /// contact's normal, overlap (m) and coefficient, and `|y* - y^t|` the grain's inertial
+    /// move (m: its momentum's and its weight's in the step, the normal load the grain itself
+    /// puts on a contact). The overlap alone would count the load of the grains above, whose
+    /// sideways pull the contact carries as well: a perfect-lattice column then held its
+    /// edges (docs/model.md, granular section, round u).
+    pub fn sticks(&self, i: usize, moved: &Vector3<T>, inertial: T) -> bool {
+        let (Some(&first), Some(&end)) = (
+            self.previous_offsets.get(i),
+            self.previous_offsets.get(i + 1),
+        ) else {
+            return false;
+        };
+        let contacts = self
+            .contacts
+            .get(first as usize..end as usize)
+            .unwrap_or_default();
+        let mut touching = contacts.iter().flatten().peekable();
+        touching.peek().is_some()
+            && touching
+                .all(|c| tangential(&c.normal, moved).norm() <= c.mu * c.overlap.min(inertial))
     }
 
     /// Adds each particle's friction move to `correction`, which holds its normal move
@@ -241,9 +280,11 @@ impl<T: Real> GrainFriction<T> {
         let (owner, shares, corrected) = (&self.owner, &self.shares, &self.corrected);
         self.trial
             .par_iter_mut()
+            .zip(self.contacts_trial.par_iter_mut())
             .enumerate()
-            .for_each(|(e, lambda)| {
+            .for_each(|(e, (lambda, contact))| {
                 *lambda = Vector3::zeros();
+                *contact = None;
                 let (i, j) = (owner[e] as usize, pairs.indices[e] as usize);
                 if pairs.pinned[i] {
                     return;
@@ -255,6 +296,11 @@ impl<T: Real> GrainFriction<T> {
                 let slip = (corrected[i] - pairs.start[i]) - (corrected[j] - pairs.start[j]);
                 let free = tangential(&normal, &(accepted[e] - slip * relaxation));
                 let (length, limit) = (free.norm(), mu * overlap);
+                *contact = Some(Contact {
+                    normal,
+                    overlap,
+                    mu,
+                });
                 *lambda = if length <= limit {
                     free
                 } else {
@@ -270,6 +316,16 @@ impl<T: Real> GrainFriction<T> {
             }
         });
     }
+}
+
+/// A touching frictional pair at an iteration's proposed positions.
+#[derive(Clone, Copy)]
+struct Contact<T: Real> {
+    /// The pair's unit normal, from the partner to the particle.
+    normal: Vector3<T>,
+    /// Its overlap `g` (m) and coefficient `mu_c` (dimensionless).
+    overlap: T,
+    mu: T,
 }
 
 /// The part of `v` in the plane normal to the unit vector `normal`, `(I - n n^T) v`.

@@ -237,6 +237,15 @@ impl<T: Real> Repulsion<T> {
             .map_or_else(Vec::new, GrainFriction::saved)
     }
 
+    /// Whether particle `i`'s grain contacts can hold it where it started, its move in the
+    /// step `moved` (m) and its inertial move `inertial` (m) ([`GrainFriction::sticks`]);
+    /// false without contact friction.
+    pub fn sticks(&self, i: usize, moved: &Vector3<T>, inertial: T) -> bool {
+        self.friction
+            .as_ref()
+            .is_some_and(|f| f.sticks(i, moved, inertial))
+    }
+
     /// Whether some body has contact friction.
     pub fn has_friction(&self) -> bool {
         self.friction.is_some()

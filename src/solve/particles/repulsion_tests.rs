@@ -264,3 +264,31 @@ fn the_friction_moves_keep_momentum_between_grains_of_different_contact_counts()
         );
     }
 }
+
+/// The hold of a yielded grain by its contacts ([`Repulsion::sticks`], `mu_c` 0.5): a grain
+/// pressed 0.1 spacings into a pinned one below it (overlap `g` 1e-3 m). Its contact takes
+/// back a sideways move up to `mu_c min(g, |y* - y^t|)`: 1e-4 m with an inertial move of
+/// 1e-3 m (limit 5e-4 m) but not with one of 1e-4 m (limit 5e-5 m), nor 6e-4 m sideways
+/// with an inertial move of 2e-3 m (the overlap's limit, 5e-4 m); a move along the normal
+/// has no sideways part. A grain touching nothing is not held.
+#[test]
+fn a_contact_holds_a_grain_whose_sideways_move_lies_within_coulombs_limit() {
+    let sites = [
+        Vector3::new(0.0, 0.0, 0.9 * S),
+        Vector3::zeros(),
+        Vector3::new(5.0 * S, 0.0, 0.0),
+    ];
+    let points = grains(&sites, &[1.0; 3], &[false, true, false]);
+    let mut repulsion = Repulsion::of(&points, vec![true], &[false; 3])
+        .unwrap()
+        .with_friction(&[0.5]);
+    repulsion.start_step(&points, 1e-3, [0.0; 3]).unwrap();
+    repulsion.correct(&points, &[Vector3::zeros(); 3], 1.0, |_| 1.0);
+    repulsion.accept();
+    let sideways = |d: f64| Vector3::new(d, 0.0, 0.0);
+    assert!(repulsion.sticks(0, &sideways(1e-4), 1e-3));
+    assert!(!repulsion.sticks(0, &sideways(1e-4), 1e-4));
+    assert!(!repulsion.sticks(0, &sideways(6e-4), 2e-3));
+    assert!(repulsion.sticks(0, &Vector3::new(0.0, 0.0, 5e-3), 1e-4));
+    assert!(!repulsion.sticks(2, &Vector3::zeros(), 1e-3));
+}

@@ -4,12 +4,22 @@
 //! ([`crate::particles::holds`]). Without it a pile of sand, solved by a few iterations each
 //! step, creeps down under its own weight.
 //!
-//! **Departure: only where the sand did not yield.** The paper holds every particle that
-//! passes eq. 28. A particle of a stiff column then passes it every step (the elastic
-//! response holds it up within the step), is put back where it started, never strains and
-//! never yields: a column of dry sand would stand for ever. Here a particle that yielded in
-//! the step's return (its friction cone exceeded: it slides) is not held; static friction
-//! holds what the friction cone holds.
+//! **Departure: only where the sand did not yield, or its contacts can hold it.** The paper
+//! holds every particle that passes eq. 28. A particle of a stiff column then passes it every
+//! step (the elastic response holds it up within the step), is put back where it started,
+//! never strains and never yields: a column of dry sand would stand for ever. Here a particle
+//! that yielded in the step's return (its friction cone exceeded: it slides) is not held;
+//! static friction holds what the friction cone holds. A yielded particle is held all the
+//! same when it touches grains with contact friction (`Granular::contact_friction`) and at
+//! every such contact the sideways part of its move in the step, the move the hold takes
+//! back, lies within the contact's Coulomb limit with the grain's own normal load,
+//! `|(I - n n^T) (y - y^t)| <= mu_c min(g, |y* - y^t|)`
+//! ([`super::grain_friction::GrainFriction::sticks`]): the contact's static friction can take
+//! it back. Without this, a resting packing with contact friction never came to rest, its
+//! bonds on their cone yielding again each step as contacts at their Coulomb limit slipped a
+//! micrometre; a grain held whenever its contacts did not slip relative to its partners
+//! (round t) held a perfect-lattice column whose stacked grains move together
+//! (docs/model.md, granular section, round u).
 
 use std::ops::Range;
 
@@ -52,9 +62,16 @@ impl<T: Real> StaticFriction<T> {
     }
 
     /// Eq. 28 once the step's velocities are set ([`Points::finish`]): a particle held goes
-    /// back to its start with no velocity. Pinned particles and those marked in `yielded`
-    /// are left as they are. Returns how many were held.
-    pub fn apply(&self, points: &mut Points<T>, yielded: &[bool]) -> usize {
+    /// back to its start with no velocity. Pinned particles are left as they are, and so are
+    /// those marked in `yielded` unless `sticks(i, d, |y* - y^t|)` says particle `i`'s
+    /// grain contacts can take back its move `d` (m) in the step
+    /// ([`super::grain_friction::GrainFriction::sticks`]). Returns how many were held.
+    pub fn apply(
+        &self,
+        points: &mut Points<T>,
+        yielded: &[bool],
+        sticks: &(impl Fn(usize, &Vector3<T>, T) -> bool + Sync),
+    ) -> usize {
         let mut held = 0;
         for (range, eta) in &self.bodies {
             let (starts, star, pinned, yielded) = (
@@ -70,7 +87,11 @@ impl<T: Real> StaticFriction<T> {
                 .zip(points.velocity[r].par_iter_mut())
                 .enumerate()
                 .map(|(k, ((y, start), velocity))| {
-                    if pinned[k] || yielded[k] || !holds(*eta, y, &starts[k], &star[k]) {
+                    let slides = yielded[k] && {
+                        let inertial = (star[k] - starts[k]).norm();
+                        !sticks(range.start + k, &(*y - starts[k]), inertial)
+                    };
+                    if pinned[k] || slides || !holds(*eta, y, &starts[k], &star[k]) {
                         return 0;
                     }
                     *y = starts[k];

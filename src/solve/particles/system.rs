@@ -259,7 +259,8 @@ impl<T: Real> ParticleSystem<T> {
     /// neighbourhood changed.
     ///
     /// Between the returns and the rebuild, the static friction of granular bodies (eq. 28,
-    /// [`super::static_friction`]) holds the particles that did not yield.
+    /// [`super::static_friction`]) holds the particles that did not yield or whose contacts
+    /// can hold them.
     pub(crate) fn plastic_end_step(&mut self, timings: &mut Timings) -> Result<()> {
         let Some(plastic) = self.plastic.as_mut() else {
             return Ok(());
@@ -267,7 +268,11 @@ impl<T: Real> ParticleSystem<T> {
         self.yielded.fill(false);
         let yielded = plastic.returns(&self.points.y, &mut self.yielded, timings);
         if let Some(friction) = &self.static_friction {
-            self.timings.held_static = friction.apply(&mut self.points, &self.yielded);
+            let repulsion = self.repulsion.as_ref();
+            let sticks = |i: usize, moved: &Vector3<T>, inertial: T| {
+                repulsion.is_some_and(|r| r.sticks(i, moved, inertial))
+            };
+            self.timings.held_static = friction.apply(&mut self.points, &self.yielded, &sticks);
         }
         let rebuilt = plastic.rebuild(&self.points.y, yielded, &mut self.rest, timings);
         // A failed refill leaves the rest data partly built: the next step builds the
