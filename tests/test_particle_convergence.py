@@ -428,3 +428,72 @@ def test_a_resting_step_takes_its_start_evaluation_from_the_last_step():
         assert twin_stats.particles["evaluations"] == (3 if k == 0 else 2), k
         np.testing.assert_array_equal(twin.positions, body.positions)
         np.testing.assert_array_equal(twin.velocities, body.velocities)
+
+
+def landed(precision, shift, n=10, steps=12, **kw):
+    """The benchmark's cube at n^3 (0.1 m, E 2e5 Pa, h = 1/30 s) dropped 0.05 m onto a Plane,
+    the whole scene moved by `shift` (m); its positions relative to the shift after `steps`
+    steps, and the steps' stats."""
+    shift = np.asarray(shift, float)
+    body = pd.Particles(cube(n) + shift, spacing=0.1 / n, density=1000.0,
+                        material=pd.Elastic.from_young(2e5, 0.25))
+    solver = pd.Solver(dt=1 / 30, gravity=(0, 0, -9.81), precision=precision, threads=2, **kw)
+    solver.add(body)
+    solver.add_collider(pd.Plane(point=tuple(shift)))
+    stats = [solver.step() for _ in range(steps)]
+    return np.asarray(body.positions) - shift, stats
+
+
+def test_the_round_off_floor_is_reported_as_documented():
+    """`StepStats.particles['roundoff_floor']` is the largest `eps |y_i| D_i / m_i` (m) the
+    measure subtracted: the same scene in f64 reports it 2^-29 times f32's (the precisions'
+    machine epsilons; the positions and `D_i` agree to far better than 1 %), and the scene
+    moved 10 m along x reports it about `10 / 0.17` times larger (|y| of the farthest particle,
+    0.17 m at the origin; asserted within a factor 2). `worst_particle` names a particle of
+    the body while a capped landing step is above its floor, `(body, index)`."""
+    floor = {}
+    for precision, shift in [("f32", 0.0), ("f64", 0.0), ("f32", 10.0)]:
+        x, stats = landed(precision, (shift, 0, 0), n=8, steps=3, max_iters=5)
+        floor[precision, shift] = stats[-1].particles["roundoff_floor"]
+        worst = stats[-1].particles["worst_particle"]
+        assert stats[-1].iterations == 5 and not stats[-1].converged
+        if shift == 0.0:
+            assert worst is not None and worst[0] == 0 and 0 <= worst[1] < len(x), worst
+    assert floor["f64", 0.0] / floor["f32", 0.0] == pytest.approx(2.0**-29, rel=0.01), floor
+    far = np.linalg.norm(cube(8) + [10, 0, 0], axis=1).max()
+    near = np.linalg.norm(cube(8), axis=1).max()
+    assert 0.5 < floor["f32", 10.0] / floor["f32", 0.0] / (far / near) < 2.0, floor
+
+
+@pytest.mark.xfail(strict=True, reason="f32 positions hold eps |y| of the world origin: a "
+                   "body 10 m away has a round-off floor near 2e-2 m, above its landing's "
+                   "residual, so its steps stop unsolved (docs/performance.md, round u)")
+def test_an_f32_body_far_from_the_origin_lands_as_f64_does():
+    """The 10^3 landing cube moved 10 m along x (scene and floor): f64 lands it exactly as at
+    the origin (its sag, the mean height's fall under its weight, 1.23e-4 m after 12 steps, to
+    1e-12 m), and f32 at the origin within 0.04 % of that sag. 10 m away the f32 floor
+    `eps |y| D / m` is about 60 times the origin's (2e-2 m here), above the landing steps'
+    residual, so the steps stop early "converged" (2, 28, 34 iterations against f64's 61, 61,
+    61) and the sag is 5 % off (measured 6.2e-6 m). Asserted: the f32 sag 10 m away within 1 %
+    of f64's. What would pass it: positions stored relative to an origin near the family
+    (docs/performance.md, round u)."""
+    x64, _ = landed("f64", (10.0, 0, 0))
+    x32, _ = landed("f32", (10.0, 0, 0))
+    # Unloaded, the layers rest from half a spacing above the floor to 0.095 m: mean 0.05 m.
+    sag64 = 0.05 - x64[:, 2].mean()
+    sag32 = 0.05 - x32[:, 2].mean()
+    assert abs(sag32 - sag64) < 0.01 * sag64, (sag32, sag64)
+
+
+def test_an_f32_landing_1_m_from_the_origin_converges():
+    """The 20^3 landing cube moved 1 m along x (scene and floor), f32, default tolerance:
+    before round u its landing steps 2-4 stalled at the cap of 100 iterations, the measure
+    2-3e-3 m above its round-off floor (about 1e-2 m there) at particles of the bottom layer
+    (`worst_particle`), because the floor's push of the contact layer dropped the unrounded
+    Chebyshev iterate in all three coordinates, so the layer's tangential coordinates
+    were rounded at every iteration. Keeping the coordinates the push left alone unrounded,
+    the steps converge in 36, 31, 41 iterations; asserted: each within 60."""
+    _, stats = landed("f32", (1.0, 0, 0), n=20, steps=5)
+    landing = [s.iterations for s in stats[2:]]
+    assert all(s.converged for s in stats), landing
+    assert max(landing) <= 60, landing

@@ -157,7 +157,11 @@ impl PyStepStats {
     /// passes, trials included), `factorizations` (of the direct solver's matrix) and
     /// `held_static` (granular particles that static friction held, eq. 28); for fluids
     /// `density_passes` (density projections) and `density_error` (the largest relative
-    /// excess density `rho / rho0 - 1` they left).
+    /// excess density `rho / rho0 - 1` they left); `roundoff_floor` (m), the largest round-off
+    /// floor `eps |y_i| D_i / m_i` the last convergence measure subtracted (it grows with the
+    /// distance from the origin: a floor above the tolerance means the step converged to what
+    /// the precision resolves there), and `worst_particle`, `(body, index)` of the particle
+    /// holding that measure's largest term, `None` when every particle is within its floor.
     #[getter]
     fn particles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let p = &self.inner.particles;
@@ -179,6 +183,8 @@ impl PyStepStats {
         d.set_item("held_static", p.held_static)?;
         d.set_item("density_passes", p.density_passes)?;
         d.set_item("density_error", p.density_error)?;
+        d.set_item("roundoff_floor", p.roundoff_floor)?;
+        d.set_item("worst_particle", p.worst_particle)?;
         Ok(d)
     }
     /// Simulation time after the step (s).

@@ -70,7 +70,12 @@ class StepStats:
         'evaluations' (kernel passes, line search trials included), 'factorizations' (of
         the direct solver's matrix), 'held_static' (granular particles held by static
         friction, eq. 28), 'density_passes' (the fluids' density projections) and
-        'density_error' (the largest relative excess density rho / rho0 - 1 left)."""
+        'density_error' (the largest relative excess density rho / rho0 - 1 left);
+        'roundoff_floor' (m: the largest round-off floor eps |y_i| D_i / m_i that the last
+        convergence measure subtracted; it grows with the distance from the origin, and above
+        ``tol`` "converged" means within ``tol`` of what the precision resolves there) and
+        'worst_particle' ((body, index) of the particle holding that measure's largest term,
+        None when every particle is within its floor)."""
     @property
     def contact(self) -> dict:
         """Contact figures (zeros when contact is off): 'candidate_pairs' (triangle pairs of

@@ -23,9 +23,9 @@ use rayon::prelude::*;
 use crate::real::Real;
 
 /// The unrounded iterates (m) of one step: the one before the current (`y^{k-1}`), the current
-/// (`y^k`), and the trial being formed (`y^{k+1}`). An entry counts only where it rounds to the
-/// stored position bit for bit ([`Self::previous`]): anything that moved a particle since
-/// (a collider, the coarse translation, another family) leaves the stored position, rounded.
+/// (`y^k`), and the trial being formed (`y^{k+1}`). An entry counts only in the coordinates
+/// where it rounds to the stored position bit for bit ([`known`]): a coordinate that anything
+/// moved since (a collider, the coarse translation, another family) is the stored one.
 pub(crate) struct ExactIterates {
     previous: Vec<Vector3<f64>>,
     current: Vec<Vector3<f64>>,
@@ -56,8 +56,8 @@ impl ExactIterates {
         std::mem::swap(&mut self.current, &mut self.next);
     }
 
-    /// The previous iterate of particle `i` unrounded (m), if it rounds to `stored` (its
-    /// stored position), else `stored`.
+    /// The previous iterate of particle `i` unrounded (m) in the coordinates that round to
+    /// `stored`'s (its stored position), else `stored`'s ([`known`]).
     #[inline(always)]
     pub fn previous<T: Real>(&self, i: usize, stored: &Vector3<T>) -> Vector3<f64> {
         known(&self.previous[i], stored)
@@ -81,12 +81,30 @@ impl ExactIterates {
     }
 }
 
-/// `exact` if it rounds to `stored`, else `stored` (m).
+/// `exact` (m) in each coordinate that rounds to `stored`'s, else `stored`'s: a collider that
+/// moved a particle along its normal alone (a frictionless plane's push of the contact layer)
+/// leaves the other coordinates unrounded.
 #[inline(always)]
 pub(crate) fn known<T: Real>(exact: &Vector3<f64>, stored: &Vector3<T>) -> Vector3<f64> {
-    if exact.map(T::of) == *stored {
-        *exact
-    } else {
-        stored.map(|c| c.to_f64())
+    exact.zip_map(stored, |e, s| if T::of(e) == s { e } else { s.to_f64() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A contact particle 1 m from the origin pushed up to a frictionless floor along `z` keeps
+    /// its unrounded `x` and `y` (the coordinates the push left alone round to the stored
+    /// ones) and takes the stored `z`; in f64 the stored position comes back bit for bit.
+    #[test]
+    fn a_push_along_the_normal_keeps_the_other_coordinates_unrounded() {
+        let exact = Vector3::new(1.0 + 1e-9, 0.25 + 3e-10, -1e-4);
+        let stored = Vector3::new(exact.x as f32, exact.y as f32, 1.7e-3_f32);
+        assert_ne!(f64::from(stored.x), exact.x);
+        let kept = known(&exact, &stored);
+        assert_eq!((kept.x, kept.y), (exact.x, exact.y));
+        assert_eq!(kept.z, f64::from(stored.z));
+        let stored64 = Vector3::new(exact.x, exact.y, 1.7e-3);
+        assert_eq!(known(&exact, &stored64), stored64);
     }
 }

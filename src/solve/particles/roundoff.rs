@@ -25,3 +25,56 @@ pub const ROUNDOFF_FACTOR: f64 = 1.0;
 pub(crate) fn residual_floor<T: Real>(y: &Vector3<T>, d: T, m: T) -> f64 {
     ROUNDOFF_FACTOR * T::default_epsilon().to_f64() * y.norm().to_f64() * (d / m).to_f64()
 }
+
+/// Where a step's convergence measure stands against the round-off floor, reduced over the
+/// particles ([`crate::solve::ParticleTimings::roundoff_floor`] and `worst_particle`): the
+/// largest floor `nu_i` (m, [`residual_floor`]), and the particle holding the largest measure
+/// `|r_i| / m_i - nu_i` (m) when it is above zero.
+#[derive(Clone, Copy)]
+pub(crate) struct MeasureReport {
+    /// The largest `|r_i| / m_i - nu_i` (m), 0 when every particle is within its floor.
+    pub measure: f64,
+    /// The particle (family index) holding `measure`, the lowest on a tie; `None` at 0.
+    pub particle: Option<usize>,
+    /// The largest round-off floor `nu_i` (m).
+    pub floor: f64,
+}
+
+impl MeasureReport {
+    pub const NONE: Self = Self {
+        measure: 0.0,
+        particle: None,
+        floor: 0.0,
+    };
+
+    /// Particle `i`'s measure `measure` (m) above its floor `floor` (m).
+    pub fn of(i: usize, measure: f64, floor: f64) -> Self {
+        Self {
+            measure,
+            particle: (measure > 0.0).then_some(i),
+            floor,
+        }
+    }
+
+    /// Associative and commutative (ties go to the lower index), so the reduction is the
+    /// same for any thread count.
+    pub fn merge(a: Self, b: Self) -> Self {
+        let floor = a.floor.max(b.floor);
+        let (measure, particle) = if a.measure > b.measure {
+            (a.measure, a.particle)
+        } else if b.measure > a.measure {
+            (b.measure, b.particle)
+        } else {
+            let particle = match (a.particle, b.particle) {
+                (Some(x), Some(y)) => Some(x.min(y)),
+                (x, y) => x.or(y),
+            };
+            (a.measure, particle)
+        };
+        Self {
+            measure,
+            particle,
+            floor,
+        }
+    }
+}

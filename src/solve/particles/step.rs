@@ -50,7 +50,7 @@ use super::contact_gap::contact_reach;
 use super::direct::DirectSolver;
 use super::directions::{jacobi, position_averaging, two_level_correction};
 use super::exact_iterate::known;
-use super::roundoff::residual_floor;
+use super::roundoff::{residual_floor, MeasureReport};
 use super::system::ParticleSystem;
 use crate::timing::millis;
 
@@ -271,7 +271,7 @@ fn propose<T: Real>(
             if points.pinned[i] {
                 *next = *y;
                 *exact_next = wide(y);
-                return Update::NONE;
+                return (Update::NONE, MeasureReport::NONE);
             }
             let d = sys_ref.diagonal(i, h2);
             let inverse = SymmetricMatrix3::from_diagonal(&Vector3::repeat(T::one() / d));
@@ -294,14 +294,10 @@ fn propose<T: Real>(
                 push(whole + repelled) - whole
             };
             *touched = *next != free_move;
-            // The trial unrounded ([`super::exact_iterate`]): an untouched particle's move
-            // `y + alpha delta` formed in f64, extrapolated from the unrounded `y^{k-1}` and
-            // rounded once.
-            let mut exact = if *touched {
-                wide(next)
-            } else {
-                wide(y) + wide(&sys_ref.delta[i]) * alpha.to_f64()
-            };
+            // The trial unrounded ([`super::exact_iterate`]): the move `y + alpha delta`
+            // formed in f64, extrapolated from the unrounded `y^{k-1}` and rounded once; in
+            // the coordinates a collider or the repulsion moved, the stored trial's.
+            let mut exact = known(&(wide(y) + wide(&sys_ref.delta[i]) * alpha.to_f64()), next);
             if let Some(w) = omega {
                 let previous = sys_ref.exact.previous(i, &points.y_prev[i]);
                 let moved = (exact - previous) * w.to_f64() + previous;
@@ -323,12 +319,18 @@ fn propose<T: Real>(
             let mut update = Update::of(i, y, next);
             let floor = residual_floor(y, d, points.mass[i]);
             update.residual = (free.norm_squared().to_f64().sqrt() - floor).max(0.0);
-            update
+            (update, MeasureReport::of(i, update.residual, floor))
         })
-        .reduce(|| Update::NONE, Update::merge);
+        .reduce(
+            || (Update::NONE, MeasureReport::NONE),
+            |a, b| (Update::merge(a.0, b.0), MeasureReport::merge(a.1, b.1)),
+        );
     sys.points.y_next = y_next;
     sys.touched = touched;
     sys.exact.next = exact_next;
+    let (update, report) = update;
+    sys.timings.roundoff_floor = report.floor;
+    sys.timings.worst_particle = report.particle.map(|i| sys.points.locate(i));
     sys.timings.project += millis(started);
     update
 }
