@@ -44,7 +44,7 @@
 //! At the step's end `R_i` is set anew from the returned (and rebuilt) bonds at the same
 //! positions, `R_i = J_i / det F_i(X')`, so `J_i` changes only as the positions do
 //! ([`super::PlasticLaw::reanchor`]; kept where the new ratio leaves
-//! [`super::plasticity::VOLUME_RATIOS`]). `F_i` is the uninverted one
+//! [`super::rest_bonds::VOLUME_RATIOS`]). `F_i` is the uninverted one
 //! ([`super::deformation::uninverted`]), so `det F_i >= 0`: an inverted neighbourhood counts
 //! by the volume of its mirror image, `|det F|`, and its return keeps that volume while the
 //! deviatoric springs push it back to its orientation. Where `J_i` is not positive (`F_i`

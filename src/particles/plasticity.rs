@@ -52,7 +52,7 @@ use super::cone::{Cone, Factors};
 use super::deformation::{shape_inverse, uninverted};
 use super::elastic::Elastic;
 use super::influence::influence;
-use super::rest_bonds::{BondRow, RestBonds};
+use super::rest_bonds::{BondRow, RestBonds, VOLUME_RATIOS};
 
 /// A Drucker-Prager plastic law for a particle body. With `friction_angle` exactly 0 (von
 /// Mises) the return of a body neither granular nor thin keeps each particle's rest volume
@@ -199,14 +199,6 @@ fn rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
     }
     u * v_t
 }
-
-/// The volume ratios [`RestBonds::volume`] a particle's reference bonds may be given
-/// (dimensionless): `MIN_STRETCH^3` to its inverse, the bounds the neighbour rebuild's inverse
-/// map puts on a neighbourhood's stretches ([`super::neighbour_rebuild::MIN_STRETCH`], 0.1
-/// in each direction). A ratio beyond them says the reference bonds span almost no volume
-/// (or their neighbourhood is nearly flat at the positions), where `det F_i` measures that
-/// flatness rather than the particle's volume.
-pub const VOLUME_RATIOS: (f64, f64) = (1e-3, 1e3);
 
 /// A particle's volume ratio `R_i = J_i / det F_i` (dimensionless) for its volume over its
 /// rest volume `volume` (`J_i`, kept from the bonds it had) and the determinant `det` of its

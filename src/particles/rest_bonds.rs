@@ -15,9 +15,16 @@
 
 use nalgebra::Vector3;
 
-use super::plasticity::VOLUME_RATIOS;
 use crate::error::{invalid, Result};
 use crate::geometry::Horizons;
+
+/// The volume ratios [`RestBonds::volume`] a particle's reference bonds may be given
+/// (dimensionless): `MIN_STRETCH^3` to its inverse, the bounds the neighbour rebuild's inverse
+/// map puts on a neighbourhood's stretches ([`super::neighbour_rebuild::MIN_STRETCH`], 0.1
+/// in each direction). A ratio beyond them says the reference bonds span almost no volume
+/// (or their neighbourhood is nearly flat at the positions), where `det F_i` measures that
+/// flatness rather than the particle's volume.
+pub const VOLUME_RATIOS: (f64, f64) = (1e-3, 1e3);
 
 /// A body's current reference bonds (see the module's doc).
 #[derive(Debug, PartialEq)]
