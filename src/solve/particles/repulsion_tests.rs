@@ -265,6 +265,20 @@ fn the_friction_moves_keep_momentum_between_grains_of_different_contact_counts()
     }
 }
 
+/// The repulsion of the granular bodies of `points`, with the contact friction coefficients
+/// `mu_c` (per body), after one accepted iteration of a step of 1 ms without gravity in which
+/// nothing is proposed to move (the contacts at the sites).
+fn at_rest(points: &Points<f64>, mu_c: &[f64]) -> Repulsion<f64> {
+    let n = points.mass.len();
+    let mut repulsion = Repulsion::of(points, vec![true; mu_c.len()], &vec![false; n])
+        .unwrap()
+        .with_friction(mu_c);
+    repulsion.start_step(points, 1e-3, [0.0; 3]).unwrap();
+    repulsion.correct(points, &vec![Vector3::zeros(); n], 1.0, |_| 1.0);
+    repulsion.accept();
+    repulsion
+}
+
 /// The hold of a yielded grain by its contacts ([`Repulsion::sticks`], `mu_c` 0.5): a grain
 /// pressed 0.1 spacings into a pinned one below it (overlap `g` 1e-3 m). Its contact takes
 /// back a sideways move up to `mu_c min(g, |y* - y^t|)`: 1e-4 m with an inertial move of
@@ -279,12 +293,7 @@ fn a_contact_holds_a_grain_whose_sideways_move_lies_within_coulombs_limit() {
         Vector3::new(5.0 * S, 0.0, 0.0),
     ];
     let points = grains(&sites, &[1.0; 3], &[false, true, false]);
-    let mut repulsion = Repulsion::of(&points, vec![true], &[false; 3])
-        .unwrap()
-        .with_friction(&[0.5]);
-    repulsion.start_step(&points, 1e-3, [0.0; 3]).unwrap();
-    repulsion.correct(&points, &[Vector3::zeros(); 3], 1.0, |_| 1.0);
-    repulsion.accept();
+    let repulsion = at_rest(&points, &[0.5]);
     let sticks = |i: usize, d: Vector3<f64>, inertial: f64| {
         repulsion.sticks(&points.margin, i, &d, inertial)
     };
@@ -318,12 +327,7 @@ fn a_grain_is_held_only_when_all_its_frictional_contacts_hold() {
             sites[2].x = 5.0 * S;
         }
         let points = grains(&sites, &[1.0; 3], &[false, true, true]);
-        let mut repulsion = Repulsion::of(&points, vec![true], &[false; 3])
-            .unwrap()
-            .with_friction(&[0.5]);
-        repulsion.start_step(&points, 1e-3, [0.0; 3]).unwrap();
-        repulsion.correct(&points, &[Vector3::zeros(); 3], 1.0, |_| 1.0);
-        repulsion.accept();
+        let repulsion = at_rest(&points, &[0.5]);
         assert_eq!(
             repulsion.sticks(&points.margin, 0, &across, 1e-3),
             held_across,
@@ -351,12 +355,7 @@ fn a_frictionless_partner_is_skipped_by_the_hold() {
     let mut points = grains(&sites, &[1.0; 4], &[false, true, false, true]);
     points.ids = vec![0, 1];
     points.ranges = vec![0..3, 3..4];
-    let mut repulsion = Repulsion::of(&points, vec![true, true], &[false; 4])
-        .unwrap()
-        .with_friction(&[0.5, 0.0]);
-    repulsion.start_step(&points, 1e-3, [0.0; 3]).unwrap();
-    repulsion.correct(&points, &[Vector3::zeros(); 4], 1.0, |_| 1.0);
-    repulsion.accept();
+    let repulsion = at_rest(&points, &[0.5, 0.0]);
     let across = Vector3::new(0.0, 1e-4, 0.0);
     assert!(repulsion.sticks(&points.margin, 0, &across, 1e-3));
     assert!(!repulsion.sticks(&points.margin, 2, &Vector3::zeros(), 1e-3));
