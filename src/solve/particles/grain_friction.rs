@@ -78,11 +78,6 @@ pub(crate) struct GrainFriction<T: Real> {
     /// and as computed by the last trial.
     accepted: Vec<Vector3<T>>,
     trial: Vec<Vector3<T>>,
-    /// Each candidate entry's contact (its normal, overlap and coefficient) as accepted by the
-    /// last iteration and as computed by the last trial; `None` for an entry whose pair does
-    /// not touch or has no friction. Read by [`GrainFriction::sticks`].
-    contacts: Vec<Option<Contact<T>>>,
-    contacts_trial: Vec<Option<Contact<T>>>,
     /// Each particle's sum of its shares in its frictional pairs `S_i` and its corrected
     /// position `q_i` (m).
     shares: Vec<T>,
@@ -102,8 +97,6 @@ impl<T: Real> GrainFriction<T> {
             owner: Vec::new(),
             accepted: Vec::new(),
             trial: Vec::new(),
-            contacts: Vec::new(),
-            contacts_trial: Vec::new(),
             shares: vec![T::zero(); n],
             previous_offsets: Vec::new(),
             previous_indices: Vec::new(),
@@ -137,10 +130,6 @@ impl<T: Real> GrainFriction<T> {
         std::mem::swap(&mut self.accepted, &mut self.trial);
         self.trial.clear();
         self.trial.resize(entries, Vector3::zeros());
-        self.contacts.clear();
-        self.contacts.resize(entries, None);
-        self.contacts_trial.clear();
-        self.contacts_trial.resize(entries, None);
         self.previous_offsets.clear();
         self.previous_offsets.extend_from_slice(offsets);
         self.previous_indices.clear();
@@ -207,33 +196,35 @@ impl<T: Real> GrainFriction<T> {
     /// Takes the multipliers of the last trial as the iteration's.
     pub fn accept(&mut self) {
         std::mem::swap(&mut self.accepted, &mut self.trial);
-        std::mem::swap(&mut self.contacts, &mut self.contacts_trial);
     }
 
-    /// Whether particle `i`'s contacts can hold it where it started (static friction, eq. 28,
-    /// for a grain that yielded: [`super::static_friction`]): it touches a frictional
-    /// partner at the step's last iteration, and at every such contact the tangential part
-    /// of its move in the step `d` (m, the move the hold takes back) lies within Coulomb's
-    /// limit, `|(I - n n^T) d| <= mu_c min(g, |y* - y^t|)`, with `n`, `g` and `mu_c` the
-    /// contact's normal, overlap (m) and coefficient, and `|y* - y^t|` the grain's inertial
-    /// move (m: its momentum's and its weight's in the step, the normal load the grain itself
-    /// puts on a contact). The overlap alone would count the load of the grains above, whose
-    /// sideways pull the contact carries as well: a perfect-lattice column then held its
-    /// edges (docs/model.md, granular section, round u).
-    pub fn sticks(&self, i: usize, moved: &Vector3<T>, inertial: T) -> bool {
-        let (Some(&first), Some(&end)) = (
-            self.previous_offsets.get(i),
-            self.previous_offsets.get(i + 1),
-        ) else {
-            return false;
-        };
-        let contacts = self
-            .contacts
-            .get(first as usize..end as usize)
-            .unwrap_or_default();
-        let mut touching = contacts.iter().flatten().peekable();
-        touching.peek().is_some()
-            && touching
+    /// Whether particle `i` (not pinned) can be held where it started by its contacts
+    /// (static friction, eq. 28, for a grain that yielded: [`super::static_friction`]): it
+    /// touches a frictional partner among its candidates `partners` at the proposed positions
+    /// `proposed` (m) of the step's last iteration (the accepted trial's), the particles'
+    /// collider margins `margin` (m), and at every such contact the tangential part of its
+    /// move in the step `d` (m, the move the hold takes back) lies within Coulomb's limit,
+    /// `|(I - n n^T) d| <= mu_c min(g, |y* - y^t|)`, with `n`, `g` and `mu_c` the contact's
+    /// normal, overlap (m) and coefficient ([`touching`], as the iterations found them), and
+    /// `|y* - y^t|` the grain's inertial move (m: its momentum's and its weight's in the
+    /// step, the normal load the grain itself puts on a contact). The overlap alone would
+    /// count the load of the grains above, whose sideways pull the contact carries as well: a
+    /// perfect-lattice column then held its edges (docs/model.md, granular section, round u).
+    pub fn sticks(
+        &self,
+        proposed: &[Vector3<T>],
+        margin: &[T],
+        partners: &[u32],
+        i: usize,
+        moved: &Vector3<T>,
+        inertial: T,
+    ) -> bool {
+        let mut contacts = partners
+            .iter()
+            .filter_map(|&j| touching(&self.coefficient, proposed, margin, i, j as usize))
+            .peekable();
+        contacts.peek().is_some()
+            && contacts
                 .all(|c| tangential(&c.normal, moved).norm() <= c.mu * c.overlap.min(inertial))
     }
 
@@ -247,15 +238,8 @@ impl<T: Real> GrainFriction<T> {
         correction: &mut [Vector3<T>],
     ) {
         let coefficient = &self.coefficient;
-        // The pair's unit normal (from `j` to `i`), overlap (m) and coefficient, if it touches
-        // and has friction; computed from exactly negated inputs for `(j, i)`.
-        let touching = |i: usize, j: usize| -> Option<(Vector3<T>, T, T)> {
-            let mu = coefficient[i].min(coefficient[j]);
-            let gap = pairs.proposed[i] - pairs.proposed[j];
-            let (distance, reach) = (gap.norm(), pairs.margin[i] + pairs.margin[j]);
-            (mu > T::zero() && distance < reach && distance > T::zero())
-                .then(|| (gap / distance, reach - distance, mu))
-        };
+        let contact =
+            |i: usize, j: usize| touching(coefficient, pairs.proposed, pairs.margin, i, j);
         let accepted = &self.accepted;
         let normal_move = &*correction;
         self.shares
@@ -270,37 +254,35 @@ impl<T: Real> GrainFriction<T> {
                 }
                 for e in pairs.row(i) {
                     let j = pairs.indices[e] as usize;
-                    if let Some((normal, _, _)) = touching(i, j) {
+                    if let Some(c) = contact(i, j) {
                         let s = share(i, j);
                         *shares += s;
-                        *q += tangential(&normal, &accepted[e]) * s;
+                        *q += tangential(&c.normal, &accepted[e]) * s;
                     }
                 }
             });
         let (owner, shares, corrected) = (&self.owner, &self.shares, &self.corrected);
         self.trial
             .par_iter_mut()
-            .zip(self.contacts_trial.par_iter_mut())
             .enumerate()
-            .for_each(|(e, (lambda, contact))| {
+            .for_each(|(e, lambda)| {
                 *lambda = Vector3::zeros();
-                *contact = None;
                 let (i, j) = (owner[e] as usize, pairs.indices[e] as usize);
                 if pairs.pinned[i] {
                     return;
                 }
-                let Some((normal, overlap, mu)) = touching(i, j) else {
+                let Some(Contact {
+                    normal,
+                    overlap,
+                    mu,
+                }) = contact(i, j)
+                else {
                     return;
                 };
                 let relaxation = T::one() / (shares[i] + shares[j]);
                 let slip = (corrected[i] - pairs.start[i]) - (corrected[j] - pairs.start[j]);
                 let free = tangential(&normal, &(accepted[e] - slip * relaxation));
                 let (length, limit) = (free.norm(), mu * overlap);
-                *contact = Some(Contact {
-                    normal,
-                    overlap,
-                    mu,
-                });
                 *lambda = if length <= limit {
                     free
                 } else {
@@ -319,13 +301,34 @@ impl<T: Real> GrainFriction<T> {
 }
 
 /// A touching frictional pair at an iteration's proposed positions.
-#[derive(Clone, Copy)]
 struct Contact<T: Real> {
     /// The pair's unit normal, from the partner to the particle.
     normal: Vector3<T>,
     /// Its overlap `g` (m) and coefficient `mu_c` (dimensionless).
     overlap: T,
     mu: T,
+}
+
+/// The contact of particle `i` with `j` at the proposed positions `proposed` (m), the
+/// particles' coefficients `coefficient` (dimensionless) and collider margins `margin` (m), if
+/// the pair touches and has friction (`mu_c`, the smaller coefficient, above 0); computed
+/// from exactly negated inputs for `(j, i)`.
+#[inline(always)]
+fn touching<T: Real>(
+    coefficient: &[T],
+    proposed: &[Vector3<T>],
+    margin: &[T],
+    i: usize,
+    j: usize,
+) -> Option<Contact<T>> {
+    let mu = coefficient[i].min(coefficient[j]);
+    let gap = proposed[i] - proposed[j];
+    let (distance, reach) = (gap.norm(), margin[i] + margin[j]);
+    (mu > T::zero() && distance < reach && distance > T::zero()).then(|| Contact {
+        normal: gap / distance,
+        overlap: reach - distance,
+        mu,
+    })
 }
 
 /// The part of `v` in the plane normal to the unit vector `normal`, `(I - n n^T) v`.

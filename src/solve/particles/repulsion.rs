@@ -237,13 +237,14 @@ impl<T: Real> Repulsion<T> {
             .map_or_else(Vec::new, GrainFriction::saved)
     }
 
-    /// Whether particle `i`'s grain contacts can hold it where it started, its move in the
-    /// step `moved` (m) and its inertial move `inertial` (m) ([`GrainFriction::sticks`]);
-    /// false without contact friction.
-    pub fn sticks(&self, i: usize, moved: &Vector3<T>, inertial: T) -> bool {
+    /// Whether particle `i` (not pinned)'s grain contacts at the last [`Self::correct`] (the
+    /// trial the step's last iteration accepted) can hold it where it started, its move in the
+    /// step `moved` (m), its inertial move `inertial` (m) and the particles' collider margins
+    /// `margin` (m) ([`GrainFriction::sticks`]); false without contact friction.
+    pub fn sticks(&self, margin: &[T], i: usize, moved: &Vector3<T>, inertial: T) -> bool {
         self.friction
             .as_ref()
-            .is_some_and(|f| f.sticks(i, moved, inertial))
+            .is_some_and(|f| f.sticks(&self.proposed, margin, self.partners(i), i, moved, inertial))
     }
 
     /// Whether some body has contact friction.

@@ -265,6 +265,20 @@ fn the_friction_moves_keep_momentum_between_grains_of_different_contact_counts()
     }
 }
 
+/// The repulsion of the granular bodies of `points`, with the contact friction coefficients
+/// `mu_c` (per body), after one accepted iteration of a step of 1 ms without gravity in which
+/// nothing is proposed to move (the contacts at the sites).
+fn at_rest(points: &Points<f64>, mu_c: &[f64]) -> Repulsion<f64> {
+    let n = points.mass.len();
+    let mut repulsion = Repulsion::of(points, vec![true; mu_c.len()], &vec![false; n])
+        .unwrap()
+        .with_friction(mu_c);
+    repulsion.start_step(points, 1e-3, [0.0; 3]).unwrap();
+    repulsion.correct(points, &vec![Vector3::zeros(); n], 1.0, |_| 1.0);
+    repulsion.accept();
+    repulsion
+}
+
 /// The hold of a yielded grain by its contacts ([`Repulsion::sticks`], `mu_c` 0.5): a grain
 /// pressed 0.1 spacings into a pinned one below it (overlap `g` 1e-3 m). Its contact takes
 /// back a sideways move up to `mu_c min(g, |y* - y^t|)`: 1e-4 m with an inertial move of
@@ -279,16 +293,70 @@ fn a_contact_holds_a_grain_whose_sideways_move_lies_within_coulombs_limit() {
         Vector3::new(5.0 * S, 0.0, 0.0),
     ];
     let points = grains(&sites, &[1.0; 3], &[false, true, false]);
-    let mut repulsion = Repulsion::of(&points, vec![true], &[false; 3])
-        .unwrap()
-        .with_friction(&[0.5]);
-    repulsion.start_step(&points, 1e-3, [0.0; 3]).unwrap();
-    repulsion.correct(&points, &[Vector3::zeros(); 3], 1.0, |_| 1.0);
-    repulsion.accept();
+    let repulsion = at_rest(&points, &[0.5]);
+    let sticks = |i: usize, d: Vector3<f64>, inertial: f64| {
+        repulsion.sticks(&points.margin, i, &d, inertial)
+    };
     let sideways = |d: f64| Vector3::new(d, 0.0, 0.0);
-    assert!(repulsion.sticks(0, &sideways(1e-4), 1e-3));
-    assert!(!repulsion.sticks(0, &sideways(1e-4), 1e-4));
-    assert!(!repulsion.sticks(0, &sideways(6e-4), 2e-3));
-    assert!(repulsion.sticks(0, &Vector3::new(0.0, 0.0, 5e-3), 1e-4));
-    assert!(!repulsion.sticks(2, &Vector3::zeros(), 1e-3));
+    assert!(sticks(0, sideways(1e-4), 1e-3));
+    assert!(!sticks(0, sideways(1e-4), 1e-4));
+    assert!(!sticks(0, sideways(6e-4), 2e-3));
+    assert!(sticks(0, Vector3::new(0.0, 0.0, 5e-3), 1e-4));
+    assert!(!sticks(2, Vector3::zeros(), 1e-3));
+}
+
+/// A grain is held only when every frictional contact can take back its move
+/// ([`Repulsion::sticks`], `mu_c` 0.5, inertial move 1e-3 m): grain 0 pressed 0.1 spacings
+/// into pinned grain 1 below it (overlap 1e-3 m, limit 5e-4 m) and 0.01 spacings into pinned
+/// grain 2 beside it along x (overlap 1e-4 m, limit 5e-5 m). A move of 1e-4 m along y, across
+/// both normals, passes the contact below and fails the one beside: not held. The same move
+/// along x lies along the side contact's normal (no sideways part there) and within the limit
+/// below: held. Without grain 2 the move along y is held, so the side contact alone decides.
+#[test]
+fn a_grain_is_held_only_when_all_its_frictional_contacts_hold() {
+    let sites = [
+        Vector3::new(0.0, 0.0, 0.9 * S),
+        Vector3::zeros(),
+        Vector3::new(0.99 * S, 0.0, 0.9 * S),
+    ];
+    let across = Vector3::new(0.0, 1e-4, 0.0);
+    let along = Vector3::new(1e-4, 0.0, 0.0);
+    for (beside, held_across) in [(true, false), (false, true)] {
+        let mut sites = sites;
+        if !beside {
+            sites[2].x = 5.0 * S;
+        }
+        let points = grains(&sites, &[1.0; 3], &[false, true, true]);
+        let repulsion = at_rest(&points, &[0.5]);
+        assert_eq!(
+            repulsion.sticks(&points.margin, 0, &across, 1e-3),
+            held_across,
+            "beside: {beside}"
+        );
+        assert!(repulsion.sticks(&points.margin, 0, &along, 1e-3));
+    }
+}
+
+/// A frictionless partner neither holds nor frees a grain ([`Repulsion::sticks`]): the
+/// contact's coefficient is the smaller of the two particles' (`mu_c` 0.5 for body 0, 0 for
+/// body 1), so a pair with a frictionless particle has no friction and is skipped. Grain 0
+/// as in the test above, its side partner (3) now of the frictionless body 1: the move of
+/// 1e-4 m along y, beyond the side contact's limit had it friction, is held by the contact
+/// below alone. Grain 2 (body 0) touches only the frictionless grain 3: it touches no
+/// frictional partner and is not held, whatever its move.
+#[test]
+fn a_frictionless_partner_is_skipped_by_the_hold() {
+    let sites = [
+        Vector3::new(0.0, 0.0, 0.9 * S),
+        Vector3::zeros(),
+        Vector3::new(1.98 * S, 0.0, 0.9 * S),
+        Vector3::new(0.99 * S, 0.0, 0.9 * S),
+    ];
+    let mut points = grains(&sites, &[1.0; 4], &[false, true, false, true]);
+    points.ids = vec![0, 1];
+    points.ranges = vec![0..3, 3..4];
+    let repulsion = at_rest(&points, &[0.5, 0.0]);
+    let across = Vector3::new(0.0, 1e-4, 0.0);
+    assert!(repulsion.sticks(&points.margin, 0, &across, 1e-3));
+    assert!(!repulsion.sticks(&points.margin, 2, &Vector3::zeros(), 1e-3));
 }

@@ -63,22 +63,24 @@ impl<T: Real> StaticFriction<T> {
 
     /// Eq. 28 once the step's velocities are set ([`Points::finish`]): a particle held goes
     /// back to its start with no velocity. Pinned particles are left as they are, and so are
-    /// those marked in `yielded` unless `sticks(i, d, |y* - y^t|)` says particle `i`'s
-    /// grain contacts can take back its move `d` (m) in the step
-    /// ([`super::grain_friction::GrainFriction::sticks`]). Returns how many were held.
+    /// those marked in `yielded` unless `sticks(margin, i, d, |y* - y^t|)` says particle
+    /// `i`'s grain contacts can take back its move `d` (m) in the step, `margin` the
+    /// particles' collider margins (m) ([`super::grain_friction::GrainFriction::sticks`]),
+    /// asked last (the costliest test). Returns how many were held.
     pub fn apply(
         &self,
         points: &mut Points<T>,
         yielded: &[bool],
-        sticks: &(impl Fn(usize, &Vector3<T>, T) -> bool + Sync),
+        sticks: &(impl Fn(&[T], usize, &Vector3<T>, T) -> bool + Sync),
     ) -> usize {
         let mut held = 0;
         for (range, eta) in &self.bodies {
-            let (starts, star, pinned, yielded) = (
+            let (starts, star, pinned, yielded, margin) = (
                 &self.starts[range.clone()],
                 &points.y_star[range.clone()],
                 &points.pinned[range.clone()],
                 &yielded[range.clone()],
+                &points.margin,
             );
             let r = range.clone();
             held += points.y[r.clone()]
@@ -87,11 +89,14 @@ impl<T: Real> StaticFriction<T> {
                 .zip(points.velocity[r].par_iter_mut())
                 .enumerate()
                 .map(|(k, ((y, start), velocity))| {
-                    let slides = yielded[k] && {
+                    let slides = || {
                         let inertial = (star[k] - starts[k]).norm();
-                        !sticks(range.start + k, &(*y - starts[k]), inertial)
+                        !sticks(margin, range.start + k, &(*y - starts[k]), inertial)
                     };
-                    if pinned[k] || slides || !holds(*eta, y, &starts[k], &star[k]) {
+                    if pinned[k]
+                        || !holds(*eta, y, &starts[k], &star[k])
+                        || (yielded[k] && slides())
+                    {
                         return 0;
                     }
                     *y = starts[k];

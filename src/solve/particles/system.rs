@@ -269,8 +269,8 @@ impl<T: Real> ParticleSystem<T> {
         let yielded = plastic.returns(&self.points.y, &mut self.yielded, timings);
         if let Some(friction) = &self.static_friction {
             let repulsion = self.repulsion.as_ref();
-            let sticks = |i: usize, moved: &Vector3<T>, inertial: T| {
-                repulsion.is_some_and(|r| r.sticks(i, moved, inertial))
+            let sticks = |margin: &[T], i: usize, moved: &Vector3<T>, inertial: T| {
+                repulsion.is_some_and(|r| r.sticks(margin, i, moved, inertial))
             };
             self.timings.held_static = friction.apply(&mut self.points, &self.yielded, &sticks);
         }
