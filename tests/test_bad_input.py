@@ -2,6 +2,7 @@
 (pyo3 PanicException derives from BaseException) may reach Python."""
 
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -345,3 +346,77 @@ def test_diverging_step_raises_and_keeps_state(mesh):
     m.velocities = np.zeros_like(vel)
     st = s.step()
     assert np.all(np.isfinite(m.positions)) and st.step == steps_before
+
+
+def runaway(max_speed):
+    """A stretched cloth stepped by the paper's preconditioner without the step length of
+    eq. 31-33, three iterations a step at dt = 0.1 s: a scheme that blows up. Returns the
+    solver, the body and, for each step taken, its largest coordinate (m); stops at the first
+    DivergenceError (returned too, else None) or after 40 steps."""
+    v, t = make_grid(4, 4, 1.0, 1.0)
+    m = membrane(v, t, bending=1e-3, hourglass=0.5)
+    m.pin([0])
+    m.positions = v * [3.0, 3.0, 1.0] + 0.3 * np.random.default_rng(0).normal(size=v.shape)
+    s = peridyn.Solver(dt=0.1, tol=0.0, max_iters=3, preconditioner="paper",
+                       step_length=False, max_speed=max_speed)
+    s.add(m)
+    largest = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", peridyn.PrecisionWarning)
+        for _ in range(40):
+            try:
+                s.step()
+            except peridyn.DivergenceError as e:
+                return s, m, largest, e
+            largest.append(np.abs(m.positions).max())
+    return s, m, largest, None
+
+
+def test_a_runaway_step_with_finite_positions_raises_and_keeps_state():
+    """A blow-up passes through finite but absurd positions before any coordinate overflows
+    (unchecked: above 1e15 m by step 8, 1e55 m by step 15, non-finite at 16): the solver's
+    `max_speed` (default 10 km/s) stops it at the first step that ends faster (measured: step
+    3, a vertex at 1.6e4 m/s, the cloth within 32 m), the message naming the vertex, the speed
+    and `max_speed`, and the bodies keep the state before that step."""
+    _, _, unchecked, _ = runaway(float("inf"))
+    assert max(unchecked) > 1e15 and np.isfinite(unchecked).all(), unchecked
+    s, m, largest, error = runaway(1e4)
+    assert error is not None, largest
+    assert re.search(r"vertex \d+ of body 0 reached [\d.]+e\+?0*4 m/s", str(error)), error
+    assert "max_speed" in str(error)
+    assert len(largest) < 8 and np.abs(m.positions).max() == largest[-1] < 1e3, largest
+    assert s.steps_taken == len(largest)
+
+
+def test_max_speed_spares_pinned_points_and_the_speeds_asked_for(mesh):
+    """A cloth thrown at 2e4 m/s: refused at the default `max_speed` (the state kept), stepped
+    once it is raised (setter) to 3e4 m/s or inf; a pinned cloth whose targets jump 1 km in a
+    step (1e5 m/s) moves as prescribed, not diverging."""
+    v, t = mesh
+    m = membrane(v, t)
+    s = peridyn.Solver(dt=1e-2)
+    s.add(m)
+    m.velocities = np.tile([2e4, 0.0, 0.0], (len(v), 1))
+    x = m.positions
+    with pytest.raises(peridyn.DivergenceError, match="max_speed"):
+        s.step()
+    assert np.array_equal(m.positions, x) and s.steps_taken == 0
+    for limit in (3e4, float("inf")):
+        s.max_speed = limit
+        assert s.max_speed == limit
+        s.step()
+    pinned = membrane(v, t)
+    pinned.pin(np.arange(len(v)))
+    s = peridyn.Solver(dt=1e-2)
+    s.add(pinned)
+    pinned.pin_targets = pinned.pin_targets + [1e3, 0.0, 0.0]
+    s.step()
+    assert np.allclose(pinned.positions, v + [1e3, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), float("-inf")])
+def test_a_bad_max_speed_is_a_value_error_naming_it(bad):
+    expect_value_error(lambda: peridyn.Solver(dt=1e-2, max_speed=bad), r"max_speed")
+    s = peridyn.Solver(dt=1e-2)
+    expect_value_error(lambda: setattr(s, "max_speed", bad), r"max_speed")
+    assert s.max_speed == 1e4

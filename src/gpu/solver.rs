@@ -15,7 +15,7 @@
 use std::time::Instant;
 
 use crate::collider::{Collider, ColliderModel, MovingCollider, Shape};
-use crate::error::{invalid, Error, Result};
+use crate::error::{invalid, Divergence, Error, Result};
 use crate::solve::body::ByKind;
 use crate::solve::BodyMut;
 use crate::solve::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
@@ -230,6 +230,7 @@ impl<T: GpuReal> GpuSolver<T> {
                     iteration: header[2] as usize,
                     body: list_indices[body],
                     vertex,
+                    cause: Divergence::NonFinite,
                 });
             }
             encoder = self.ctx.device.create_command_encoder(&Default::default());

@@ -96,7 +96,8 @@ impl PySolver {
                         record_energy = false, method = "sissm", inner_iters = Int::of(1),
                         backend = "cpu", contact = None, global_solver = "chebyshev",
                         particle_tol = Real::of(SolverParams::DEFAULT_PARTICLE_TOL),
-                        two_level = true))]
+                        two_level = true,
+                        max_speed = Real::of(SolverParams::DEFAULT_MAX_SPEED)))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dt: Real,
@@ -118,10 +119,12 @@ impl PySolver {
         global_solver: &str,
         particle_tol: Real,
         two_level: bool,
+        max_speed: Real,
     ) -> PyResult<Self> {
         let dt = dt.get("dt")?;
         let tol = tol.get("tol")?;
         let particle_tol = particle_tol.get("particle_tol")?;
+        let max_speed = max_speed.get("max_speed")?;
         let max_iters = max_iters.get("max_iters")?;
         let threads = threads.map(|t| t.get("threads")).transpose()?;
         let chebyshev_rho = chebyshev_rho
@@ -184,6 +187,7 @@ impl PySolver {
             tol,
             particle_tol,
             max_iters,
+            max_speed,
             step_length,
             preconditioner: PRECONDITIONER.parse(preconditioner)?,
             acceleration,
@@ -463,6 +467,20 @@ impl PySolver {
         let particle_tol = particle_tol.get("particle_tol")?;
         with_solver!(&mut self.core, s => {
             let p = SolverParams { particle_tol, ..*s.params() };
+            s.set_params(p).py()
+        })
+    }
+    /// The fastest a free point may end a step (m/s; inf: unchecked), else `DivergenceError`
+    /// with the last good state kept; settable.
+    #[getter]
+    fn max_speed(&self) -> f64 {
+        with_solver!(&self.core, s => s.params().max_speed)
+    }
+    #[setter]
+    fn set_max_speed(&mut self, max_speed: Real) -> PyResult<()> {
+        let max_speed = max_speed.get("max_speed")?;
+        with_solver!(&mut self.core, s => {
+            let p = SolverParams { max_speed, ..*s.params() };
             s.set_params(p).py()
         })
     }

@@ -20,6 +20,11 @@ pub struct SolverParams {
     pub particle_tol: f64,
     /// Cap on global iterations per step.
     pub max_iters: usize,
+    /// The fastest a free point may end a step (m/s; `inf`: unchecked): a faster one makes
+    /// the step an [`crate::error::Error::Diverged`] that keeps the last good state. A
+    /// blown-up step can leave positions finite but absurd (1e129 m seen), which no
+    /// finiteness check catches; pinned points, whose motion the user prescribes, are exempt.
+    pub max_speed: f64,
     /// Apply the per-vertex step length of eq. 31-33.
     pub step_length: bool,
     /// How the stretching stiffness enters the implicit part.
@@ -169,6 +174,7 @@ impl Default for SolverParams {
             tol: 1e-4,
             particle_tol: Self::DEFAULT_PARTICLE_TOL,
             max_iters: 100,
+            max_speed: Self::DEFAULT_MAX_SPEED,
             step_length: true,
             preconditioner: Preconditioner::Tangent,
             acceleration: Acceleration::None,
@@ -187,6 +193,11 @@ impl Default for SolverParams {
 impl SolverParams {
     /// The default [`Self::particle_tol`] (m/s^2): a hundredth of the gravity of Earth.
     pub const DEFAULT_PARTICLE_TOL: f64 = 0.0981;
+
+    /// The default [`Self::max_speed`] (m/s): 10 km/s, some 30 times the speed of sound in
+    /// air and well above any bullet, far beyond what a cloth, a solid or a liquid reaches
+    /// here by falling or being thrown.
+    pub const DEFAULT_MAX_SPEED: f64 = 1e4;
 
     /// The convergence threshold (m) of particle bodies' measure: `min(tol, particle_tol
     /// dt^2)`, so that a step of any length stops where its accelerations meet Newton's law
@@ -208,6 +219,14 @@ impl SolverParams {
             |v| v > 0.0,
             "a finite acceleration > 0 m/s^2",
         )?;
+        if self.max_speed != f64::INFINITY {
+            check_param(
+                "max_speed",
+                self.max_speed,
+                |v| v > 0.0,
+                "a speed > 0 m/s, or inf to leave speeds unchecked",
+            )?;
+        }
         if let Acceleration::Chebyshev { rho, delay } = self.acceleration {
             check_param("chebyshev rho", rho, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
             if delay < 1 {

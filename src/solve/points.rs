@@ -158,15 +158,25 @@ impl<T: Real> Points<T> {
     }
 
     /// The first point whose new velocity `(y_{t+1} - y_t) / h` would not be finite (finite
-    /// positions can still overflow there), checked before [`finish`](Self::finish) changes
-    /// anything, so that a diverged step leaves the bodies at their last good state.
-    pub fn first_bad_velocity(&self, h: T) -> Option<usize> {
+    /// positions can still overflow there) or, unless it is pinned (its motion prescribed),
+    /// would exceed `max_speed` (m/s), with that speed (m/s, infinite where not finite);
+    /// checked before [`finish`](Self::finish) changes anything, so that a diverged step
+    /// leaves the bodies at their last good state.
+    pub fn first_bad_velocity(&self, h: T, max_speed: f64) -> Option<(usize, f64)> {
         let inv_h = T::one() / h;
-        (0..self.y.len()).into_par_iter().find_first(|&i| {
-            !((self.y[i] - self.y_start[i]) * inv_h)
-                .iter()
-                .all(|c| c.to_f64().is_finite())
-        })
+        let speed = |i: usize| {
+            let v = (self.y[i] - self.y_start[i]) * inv_h;
+            let v = v.map(|c| c.to_f64());
+            if v.iter().all(|c| c.is_finite()) {
+                v.norm()
+            } else {
+                f64::INFINITY
+            }
+        };
+        (0..self.y.len())
+            .into_par_iter()
+            .map(|i| (i, speed(i)))
+            .find_first(|&(i, s)| s.is_infinite() || (s > max_speed && !self.pinned[i]))
     }
 
     /// `v_{t+1} = (y_{t+1} - y_t) / h`, `y_t <- y_{t+1}` (Algorithm 1, line 16).

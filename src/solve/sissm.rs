@@ -29,7 +29,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::collider::{Collider, ColliderModel, MovingCollider, Pose};
-use crate::error::{invalid, Error, Result};
+use crate::error::{invalid, Divergence, Error, Result};
 use crate::membrane::Preconditioner;
 use crate::real::Real;
 
@@ -217,8 +217,8 @@ impl<T: Real> Solver<T> {
     }
 
     /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
-    /// [`Error::Diverged`] names the first non-finite point (the body by its index in
-    /// `bodies`).
+    /// [`Error::Diverged`] names the first non-finite point, or the first one faster than
+    /// [`SolverParams::max_speed`] (the body by its index in `bodies`).
     pub fn step(&mut self, bodies: &mut [BodyMut<'_>]) -> Result<StepStats> {
         match self.pool.take() {
             Some(pool) => {
@@ -512,6 +512,7 @@ impl<T: Real> Solver<T> {
                         iteration,
                         body: indices[body],
                         vertex,
+                        cause: Divergence::NonFinite,
                     });
                 }
             }
@@ -590,13 +591,21 @@ impl<T: Real> Solver<T> {
         }
         let t = Instant::now();
         for (family, indices) in families.each().zip(&list_indices) {
-            if let Some(point) = family.points().first_bad_velocity(h) {
+            if let Some((point, speed)) = family.points().first_bad_velocity(h, params.max_speed) {
                 let (body, vertex) = family.points().locate(point);
                 return Err(Error::Diverged {
                     step: self.clock.steps,
                     iteration: stats.iterations,
                     body: indices[body],
                     vertex,
+                    cause: if speed.is_finite() {
+                        Divergence::TooFast {
+                            speed,
+                            limit: params.max_speed,
+                        }
+                    } else {
+                        Divergence::NonFinite
+                    },
                 });
             }
         }

@@ -179,6 +179,12 @@ class Solver:
         matrix whenever the time step or the held set (pins, contacts) changes and two passes
         over the bonds per iteration. Steps whose move is round-off (at rest, free fall) skip
         it. False: the paper's one-level sweep.
+    max_speed : the fastest a free point may end a step (> 0 m/s, or ``inf`` to leave speeds
+        unchecked; default 1e4, 10 km/s): a faster one raises ``DivergenceError`` naming it
+        and its speed, and the bodies keep their last good state. A blown-up step can leave
+        positions finite but absurd (1e129 m has been seen), which the finiteness check alone
+        misses; pinned points (their motion prescribed) are exempt. CPU backend; the GPU
+        backend checks finiteness only.
     """
 
     def __init__(
@@ -203,6 +209,7 @@ class Solver:
         global_solver: GlobalSolver = "chebyshev",
         particle_tol: float = 0.0981,
         two_level: bool = True,
+        max_speed: float = 1e4,
     ) -> None: ...
     def add(self, body: Union[Membrane, Particles]) -> None: ...
     def add_collider(self, collider: Collider) -> None: ...
@@ -289,6 +296,11 @@ class Solver:
         """The particles' force-imbalance tolerance (m/s^2)."""
     @particle_tol.setter
     def particle_tol(self, value: float) -> None: ...
+    @property
+    def max_speed(self) -> float:
+        """The fastest a free point may end a step (m/s; inf: unchecked); settable."""
+    @max_speed.setter
+    def max_speed(self, value: float) -> None: ...
     @property
     def contact(self) -> Optional[Contact]:
         """The contact parameters, or None when contact is off. Settable to another Contact
