@@ -9,8 +9,9 @@ slower than 5 cm/s) that layer is released with the column's speed: a stream fed
 rate from a funnel raised as the heap grows, so that no grain falls more than a few spacings.
 Floor: a plane with Coulomb friction ``--floor-friction`` (1: the grains do not slide on it).
 Sand: `Granular(friction_angle, contact_friction = --contact tan(friction_angle))` (the repose
-tests' `disordered_sand` at 0.1), density 1600 kg/m^3, dt 2 ms, 10 iterations a step; after the
-last release the heap settles ``--settle`` s (1.5 by default: at 3 s the shape is the same).
+tests' `disordered_sand` at 0.1), density 1600 kg/m^3, dt 2 ms, ``--iters`` iterations a step
+(10); after the last release the heap settles ``--settle`` s (1.5 by default: at 3 s the shape
+is the same).
 
 Measured per run: the apex height (m, the highest grain in the three innermost rings of one
 spacing's width, above the floor's first layer of centres at half a spacing), the base radius
@@ -75,7 +76,7 @@ def pour(angle: float, seed: int, args: argparse.Namespace) -> dict:
     body = peridyn.Particles(p, spacing=s_, density=RHO, material=material)
     n, per = len(p), c * c
     body.pin(np.arange(n))
-    solver = peridyn.Solver(dt=DT, max_iters=10, tol=0.0)
+    solver = peridyn.Solver(dt=DT, max_iters=args.iters, tol=0.0)
     solver.add_collider(peridyn.Plane(friction=args.floor_friction))
     solver.add(body)
     feed = s_ / (args.every * DT)
@@ -129,6 +130,7 @@ def main() -> None:
     ap.add_argument("--jitter", type=float, default=0.1, help="spacings")
     ap.add_argument("--floor-friction", type=float, default=1.0)
     ap.add_argument("--settle", type=float, default=1.5, help="s")
+    ap.add_argument("--iters", type=int, default=10, help="iterations a step")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     rec = C.Record("poured_heap", args)
