@@ -113,9 +113,11 @@ def test_reprs_are_informative(grid44):
     sp = peridyn.Sphere(center=(0.0, 0.0, 0.0), radius=0.375)
     r = repr(sp)
     assert "Sphere" in r and has_number(r, 0.375)
-    s = peridyn.Solver(dt=0.0125, max_iters=37)
+    s = peridyn.Solver(dt=0.0125, max_iters=37, particle_tol=0.375, max_speed=2.5e3,
+                       two_level=False)
     r = repr(s)
-    assert "Solver" in r and has_number(r, 0.0125)
+    assert "Solver" in r and has_number(r, 0.0125) and has_number(r, 37)
+    assert "particle_tol=0.375" in r and "max_speed=2500" in r and "two_level=False" in r
     s.add(m)
     st = s.step()
     r = repr(st)

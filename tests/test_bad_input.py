@@ -420,3 +420,19 @@ def test_a_bad_max_speed_is_a_value_error_naming_it(bad):
     s = peridyn.Solver(dt=1e-2)
     expect_value_error(lambda: setattr(s, "max_speed", bad), r"max_speed")
     assert s.max_speed == 1e4
+
+
+def test_a_move_of_one_rounding_at_a_tiny_step_is_not_too_fast():
+    """In f32 at dt = 1e-12 s a cloth 1 m from the origin moves by round-off only (gravity's
+    fall, 1e-23 m, is far below an ulp): measured 4.0e-8 m in a step, which divided by dt
+    reads 4e4 m/s, above the default max_speed. Such a move is never "too fast": the cloth
+    steps."""
+    v, t = make_grid(4, 4, 1.0, 1.0)
+    m = membrane(v + [1.0, 0.0, 0.0], t)
+    s = peridyn.Solver(dt=1e-12, precision="f32")
+    s.add(m)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", peridyn.PrecisionWarning)
+        for _ in range(3):
+            s.step()
+    assert np.all(np.isfinite(m.positions))

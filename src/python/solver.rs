@@ -616,8 +616,8 @@ impl PySolver {
         with_solver!(&self.core, s => {
             let p = s.params();
             format!(
-                "Solver(dt={}, gravity={:?}, tol={}, max_iters={}, backend='{}', precision='{}', threads={}, bodies={}, colliders={}, time={})",
-                p.dt, p.gravity, p.tol, p.max_iters, self.backend(), self.precision(), self.core.threads(), self.bodies.len(), self.colliders.len(), s.clock().time
+                "Solver(dt={}, gravity={:?}, tol={}, particle_tol={}, max_iters={}, max_speed={}, two_level={}, backend='{}', precision='{}', threads={}, bodies={}, colliders={}, time={})",
+                p.dt, p.gravity, p.tol, p.particle_tol, p.max_iters, p.max_speed, if p.particle_two_level { "True" } else { "False" }, self.backend(), self.precision(), self.core.threads(), self.bodies.len(), self.colliders.len(), s.clock().time
             )
         })
     }

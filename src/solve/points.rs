@@ -161,17 +161,29 @@ impl<T: Real> Points<T> {
     /// positions can still overflow there) or, unless it is pinned (its motion prescribed),
     /// would exceed `max_speed` (m/s), with that speed (m/s, infinite where not finite);
     /// checked before [`finish`](Self::finish) changes anything, so that a diverged step
-    /// leaves the bodies at their last good state.
+    /// leaves the bodies at their last good state. A move within the round-off of the
+    /// coordinates (`ROUNDOFF_MOVES` ulps of the larger of `|y_t|`, `|y_{t+1}|`) is never too
+    /// fast, so that a tiny `h` does not turn one rounding into a divergence.
     pub fn first_bad_velocity(&self, h: T, max_speed: f64) -> Option<(usize, f64)> {
-        let inv_h = T::one() / h;
+        const ROUNDOFF_MOVES: f64 = 8.0;
+        let inv_h = 1.0 / h.to_f64();
+        let epsilon = T::default_epsilon().to_f64();
         let speed = |i: usize| {
-            let v = (self.y[i] - self.y_start[i]) * inv_h;
-            let v = v.map(|c| c.to_f64());
-            if v.iter().all(|c| c.is_finite()) {
-                v.norm()
-            } else {
-                f64::INFINITY
+            let d = (self.y[i] - self.y_start[i]).map(|c| c.to_f64());
+            let v = d * inv_h;
+            if !v.iter().all(|c| c.is_finite()) {
+                return f64::INFINITY;
             }
+            let largest = v.amax();
+            let scale = self.y[i]
+                .amax()
+                .to_f64()
+                .max(self.y_start[i].amax().to_f64());
+            if largest == 0.0 || d.amax() <= ROUNDOFF_MOVES * epsilon * scale {
+                return 0.0;
+            }
+            // Scaled, so that a finite speed above 1e154 m/s does not overflow the norm.
+            largest * (v / largest).norm()
         };
         (0..self.y.len())
             .into_par_iter()

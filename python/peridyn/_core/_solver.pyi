@@ -183,8 +183,10 @@ class Solver:
         unchecked; default 1e4, 10 km/s): a faster one raises ``DivergenceError`` naming it
         and its speed, and the bodies keep their last good state. A blown-up step can leave
         positions finite but absurd (1e129 m has been seen), which the finiteness check alone
-        misses; pinned points (their motion prescribed) are exempt. CPU backend; the GPU
-        backend checks finiteness only.
+        misses; pinned points (their motion prescribed) are exempt, but the free points a
+        teleported pin target or collider pose drags along are not: raise it for such scenes.
+        A move within a few ulps of the coordinates is never too fast (a tiny ``dt``). CPU
+        backend; the GPU backend checks finiteness only.
     """
 
     def __init__(
