@@ -487,6 +487,20 @@ def test_an_f32_body_far_from_the_origin_lands_as_f64_does():
     assert all(s.converged for s in stats) and min(landing) >= 40, landing
 
 
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+def test_a_resting_step_10_m_away_takes_its_start_evaluation_from_the_last_step(precision):
+    """The 10^3 landing cube 10 m along x, at rest after its landing (steps 8-11): each step
+    converges in one iteration and two kernel passes, as at the origin
+    (`test_a_resting_step_takes_its_start_evaluation_from_the_last_step`). The family's frame
+    stays put while the body rests, and a position the last step stored keeps the value it
+    was stored from: in f64, where `origin + y` rounds, reloading it would miss the
+    evaluation kept at `y_t` (measured: three passes a step)."""
+    _, stats = landed(precision, (10.0, 0, 0))
+    for s in stats[8:]:
+        assert s.converged and s.iterations == 1, s.residuals
+        assert s.particles["evaluations"] == 2, [t.particles["evaluations"] for t in stats]
+
+
 def resting(shift, precision="f32", n=8, settle=20, more=20):
     """The `n`^3 cube (0.1 m, E 2e5 Pa, h = 1/30 s) standing on a Plane, the whole scene moved
     by `shift` (m): its positions relative to the shift after `settle` steps and after `more`
