@@ -144,11 +144,19 @@ impl Shape {
 
     /// The collider in the simulation's precision.
     pub fn to_real<T: Real>(&self) -> ShapeModel<T> {
-        let v = |a: &Vector3<f64>| a.map(T::of);
+        self.to_real_about(&Vector3::zeros())
+    }
+
+    /// The shape moved by `-anchor` (m, in its own frame; taken in f64), in the simulation's
+    /// precision: its numbers (offset, centre, ends) are then of the size of their distance
+    /// from `anchor`, not from the shape frame's origin ([`ColliderModel::in_frame`]). A mesh
+    /// is not moved (its grid is queried in f64): `anchor` must be zero for it.
+    pub fn to_real_about<T: Real>(&self, anchor: &Vector3<f64>) -> ShapeModel<T> {
+        let v = |a: &Vector3<f64>| (a - anchor).map(T::of);
         match *self {
             Self::Plane { point, normal } => ShapeModel::Plane {
-                offset: T::of(point.dot(&normal)),
-                normal: v(&normal),
+                offset: T::of((point - anchor).dot(&normal)),
+                normal: normal.map(T::of),
             },
             Self::Sphere { center, radius } => ShapeModel::Sphere {
                 center: v(&center),
@@ -160,7 +168,7 @@ impl Shape {
                 axes,
             } => ShapeModel::Box {
                 center: v(&center),
-                half_extents: v(&half_extents),
+                half_extents: half_extents.map(T::of),
                 axes: axes.map(T::of),
             },
             Self::Capsule { a, b, radius } => ShapeModel::Capsule {
@@ -235,9 +243,37 @@ pub struct ColliderModel<T: Real> {
 impl<T: Real> ColliderModel<T> {
     /// `collider` moving during a step from the pose `start` to the pose `end`.
     pub fn new(collider: &Collider, start: &Pose, end: &Pose) -> Self {
+        Self::with_shape(collider, collider.shape.to_real(), start, end)
+    }
+
+    /// [`Self::new`] in the frame whose origin is the world point `origin` (m): the frame's
+    /// point `x` is the world point `origin + x` (a particle family's frame,
+    /// [`crate::solve::points::Points::origin`]). The shape is re-anchored, in f64, at the
+    /// place `a = R^T (origin - t)` of its frame the frame's origin has under the end pose
+    /// `(R, t)` ([`Shape::to_real_about`]), and each pose `(R_k, t_k)` becomes
+    /// `(R_k, R_k a + t_k - origin)`, so that the numbers a distance near the frame's origin
+    /// is computed from are of the size of that distance, not of `|origin|`: in f32 a floor
+    /// 10 m from the world origin is resolved to `eps` times the body's size, not
+    /// `eps 10 m` (docs/architecture.md, "Particle frame"). A mesh keeps its shape frame (its
+    /// grid is queried in f64, but the point reaches it in `T` through the pose).
+    pub fn in_frame(collider: &Collider, start: &Pose, end: &Pose, origin: &Vector3<f64>) -> Self {
+        let anchor = match collider.shape {
+            Shape::Mesh(_) => Vector3::zeros(),
+            _ => end.rotation.tr_mul(&(origin - end.translation)),
+        };
+        let framed = |pose: &Pose| Pose {
+            rotation: pose.rotation,
+            translation: pose.rotation * anchor + pose.translation - origin,
+        };
+        let shape = collider.shape.to_real_about(&anchor);
+        Self::with_shape(collider, shape, &framed(start), &framed(end))
+    }
+
+    /// `collider` as `shape` (in the simulation's precision) from the pose `start` to `end`.
+    fn with_shape(collider: &Collider, shape: ShapeModel<T>, start: &Pose, end: &Pose) -> Self {
         let back = end.back_to(start);
         Self {
-            shape: collider.shape.to_real(),
+            shape,
             rotation: end.rotation.map(T::of),
             translation: end.translation.map(T::of),
             back_rotation: back.rotation.map(T::of),

@@ -19,6 +19,12 @@ pub(crate) struct Points<T: Real> {
     pub ids: Vec<u64>,
     /// Point range of each body.
     pub ranges: Vec<Range<usize>>,
+    /// The world point (m) the points' positions are measured from, in f64: the world
+    /// position of point `i` is `origin + y_i`, exact at the edge ([`Self::load`],
+    /// [`Self::store`]). Zero for membranes; a particle family's near its bodies
+    /// ([`crate::solve::frame`]), so that a position holds `eps` of its distance from there
+    /// rather than from the world origin.
+    pub origin: Vector3<f64>,
     /// Lumped mass of each point (kg).
     pub mass: Vec<T>,
     /// How far each point keeps from a collider's surface (m): a membrane vertex's half
@@ -62,6 +68,7 @@ impl<T: Real> Points<T> {
         Self {
             ids,
             ranges,
+            origin: Vector3::zeros(),
             mass,
             margin,
             y_start: zeros.clone(),
@@ -96,36 +103,44 @@ impl<T: Real> Points<T> {
         self.ids.len() == bodies.len() && self.ids.iter().zip(bodies).all(|(id, b)| *id == b.id())
     }
 
-    /// Copies the bodies' positions, velocities and pins in; pinned points get their target
-    /// as inertial target.
+    /// Copies the bodies' positions (less [`Self::origin`], in f64), velocities and pins in;
+    /// pinned points get their target as inertial target. A position that is what
+    /// [`Self::store`] wrote from the point's `y_t` keeps that `y_t`: in f64 `origin + y`
+    /// rounds, and reloading it would move the point by that rounding (and miss the
+    /// evaluation kept at `y_t`, [`crate::solve::particles`]).
     pub fn load<B: Body>(&mut self, bodies: &[&mut B]) {
+        let origin = self.origin;
         for (body, range) in bodies.iter().zip(&self.ranges) {
             let base = range.start;
             for (k, (x, v)) in body.positions().iter().zip(body.velocities()).enumerate() {
-                self.y_start[base + k] = x.map(T::of);
+                let y = &mut self.y_start[base + k];
+                if origin + y.map(|c| c.to_f64()) != *x {
+                    *y = (x - origin).map(T::of);
+                }
                 self.velocity[base + k] = v.map(T::of);
             }
         }
         self.load_pins(bodies);
     }
 
-    /// Copies the bodies' pins in: the flags, and their targets into `y_star`.
+    /// Copies the bodies' pins in: the flags, and their targets (less [`Self::origin`], in
+    /// f64) into `y_star`.
     pub fn load_pins<B: Body>(&mut self, bodies: &[&mut B]) {
         self.pinned.fill(false);
         for (body, range) in bodies.iter().zip(&self.ranges) {
             for (&i, target) in body.pins() {
                 self.pinned[range.start + i as usize] = true;
-                self.y_star[range.start + i as usize] = target.map(T::of);
+                self.y_star[range.start + i as usize] = (target - self.origin).map(T::of);
             }
         }
     }
 
-    /// Copies the state back into the bodies (in f64).
+    /// Copies the state back into the bodies (in f64, positions plus [`Self::origin`]).
     pub fn store<B: Body>(&self, bodies: &mut [&mut B]) {
         for (body, range) in bodies.iter_mut().zip(&self.ranges) {
             let (x, v) = body.state_mut();
             for (k, i) in range.clone().enumerate() {
-                x[k] = self.y_start[i].map(|c| c.to_f64());
+                x[k] = self.origin + self.y_start[i].map(|c| c.to_f64());
                 v[k] = self.velocity[i].map(|c| c.to_f64());
             }
         }

@@ -297,6 +297,22 @@ impl<T: Real> Solver<T> {
 
         by_kind.sync()?;
         families.load(&by_kind);
+        // Each family's colliders in its frame (a particle family's origin near its bodies,
+        // docs/architecture.md "Particle frame"); a family in the world frame keeps the world
+        // models of `colliders` bit for bit.
+        let framed: Vec<Vec<ColliderModel<T>>> = families
+            .each()
+            .map(|family| {
+                let origin = family.points().origin;
+                if origin == Vector3::zeros() {
+                    return colliders.clone();
+                }
+                self.colliders
+                    .iter()
+                    .map(|c| c.during_step_in_frame(self.clock.time, step_end, &origin))
+                    .collect()
+            })
+            .collect();
         let restored = self.restored.take();
         if let Some(restored) = &restored {
             families.restore(restored);
@@ -315,11 +331,11 @@ impl<T: Real> Solver<T> {
         }
         let mut energy = 0.0;
         let mut timed_elsewhere = 0.0;
-        for family in families.each() {
+        for (family, colliders) in families.each().zip(&framed) {
             family.start_step(&params)?;
             timed_elsewhere += family.start_millis_timed_elsewhere();
             family.points_mut().predict(h, gravity);
-            energy += initial_guess(family, h, params.preconditioner, &colliders);
+            energy += initial_guess(family, h, params.preconditioner, colliders);
         }
         if let Some(coupling) = &mut self.coupling {
             coupling.start_step(families);
@@ -410,11 +426,12 @@ impl<T: Real> Solver<T> {
                 .collect();
             // With contact the extrapolation follows the local step (see
             // [`extrapolate_local_step`]), not the global step.
-            let options = |contact_reaction, omega: Option<f64>| MoveOptions {
+            // Family `k`'s options ([`Families::each`] order: the membranes are 0).
+            let options = |contact_reaction, omega: Option<f64>, k: usize| MoveOptions {
                 step_length: params.step_length,
                 inner_iters: params.inner_iters,
                 omega: omega.filter(|_| params.contact.is_none()).map(T::of),
-                colliders: &colliders,
+                colliders: &framed[k],
                 contact_reaction,
                 global_solver: params.global_solver,
             };
@@ -439,10 +456,13 @@ impl<T: Real> Solver<T> {
                         Some(coupling) => coupling.reactions(contact_reaction),
                         None => [contact_reaction; 2],
                     };
-                    for ((family, w), reaction) in
-                        families.each().zip(&family_omegas).zip(reactions)
+                    for (k, ((family, w), reaction)) in families
+                        .each()
+                        .zip(&family_omegas)
+                        .zip(reactions)
+                        .enumerate()
                     {
-                        updates.push(family.global_move(h, &options(reaction, *w)));
+                        updates.push(family.global_move(h, &options(reaction, *w, k)));
                     }
                 }
                 Method::Descent => {
@@ -456,7 +476,7 @@ impl<T: Real> Solver<T> {
                             state,
                             h,
                             params.preconditioner,
-                            &options(contact_reaction, extrapolation),
+                            &options(contact_reaction, extrapolation, 0),
                             &mut search,
                         ));
                     }
@@ -469,7 +489,7 @@ impl<T: Real> Solver<T> {
                 Method::Newton => {
                     let state = self.newton.as_mut().expect("built above");
                     if let Some(sys) = families.membranes.as_mut() {
-                        let options = options(contact_reaction, None);
+                        let options = options(contact_reaction, None, 0);
                         start_iteration(sys, h, params.preconditioner, &options, &mut search);
                         if params.record_energy {
                             stats.energies.push(search.energy);
@@ -491,11 +511,13 @@ impl<T: Real> Solver<T> {
             timings.global += millis(t);
             if matches!(params.method, Method::Sissm | Method::Auto) && !colliders.is_empty() {
                 let t = Instant::now();
-                for (family, update) in families.each().zip(updates.iter_mut()) {
+                for ((family, update), colliders) in
+                    families.each().zip(updates.iter_mut()).zip(&framed)
+                {
                     if family.keeps_out_of_colliders() {
                         continue;
                     }
-                    let projected = push_next_out_of_colliders(family.points_mut(), &colliders);
+                    let projected = push_next_out_of_colliders(family.points_mut(), colliders);
                     *update = Update {
                         residual: update.residual,
                         ..Update::merge(*update, projected)
@@ -545,8 +567,8 @@ impl<T: Real> Solver<T> {
                 // The iteration the step stops at is not extrapolated: it ends on `z`.
                 let last = iteration + 1 == params.max_iters || converges(&updates);
                 if let Some(w) = extrapolation.filter(|_| !last) {
-                    for family in families.each() {
-                        extrapolate_local_step(family.points_mut(), T::of(w), &colliders);
+                    for (family, colliders) in families.each().zip(&framed) {
+                        extrapolate_local_step(family.points_mut(), T::of(w), colliders);
                     }
                 }
             }
@@ -582,8 +604,8 @@ impl<T: Real> Solver<T> {
             timings.global += millis(t);
         }
 
-        for family in families.each() {
-            family.project(h, &colliders, &mut timings)?;
+        for (family, colliders) in families.each().zip(&framed) {
+            family.project(h, colliders, &mut timings)?;
         }
         if let Some(coupling) = &mut self.coupling {
             coupling.finish(families, h);

@@ -205,6 +205,7 @@ fn grains(sites: &[Vector3<f64>], mass: &[f64], pinned: &[bool]) -> Points<f64> 
     Points {
         ids: vec![0],
         ranges: std::iter::once(0..sites.len()).collect(),
+        origin: Vector3::zeros(),
         mass: mass.to_vec(),
         margin: vec![0.5 * S; sites.len()],
         y_start: sites.to_vec(),

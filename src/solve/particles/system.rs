@@ -9,6 +9,7 @@ use nalgebra::Vector3;
 use crate::error::Result;
 use crate::particles::{ParticleRest, Particles};
 use crate::real::Real;
+use crate::solve::frame::origin_near;
 use crate::solve::points::Points;
 use crate::solve::SavedGrainContact;
 use crate::solve::{ParticleTimings, Timings};
@@ -155,10 +156,18 @@ impl<T: Real> ParticleSystem<T> {
                 .all(|(&r, b)| r == b.bonds_revision())
     }
 
-    /// Copies the bodies' positions, velocities and pins in ([`Points::load`]); the contact
-    /// friction of a body whose positions were replaced since starts from 0
+    /// Copies the bodies' positions, velocities and pins in ([`Points::load`]), in the
+    /// family's own frame when `own_frame` ([`origin_near`] the bodies), else in the world's
+    /// (the coupling with membranes measures both families' positions from one origin); the
+    /// contact friction of a body whose positions were replaced since starts from 0
     /// ([`Repulsion::forget_friction`]).
-    pub fn load(&mut self, bodies: &[&mut Particles]) {
+    pub fn load(&mut self, bodies: &[&mut Particles], own_frame: bool) {
+        self.points.origin = if own_frame {
+            let positions = bodies.iter().flat_map(|b| b.positions().iter());
+            origin_near(positions, &self.points.origin)
+        } else {
+            Vector3::zeros()
+        };
         self.points.load(bodies);
         for ((placed, body), range) in self
             .placements
