@@ -3,8 +3,8 @@ size, the cost's growth with the particle count, and memory per particle.
 
 Scene: a cube of n^3 particles (spacing 0.1 / 29 m, so 25K particles at n = 29), E 2e5 Pa,
 nu 0.25, density 1000 kg/m^3, dropped from 0.05 m onto a frictionless Plane under gravity at
-h = 1/30 s in f32 with the default global solver (chebyshev) and tolerance, ``--steps`` steps
-(the drop, the impact and the rebound). Reported per size: median ms per step and per phase
+h = 1/30 s in f32 (``--precision``) with the default global solver (chebyshev) and tolerance,
+``--steps`` steps (the drop, the impact and the rebound). Reported per size: median ms per step and per phase
 (StepStats.particles: kernel, residual, solve, line search, projection), the median CPU time per
 step of the process (all threads: on a shared machine the wall time is an upper bound, the CPU
 time what the step itself cost), median iterations (and each step's count) and
@@ -52,7 +52,7 @@ def one_size(args) -> dict:
     t = time.perf_counter()
     body = peridyn.Particles(x, spacing=args.side / args.n, density=1000.0,
                              material=peridyn.Elastic.from_young(2e5, 0.25))
-    solver = peridyn.Solver(dt=args.dt, gravity=(0, 0, -9.81), precision="f32",
+    solver = peridyn.Solver(dt=args.dt, gravity=(0, 0, -9.81), precision=args.precision,
                             threads=args.threads, chebyshev_rho=args.chebyshev_rho)
     solver.add(body)
     solver.add_collider(peridyn.Plane())
@@ -78,6 +78,7 @@ def one_size(args) -> dict:
         "ms_each_step": [r["total_ms"] for r in rows],
         "cpu_ms_each_step": [r["cpu_ms"] for r in rows],
         "factorizations_per_step": [r.get("factorizations", 0) for r in rows],
+        "two_level_ms_each_step": [r.get("two_level_ms", 0.0) for r in rows],
         "evaluations_median": med("evaluations"),
         # The cost of one iteration: the steps' times summed over their iterations summed.
         "ms_per_iteration": total("total_ms") / iterations,
@@ -100,6 +101,7 @@ def main():
     ap.add_argument("--dt", type=float, default=1 / 30)
     ap.add_argument("--steps", type=int, default=10, help="timed steps per size")
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--precision", choices=["f32", "f64"], default="f32")
     ap.add_argument("--chebyshev-rho", type=float, default=None,
                     help="the particles' Chebyshev rho (default: the solver's, 0.99)")
     ap.add_argument("--budget", type=float, default=120.0,
@@ -117,7 +119,7 @@ def main():
     for n in sorted(args.sizes):
         argv = [sys.executable, __file__, "--n", str(n), "--side", str(args.side),
                 "--lift", str(args.lift), "--dt", str(args.dt), "--steps", str(args.steps),
-                "--threads", str(args.threads)]
+                "--threads", str(args.threads), "--precision", args.precision]
         if args.chebyshev_rho is not None:
             argv += ["--chebyshev-rho", str(args.chebyshev_rho)]
         t = time.perf_counter()
