@@ -416,6 +416,8 @@ def test_a_resting_column_with_redistribution_stays_at_rest():
         ({"shear_modulus": 10.0, "bulk_modulus": 100.0}, "bulk_modulus"),
         ({"shear_modulus": 10.0, "bulk_modulus": 6.0}, "bulk_modulus"),
         ({"bulk_modulus": -1.0}, "bulk_modulus"),
+        ({"surface_tension": -0.1}, "surface_tension"),
+        ({"surface_tension": float("nan")}, "surface_tension"),
     ],
 )
 def test_bad_fluid_parameters_are_value_errors_naming_the_value(kwargs, needle):

@@ -120,6 +120,11 @@ pub struct ViscoelasticFluid {
     /// (`crate::solve::particles`' fluid stage). `false`: ghosts hold the one-sided
     /// constraint of every particle.
     pub adhesion: bool,
+    /// The liquid's surface tension `sigma` (N/m, >= 0; water 0.072, honey about 0.05-0.07;
+    /// 0: none): the cohesion force of Akinci, Akinci and Teschner 2013 (without their curvature
+    /// term), its coefficient calibrated on the rest lattice (`crate::solve::particles`' surface
+    /// tension).
+    pub surface_tension: f64,
 }
 
 impl Default for ViscoelasticFluid {
@@ -136,6 +141,7 @@ impl Default for ViscoelasticFluid {
             yield_stress: None,
             bulk_modulus: None,
             adhesion: false,
+            surface_tension: 0.0,
         }
     }
 }
@@ -184,6 +190,12 @@ impl ViscoelasticFluid {
             self.shear_modulus,
             |v| v >= 0.0,
             "a finite shear modulus >= 0 Pa",
+        )?;
+        check_param(
+            "surface_tension",
+            self.surface_tension,
+            |v| v >= 0.0,
+            "a finite surface tension >= 0 N/m",
         )?;
         if let Some(y) = self.yield_stress {
             check_param("yield_stress", y, |v| v > 0.0, "a finite stress > 0 Pa")?;

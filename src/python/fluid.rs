@@ -26,9 +26,10 @@ impl PyViscoelasticFluid {
     /// [1, 100]), `shear_modulus` (Pa, >= 0: a viscoelastic fluid's elasticity; 0: Newtonian)
     /// and `yield_stress` (Pa, > 0; None: the shear modulus), `bulk_modulus` (Pa, the
     /// elasticity's, 2/3 to 29/3 of the shear modulus; None: 5/3 of it), `adhesion` (the liquid sticks to
-    /// the body's pinned ghost particles by two-sided density constraints).
+    /// the body's pinned ghost particles by two-sided density constraints), `surface_tension`
+    /// (N/m, >= 0; 0: none).
     #[new]
-    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_solver = "cg", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, bulk_modulus = None, adhesion = false))]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_solver = "cg", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, bulk_modulus = None, adhesion = false, surface_tension = Real::of(0.0)))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         viscosity: Real,
@@ -42,6 +43,7 @@ impl PyViscoelasticFluid {
         yield_stress: Option<Real>,
         bulk_modulus: Option<Real>,
         adhesion: bool,
+        surface_tension: Real,
     ) -> PyResult<Self> {
         let iterations = usize::try_from(density_iterations).map_err(|_| {
             pyo3::exceptions::PyValueError::new_err(format!(
@@ -65,6 +67,7 @@ impl PyViscoelasticFluid {
             yield_stress: yield_stress.map(|y| y.get("yield_stress")).transpose()?,
             bulk_modulus: bulk_modulus.map(|k| k.get("bulk_modulus")).transpose()?,
             adhesion,
+            surface_tension: surface_tension.get("surface_tension")?,
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -119,13 +122,18 @@ impl PyViscoelasticFluid {
     fn adhesion(&self) -> bool {
         self.inner.adhesion
     }
+    /// Surface tension (N/m; 0: none).
+    #[getter]
+    fn surface_tension(&self) -> f64 {
+        self.inner.surface_tension
+    }
     fn __repr__(&self) -> String {
         let f = &self.inner;
         let optional = |v: Option<f64>| v.map_or("None".to_string(), |v| v.to_string());
         let (yield_stress, bulk_modulus) = (optional(f.yield_stress), optional(f.bulk_modulus));
         format!(
-            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_solver=\"{}\", density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={}, bulk_modulus={}, adhesion={})",
-            f.viscosity, f.density_iterations, f.density_solver.name(), f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress, bulk_modulus, if f.adhesion { "True" } else { "False" }
+            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_solver=\"{}\", density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={}, bulk_modulus={}, adhesion={}, surface_tension={})",
+            f.viscosity, f.density_iterations, f.density_solver.name(), f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress, bulk_modulus, if f.adhesion { "True" } else { "False" }, f.surface_tension
         )
     }
 }

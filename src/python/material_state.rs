@@ -41,7 +41,8 @@ fn names() -> Vec<String> {
 /// relaxation, redistribution, redistribution iterations, shear modulus (Pa), yield stress
 /// (Pa; 0 for the default), adhesion (0 or 1), density solver (0 Jacobi, 1 conjugate
 /// gradients; absent in states written before it, which were Jacobi), bulk modulus (Pa; 0 for
-/// the default; absent in states written before it).
+/// the default; absent in states written before it), surface tension (N/m; absent in states
+/// written before it, which had none).
 fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
     let ViscoelasticFluid {
         viscosity,
@@ -55,6 +56,7 @@ fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
         adhesion,
         density_solver,
         bulk_modulus,
+        surface_tension,
     } = *f;
     vec![
         viscosity,
@@ -70,6 +72,7 @@ fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
             density_solver == DensitySolver::ConjugateGradients,
         )),
         bulk_modulus.unwrap_or(0.0),
+        surface_tension,
     ]
 }
 
@@ -84,6 +87,10 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
             )))
         }
     };
+    let (v, surface_tension) = match v {
+        [head @ .., sigma] if v.len() == 12 => (head, *sigma),
+        _ => (v, 0.0),
+    };
     let (v, bulk_modulus) = match v {
         [head @ .., bulk] if v.len() == 11 => (head, *bulk),
         _ => (v, 0.0),
@@ -96,7 +103,7 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
         v
     else {
         return Err(PyValueError::new_err(format!(
-            "{FLUID} must hold 11 numbers (10 before the bulk modulus, 9 before the density solver) or none, got {}",
+            "{FLUID} must hold 12 numbers (11 before the surface tension, 10 before the bulk modulus, 9 before the density solver) or none, got {}",
             v.len()
         )));
     };
@@ -126,6 +133,7 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
         adhesion: adhesion == 1.0,
         density_solver,
         bulk_modulus: (bulk_modulus != 0.0).then_some(bulk_modulus),
+        surface_tension,
     })
 }
 

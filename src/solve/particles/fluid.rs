@@ -1,7 +1,7 @@
 //! The fluid stage of a particle step (He et al. 2017, section 6; Macklin and Mueller 2013,
-//! "Position Based Fluids"): before the inertial prediction, an implicit viscosity acts on the
-//! velocities with gravity's kick, on neighbours searched at the step's start
-//! ([`super::fluid_viscosity`]); once the local-global iterations have finished (`t_e` of the
+//! "Position Based Fluids"): before the inertial prediction, the surface tension's kick
+//! ([`super::surface_tension`]) and an implicit viscosity act on the velocities with gravity's
+//! kick, on neighbours searched at the step's start ([`super::fluid_viscosity`]); once the local-global iterations have finished (`t_e` of the
 //! paper's Table 1), the fluid particles' neighbours are searched on their positions (`t_n`),
 //! their density constraints are projected (`t_rho`), the particles are redistributed (`t_d`,
 //! [`redistribution`]: a position correction held to the density constraints), and after the
@@ -93,6 +93,7 @@ use super::density_rest::{adhered, GhostRest};
 use super::density_system::{ConjugateGradients, DensitySystem};
 use super::density_walls::{add_wall, none, release, slide, touching, Walls};
 use super::fluid_viscosity::{lattice_laplacian_scale, Fluid, Viscosity};
+use super::surface_tension::{gamma_per_tension, SurfaceTension};
 
 #[path = "fluid_partners.rs"]
 mod partners;
@@ -169,6 +170,11 @@ pub(crate) struct FluidStage<T: Real> {
     /// [`Self::project`] adds to the step's timings.
     start_millis: (f64, f64),
     viscosity: Viscosity<T>,
+    /// Per member, the surface tension's coefficient `gamma` (N m^3/kg^2; 0: none, as for
+    /// partners) until the stage is built, then the surface tension itself
+    /// ([`super::surface_tension`]).
+    gamma: Vec<f64>,
+    tension: SurfaceTension<T>,
     /// Redistribution strength and passes (the largest asked by a fluid of the family), its
     /// buffers and each member's pin.
     redistribution: f64,
@@ -282,6 +288,9 @@ impl<T: Real> FluidStage<T> {
             stage.cg.resize(n);
             stage.own = vec![Vector3::zeros(); n];
             stage.viscosity = Viscosity::new(n, lattice_laplacian_scale(&stage.sph, spacing));
+            let mut gamma = std::mem::take(&mut stage.gamma);
+            gamma.resize(n, 0.0);
+            stage.tension = SurfaceTension::new(gamma);
         }
         Ok(stage)
     }
@@ -325,6 +334,8 @@ impl<T: Real> FluidStage<T> {
             h: T::zero(),
             start_millis: (0.0, 0.0),
             viscosity: Viscosity::new(0, 1.0),
+            gamma: Vec::new(),
+            tension: SurfaceTension::new(Vec::new()),
             redistribution: 0.0,
             redistribution_iterations: 0,
             redistributor: Redistribution::default(),
@@ -343,7 +354,10 @@ impl<T: Real> FluidStage<T> {
         range: impl Iterator<Item = u32>,
     ) {
         let rho0 = body.density();
-        let eps = fluid.relaxation * lattice_denominator(&self.sph, body.params().spacing);
+        let spacing = body.params().spacing;
+        let eps = fluid.relaxation * lattice_denominator(&self.sph, spacing);
+        let gamma = fluid.surface_tension
+            * gamma_per_tension(self.sph.radius, spacing, body.particle_mass());
         for i in range {
             self.members.push(i);
             self.mass.push(T::of(body.particle_mass()));
@@ -352,6 +366,7 @@ impl<T: Real> FluidStage<T> {
             self.eps.push(T::of(eps));
             self.partner.push(false);
             self.share.push(T::of(body.particle_mass()));
+            self.gamma.push(gamma);
         }
         self.iterations = self.iterations.max(fluid.density_iterations);
         self.tolerance = self.tolerance.min(fluid.density_tolerance);
@@ -368,9 +383,11 @@ impl<T: Real> FluidStage<T> {
     }
 
     /// The stage's work before the prediction (see the module's doc): the neighbour search on
-    /// the start positions `points.y_start` and the implicit viscosity on the velocities with
-    /// gravity's kick `h g` (`h` the step in s, `gravity` in m/s^2). The velocity stored is
-    /// `u - h g`, so that the prediction `y_t + h v + h^2 g` that follows is `y_t + h u`.
+    /// the start positions `points.y_start`, the surface tension's kick `h f_i / m_i`
+    /// ([`super::surface_tension`], when a fluid has one) and the implicit viscosity on the
+    /// velocities with gravity's kick `h g` (`h` the step in s, `gravity` in m/s^2). The
+    /// velocity stored is `u - h g`, so that the prediction `y_t + h v + h^2 g` that follows is
+    /// `y_t + h u`. The surface tension is timed with the viscosity.
     pub fn start_step(&mut self, points: &mut Points<T>, h: T, gravity: Vector3<T>) -> Result<()> {
         self.h = h;
         let started = Instant::now();
@@ -389,6 +406,9 @@ impl<T: Real> FluidStage<T> {
             partner: &self.partner,
             h,
         };
+        if self.tension.any() {
+            self.tension.apply(&fluid, points);
+        }
         self.viscosity.apply(&fluid, points, gravity * h);
         self.start_millis.1 = millis(started);
         Ok(())

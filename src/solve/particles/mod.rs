@@ -23,6 +23,7 @@ mod repulsion;
 mod roundoff;
 mod static_friction;
 mod step;
+mod surface_tension;
 mod system;
 mod two_level;
 
