@@ -258,9 +258,29 @@ fn feasible(i: u32, origin: vec3<real>, of_step: bool, x: vec3<real>) -> vec3<re
     return out;
 }
 
+// Vertex i's move from y_t to `next` (finite) would set a non-finite velocity, or, for a free
+// vertex, is longer than max_move (the speed limit), unless it is within ROUNDOFF_MOVES ulps of
+// the coordinates (a tiny h must not turn one rounding into a divergence): the test of
+// Points::first_bad_velocity (src/solve/points.rs), made on every iterate.
+const ROUNDOFF_MOVES: real = 8.0;
+fn runaway(i: u32, next: vec3<real>) -> bool {
+    let d = next - y_start[i].xyz;
+    if !finite3(d * (1.0 / params.h)) {
+        return true;
+    }
+    let largest = max(max(abs(d.x), abs(d.y)), abs(d.z));
+    let scale = max(max(max(abs(next.x), abs(next.y)), abs(next.z)), max(max(abs(y_start[i].x), abs(y_start[i].y)), abs(y_start[i].z)));
+    if pinned[i] != 0u || params.max_move >= REAL_MAX || largest <= ROUNDOFF_MOVES * REAL_EPSILON * scale {
+        return false;
+    }
+    // scaled, so that the length of a finite move does not overflow
+    return largest > params.max_move || length(d / largest) > params.max_move / largest;
+}
+
 // The local step: y_next <- the projection of the free vertices out of every collider, in order,
 // then the per-vertex measure for the convergence and divergence tests:
-// moved_i = |y_i^{k+1} - y_i^k|, bad_i = y_i^{k+1} not finite (the residual comes from jacobi).
+// moved_i = |y_i^{k+1} - y_i^k|, bad_i = y_i^{k+1} not finite or a runaway (the residual comes
+// from jacobi).
 @compute @workgroup_size(64)
 fn project(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -275,5 +295,5 @@ fn project(@builtin(global_invocation_id) gid: vec3<u32>) {
         moved = length(next - y[i].xyz);
     }
     measure[i].moved = moved;
-    measure[i].bad = select(1u, 0u, ok);
+    measure[i].bad = select(1u, 0u, ok && !runaway(i, next));
 }

@@ -18,6 +18,8 @@ struct Params {
     min_stretch: real,       // smallest principal stretch the material sees
     groups: u32,            // workgroups of the first reduction stage
     accelerated: u32,       // 1: Chebyshev acceleration keeps y_prev
+    max_move: real,          // max_speed h: the farthest a free vertex may move in a step (m);
+                             // REAL_MAX when unchecked (a finite sentinel: WGSL need not honour inf)
 }
 
 // One record per dispatch group, selected by a dynamic offset: which iteration the commands
@@ -80,7 +82,8 @@ struct Collider {
 struct Measure {
     residual: real,          // |r_i| / m_i without contact reactions (m)
     moved: real,             // |y_i^{k+1} - y_i^k| (m)
-    bad: u32,               // 1: y_i^{k+1} is not finite
+    bad: u32,               // 1: y_i^{k+1} or its velocity not finite, or a free vertex's move
+                            // from y_t longer than max_move (src/solve/points.rs, first_bad_velocity)
     pad: u32,
 }
 

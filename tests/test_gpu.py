@@ -17,6 +17,7 @@ cloth's size in either precision (`test_every_step_from_a_shared_state_matches_c
 import os
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -270,6 +271,54 @@ def test_divergence_raises_and_leaves_the_body_unchanged(gpu):
     m.velocities = np.zeros_like(vel)
     sol.step()
     assert np.isfinite(m.positions).all() and sol.steps_taken == 2
+
+
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+def test_max_speed_stops_a_thrown_cloth_and_spares_pins(gpu, precision):
+    """As on the CPU (test_bad_input.py): a free cloth thrown at 2e4 m/s raises DivergenceError
+    naming max_speed at the default 1e4 m/s, keeping positions, velocities and time; raised to
+    3e4 m/s or inf it steps (the move 2e4 m/s x 1e-2 s = 200 m); a fully pinned cloth whose
+    targets jump 1 km in a step (1e5 m/s) lands on them."""
+    gpu_precision(gpu, precision)
+    v, t = make_grid(5, 5, 0.2, 0.2)
+    m = membrane(v, t, s0=1e4)
+    sol = peridyn.Solver(dt=1e-2, backend="gpu", precision=precision, max_iters=5)
+    sol.add(m)
+    sol.step()
+    m.velocities = np.tile([2e4, 0.0, 0.0], (len(v), 1))
+    before, vel, time = m.positions, m.velocities, sol.time
+    with pytest.raises(peridyn.DivergenceError, match="max_speed") as error:
+        sol.step()
+    assert "non-finite" not in str(error.value)
+    assert np.array_equal(m.positions, before) and np.array_equal(m.velocities, vel)
+    assert sol.time == time and sol.steps_taken == 1
+    for limit in (3e4, float("inf")):
+        sol.max_speed = limit
+        sol.step()
+        assert np.isfinite(m.positions).all()
+    assert sol.steps_taken == 3 and m.velocities[:, 0].min() > 1.9e4
+    pinned = membrane(v, t, s0=1e4)
+    pinned.pin(np.arange(len(v)))
+    sol = peridyn.Solver(dt=1e-2, backend="gpu", precision=precision, max_iters=5)
+    sol.add(pinned)
+    pinned.pin_targets = pinned.pin_targets + [1e3, 0.0, 0.0]
+    sol.step()
+    assert np.allclose(pinned.positions, v + [1e3, 0.0, 0.0])
+
+
+def test_a_round_off_move_at_a_tiny_step_is_not_too_fast_on_the_gpu(gpu):
+    """f32 at dt = 1e-12 s: a cloth 1 m from the origin moves by round-off only, which divided
+    by dt can read above max_speed; the kernels exempt moves within 8 ulps of the coordinates
+    as the CPU does, so the cloth steps."""
+    v, t = make_grid(4, 4, 1.0, 1.0)
+    m = membrane(v + [1.0, 0.0, 0.0], t)
+    sol = peridyn.Solver(dt=1e-12, backend="gpu", precision="f32")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", peridyn.PrecisionWarning)
+        sol.add(m)
+        for _ in range(3):
+            sol.step()
+    assert np.isfinite(m.positions).all() and sol.steps_taken == 3
 
 
 def test_gpu_backend_arguments_are_checked():

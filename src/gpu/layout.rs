@@ -22,6 +22,8 @@ pub struct ParamValues {
     pub tol: f64,
     pub groups: u32,
     pub accelerated: u32,
+    /// `max_speed h` (m), the farthest a free vertex may move in a step; `inf` unchecked.
+    pub max_move: f64,
 }
 
 /// `struct Iter` values.
@@ -100,6 +102,7 @@ macro_rules! layout {
                 pub min_stretch: $t,
                 pub groups: u32,
                 pub accelerated: u32,
+                pub max_move: $t,
                 pub pad: [u32; $pp],
             }
 
@@ -184,6 +187,12 @@ macro_rules! layout {
                     min_stretch: <$t as Real>::min_stretch(),
                     groups: p.groups,
                     accelerated: p.accelerated,
+                    // a finite sentinel for "unchecked": WGSL need not honour inf
+                    max_move: if p.max_move < <$t>::MAX as f64 {
+                        p.max_move as $t
+                    } else {
+                        <$t>::MAX
+                    },
                     pad: [0; $pp],
                 }
             }
@@ -276,7 +285,7 @@ layout!(
     "../../shaders/real_f32.wgsl",
     wgpu::Features::empty(),
     vec = 16,
-    pads = (0, 3, 1, 0, 1),
+    pads = (3, 3, 1, 0, 1),
     response = 32,
     measure = 16,
     partial = 16,
@@ -288,7 +297,7 @@ layout!(
     "../../shaders/real_f64.wgsl",
     wgpu::Features::SHADER_F64,
     vec = 32,
-    pads = (6, 2, 3, 1, 2),
+    pads = (4, 2, 3, 1, 2),
     response = 64,
     measure = 24,
     partial = 32,

@@ -14,9 +14,12 @@
 
 use std::time::Instant;
 
+use nalgebra::Vector3;
+
 use crate::collider::{Collider, ColliderModel, MovingCollider, Shape};
 use crate::error::{invalid, Divergence, Error, Result};
 use crate::solve::body::ByKind;
+use crate::solve::points::step_speed;
 use crate::solve::BodyMut;
 use crate::solve::{Acceleration, Clock, Method, SolverParams, StepStats, Timings};
 use crate::timing::millis;
@@ -128,8 +131,8 @@ impl<T: GpuReal> GpuSolver<T> {
     ///   read in every pass, the gradient written, re-read and updated);
     /// - Jacobi update: per vertex 176 (+16 with Chebyshev), per bond 72 (both gradients of
     ///   the bond, the reverse index, the neighbour's response);
-    /// - colliders, the convergence measure and the commit: per vertex 64 + 16 + 32 (+32 with
-    ///   Chebyshev); with `record_energy` another 68.
+    /// - colliders, the convergence and divergence measure and the commit: per vertex
+    ///   64 + 16 + 16 (`y_t` for the speed limit) + 32 (+32 with Chebyshev); with `record_energy` another 68.
     ///
     /// f64 doubles the count (index loads, a few percent of it, are counted twice too).
     pub fn bytes_per_iteration(&self) -> Option<u64> {
@@ -144,15 +147,17 @@ impl<T: GpuReal> GpuSolver<T> {
         let accelerated = self.params.acceleration != Acceleration::None;
         let kernel = 144 * n + if non_affine { 248 } else { 100 } * b;
         let jacobi = (176 + if accelerated { 16 } else { 0 }) * n + 72 * b;
-        let rest = (64 + 16 + 32 + if accelerated { 32 } else { 0 }) * n;
+        let rest = (64 + 16 + 16 + 32 + if accelerated { 32 } else { 0 }) * n;
         let energy = if self.params.record_energy { 68 * n } else { 0 };
         let scale = std::mem::size_of::<T>() as u64 / 4;
         Some((kernel + jacobi + rest + energy) * scale)
     }
 
     /// Advances `bodies` by one time step. On divergence the bodies keep their state and an
-    /// [`Error::Diverged`] names the first non-finite vertex (the body by its index in
-    /// `bodies`). The GPU steps membranes only: a particle body is refused, by its index.
+    /// [`Error::Diverged`] names the first vertex whose iterate is not finite or, unless
+    /// pinned, moved from `y_t` faster than [`SolverParams::max_speed`] (the body by its index
+    /// in `bodies`). The kernels test every iterate, not only the last as the CPU does: an
+    /// iterate that far from `y_t` is already a blow-up, and the step stops there. The GPU steps membranes only: a particle body is refused, by its index.
     pub fn step(&mut self, bodies: &mut [BodyMut<'_>]) -> Result<StepStats> {
         let started = Instant::now();
         let mut by_kind = ByKind::sort(bodies);
@@ -224,13 +229,15 @@ impl<T: GpuReal> GpuSolver<T> {
             let header = state.read_header(&self.ctx, encoder)?;
             limit = header[0];
             if limit != u32::MAX && header[1] != u32::MAX {
-                let (body, vertex) = state.system.points.locate(header[1] as usize);
+                let point = header[1] as usize;
+                let (y, y_start) = state.read_move(&self.ctx, point)?;
+                let (body, vertex) = state.system.points.locate(point);
                 return Err(Error::Diverged {
                     step: self.clock.steps,
                     iteration: header[2] as usize,
                     body: list_indices[body],
                     vertex,
-                    cause: Divergence::NonFinite,
+                    cause: cause_of(&y, &y_start, &params),
                 });
             }
             encoder = self.ctx.device.create_command_encoder(&Default::default());
@@ -284,5 +291,19 @@ impl<T: GpuReal> GpuSolver<T> {
         stats.time = self.clock.time;
         stats.timings = timings;
         Ok(stats)
+    }
+}
+
+/// Why the kernels flagged a vertex that moved from `y_start` to `y` (m): a velocity that is
+/// not finite in `T` (the kernels compute it in `T`), else a speed above `max_speed`.
+fn cause_of<T: GpuReal>(y: &Vector3<T>, y_start: &Vector3<T>, params: &SolverParams) -> Divergence {
+    let speed = step_speed(y, y_start, 1.0 / params.dt);
+    if T::of(speed).to_f64().is_finite() {
+        Divergence::TooFast {
+            speed,
+            limit: params.max_speed,
+        }
+    } else {
+        Divergence::NonFinite
     }
 }

@@ -4,6 +4,7 @@
 use nalgebra::Vector3;
 
 use crate::collider::{Collider, Shape};
+use crate::error::{Divergence, Error};
 use crate::material::Material;
 use crate::membrane::{Membrane, MembraneParams};
 use crate::mesh::TriangleMesh;
@@ -205,6 +206,60 @@ fn changes_between_steps_reach_the_device() {
 fn collider_records_have_the_wgsl_size() {
     assert_eq!(std::mem::size_of::<<f32 as GpuReal>::Collider>(), 112);
     assert_eq!(std::mem::size_of::<<f64 as GpuReal>::Collider>(), 224);
+}
+
+/// The params record has the size WGSL gives `struct Params` (rounded up to the alignment of
+/// `vec3<real>`: 16 bytes in f32, 32 in f64).
+#[test]
+fn params_records_have_the_wgsl_size() {
+    assert_eq!(std::mem::size_of::<<f32 as GpuReal>::Params>(), 64);
+    assert_eq!(std::mem::size_of::<<f64 as GpuReal>::Params>(), 96);
+}
+
+/// A cloth thrown at 2e4 m/s against the default `max_speed` of 1e4 m/s: the step diverges
+/// with a `TooFast` cause whose speed is the throw's (the first iterate moves it `h v` =
+/// 200 m; gravity and the unstretched cloth change that by far less than 1 %), and the body
+/// keeps its state.
+fn thrown_cloth_is_too_fast<T: GpuReal>() {
+    if T::NAME == "f64" && super::gpu_info().is_ok_and(|i| !i.f64) {
+        eprintln!("skipping f64 GPU test: the adapter lacks SHADER_F64");
+        return;
+    }
+    let params = SolverParams {
+        dt: 1e-2,
+        max_iters: 5,
+        ..SolverParams::default()
+    };
+    let Some(mut solver) = gpu::<T>(params) else {
+        return;
+    };
+    let mut body = cloth(5, Material::stretch_a3(1e4).unwrap());
+    let throw = vec![Vector3::new(2e4, 0.0, 0.0); body.positions().len()];
+    body.set_velocities(throw.clone()).unwrap();
+    let x0 = body.positions().to_vec();
+    match solver.step(&mut [(&mut body).into()]) {
+        Err(Error::Diverged {
+            cause: Divergence::TooFast { speed, limit },
+            ..
+        }) => {
+            assert!((speed / 2e4 - 1.0).abs() < 1e-2, "speed {speed} m/s");
+            assert_eq!(limit, SolverParams::DEFAULT_MAX_SPEED);
+        }
+        other => panic!("expected a TooFast divergence, got {other:?}"),
+    }
+    body.sync().unwrap();
+    assert_eq!(body.positions(), &x0[..]);
+    assert_eq!(body.velocities(), &throw[..]);
+}
+
+#[test]
+fn thrown_cloth_is_too_fast_f32() {
+    thrown_cloth_is_too_fast::<f32>();
+}
+
+#[test]
+fn thrown_cloth_is_too_fast_f64() {
+    thrown_cloth_is_too_fast::<f64>();
 }
 
 /// The time step of [`collider_parity`] (s).

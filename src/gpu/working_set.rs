@@ -49,6 +49,8 @@ pub(super) struct Buffers {
     pub(super) y_start: wgpu::Buffer,
     pub(super) velocity: wgpu::Buffer,
     pub(super) y_star: wgpu::Buffer,
+    /// The iterate a flagged vertex reached, read back to report a divergence's cause.
+    pub(super) y_next: wgpu::Buffer,
     pub(super) ctrl: wgpu::Buffer,
     /// MAP_READ copies: the control header, and the history at the end of a step.
     pub(super) header_readback: wgpu::Buffer,
@@ -142,6 +144,7 @@ impl<T: GpuReal> State<T> {
             y_start: storage("y_start", vec_bytes, copy)?,
             velocity: storage("velocity", vec_bytes, copy)?,
             y_star: storage("y_star", vec_bytes, copy)?,
+            y_next: storage("y_next", vec_bytes, wgpu::BufferUsages::COPY_SRC)?,
             ctrl: storage("ctrl", ctrl_bytes, copy)?,
             header_readback: readback("header readback", T::CONTROL_HEADER_BYTES),
             history_readback: readback("history readback", history_bytes),
@@ -153,7 +156,6 @@ impl<T: GpuReal> State<T> {
             init("indices", bytemuck::cast_slice(&system.nb.indices))?,
             init("reverse", bytemuck::cast_slice(&system.nb.reverse))?,
             storage("y", vec_bytes, wgpu::BufferUsages::empty())?,
-            storage("y_next", vec_bytes, wgpu::BufferUsages::empty())?,
             storage("y_prev", vec_bytes, wgpu::BufferUsages::empty())?,
             storage(
                 "bond_grad",
@@ -176,7 +178,7 @@ impl<T: GpuReal> State<T> {
                 wgpu::BufferUsages::empty(),
             )?,
         ];
-        let [vertices, bond_buf, offsets, indices, reverse, y, y_next, y_prev, bond_grad, response, measure, partials] =
+        let [vertices, bond_buf, offsets, indices, reverse, y, y_prev, bond_grad, response, measure, partials] =
             &owned;
         let b = &buffers;
         let by_binding: [&wgpu::Buffer; BINDINGS as usize] = [
@@ -193,7 +195,7 @@ impl<T: GpuReal> State<T> {
             &b.velocity,
             &b.y_star,
             y,
-            y_next,
+            &b.y_next,
             y_prev,
             bond_grad,
             response,
@@ -308,6 +310,7 @@ impl<T: GpuReal> State<T> {
             tol: params.tol,
             groups: groups(self.n, REDUCE_GROUP),
             accelerated: (params.acceleration != Acceleration::None) as u32,
+            max_move: params.max_speed * params.dt,
         });
         q.write_buffer(&self.buffers.params, 0, bytemuck::bytes_of(&gpu_params));
         q.write_buffer(
@@ -378,6 +381,30 @@ impl<T: GpuReal> State<T> {
         let bytes = map_read(ctx, &b.header_readback)?;
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes);
         Ok([words[0], words[1], words[2]])
+    }
+
+    /// The iterate `y_next` and the start `y_t` (m) of `vertex`, read back after the kernels
+    /// flagged it (the step's commands stop there, so `y_next` holds the flagged iterate).
+    pub(super) fn read_move(
+        &self,
+        ctx: &GpuContext,
+        vertex: usize,
+    ) -> Result<(Vector3<T>, Vector3<T>)> {
+        let b = &self.buffers;
+        let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("flagged vertex readback"),
+            size: 2 * T::VEC_BYTES,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let at = vertex as u64 * T::VEC_BYTES;
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&b.y_next, at, &staging, 0, T::VEC_BYTES);
+        encoder.copy_buffer_to_buffer(&b.y_start, at, &staging, T::VEC_BYTES, T::VEC_BYTES);
+        ctx.queue.submit([encoder.finish()]);
+        let both: Vec<[T; 4]> = bytemuck::pod_collect_to_vec(&map_read(ctx, &staging)?);
+        let xyz = |c: &[T; 4]| Vector3::new(c[0], c[1], c[2]);
+        Ok((xyz(&both[0]), xyz(&both[1])))
     }
 
     /// Submits `encoder` (the end of a step) after a copy of the history, records in every

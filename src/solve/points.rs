@@ -174,35 +174,14 @@ impl<T: Real> Points<T> {
 
     /// The first point whose new velocity `(y_{t+1} - y_t) / h` would not be finite (finite
     /// positions can still overflow there) or, unless it is pinned (its motion prescribed),
-    /// would exceed `max_speed` (m/s), with that speed (m/s, infinite where not finite);
-    /// checked before [`finish`](Self::finish) changes anything, so that a diverged step
-    /// leaves the bodies at their last good state. A move within the round-off of the
-    /// coordinates (`ROUNDOFF_MOVES` ulps of the larger of `|y_t|`, `|y_{t+1}|`) is never too
-    /// fast, so that a tiny `h` does not turn one rounding into a divergence.
+    /// would exceed `max_speed` (m/s), with that speed (m/s, [`step_speed`]); checked before
+    /// [`finish`](Self::finish) changes anything, so that a diverged step leaves the bodies at
+    /// their last good state.
     pub fn first_bad_velocity(&self, h: T, max_speed: f64) -> Option<(usize, f64)> {
-        const ROUNDOFF_MOVES: f64 = 8.0;
         let inv_h = 1.0 / h.to_f64();
-        let epsilon = T::default_epsilon().to_f64();
-        let speed = |i: usize| {
-            let d = (self.y[i] - self.y_start[i]).map(|c| c.to_f64());
-            let v = d * inv_h;
-            if !v.iter().all(|c| c.is_finite()) {
-                return f64::INFINITY;
-            }
-            let largest = v.amax();
-            let scale = self.y[i]
-                .amax()
-                .to_f64()
-                .max(self.y_start[i].amax().to_f64());
-            if largest == 0.0 || d.amax() <= ROUNDOFF_MOVES * epsilon * scale {
-                return 0.0;
-            }
-            // Scaled, so that a finite speed above 1e154 m/s does not overflow the norm.
-            largest * (v / largest).norm()
-        };
         (0..self.y.len())
             .into_par_iter()
-            .map(|i| (i, speed(i)))
+            .map(|i| (i, step_speed(&self.y[i], &self.y_start[i], inv_h)))
             .find_first(|&(i, s)| s.is_infinite() || (s > max_speed && !self.pinned[i]))
     }
 
@@ -219,4 +198,28 @@ impl<T: Real> Points<T> {
                 *start = y[i];
             });
     }
+}
+
+/// Moves within this many ulps of the coordinates are round-off, never too fast.
+const ROUNDOFF_MOVES: f64 = 8.0;
+
+/// The speed (m/s) of a point that moves from `y_start` to `y` in a step of `1 / inv_h`
+/// seconds: infinite where the velocity would not be finite, 0 for a move within the round-off
+/// of the coordinates (`ROUNDOFF_MOVES` ulps of the larger of `|y_t|`, `|y_{t+1}|`), so that a
+/// tiny `h` does not turn one rounding into a divergence. Also the GPU backend's reading of a
+/// vertex its kernels flagged.
+pub(crate) fn step_speed<T: Real>(y: &Vector3<T>, y_start: &Vector3<T>, inv_h: f64) -> f64 {
+    let epsilon = T::default_epsilon().to_f64();
+    let d = (y - y_start).map(|c| c.to_f64());
+    let v = d * inv_h;
+    if !v.iter().all(|c| c.is_finite()) {
+        return f64::INFINITY;
+    }
+    let largest = v.amax();
+    let scale = y.amax().to_f64().max(y_start.amax().to_f64());
+    if largest == 0.0 || d.amax() <= ROUNDOFF_MOVES * epsilon * scale {
+        return 0.0;
+    }
+    // Scaled, so that a finite speed above 1e154 m/s does not overflow the norm.
+    largest * (v / largest).norm()
 }

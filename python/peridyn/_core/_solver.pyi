@@ -185,8 +185,10 @@ class Solver:
         positions finite but absurd (1e129 m has been seen), which the finiteness check alone
         misses; pinned points (their motion prescribed) are exempt, but the free points a
         teleported pin target or collider pose drags along are not: raise it for such scenes.
-        A move within a few ulps of the coordinates is never too fast (a tiny ``dt``). CPU
-        backend; the GPU backend checks finiteness only.
+        A move within a few ulps of the coordinates is never too fast (a tiny ``dt``). The
+        CPU checks the step's end; the GPU backend checks every iterate of the step (an
+        iterate that far from the step's start is already a blow-up), so it stops a runaway
+        step at its first such iteration.
     """
 
     def __init__(
