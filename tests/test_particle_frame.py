@@ -1,12 +1,16 @@
 """The particle family's frame (docs/architecture.md, "Particle frame"; src/solve/frame.rs):
 positions are measured from a coarse grid point near the bodies, a pure function of their
 positions. A run restored from a file chooses the frame the run that went on chose, a body
-sliding far from the world origin in f32 follows f64, and the thread count changes no bit."""
+sliding far from the world origin in f32 follows f64, the thread count changes no bit, and the
+precision warning measures a particle body from its frame."""
+
+import warnings
 
 import numpy as np
 import pytest
 
 import peridyn as pd
+from conftest import make_grid, membrane
 from test_particle_convergence import cube
 
 
@@ -90,3 +94,31 @@ def test_an_f32_body_sliding_30_m_follows_f64():
     assert np.abs(c32[:2] - c64[:2]).max() < 1e-4, (c32, c64)
     assert abs(c32[2] - c64[2]) < 1e-8, (c32, c64)
     assert np.abs((x32 - c32) - (x64 - c64)).max() < 1e-6
+
+
+def particle_block(shift):
+    return pd.Particles(cube(4) + np.asarray(shift, float), spacing=0.025, density=1000.0,
+                        material=pd.Elastic.from_young(2e5, 0.25))
+
+
+def test_the_precision_warning_measures_a_particle_body_from_its_frame():
+    """A particle body 100 m away in f32 at dt = 1e-3 s: `|g| dt^2` = 9.8e-6 m is below the
+    world resolution there (100 m eps = 1.2e-5 m) but far above its frame's (the 0.1 m body
+    is measured from a grid point within a cell of it): no warning when added nor when
+    stepped. With a membrane in the solver the particles share the world frame, and the
+    warning names the world origin; a membrane 1e5 m away still warns in the world measure."""
+    s = pd.Solver(dt=1e-3, precision="f32")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", pd.PrecisionWarning)
+        s.add(particle_block((100.0, 0, 0)))
+        s.step()
+    v, t = make_grid(4, 4, 1.0, 1.0)
+    coupled = pd.Solver(dt=1e-3, precision="f32")
+    coupled.add(membrane(v, t))
+    with pytest.warns(pd.PrecisionWarning, match=r"from the world origin"):
+        coupled.add(particle_block((100.0, 0, 0)))
+    with pytest.warns(pd.PrecisionWarning, match=r"from the world origin"):
+        coupled.step()
+    far = pd.Solver(dt=1e-3, precision="f32")
+    with pytest.warns(pd.PrecisionWarning, match=r"from the world origin"):
+        far.add(membrane(v + 1e5, t))
