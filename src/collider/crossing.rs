@@ -43,7 +43,7 @@ impl<T: Real> ShapeModel<T> {
     #[inline(always)]
     fn slope(&self) -> T {
         match self {
-            Self::Mesh(_) => T::of(MESH_SLOPE),
+            Self::Mesh(..) => T::of(MESH_SLOPE),
             _ => T::one(),
         }
     }
@@ -94,7 +94,7 @@ impl<T: Real> ShapeModel<T> {
         };
         let slope = self.slope();
         let close = touch_distance(start);
-        let convex = !matches!(self, Self::Mesh(_));
+        let convex = !matches!(self, Self::Mesh(..));
         let (mut along, mut last) = (T::zero(), start);
         for _ in 0..TRACE_STEPS {
             if (length - along) * slope < last + beyond {
@@ -249,7 +249,7 @@ mod tests {
                 assert!(along < 1e-12, "{name}: entry off the path by {along}");
                 let depth = model.signed_distance(&entry);
                 let start = model.signed_distance(&from);
-                let convex = !matches!(model, ShapeModel::Mesh(_));
+                let convex = !matches!(model, ShapeModel::Mesh(..));
                 assert!(
                     depth >= 0.0 && (depth < start || !convex),
                     "{name}: {depth} from {start}, {from} to {to}, entry {entry}"
@@ -258,7 +258,7 @@ mod tests {
             }
             // Most touches are on the surface. A mesh's trace more often ends at its cap
             // outside (shorter steps, no convexity to end it): 111 of 607 here.
-            let capped = if matches!(model, ShapeModel::Mesh(_)) {
+            let capped = if matches!(model, ShapeModel::Mesh(..)) {
                 4
             } else {
                 10

@@ -111,7 +111,7 @@ mod tests {
         assert_eq!(later.rotation, turn.rotation);
     }
 
-    /// Each shape, turning and moving, 1 km from the world origin: its model in the frame of
+    /// Each shape (a box mesh too), turning and moving, 1 km from the world origin: its model in the frame of
     /// an origin next to it gives, in f64, the world model's distance, normal, projection and
     /// material displacement at the world point `origin + x` (to 1e-10 m: only rounding
     /// differs), and in f32 resolves a point 1 mm from its surface to 3e-7 m, where the world
@@ -127,6 +127,11 @@ mod tests {
             Shape::sphere(at([0.0, 0.0, -0.5]), 0.45).unwrap(),
             Shape::cuboid(at([0.0, 0.0, -0.2]), [0.3, 0.2, 0.15], tilt).unwrap(),
             Shape::capsule(at([-0.3, 0.0, -0.1]), at([0.3, 0.05, -0.1]), 0.05).unwrap(),
+            {
+                let (v, t) = crate::collider::sdf::tests::box_mesh([0.3, 0.2, 0.15]);
+                let v = v.iter().map(|p| at([p[0], p[1], p[2] - 0.2])).collect();
+                Shape::mesh(v, t, 24, None).unwrap()
+            },
         ];
         let turn = Pose::new([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]], [0.0; 3]).unwrap();
         for shape in shapes {

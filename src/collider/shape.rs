@@ -150,7 +150,7 @@ impl Shape {
     /// The shape moved by `-anchor` (m, in its own frame; taken in f64), in the simulation's
     /// precision: its numbers (offset, centre, ends) are then of the size of their distance
     /// from `anchor`, not from the shape frame's origin ([`ColliderModel::in_frame`]). A mesh
-    /// is not moved (its grid is queried in f64): `anchor` must be zero for it.
+    /// keeps its grid and `anchor`, added in f64 to a point before the grid is queried.
     pub fn to_real_about<T: Real>(&self, anchor: &Vector3<f64>) -> ShapeModel<T> {
         let v = |a: &Vector3<f64>| (a - anchor).map(T::of);
         match *self {
@@ -176,7 +176,7 @@ impl Shape {
                 b: v(&b),
                 radius: T::of(radius),
             },
-            Self::Mesh(ref grid) => ShapeModel::Mesh(grid.clone()),
+            Self::Mesh(ref grid) => ShapeModel::Mesh(grid.clone(), *anchor),
         }
     }
 }
@@ -254,13 +254,10 @@ impl<T: Real> ColliderModel<T> {
     /// `(R_k, R_k a + t_k - origin)`, so that the numbers a distance near the frame's origin
     /// is computed from are of the size of that distance, not of `|origin|`: in f32 a floor
     /// 10 m from the world origin is resolved to `eps` times the body's size, not
-    /// `eps 10 m` (docs/architecture.md, "Particle frame"). A mesh keeps its shape frame (its
-    /// grid is queried in f64, but the point reaches it in `T` through the pose).
+    /// `eps 10 m` (docs/architecture.md, "Particle frame"). A mesh keeps its grid, queried
+    /// in f64 at the point plus the anchor, so the point reaches it in `T` as a small number.
     pub fn in_frame(collider: &Collider, start: &Pose, end: &Pose, origin: &Vector3<f64>) -> Self {
-        let anchor = match collider.shape {
-            Shape::Mesh(_) => Vector3::zeros(),
-            _ => end.rotation.tr_mul(&(origin - end.translation)),
-        };
+        let anchor = end.rotation.tr_mul(&(origin - end.translation));
         let framed = |pose: &Pose| Pose {
             rotation: pose.rotation,
             translation: pose.rotation * anchor + pose.translation - origin,
@@ -504,8 +501,9 @@ pub enum ShapeModel<T: Real> {
         b: Vector3<T>,
         radius: T,
     },
-    /// Queried in f64 whatever `T`.
-    Mesh(Arc<SdfGrid>),
+    /// Queried in f64 whatever `T`, at the point plus the anchor (m, the shape frame's point
+    /// the model's origin stands at, [`Shape::to_real_about`]).
+    Mesh(Arc<SdfGrid>, Vector3<f64>),
 }
 
 /// The signed distance (m) of `x` from the plane `n . x = offset` (`n` a unit normal).
@@ -550,7 +548,7 @@ impl<T: Real> ShapeModel<T> {
                 outside + q.max().min(T::zero())
             }
             Self::Capsule { a, b, radius } => (x - closest_on_segment(x, &a, &b)).norm() - radius,
-            Self::Mesh(ref grid) => T::of(grid.signed_distance(&wide(x))),
+            Self::Mesh(ref grid, anchor) => T::of(grid.signed_distance(&(wide(x) + anchor))),
         }
     }
 
@@ -585,7 +583,7 @@ impl<T: Real> ShapeModel<T> {
                     crate::geometry::any_orthogonal_unit(&unit_or_z(b - a))
                 }
             }
-            Self::Mesh(ref grid) => grid.normal(&wide(x)).map(T::of),
+            Self::Mesh(ref grid, anchor) => grid.normal(&(wide(x) + anchor)).map(T::of),
         }
     }
 
@@ -601,8 +599,9 @@ impl<T: Real> ShapeModel<T> {
     /// projection evaluates its own field).
     #[inline]
     pub fn project_at(&self, x: Vector3<T>, distance: T, margin: T) -> Vector3<T> {
-        if let Self::Mesh(grid) = self {
-            return grid.project(wide(&x), margin.to_f64()).map(T::of);
+        if let Self::Mesh(grid, anchor) = self {
+            let at = grid.project(wide(&x) + anchor, margin.to_f64());
+            return (at - anchor).map(T::of);
         }
         let gap = distance - margin;
         if gap < T::zero() {

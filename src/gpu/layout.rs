@@ -259,7 +259,7 @@ macro_rules! layout {
                         (center, 0.0, half_extents, 2)
                     }
                     ShapeModel::Capsule { a, b, radius } => (a, radius, b, 3),
-                    ShapeModel::Mesh(_) => unreachable!("GpuSolver::add_collider refuses meshes"),
+                    ShapeModel::Mesh(..) => unreachable!("GpuSolver::add_collider refuses meshes"),
                 };
                 let column = |k: usize| vec4(&axes.column(k).into_owned());
                 $module::Collider {

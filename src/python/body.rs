@@ -3,6 +3,7 @@
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
+use nalgebra::Vector3;
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 
@@ -53,24 +54,22 @@ impl PyBody {
         }
     }
 
-    /// The largest coordinate magnitude (m) of the body now (read back from the device after
-    /// a GPU step).
-    pub fn extent(&self, py: Python<'_>) -> PyResult<f64> {
+    /// The largest coordinate magnitude (m) of the body's positions now, measured from
+    /// `origin` (m, world; read back from the device after a GPU step).
+    pub fn extent(&self, py: Python<'_>, origin: &Vector3<f64>) -> PyResult<f64> {
+        let largest =
+            |x: &[Vector3<f64>]| x.iter().map(|p| (p - origin).amax()).fold(0.0, f64::max);
         match self {
-            Self::Membrane(m) => Ok(m
-                .borrow(py)
-                .state()?
-                .positions()
-                .iter()
-                .map(|p| p.amax())
-                .fold(0.0, f64::max)),
-            Self::Particles(p) => Ok(p
-                .borrow(py)
-                .lock()
-                .positions()
-                .iter()
-                .map(|p| p.amax())
-                .fold(0.0, f64::max)),
+            Self::Membrane(m) => Ok(largest(m.borrow(py).state()?.positions())),
+            Self::Particles(p) => Ok(largest(p.borrow(py).lock().positions())),
+        }
+    }
+
+    /// The positions (m, world) of a particle body; none for a membrane.
+    pub fn particle_positions(&self, py: Python<'_>) -> Vec<Vector3<f64>> {
+        match self {
+            Self::Membrane(_) => Vec::new(),
+            Self::Particles(p) => p.borrow(py).lock().positions().to_vec(),
         }
     }
 

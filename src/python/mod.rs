@@ -18,6 +18,7 @@ mod particle_body;
 mod particles;
 mod pins;
 mod plasticity;
+mod resolution;
 mod rest_bonds;
 mod scalars;
 mod solver;

@@ -15,11 +15,12 @@ use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, vec3};
 use super::body::{LockedBody, PyBody, SharedBody};
 use super::collider;
 use super::contact::PyContact;
-use super::errors::{guard, IntoPyResult, PrecisionWarning};
+use super::errors::{guard, IntoPyResult};
 use super::options::{
     AccelerationKind, Backend, Float, ACCELERATION, BACKEND, GLOBAL_SOLVER, METHOD, PRECISION,
     PRECONDITIONER,
 };
+use super::resolution;
 use super::scalars::{Int, Real};
 use super::solver_state;
 use super::step_stats::PyStepStats;
@@ -245,7 +246,7 @@ impl PySolver {
                 body.get_type().name()?
             )));
         }
-        self.warn_resolution(py, &new)?;
+        self.warn_resolution(py, Some(&new), &[&new])?;
         self.bodies.push(new);
         Ok(())
     }
@@ -409,9 +410,8 @@ impl PySolver {
             ));
         }
         if self.core.backend() == Backend::Cpu {
-            for body in &self.bodies {
-                self.warn_resolution(py, body)?;
-            }
+            let bodies: Vec<&PyBody> = self.bodies.iter().collect();
+            self.warn_resolution(py, None, &bodies)?;
         }
         let shared: Vec<SharedBody> = self.bodies.iter().map(|b| b.shared(py)).collect();
         let core = &mut self.core;
@@ -624,37 +624,23 @@ impl PySolver {
 }
 
 impl PySolver {
-    /// Warns (`peridyn.PrecisionWarning`) when `body` is so far from the origin that the motion
-    /// gravity gives it in one step from rest, `|g| dt^2`, is below the resolution of its
-    /// coordinates in the solver's precision (`|x| * epsilon`): the step would round it away.
-    /// Checked when a body is added, and before each step on the CPU backend (the GPU backend
-    /// keeps positions on the device: only when added).
-    fn warn_resolution(&self, py: Python<'_>, body: &PyBody) -> PyResult<()> {
-        let coordinate = body.extent(py)?;
+    /// Warns (`peridyn.PrecisionWarning`, [`resolution::warn_resolution`]) for each of
+    /// `warned` whose coordinates round away the motion of a step from rest, with `added`
+    /// stepped too. Checked when a body is added, and before each step on the CPU backend (the
+    /// GPU backend keeps positions on the device: only when added).
+    fn warn_resolution(
+        &self,
+        py: Python<'_>,
+        added: Option<&PyBody>,
+        warned: &[&PyBody],
+    ) -> PyResult<()> {
+        let bodies: Vec<&PyBody> = self.bodies.iter().chain(added).collect();
         let (dt, gravity) = with_solver!(&self.core, s => (s.params().dt, s.params().gravity));
-        let g = gravity.iter().map(|c| c * c).sum::<f64>().sqrt();
-        let expected = g * dt * dt;
-        let (name, epsilon) = match self.core.float() {
+        let precision = match self.core.float() {
             Float::F32 => ("f32", f64::from(f32::EPSILON)),
             Float::F64 => ("f64", f64::EPSILON),
         };
-        let resolution = coordinate * epsilon;
-        if !(expected > 0.0 && expected < resolution) {
-            return Ok(());
-        }
-        let message = format!(
-            "a body has coordinates up to {coordinate:e} m, whose resolution in precision \
-             '{name}' is {resolution:e} m, but the motion gravity gives it in one step from \
-             rest, |g| dt^2 = {expected:e} m, is smaller: the step rounds it away and the body \
-             will not fall as it should; move the scene near the origin{}",
-            if name == "f32" {
-                " or use precision='f64'"
-            } else {
-                ""
-            }
-        );
-        let category = py.get_type::<PrecisionWarning>();
-        PyErr::warn(py, &category, &std::ffi::CString::new(message)?, 1)
+        resolution::warn_resolution(py, &bodies, warned, precision, dt, &gravity.into())
     }
 
     /// `index` checked against the colliders added.

@@ -159,7 +159,8 @@ impl PyStepStats {
     /// `density_passes` (density projections) and `density_error` (the largest relative
     /// excess density `rho / rho0 - 1` they left); `roundoff_floor` (m), the largest round-off
     /// floor `eps |y_i| D_i / m_i` the last convergence measure subtracted (it grows with the
-    /// distance from the origin: a floor above the tolerance means the step converged to what
+    /// distance from the family's frame origin, near its bodies, or from the world origin
+    /// when membranes share the step: a floor above the tolerance means the step converged to what
     /// the precision resolves there), and `worst_particle`, `(body, index)` of the particle
     /// holding that measure's largest term, `None` when every particle is within its floor.
     #[getter]

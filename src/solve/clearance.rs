@@ -101,7 +101,7 @@ fn extent<T: Real>(collider: &ColliderModel<T>) -> T {
             ..
         } => center.norm() + half_extents.norm(),
         ShapeModel::Capsule { a, b, radius } => a.norm() + b.norm() + radius.abs(),
-        ShapeModel::Mesh(_) => T::of(f64::INFINITY),
+        ShapeModel::Mesh(..) => T::of(f64::INFINITY),
     };
     collider.translation().norm() + shape
 }

@@ -104,19 +104,14 @@ impl<T: Real> Points<T> {
     }
 
     /// Copies the bodies' positions (less [`Self::origin`], in f64), velocities and pins in;
-    /// pinned points get their target as inertial target. A position that is what
-    /// [`Self::store`] wrote from the point's `y_t` keeps that `y_t`: in f64 `origin + y`
-    /// rounds, and reloading it would move the point by that rounding (and miss the
-    /// evaluation kept at `y_t`, [`crate::solve::particles`]).
+    /// pinned points get their target as inertial target. Every position is loaded from the
+    /// body, never kept from the last step: a fresh solver given the same bodies (a restored
+    /// run) loads the same state, bit for bit.
     pub fn load<B: Body>(&mut self, bodies: &[&mut B]) {
-        let origin = self.origin;
         for (body, range) in bodies.iter().zip(&self.ranges) {
             let base = range.start;
             for (k, (x, v)) in body.positions().iter().zip(body.velocities()).enumerate() {
-                let y = &mut self.y_start[base + k];
-                if origin + y.map(|c| c.to_f64()) != *x {
-                    *y = (x - origin).map(T::of);
-                }
+                self.y_start[base + k] = (x - self.origin).map(T::of);
                 self.velocity[base + k] = v.map(T::of);
             }
         }

@@ -92,7 +92,8 @@ pub struct ParticleTimings {
     /// particle (body, index in the body) holding the largest `|r_i| / m_i - nu_i`, `None`
     /// when every particle is within its floor. A floor above the tolerance means the step's
     /// "converged" is "within the tolerance of what the precision resolves at these
-    /// coordinates" (it grows with the distance from the origin).
+    /// coordinates" (it grows with the distance from the family's frame origin, near its
+    /// bodies; from the world origin when membranes share the step).
     pub roundoff_floor: f64,
     pub worst_particle: Option<(usize, usize)>,
 }

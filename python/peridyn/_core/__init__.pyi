@@ -64,5 +64,6 @@ class DivergenceError(RuntimeError):
 class PrecisionWarning(UserWarning):
     """The solver's precision cannot hold what the simulation asks of it: a body so far from the
     origin that the motion gravity gives it in one step (``|g| dt^2``) is below its coordinates'
-    resolution (``|x| * epsilon`` of f32 or f64). Warned by ``Solver.add``, and by
-    ``Solver.step`` on the CPU backend."""
+    resolution (``|x| * epsilon`` of f32 or f64; a particle body's ``x`` measured from its
+    particle family's frame origin, near its bodies, unless membranes share the step). Warned
+    by ``Solver.add``, and by ``Solver.step`` on the CPU backend."""

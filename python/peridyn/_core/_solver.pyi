@@ -72,7 +72,8 @@ class StepStats:
         friction, eq. 28), 'density_passes' (the fluids' density projections) and
         'density_error' (the largest relative excess density rho / rho0 - 1 left);
         'roundoff_floor' (m: the largest round-off floor eps |y_i| D_i / m_i that the last
-        convergence measure subtracted; it grows with the distance from the origin, and above
+        convergence measure subtracted; it grows with the distance from the particle family's
+        frame origin, near its bodies (the world origin when membranes share the step), and above
         ``tol`` "converged" means within ``tol`` of what the precision resolves there) and
         'worst_particle' ((body, index) of the particle holding that measure's largest term,
         None when every particle is within its floor)."""

@@ -164,7 +164,7 @@ impl<T: Real> ParticleSystem<T> {
     pub fn load(&mut self, bodies: &[&mut Particles], own_frame: bool) {
         self.points.origin = if own_frame {
             let positions = bodies.iter().flat_map(|b| b.positions().iter());
-            origin_near(positions, &self.points.origin)
+            origin_near(positions)
         } else {
             Vector3::zeros()
         };
