@@ -8,6 +8,7 @@ mod coupling;
 pub(crate) mod energy;
 pub(crate) mod families;
 pub(crate) mod family;
+mod initial_guess;
 pub(crate) mod membranes;
 mod params;
 pub(crate) mod particles;
