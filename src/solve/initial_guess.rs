@@ -100,25 +100,22 @@ pub(crate) fn initial_guess<T: Real>(
     family.evaluate_energy(mode);
     let mut best = (Start::Prediction, family.total_energy(h));
     let mut last = Start::Prediction;
-    if best.1 > family.inertial_energy_at_start(h) {
-        place(family.points_mut(), Start::Previous, h, colliders);
+    let mut weigh = |family: &mut dyn Family<T>, start: Start, best: &mut (Start, f64)| {
+        place(family.points_mut(), start, h, colliders);
         family.evaluate(mode);
-        last = Start::Previous;
+        last = start;
         let energy = family.total_energy(h);
         if energy < best.1 {
-            best = (Start::Previous, energy);
+            *best = (start, energy);
         }
+    };
+    if best.1 > family.inertial_energy_at_start(h) {
+        weigh(family, Start::Previous, &mut best);
     }
     if pushed {
         let (kinetic, share) = coast_terms(family.points_mut(), h);
         if kinetic > share && best.1 > share {
-            place(family.points_mut(), Start::Coast, h, colliders);
-            family.evaluate(mode);
-            last = Start::Coast;
-            let energy = family.total_energy(h);
-            if energy < best.1 {
-                best = (Start::Coast, energy);
-            }
+            weigh(family, Start::Coast, &mut best);
         }
     }
     if best.0 != last {
