@@ -139,7 +139,8 @@ def test_the_parser_sees_the_core_layers():
     """The checks below are only as good as the graph: the solver uses the membranes."""
     top, siblings = _graphs()
     assert "membrane" in top["solve"] and "solve" in top["gpu"]
-    assert "family" in siblings[("solve",)]["sissm"]
+    assert "initial_guess" in siblings[("solve",)]["sissm"]
+    assert "family" in siblings[("solve",)]["initial_guess"]
     assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) is not None
 
 

@@ -38,6 +38,12 @@ pub(crate) trait Family<T: Real>: Send {
     fn inertial_energy_at_start(&mut self, h: T) -> f64 {
         inertial_energy(self.points_mut(), h, true)
     }
+    /// Whether the initial guess also weighs the coast `y_t + h v_t` where a collider pushed the
+    /// prediction `y*` ([`super::initial_guess`]): the particles do; membranes, whose
+    /// steps on colliders were not measured with it, do not.
+    fn coasts(&self) -> bool {
+        false
+    }
     /// One preconditioned global move `y -> y_next` (eq. 25 in residual form, with the step
     /// length of eq. 31-33, colliders in the system metric and Chebyshev extrapolation as
     /// `options` ask), and its measures.

@@ -9,6 +9,7 @@ pub(crate) mod energy;
 pub(crate) mod families;
 pub(crate) mod family;
 pub(crate) mod frame;
+mod initial_guess;
 pub(crate) mod membranes;
 mod params;
 pub(crate) mod particles;

@@ -14,7 +14,8 @@
 //! lower bound the linearised energy may not cross). Colliders project the result, then the
 //! contact local step (Algorithm 2, [`crate::contact::resolve_contacts`]) when contact is on.
 //!
-//! The iteration starts from the lower-energy of `y*` and `y_t` ([`initial_guess`]) and stops
+//! The iteration starts from the lower-energy of `y*` and `y_t` (and, for particles sliding on
+//! a collider, `y_t + h v_t`: [`initial_guess`]) and stops
 //! when `max_i |r_i| / m_i < tol` for the residual `r = m (y* - y) + h^2 f` (without the
 //! reactions of the colliders and of the membrane contacts the vertex is in, see
 //! [`super::membranes::jacobi::free_residual`]; with contact, not before the first local step). Where the energy is convex its Hessian `H` satisfies
@@ -26,20 +27,16 @@
 use std::time::Instant;
 
 use nalgebra::Vector3;
-use rayon::prelude::*;
 
 use crate::collider::{Collider, ColliderModel, MovingCollider, Pose};
 use crate::error::{invalid, Divergence, Error, Result};
-use crate::membrane::Preconditioner;
 use crate::real::Real;
 
 use super::body::{BodyMut, ByKind};
-use super::collider_passes::{
-    extrapolate_local_step, push_iterate_out_of_colliders, push_next_out_of_colliders,
-};
+use super::collider_passes::{extrapolate_local_step, push_next_out_of_colliders};
 use super::coupling::ClothCoupling;
 use super::families::Families;
-use super::family::Family;
+use super::initial_guess::initial_guess;
 use super::membranes::auto;
 use super::membranes::contact_step::ContactState;
 use super::membranes::descent::{descent_iteration, DescentState, LineSearch};
@@ -692,47 +689,5 @@ impl<T: Real> Solver<T> {
                 }
             }
         }
-    }
-}
-
-/// Starts the iteration from whichever of the inertial prediction `y*` (Algorithm 1, line 2) and
-/// the previous positions `y_t` has the lower variational energy, and returns that energy;
-/// the responses are left evaluated at the chosen start.
-///
-/// `y*` is exact in free flight, but for a stiff body it can hold a large elastic energy
-/// (a pinned sheet's first row of bonds stretched by `h^2 g`); starting there, a step that runs
-/// out of iterations releases that energy as spurious motion. From `y_t` an unfinished step
-/// moves too little instead, which dissipates. `E(y*)` is the elastic energy `U(y*)`, and
-/// `E(y_t) >= m |y_t - y*|^2 / (2 h^2)`, so `y_t` is evaluated only when `U(y*)` exceeds that
-/// inertial term: most dynamic steps cost one kernel pass here, not two.
-fn initial_guess<T: Real>(
-    family: &mut dyn Family<T>,
-    h: T,
-    mode: Preconditioner,
-    colliders: &[ColliderModel<T>],
-) -> f64 {
-    push_iterate_out_of_colliders(family.points_mut(), colliders);
-    family.evaluate_energy(mode);
-    let at_prediction = family.total_energy(h);
-    let inertia_of_previous = family.inertial_energy_at_start(h);
-    if at_prediction <= inertia_of_previous {
-        return at_prediction;
-    }
-    let points = family.points_mut();
-    let (y_start, y_star, pinned) = (&points.y_start, &points.y_star, &points.pinned);
-    points.y.par_iter_mut().enumerate().for_each(|(i, y)| {
-        *y = if pinned[i] { y_star[i] } else { y_start[i] };
-    });
-    push_iterate_out_of_colliders(points, colliders);
-    family.evaluate(mode);
-    let at_previous = family.total_energy(h);
-    if at_previous < at_prediction {
-        at_previous
-    } else {
-        let points = family.points_mut();
-        points.y.copy_from_slice(&points.y_star);
-        push_iterate_out_of_colliders(points, colliders);
-        family.evaluate(mode);
-        at_prediction
     }
 }

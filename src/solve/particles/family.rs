@@ -39,6 +39,10 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
     fn total_energy(&mut self, h: T) -> f64 {
         inertial_energy(&mut self.points, h, false) + self.current.elastic_energy(&mut self.chunks)
     }
+    /// A body sliding on a collider starts from its coast ([`crate::solve::initial_guess`]).
+    fn coasts(&self) -> bool {
+        true
+    }
     fn global_move(&mut self, h: T, options: &MoveOptions<'_, T>) -> Update {
         self.complete();
         global_move(self, h, options)
