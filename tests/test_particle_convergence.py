@@ -301,7 +301,9 @@ def test_a_cube_sliding_fast_on_a_frictionless_floor_converges_as_at_rest(precis
     """An 8^3 cube of the benchmark's material settled on a frictionless Plane (8 steps of
     h = 1/30 s), then pushed along it at 3 and 30 m/s: its implicit Euler step is the coast
     `y_t + h v` (the floor carries the weight), and every one of 5 steps converges in 1
-    iteration, as at rest; the body keeps its speed along the floor, gains none across it or
+    iteration in f64, as at rest (in f32 at most 2: the particle frame's origin follows the
+    body, moving every cell of 0.125 m, and each move re-rounds the f32 positions, which a
+    step may take one more iteration to settle; measured 1, 1, 2, 1, 1 at 3 m/s); the body keeps its speed along the floor, gains none across it or
     off the floor (its mean velocity within 1e-6 m/s in f64, measured 6e-8; in f32 within
     2e-5 m/s, the velocity's resolution `eps |y| / h` 5 m from the origin, measured 1.9e-6)
     and stays on it (lowest particle at the margin, half a spacing, within 1e-6 m). Before (issue 38, round x), the prediction
@@ -320,7 +322,8 @@ def test_a_cube_sliding_fast_on_a_frictionless_floor_converges_as_at_rest(precis
         body.velocities = np.asarray(body.velocities) + [v, 0.0, 0.0]
         stats = [solver.step() for _ in range(5)]
         its = [s.iterations for s in stats]
-        assert all(s.converged for s in stats) and max(its) <= 1, (precision, v, its)
+        cap = {"f64": 1, "f32": 2}[precision]
+        assert all(s.converged for s in stats) and max(its) <= cap, (precision, v, its)
         mean = np.asarray(body.velocities).mean(axis=0)
         assert np.abs(mean - [v, 0.0, 0.0]).max() < slack, (precision, mean)
         assert abs(np.asarray(body.positions)[:, 2].min() - 0.1 / 16) < 1e-6

@@ -80,11 +80,15 @@ def test_an_f32_body_sliding_30_m_follows_f64():
     """The 6^3 cube slides 30 m from the origin on a frictionless floor (tol 1e-6 m); the
     frame follows it (its origin moves every 0.125 m). Measured, f32 against f64: every step
     converged in both, centroid 3.8e-5 m apart along x, 3.7e-6 m along y, 1.8e-9 m in height,
-    shape (positions about the centroid) 2.1e-7 m. The same scene kept in the world frame (a
+    shape (positions about the centroid) 2.1e-7 m; since the coast initial guess (round x:
+    f64 now slides in 1 iteration a step, exactly, 649 iterations in all, f32 in 1-4 as each
+    move of the frame re-rounds its positions, 1,191) centroid 2.9e-5 m apart along x, shape
+    5.7e-6 m: f32's steps stop within the tolerance of a shape f64 keeps exactly, so the shape
+    differs at the tolerance's scale. The same scene kept in the world frame (a
     membrane added 5 m away, which keeps the particles in the world frame): f32 hit the
     iteration cap at every step, centroid 2.9e-4 m apart along x, 5.3e-8 m in height, shape
     5.9e-6 m (f32 resolves 1.9e-6 m at 30 m). Asserted: every f32 step converged, centroid
-    within 1e-4 m along the floor and 1e-8 m in height, shape within 1e-6 m. (At the
+    within 1e-4 m along the floor and 1e-8 m in height, shape within 2e-5 m. (At the
     default tol 1e-4 m the centroids part by 6e-4 m along x, f64's own error being 2.3e-4 m:
     the solver's tolerance, not the frame, so the test tightens tol.)"""
     (x64, ok64), (x32, ok32) = slide("f64"), slide("f32")
@@ -93,7 +97,7 @@ def test_an_f32_body_sliding_30_m_follows_f64():
     assert c64[0] > 30.0, c64
     assert np.abs(c32[:2] - c64[:2]).max() < 1e-4, (c32, c64)
     assert abs(c32[2] - c64[2]) < 1e-8, (c32, c64)
-    assert np.abs((x32 - c32) - (x64 - c64)).max() < 1e-6
+    assert np.abs((x32 - c32) - (x64 - c64)).max() < 2e-5
 
 
 def particle_block(shift):
