@@ -436,3 +436,22 @@ def test_a_move_of_one_rounding_at_a_tiny_step_is_not_too_fast():
         for _ in range(3):
             s.step()
     assert np.all(np.isfinite(m.positions))
+
+
+def test_a_pinned_jump_whose_f32_velocity_overflows_is_a_divergence(mesh):
+    """A pinned cloth in f32 whose targets jump 1e36 m in a step of 1 ms: the velocity it
+    would store, 1e39 m/s, overflows f32 (the speed check is exempt for pinned points, not
+    the finiteness check): DivergenceError, the state kept; before, the step went through and
+    stored infinite velocities."""
+    v, t = mesh
+    m = membrane(v, t)
+    m.pin(np.arange(len(v)))
+    s = peridyn.Solver(dt=1e-3, precision="f32")
+    s.add(m)
+    m.pin_targets = m.pin_targets + [1e36, 0.0, 0.0]
+    x = m.positions
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", peridyn.PrecisionWarning)
+        with pytest.raises(peridyn.DivergenceError, match="non-finite"):
+            s.step()
+    assert np.array_equal(m.positions, x) and np.all(np.isfinite(m.velocities))

@@ -205,9 +205,13 @@ const ROUNDOFF_MOVES: f64 = 8.0;
 /// vertex its kernels flagged.
 pub(crate) fn step_speed<T: Real>(y: &Vector3<T>, y_start: &Vector3<T>, inv_h: f64) -> f64 {
     let epsilon = T::default_epsilon().to_f64();
+    // The velocity `finish` stores is in the solver's precision: a move whose velocity
+    // overflows it there (f32 above 3.4e38 m/s) is not finite, whatever f64 makes of it.
+    let stored = (y - y_start) * T::of(inv_h);
     let d = (y - y_start).map(|c| c.to_f64());
     let v = d * inv_h;
-    if !v.iter().all(|c| c.is_finite()) {
+    let stored_finite = stored.iter().all(|c| c.to_f64().is_finite());
+    if !(stored_finite && v.iter().all(|c| c.is_finite())) {
         return f64::INFINITY;
     }
     let largest = v.amax();
