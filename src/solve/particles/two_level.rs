@@ -25,8 +25,8 @@
 //! contact held in the coarse space, as the direct solver holds it, [`super::direct`]). A
 //! held particle enters the restriction with its settled move: the sweep's plus the last
 //! moves of the repulsion and of another family's reaction (the coupling's, which acts after
-//! the move), pushed out of the colliders (where it goes). At the fixed point these reactions
-//! take back the sweep's move (`y_next = y`), so the settled moves, the restriction and the
+//! the move), pushed out of the colliders with their friction (where it goes,
+//! [`super::settled_move`]). At the fixed point these reactions take back the sweep's move (`y_next = y`), so the settled moves, the restriction and the
 //! correction vanish there (with the sweep's move alone, the correction would pull a body
 //! resting on a cloth into it every iteration: docs/model.md has the measurements).
 //! The colliders, the repulsion and the translations' coarse problem
@@ -87,6 +87,7 @@ use crate::sparse_llt::SparseLlt;
 use super::contact_gap::contact_reach;
 use super::repulsion::Repulsion;
 use super::roundoff::residual_floor;
+use super::settled_move::out_of_colliders;
 
 /// No aggregate (a particle of a body that takes no part), or no slot (a bond whose entry is
 /// in the upper triangle or outside the coarse matrix).
@@ -108,7 +109,7 @@ pub(crate) struct TwoLevel {
     bond_slot: Vec<usize>,
     /// Per particle the sweep's residual `r - A delta_J` (kg m), and a held particle's
     /// settled move (m; module doc, "Held particles"): the sweep's plus the repulsion's and
-    /// another family's last moves, out of the colliders along their normals.
+    /// another family's last moves, out of the colliders along their normals with friction.
     remainder: Vec<Vector3<f64>>,
     held_move: Vec<Vector3<f64>>,
     /// Per aggregate the restricted residual `P^T (r - A delta_J)` (kg m), then the coarse
@@ -278,8 +279,9 @@ impl TwoLevel {
     /// pinned, touched in the last trial (`touched`), with another family's reaction
     /// (`coupled`, its last move, m), or within the contact reach of a collider at `y` or
     /// `y + delta`; and stores a held particle's settled move: the sweep's plus the
-    /// `repulsion`'s and the coupling's last moves, out of the colliders along their normals.
-    /// Then frees no particle of a body that holds none, that is within the contact reach
+    /// `repulsion`'s and the coupling's last moves, out of the colliders along their normals
+    /// with their friction ([`out_of_colliders`]). Then frees no particle of a body that holds
+    /// none, that is within the contact reach
     /// of one of its `repulsion` partners (another body's particle, at `y` or `y + delta`),
     /// or whose merit from the `residual` (kg m) at time step `h` (s) is below its round-off
     /// floor: module doc, "Who takes part" and "When".
@@ -297,6 +299,7 @@ impl TwoLevel {
         repulsion: Option<&Repulsion<T>>,
     ) {
         let aggregate = &self.aggregate;
+        let h2 = h * h;
         self.free
             .par_iter_mut()
             .zip(self.held_move.par_iter_mut())
@@ -312,20 +315,23 @@ impl TwoLevel {
                 let reaction = coupled.get(i).copied().unwrap_or_default();
                 let repelled = repulsion.map_or(Vector3::zeros(), |r| r.of_particle(i));
                 let to = points.y[i] + delta[i];
-                let mut moved = delta[i] + reaction + repelled;
-                let mut near = false;
-                for c in Points::colliders_of(&points.collides, i, colliders) {
-                    let gap = c.signed_distance(&to);
-                    near |= gap <= reach || c.signed_distance(&points.y[i]) <= reach;
-                    if gap < margin {
-                        moved += c.normal(&to) * (margin - gap);
-                    }
-                }
+                let colliders = Points::colliders_of(&points.collides, i, colliders);
+                let near = colliders.iter().any(|c| {
+                    c.signed_distance(&to) <= reach || c.signed_distance(&points.y[i]) <= reach
+                });
+                let (moved, _) = out_of_colliders(
+                    &points.y[i],
+                    &to,
+                    &points.y_start[i],
+                    delta[i] + reaction + repelled,
+                    margin,
+                    rest.diagonal(i, h2),
+                    colliders,
+                );
                 let held = near || touched[i] || reaction != Vector3::zeros();
                 *free = aggregate[i] != NONE && !held;
                 *held_move = moved.map(|c| c.to_f64());
             });
-        let h2 = h * h;
         for range in &points.ranges {
             if !self.free[range.clone()].iter().any(|&f| f) {
                 continue;
