@@ -313,6 +313,13 @@ impl<T: Real> ColliderModel<T> {
         self.rotation * self.shape.normal(&self.local(x))
     }
 
+    /// The unit outward normal at `x` where the surface is flat within `edge` (m) of the
+    /// point of it nearest `x` ([`ShapeModel::flat_normal`]), else `None`.
+    #[inline]
+    pub fn flat_normal(&self, x: &Vector3<T>, edge: T) -> Option<Vector3<T>> {
+        (self.shape.flat_normal(&self.local(x), edge)).map(|n| self.rotation * n)
+    }
+
     /// `x` itself when it is at least `margin` outside, else the point at distance `margin`
     /// along the normal.
     #[inline]
@@ -584,6 +591,35 @@ impl<T: Real> ShapeModel<T> {
                 }
             }
             Self::Mesh(ref grid, anchor) => grid.normal(&(wide(x) + anchor)).map(T::of),
+        }
+    }
+
+    /// The unit outward normal at `x` where it is the same at every point within `edge` (m)
+    /// of the surface's point nearest `x` (a plane anywhere; a box's face at least `edge`
+    /// from the face's edges), else `None` (a box near an edge or corner, a sphere, a capsule,
+    /// a mesh): a particle that slides along the surface keeps this normal
+    /// ([`crate::solve::particles`]' two-level correction, "Sliding particles").
+    #[inline]
+    pub fn flat_normal(&self, x: &Vector3<T>, edge: T) -> Option<Vector3<T>> {
+        match *self {
+            Self::Plane { normal, .. } => Some(normal),
+            Self::Box {
+                center,
+                half_extents,
+                axes,
+            } => {
+                let p = axes.transpose() * (x - center);
+                let q = p.abs() - half_extents;
+                let k = q.imax();
+                let on_face = (0..3).all(|j| j == k || q[j] <= -edge);
+                let sign = if p[k] < T::zero() {
+                    -T::one()
+                } else {
+                    T::one()
+                };
+                on_face.then(|| axes.column(k) * sign)
+            }
+            _ => None,
         }
     }
 

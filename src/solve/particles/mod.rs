@@ -21,6 +21,7 @@ mod grain_friction;
 mod plastic;
 mod repulsion;
 mod roundoff;
+mod sliding;
 mod static_friction;
 mod step;
 mod surface_tension;

@@ -33,6 +33,22 @@
 //! ([`super::coarse`], which keeps the contacts one-sided) follow. Since the correction is a
 //! Galerkin projection it leaves the fixed point `r = 0` alone.
 //!
+//! **Sliding particles.** A held particle whose only hold is one frictionless collider whose
+//! normal is the same over the contact ([`crate::collider::ColliderModel::flat_normal`]: a
+//! plane, a box's face away from its edges; no pin, no second collider within reach, no
+//! repulsion move, no other family's reaction) holds only its move along that collider's
+//! unit normal `n`: its row of `P` is `T = I - n n^T` in its aggregate's column, so the
+//! correction moves it along the collider (the contact layer spreading sideways under a
+//! landing body, which a held layer leaves to the sweep: its count grew with the particles
+//! a side; docs/performance.md, issue 38 rounds w, w2 and y). It enters the residual with
+//! its settled move (a held particle's, above) and the restriction and the post-smoothing
+//! through `T`; the coordinates then couple in the coarse matrix, three unknowns per
+//! aggregate ([`super::sliding`]). A frictional collider holds the particle whole (static
+//! friction takes the tangential move), and so does a curved one (a sphere, a capsule, a
+//! mesh, a box's edge): there the normal turns as the particle slides, and a factor kept
+//! with the old normals pulled a landing on a 2 m sphere off its fixed point (docs/model.md,
+//! round w2). A body that slides on nothing takes the scalar matrix and main's iterates.
+//!
 //! **Who takes part.** A body that holds no particle (no pin, no contact) takes no correction.
 //! The coarse matrix is the constant `A`, the tangent of eq. 12 only near the rest shape;
 //! where a large deformation makes the true tangent indefinite, the coarse step along the
@@ -87,10 +103,11 @@ use crate::sparse_llt::SparseLlt;
 use super::contact_gap::contact_reach;
 use super::repulsion::Repulsion;
 use super::roundoff::residual_floor;
+use super::sliding::{tangent, SlidingCoarse};
 
 /// No aggregate (a particle of a body that takes no part), or no slot (a bond whose entry is
 /// in the upper triangle or outside the coarse matrix).
-const NONE: usize = usize::MAX;
+pub(super) const NONE: usize = usize::MAX;
 
 /// The aggregates, the coarse matrix `P^T A P` and its factor for one time step and held set.
 pub(crate) struct TwoLevel {
@@ -106,6 +123,15 @@ pub(crate) struct TwoLevel {
     llt: SparseLlt,
     diagonal_slot: Vec<usize>,
     bond_slot: Vec<usize>,
+    /// The coarse matrix's lower triangle (pairs of aggregates `a >= b`, sorted): the pattern
+    /// of the blocked matrix when a particle slides.
+    lower: Vec<(usize, usize)>,
+    /// Per particle the unit normal of the flat frictionless collider it slides on in this
+    /// iteration (zero: free or held; module doc, "Sliding particles"), whether one does,
+    /// and the blocked coarse matrix (built at the first iteration one does).
+    normal: Vec<Vector3<f64>>,
+    slides: bool,
+    sliding: Option<SlidingCoarse>,
     /// Per particle the sweep's residual `r - A delta_J` (kg m), and a held particle's
     /// settled move (m; module doc, "Held particles"): the sweep's plus the repulsion's and
     /// another family's last moves, out of the colliders along their normals.
@@ -170,7 +196,7 @@ impl TwoLevel {
         }
         lower.sort_unstable();
         lower.dedup();
-        let llt = SparseLlt::new(count, lower, 3)
+        let llt = SparseLlt::new(count, lower.iter().copied(), 3)
             .map_err(|e| invalid!("the two-level coarse matrix's pattern failed: {e}"))?;
         let diagonal_slot = (0..count).map(|a| llt.slot(a, a)).collect();
         let mut bond_slot = vec![NONE; rest.indices.len()];
@@ -191,6 +217,10 @@ impl TwoLevel {
             llt,
             diagonal_slot,
             bond_slot,
+            lower,
+            normal: vec![Vector3::zeros(); n],
+            slides: false,
+            sliding: None,
             remainder: vec![Vector3::zeros(); n],
             held_move: vec![Vector3::zeros(); n],
             coarse: vec![Vector3::zeros(); count],
@@ -279,6 +309,8 @@ impl TwoLevel {
     /// (`coupled`, its last move, m), or within the contact reach of a collider at `y` or
     /// `y + delta`; and stores a held particle's settled move: the sweep's plus the
     /// `repulsion`'s and the coupling's last moves, out of the colliders along their normals.
+    /// A particle held by one flat frictionless collider alone slides on it (its normal at
+    /// `y + delta`; module doc, "Sliding particles").
     /// Then frees no particle of a body that holds none, that is within the contact reach
     /// of one of its `repulsion` partners (another body's particle, at `y` or `y + delta`),
     /// or whose merit from the `residual` (kg m) at time step `h` (s) is below its round-off
@@ -300,9 +332,11 @@ impl TwoLevel {
         self.free
             .par_iter_mut()
             .zip(self.held_move.par_iter_mut())
+            .zip(self.normal.par_iter_mut())
             .enumerate()
-            .for_each(|(i, (free, held_move))| {
+            .for_each(|(i, ((free, held_move), normal))| {
                 *held_move = Vector3::zeros();
+                *normal = Vector3::zeros();
                 if points.pinned[i] {
                     *free = false;
                     return;
@@ -313,17 +347,27 @@ impl TwoLevel {
                 let repelled = repulsion.map_or(Vector3::zeros(), |r| r.of_particle(i));
                 let to = points.y[i] + delta[i];
                 let mut moved = delta[i] + reaction + repelled;
-                let mut near = false;
+                let (mut near, mut flat) = (0, None);
                 for c in Points::colliders_of(&points.collides, i, colliders) {
                     let gap = c.signed_distance(&to);
-                    near |= gap <= reach || c.signed_distance(&points.y[i]) <= reach;
+                    if gap <= reach || c.signed_distance(&points.y[i]) <= reach {
+                        near += 1;
+                        flat = (c.friction == T::zero())
+                            .then(|| c.flat_normal(&to, reach))
+                            .flatten();
+                    }
                     if gap < margin {
                         moved += c.normal(&to) * (margin - gap);
                     }
                 }
-                let held = near || touched[i] || reaction != Vector3::zeros();
-                *free = aggregate[i] != NONE && !held;
+                let held = near > 0 || touched[i] || reaction != Vector3::zeros();
+                let unmoved = reaction == Vector3::zeros() && repelled == Vector3::zeros();
+                let slides = flat.filter(|_| near == 1 && unmoved && aggregate[i] != NONE);
+                *free = aggregate[i] != NONE && (!held || slides.is_some());
                 *held_move = moved.map(|c| c.to_f64());
+                if let Some(n) = slides {
+                    *normal = n.map(|c| c.to_f64()).normalize();
+                }
             });
         let h2 = h * h;
         for range in &points.ranges {
@@ -350,11 +394,14 @@ impl TwoLevel {
                     })
                 })
             });
-            let holds_none = self.free[range.clone()].iter().all(|&f| f);
+            let holds_none =
+                (range.clone()).all(|i| self.free[i] && self.normal[i] == Vector3::zeros());
             if merit <= floor || touches_a_body || holds_none {
                 self.free[range.clone()].fill(false);
+                self.normal[range.clone()].fill(Vector3::zeros());
             }
         }
+        self.slides = self.normal.iter().any(|n| *n != Vector3::zeros());
     }
 
     /// Adds the coarse-grid correction `P e` and one Jacobi post-smoothing sweep to the
@@ -372,10 +419,32 @@ impl TwoLevel {
             return Ok(());
         }
         let h2 = h.to_f64() * h.to_f64();
-        self.factor(rest, h.to_f64())?;
+        if self.slides {
+            let sliding = match &mut self.sliding {
+                Some(sliding) => sliding,
+                None => {
+                    (self.sliding).insert(SlidingCoarse::new(rest, &self.aggregate, &self.lower)?)
+                }
+            };
+            let (aggregate, free, normal) = (&self.aggregate, &self.free, &self.normal);
+            if sliding.factor(rest, aggregate, free, normal, h.to_f64())? {
+                self.factorizations += 1;
+            }
+        } else {
+            self.factor(rest, h.to_f64())?;
+        }
         {
-            let (free, held_move) = (&self.free, &self.held_move);
+            let (free, normal, held_move) = (&self.free, &self.normal, &self.held_move);
             let delta = &*delta;
+            // A particle's move in `r - A delta`: the sweep's where free and not sliding, else
+            // the settled one (module doc, "Held particles").
+            let settled = |j: usize| {
+                if free[j] && normal[j] == Vector3::zeros() {
+                    delta[j].map(|c| c.to_f64())
+                } else {
+                    held_move[j]
+                }
+            };
             self.remainder
                 .par_iter_mut()
                 .enumerate()
@@ -385,45 +454,63 @@ impl TwoLevel {
                     }
                     let mut coupled = Vector3::<f64>::zeros();
                     for b in rest.row(i) {
-                        let j = rest.indices[b] as usize;
-                        let d = if free[j] {
-                            delta[j].map(|c| c.to_f64())
-                        } else {
-                            held_move[j]
-                        };
-                        coupled += d * rest.coupling[b].to_f64();
+                        coupled += settled(rest.indices[b] as usize) * rest.coupling[b].to_f64();
                     }
                     // In f64 whatever the body's precision (mixed precision: the restriction
                     // sums some 30 nearly cancelling terms per aggregate).
                     let d_i = rest.mass[i].to_f64() + h2 * rest.stiffness[i].to_f64();
-                    let r = residual[i].map(|c| c.to_f64()) - delta[i].map(|c| c.to_f64()) * d_i;
+                    let r = residual[i].map(|c| c.to_f64()) - settled(i) * d_i;
                     *out = r + coupled * h2;
                 });
         }
         self.coarse.fill(Vector3::zeros());
         for (i, &a) in self.aggregate.iter().enumerate() {
-            if self.free[i] {
+            if !self.free[i] {
+                continue;
+            }
+            let n = &self.normal[i];
+            if *n == Vector3::zeros() {
                 self.coarse[a] += self.remainder[i];
+            } else {
+                self.coarse[a] += tangent(n) * self.remainder[i];
             }
         }
-        let rhs = self.llt.rhs_mut();
-        for c in 0..3 {
-            for (out, sum) in rhs.col_as_slice_mut(c).iter_mut().zip(&self.coarse) {
-                *out = sum[c];
+        match (self.slides, &mut self.sliding) {
+            (true, Some(sliding)) => sliding.solve(&mut self.coarse),
+            _ => {
+                let rhs = self.llt.rhs_mut();
+                for c in 0..3 {
+                    for (out, sum) in rhs.col_as_slice_mut(c).iter_mut().zip(&self.coarse) {
+                        *out = sum[c];
+                    }
+                }
+                self.llt.solve();
+                let x = self.llt.rhs();
+                let (x0, x1, x2) = (x.col_as_slice(0), x.col_as_slice(1), x.col_as_slice(2));
+                for (a, e) in self.coarse.iter_mut().enumerate() {
+                    *e = Vector3::new(x0[a], x1[a], x2[a]);
+                }
             }
         }
-        self.llt.solve();
-        let x = self.llt.rhs();
-        let (x0, x1, x2) = (x.col_as_slice(0), x.col_as_slice(1), x.col_as_slice(2));
-        for (a, e) in self.coarse.iter_mut().enumerate() {
-            *e = Vector3::new(x0[a], x1[a], x2[a]);
-        }
-        // The prolonged correction, then one Jacobi sweep on what it leaves,
-        // `r - A (delta_J + P e)`, at the free particles (post-smoothing: the piecewise-constant
-        // correction's jumps between aggregates are the sweep's to smooth).
-        let (coarse, aggregate, free, remainder) =
-            (&self.coarse, &self.aggregate, &self.free, &self.remainder);
-        let at = |i: usize| coarse[aggregate[i]];
+        // The prolonged correction `P e`, then one Jacobi sweep on what it leaves,
+        // `r - A (delta_J + P e)`, at the free particles and along the sliding ones' colliders
+        // (post-smoothing: the piecewise-constant correction's jumps between aggregates are
+        // the sweep's to smooth).
+        let (coarse, aggregate, free, normal, remainder) = (
+            &self.coarse,
+            &self.aggregate,
+            &self.free,
+            &self.normal,
+            &self.remainder,
+        );
+        let at = |i: usize| {
+            let (e, n) = (coarse[aggregate[i]], normal[i]);
+            if n == Vector3::zeros() {
+                e
+            } else {
+                e - n * n.dot(&e)
+            }
+        };
         delta.par_iter_mut().enumerate().for_each(|(i, d)| {
             if !free[i] {
                 return;
@@ -438,8 +525,17 @@ impl TwoLevel {
                 }
             }
             let left = remainder[i] - e * d_i + coupled * h2;
-            *d += (e + left / d_i).map(T::of);
+            let n = &normal[i];
+            if *n == Vector3::zeros() {
+                *d += (e + left / d_i).map(T::of);
+            } else {
+                *d += (e + tangent(n) * left / d_i).map(T::of);
+            }
         });
         Ok(())
     }
 }
+
+#[cfg(test)]
+#[path = "two_level_tests.rs"]
+mod tests;
