@@ -13,7 +13,7 @@
 //! where free particle `i` lies in aggregate `a`, 0 otherwise (the multiplicative two-level
 //! method with a Jacobi smoother; Vanek, Mandel and Brezina 1996 for the aggregation).
 //! `P^T A P` is formed from `A`'s entries (`(P^T A P)_ab = sum_(i in a, j in b) A_ij`, `i`
-//! and `j` free) and factored by a sparse Cholesky (AMD ordering, [`SparseLlt`]) when the time
+//! and `j` free) and factored by a sparse Cholesky (AMD ordering, [`AggregateMatrix`]) when the time
 //! step or the held set changes; each iteration then restricts the sweep's residual
 //! `r - A delta_J` (one pass over the bonds), solves for the three coordinates and prolongs.
 //!
@@ -42,8 +42,15 @@
 //! landing body, which a held layer leaves to the sweep: its count grew with the particles
 //! a side; docs/performance.md, issue 38 rounds w, w2 and y). It enters the residual with
 //! its settled move (a held particle's, above) and the restriction and the post-smoothing
-//! through `T`; the coordinates then couple in the coarse matrix, three unknowns per
-//! aggregate ([`super::sliding`]). A frictional collider holds the particle whole (static
+//! through `T`. All sliding particles share one normal (the first sliding particle's; one
+//! with another normal, on a second plane or another face of a box, is held whole): in the
+//! frame `Q = [t_1 t_2 n]` then `T = diag(1, 1, 0)`, and since `A` is the same for the three
+//! coordinates, `P^T A P` splits into the tangential coordinates' matrix, with the sliding
+//! particles free, and the normal coordinate's, with them held ([`AggregateMatrix`] each):
+//! the restricted residual is turned into `Q`, the first solves its three coordinates, the
+//! second the normal one, which replaces the first's, and the solution is turned back. An
+//! aggregate of sliding particles alone has a unit diagonal and a zero right-hand side in the
+//! normal coordinate. A frictional collider holds the particle whole (static
 //! friction takes the tangential move), and so does a curved one (a sphere, a capsule, a
 //! mesh, a box's edge): there the normal turns as the particle slides, and a factor kept
 //! with the old normals pulled a landing on a 2 m sphere off its fixed point (docs/model.md,
@@ -89,21 +96,21 @@
 //! step); their particles have no aggregate. When a plastic body's neighbourhoods change the
 //! family's bonds are renumbered, and the correction is built anew ([`super::plastic`]).
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use crate::collider::ColliderModel;
-use crate::error::{invalid, Result};
+use crate::error::Result;
+use crate::geometry::any_orthogonal_unit;
 use crate::parallel::chunked_sum;
 use crate::particles::ParticleRest;
 use crate::real::Real;
 use crate::solve::points::Points;
-use crate::sparse_llt::SparseLlt;
 
+use super::aggregate_matrix::AggregateMatrix;
 use super::contact_gap::contact_reach;
 use super::repulsion::Repulsion;
 use super::roundoff::residual_floor;
-use super::sliding::{tangent, SlidingCoarse};
 
 /// No aggregate (a particle of a body that takes no part), or no slot (a bond whose entry is
 /// in the upper triangle or outside the coarse matrix).
@@ -113,25 +120,24 @@ pub(super) const NONE: usize = usize::MAX;
 pub(crate) struct TwoLevel {
     /// Per particle its aggregate, or [`NONE`].
     aggregate: Vec<usize>,
-    /// The time step (s) and per particle whether it was free when last factored (`h = NaN`:
-    /// no factor yet), and this iteration's free set.
-    h: f64,
-    factored_free: Vec<bool>,
+    /// This iteration's free set (the sliding particles among them), and `P^T A P` for it
+    /// (three right-hand sides: the coordinates, or in the sliding frame the tangential ones).
     free: Vec<bool>,
-    /// `P^T A P` (right-hand sides `aggregates x 3`); per aggregate the slot of its diagonal
-    /// and per bond the slot of its entry (or [`NONE`]).
-    llt: SparseLlt,
-    diagonal_slot: Vec<usize>,
-    bond_slot: Vec<usize>,
+    matrix: AggregateMatrix,
     /// The coarse matrix's lower triangle (pairs of aggregates `a >= b`, sorted): the pattern
-    /// of the blocked matrix when a particle slides.
+    /// of the normal coordinate's matrix when particles slide.
     lower: Vec<(usize, usize)>,
     /// Per particle the unit normal of the flat frictionless collider it slides on in this
-    /// iteration (zero: free or held; module doc, "Sliding particles"), whether one does,
-    /// and the blocked coarse matrix (built at the first iteration one does).
+    /// iteration (zero: free or held; module doc, "Sliding particles"), the sliding
+    /// particles' common normal (zero: none slides) and its frame `Q = [t_1 t_2 n]`.
     normal: Vec<Vector3<f64>>,
-    slides: bool,
-    sliding: Option<SlidingCoarse>,
+    slide_normal: Vector3<f64>,
+    frame: Matrix3<f64>,
+    /// The free particles that do not slide, and the normal coordinate's matrix for them
+    /// with a copy of the restricted residuals it solves (built at the first iteration a
+    /// particle slides).
+    free_along: Vec<bool>,
+    along: Option<(AggregateMatrix, Vec<Vector3<f64>>)>,
     /// Per particle the sweep's residual `r - A delta_J` (kg m), and a held particle's
     /// settled move (m; module doc, "Held particles"): the sweep's plus the repulsion's and
     /// another family's last moves, out of the colliders along their normals.
@@ -196,31 +202,17 @@ impl TwoLevel {
         }
         lower.sort_unstable();
         lower.dedup();
-        let llt = SparseLlt::new(count, lower.iter().copied(), 3)
-            .map_err(|e| invalid!("the two-level coarse matrix's pattern failed: {e}"))?;
-        let diagonal_slot = (0..count).map(|a| llt.slot(a, a)).collect();
-        let mut bond_slot = vec![NONE; rest.indices.len()];
-        for i in 0..n {
-            let a = aggregate[i];
-            for b in rest.row(i) {
-                let c = aggregate[rest.indices[b] as usize];
-                if a != NONE && c != NONE && c <= a {
-                    bond_slot[b] = llt.slot(a, c);
-                }
-            }
-        }
+        let matrix = AggregateMatrix::new(rest, &aggregate, &lower, count, 3)?;
         Ok(Self {
             aggregate,
-            h: f64::NAN,
-            factored_free: vec![false; n],
             free: vec![false; n],
-            llt,
-            diagonal_slot,
-            bond_slot,
+            matrix,
             lower,
             normal: vec![Vector3::zeros(); n],
-            slides: false,
-            sliding: None,
+            slide_normal: Vector3::zeros(),
+            frame: Matrix3::identity(),
+            free_along: vec![false; n],
+            along: None,
             remainder: vec![Vector3::zeros(); n],
             held_move: vec![Vector3::zeros(); n],
             coarse: vec![Vector3::zeros(); count],
@@ -244,46 +236,6 @@ impl TwoLevel {
     /// Numeric factorisations since the last call (a measure for [`crate::solve::StepStats`]).
     pub fn take_factorizations(&mut self) -> usize {
         std::mem::take(&mut self.factorizations)
-    }
-
-    /// Fills `P^T A P` for the time step `h` (s) and the free set, and factors it, unless the
-    /// factor at hand is that one. An aggregate without a free particle keeps a unit diagonal
-    /// (its unknown is decoupled and its right-hand side zero).
-    fn factor<T: Real>(&mut self, rest: &ParticleRest<T>, h: f64) -> Result<()> {
-        if self.h == h && self.factored_free == self.free {
-            return Ok(());
-        }
-        let h2 = h * h;
-        let (aggregate, free) = (&self.aggregate, &self.free);
-        let values = self.llt.values_mut();
-        values.fill(0.0);
-        for i in 0..aggregate.len() {
-            let a = aggregate[i];
-            if a == NONE || !free[i] {
-                continue;
-            }
-            values[self.diagonal_slot[a]] +=
-                rest.mass[i].to_f64() + h2 * rest.stiffness[i].to_f64();
-            for b in rest.row(i) {
-                let slot = self.bond_slot[b];
-                if slot != NONE && free[rest.indices[b] as usize] {
-                    values[slot] -= h2 * rest.coupling[b].to_f64();
-                }
-            }
-        }
-        for &slot in &self.diagonal_slot {
-            if values[slot] == 0.0 {
-                values[slot] = 1.0;
-            }
-        }
-        self.h = f64::NAN;
-        self.factorizations += 1;
-        self.llt
-            .factor()
-            .map_err(|e| invalid!("the two-level coarse factorisation failed: {e}"))?;
-        self.h = h;
-        self.factored_free.copy_from_slice(&self.free);
-        Ok(())
     }
 
     /// The correction for the particle bodies `ranges` of the working set `rest`, if some
@@ -401,7 +353,29 @@ impl TwoLevel {
                 self.normal[range.clone()].fill(Vector3::zeros());
             }
         }
-        self.slides = self.normal.iter().any(|n| *n != Vector3::zeros());
+        self.share_normal();
+    }
+
+    /// Holds whole a sliding particle whose normal is not the first sliding particle's
+    /// (module doc, "Sliding particles"), and sets the common normal, its frame and the
+    /// free particles that do not slide.
+    fn share_normal(&mut self) {
+        let zero = Vector3::zeros();
+        let first = self.normal.iter().find(|n| **n != zero).copied();
+        self.slide_normal = first.unwrap_or(zero);
+        for (n, free) in self.normal.iter_mut().zip(&mut self.free) {
+            if *n != zero && *n != self.slide_normal {
+                (*n, *free) = (zero, false);
+            }
+        }
+        if let Some(n) = first {
+            let t = any_orthogonal_unit(&n);
+            self.frame = Matrix3::from_columns(&[t, n.cross(&t), n]);
+            for ((along, &free), n) in self.free_along.iter_mut().zip(&self.free).zip(&self.normal)
+            {
+                *along = free && *n == zero;
+            }
+        }
     }
 
     /// Adds the coarse-grid correction `P e` and one Jacobi post-smoothing sweep to the
@@ -419,19 +393,25 @@ impl TwoLevel {
             return Ok(());
         }
         let h2 = h.to_f64() * h.to_f64();
-        if self.slides {
-            let sliding = match &mut self.sliding {
-                Some(sliding) => sliding,
-                None => {
-                    (self.sliding).insert(SlidingCoarse::new(rest, &self.aggregate, &self.lower)?)
-                }
+        let slides = self.slide_normal != Vector3::zeros();
+        if self
+            .matrix
+            .factor(rest, &self.aggregate, &self.free, h.to_f64())?
+        {
+            self.factorizations += 1;
+        }
+        if slides {
+            let (aggregate, count) = (&self.aggregate, self.coarse.len());
+            let (along, _) = match &mut self.along {
+                Some(along) => along,
+                None => self.along.insert((
+                    AggregateMatrix::new(rest, aggregate, &self.lower, count, 1)?,
+                    vec![Vector3::zeros(); count],
+                )),
             };
-            let (aggregate, free, normal) = (&self.aggregate, &self.free, &self.normal);
-            if sliding.factor(rest, aggregate, free, normal, h.to_f64())? {
+            if along.factor(rest, aggregate, &self.free_along, h.to_f64())? {
                 self.factorizations += 1;
             }
-        } else {
-            self.factor(rest, h.to_f64())?;
         }
         {
             let (free, normal, held_move) = (&self.free, &self.normal, &self.held_move);
@@ -475,22 +455,21 @@ impl TwoLevel {
                 self.coarse[a] += tangent(n) * self.remainder[i];
             }
         }
-        match (self.slides, &mut self.sliding) {
-            (true, Some(sliding)) => sliding.solve(&mut self.coarse),
-            _ => {
-                let rhs = self.llt.rhs_mut();
-                for c in 0..3 {
-                    for (out, sum) in rhs.col_as_slice_mut(c).iter_mut().zip(&self.coarse) {
-                        *out = sum[c];
-                    }
+        match (slides, &mut self.along) {
+            (true, Some((along, normal_part))) => {
+                let q = self.frame;
+                for (c, out) in self.coarse.iter_mut().zip(normal_part.iter_mut()) {
+                    *c = q.tr_mul(c);
+                    *out = *c;
                 }
-                self.llt.solve();
-                let x = self.llt.rhs();
-                let (x0, x1, x2) = (x.col_as_slice(0), x.col_as_slice(1), x.col_as_slice(2));
-                for (a, e) in self.coarse.iter_mut().enumerate() {
-                    *e = Vector3::new(x0[a], x1[a], x2[a]);
+                self.matrix.solve(&mut self.coarse, 0);
+                along.solve(normal_part, 2);
+                for (c, normal) in self.coarse.iter_mut().zip(normal_part.iter()) {
+                    c.z = normal.z;
+                    *c = q * *c;
                 }
             }
+            _ => self.matrix.solve(&mut self.coarse, 0),
         }
         // The prolonged correction `P e`, then one Jacobi sweep on what it leaves,
         // `r - A (delta_J + P e)`, at the free particles and along the sliding ones' colliders
@@ -534,6 +513,12 @@ impl TwoLevel {
         });
         Ok(())
     }
+}
+
+/// `I - n n^T`: the prolongator row of a particle sliding on a collider of unit normal `n`.
+#[inline]
+fn tangent(n: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::identity() - n * n.transpose()
 }
 
 #[cfg(test)]
