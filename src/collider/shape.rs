@@ -607,18 +607,7 @@ impl<T: Real> ShapeModel<T> {
                 center,
                 half_extents,
                 axes,
-            } => {
-                let p = axes.transpose() * (x - center);
-                let q = p.abs() - half_extents;
-                let k = q.imax();
-                let on_face = (0..3).all(|j| j == k || q[j] <= -edge);
-                let sign = if p[k] < T::zero() {
-                    -T::one()
-                } else {
-                    T::one()
-                };
-                on_face.then(|| axes.column(k) * sign)
-            }
+            } => box_face_normal(x, &center, &half_extents, &axes, edge),
             _ => None,
         }
     }
@@ -646,6 +635,28 @@ impl<T: Real> ShapeModel<T> {
             x
         }
     }
+}
+
+/// The unit outward normal of the face of the box (`center`, `half_extents`, `axes`: its
+/// edge directions as columns; m) nearest `x`, where that face's point nearest `x` is at
+/// least `edge` (m) from the face's edges ([`ShapeModel::flat_normal`]).
+fn box_face_normal<T: Real>(
+    x: &Vector3<T>,
+    center: &Vector3<T>,
+    half_extents: &Vector3<T>,
+    axes: &Matrix3<T>,
+    edge: T,
+) -> Option<Vector3<T>> {
+    let offset = axes.tr_mul(&(x - center));
+    let outside = offset.abs() - half_extents;
+    let k = outside.imax();
+    let on_face = (0..3).all(|j| j == k || outside[j] <= -edge);
+    let sign = if offset[k] < T::zero() {
+        -T::one()
+    } else {
+        T::one()
+    };
+    on_face.then(|| axes.column(k) * sign)
 }
 
 /// The point of the segment `a`-`b` closest to `x`.
