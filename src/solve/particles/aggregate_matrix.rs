@@ -13,7 +13,9 @@ use crate::particles::ParticleRest;
 use crate::real::Real;
 use crate::sparse_llt::SparseLlt;
 
-use super::two_level::NONE;
+/// No aggregate (a particle of a body that takes no part), or no slot (a bond whose entry is
+/// in the upper triangle or outside the coarse matrix).
+pub(super) const NONE: usize = usize::MAX;
 
 /// The coarse matrix, its pattern and its factor for one time step and free set.
 pub(super) struct AggregateMatrix {

@@ -107,14 +107,10 @@ use crate::particles::ParticleRest;
 use crate::real::Real;
 use crate::solve::points::Points;
 
-use super::aggregate_matrix::AggregateMatrix;
+use super::aggregate_matrix::{AggregateMatrix, NONE};
 use super::contact_gap::contact_reach;
 use super::repulsion::Repulsion;
 use super::roundoff::residual_floor;
-
-/// No aggregate (a particle of a body that takes no part), or no slot (a bond whose entry is
-/// in the upper triangle or outside the coarse matrix).
-pub(super) const NONE: usize = usize::MAX;
 
 /// The aggregates, the coarse matrix `P^T A P` and its factor for one time step and held set.
 pub(crate) struct TwoLevel {
