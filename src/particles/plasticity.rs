@@ -269,18 +269,44 @@ impl PlasticLaw {
         }
     }
 
-    /// Sets each particle's [`RestBonds::volume`] anew from its bonds `bonds` (the returned
-    /// and rebuilt ones) at the positions `y` (m), given in `volumes` its volume `J_i` with the
-    /// step's bonds ([`Self::apply`]): `R_i = J_i / det F_i` ([`reanchored`]), so that `J_i`
-    /// changes only as the positions do. `volumes` is left holding the old ratios (a buffer
-    /// the next [`Self::apply`] refills).
-    pub fn reanchor(&self, bonds: &mut RestBonds, y: &[Vector3<f64>], volumes: &mut Vec<f64>) {
+    /// Re-anchors a body whose return keeps the rest volume on its bonds `bonds` (the
+    /// returned and rebuilt ones) at the positions `y` (m). First every bond is born again at
+    /// its reference length (`born = |X|`): the flowed neighbourhood is the body's reference
+    /// now, weighted and sprung as a fresh body's of that shape would be, so that a bond the
+    /// flow has stretched to `L` does not keep the weight `w(born)` and the springs
+    /// `~ w(born) / born^2` of a shorter one (its stiffness against strain, `k L^2`, would grow
+    /// as `(L / born)^2`: a hardening of the flow). Then each particle's
+    /// [`RestBonds::volume`] is set anew, given in `volumes` its volume `J_i` with the step's
+    /// bonds ([`Self::apply`]): `R_i = J_i / det F_i` with the new bonds and weights
+    /// ([`reanchored`]), so that `J_i` changes only as the positions do. `volumes` is left
+    /// holding the old ratios (a buffer the next [`Self::apply`] refills). Returns whether a
+    /// birth length changed (then the springs, and the global matrix, have).
+    pub fn reanchor(
+        &self,
+        bonds: &mut RestBonds,
+        y: &[Vector3<f64>],
+        volumes: &mut Vec<f64>,
+    ) -> bool {
+        let reborn = bonds
+            .born
+            .par_iter_mut()
+            .zip(&bonds.xi)
+            .map(|(born, xi)| {
+                let length = xi.norm();
+                let changed = length > 0.0 && length.is_finite() && *born != length;
+                if changed {
+                    *born = length;
+                }
+                changed
+            })
+            .reduce(|| false, |a, b| a || b);
         volumes.par_iter_mut().enumerate().for_each(|(i, v)| {
             let det = local_strain(bonds, i, y, self.delta, self.volume)
                 .map_or(0.0, |l| l.f.determinant());
             *v = reanchored(bonds.volume[i], *v, det);
         });
         std::mem::swap(&mut bonds.volume, volumes);
+        reborn
     }
 
     /// Every particle's yield measure at the positions `y` (m; `None` for a particle without

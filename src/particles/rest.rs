@@ -220,7 +220,8 @@ impl<T: Real> ParticleRest<T> {
     /// the bulk's energy density, so a thin body is neither softer nor stiffer than a thick
     /// one. Weights and springs
     /// come from the bonds' `born` lengths, so they, and the global matrix, stay as they are
-    /// while a plastic return moves the vectors `X` ([`super::rest_bonds`]). A plastic body's
+    /// while a plastic return moves the vectors `X` (but a flowing body's bonds are born anew
+    /// at each step's end: [`super::rest_bonds`]). A plastic body's
     /// bonds turn with each return, which would change direction-based factors (and the global
     /// matrix) at every step: its bonds are scaled by `(g_i + g_j) / 2` with `g_i = A / A_i`,
     /// the bulk lattice's weight sum over the particle's own, which depends on lengths only

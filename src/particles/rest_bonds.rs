@@ -11,7 +11,11 @@
 //! spring constants (`V_i V_j w / |xi|^2` times `mu`, `lam`: [`super::bond`]) are set from
 //! its reference length when it forms (`born`) and kept while the return moves `X`: the
 //! global matrix of eq. 12 then stays constant until the neighbours change, so the direct
-//! solver refactors only then. For an elastic body `born = |X|` and nothing differs.
+//! solver refactors only then. For an elastic body `born = |X|` and nothing differs. A body
+//! whose return keeps the rest volume (a cone without friction: a flow) has its bonds born
+//! again at `|X|` after every step's returns and rebuild
+//! ([`super::plasticity::PlasticLaw::reanchor`]): its flow moves the reference far from the
+//! lengths its bonds were born at.
 
 use nalgebra::Vector3;
 

@@ -158,8 +158,8 @@ class Solver:
         method="descent" or "newton" and inner_iters > 1 (ValueError).
     global_solver : how particle bodies solve the linear system of their global step (He et
         al. 2017, Fig. 7; membranes ignore it): "direct" (a sparse Cholesky factor of
-        ``M + h^2 L``, computed when dt or the pins change; exact solve per iteration; it does
-        not yet converge at collider contact), "jacobi" (``inner_iters`` Jacobi sweeps),
+        ``M + h^2 L``, computed when dt, the pins or a body's bonds change; an exact solve per
+        iteration, then the bodies' coarse correction at collider contact), "jacobi" (``inner_iters`` Jacobi sweeps),
         "chebyshev" (Jacobi with Chebyshev acceleration, ``chebyshev_rho`` when given, else
         0.99) or "position" (position-based averaging over
         bonds). Every one has the implicit Euler solution as its fixed point; each iteration's

@@ -32,9 +32,14 @@
 //! constraints are the linearisation of the distance, which underestimates it for a pair and
 //! for a convex collider, so a feasible `t` keeps the contacts; the collider projection and the
 //! repulsion that follow ([`super::step`]) correct the rest. A contact with a frictional
-//! collider that the sweep put within the margin (`g_c <= 0`) holds the body's tangential
-//! translation too (two equality constraints: the Coulomb cone is the fine iteration's), so
-//! the coarse step slides no body a collider sticks. Only the contacts that a translation of
+//! collider (coefficient `mu`) adds Coulomb friction
+//! ([`super::coarse_problem::Friction`]): a tangential reaction within `mu` times the
+//! contact's normal multiplier that stops the particle's slip over the step (from its start
+//! position, relative to the collider's material point, at its settled position moved by
+//! `t_a`) where it can, and otherwise opposes it on the cone's edge: the fine projection's
+//! friction ([`crate::collider::push_out_with_friction`]) on the body's translation, so that a
+//! body sliding on a frictional floor decelerates by `mu g h^2` in one coarse solve instead of
+//! by the sweep's `m_i / D_i` of it. Only the contacts that a translation of
 //! at most `|t_b| <= sqrt(sum_c M_c |t0_c|^2 / M_b)` can reach enter (`t0 = F / M` the
 //! unconstrained solution; the solution is the `M`-projection of `t0` onto a convex set that
 //! holds `t = 0`, so its `M`-norm is at most `t0`'s).
@@ -44,20 +49,25 @@
 //! **Fixed point.** The residual is taken at the settled moves `s_i`: the sweep's move, the
 //! repulsion's answer to it and the push out of the colliders along their normals, where the
 //! projection that follows will put the particle. At the fixed point the projection takes
-//! back the sweep's move (`s = 0`), the residual is the contacts' reactions, `r_i = -D_i c_i`
+//! back the sweep's move (`s = 0`, the friction's tangential correction included), the
+//! residual is the contacts' reactions, `r_i = -D_i c_i`
 //! with `c_i` the particle's projection move (`D_i = m_i + h^2 L_ii`, kg), and the repulsion's
 //! reactions are pairwise equal and opposite (they share in the Jacobi metric): so
 //! `F_b = sum_c lambda_c n_c` holds with `t = 0` and the multipliers of the projection,
 //! `lambda_c = D_i (margin - gap)` at a collider and `D_i D_j / (D_i + D_j)` times the overlap
 //! at a pair (the share of [`super::repulsion::Repulsion::share`]), the gaps at the sweep's
-//! positions. The solve starts from these multipliers, so at the fixed point it starts at its
+//! positions, and the friction's `D_i` times its tangential correction (within the cone by
+//! construction; a particle's first frictional contact takes it). The solve starts from these multipliers, so at the fixed point it starts at its
 //! solution and moves nothing, whatever the number of sweeps; elsewhere they are a warm start.
 //! (From the sweep's moves, `F_b = sum_i (r_i - m_i delta_i)`, and from zero multipliers, the
 //! redundant contacts of bodies in contact are not solved within the sweeps, and the
 //! translation left at an unconverged step carries momentum: docs/model.md, round s.) A
 //! granular body and one with fluid particles keep the sweep's moves and start their contacts
 //! from zero: their pairs share by mass and carry friction, whose reactions are not the coarse
-//! problem's rows (docs/model.md); the repulsion answers the sweep's move for the settled
+//! problem's rows (docs/model.md); and a frictional collider that the sweep put within their
+//! margin holds their tangential translation at zero ([`Friction::sticking`]; a dry and a wet
+//! pile's runout and rest were measured that way, their grains' own slide on the floor being
+//! the fine iteration's); the repulsion answers the sweep's move for the settled
 //! moves only where two solid bodies may touch.
 //!
 //! **Who takes part.** A body with a pinned particle, or with a particle that another family
@@ -81,7 +91,8 @@ use crate::collider::ColliderModel;
 use crate::real::Real;
 use crate::solve::points::Points;
 
-use super::coarse_problem::{Coarse, Contact};
+use super::coarse_problem::{Coarse, Contact, Friction};
+use super::settled_move::out_of_colliders;
 use super::system::ParticleSystem;
 
 /// Adds every body's coarse translation (module doc) to `sys.delta`, the fine sweep's move
@@ -108,7 +119,8 @@ pub(crate) fn correct<T: Real>(
 /// Every particle's settled move `s_i` (m; module doc, "Fixed point"): in a solid body the
 /// sweep's move, the repulsion's answer to it (its [`super::repulsion::Repulsion::correct`] at
 /// `y + delta` in the Jacobi metric of time step squared `h2`, s^2, when two solid bodies
-/// may touch) and out of the colliders along their normals, zero for a pinned particle; in a
+/// may touch) and out of the colliders along their normals with their friction
+/// ([`out_of_colliders`], its reaction kept in `coarse.friction`), zero for a pinned particle; in a
 /// granular body or one with fluid particles the sweep's move.
 fn settle<T: Real>(
     sys: &mut ParticleSystem<T>,
@@ -122,16 +134,19 @@ fn settle<T: Real>(
         repulsion.correct(&sys.points, &sys.delta, T::one(), |i| rest.diagonal(i, h2));
     }
     let repulsion = sys.repulsion.as_ref().filter(|_| solid_pairs);
-    let (points, delta) = (&sys.points, &sys.delta);
+    let (points, delta, rest) = (&sys.points, &sys.delta, &sys.rest);
     coarse.settled.resize(points.y.len(), Vector3::zeros());
+    coarse.friction.resize(points.y.len(), Vector3::zeros());
     for (range, &solid) in points.ranges.iter().zip(&coarse.solid) {
         let start = range.start;
         coarse.settled[range.clone()]
             .par_iter_mut()
+            .zip(coarse.friction[range.clone()].par_iter_mut())
             .enumerate()
-            .for_each(|(k, settled)| {
+            .for_each(|(k, (settled, friction))| {
                 let i = start + k;
                 *settled = delta[i].map(|c| c.to_f64());
+                *friction = Vector3::zeros();
                 if !solid {
                     return;
                 }
@@ -140,15 +155,19 @@ fn settle<T: Real>(
                     return;
                 }
                 let to = points.y[i] + delta[i];
-                let mut moved = delta[i] + repulsion.map_or(Vector3::zeros(), |r| r.of_particle(i));
-                let margin = points.margin[i];
-                for c in Points::colliders_of(&points.collides, i, colliders) {
-                    let gap = c.signed_distance(&to);
-                    if gap < margin {
-                        moved += c.normal(&to) * (margin - gap);
-                    }
-                }
+                let moved = delta[i] + repulsion.map_or(Vector3::zeros(), |r| r.of_particle(i));
+                let colliders = Points::colliders_of(&points.collides, i, colliders);
+                let (moved, reaction) = out_of_colliders(
+                    &points.y[i],
+                    &to,
+                    &points.y_start[i],
+                    moved,
+                    points.margin[i],
+                    rest.diagonal(i, h2),
+                    colliders,
+                );
                 *settled = moved.map(|c| c.to_f64());
+                *friction = reaction.map(|c| c.to_f64());
             });
     }
 }
@@ -207,7 +226,10 @@ fn gather_contacts<T: Real>(
         solid,
         inverse_mass,
         contacts,
+        frictions,
         collider_gap,
+        settled,
+        friction,
         ..
     } = coarse;
     let reach = |b: usize| (energy * inverse_mass[b]).sqrt();
@@ -226,6 +248,7 @@ fn gather_contacts<T: Real>(
             }
         });
     contacts.clear();
+    frictions.clear();
     for (a, range) in points.ranges.iter().enumerate() {
         if inverse_mass[a] == 0.0 {
             continue;
@@ -238,6 +261,7 @@ fn gather_contacts<T: Real>(
             } else {
                 &[]
             };
+            let mut friction_start = friction[i];
             for c in near {
                 let gap = (c.signed_distance(&p) - points.margin[i]).to_f64();
                 if gap >= s_a {
@@ -249,15 +273,20 @@ fn gather_contacts<T: Real>(
                 } else {
                     0.0
                 };
-                contacts
-                    .push(Contact::new(a, None, n, -gap.max(0.0), false).starting_from(reaction));
-                if c.friction > T::zero() && gap <= 0.0 {
-                    let u = n
-                        .cross(&Vector3::x())
-                        .try_normalize(0.5)
-                        .unwrap_or_else(|| n.cross(&Vector3::y()).normalize());
-                    contacts.push(Contact::new(a, None, u, 0.0, true));
-                    contacts.push(Contact::new(a, None, n.cross(&u), 0.0, true));
+                contacts.push(Contact::new(a, None, n, -gap.max(0.0)).starting_from(reaction));
+                if c.friction > T::zero() && !solid[a] {
+                    if gap <= 0.0 {
+                        let normal = contacts.len() - 1;
+                        frictions.push(Friction::sticking(a, normal, &n));
+                    }
+                } else if c.friction > T::zero() {
+                    let at = points.y[i] + settled[i].map(T::of);
+                    let slip = ((at - points.y_start[i]) - c.displacement(&at)).map(|x| x.to_f64());
+                    let slip_t = slip - n * n.dot(&slip);
+                    let mu = c.friction.to_f64();
+                    let normal = contacts.len() - 1;
+                    frictions.push(Friction::new(a, normal, &n, &slip_t, mu, &friction_start));
+                    friction_start = Vector3::zeros();
                 }
             }
             let Some(repulsion) = &sys.repulsion else {
@@ -285,7 +314,7 @@ fn gather_contacts<T: Real>(
                 } else {
                     0.0
                 };
-                contacts.push(Contact::new(a, b, n, -gap.max(0.0), false).starting_from(reaction));
+                contacts.push(Contact::new(a, b, n, -gap.max(0.0)).starting_from(reaction));
             }
         }
     }

@@ -4,11 +4,21 @@
 use approx::assert_relative_eq;
 use nalgebra::Vector3;
 
-use super::{Coarse, Contact};
+use super::{Coarse, Contact, Friction};
 
 /// A problem of bodies of masses `mass` (kg) and net residuals `force` (kg m) with `contacts`,
 /// solved from `t0 = F / M` as [`super::super::coarse`] starts it.
 fn solved(mass: &[f64], force: &[Vector3<f64>], contacts: Vec<Contact>) -> Coarse {
+    solved_with_friction(mass, force, contacts, Vec::new())
+}
+
+/// [`solved`] with Coulomb `frictions` at the contacts.
+fn solved_with_friction(
+    mass: &[f64],
+    force: &[Vector3<f64>],
+    contacts: Vec<Contact>,
+    frictions: Vec<Friction>,
+) -> Coarse {
     let mut coarse = Coarse::new(vec![true; mass.len()]);
     for (b, (&m, f)) in mass.iter().zip(force).enumerate() {
         coarse.inverse_mass[b] = 1.0 / m;
@@ -16,6 +26,7 @@ fn solved(mass: &[f64], force: &[Vector3<f64>], contacts: Vec<Contact>) -> Coars
         coarse.translation[b] = f / m;
     }
     coarse.contacts = contacts;
+    coarse.frictions = frictions;
     coarse.solve();
     coarse
 }
@@ -31,8 +42,10 @@ fn relative(coarse: &Coarse, c: &Contact) -> f64 {
 }
 
 /// Asserts the KKT conditions to `1e-10` relative: stationarity `M_b t_b - F_b = sum_c
-/// lambda_c n_c` (`+` where `b` is the contact's `a`, `-` where it is its `b`), feasibility,
-/// `lambda >= 0` of an inequality and complementarity `lambda_c (n . (t_a - t_b) - bound) = 0`.
+/// lambda_c n_c + sum_f phi_f` (`+` where `b` is the contact's `a`, `-` where it is its `b`),
+/// feasibility, `lambda >= 0` and complementarity `lambda_c (n . (t_a - t_b) - bound) = 0`,
+/// and Coulomb's law at each friction: `|phi| <= mu lambda`, the slip `s + t_a` zero inside
+/// the cone and opposed by `phi` on its edge.
 fn assert_kkt(coarse: &Coarse) {
     let n = coarse.translation.len();
     let scale_t = coarse
@@ -49,15 +62,32 @@ fn assert_kkt(coarse: &Coarse) {
             reaction[b] -= c.n * c.lambda;
         }
         let slack = relative(coarse, c) - c.bound;
-        if c.equality {
-            assert!(slack.abs() <= 1e-10 * scale_t, "equality off by {slack}");
-        } else {
-            assert!(slack >= -1e-10 * scale_t, "contact violated by {slack}");
-            assert!(c.lambda >= 0.0, "negative multiplier {}", c.lambda);
+        assert!(slack >= -1e-10 * scale_t, "contact violated by {slack}");
+        assert!(c.lambda >= 0.0, "negative multiplier {}", c.lambda);
+        assert!(
+            (c.lambda * slack).abs() <= 1e-10 * scale_f * scale_t,
+            "complementarity {} x {slack}",
+            c.lambda
+        );
+    }
+    for f in &coarse.frictions {
+        let phi = f.reaction();
+        reaction[f.a] += phi;
+        let bound = f.bound(coarse.contacts[f.normal].lambda);
+        assert!(
+            phi.norm() <= bound * (1.0 + 1e-12),
+            "outside the cone: {phi}"
+        );
+        let t = &coarse.translation[f.a];
+        let slip = f.tangents[0] * (f.slip[0] + f.tangents[0].dot(t))
+            + f.tangents[1] * (f.slip[1] + f.tangents[1].dot(t));
+        if phi.norm() < bound * (1.0 - 1e-9) {
+            assert!(slip.norm() <= 1e-10 * scale_t, "sticks but slips {slip}");
+        } else if slip.norm() > 1e-10 * scale_t {
+            let opposed = phi + slip.normalize() * bound;
             assert!(
-                (c.lambda * slack).abs() <= 1e-10 * scale_f * scale_t,
-                "complementarity {} x {slack}",
-                c.lambda
+                opposed.norm() <= 1e-9 * scale_f,
+                "slides along {slip}, friction {phi}"
             );
         }
     }
@@ -80,7 +110,7 @@ fn m_norm2(mass: &[f64], t: &[Vector3<f64>]) -> f64 {
 fn body_pushed_into_a_plane_stops_at_the_gap_and_keeps_its_tangential_move() {
     // A body of 2 kg, 1 m above a plane z = 0, asked to move by (1, 0.5, -4) m.
     let force = [v(1.0, 0.5, -4.0) * 2.0];
-    let plane = Contact::new(0, None, Vector3::z(), -1.0, false);
+    let plane = Contact::new(0, None, Vector3::z(), -1.0);
     let coarse = solved(&[2.0], &force, vec![plane]);
     assert_relative_eq!(coarse.translation[0], v(1.0, 0.5, -1.0), epsilon = 1e-12);
     // The plane pushes with `lambda = M (t_n - t0_n) = 2 x 3` (N s^2).
@@ -99,7 +129,7 @@ fn two_free_bodies_pressed_together_keep_their_momentum_and_close_the_gap() {
     // Body 0 (1 kg) lies 0.5 m along +x of body 1 (3 kg); the normal points from 1 to 0.
     let mass = [1.0, 3.0];
     let force = [v(-2.0, 1.0, 0.0), v(1.0, 0.0, 0.0) * 3.0];
-    let pair = Contact::new(0, Some(1), Vector3::x(), -0.5, false);
+    let pair = Contact::new(0, Some(1), Vector3::x(), -0.5);
     let coarse = solved(&mass, &force, vec![pair]);
     let t = &coarse.translation;
     // Momentum along x: t_0 + 3 t_1 = -2 + 3 with t_0 - t_1 = -0.5.
@@ -115,25 +145,39 @@ fn two_free_bodies_pressed_together_keep_their_momentum_and_close_the_gap() {
     assert_kkt(&coarse);
 }
 
+/// A body of 4 kg resting on a plane `z = 0` with friction 0.5 at one particle whose slip
+/// over the step so far is `slip` (m), asked to move by `t0` (m).
+fn on_a_rough_plane(t0: Vector3<f64>, slip: Vector3<f64>) -> Coarse {
+    let plane = Contact::new(0, None, Vector3::z(), 0.0);
+    let friction = Friction::new(0, 0, &Vector3::z(), &slip, 0.5, &Vector3::zeros());
+    solved_with_friction(&[4.0], &[t0 * 4.0], vec![plane], vec![friction])
+}
+
 #[test]
-fn frictional_equalities_hold_the_tangential_translation_at_zero() {
-    // A body resting on a frictional plane (gap 0): normal contact and two tangential
-    // equalities, as `gather_contacts` builds them.
-    let contacts = vec![
-        Contact::new(0, None, Vector3::z(), 0.0, false),
-        Contact::new(0, None, Vector3::x(), 0.0, true),
-        Contact::new(0, None, Vector3::y(), 0.0, true),
-    ];
-    // Pushed into the plane and along it: it does not move; the equalities pull back against
-    // +x (a negative multiplier) and push against -y.
-    let coarse = solved(&[4.0], &[v(3.0, -2.0, -1.0) * 4.0], contacts.clone());
-    assert_relative_eq!(coarse.translation[0], Vector3::zeros(), epsilon = 1e-12);
-    assert_relative_eq!(coarse.contacts[1].lambda, -12.0, epsilon = 1e-12);
-    assert_relative_eq!(coarse.contacts[2].lambda, 8.0, epsilon = 1e-12);
+fn friction_within_the_cone_stops_the_slip() {
+    // Pushed into the plane by 1 m and along it by (0.3, -0.2) with a slip of (0.1, 0.05):
+    // stopping it takes a tangential reaction 4 |(0.4, -0.15)| = 1.71 within 0.5 x 4.
+    let coarse = on_a_rough_plane(v(0.3, -0.2, -1.0), v(0.1, 0.05, 0.0));
+    assert_relative_eq!(coarse.translation[0], v(-0.1, -0.05, 0.0), epsilon = 1e-12);
+    assert_relative_eq!(coarse.contacts[0].lambda, 4.0, epsilon = 1e-12);
+    assert_relative_eq!(
+        coarse.frictions[0].reaction(),
+        v(-1.6, 0.6, 0.0),
+        epsilon = 1e-12
+    );
     assert_kkt(&coarse);
-    // Lifted off it: only the normal move remains.
-    let coarse = solved(&[4.0], &[v(3.0, -2.0, 5.0) * 4.0], contacts);
-    assert_relative_eq!(coarse.translation[0], v(0.0, 0.0, 5.0), epsilon = 1e-12);
+}
+
+#[test]
+fn friction_beyond_the_cone_slows_the_slide_by_mu_times_the_normal_move() {
+    // A slide of 3 m along x pressed by 0.2 m: friction takes 0.5 x 0.2 off the slide and
+    // nothing across it.
+    let coarse = on_a_rough_plane(v(3.0, 0.0, -0.2), v(0.0, 0.0, 0.0));
+    assert_relative_eq!(coarse.translation[0], v(2.9, 0.0, 0.0), epsilon = 1e-12);
+    assert_kkt(&coarse);
+    // Lifted off the plane it slides freely.
+    let coarse = on_a_rough_plane(v(3.0, 1.0, 0.5), v(0.2, 0.0, 0.0));
+    assert_relative_eq!(coarse.translation[0], v(3.0, 1.0, 0.5), epsilon = 1e-12);
     assert_kkt(&coarse);
 }
 
@@ -163,13 +207,7 @@ fn stack() -> (Vec<f64>, Vec<Vector3<f64>>, Vec<Contact>) {
             ) * mass[b]
         })
         .collect();
-    let floor = Contact::new(
-        0,
-        None,
-        tilted(Vector3::z(), 1),
-        -0.05 * (1.0 + wave(1)),
-        false,
-    );
+    let floor = Contact::new(0, None, tilted(Vector3::z(), 1), -0.05 * (1.0 + wave(1)));
     let mut contacts = vec![floor];
     for b in 1..4 {
         let gap = 0.02 * (1.0 + wave(b + 1));
@@ -178,10 +216,9 @@ fn stack() -> (Vec<f64>, Vec<Vector3<f64>>, Vec<Contact>) {
             Some(b - 1),
             tilted(Vector3::z(), b + 1),
             -gap,
-            false,
         ));
     }
-    contacts.push(Contact::new(2, None, tilted(-Vector3::x(), 5), 0.0, false));
+    contacts.push(Contact::new(2, None, tilted(-Vector3::x(), 5), 0.0));
     (mass, force, contacts)
 }
 

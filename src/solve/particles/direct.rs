@@ -14,7 +14,11 @@
 //! converges (Varga, Matrix Iterative Analysis, Theorem 3.13). A particle that rests on a
 //! collider must be held: the coupled solve would otherwise spread the collider's support into
 //! the free particles, and the projection that stops the supported particle cannot take it back
-//! (the iteration diverged at the first contact).
+//! (the iteration diverged at the first contact). A held contact's friction so acts on that
+//! particle alone, and a body sliding on a collider would feel a small part of it (its held
+//! layer's share through the bonds each iteration); the move is therefore followed, as the
+//! Jacobi sweep is, by the bodies' coarse correction (`super::coarse`), whose translations
+//! carry the contacts' tangential reactions within their Coulomb cones to the whole body.
 //!
 //! The pattern of the whole matrix and its symbolic factorisation are computed once; a change
 //! of the time step or of the held set only refills the values (held couplings as explicit

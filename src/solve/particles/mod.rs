@@ -22,6 +22,7 @@ mod grain_friction;
 mod plastic;
 mod repulsion;
 mod roundoff;
+mod settled_move;
 mod static_friction;
 mod step;
 mod surface_tension;

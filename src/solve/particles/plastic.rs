@@ -209,7 +209,8 @@ impl PlasticBodies {
         for entry in &mut self.entries {
             if let Some(law) = entry.law.filter(|l| l.anchored) {
                 let y = &y[entry.range.clone()];
-                law.reanchor(&mut entry.bonds, y, &mut entry.volumes);
+                // Bonds born anew change the springs, and with them the global matrix.
+                changed |= law.reanchor(&mut entry.bonds, y, &mut entry.volumes);
             }
         }
         let sources: Vec<(&RestBonds, RestConstants, Option<&[f64]>)> = self

@@ -81,15 +81,16 @@ pub(crate) fn global_move<T: Real>(
     match options.global_solver {
         GlobalSolver::Jacobi | GlobalSolver::Chebyshev => {
             jacobi(sys, h2, options.inner_iters);
-            let coarse_started = Instant::now();
-            coarse::correct(sys, options.colliders, options.contact_reaction, h2);
-            sys.timings.coarse += millis(coarse_started);
+            coarse_correction(sys, h2, options);
             let two_level_started = Instant::now();
             two_level_correction(sys, h, options.colliders, options.contact_reaction);
             sys.timings.two_level += millis(two_level_started);
         }
         GlobalSolver::Position => position_averaging(sys, h2),
-        GlobalSolver::Direct => direct_move(sys, h, options.colliders),
+        GlobalSolver::Direct => {
+            direct_move(sys, h, options.colliders);
+            coarse_correction(sys, h2, options);
+        }
     }
     sys.timings.solve += millis(started);
     let omega = sys.chebyshev.next(merit);
@@ -103,6 +104,17 @@ pub(crate) fn global_move<T: Real>(
         repulsion.accept();
     }
     update
+}
+
+/// The bodies' coarse correction ([`coarse::correct`]) after the move of a Jacobi sweep or of
+/// the direct solver, timed: it carries each body's net residual as a rigid translation and
+/// rotation, and each frictional contact's tangential reaction within its Coulomb cone, which
+/// neither the sweep's local moves nor the direct solver's held contacts (their own Jacobi
+/// moves, see [`DirectSolver`]) carry to the whole body (time step squared `h2`, s^2).
+fn coarse_correction<T: Real>(sys: &mut ParticleSystem<T>, h2: T, options: &MoveOptions<'_, T>) {
+    let started = Instant::now();
+    coarse::correct(sys, options.colliders, options.contact_reaction, h2);
+    sys.timings.coarse += millis(started);
 }
 
 /// Readies the direct solver for a step: the matrix's pattern and symbolic factor on the

@@ -25,8 +25,8 @@
 //! contact held in the coarse space, as the direct solver holds it, [`super::direct`]). A
 //! held particle enters the restriction with its settled move: the sweep's plus the last
 //! moves of the repulsion and of another family's reaction (the coupling's, which acts after
-//! the move), pushed out of the colliders (where it goes). At the fixed point these reactions
-//! take back the sweep's move (`y_next = y`), so the settled moves, the restriction and the
+//! the move), pushed out of the colliders with their friction (where it goes,
+//! [`super::settled_move`]). At the fixed point these reactions take back the sweep's move (`y_next = y`), so the settled moves, the restriction and the
 //! correction vanish there (with the sweep's move alone, the correction would pull a body
 //! resting on a cloth into it every iteration: docs/model.md has the measurements).
 //! The colliders, the repulsion and the translations' coarse problem
@@ -111,6 +111,7 @@ use super::aggregate_matrix::{AggregateMatrix, NONE};
 use super::contact_gap::contact_reach;
 use super::repulsion::Repulsion;
 use super::roundoff::residual_floor;
+use super::settled_move::out_of_colliders;
 
 /// The aggregates, the coarse matrix `P^T A P` and its factor for one time step and held set.
 pub(crate) struct TwoLevel {
@@ -136,7 +137,7 @@ pub(crate) struct TwoLevel {
     along: Option<(AggregateMatrix, Vec<Vector3<f64>>)>,
     /// Per particle the sweep's residual `r - A delta_J` (kg m), and a held particle's
     /// settled move (m; module doc, "Held particles"): the sweep's plus the repulsion's and
-    /// another family's last moves, out of the colliders along their normals.
+    /// another family's last moves, out of the colliders along their normals with friction.
     remainder: Vec<Vector3<f64>>,
     held_move: Vec<Vector3<f64>>,
     /// Per aggregate the restricted residual `P^T (r - A delta_J)` (kg m), then the coarse
@@ -256,10 +257,10 @@ impl TwoLevel {
     /// pinned, touched in the last trial (`touched`), with another family's reaction
     /// (`coupled`, its last move, m), or within the contact reach of a collider at `y` or
     /// `y + delta`; and stores a held particle's settled move: the sweep's plus the
-    /// `repulsion`'s and the coupling's last moves, out of the colliders along their normals.
-    /// A particle held by one flat frictionless collider alone slides on it (its normal at
-    /// `y + delta`; module doc, "Sliding particles").
-    /// Then frees no particle of a body that holds none, that is within the contact reach
+    /// `repulsion`'s and the coupling's last moves, out of the colliders along their normals
+    /// with their friction ([`out_of_colliders`]). A particle held by one flat frictionless
+    /// collider alone slides on it (its normal at `y + delta`; module doc, "Sliding
+    /// particles"). Then frees no particle of a body that holds none, that is within the contact reach
     /// of one of its `repulsion` partners (another body's particle, at `y` or `y + delta`),
     /// or whose merit from the `residual` (kg m) at time step `h` (s) is below its round-off
     /// floor: module doc, "Who takes part" and "When".
@@ -277,6 +278,7 @@ impl TwoLevel {
         repulsion: Option<&Repulsion<T>>,
     ) {
         let aggregate = &self.aggregate;
+        let h2 = h * h;
         self.free
             .par_iter_mut()
             .zip(self.held_move.par_iter_mut())
@@ -294,20 +296,25 @@ impl TwoLevel {
                 let reaction = coupled.get(i).copied().unwrap_or_default();
                 let repelled = repulsion.map_or(Vector3::zeros(), |r| r.of_particle(i));
                 let to = points.y[i] + delta[i];
-                let mut moved = delta[i] + reaction + repelled;
+                let colliders = Points::colliders_of(&points.collides, i, colliders);
                 let (mut near, mut flat) = (0, None);
-                for c in Points::colliders_of(&points.collides, i, colliders) {
-                    let gap = c.signed_distance(&to);
-                    if gap <= reach || c.signed_distance(&points.y[i]) <= reach {
+                for c in colliders {
+                    if c.signed_distance(&to) <= reach || c.signed_distance(&points.y[i]) <= reach {
                         near += 1;
                         flat = (c.friction == T::zero())
                             .then(|| c.flat_normal(&to, reach))
                             .flatten();
                     }
-                    if gap < margin {
-                        moved += c.normal(&to) * (margin - gap);
-                    }
                 }
+                let (moved, _) = out_of_colliders(
+                    &points.y[i],
+                    &to,
+                    &points.y_start[i],
+                    delta[i] + reaction + repelled,
+                    margin,
+                    rest.diagonal(i, h2),
+                    colliders,
+                );
                 let held = near > 0 || touched[i] || reaction != Vector3::zeros();
                 let unmoved = reaction == Vector3::zeros() && repelled == Vector3::zeros();
                 let slides = flat.filter(|_| near == 1 && unmoved && aggregate[i] != NONE);
@@ -317,7 +324,6 @@ impl TwoLevel {
                     *normal = n.map(|c| c.to_f64()).normalize();
                 }
             });
-        let h2 = h * h;
         for range in &points.ranges {
             if !self.free[range.clone()].iter().any(|&f| f) {
                 continue;

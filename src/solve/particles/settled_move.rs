@@ -1,0 +1,49 @@
+//! Where the collider projection that ends an iteration will put a particle, for the coarse
+//! corrections that restrict the residual at the settled moves (the bodies' translations,
+//! [`super::coarse`], and the two-level correction's held particles, [`super::two_level`]):
+//! at the fixed point the projection takes back the sweep's move, so a correction taken at
+//! the settled moves leaves the fixed point alone.
+
+use nalgebra::Vector3;
+
+use crate::collider::{coulomb_share, ColliderModel};
+use crate::real::Real;
+
+/// Particle `i`'s move `moved` (m; the sweep's, with the repulsion's or a coupling's answer)
+/// from `y` to `to = y + delta` carried out of `colliders` (margin `margin`, m) along their
+/// normals at `to`, with Coulomb friction as the projection applies it
+/// ([`crate::collider::push_out_with_friction`] for the isotropic Jacobi metric `d`, kg): the
+/// slip over the step from `start` (m, relative to the collider's material point) shortened
+/// while its reaction `d |removed|` stays within `friction * d * push`. Returns the settled
+/// move (m) and the friction's reaction, `d` times its tangential correction (N s^2).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(crate) fn out_of_colliders<T: Real>(
+    y: &Vector3<T>,
+    to: &Vector3<T>,
+    start: &Vector3<T>,
+    mut moved: Vector3<T>,
+    margin: T,
+    d: T,
+    colliders: &[ColliderModel<T>],
+) -> (Vector3<T>, Vector3<T>) {
+    let mut reaction = Vector3::zeros();
+    for c in colliders {
+        let gap = c.signed_distance(to);
+        if gap >= margin {
+            continue;
+        }
+        let n = c.normal(to);
+        moved += n * (margin - gap);
+        if c.friction > T::zero() {
+            let at = y + moved;
+            let slip = (at - start) - c.displacement(&at);
+            let slip_t = slip - n * n.dot(&slip);
+            let budget = c.friction * d * (margin - gap);
+            let share = coulomb_share(&slip_t, slip_t.norm_squared() / d, budget);
+            moved -= slip_t * share;
+            reaction -= slip_t * (share * d);
+        }
+    }
+    (moved, reaction)
+}
