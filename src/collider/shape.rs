@@ -313,6 +313,13 @@ impl<T: Real> ColliderModel<T> {
         self.rotation * self.shape.normal(&self.local(x))
     }
 
+    /// The unit outward normal at `x` where the surface is flat within `edge` (m) of the
+    /// point of it nearest `x` ([`ShapeModel::flat_normal`]), else `None`.
+    #[inline]
+    pub fn flat_normal(&self, x: &Vector3<T>, edge: T) -> Option<Vector3<T>> {
+        (self.shape.flat_normal(&self.local(x), edge)).map(|n| self.rotation * n)
+    }
+
     /// `x` itself when it is at least `margin` outside, else the point at distance `margin`
     /// along the normal.
     #[inline]
@@ -587,6 +594,24 @@ impl<T: Real> ShapeModel<T> {
         }
     }
 
+    /// The unit outward normal at `x` where it is the same at every point within `edge` (m)
+    /// of the surface's point nearest `x` (a plane anywhere; a box's face at least `edge`
+    /// from the face's edges), else `None` (a box near an edge or corner, a sphere, a capsule,
+    /// a mesh): a particle that slides along the surface keeps this normal
+    /// ([`crate::solve::particles`]' two-level correction, "Sliding particles").
+    #[inline]
+    pub fn flat_normal(&self, x: &Vector3<T>, edge: T) -> Option<Vector3<T>> {
+        match *self {
+            Self::Plane { normal, .. } => Some(normal),
+            Self::Box {
+                center,
+                half_extents,
+                axes,
+            } => box_face_normal(x, &center, &half_extents, &axes, edge),
+            _ => None,
+        }
+    }
+
     /// `x` itself when it is at least `margin` outside, else the point at distance `margin`
     /// along the normal (the closest such point); for a mesh, Newton steps along the field's
     /// gradient to its `margin` level ([`SdfGrid::project`]).
@@ -610,6 +635,28 @@ impl<T: Real> ShapeModel<T> {
             x
         }
     }
+}
+
+/// The unit outward normal of the face of the box (`center`, `half_extents`, `axes`: its
+/// edge directions as columns; m) nearest `x`, where that face's point nearest `x` is at
+/// least `edge` (m) from the face's edges ([`ShapeModel::flat_normal`]).
+fn box_face_normal<T: Real>(
+    x: &Vector3<T>,
+    center: &Vector3<T>,
+    half_extents: &Vector3<T>,
+    axes: &Matrix3<T>,
+    edge: T,
+) -> Option<Vector3<T>> {
+    let offset = axes.tr_mul(&(x - center));
+    let outside = offset.abs() - half_extents;
+    let k = outside.imax();
+    let on_face = (0..3).all(|j| j == k || outside[j] <= -edge);
+    let sign = if offset[k] < T::zero() {
+        -T::one()
+    } else {
+        T::one()
+    };
+    on_face.then(|| axes.column(k) * sign)
 }
 
 /// The point of the segment `a`-`b` closest to `x`.

@@ -3,6 +3,7 @@
 //! solvers of Fig. 7 (Jacobi, Jacobi + Chebyshev, position-based averaging, direct sparse
 //! Cholesky) and the Armijo line search of eq. 13 on the residual of eq. 12.
 
+mod aggregate_matrix;
 mod chebyshev;
 mod coarse;
 mod coarse_problem;

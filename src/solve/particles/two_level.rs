@@ -13,7 +13,7 @@
 //! where free particle `i` lies in aggregate `a`, 0 otherwise (the multiplicative two-level
 //! method with a Jacobi smoother; Vanek, Mandel and Brezina 1996 for the aggregation).
 //! `P^T A P` is formed from `A`'s entries (`(P^T A P)_ab = sum_(i in a, j in b) A_ij`, `i`
-//! and `j` free) and factored by a sparse Cholesky (AMD ordering, [`SparseLlt`]) when the time
+//! and `j` free) and factored by a sparse Cholesky (AMD ordering, [`AggregateMatrix`]) when the time
 //! step or the held set changes; each iteration then restricts the sweep's residual
 //! `r - A delta_J` (one pass over the bonds), solves for the three coordinates and prolongs.
 //!
@@ -32,6 +32,29 @@
 //! The colliders, the repulsion and the translations' coarse problem
 //! ([`super::coarse`], which keeps the contacts one-sided) follow. Since the correction is a
 //! Galerkin projection it leaves the fixed point `r = 0` alone.
+//!
+//! **Sliding particles.** A held particle whose only hold is one frictionless collider whose
+//! normal is the same over the contact ([`crate::collider::ColliderModel::flat_normal`]: a
+//! plane, a box's face away from its edges; no pin, no second collider within reach, no
+//! repulsion move, no other family's reaction) holds only its move along that collider's
+//! unit normal `n`: its row of `P` is `T = I - n n^T` in its aggregate's column, so the
+//! correction moves it along the collider (the contact layer spreading sideways under a
+//! landing body, which a held layer leaves to the sweep: its count grew with the particles
+//! a side; docs/performance.md, issue 38 rounds w, w2 and y). It enters the residual with
+//! its settled move (a held particle's, above) and the restriction and the post-smoothing
+//! through `T`. All sliding particles share one normal (the first sliding particle's; one
+//! with another normal, on a second plane or another face of a box, is held whole): in the
+//! frame `Q = [t_1 t_2 n]` then `T = diag(1, 1, 0)`, and since `A` is the same for the three
+//! coordinates, `P^T A P` splits into the tangential coordinates' matrix, with the sliding
+//! particles free, and the normal coordinate's, with them held ([`AggregateMatrix`] each):
+//! the restricted residual is turned into `Q`, the first solves its three coordinates, the
+//! second the normal one, which replaces the first's, and the solution is turned back. An
+//! aggregate of sliding particles alone has a unit diagonal and a zero right-hand side in the
+//! normal coordinate. A frictional collider holds the particle whole (static
+//! friction takes the tangential move), and so does a curved one (a sphere, a capsule, a
+//! mesh, a box's edge): there the normal turns as the particle slides, and a factor kept
+//! with the old normals pulled a landing on a 2 m sphere off its fixed point (docs/model.md,
+//! round w2). A body that slides on nothing takes the scalar matrix and main's iterates.
 //!
 //! **Who takes part.** A body that holds no particle (no pin, no contact) takes no correction.
 //! The coarse matrix is the constant `A`, the tangent of eq. 12 only near the rest shape;
@@ -73,40 +96,45 @@
 //! step); their particles have no aggregate. When a plastic body's neighbourhoods change the
 //! family's bonds are renumbered, and the correction is built anew ([`super::plastic`]).
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use crate::collider::ColliderModel;
-use crate::error::{invalid, Result};
+use crate::error::Result;
+use crate::geometry::any_orthogonal_unit;
 use crate::parallel::chunked_sum;
 use crate::particles::ParticleRest;
 use crate::real::Real;
 use crate::solve::points::Points;
-use crate::sparse_llt::SparseLlt;
 
+use super::aggregate_matrix::{AggregateMatrix, NONE};
 use super::contact_gap::contact_reach;
 use super::repulsion::Repulsion;
 use super::roundoff::residual_floor;
 use super::settled_move::out_of_colliders;
 
-/// No aggregate (a particle of a body that takes no part), or no slot (a bond whose entry is
-/// in the upper triangle or outside the coarse matrix).
-const NONE: usize = usize::MAX;
-
 /// The aggregates, the coarse matrix `P^T A P` and its factor for one time step and held set.
 pub(crate) struct TwoLevel {
     /// Per particle its aggregate, or [`NONE`].
     aggregate: Vec<usize>,
-    /// The time step (s) and per particle whether it was free when last factored (`h = NaN`:
-    /// no factor yet), and this iteration's free set.
-    h: f64,
-    factored_free: Vec<bool>,
+    /// This iteration's free set (the sliding particles among them), and `P^T A P` for it
+    /// (three right-hand sides: the coordinates, or in the sliding frame the tangential ones).
     free: Vec<bool>,
-    /// `P^T A P` (right-hand sides `aggregates x 3`); per aggregate the slot of its diagonal
-    /// and per bond the slot of its entry (or [`NONE`]).
-    llt: SparseLlt,
-    diagonal_slot: Vec<usize>,
-    bond_slot: Vec<usize>,
+    matrix: AggregateMatrix,
+    /// The coarse matrix's lower triangle (pairs of aggregates `a >= b`, sorted): the pattern
+    /// of the normal coordinate's matrix when particles slide.
+    lower: Vec<(usize, usize)>,
+    /// Per particle the unit normal of the flat frictionless collider it slides on in this
+    /// iteration (zero: free or held; module doc, "Sliding particles"), the sliding
+    /// particles' common normal (zero: none slides) and its frame `Q = [t_1 t_2 n]`.
+    normal: Vec<Vector3<f64>>,
+    slide_normal: Vector3<f64>,
+    frame: Matrix3<f64>,
+    /// The free particles that do not slide, and the normal coordinate's matrix for them
+    /// with a copy of the restricted residuals it solves (built at the first iteration a
+    /// particle slides).
+    free_along: Vec<bool>,
+    along: Option<(AggregateMatrix, Vec<Vector3<f64>>)>,
     /// Per particle the sweep's residual `r - A delta_J` (kg m), and a held particle's
     /// settled move (m; module doc, "Held particles"): the sweep's plus the repulsion's and
     /// another family's last moves, out of the colliders along their normals with friction.
@@ -171,27 +199,17 @@ impl TwoLevel {
         }
         lower.sort_unstable();
         lower.dedup();
-        let llt = SparseLlt::new(count, lower, 3)
-            .map_err(|e| invalid!("the two-level coarse matrix's pattern failed: {e}"))?;
-        let diagonal_slot = (0..count).map(|a| llt.slot(a, a)).collect();
-        let mut bond_slot = vec![NONE; rest.indices.len()];
-        for i in 0..n {
-            let a = aggregate[i];
-            for b in rest.row(i) {
-                let c = aggregate[rest.indices[b] as usize];
-                if a != NONE && c != NONE && c <= a {
-                    bond_slot[b] = llt.slot(a, c);
-                }
-            }
-        }
+        let matrix = AggregateMatrix::new(rest, &aggregate, &lower, count, 3)?;
         Ok(Self {
             aggregate,
-            h: f64::NAN,
-            factored_free: vec![false; n],
             free: vec![false; n],
-            llt,
-            diagonal_slot,
-            bond_slot,
+            matrix,
+            lower,
+            normal: vec![Vector3::zeros(); n],
+            slide_normal: Vector3::zeros(),
+            frame: Matrix3::identity(),
+            free_along: vec![false; n],
+            along: None,
             remainder: vec![Vector3::zeros(); n],
             held_move: vec![Vector3::zeros(); n],
             coarse: vec![Vector3::zeros(); count],
@@ -217,46 +235,6 @@ impl TwoLevel {
         std::mem::take(&mut self.factorizations)
     }
 
-    /// Fills `P^T A P` for the time step `h` (s) and the free set, and factors it, unless the
-    /// factor at hand is that one. An aggregate without a free particle keeps a unit diagonal
-    /// (its unknown is decoupled and its right-hand side zero).
-    fn factor<T: Real>(&mut self, rest: &ParticleRest<T>, h: f64) -> Result<()> {
-        if self.h == h && self.factored_free == self.free {
-            return Ok(());
-        }
-        let h2 = h * h;
-        let (aggregate, free) = (&self.aggregate, &self.free);
-        let values = self.llt.values_mut();
-        values.fill(0.0);
-        for i in 0..aggregate.len() {
-            let a = aggregate[i];
-            if a == NONE || !free[i] {
-                continue;
-            }
-            values[self.diagonal_slot[a]] +=
-                rest.mass[i].to_f64() + h2 * rest.stiffness[i].to_f64();
-            for b in rest.row(i) {
-                let slot = self.bond_slot[b];
-                if slot != NONE && free[rest.indices[b] as usize] {
-                    values[slot] -= h2 * rest.coupling[b].to_f64();
-                }
-            }
-        }
-        for &slot in &self.diagonal_slot {
-            if values[slot] == 0.0 {
-                values[slot] = 1.0;
-            }
-        }
-        self.h = f64::NAN;
-        self.factorizations += 1;
-        self.llt
-            .factor()
-            .map_err(|e| invalid!("the two-level coarse factorisation failed: {e}"))?;
-        self.h = h;
-        self.factored_free.copy_from_slice(&self.free);
-        Ok(())
-    }
-
     /// The correction for the particle bodies `ranges` of the working set `rest`, if some
     /// particle takes part: every particle of a body that `takes_part` marks (an elastic
     /// solid: not granular, no fluid particle, not plastic).
@@ -280,8 +258,9 @@ impl TwoLevel {
     /// (`coupled`, its last move, m), or within the contact reach of a collider at `y` or
     /// `y + delta`; and stores a held particle's settled move: the sweep's plus the
     /// `repulsion`'s and the coupling's last moves, out of the colliders along their normals
-    /// with their friction ([`out_of_colliders`]). Then frees no particle of a body that holds
-    /// none, that is within the contact reach
+    /// with their friction ([`out_of_colliders`]). A particle held by one flat frictionless
+    /// collider alone slides on it (its normal at `y + delta`; module doc, "Sliding
+    /// particles"). Then frees no particle of a body that holds none, that is within the contact reach
     /// of one of its `repulsion` partners (another body's particle, at `y` or `y + delta`),
     /// or whose merit from the `residual` (kg m) at time step `h` (s) is below its round-off
     /// floor: module doc, "Who takes part" and "When".
@@ -303,9 +282,11 @@ impl TwoLevel {
         self.free
             .par_iter_mut()
             .zip(self.held_move.par_iter_mut())
+            .zip(self.normal.par_iter_mut())
             .enumerate()
-            .for_each(|(i, (free, held_move))| {
+            .for_each(|(i, ((free, held_move), normal))| {
                 *held_move = Vector3::zeros();
+                *normal = Vector3::zeros();
                 if points.pinned[i] {
                     *free = false;
                     return;
@@ -316,9 +297,15 @@ impl TwoLevel {
                 let repelled = repulsion.map_or(Vector3::zeros(), |r| r.of_particle(i));
                 let to = points.y[i] + delta[i];
                 let colliders = Points::colliders_of(&points.collides, i, colliders);
-                let near = colliders.iter().any(|c| {
-                    c.signed_distance(&to) <= reach || c.signed_distance(&points.y[i]) <= reach
-                });
+                let (mut near, mut flat) = (0, None);
+                for c in colliders {
+                    if c.signed_distance(&to) <= reach || c.signed_distance(&points.y[i]) <= reach {
+                        near += 1;
+                        flat = (c.friction == T::zero())
+                            .then(|| c.flat_normal(&to, reach))
+                            .flatten();
+                    }
+                }
                 let (moved, _) = out_of_colliders(
                     &points.y[i],
                     &to,
@@ -328,9 +315,14 @@ impl TwoLevel {
                     rest.diagonal(i, h2),
                     colliders,
                 );
-                let held = near || touched[i] || reaction != Vector3::zeros();
-                *free = aggregate[i] != NONE && !held;
+                let held = near > 0 || touched[i] || reaction != Vector3::zeros();
+                let unmoved = reaction == Vector3::zeros() && repelled == Vector3::zeros();
+                let slides = flat.filter(|_| near == 1 && unmoved && aggregate[i] != NONE);
+                *free = aggregate[i] != NONE && (!held || slides.is_some());
                 *held_move = moved.map(|c| c.to_f64());
+                if let Some(n) = slides {
+                    *normal = n.map(|c| c.to_f64()).normalize();
+                }
             });
         for range in &points.ranges {
             if !self.free[range.clone()].iter().any(|&f| f) {
@@ -356,9 +348,34 @@ impl TwoLevel {
                     })
                 })
             });
-            let holds_none = self.free[range.clone()].iter().all(|&f| f);
+            let holds_none =
+                (range.clone()).all(|i| self.free[i] && self.normal[i] == Vector3::zeros());
             if merit <= floor || touches_a_body || holds_none {
                 self.free[range.clone()].fill(false);
+                self.normal[range.clone()].fill(Vector3::zeros());
+            }
+        }
+        self.share_normal();
+    }
+
+    /// Holds whole a sliding particle whose normal is not the first sliding particle's
+    /// (module doc, "Sliding particles"), and sets the common normal, its frame and the
+    /// free particles that do not slide.
+    fn share_normal(&mut self) {
+        let zero = Vector3::zeros();
+        let first = self.normal.iter().find(|n| **n != zero).copied();
+        self.slide_normal = first.unwrap_or(zero);
+        for (n, free) in self.normal.iter_mut().zip(&mut self.free) {
+            if *n != zero && *n != self.slide_normal {
+                (*n, *free) = (zero, false);
+            }
+        }
+        if let Some(n) = first {
+            let t = any_orthogonal_unit(&n);
+            self.frame = Matrix3::from_columns(&[t, n.cross(&t), n]);
+            for ((along, &free), n) in self.free_along.iter_mut().zip(&self.free).zip(&self.normal)
+            {
+                *along = free && *n == zero;
             }
         }
     }
@@ -378,10 +395,38 @@ impl TwoLevel {
             return Ok(());
         }
         let h2 = h.to_f64() * h.to_f64();
-        self.factor(rest, h.to_f64())?;
+        let slides = self.slide_normal != Vector3::zeros();
+        if self
+            .matrix
+            .factor(rest, &self.aggregate, &self.free, h.to_f64())?
         {
-            let (free, held_move) = (&self.free, &self.held_move);
+            self.factorizations += 1;
+        }
+        if slides {
+            let (aggregate, count) = (&self.aggregate, self.coarse.len());
+            let (along, _) = match &mut self.along {
+                Some(along) => along,
+                None => self.along.insert((
+                    AggregateMatrix::new(rest, aggregate, &self.lower, count, 1)?,
+                    vec![Vector3::zeros(); count],
+                )),
+            };
+            if along.factor(rest, aggregate, &self.free_along, h.to_f64())? {
+                self.factorizations += 1;
+            }
+        }
+        {
+            let (free, normal, held_move) = (&self.free, &self.normal, &self.held_move);
             let delta = &*delta;
+            // A particle's move in `r - A delta`: the sweep's where free and not sliding, else
+            // the settled one (module doc, "Held particles").
+            let settled = |j: usize| {
+                if free[j] && normal[j] == Vector3::zeros() {
+                    delta[j].map(|c| c.to_f64())
+                } else {
+                    held_move[j]
+                }
+            };
             self.remainder
                 .par_iter_mut()
                 .enumerate()
@@ -391,45 +436,62 @@ impl TwoLevel {
                     }
                     let mut coupled = Vector3::<f64>::zeros();
                     for b in rest.row(i) {
-                        let j = rest.indices[b] as usize;
-                        let d = if free[j] {
-                            delta[j].map(|c| c.to_f64())
-                        } else {
-                            held_move[j]
-                        };
-                        coupled += d * rest.coupling[b].to_f64();
+                        coupled += settled(rest.indices[b] as usize) * rest.coupling[b].to_f64();
                     }
                     // In f64 whatever the body's precision (mixed precision: the restriction
                     // sums some 30 nearly cancelling terms per aggregate).
                     let d_i = rest.mass[i].to_f64() + h2 * rest.stiffness[i].to_f64();
-                    let r = residual[i].map(|c| c.to_f64()) - delta[i].map(|c| c.to_f64()) * d_i;
+                    let r = residual[i].map(|c| c.to_f64()) - settled(i) * d_i;
                     *out = r + coupled * h2;
                 });
         }
         self.coarse.fill(Vector3::zeros());
         for (i, &a) in self.aggregate.iter().enumerate() {
-            if self.free[i] {
+            if !self.free[i] {
+                continue;
+            }
+            let n = &self.normal[i];
+            if *n == Vector3::zeros() {
                 self.coarse[a] += self.remainder[i];
+            } else {
+                self.coarse[a] += tangent(n) * self.remainder[i];
             }
         }
-        let rhs = self.llt.rhs_mut();
-        for c in 0..3 {
-            for (out, sum) in rhs.col_as_slice_mut(c).iter_mut().zip(&self.coarse) {
-                *out = sum[c];
+        match (slides, &mut self.along) {
+            (true, Some((along, normal_part))) => {
+                let q = self.frame;
+                for (c, out) in self.coarse.iter_mut().zip(normal_part.iter_mut()) {
+                    *c = q.tr_mul(c);
+                    *out = *c;
+                }
+                self.matrix.solve(&mut self.coarse, 0);
+                along.solve(normal_part, 2);
+                for (c, normal) in self.coarse.iter_mut().zip(normal_part.iter()) {
+                    c.z = normal.z;
+                    *c = q * *c;
+                }
             }
+            _ => self.matrix.solve(&mut self.coarse, 0),
         }
-        self.llt.solve();
-        let x = self.llt.rhs();
-        let (x0, x1, x2) = (x.col_as_slice(0), x.col_as_slice(1), x.col_as_slice(2));
-        for (a, e) in self.coarse.iter_mut().enumerate() {
-            *e = Vector3::new(x0[a], x1[a], x2[a]);
-        }
-        // The prolonged correction, then one Jacobi sweep on what it leaves,
-        // `r - A (delta_J + P e)`, at the free particles (post-smoothing: the piecewise-constant
-        // correction's jumps between aggregates are the sweep's to smooth).
-        let (coarse, aggregate, free, remainder) =
-            (&self.coarse, &self.aggregate, &self.free, &self.remainder);
-        let at = |i: usize| coarse[aggregate[i]];
+        // The prolonged correction `P e`, then one Jacobi sweep on what it leaves,
+        // `r - A (delta_J + P e)`, at the free particles and along the sliding ones' colliders
+        // (post-smoothing: the piecewise-constant correction's jumps between aggregates are
+        // the sweep's to smooth).
+        let (coarse, aggregate, free, normal, remainder) = (
+            &self.coarse,
+            &self.aggregate,
+            &self.free,
+            &self.normal,
+            &self.remainder,
+        );
+        let at = |i: usize| {
+            let (e, n) = (coarse[aggregate[i]], normal[i]);
+            if n == Vector3::zeros() {
+                e
+            } else {
+                e - n * n.dot(&e)
+            }
+        };
         delta.par_iter_mut().enumerate().for_each(|(i, d)| {
             if !free[i] {
                 return;
@@ -444,8 +506,23 @@ impl TwoLevel {
                 }
             }
             let left = remainder[i] - e * d_i + coupled * h2;
-            *d += (e + left / d_i).map(T::of);
+            let n = &normal[i];
+            if *n == Vector3::zeros() {
+                *d += (e + left / d_i).map(T::of);
+            } else {
+                *d += (e + tangent(n) * left / d_i).map(T::of);
+            }
         });
         Ok(())
     }
 }
+
+/// `I - n n^T`: the prolongator row of a particle sliding on a collider of unit normal `n`.
+#[inline]
+fn tangent(n: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::identity() - n * n.transpose()
+}
+
+#[cfg(test)]
+#[path = "two_level_tests.rs"]
+mod tests;
