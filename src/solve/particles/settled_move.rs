@@ -16,7 +16,6 @@ use crate::real::Real;
 /// slip over the step from `start` (m, relative to the collider's material point) shortened
 /// while its reaction `d |removed|` stays within `friction * d * push`. Returns the settled
 /// move (m) and the friction's reaction, `d` times its tangential correction (N s^2).
-#[allow(clippy::too_many_arguments)]
 #[inline]
 pub(crate) fn out_of_colliders<T: Real>(
     y: &Vector3<T>,

@@ -280,7 +280,8 @@ impl TwoLevel {
     /// (`coupled`, its last move, m), or within the contact reach of a collider at `y` or
     /// `y + delta`; and stores a held particle's settled move: the sweep's plus the
     /// `repulsion`'s and the coupling's last moves, out of the colliders along their normals
-    /// with their friction ([`out_of_colliders`]). Then frees no particle of a body that holds
+    /// with their friction ([`out_of_colliders`]; not for a particle of a body that takes no
+    /// part, which no free particle's bond reaches). Then frees no particle of a body that holds
     /// none, that is within the contact reach
     /// of one of its `repulsion` partners (another body's particle, at `y` or `y + delta`),
     /// or whose merit from the `residual` (kg m) at time step `h` (s) is below its round-off
@@ -306,7 +307,7 @@ impl TwoLevel {
             .enumerate()
             .for_each(|(i, (free, held_move))| {
                 *held_move = Vector3::zeros();
-                if points.pinned[i] {
+                if points.pinned[i] || aggregate[i] == NONE {
                     *free = false;
                     return;
                 }
@@ -329,7 +330,7 @@ impl TwoLevel {
                     colliders,
                 );
                 let held = near || touched[i] || reaction != Vector3::zeros();
-                *free = aggregate[i] != NONE && !held;
+                *free = !held;
                 *held_move = moved.map(|c| c.to_f64());
             });
         for range in &points.ranges {
