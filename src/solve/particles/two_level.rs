@@ -320,7 +320,7 @@ impl TwoLevel {
                 let near = colliders.iter().any(|c| {
                     c.signed_distance(&to) <= reach || c.signed_distance(&points.y[i]) <= reach
                 });
-                let (moved, _) = out_of_colliders(
+                let moved = out_of_colliders(
                     &points.y[i],
                     &to,
                     &points.y_start[i],
@@ -328,6 +328,7 @@ impl TwoLevel {
                     margin,
                     rest.diagonal(i, h2),
                     colliders,
+                    |_, _| {},
                 );
                 let held = near || touched[i] || reaction != Vector3::zeros();
                 *free = !held;
