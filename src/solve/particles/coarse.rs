@@ -57,7 +57,7 @@
 //! `lambda_c = D_i (margin - gap)` at a collider and `D_i D_j / (D_i + D_j)` times the overlap
 //! at a pair (the share of [`super::repulsion::Repulsion::share`]), the gaps at the sweep's
 //! positions, and the friction's `D_i` times its tangential correction (within the cone by
-//! construction; a particle's first frictional contact takes it). The solve starts from these multipliers, so at the fixed point it starts at its
+//! construction; each collider's own, as the projection applied it). The solve starts from these multipliers, so at the fixed point it starts at its
 //! solution and moves nothing, whatever the number of sweeps; elsewhere they are a warm start.
 //! (From the sweep's moves, `F_b = sum_i (r_i - m_i delta_i)`, and from zero multipliers, the
 //! redundant contacts of bodies in contact are not solved within the sweeps, and the
@@ -120,7 +120,7 @@ pub(crate) fn correct<T: Real>(
 /// sweep's move, the repulsion's answer to it (its [`super::repulsion::Repulsion::correct`] at
 /// `y + delta` in the Jacobi metric of time step squared `h2`, s^2, when two solid bodies
 /// may touch) and out of the colliders along their normals with their friction
-/// ([`out_of_colliders`], its reaction kept in `coarse.friction`), zero for a pinned particle; in a
+/// ([`out_of_colliders`], the move it starts from kept in `coarse.swept`), zero for a pinned particle; in a
 /// granular body or one with fluid particles the sweep's move.
 fn settle<T: Real>(
     sys: &mut ParticleSystem<T>,
@@ -136,17 +136,17 @@ fn settle<T: Real>(
     let repulsion = sys.repulsion.as_ref().filter(|_| solid_pairs);
     let (points, delta, rest) = (&sys.points, &sys.delta, &sys.rest);
     coarse.settled.resize(points.y.len(), Vector3::zeros());
-    coarse.friction.resize(points.y.len(), Vector3::zeros());
+    coarse.swept.resize(points.y.len(), Vector3::zeros());
     for (range, &solid) in points.ranges.iter().zip(&coarse.solid) {
         let start = range.start;
         coarse.settled[range.clone()]
             .par_iter_mut()
-            .zip(coarse.friction[range.clone()].par_iter_mut())
+            .zip(coarse.swept[range.clone()].par_iter_mut())
             .enumerate()
-            .for_each(|(k, (settled, friction))| {
+            .for_each(|(k, (settled, swept))| {
                 let i = start + k;
                 *settled = delta[i].map(|c| c.to_f64());
-                *friction = Vector3::zeros();
+                *swept = *settled;
                 if !solid {
                     return;
                 }
@@ -157,7 +157,8 @@ fn settle<T: Real>(
                 let to = points.y[i] + delta[i];
                 let moved = delta[i] + repulsion.map_or(Vector3::zeros(), |r| r.of_particle(i));
                 let colliders = Points::colliders_of(&points.collides, i, colliders);
-                let (moved, reaction) = out_of_colliders(
+                *swept = moved.map(|c| c.to_f64());
+                let moved = out_of_colliders(
                     &points.y[i],
                     &to,
                     &points.y_start[i],
@@ -165,9 +166,9 @@ fn settle<T: Real>(
                     points.margin[i],
                     rest.diagonal(i, h2),
                     colliders,
+                    |_, _| {},
                 );
                 *settled = moved.map(|c| c.to_f64());
-                *friction = reaction.map(|c| c.to_f64());
             });
     }
 }
@@ -229,7 +230,8 @@ fn gather_contacts<T: Real>(
         frictions,
         collider_gap,
         settled,
-        friction,
+        swept,
+        collider_friction,
         ..
     } = coarse;
     let reach = |b: usize| (energy * inverse_mass[b]).sqrt();
@@ -261,8 +263,21 @@ fn gather_contacts<T: Real>(
             } else {
                 &[]
             };
-            let mut friction_start = friction[i];
-            for c in near {
+            collider_friction.clear();
+            collider_friction.resize(near.len(), Vector3::zeros());
+            if solid[a] && near.iter().any(|c| c.friction > T::zero()) {
+                out_of_colliders(
+                    &points.y[i],
+                    &p,
+                    &points.y_start[i],
+                    swept[i].map(T::of),
+                    points.margin[i],
+                    diagonal(i),
+                    near,
+                    |k, phi| collider_friction[k] = phi.map(|c| c.to_f64()),
+                );
+            }
+            for (c, start) in near.iter().zip(collider_friction.iter()) {
                 let gap = (c.signed_distance(&p) - points.margin[i]).to_f64();
                 if gap >= s_a {
                     continue;
@@ -285,8 +300,7 @@ fn gather_contacts<T: Real>(
                     let slip_t = slip - n * n.dot(&slip);
                     let mu = c.friction.to_f64();
                     let normal = contacts.len() - 1;
-                    frictions.push(Friction::new(a, normal, &n, &slip_t, mu, &friction_start));
-                    friction_start = Vector3::zeros();
+                    frictions.push(Friction::new(a, normal, &n, &slip_t, mu, start));
                 }
             }
             let Some(repulsion) = &sys.repulsion else {

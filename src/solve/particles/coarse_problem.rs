@@ -142,10 +142,13 @@ pub(crate) struct Coarse {
     /// Per particle: its smallest gap to a collider less its margin (m; infinite with none or
     /// in a fixed body), the parallel first pass of the contacts' gathering.
     pub collider_gap: Vec<f64>,
-    /// Per particle: its settled move (m; [`super::coarse`], "Fixed point") and the
-    /// tangential reaction of the colliders' friction in it (N s^2).
+    /// Per particle: its settled move (m; [`super::coarse`], "Fixed point") and the move it
+    /// was settled from (m; the sweep's with the repulsion's answer), from which the
+    /// gathering recomputes each collider's friction reaction.
     pub settled: Vec<Vector3<f64>>,
-    pub friction: Vec<Vector3<f64>>,
+    pub swept: Vec<Vector3<f64>>,
+    /// The friction reaction (N s^2) at each collider of the particle being gathered.
+    pub collider_friction: Vec<Vector3<f64>>,
 }
 
 impl Coarse {
@@ -161,7 +164,8 @@ impl Coarse {
             frictions: Vec::new(),
             collider_gap: Vec::new(),
             settled: Vec::new(),
-            friction: Vec::new(),
+            swept: Vec::new(),
+            collider_friction: Vec::new(),
         }
     }
 

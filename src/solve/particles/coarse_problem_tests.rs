@@ -181,6 +181,38 @@ fn friction_beyond_the_cone_slows_the_slide_by_mu_times_the_normal_move() {
     assert_kkt(&coarse);
 }
 
+#[test]
+fn sticking_friction_holds_the_tangential_translation_at_zero() {
+    // A granular body of 4 kg on a frictional plane (gap 0), as `gather_contacts` builds its
+    // contact: the normal row and unbounded friction with no slip.
+    let contacts = vec![Contact::new(0, None, Vector3::z(), 0.0)];
+    let frictions = vec![Friction::sticking(0, 0, &Vector3::z())];
+    // Pushed into the plane by 1 m and along it by (3, -2): it stays put, the plane pushes
+    // back with M t0_n = 4 and the friction with -M t0_t = (-12, 8, 0) (N s^2).
+    let force = [v(3.0, -2.0, -1.0) * 4.0];
+    let coarse = solved_with_friction(&[4.0], &force, contacts.clone(), frictions.clone());
+    assert_relative_eq!(coarse.translation[0], Vector3::zeros(), epsilon = 1e-12);
+    assert_relative_eq!(coarse.contacts[0].lambda, 4.0, epsilon = 1e-12);
+    assert_relative_eq!(
+        coarse.frictions[0].reaction(),
+        v(-12.0, 8.0, 0.0),
+        epsilon = 1e-12
+    );
+    assert_kkt(&coarse);
+    // Lifted off it (no normal reaction), the unbounded friction still holds the tangential
+    // translation: only the normal move remains.
+    let force = [v(3.0, -2.0, 5.0) * 4.0];
+    let coarse = solved_with_friction(&[4.0], &force, contacts, frictions);
+    assert_relative_eq!(coarse.translation[0], v(0.0, 0.0, 5.0), epsilon = 1e-12);
+    assert_eq!(coarse.contacts[0].lambda, 0.0);
+    assert_relative_eq!(
+        coarse.frictions[0].reaction(),
+        v(-12.0, 8.0, 0.0),
+        epsilon = 1e-12
+    );
+    assert_kkt(&coarse);
+}
+
 /// A deterministic value in `[-1, 1]` of `k`.
 fn wave(k: usize) -> f64 {
     (k as f64 * 12.9898 + 0.3).sin()

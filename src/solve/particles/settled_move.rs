@@ -15,7 +15,8 @@ use crate::real::Real;
 /// ([`crate::collider::push_out_with_friction`] for the isotropic Jacobi metric `d`, kg): the
 /// slip over the step from `start` (m, relative to the collider's material point) shortened
 /// while its reaction `d |removed|` stays within `friction * d * push`. Returns the settled
-/// move (m) and the friction's reaction, `d` times its tangential correction (N s^2).
+/// move (m); `each(k, phi)` receives the friction's reaction at `colliders[k]`, `d` times its
+/// tangential correction (N s^2), for every frictional collider the particle is within.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub(crate) fn out_of_colliders<T: Real>(
@@ -26,9 +27,9 @@ pub(crate) fn out_of_colliders<T: Real>(
     margin: T,
     d: T,
     colliders: &[ColliderModel<T>],
-) -> (Vector3<T>, Vector3<T>) {
-    let mut reaction = Vector3::zeros();
-    for c in colliders {
+    mut each: impl FnMut(usize, Vector3<T>),
+) -> Vector3<T> {
+    for (k, c) in colliders.iter().enumerate() {
         let gap = c.signed_distance(to);
         if gap >= margin {
             continue;
@@ -42,8 +43,8 @@ pub(crate) fn out_of_colliders<T: Real>(
             let budget = c.friction * d * (margin - gap);
             let share = coulomb_share(&slip_t, slip_t.norm_squared() / d, budget);
             moved -= slip_t * share;
-            reaction -= slip_t * (share * d);
+            each(k, -slip_t * (share * d));
         }
     }
-    (moved, reaction)
+    moved
 }

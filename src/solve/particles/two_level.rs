@@ -258,7 +258,8 @@ impl TwoLevel {
     /// (`coupled`, its last move, m), or within the contact reach of a collider at `y` or
     /// `y + delta`; and stores a held particle's settled move: the sweep's plus the
     /// `repulsion`'s and the coupling's last moves, out of the colliders along their normals
-    /// with their friction ([`out_of_colliders`]). A particle held by one flat frictionless
+    /// with their friction ([`out_of_colliders`]; not for a particle of a body that takes no
+    /// part, which no free particle's bond reaches). A particle held by one flat frictionless
     /// collider alone slides on it (its normal at `y + delta`; module doc, "Sliding
     /// particles"). Then frees no particle of a body that holds none, that is within the contact reach
     /// of one of its `repulsion` partners (another body's particle, at `y` or `y + delta`),
@@ -287,7 +288,7 @@ impl TwoLevel {
             .for_each(|(i, ((free, held_move), normal))| {
                 *held_move = Vector3::zeros();
                 *normal = Vector3::zeros();
-                if points.pinned[i] {
+                if points.pinned[i] || aggregate[i] == NONE {
                     *free = false;
                     return;
                 }
@@ -306,7 +307,7 @@ impl TwoLevel {
                             .flatten();
                     }
                 }
-                let (moved, _) = out_of_colliders(
+                let moved = out_of_colliders(
                     &points.y[i],
                     &to,
                     &points.y_start[i],
@@ -314,11 +315,12 @@ impl TwoLevel {
                     margin,
                     rest.diagonal(i, h2),
                     colliders,
+                    |_, _| {},
                 );
                 let held = near > 0 || touched[i] || reaction != Vector3::zeros();
                 let unmoved = reaction == Vector3::zeros() && repelled == Vector3::zeros();
-                let slides = flat.filter(|_| near == 1 && unmoved && aggregate[i] != NONE);
-                *free = aggregate[i] != NONE && (!held || slides.is_some());
+                let slides = flat.filter(|_| near == 1 && unmoved);
+                *free = !held || slides.is_some();
                 *held_move = moved.map(|c| c.to_f64());
                 if let Some(n) = slides {
                     *normal = n.map(|c| c.to_f64()).normalize();
