@@ -127,6 +127,9 @@ pub struct Particles {
     /// A sand body's saturation per particle once a liquid wetted it
     /// ([`super::wet_sand`]); `None`: the material's everywhere.
     wetted: Option<Vec<f64>>,
+    /// Per particle, the pressure of its density constraint over the last step a solver
+    /// took (Pa; `solve::particles::fluid_pressure`); `None` until a step projected one.
+    pressure: Option<Vec<f64>>,
 }
 
 impl Particles {
@@ -186,6 +189,7 @@ impl Particles {
             fluid_mask: None,
             wetted: None,
             granular: None,
+            pressure: None,
         };
         debug_assert!(body.ghost_owners.len() < body.reference.len());
         check_shapes(&body.reference, &body.horizons, delta)?;
@@ -427,6 +431,23 @@ impl Particles {
     /// Solver write-back of a sand body's saturations after a step.
     pub(crate) fn set_wetted(&mut self, theta: Vec<f64>) {
         self.wetted = Some(theta);
+    }
+    /// Per particle, the pressure of its density constraint over the last step a solver took
+    /// (Pa; `solve::particles::fluid_pressure`): zeros before any step and for a particle without
+    /// one (a solid, a partner).
+    pub fn pressure(&self) -> Vec<f64> {
+        (self.pressure.clone()).unwrap_or_else(|| vec![0.0; self.num_particles()])
+    }
+    /// Zeros the pressures a solver wrote, if any (before it writes the next step's).
+    pub(crate) fn clear_pressure(&mut self) {
+        if let Some(p) = &mut self.pressure {
+            p.fill(0.0);
+        }
+    }
+    /// Solver write-back of the pressures: the field to fill (zeros the first time).
+    pub(crate) fn pressure_mut(&mut self) -> &mut [f64] {
+        let n = self.num_particles();
+        self.pressure.get_or_insert_with(|| vec![0.0; n])
     }
     /// The granular material, or `None` for a body that is not sand.
     pub fn granular(&self) -> Option<&Granular> {

@@ -367,6 +367,16 @@ impl PyParticles {
     fn saturation<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
         self.lock().saturation().map(|t| to_numpy_1d(py, t))
     }
+    /// (N,) pressure of each fluid particle's density constraint over the last step (Pa,
+    /// float64, read-only): `p_i = -kappa rho0 lambda_i / h^2` of the projection's
+    /// multipliers summed over the step's passes, `kappa` = 0.817 the kernel's gradient
+    /// factor on the lattice (docs/model.md, fluids, round y2). Zeros before the first step
+    /// and at particles without a constraint (solids); not part of a saved state (the next
+    /// step does not start from it).
+    #[getter]
+    fn pressure<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        to_numpy_1d(py, self.lock().pressure())
+    }
     /// Per particle, whether it is a fluid particle (bool array): all True for a fluid body,
     /// all False for a solid, mixed once ``set_material(material, indices)`` changed a region.
     #[getter]

@@ -87,7 +87,7 @@ impl<T: Real> Families<T> {
         }
     }
 
-    /// Copies the families' state back into the bodies (in f64).
+    /// Copies the families' state back into the bodies (in f64), and the liquids' pressures.
     pub fn store(&self, bodies: &mut ByKind<'_>) {
         if let Some(m) = &self.membranes {
             m.points.store(&mut bodies.membranes);
@@ -96,6 +96,9 @@ impl<T: Real> Families<T> {
             p.points.store(&mut bodies.particles);
             if let Some(plastic) = &p.plastic {
                 plastic.store(&mut bodies.particles);
+            }
+            if let Some(fluid) = &p.fluid {
+                fluid.store_pressures(&p.points.ranges, &mut bodies.particles);
             }
         }
     }

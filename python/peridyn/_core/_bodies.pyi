@@ -149,6 +149,16 @@ class Particles:
         where a liquid in the same solver reached the grains and wicked on from grain to
         grain (``Granular(wicking=)``); None for other bodies."""
     @property
+    def pressure(self) -> np.ndarray:
+        """(N,) pressure of each fluid particle over the last step (Pa, float64, read-only):
+        ``p_i = -kappa rho0 lambda_i / h^2`` of the density projection's multipliers summed
+        over the step's passes (``kappa`` = 0.817, the SPH gradient's factor on the rest
+        lattice), so a resting column reads ``rho0 g depth`` (within 10 % below its top
+        layers). Zeros before the
+        first step and at particles without a density constraint (solids, sand beside a
+        liquid); never negative but at adhered ghosts (``ViscoelasticFluid(adhesion=True)``).
+        Not part of a saved state: the next step does not start from it."""
+    @property
     def fluid_particles(self) -> np.ndarray:
         """Per particle, True for a fluid particle (bool): all for a fluid body, none for a
         solid, a region after ``set_material(material, indices)``."""

@@ -97,6 +97,8 @@ use super::surface_tension::{gamma_per_tension, SurfaceTension};
 
 #[path = "fluid_partners.rs"]
 mod partners;
+#[path = "fluid_pressure.rs"]
+mod pressure;
 #[path = "fluid_redistribution.rs"]
 mod redistribution;
 
@@ -142,6 +144,14 @@ pub(crate) struct FluidStage<T: Real> {
     target: Vec<T>,
     corrected: Vec<bool>,
     lambda: Vec<T>,
+    /// Per member, its multipliers summed over the step's projection passes (m^2): each pass
+    /// linearises at the moved positions and solves for the rest of the violation, so a
+    /// pass's multipliers are an increment and the step's moves `W J^T sum lambda`. Not the
+    /// redistribution's hold: its moves are taken out of the velocities. See [`pressure`].
+    impulse: Vec<T>,
+    /// The kernel's gradient consistency on the rest lattice (dimensionless,
+    /// [`pressure::gradient_scale`]).
+    pressure_scale: f64,
     /// Per member of the last linearisation: whether its constraint is active, the
     /// right-hand side `b_i` (relative density; 0 when inactive), the fraction `ask_i` of the
     /// violation it asks (`b_i = -ask_i C_i`: 1, or [`ADHESION_STEP`]) and the diagonal `A_ii`
@@ -250,7 +260,7 @@ impl<T: Real> FluidStage<T> {
                         spacing = s;
                         let sph = Sph::on_lattice(Kernel::Spiky, FLUID_SUPPORT * s, s)?;
                         let deficiency = Deficiency::on_lattice(&sph, s, body.particle_mass());
-                        stage.insert(Self::new(sph, deficiency))
+                        stage.insert(Self::new(sph, deficiency, s))
                     }
                 };
                 let fluid_particles =
@@ -279,6 +289,7 @@ impl<T: Real> FluidStage<T> {
             stage.density = vec![T::zero(); n];
             stage.moment = vec![Vector3::zeros(); n];
             stage.lambda = vec![T::zero(); n];
+            stage.impulse = vec![T::zero(); n];
             stage.active = vec![false; n];
             stage.rhs = vec![T::zero(); n];
             stage.ask = vec![T::one(); n];
@@ -295,8 +306,9 @@ impl<T: Real> FluidStage<T> {
         Ok(stage)
     }
 
-    fn new(sph: Sph, deficiency: Deficiency) -> Self {
+    fn new(sph: Sph, deficiency: Deficiency, spacing: f64) -> Self {
         Self {
+            pressure_scale: pressure::gradient_scale(&sph, spacing),
             members: Vec::new(),
             mass: Vec::new(),
             rest_density: Vec::new(),
@@ -320,6 +332,7 @@ impl<T: Real> FluidStage<T> {
             target: Vec::new(),
             corrected: Vec::new(),
             lambda: Vec::new(),
+            impulse: Vec::new(),
             active: Vec::new(),
             rhs: Vec::new(),
             ask: Vec::new(),
@@ -462,7 +475,8 @@ impl<T: Real> FluidStage<T> {
             self.find_walls(points, colliders);
         }
         self.passes = 0;
-        self.project_passes(points, colliders, self.iterations, self.solver);
+        self.impulse.fill(T::zero());
+        self.project_passes(points, colliders, self.iterations, self.solver, true);
         timings.density += millis(started);
         if self.redistribution > 0.0 {
             let started = Instant::now();
@@ -478,13 +492,16 @@ impl<T: Real> FluidStage<T> {
     /// The density projection's passes from `self.passes` up to `self.iterations`, in at most
     /// `linearisations` linearisations by `solver`: linearise, solve for the multipliers, move,
     /// until the violation `self.error` is within the tolerance. (A Jacobi linearisation is one
-    /// pass, a conjugate-gradient one up to [`CG_ITERATIONS`].)
+    /// pass, a conjugate-gradient one up to [`CG_ITERATIONS`].) Each linearisation's
+    /// multipliers add to `self.impulse` when `impulse` (the step's projection, not the
+    /// redistribution's hold).
     fn project_passes(
         &mut self,
         points: &Points<T>,
         colliders: &[ColliderModel<T>],
         linearisations: usize,
         solver: DensitySolver,
+        impulse: bool,
     ) {
         self.error = self.violation();
         let mut linearised = 0;
@@ -497,6 +514,9 @@ impl<T: Real> FluidStage<T> {
             // At least one: a linearisation entered above the tolerance always iterates
             // (`ConjugateGradients::solve`), and the count bounds this loop regardless.
             self.passes += self.multipliers(solver).max(1);
+            if impulse {
+                (self.impulse.par_iter_mut().zip(&self.lambda)).for_each(|(sum, &l)| *sum += l);
+            }
             self.take_moves(points, colliders, solver);
             self.error = self.violation();
         }

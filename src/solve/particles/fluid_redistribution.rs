@@ -107,7 +107,13 @@ impl<T: Real> FluidStage<T> {
         std::mem::swap(&mut self.target, &mut ceiling);
         let projected = std::mem::replace(&mut self.passes, 0);
         let linearisations = self.redistribution_iterations;
-        self.project_passes(points, colliders, linearisations, DensitySolver::Jacobi);
+        self.project_passes(
+            points,
+            colliders,
+            linearisations,
+            DensitySolver::Jacobi,
+            false,
+        );
         std::mem::swap(&mut self.target, &mut ceiling);
         self.ceiling = ceiling;
         self.passes += projected;
