@@ -40,7 +40,7 @@
 //! unit normal `n`: its row of `P` is `T = I - n n^T` in its aggregate's column, so the
 //! correction moves it along the collider (the contact layer spreading sideways under a
 //! landing body, which a held layer leaves to the sweep: its count grew with the particles
-//! a side; docs/performance.md, issue 38 rounds w, w2 and y). It enters the residual with
+//! a side; docs/particles/performance.md, issue 38 rounds w, w2 and y). It enters the residual with
 //! its settled move (a held particle's, above) and the restriction and the post-smoothing
 //! through `T`. All sliding particles share one normal (the first sliding particle's; one
 //! with another normal, on a second plane or another face of a box, is held whole): in the
