@@ -309,7 +309,6 @@ impl TwoLevel {
                 }
                 let moved = out_of_colliders(
                     &points.y[i],
-                    &to,
                     &points.y_start[i],
                     delta[i] + reaction + repelled,
                     margin,
