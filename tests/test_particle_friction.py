@@ -5,7 +5,8 @@ steps converge. The friction is the collider projection's (docs/model.md, item 1
 bodies' coarse translation bounded by the same Coulomb cone (src/solve/particles/coarse.rs),
 which the direct solver's move takes too.
 Before round y every sliding step ran to the iteration cap and the body slowed by 0.011 m/s a
-step where Coulomb asks 0.16 (docs/performance.md, "A body sliding on a frictional floor")."""
+step where Coulomb asks 0.16 (docs/particles/performance.md, "A body sliding on a frictional
+floor")."""
 
 import numpy as np
 import pytest
