@@ -51,7 +51,6 @@ use crate::parallel::for_each_vertex;
 use super::cone::{Cone, Factors};
 use super::deformation::{shape_inverse, uninverted};
 use super::elastic::Elastic;
-use super::fluid::ViscoelasticFluid;
 use super::influence::influence;
 use super::rest_bonds::{BondRow, RestBonds, VOLUME_RATIOS};
 
@@ -473,9 +472,7 @@ impl PlasticLaw {
             delta: body.horizon(),
             volume: body.volume(),
             anchored: law.friction_angle == 0.0 && body.granular().is_none() && !thin,
-            relaxation_time: body
-                .fluid_material()
-                .map_or(0.0, ViscoelasticFluid::relaxation_time),
+            relaxation_time: body.fluid_material().map_or(0.0, |f| f.relaxation_time()),
             step: 0.0,
         })
     }
