@@ -72,7 +72,7 @@ def column(n=4, height=16, layers=2, **fluid):
         "column (mean speed within 7 mm/s): its top two layers overturn (the top corners sink "
         "0.67 spacing, the top centres rise 0.27, the corners below rise 0.9), the free "
         "surface holding no constraint of its own; 50 passes leave the column compressed "
-        "enough to hide it (docs/model.md, fluids, round w)")),
+        "enough to hide it (docs/particles/fluids.md, round w)")),
 ])
 def test_a_hydrostatic_column_keeps_its_height_and_density(density_solver, passes):
     """A 4 x 4 x 16 column (0.16 m) over 2 s at dt = 0.01 s keeps its top within 1 % of its
@@ -121,7 +121,7 @@ def test_a_resting_columns_pressure_is_hydrostatic(density_solver):
     within 5 % of the liquid's weight (0.99, 0.98) and ``sum p V`` within 3 % of ``W H / 2``,
     the integral of ``rho0 g d`` over the column (1.007, 1.016). Without the lattice's
     gradient factor kappa = 0.817 of peridyn's pressure the layers read 1.22 times
-    ``rho0 g d`` (docs/model.md, fluids, round y2)."""
+    ``rho0 g d`` (docs/particles/fluids.md, round y2)."""
     n, height = 4, 16
     body, liquid = column(n, height, adhesion=True, density_solver=density_solver,
                           density_iterations=50)
@@ -419,7 +419,7 @@ def test_redistribution_leaves_pinned_ghosts_where_they_are():
     "largest speed over the last 20 steps has median 0.039 m/s (max 0.081, 0.028 at the end) "
     "with 0 and 0.094 (max 0.139) with 0.5. The surface layers' settling out of the cubic "
     "lattice drives it (a converged projection too: 2.91 %; from a settled start 0.134 m/s "
-    "at the end; docs/model.md, fluids, round w)",
+    "at the end; docs/particles/fluids.md, round w)",
 )
 def test_a_resting_column_with_redistribution_stays_at_rest():
     """The hydrostatic column of the first test with redistribution (strength 0.5, 5 passes)

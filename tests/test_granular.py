@@ -71,7 +71,7 @@ def test_a_column_collapse_runs_out_as_lube_et_al_2004_found():
     angle 30 degrees) on a rough plane spreads to `dR / R = 1.24 a` (Lube et al. 2004,
     a < 1.7), within 25 %. Measured 1.21 with the return within the local step (1.14 and
     1.21 at 20 and 40 degrees); 0.45 when the return ran once after the iterations, the
-    bonds' within-step viscosity ~ K_f h / 6 holding the sand back (docs/model.md)."""
+    bonds' within-step viscosity ~ K_f h / 6 holding the sand back (docs/particles/granular.md)."""
     radius, a = 0.06, 1.0
     body = column(radius, a * radius, sand(30.0))
     settle(body, 0.5)
@@ -85,7 +85,7 @@ SLOPES = ("measured deposit slopes 4.8, 6.2 and 7.1 degrees at friction angles 2
           "repulsion (balls of half a spacing, frictionless) carries the weight, not the bonds: "
           "in the deposit's middle the bonds' mean pressure I1 / 3 is 31, 56, 48, 58 Pa where "
           "the weight above is 417, 310, 187, 94 Pa, so the cone's strength B I1 is a fraction "
-          "of what the friction angle gives (docs/model.md, granular section, records the "
+          "of what the friction angle gives (docs/particles/granular.md, records the "
           "remedies tried: contact pressure in the yield test; a contact distance below the "
           "spacing; contact friction, with and without a slip speed; eq. 28 on slow yielded "
           "grains; round v: the column jittered by 0.1 spacings, as the repose test's "
@@ -202,7 +202,7 @@ def test_the_angle_of_repose_lies_within_10_degrees_of_the_friction_angle():
     the last 0.1 s of 0.3 s), tilted 10 degrees more it flows (more than 0.05 mm), as the
     Drucker-Prager continuum of the next test does; so the angle grows with the friction
     angle (at 30 degrees tilt the 20-degree sand flows and the 40-degree one stands).
-    Measured, seeds 0 to 4 (docs/model.md, granular section, round t): at rest 0.0 to 0.0003
+    Measured, seeds 0 to 4 (docs/particles/granular.md, round t): at rest 0.0 to 0.0003
     mm, flowing 8 to 17 mm (seed 1: 0.0002, 0.00007, 0.00009 and 9.9, 12.7, 10.8 mm; with
     round u's static friction 0.0 mm at rest and 14.1, 18.9, 13.8 mm flowing). Without
     contact friction the packing fails on seeds 1, 2 and 4 (seed 1: 1.1 mm at 10 degrees for
@@ -222,7 +222,7 @@ def test_a_disordered_frictional_layer_at_rest_stays_at_rest():
     (src/solve/particles/static_friction.rs). Measured: 0.0, 0.0, 0.0 um (seeds 0 to 4: 14
     of 15 below 10 um, the other 10.4 um); holding only the grains that did not yield, 3.8,
     5.1, 24.7 um. With contact friction `tan(angle)`: 0.0, 0.0, 0.0 um (round t's rule, the
-    contacts' relative slip: 18, 467, 40 um; docs/model.md, granular section, rounds t, u)."""
+    contacts' relative slip: 18, 467, 40 um; docs/particles/granular.md, rounds t, u)."""
     for angle in (20.0, 30.0, 40.0):
         _, largest = layer_moves(0.0, jitter=0.1, seed=0, window=0.5,
                                  material=disordered_sand(angle))
@@ -236,7 +236,7 @@ def test_a_perfect_lattice_frictional_column_collapses():
     Its stacked grains move together, so a test of their relative slip held every yielded
     grain from the first step (round t: runout 0.01 and 0.00). Measured 0.79 and 0.77
     (holding only the grains that did not yield: 0.84 and 0.74; with its frictionless
-    contacts the collapse test's Lube band holds, 1.21; docs/model.md, granular section,
+    contacts the collapse test's Lube band holds, 1.21; docs/particles/granular.md,
     round u)."""
     radius = 0.06
     for angle in (30.0, 40.0):
@@ -343,7 +343,7 @@ def test_a_pile_creeps_without_static_friction_and_comes_to_rest_with_it():
     flows (largest move 15 to 17 mm over the window, 20 draws) but with static friction one
     draw in ten to thirty flows as well (eta 0.8, 0.65, 0.5); with the gravity tilted 5 or
     10 degrees static friction holds 50 to 98 of the 98 particles; at 4 iterations a taller
-    pile (a = 0.75) moves up to 4.8 mm with static friction (docs/model.md)."""
+    pile (a = 0.75) moves up to 4.8 mm with static friction (docs/particles/granular.md)."""
     for seed in (2, 23):
         window, moved, held = stepped_pile(0.8, seed)
         assert not moved.any(), (seed, np.flatnonzero(moved))

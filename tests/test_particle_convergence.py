@@ -370,8 +370,8 @@ def test_two_stacked_blocks_keep_their_momentum_while_settling():
     """The stack of `settled_stack` after 33 steps moves sideways at less than 1e-5 m/s
     (tol / h): momentum kept through the landing and the settling, although the settling
     steps (4-23) still run to the cap of 300 iterations (the contact-supported modes; the
-    slow error is mostly each block's rigid turn about the vertical, docs/model.md). Their
-    iterates keep momentum because the translations' coarse problem starts from the
+    slow error is mostly each block's rigid turn about the vertical, docs/particles/solids.md).
+    Their iterates keep momentum because the translations' coarse problem starts from the
     projection's reactions at the settled moves (src/solve/particles/coarse.rs, "Fixed
     point"); measured 1e-7 m/s. Before, from the sweep's moves and zero multipliers, the
     inexact coarse solve left some 5e-7 m/s at each unconverged step, 1.2e-5 m/s after 33."""
@@ -628,8 +628,8 @@ def test_a_wide_slab_lands_on_a_flat_frictionless_collider_within_60_iterations(
     wide: its contact layer spreads sideways as the slab compresses, which the two-level
     correction holding that layer left to the sweep (f64: 100, 100, 100 landing iterations,
     the cap, not converged; f32: 94, 92, 96). Since round y a particle held by one flat
-    frictionless collider slides along it in the coarse space (docs/model.md): 55, 53, 55 in
-    f64 (the Box's face as the Plane) and 45, 45, 45 in f32; asserted: every step converges
+    frictionless collider slides along it in the coarse space (docs/particles/solids.md): 55, 53, 55
+    in f64 (the Box's face as the Plane) and 45, 45, 45 in f32; asserted: every step converges
     and the landing steps take at most 60 iterations each."""
     n, s = (40, 40, 5), 0.005
     a = [(np.arange(k) + 0.5) * s for k in n]

@@ -5,7 +5,8 @@ steps converge. The friction is the collider projection's (docs/model.md, item 1
 bodies' coarse translation bounded by the same Coulomb cone (src/solve/particles/coarse.rs),
 which the direct solver's move takes too.
 Before round y every sliding step ran to the iteration cap and the body slowed by 0.011 m/s a
-step where Coulomb asks 0.16 (docs/performance.md, "A body sliding on a frictional floor")."""
+step where Coulomb asks 0.16 (docs/particles/performance.md, "A body sliding on a frictional
+floor")."""
 
 import numpy as np
 import pytest
@@ -169,7 +170,7 @@ def test_a_block_resting_in_a_frictional_corner_stays_and_its_steps_converge(
     chebyshev and jacobi; without the correction 1 iteration. Not the translations' coarse
     problem (each collider's friction starting from its own reaction changed nothing here):
     the held particles' settled moves at the corner (src/solve/particles/two_level.rs), to
-    be found (docs/model.md, round y3)."""
+    be found (docs/particles/solids.md, round y3)."""
     body, _ = block()
     solver = pd.Solver(dt=0.01, gravity=(0, 0, -G), precision=precision, threads=2,
                        max_iters=100, two_level=two_level)

@@ -73,7 +73,7 @@ def test_a_plastic_body_that_yielded_and_rebuilt_its_neighbours_restores_to_the_
 
 def test_a_body_whose_return_keeps_its_rest_volume_restores_its_volume_ratios(tmp_path):
     """Without friction the return keeps each particle's rest volume from the volume ratios
-    of its reference bonds (docs/model.md, plasticity section), which change as it yields
+    of its reference bonds (docs/particles/plasticity.md), which change as it yields
     and rebuilds: they travel with the file, and the continued run equals the run that went
     on, to the bit. A file written before them (no 'bonds_volume_0') loads them as 1."""
     s, body = scene(friction_angle=0.0)

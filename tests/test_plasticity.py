@@ -257,7 +257,7 @@ def test_a_clay_cubes_set_converges_once_the_step_resolves_the_impact_wave():
                    "1/100, 1/400, 1/1600 s against 3.40-3.65 % at 1/6400-1/25600 (the same "
                    "with the direct solver to 1e-9: not the iterations), with the return "
                    "within the local step; implicit Euler damps the impact's stress wave "
-                   "(docs/model.md, plasticity section)")
+                   "(docs/particles/plasticity.md)")
 def test_a_clay_cubes_set_does_not_depend_on_a_long_step():
     """At h = 1/400 and 1/1600 s the clay cube's set is within 8 % of its set at 1/6400."""
     fine = clay_cube_height_loss(1 / 6400)

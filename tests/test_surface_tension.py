@@ -125,7 +125,7 @@ def l2_frequency(sigma, dt=0.005, duration=2.5):
                    "drop's Young-Laplace pressure read sigma (round y2): its interior's "
                    "Particles.pressure is 9-10 times 2 sigma / R, the cohesion's own bulk "
                    "(virial) pressure nearly cancelling it, their sum -0.6, -14 and -5 Pa "
-                   "against 4.4, 11 and 22 Pa at 0.1, 0.25, 0.5 N/m (docs/model.md)")
+                   "against 4.4, 11 and 22 Pa at 0.1, 0.25, 0.5 N/m (docs/particles/fluids.md)")
 def test_a_drop_oscillates_at_rayleighs_frequency():
     """The l = 2 mode of a free drop oscillates at ``omega^2 = 8 sigma / (rho R^3)`` (Rayleigh
     1879) within 15 % at 0.1 and 0.5 N/m (so its frequency scales as sqrt(sigma)): 15 % for a

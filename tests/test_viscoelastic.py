@@ -161,7 +161,7 @@ def test_a_pulled_viscoelastic_bar_keeps_its_volume_only_with_a_stiff_bulk():
     1.041) and its narrowest layer contracts as a constant volume needs (area within 5 % of the
     inverse stretch or below; measured 0.79, 0.76, 0.71 at 0.83, 0.77, 0.71), while with the
     default, 5 G / 3 = 833 Pa, it dilates by more than 8 % by 1.3 (measured 10.6 %). Why 5 %:
-    the return keeps each particle's rest volume (docs/model.md, Fluids, round t), so what
+    the return keeps each particle's rest volume (docs/particles/fluids.md, round t), so what
     is left is the elastic dilatation of the bar's mean stress, a third of its axial stress
     (680-720 Pa, `test_..._flows_at_its_yield_stress`) over K: 4.7-5.0 %; the particles'
     own volumes `R det F` mid-bar are 1.04 at 1.4 and 1.5. (With the areas of the hull
@@ -201,7 +201,7 @@ def test_a_pulled_viscoelastic_bar_with_a_stiff_bulk_flows_at_a_plateau():
     as `w(L)` (a nearest neighbour at `L = 1.17 b`, the mid-bar axial bonds' weighted mean
     at 1.5: 1.59 times), and the mid-bar particles' axial stiffness grew to 1.57 times a
     fresh neighbourhood's of the same shape; a flowing body's bonds are now born again at
-    their reference lengths after every step (docs/model.md, Fluids, round y)."""
+    their reference lengths after every step (docs/particles/fluids.md, round y)."""
     stiff = pulled_bar(bulk_modulus=STIFF_BULK, times=(0.15, 0.25))
     assert abs(stiff[1, 3] / stiff[0, 3] - 1.0) < 0.1, stiff
 
@@ -252,7 +252,7 @@ def test_without_adhesion_a_blob_hangs_on_below_its_weights_stress_at_800_pa_and
     and between 520 and 600 Pa at 2.5 ms, 0.61-0.73 of the weight's stress. The plastic
     return at the step's end alone, as the paper has it, hung the 500 Pa blob at dt = 5 ms,
     2.2 spacings down, by the elastic overshoot of each step's bonds, and let it fall at
-    2.5 and 1.25 ms: docs/model.md, plasticity section.)"""
+    2.5 and 1.25 ms: docs/particles/plasticity.md.)"""
     low0 = lambda ceiling: ceiling - 6.5 * S
     fluid, ceiling = honey_under_a_ceiling(adhesion=False, yield_stress=800.0)
     assert 0.0 < low0(ceiling) - fluid[:, 2].min() < 5 * S, low0(ceiling) - fluid[:, 2].min()
@@ -271,7 +271,7 @@ def test_without_adhesion_a_blob_hangs_on_below_its_weights_stress_at_800_pa_and
                    "draws a thread by the surface sum's pull, this one hangs, necks into a "
                    "divergence or parts), or bonds that flow at a plateau at constant volume "
                    "(round y: the stiff bulk's blob parts at 500 Pa, hangs from 520 Pa) "
-                   "either part it the same way, hang it, or diverge (docs/model.md)")
+                   "either part it the same way, hang it, or diverge (docs/particles/fluids.md)")
 def test_honey_dripping_from_its_ghost_ceiling_draws_a_thread():
     """After 0.4 s the blob has dripped (its lowest particle more than 10 spacings below the
     ceiling) and a thread joins it to the film at the ceiling: every spacing-tall slab

@@ -1,7 +1,7 @@
 """Liquid with wet sand (He et al. 2017, section 8, Fig. 16; issue 40): the liquid's density
 constraints see the sand's grains (incompressibility over both), so liquid poured on a sand
 bed stays on it; the grains it reaches get wet (their saturation rises, and with it their
-cohesion: docs/model.md, "Liquid with wet sand")."""
+cohesion: docs/particles/couplings.md, "Liquid with wet sand")."""
 
 import numpy as np
 import pytest
@@ -60,14 +60,14 @@ def test_liquid_poured_on_a_sand_bed_stays_on_it_and_wets_the_grains_it_reaches(
     gradients' multipliers beside a grain never pull: when they did, the water drew grains
     of the bottom layer into itself and sank into the gaps this opened, to 0.83 spacings (and
     to the ground, 0.5, in each of four runs with the water's start jittered by 1e-4
-    spacings; docs/model.md). At 0.2 s the grains the water touches (a water particle within 1.05
-    spacings) are wet (theta > 0.4, measured from 0.42), and the grains the water never came
-    within 2 spacings of, at any step so far, are dry (theta < 0.01; measured at most 0.002,
-    26 grains; asserted: at least 5): the wetting is local, the kernel peaked (docs/model.md).
-    A grain keeps the saturation it reached: the top layer's rim, carried off the bed's edges
-    by the water that touched it, stays wet when the water runs on. So the dry grains are
-    those the water never reached, not those it is far from at one instant, as asserted
-    before: with the conjugate-gradient density solver 21 rim grains the water had touched
+    spacings; docs/particles/couplings.md). At 0.2 s the grains the water touches (a water particle
+    within 1.05 spacings) are wet (theta > 0.4, measured from 0.42), and the grains the water never
+    came within 2 spacings of, at any step so far, are dry (theta < 0.01; measured at most 0.002,
+    26 grains; asserted: at least 5): the wetting is local, the kernel peaked
+    (docs/particles/couplings.md). A grain keeps the saturation it reached: the top layer's rim,
+    carried off the bed's edges by the water that touched it, stays wet when the water runs on. So
+    the dry grains are those the water never reached, not those it is far from at one instant, as
+    asserted before: with the conjugate-gradient density solver 21 rim grains the water had touched
     (within 0.97-1.14 spacings; theta 0.40-0.84) were 2.7-3.1 spacings from all of it at
     0.2 s."""
     s, bed, water = bed_and_water(density_solver=density_solver)
@@ -101,7 +101,7 @@ def test_liquids_of_two_densities_conserve_their_momentum(viscosity, tolerance):
     Without viscosity the density projection alone acts: it moves each particle by its
     inverse mass (Macklin et al. 2014), measured 1e-16 of the momentum each block carries
     (10 % with equal moves for both, as before). With 1 Pa s the viscosity solve's pair
-    forces are equal and opposite too (the momentum form, docs/model.md), up to its
+    forces are equal and opposite too (the momentum form, docs/particles/couplings.md), up to its
     conjugate-gradient residual (sqrt of the precision's epsilon, relative): measured 1.1e-8
     (1.1e-2 with the velocity form symmetrised on `nu V`, as before). The sand grains
     among a liquid's partners are moved by the same rules."""
@@ -150,8 +150,8 @@ def wetted_bar(wicking, length=40, side=3):
 
 def test_held_water_wicks_along_a_bar_as_the_square_root_of_time():
     """The water the grains hold moves from grain to grain by the capillary diffusion
-    `d theta / dt = D lap theta` (docs/model.md, "Liquid with wet sand"): in a 40 x 3 x 3 bar
-    saturated over its first half, at `D` = 1e-3 m^2/s, the front where the layers' mean
+    `d theta / dt = D lap theta` (docs/particles/couplings.md, "Liquid with wet sand"): in a 40 x 3
+    x 3 bar saturated over its first half, at `D` = 1e-3 m^2/s, the front where the layers' mean
     saturation falls to 0.1 lies past the interface at `2 sqrt(D t) erfc^-1(0.2)` (the
     analytic 1D diffusion from a step) within 15 % after 0.25 s and 1 s, and moves as
     `sqrt(t)` (the ratio of the two within 5 % of 2). The surface correction keeps a bar
@@ -203,8 +203,8 @@ def test_wicking_in_a_falling_block_conserves_the_held_water():
 
 
 def test_a_step_whose_wicking_needs_too_many_substeps_is_refused_and_keeps_the_state():
-    """The explicit wicking's substeps grow as `D dt / spacing^2` (docs/model.md, "Liquid
-    with wet sand"): the largest diffusivity (0.01 m^2/s) over 10 ms steps on a 1 mm lattice
+    """The explicit wicking's substeps grow as `D dt / spacing^2` (docs/particles/couplings.md,
+    "Liquid with wet sand"): the largest diffusivity (0.01 m^2/s) over 10 ms steps on a 1 mm lattice
     would need about a thousand, more than the 100 allowed. The step is refused with a
     ValueError naming `wicking` and the substeps, and the bar keeps its positions and
     saturations; the same bar at a tenth of the diffusivity over 1 ms steps wicks."""
@@ -284,7 +284,7 @@ def poured_and_released(wicking):
                    "top layer is saturated and the wicking at sand's diffusivity (1e-5 m^2/s) "
                    "reaches about 1 mm (the next layer at theta 0.016), and the wetted column "
                    "stands 2.128 cm high against the dry column's 2.054 (2.029 without "
-                   "wicking): docs/model.md, 'Liquid with wet sand'")
+                   "wicking): docs/particles/couplings.md, 'Liquid with wet sand'")
 def test_a_column_wetted_by_poured_liquid_stands_taller_than_a_dry_one():
     """The wetted column's 95th percentile height stands half a spacing above the dry one's
     (`poured_and_released` at the default wicking)."""

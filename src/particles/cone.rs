@@ -33,7 +33,7 @@
 //! an increment `d eps` adds `tr(M d eps)` to it (`M = sum w n n^T / W`, not `I / 3` where a
 //! surface or the flow has made the bond directions anisotropic), and a deviatoric strain of RMS
 //! `d` adds about `d^2`; so an isochoric flow ratchets the reference short and the bulk term
-//! resists it as a hardening (docs/model.md, Fluids). Such a cone carries the
+//! resists it as a hardening (docs/particles/fluids.md). Such a cone carries the
 //! volume ratio `R_i` of the particle's reference bonds to its rest volume
 //! ([`super::RestBonds::volume`]) and the return keeps, instead,
 //! `e_kept = cbrt(J_i) - 1` with `J_i = R_i det F_i` (`F_i` from the step's reference bonds):

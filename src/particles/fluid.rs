@@ -83,7 +83,7 @@ pub struct ViscoelasticFluid {
     pub density_iterations: usize,
     /// The solver of the density constraints (default the conjugate gradients: on a dam
     /// break 4 to 16 times less density time than Jacobi's, and to the tolerance on more
-    /// steps; docs/performance.md).
+    /// steps; docs/particles/performance.md).
     pub density_solver: DensitySolver,
     /// The projections stop once no particle is denser than `rho0 (1 + density_tolerance)`
     /// (relative, in (0, 0.1]).

@@ -22,7 +22,7 @@ impl PyGranular {
     /// cohesion stiffness `K_c` (Pa) and falloff `H_0`, the debonding scale `b`, and the
     /// static friction `eta` (in (0, 1], None for none), the grains' contact friction
     /// coefficient `mu_c` (>= 0), the capillary diffusivity `wicking` (m^2/s, in [0, 0.01])
-    /// of the water the grains hold: docs/model.md.
+    /// of the water the grains hold: docs/particles/granular.md.
     #[new]
     #[pyo3(signature = (
         *, friction_angle, saturation = Real::of(0.0),

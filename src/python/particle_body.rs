@@ -319,8 +319,8 @@ impl PyParticles {
     /// With ``indices``, only those particles change (a region, Fig. 19: between a Newtonian
     /// fluid and an elastic solid; bonds between solid particles of which one changed are born
     /// at the current positions, bonds across the fluid-solid boundary carry nothing, the
-    /// fluid's density constraints see the solid particles: docs/model.md). ValueError naming
-    /// a bad index, or a material other than the body's elastic or fluid one.
+    /// fluid's density constraints see the solid particles: docs/particles/couplings.md).
+    /// ValueError naming a bad index, or a material other than the body's elastic or fluid one.
     #[pyo3(signature = (material, indices = None))]
     fn set_material(
         &self,
@@ -361,8 +361,8 @@ impl PyParticles {
     }
     /// A sand body's water saturation per particle (float64, in [0, 1]): the material's,
     /// risen where a liquid in the same solver has reached the grains and wicked on from
-    /// grain to grain (docs/model.md, "Liquid with wet sand"); None for a body that is not
-    /// sand.
+    /// grain to grain (docs/particles/couplings.md, "Liquid with wet sand"); None for a body that
+    /// is not sand.
     #[getter]
     fn saturation<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
         self.lock().saturation().map(|t| to_numpy_1d(py, t))
@@ -370,7 +370,7 @@ impl PyParticles {
     /// (N,) pressure of each fluid particle's density constraint over the last step (Pa,
     /// float64, read-only): `p_i = -kappa rho0 lambda_i / h^2` of the projection's
     /// multipliers summed over the step's passes, `kappa` = 0.817 the kernel's gradient
-    /// factor on the lattice (docs/model.md, fluids, round y2). Zeros before the first step
+    /// factor on the lattice (docs/particles/fluids.md, round y2). Zeros before the first step
     /// and at particles without a constraint (solids); not part of a saved state (the next
     /// step does not start from it).
     #[getter]

@@ -15,7 +15,7 @@ pub struct SolverParams {
     /// [`super::StepStats::residual`]); 0 runs `max_iters` iterations.
     pub tol: f64,
     /// Particle bodies only: the largest force imbalance per unit mass, `|r_i| / (m_i h^2)`
-    /// (m/s^2), a converged step may leave, besides `tol` (docs/model.md, "Convergence
+    /// (m/s^2), a converged step may leave, besides `tol` (docs/particles/solids.md, "Convergence
     /// measure"): particle steps stop at `min(tol, particle_tol h^2)` (m).
     pub particle_tol: f64,
     /// Cap on global iterations per step.

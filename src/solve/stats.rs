@@ -91,8 +91,8 @@ pub struct ParticleTimings {
     pub density_passes: usize,
     pub density_error: f64,
     /// The step's last convergence measure against f32/f64 round-off
-    /// (`src/solve/particles/roundoff.rs`, docs/model.md "Convergence measure"): the largest
-    /// round-off floor `nu_i = eps |y_i| D_i / m_i` (m) that the measure subtracts, and the
+    /// (`src/solve/particles/roundoff.rs`, docs/particles/solids.md "Convergence measure"): the
+    /// largest round-off floor `nu_i = eps |y_i| D_i / m_i` (m) that the measure subtracts, and the
     /// particle (body, index in the body) holding the largest `|r_i| / m_i - nu_i`, `None`
     /// when every particle is within its floor. A floor above the tolerance means the step's
     /// "converged" is "within the tolerance of what the precision resolves at these

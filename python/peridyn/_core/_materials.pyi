@@ -98,8 +98,8 @@ class DruckerPrager:
     0), ``hardening`` (Pa per unit of accumulated plastic strain, >= 0; 0: perfectly
     plastic), ``rebuild_neighbours`` (search the neighbours anew on the deformed positions
     after every step, eq. 20). The inner cone of eq. 15, its invariants from the body's
-    continuum moduli (docs/model.md). With ``friction_angle`` exactly 0 (von Mises) a solid,
-    non-granular body's return keeps each particle's rest volume (an isochoric flow);
+    continuum moduli (docs/particles/plasticity.md). With ``friction_angle`` exactly 0 (von Mises) a
+    solid, non-granular body's return keeps each particle's rest volume (an isochoric flow);
     any positive angle, however small, keeps the paper's mean bond strain instead.
     ValueError naming the bad parameter."""
 
@@ -153,7 +153,7 @@ class ViscoelasticFluid:
     Teschner 2013 between the liquid's particles (without their curvature term), an explicit
     force at each step's start, its coefficient calibrated on the rest lattice by the work of
     cutting it along a plane; 0: none). Approximate: a drop's l = 2 oscillation reads back 0.8
-    to 1.4 of the tension asked at 0.1-0.4 N/m but 0.1 of it at 0.5 N/m (docs/model.md,
+    to 1.4 of the tension asked at 0.1-0.4 N/m but 0.1 of it at 0.5 N/m (docs/particles/fluids.md,
     fluids, round x), and above about 1 N/m at dt = 5 ms the explicit force blows drops apart).
     ValueError naming the bad parameter."""
 
@@ -216,7 +216,7 @@ class Granular:
     the grains hold, which moves from grain to grain conserved (a wetting front advances
     about ``sqrt(D t)``); a step whose wicking would need more than 100 explicit substeps
     (they grow as ``D dt / spacing^2``) raises a ValueError naming ``wicking`` and keeps the
-    last good state. docs/model.md gives the defaults' reasons.
+    last good state. docs/particles/granular.md gives the defaults' reasons.
     ValueError naming the bad parameter."""
 
     def __init__(

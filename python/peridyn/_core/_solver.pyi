@@ -176,7 +176,7 @@ class Solver:
         (Newton's law at the step's accelerations, colliders' reactions taken out, less its
         round-off floor) is below it and its distance measure below ``tol``: particle steps
         stop at ``min(tol, particle_tol * dt^2)`` m, so that a short step is not "converged"
-        before it has moved (docs/model.md, "Convergence measure").
+        before it has moved (docs/particles/solids.md, "Convergence measure").
     two_level : particle bodies with ``global_solver`` "jacobi" or "chebyshev" only (default
         True): add a two-level correction on aggregates of about 30 particles to every sweep
         (issue 38): fewer iterations where a body's slow elastic modes hold the step (a

@@ -61,11 +61,11 @@
 //! solution and moves nothing, whatever the number of sweeps; elsewhere they are a warm start.
 //! (From the sweep's moves, `F_b = sum_i (r_i - m_i delta_i)`, and from zero multipliers, the
 //! redundant contacts of bodies in contact are not solved within the sweeps, and the
-//! translation left at an unconverged step carries momentum: docs/model.md, round s.) A
+//! translation left at an unconverged step carries momentum: docs/particles/solids.md, round s.) A
 //! granular body and one with fluid particles keep the sweep's moves and start their contacts
 //! from zero: their pairs share by mass and carry friction, whose reactions are not the coarse
-//! problem's rows (docs/model.md); and a frictional collider that the sweep put within their
-//! margin holds their tangential translation at zero ([`Friction::sticking`]; a dry and a wet
+//! problem's rows (docs/particles/solids.md); and a frictional collider that the sweep put within
+//! their margin holds their tangential translation at zero ([`Friction::sticking`]; a dry and a wet
 //! pile's runout and rest were measured that way, their grains' own slide on the floor being
 //! the fine iteration's); the repulsion answers the sweep's move for the settled
 //! moves only where two solid bodies may touch.

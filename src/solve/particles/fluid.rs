@@ -671,9 +671,9 @@ impl<T: Real> FluidStage<T> {
     /// overshoot it pulls them back. A liquid neighbour so pulled is held by its own row; a
     /// partner has none, so nothing in the system answers the pull: liquid poured on a sand
     /// bed drew the bed's grains into itself and opened gaps in the bottom layer, down which
-    /// water reached the ground (docs/model.md, fluids). Rows among liquid alone keep their
+    /// water reached the ground (docs/particles/fluids.md). Rows among liquid alone keep their
     /// pulls: clamped everywhere, a deep liquid's solve no longer converged within its passes
-    /// (docs/performance.md).
+    /// (docs/particles/performance.md).
     fn no_pull_beside_partners(&self, lambda: &mut [T]) {
         if !self.partner.contains(&true) {
             return;

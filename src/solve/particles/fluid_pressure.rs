@@ -13,7 +13,7 @@
 //! continuous kernel, by parts; 0.817 for the spiky kernel of 2.2 spacings normalised on the
 //! lattice's density sum). So a liquid at rest under gravity balances its weight with `q =
 //! rho g d / kappa`, and `kappa q` is the pressure whose gradient the forces are, the one
-//! walls and a hydrostatic column read (docs/model.md, fluids, round y2).
+//! walls and a hydrostatic column read (docs/particles/fluids.md, round y2).
 //!
 //! Jacobi's one-sided passes only push, so its pressure is never negative but at an adhered
 //! ghost, whose constraint also pulls; the conjugate gradients hold their active set as

@@ -87,9 +87,9 @@ impl<T: Real> FluidStage<T> {
     /// its neighbours along its own gradient and nothing is pulled; the conjugate gradients
     /// hold their active set as equalities, so their hold pulled members back to their
     /// ceilings and gave back the spacing the redistribution had evened (a dam break's
-    /// `sum ||grad rho||^2` rose over some steps' redistribution and hold; docs/model.md). At
-    /// most `redistribution_iterations` passes (one linearisation each),
-    /// no more than `density_iterations`, to the density tolerance; the passes add to
+    /// `sum ||grad rho||^2` rose over some steps' redistribution and hold;
+    /// docs/particles/fluids.md). At most `redistribution_iterations` passes (one linearisation
+    /// each), no more than `density_iterations`, to the density tolerance; the passes add to
     /// `self.passes`, and `self.error` is then the violation of the rest densities again.
     fn hold_densities(&mut self, points: &Points<T>, colliders: &[ColliderModel<T>]) {
         let mut ceiling = std::mem::take(&mut self.ceiling);

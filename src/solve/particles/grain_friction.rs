@@ -1,5 +1,5 @@
 //! Coulomb friction at the contacts of touching grains ([`super::repulsion`]; beyond the 2017
-//! paper, whose grains have none: docs/model.md, granular section). A granular body's
+//! paper, whose grains have none: docs/particles/granular.md). A granular body's
 //! particles keep apart as balls of half a spacing; frictionless (the default), those balls
 //! carry a pile's weight while sliding freely over each other. With the material's contact
 //! friction `mu_c` (`Granular::contact_friction`, dimensionless) a touching pair's relative
@@ -34,7 +34,7 @@
 //! contact, not a slower one.) A step's multipliers start from the pair's accepted ones of
 //! the previous step (0 for a new pair): a resting contact carries the same load step after
 //! step, so its multiplier starts converged, where from 0 the iterations would leave part of
-//! each step's slip (docs/model.md). They are a run's state: a state file saves them
+//! each step's slip (docs/particles/granular.md). They are a run's state: a state file saves them
 //! ([`crate::solve::SolverState::grain_contacts`]), and positions set from outside start the
 //! body's from 0 ([`GrainFriction::forget`]). A pair's two moves are equal and opposite in momentum
 //! (`m_i s_i = m_j s_j`) at every iteration, as its two copies of `lambda` are computed from
@@ -209,7 +209,7 @@ impl<T: Real> GrainFriction<T> {
     /// `|y* - y^t|` the grain's inertial move (m: its momentum's and its weight's in the
     /// step, the normal load the grain itself puts on a contact). The overlap alone would
     /// count the load of the grains above, whose sideways pull the contact carries as well: a
-    /// perfect-lattice column then held its edges (docs/model.md, granular section, round u).
+    /// perfect-lattice column then held its edges (docs/particles/granular.md, round u).
     pub fn sticks(
         &self,
         proposed: &[Vector3<T>],

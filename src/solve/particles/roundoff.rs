@@ -1,6 +1,6 @@
-//! The round-off floor of a particle's residual per unit mass (docs/model.md, "Convergence
-//! measure"): the step's convergence measure and its merit's floor ([`super::step`]), and the
-//! two-level correction's test of a body at round-off ([`super::two_level`]).
+//! The round-off floor of a particle's residual per unit mass (docs/particles/solids.md,
+//! "Convergence measure"): the step's convergence measure and its merit's floor ([`super::step`]),
+//! and the two-level correction's test of a body at round-off ([`super::two_level`]).
 
 use nalgebra::Vector3;
 
@@ -18,7 +18,7 @@ pub const ROUNDOFF_FACTOR: f64 = 1.0;
 /// with the Jacobi diagonal `d = D_i` and mass `m = m_i` (kg): `c eps |y_i| D_i / m_i`
 /// (`c` = [`ROUNDOFF_FACTOR`], `eps` the precision's machine epsilon). A position is stored to
 /// `eps |y_i|`, and the residual changes by `D_i` per metre a particle moves, so no stored
-/// iterate brings `|r_i| / m_i` much lower, whatever the iteration (docs/model.md,
+/// iterate brings `|r_i| / m_i` much lower, whatever the iteration (docs/particles/solids.md,
 /// "Convergence measure"): 25K particles of E 2e5 Pa in a 0.1 m cube at h = 1/30 s have
 /// `D_i / m_i` about 5e4, a floor near 5e-4 m in f32 (1e-12 m in f64).
 #[inline(always)]

@@ -19,7 +19,7 @@
 //! bonds on their cone yielding again each step as contacts at their Coulomb limit slipped a
 //! micrometre; a grain held whenever its contacts did not slip relative to its partners
 //! (round t) held a perfect-lattice column whose stacked grains move together
-//! (docs/model.md, granular section, round u).
+//! (docs/particles/granular.md, round u).
 
 use std::ops::Range;
 

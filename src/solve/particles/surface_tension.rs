@@ -24,7 +24,7 @@
 //! peak (`C(H / 2) m_i m_j (n_i - n_j)`: their acceleration form's units differ from the
 //! cohesion's by a density), drove a resting ball of water apart within 0.1 s at 0.25 N/m
 //! with either sign of the normals, and at a twentieth of that weight (about AAT13's own for
-//! water) its outermost particles crept out (docs/model.md, fluids, round x); the cohesion
+//! water) its outermost particles crept out (docs/particles/fluids.md, round x); the cohesion
 //! with `K_ij` alone holds the ball.
 //!
 //! `f_ji = -f_ij` exactly (every factor is symmetric in `i, j` or changes sign with the
@@ -36,8 +36,8 @@
 //! with lattice vector `p` (`p_z > 0`) number `p_z / d^3` per unit area, and each pair's force
 //! does `gamma m^2 int_|p|^H C(r) dr` as it parts, so `gamma = 2 sigma / (m^2 S)`,
 //! `S = sum_{p_z > 0} p_z / d^3 int_|p|^H C(r) dr` (1/m^5; [`gamma_per_tension`]), `K_ij = 1`
-//! in the bulk. The tension this gives, measured on oscillating drops, is in docs/model.md
-//! (fluids, round x) and tests/test_surface_tension.py.
+//! in the bulk. The tension this gives, measured on oscillating drops, is in
+//! docs/particles/fluids.md (fluids, round x) and tests/test_surface_tension.py.
 //!
 //! Pinned particles (ghosts) pull and are pulled, but keep their velocity; partners (sand
 //! grains, a mixed body's solid particles) take no part.

@@ -28,7 +28,7 @@
 //! the move), pushed out of the colliders with their friction (where it goes,
 //! [`super::settled_move`]). At the fixed point these reactions take back the sweep's move (`y_next = y`), so the settled moves, the restriction and the
 //! correction vanish there (with the sweep's move alone, the correction would pull a body
-//! resting on a cloth into it every iteration: docs/model.md has the measurements).
+//! resting on a cloth into it every iteration: docs/particles/solids.md has the measurements).
 //! The colliders, the repulsion and the translations' coarse problem
 //! ([`super::coarse`], which keeps the contacts one-sided) follow. Since the correction is a
 //! Galerkin projection it leaves the fixed point `r = 0` alone.
@@ -40,7 +40,7 @@
 //! unit normal `n`: its row of `P` is `T = I - n n^T` in its aggregate's column, so the
 //! correction moves it along the collider (the contact layer spreading sideways under a
 //! landing body, which a held layer leaves to the sweep: its count grew with the particles
-//! a side; docs/performance.md, issue 38 rounds w, w2 and y). It enters the residual with
+//! a side; docs/particles/performance.md, issue 38 rounds w, w2 and y). It enters the residual with
 //! its settled move (a held particle's, above) and the restriction and the post-smoothing
 //! through `T`. All sliding particles share one normal (the first sliding particle's; one
 //! with another normal, on a second plane or another face of a box, is held whole): in the
@@ -53,8 +53,9 @@
 //! normal coordinate. A frictional collider holds the particle whole (static
 //! friction takes the tangential move), and so does a curved one (a sphere, a capsule, a
 //! mesh, a box's edge): there the normal turns as the particle slides, and a factor kept
-//! with the old normals pulled a landing on a 2 m sphere off its fixed point (docs/model.md,
-//! round w2). A body that slides on nothing takes the scalar matrix and main's iterates.
+//! with the old normals pulled a landing on a 2 m sphere off its fixed point
+//! (docs/particles/solids.md, round w2). A body that slides on nothing takes the scalar matrix and
+//! main's iterates.
 //!
 //! **Who takes part.** A body that holds no particle (no pin, no contact) takes no correction.
 //! The coarse matrix is the constant `A`, the tangent of eq. 12 only near the rest shape;
