@@ -10,6 +10,24 @@ use crate::solve::{BodyMut, GlobalSolver, Solver, SolverParams};
 
 use super::DirectSolver;
 
+/// A body of `n` particles a side on a lattice of 1 cm, its lowest layer at `z0` (m), of
+/// density `density` (kg/m^3) and material `material`.
+fn lattice(n: [usize; 3], z0: f64, density: f64, material: Elastic) -> Particles {
+    let params = ParticleParams {
+        spacing: 0.01,
+        density,
+        horizon: None,
+        material,
+    };
+    let x = (0..n[0] * n[1] * n[2])
+        .map(|k| {
+            let (i, j, l) = (k % n[0], k / n[0] % n[1], k / (n[0] * n[1]));
+            Vector3::new(i as f64 * 0.01, j as f64 * 0.01, z0 + l as f64 * 0.01)
+        })
+        .collect();
+    Particles::new(x, params).unwrap()
+}
+
 /// `B = blockdiag(A_FF, D_H)` of the module's doc, dense (one coordinate), for the rest data
 /// `rest`, the time step `h` (s) and the held set `held`.
 fn dense_b(rest: &ParticleRest<f64>, h: f64, held: &[bool]) -> DMatrix<f64> {
@@ -62,16 +80,7 @@ fn relative_residual(
 /// one), and solves the new matrix to rounding again.
 #[test]
 fn a_change_of_values_refactors_on_the_pattern_and_solves_exactly() {
-    let params = ParticleParams {
-        spacing: 0.01,
-        density: 1000.0,
-        horizon: None,
-        material: Elastic::Young { e: 1e6, nu: 0.25 },
-    };
-    let x = (0..80)
-        .map(|k| Vector3::new((k % 5) as f64, (k / 5 % 4) as f64, (k / 20) as f64) * 0.01)
-        .collect();
-    let body = Particles::new(x, params).unwrap();
+    let body = lattice([5, 4, 4], 0.0, 1000.0, Elastic::Young { e: 1e6, nu: 0.25 });
     let mut rest = ParticleRest::<f64>::of_bodies(&[&body]).unwrap();
     let (h, mut held) = (1e-2, vec![false; rest.len()]);
     held[0] = true;
@@ -107,16 +116,12 @@ fn a_change_of_values_refactors_on_the_pattern_and_solves_exactly() {
 /// (`ParticleTimings::analyses`), else none. Both kinds of step occur.
 #[test]
 fn a_settling_sand_column_refactors_its_direct_solver_as_its_stiffness_changes() {
-    let params = ParticleParams {
-        spacing: 0.01,
-        density: 1600.0,
-        horizon: None,
-        material: Elastic::Paper { mu: 0.0, lam: 1e5 },
-    };
-    let x = (0..150)
-        .map(|k| Vector3::new((k % 5) as f64, (k / 5 % 5) as f64, (k / 25) as f64 + 0.5) * 0.01)
-        .collect();
-    let mut body = Particles::new(x, params).unwrap();
+    let mut body = lattice(
+        [5, 5, 6],
+        0.005,
+        1600.0,
+        Elastic::Paper { mu: 0.0, lam: 1e5 },
+    );
     body.set_granular(Granular::new(30.0, 0.0)).unwrap();
     let p = SolverParams {
         dt: 2e-3,
