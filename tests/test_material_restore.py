@@ -67,6 +67,15 @@ def cg_water():
     return block(pd.ViscoelasticFluid(viscosity=1e-3, density_solver="cg"), 1000.0)
 
 
+def viscoplastic_honey():
+    """Honey whose return relaxes its overstress over `plastic_viscosity / G` = 0.1 s,
+    flowing on the floor beyond its yield stress (50 Pa against its weight's 690 Pa): the
+    stress beyond its cone is elastic strain kept in its reference bonds, which the file
+    holds."""
+    return block(pd.ViscoelasticFluid(viscosity=1.0, shear_modulus=50.0, plastic_viscosity=5.0),
+                 1400.0)
+
+
 def rough_sand():
     """Sand whose grains' contacts have friction (per-pair multipliers carried from step to
     step, unsaved before format version 3: the continuation parted from the run) settling on
@@ -110,6 +119,7 @@ CASES = {
 UNCHANGED = {
     "water by conjugate gradients on a floor": (cg_water, nothing),
     "sand with contact friction": (rough_sand, nothing),
+    "honey with a plastic viscosity": (viscoplastic_honey, nothing),
 }
 
 

@@ -152,25 +152,18 @@ def test_a_block_on_a_tilted_plane_holds_below_the_friction_angle_and_slides_abo
 
 
 @pytest.mark.parametrize("precision", ["f32", "f64"])
-@pytest.mark.parametrize("two_level", [
-    False,
-    pytest.param(True, marks=pytest.mark.xfail(strict=True, reason=(
-        "the two-level correction keeps pulling a body held in a frictional corner: every "
-        "step at the cap (round y3)")))])
+@pytest.mark.parametrize("two_level", [False, True])
 def test_a_block_resting_in_a_frictional_corner_stays_and_its_steps_converge(
         precision, two_level):
     """The block resting on a Plane(friction=0.5) against a wall x = 0 of the same friction,
     the wall listed first, its side particles at the margin from the wall: over 20 steps
     of h = 0.01 s to settle and 30 more its centroid moves less than 1e-6 m over the last 30
     and every particle ends below 1e-4 m/s; every step converges within the cap of 100, and
-    at rest within 5 iterations (measured 1 without the two-level correction, f32 and f64).
-    With the two-level correction (the default) every step, at rest too, runs to the cap
-    (the block still at rest, 1e-10 m): measured only where both colliders are frictional
-    (a frictionless wall or floor: 1-2 iterations at rest), whichever is listed first, with
-    chebyshev and jacobi; without the correction 1 iteration. Not the translations' coarse
-    problem (each collider's friction starting from its own reaction changed nothing here):
-    the held particles' settled moves at the corner (src/solve/particles/two_level.rs), to
-    be found (docs/particles/solids.md, round y3)."""
+    at rest within 5 iterations (measured 1, f32 and f64, with and without the two-level
+    correction). Until round z the two-level correction ran every step to the cap here: the
+    settled moves of the four particles on the corner's edge measured the floor's gap where
+    the sweep left them, not where the wall's push and friction did, and stayed 1.7e-6 m
+    from zero at rest (src/solve/particles/settled_move.rs; docs/particles/solids.md)."""
     body, _ = block()
     solver = pd.Solver(dt=0.01, gravity=(0, 0, -G), precision=precision, threads=2,
                        max_iters=100, two_level=two_level)

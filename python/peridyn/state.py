@@ -105,8 +105,9 @@ _BOND_OPTIONAL = {"volume"}
 #: body's particle count; an empty shape for a part the body does not have).
 _MATERIAL_ENTRIES = {
     "elastic": ("f", [(3,)]),
-    # 9, 10, 11 numbers: written before the density solver, bulk modulus, surface tension
-    "fluid": ("f", [(0,), (9,), (10,), (11,), (12,)]),
+    # 9, 10, 11, 12 numbers: written before the density solver, bulk modulus, surface
+    # tension, plastic viscosity
+    "fluid": ("f", [(0,), (9,), (10,), (11,), (12,), (13,)]),
     "horizon": ("f", [(0,), (1,)]),
     "reference": ("f", [("N", 3)]),
     "fluid_mask": ("b", [(0,), ("N",)]),

@@ -320,6 +320,13 @@ impl<T: Real> ColliderModel<T> {
         (self.shape.flat_normal(&self.local(x), edge)).map(|n| self.rotation * n)
     }
 
+    /// Whether a particle may slide along this collider: frictionless, with a flat part where
+    /// [`Self::flat_normal`] can answer (a plane, a box).
+    #[inline]
+    pub fn may_slide(&self) -> bool {
+        self.friction == T::zero() && self.shape.has_flat_part()
+    }
+
     /// `x` itself when it is at least `margin` outside, else the point at distance `margin`
     /// along the normal.
     #[inline]
@@ -610,6 +617,12 @@ impl<T: Real> ShapeModel<T> {
             } => box_face_normal(x, &center, &half_extents, &axes, edge),
             _ => None,
         }
+    }
+
+    /// Whether [`Self::flat_normal`] answers somewhere (a plane, a box).
+    #[inline]
+    pub fn has_flat_part(&self) -> bool {
+        matches!(self, Self::Plane { .. } | Self::Box { .. })
     }
 
     /// `x` itself when it is at least `margin` outside, else the point at distance `margin`

@@ -50,6 +50,21 @@
 //! deviatoric springs push it back to its orientation. Where `J_i` is not positive (`F_i`
 //! singular, a neighbourhood collapsed to a plane, or no three-dimensional neighbourhood
 //! among the bonds) the return keeps eq. 18's mean.
+//!
+//! **A rate-dependent return: the overstress relaxed over `tau` (beyond the paper).** A
+//! viscoplastic (Bingham) fluid flows at the stress `sqrt(J2) = k + sqrt(2) eta_p |D_dev|`
+//! (Bingham 1922; in tension `sigma = sigma_y + 3 eta_p eps_dot`, Trouton's viscosity): a
+//! neck that thins fast carries more stress than one that thins slowly. With a relaxation
+//! time `tau = eta_p / G` (s, the plastic viscosity over the shear modulus) the return is
+//! Duvaut and Lions' (1972) form of Perzyna's (1966) linear overstress law, taken backward
+//! (implicit) over the step `h`: the state moves from its trial toward the cone's projection
+//! by the fraction `r = h / (tau + h)` of the way (`alpha`, `beta` of eq. 18 times `r`), so the
+//! overstress `q = sqrt(J2) - f` decays as `q' = q_trial tau / (tau + h)`. In a steady flow at
+//! the deviatoric bond strain rate `d` (RMS, 1/s) each step adds `sqrt(15) G d h` to `q` and the
+//! return keeps `q = sqrt(15) G tau d = sqrt(15) eta_p d`, which is `sqrt(2) eta_p |D_dev|`
+//! (an affine rate's bond strain rates have the RMS deviation `sqrt(2/15) |D_dev|`): the
+//! Bingham stress, for any step. The overstress is elastic strain kept in the reference bonds
+//! (state already saved with them); `tau = 0` gives `r = 1` exactly, eq. 18's return.
 
 use nalgebra::Vector3;
 
@@ -82,6 +97,11 @@ pub struct Cone<T: Real> {
     /// of the particle's reference bonds to its rest volume (dimensionless); `None`: eq. 18's
     /// mean.
     pub volume: Option<T>,
+    /// The relaxation time `tau = eta_p / G` (s) of a rate-dependent return (see
+    /// [`Self::relaxed`]); 0: the rate-independent return of eq. 18.
+    pub relaxation_time: T,
+    /// The time step `h` (s) the return relaxes over (unused where `relaxation_time` is 0).
+    pub step: T,
 }
 
 /// The factors of eq. 18 (corrected) for one particle beyond its cone, with its mean strain.
@@ -104,9 +124,22 @@ impl<T: Real> Cone<T> {
         (self.shear15 * dev, self.a - self.b * self.bulk9 * iso)
     }
 
+    /// The fraction `r = h / (tau + h)` (dimensionless, in (0, 1]) of the way from the trial
+    /// state to the cone that the return takes (see the module's doc): 1 exactly for the
+    /// rate-independent return (`tau = 0`).
+    #[inline]
+    pub fn relaxed(&self) -> T {
+        if self.relaxation_time > T::zero() {
+            self.step / (self.relaxation_time + self.step)
+        } else {
+            T::one()
+        }
+    }
+
     /// Eq. 18 (corrected) at the mean strain `iso` and the RMS deviation `dev`: `None` inside
     /// the cone; else, with `f = A + B I1`, `alpha = 0`, `beta = (sqrt(J2) - f) / sqrt(J2)`
-    /// if `f > 0`, and `alpha = f / (B I1)`, `beta = 1` (to the apex) otherwise.
+    /// if `f > 0`, and `alpha = f / (B I1)`, `beta = 1` (to the apex) otherwise; both times
+    /// [`Self::relaxed`]'s `r` for a rate-dependent return.
     #[inline]
     pub fn factors(&self, iso: T, dev: T) -> Option<Factors<T>> {
         let (sqrt_j2, f) = self.state(iso, dev);
@@ -121,6 +154,8 @@ impl<T: Real> Cone<T> {
         } else {
             (T::zero(), T::one())
         };
+        let r = self.relaxed();
+        let (alpha, beta) = (alpha * r, beta * r);
         Some(Factors {
             alpha,
             beta,

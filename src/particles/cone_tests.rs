@@ -332,6 +332,8 @@ fn the_rest_volume_moves_the_kept_mean_by_a_bounded_step() {
         bulk9: 1e6,
         shear15: 1e6,
         volume: Some(ratio),
+        relaxation_time: 0.0,
+        step: 0.0,
     };
     let (iso, dev) = (0.001, 0.01);
     let near = cone(1.0).factors_at(iso, dev, 1.005f64).unwrap();
@@ -348,10 +350,65 @@ fn the_rest_volume_moves_the_kept_mean_by_a_bounded_step() {
             bulk9: 1e6,
             shear15: 1e6,
             volume: Some(1.0),
+            relaxation_time: 0.0,
+            step: 0.0,
         };
         let far32 = single
             .factors_at(iso as f32, dev as f32, det as f32)
             .unwrap();
         assert!((far32.kept as f64 - kept).abs() < 1e-6, "{det}: {far32:?}");
     }
+}
+
+/// The rate-dependent return ([`super::Cone::relaxed`]): in a steady deviatoric flow, each
+/// step adding `d h` to the RMS deviation `||e_dev||` (`d` = 2/s, `h` = 5 ms), the state
+/// settles at the overstress `sqrt(J2) - A = sqrt(15) G tau d` (`tau` = 0.1 s: 0.2 of the
+/// yield strain's stress, to 1e-9 of it after 1000 steps; the return takes `h / (tau + h)` of
+/// the way to the cone), in both precisions (f32 to 1e-4); `tau = 0` is eq. 18's return to
+/// the last bit, at any step.
+#[test]
+fn a_rate_dependent_return_keeps_the_bingham_overstress_of_a_steady_flow() {
+    fn steady<T: crate::real::Real>(tau: f64) -> f64 {
+        let cone = super::Cone::<T> {
+            a: T::of(1000.0),
+            b: T::zero(),
+            bulk9: T::of(1e5),
+            shear15: T::of(15f64.sqrt() * 500.0),
+            volume: None,
+            relaxation_time: T::of(tau),
+            step: T::of(0.005),
+        };
+        let (rate, h) = (T::of(2.0), T::of(0.005));
+        let mut dev = T::zero();
+        for _ in 0..1000 {
+            let trial = dev + rate * h;
+            dev = cone
+                .factors(T::zero(), trial)
+                .map_or(trial, |f| (T::one() - f.beta) * trial);
+        }
+        (cone.shear15 * dev - cone.a).to_f64()
+    }
+    let expected = 15f64.sqrt() * 500.0 * 0.1 * 2.0;
+    let q = steady::<f64>(0.1);
+    assert!((q / expected - 1.0).abs() < 1e-9, "{q} against {expected}");
+    let q32 = steady::<f32>(0.1);
+    assert!(
+        (q32 / expected - 1.0).abs() < 1e-4,
+        "{q32} against {expected}"
+    );
+    assert!(steady::<f64>(0.0).abs() < 1e-9);
+    let plain = super::Cone {
+        a: 100.0,
+        b: 0.0,
+        bulk9: 1e6,
+        shear15: 1e6,
+        volume: None,
+        relaxation_time: 0.0,
+        step: 0.0,
+    };
+    let timed = super::Cone {
+        step: 0.005,
+        ..plain
+    };
+    assert_eq!(plain.factors(0.001, 0.01), timed.factors(0.001, 0.01));
 }

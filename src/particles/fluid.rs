@@ -125,6 +125,13 @@ pub struct ViscoelasticFluid {
     /// term), its coefficient calibrated on the rest lattice (`crate::solve::particles`' surface
     /// tension).
     pub surface_tension: f64,
+    /// The plastic (Bingham) viscosity `eta_p` (Pa s, >= 0) of a viscoelastic fluid's flow
+    /// beyond yield: its return relaxes the stress beyond the cone over `tau = eta_p / G`
+    /// (Duvaut and Lions' form of Perzyna's overstress law, [`super::cone`]), so a steady flow
+    /// carries `sigma_y + 3 eta_p eps_dot` in tension. 0 (the default): rate-independent, the
+    /// paper's. Not the Laplacian `viscosity`, which acts on the velocities at every strain,
+    /// below yield too. Unused at `shear_modulus = 0`.
+    pub plastic_viscosity: f64,
 }
 
 impl Default for ViscoelasticFluid {
@@ -142,6 +149,7 @@ impl Default for ViscoelasticFluid {
             bulk_modulus: None,
             adhesion: false,
             surface_tension: 0.0,
+            plastic_viscosity: 0.0,
         }
     }
 }
@@ -197,6 +205,12 @@ impl ViscoelasticFluid {
             |v| v >= 0.0,
             "a finite surface tension >= 0 N/m",
         )?;
+        check_param(
+            "plastic_viscosity",
+            self.plastic_viscosity,
+            |v| v >= 0.0,
+            "a finite plastic viscosity >= 0 Pa s",
+        )?;
         if let Some(y) = self.yield_stress {
             check_param("yield_stress", y, |v| v > 0.0, "a finite stress > 0 Pa")?;
         }
@@ -214,6 +228,16 @@ impl ViscoelasticFluid {
             )?;
         }
         Ok(())
+    }
+
+    /// The relaxation time `tau = eta_p / G` (s) of the return of a viscoelastic fluid
+    /// ([`Self::plastic_viscosity`]); 0 for a Newtonian liquid or a rate-independent return.
+    pub fn relaxation_time(&self) -> f64 {
+        if self.shear_modulus > 0.0 {
+            self.plastic_viscosity / self.shear_modulus
+        } else {
+            0.0
+        }
     }
 
     /// The elastic material and plastic law of a viscoelastic fluid (see the module's doc),

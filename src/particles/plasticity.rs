@@ -236,6 +236,12 @@ pub(crate) struct PlasticLaw {
     /// `friction_angle` exactly 0 (then and only then `B = 0`: any positive angle, however
     /// small, keeps eq. 18's mean), on a body neither granular nor thin.
     pub anchored: bool,
+    /// The relaxation time `tau = eta_p / G` (s) of a viscoplastic fluid's rate-dependent
+    /// return ([`super::cone`]; [`super::ViscoelasticFluid::plastic_viscosity`]); 0: eq. 18's.
+    pub relaxation_time: f64,
+    /// The time step `h` (s) of the step under way ([`Self::at_step`]), which a rate-dependent
+    /// return relaxes over.
+    pub step: f64,
 }
 
 impl PlasticLaw {
@@ -256,7 +262,14 @@ impl PlasticLaw {
             bulk9: 9.0 * self.bulk,
             shear15: 15f64.sqrt() * self.shear,
             volume: None,
+            relaxation_time: self.relaxation_time,
+            step: self.step,
         }
+    }
+
+    /// The law for a step of `h` (s).
+    pub fn at_step(self, h: f64) -> Self {
+        Self { step: h, ..self }
     }
 
     /// [`Self::cone_at`] of a particle whose reference bonds span the volume ratio `volume`
@@ -450,6 +463,8 @@ impl PlasticLaw {
             delta: body.horizon(),
             volume: body.volume(),
             anchored: law.friction_angle == 0.0 && body.granular().is_none() && !thin,
+            relaxation_time: body.fluid_material().map_or(0.0, |f| f.relaxation_time()),
+            step: 0.0,
         })
     }
 }

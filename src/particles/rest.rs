@@ -208,7 +208,17 @@ impl<T: Real> ParticleRest<T> {
                 bulk9: T::of(f.bulk9),
                 shear15: T::of(f.shear15),
                 volume: f.volume.map(T::of),
+                relaxation_time: T::of(f.relaxation_time),
+                step: T::of(f.step),
             });
+        }
+    }
+
+    /// Readies every cone for a step of `h` (s): a rate-dependent return relaxes over it
+    /// ([`super::cone`]).
+    pub(crate) fn set_step(&mut self, h: f64) {
+        for cone in self.cones.iter_mut().flatten() {
+            cone.step = T::of(h);
         }
     }
 

@@ -27,9 +27,11 @@ impl PyViscoelasticFluid {
     /// and `yield_stress` (Pa, > 0; None: the shear modulus), `bulk_modulus` (Pa, the
     /// elasticity's, 2/3 to 29/3 of the shear modulus; None: 5/3 of it), `adhesion` (the liquid sticks to
     /// the body's pinned ghost particles by two-sided density constraints), `surface_tension`
-    /// (N/m, >= 0; 0: none).
+    /// (N/m, >= 0; 0: none), `plastic_viscosity` (Pa s, >= 0: the Bingham viscosity of a
+    /// viscoelastic fluid's flow beyond yield, which relaxes its overstress over
+    /// `plastic_viscosity / shear_modulus`; 0: rate-independent).
     #[new]
-    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_solver = "cg", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, bulk_modulus = None, adhesion = false, surface_tension = Real::of(0.0)))]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_solver = "cg", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, bulk_modulus = None, adhesion = false, surface_tension = Real::of(0.0), plastic_viscosity = Real::of(0.0)))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         viscosity: Real,
@@ -44,6 +46,7 @@ impl PyViscoelasticFluid {
         bulk_modulus: Option<Real>,
         adhesion: bool,
         surface_tension: Real,
+        plastic_viscosity: Real,
     ) -> PyResult<Self> {
         let iterations = usize::try_from(density_iterations).map_err(|_| {
             pyo3::exceptions::PyValueError::new_err(format!(
@@ -68,6 +71,7 @@ impl PyViscoelasticFluid {
             bulk_modulus: bulk_modulus.map(|k| k.get("bulk_modulus")).transpose()?,
             adhesion,
             surface_tension: surface_tension.get("surface_tension")?,
+            plastic_viscosity: plastic_viscosity.get("plastic_viscosity")?,
         };
         inner.validate().py()?;
         Ok(Self { inner })
@@ -127,13 +131,18 @@ impl PyViscoelasticFluid {
     fn surface_tension(&self) -> f64 {
         self.inner.surface_tension
     }
+    /// Plastic (Bingham) viscosity of the flow beyond yield (Pa s; 0: rate-independent).
+    #[getter]
+    fn plastic_viscosity(&self) -> f64 {
+        self.inner.plastic_viscosity
+    }
     fn __repr__(&self) -> String {
         let f = &self.inner;
         let optional = |v: Option<f64>| v.map_or("None".to_string(), |v| v.to_string());
         let (yield_stress, bulk_modulus) = (optional(f.yield_stress), optional(f.bulk_modulus));
         format!(
-            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_solver=\"{}\", density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={}, bulk_modulus={}, adhesion={}, surface_tension={})",
-            f.viscosity, f.density_iterations, f.density_solver.name(), f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress, bulk_modulus, if f.adhesion { "True" } else { "False" }, f.surface_tension
+            "ViscoelasticFluid(viscosity={}, density_iterations={}, density_solver=\"{}\", density_tolerance={}, relaxation={}, redistribution={}, redistribution_iterations={}, shear_modulus={}, yield_stress={}, bulk_modulus={}, adhesion={}, surface_tension={}, plastic_viscosity={})",
+            f.viscosity, f.density_iterations, f.density_solver.name(), f.density_tolerance, f.relaxation, f.redistribution, f.redistribution_iterations, f.shear_modulus, yield_stress, bulk_modulus, if f.adhesion { "True" } else { "False" }, f.surface_tension, f.plastic_viscosity
         )
     }
 }

@@ -42,7 +42,8 @@ fn names() -> Vec<String> {
 /// (Pa; 0 for the default), adhesion (0 or 1), density solver (0 Jacobi, 1 conjugate
 /// gradients; absent in states written before it, which were Jacobi), bulk modulus (Pa; 0 for
 /// the default; absent in states written before it), surface tension (N/m; absent in states
-/// written before it, which had none).
+/// written before it, which had none), plastic viscosity (Pa s; absent in states written
+/// before it, which were rate-independent).
 fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
     let ViscoelasticFluid {
         viscosity,
@@ -57,6 +58,7 @@ fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
         density_solver,
         bulk_modulus,
         surface_tension,
+        plastic_viscosity,
     } = *f;
     vec![
         viscosity,
@@ -73,6 +75,7 @@ fn fluid_numbers(f: &ViscoelasticFluid) -> Vec<f64> {
         )),
         bulk_modulus.unwrap_or(0.0),
         surface_tension,
+        plastic_viscosity,
     ]
 }
 
@@ -86,6 +89,10 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
                 "{FLUID}: {name} must be a whole number >= 0, got {x}"
             )))
         }
+    };
+    let (v, plastic_viscosity) = match v {
+        [head @ .., eta] if v.len() == 13 => (head, *eta),
+        _ => (v, 0.0),
     };
     let (v, surface_tension) = match v {
         [head @ .., sigma] if v.len() == 12 => (head, *sigma),
@@ -103,7 +110,7 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
         v
     else {
         return Err(PyValueError::new_err(format!(
-            "{FLUID} must hold 12 numbers (11 before the surface tension, 10 before the bulk modulus, 9 before the density solver) or none, got {}",
+            "{FLUID} must hold 13 numbers (12 before the plastic viscosity, 11 before the surface tension, 10 before the bulk modulus, 9 before the density solver) or none, got {}",
             v.len()
         )));
     };
@@ -134,6 +141,7 @@ fn fluid_from(v: &[f64]) -> PyResult<ViscoelasticFluid> {
         density_solver,
         bulk_modulus: (bulk_modulus != 0.0).then_some(bulk_modulus),
         surface_tension,
+        plastic_viscosity,
     })
 }
 

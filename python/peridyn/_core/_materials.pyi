@@ -154,7 +154,12 @@ class ViscoelasticFluid:
     force at each step's start, its coefficient calibrated on the rest lattice by the work of
     cutting it along a plane; 0: none). Approximate: a drop's l = 2 oscillation reads back 0.8
     to 1.4 of the tension asked at 0.1-0.4 N/m but 0.1 of it at 0.5 N/m (docs/particles/fluids.md,
-    fluids, round x), and above about 1 N/m at dt = 5 ms the explicit force blows drops apart).
+    fluids, round x), and above about 1 N/m at dt = 5 ms the explicit force blows drops apart),
+    ``plastic_viscosity`` (Pa s, >= 0: the Bingham viscosity of a viscoelastic fluid's flow
+    beyond yield; its return relaxes the stress beyond the cone over ``plastic_viscosity /
+    shear_modulus`` (Duvaut and Lions' form of Perzyna's overstress law), so a steady flow
+    carries ``yield_stress + 3 plastic_viscosity eps_dot`` in tension; not the Laplacian
+    ``viscosity``, which acts at every strain; 0: rate-independent, the paper's).
     ValueError naming the bad parameter."""
 
     def __init__(
@@ -172,6 +177,7 @@ class ViscoelasticFluid:
         bulk_modulus: float | None = None,
         adhesion: bool = False,
         surface_tension: float = 0.0,
+        plastic_viscosity: float = 0.0,
     ) -> None: ...
     @property
     def viscosity(self) -> float: ...
@@ -197,6 +203,8 @@ class ViscoelasticFluid:
     def adhesion(self) -> bool: ...
     @property
     def surface_tension(self) -> float: ...
+    @property
+    def plastic_viscosity(self) -> float: ...
 
 class Granular:
     """Dry and wet sand (He, Wang and Wu 2017, section 7, eq. 25-28 corrected): a particle

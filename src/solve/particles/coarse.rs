@@ -154,13 +154,11 @@ fn settle<T: Real>(
                     *settled = Vector3::zeros();
                     return;
                 }
-                let to = points.y[i] + delta[i];
                 let moved = delta[i] + repulsion.map_or(Vector3::zeros(), |r| r.of_particle(i));
                 let colliders = Points::colliders_of(&points.collides, i, colliders);
                 *swept = moved.map(|c| c.to_f64());
                 let moved = out_of_colliders(
                     &points.y[i],
-                    &to,
                     &points.y_start[i],
                     moved,
                     points.margin[i],
@@ -268,7 +266,6 @@ fn gather_contacts<T: Real>(
             if solid[a] && near.iter().any(|c| c.friction > T::zero()) {
                 out_of_colliders(
                     &points.y[i],
-                    &p,
                     &points.y_start[i],
                     swept[i].map(T::of),
                     points.margin[i],

@@ -87,6 +87,7 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         }
         if let Some(plastic) = &mut self.plastic {
             plastic.start_step(params.dt);
+            self.rest.set_step(params.dt);
         }
         Ok(())
     }

@@ -104,9 +104,12 @@ impl PlasticBodies {
         })
     }
 
-    /// Readies the step of `dt` (s).
+    /// Readies the step of `dt` (s), the laws' returns too.
     pub fn start_step(&mut self, dt: f64) {
         self.dt = dt;
+        for entry in &mut self.entries {
+            entry.law = entry.law.map(|law| law.at_step(dt));
+        }
     }
 
     /// Whether body `b` of the family is plastic (has a yield law).

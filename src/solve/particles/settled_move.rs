@@ -10,18 +10,21 @@ use crate::collider::{coulomb_share, ColliderModel};
 use crate::real::Real;
 
 /// Particle `i`'s move `moved` (m; the sweep's, with the repulsion's or a coupling's answer)
-/// from `y` to `to = y + delta` carried out of `colliders` (margin `margin`, m) along their
-/// normals at `to`, with Coulomb friction as the projection applies it
-/// ([`crate::collider::push_out_with_friction`] for the isotropic Jacobi metric `d`, kg): the
-/// slip over the step from `start` (m, relative to the collider's material point) shortened
-/// while its reaction `d |removed|` stays within `friction * d * push`. Returns the settled
-/// move (m); `each(k, phi)` receives the friction's reaction at `colliders[k]`, `d` times its
-/// tangential correction (N s^2), for every frictional collider the particle is within.
-#[allow(clippy::too_many_arguments)]
+/// from `y` carried out of `colliders` (margin `margin`, m) with Coulomb friction, collider
+/// by collider as the projection takes them ([`crate::collider::push_out_with_friction`]
+/// for the isotropic Jacobi metric `d`, kg): each collider measures its gap and normal where
+/// the colliders before it left the particle, `y + moved`, and pushes it out along that
+/// normal; a frictional one then shortens the slip over the step from `start` (m, relative
+/// to the collider's material point) while its reaction `d |removed|` stays within
+/// `friction * d * push`. Measured at the sweep's end for every collider instead, a
+/// particle in a corner of two frictional colliders was pushed out of the second by the
+/// depth the first one's friction had already taken back, and its settled move stayed away
+/// from zero at the fixed point. Returns the settled move (m); `each(k, phi)` receives the
+/// friction's reaction at `colliders[k]`, `d` times its tangential correction (N s^2), for
+/// every frictional collider the particle is within.
 #[inline]
 pub(crate) fn out_of_colliders<T: Real>(
     y: &Vector3<T>,
-    to: &Vector3<T>,
     start: &Vector3<T>,
     mut moved: Vector3<T>,
     margin: T,
@@ -30,11 +33,12 @@ pub(crate) fn out_of_colliders<T: Real>(
     mut each: impl FnMut(usize, Vector3<T>),
 ) -> Vector3<T> {
     for (k, c) in colliders.iter().enumerate() {
-        let gap = c.signed_distance(to);
+        let at = y + moved;
+        let gap = c.signed_distance(&at);
         if gap >= margin {
             continue;
         }
-        let n = c.normal(to);
+        let n = c.normal(&at);
         moved += n * (margin - gap);
         if c.friction > T::zero() {
             let at = y + moved;
@@ -48,3 +52,7 @@ pub(crate) fn out_of_colliders<T: Real>(
     }
     moved
 }
+
+#[cfg(test)]
+#[path = "settled_move_tests.rs"]
+mod tests;

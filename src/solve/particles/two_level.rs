@@ -288,6 +288,7 @@ impl TwoLevel {
     ) {
         let aggregate = &self.aggregate;
         let h2 = h * h;
+        let may_slide = colliders.iter().any(|c| c.may_slide());
         self.free
             .par_iter_mut()
             .zip(self.held_move.par_iter_mut())
@@ -310,14 +311,19 @@ impl TwoLevel {
                 for c in colliders {
                     if c.signed_distance(&to) <= reach || c.signed_distance(&points.y[i]) <= reach {
                         near += 1;
-                        flat = (c.friction == T::zero())
-                            .then(|| c.flat_normal(&to, reach))
-                            .flatten();
+                        flat = c.may_slide().then(|| c.flat_normal(&to, reach)).flatten();
                     }
+                }
+                let held = near > 0 || touched[i] || reaction != Vector3::zeros();
+                let unmoved = reaction == Vector3::zeros() && repelled == Vector3::zeros();
+                let slides = flat.filter(|_| near == 1 && unmoved);
+                *free = !held || slides.is_some();
+                if !held {
+                    // A free particle enters the restriction with the sweep's move.
+                    return;
                 }
                 let moved = out_of_colliders(
                     &points.y[i],
-                    &to,
                     &points.y_start[i],
                     delta[i] + reaction + repelled,
                     margin,
@@ -325,10 +331,6 @@ impl TwoLevel {
                     colliders,
                     |_, _| {},
                 );
-                let held = near > 0 || touched[i] || reaction != Vector3::zeros();
-                let unmoved = reaction == Vector3::zeros() && repelled == Vector3::zeros();
-                let slides = flat.filter(|_| near == 1 && unmoved);
-                *free = !held || slides.is_some();
                 *held_move = moved.map(|c| c.to_f64());
                 if let Some(n) = slides {
                     *normal = n.map(|c| c.to_f64()).normalize();
@@ -365,7 +367,11 @@ impl TwoLevel {
                 self.normal[range.clone()].fill(Vector3::zeros());
             }
         }
-        self.share_normal();
+        if may_slide {
+            self.share_normal();
+        } else {
+            self.slide_normal = Vector3::zeros();
+        }
     }
 
     /// Holds whole a sliding particle whose normal is not the first sliding particle's
@@ -373,20 +379,22 @@ impl TwoLevel {
     /// free particles that do not slide.
     fn share_normal(&mut self) {
         let zero = Vector3::zeros();
-        let first = self.normal.iter().find(|n| **n != zero).copied();
-        self.slide_normal = first.unwrap_or(zero);
-        for (n, free) in self.normal.iter_mut().zip(&mut self.free) {
-            if *n != zero && *n != self.slide_normal {
-                (*n, *free) = (zero, false);
+        let first = self.normal.iter().position(|n| *n != zero);
+        let Some(first) = first else {
+            self.slide_normal = zero;
+            return;
+        };
+        let n = self.normal[first];
+        self.slide_normal = n;
+        for (normal, free) in (self.normal[first..].iter_mut()).zip(&mut self.free[first..]) {
+            if *normal != zero && *normal != n {
+                (*normal, *free) = (zero, false);
             }
         }
-        if let Some(n) = first {
-            let t = any_orthogonal_unit(&n);
-            self.frame = Matrix3::from_columns(&[t, n.cross(&t), n]);
-            for ((along, &free), n) in self.free_along.iter_mut().zip(&self.free).zip(&self.normal)
-            {
-                *along = free && *n == zero;
-            }
+        let t = any_orthogonal_unit(&n);
+        self.frame = Matrix3::from_columns(&[t, n.cross(&t), n]);
+        for ((along, &free), n) in self.free_along.iter_mut().zip(&self.free).zip(&self.normal) {
+            *along = free && *n == zero;
         }
     }
 
