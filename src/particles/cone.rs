@@ -61,9 +61,13 @@
 //! by the fraction `r = h / (tau + h)` of the way (`alpha`, `beta` of eq. 18 times `r`), so the
 //! overstress `q = sqrt(J2) - f` decays as `q' = q_trial tau / (tau + h)`. In a steady flow at
 //! the deviatoric bond strain rate `d` (RMS, 1/s) each step adds `sqrt(15) G d h` to `q` and the
-//! return keeps `q = sqrt(15) G tau d = sqrt(15) eta_p d`, which is `sqrt(2) eta_p |D_dev|`
-//! (an affine rate's bond strain rates have the RMS deviation `sqrt(2/15) |D_dev|`): the
-//! Bingham stress, for any step. The overstress is elastic strain kept in the reference bonds
+//! return keeps `q = sqrt(15) G tau d = sqrt(15) eta_p d`, for any step. In an isotropic
+//! neighbourhood an affine rate's bond strain rates have the RMS deviation
+//! `sqrt(2/15) |D_dev|`, and `q = sqrt(2) eta_p |D_dev|` is the Bingham stress; on the lattice
+//! `d` is 1.117 times that for an extension along an axis (0.914 for a shear in a lattice
+//! plane), and more where a surface cuts the bonds or the flow turns them (1.34 in the middle
+//! of a bar 4 particles across stretched to 1.5): the overstress carries the same factor
+//! (docs/particles/fluids.md, round z). The overstress is elastic strain kept in the reference bonds
 //! (state already saved with them); `tau = 0` gives `r = 1` exactly, eq. 18's return.
 //!
 //! Scaling `alpha` and `beta` by `r` moves the bond strains to `(1 - r)` times the trial's
