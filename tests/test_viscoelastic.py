@@ -270,13 +270,84 @@ def test_with_a_plastic_viscosity_the_flow_stress_grows_with_the_rate_as_trouton
     `sqrt(3) eta_p eps_dot` = 40 of the middle's rate, in a steady flow; and at 2/s the bar
     is still within two relaxation times of its yield at 1.5, its overstress rising, 73,
     103, 120, 130, 141 Pa at 1.4-1.6 (1.00 times Trouton's at 1.5). Between 0.5 and 1/s,
-    both settled, the slope is 264 Pa s, 1.29 times.)"""
+    both settled, the slope is 264 Pa s, 1.29 times.) The law itself holds to 1 % in a pinned
+    block (`test_a_pinned_block_..._keeps_the_overstress_of_the_law`): the settled excess is
+    its measure's, the bonds' RMS strain rate `d`, which in the middle of a bar 4 particles
+    across stretched to 1.5 is 1.34 times an isotropic neighbourhood's `sqrt(2/15) |D|` that
+    Trouton's stress assumes (lattice and surface). So the settled slope is expected at
+    1.3 times Trouton's, and the tested pair's 1.13 is that less the 2/s bar's unsettled
+    overstress: the 15 % holds the pair's measured cancellation (a regression of the return
+    moves it), not the agreement with Trouton's, which the pinned block tests."""
     plateau = pulled_bar(times=(0.25,), bulk_modulus=STIFF_BULK)[0, 3]
     slow = pulled_bar(times=(1.0,), rate=0.5, bulk_modulus=STIFF_BULK, plastic_viscosity=50.0)
     fast = pulled_bar(times=(0.25,), rate=2.0, bulk_modulus=STIFF_BULK, plastic_viscosity=50.0)
     slope = (fast[0, 3] - slow[0, 3]) / (fast[0, 4] - slow[0, 4])
     expected = 3.0 * 50.0 * plateau / 500.0
     assert abs(slope / expected - 1.0) < 0.15, (slope, expected, slow, fast, plateau)
+
+
+def bond_rate_rms(y, i, rate, delta):
+    """The RMS deviation (1/s) of the strain rates `n^T D n` of particle ``i``'s bonds (at the
+    positions ``y``, m, within the horizon ``delta``, weighted by the influence function
+    `1 - r / delta`) in the isochoric extension `D = rate diag(-1/2, -1/2, 1)`: the `d` of the
+    rate-dependent return's steady overstress `sqrt(15) eta_p d`."""
+    v = y - y[i]
+    r = np.linalg.norm(v, axis=1)
+    m = (r > 0.0) & (r < delta)
+    n, w = v[m] / r[m, None], 1.0 - r[m] / delta
+    e = rate * (n[:, 2] ** 2 - 0.5 * (n[:, 0] ** 2 + n[:, 1] ** 2))
+    mean = (w * e).sum() / w.sum()
+    return np.sqrt((w * (e - mean) ** 2).sum() / w.sum())
+
+
+def pinned_extension(plastic_viscosity, n=8, rate=0.5, steps=120):
+    """A block of n^3 particles (G = 5000 Pa, stiff bulk 29 G / 3, yield stress 500 Pa,
+    ``plastic_viscosity`` Pa s), every particle pinned and the pins moved affinely by
+    `F = exp(D t)`, `D = rate diag(-1/2, -1/2, 1)` (1/s, isochoric) for ``steps`` steps of 5 ms.
+    Returns the overstress `sqrt(J2)` minus the strength (Pa), the strength and the bonds' `d`
+    (:func:`bond_rate_rms`) of the particles with whole neighbourhoods (two layers in)."""
+    k = np.stack(np.meshgrid(*[np.arange(n)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    x0 = (k + 0.5) * S
+    centre = x0.mean(0)
+    block = pd.Particles(x0, spacing=S, density=1000.0, material=pd.ViscoelasticFluid(
+        viscosity=1.0, shear_modulus=5000.0, yield_stress=500.0,
+        bulk_modulus=29.0 / 3.0 * 5000.0, plastic_viscosity=plastic_viscosity))
+    block.pin(np.arange(len(x0)))
+    solver = pd.Solver(dt=0.005, gravity=(0, 0, 0), global_solver="jacobi")
+    solver.add(block)
+    stretch = np.array([-0.5, -0.5, 1.0]) * rate
+    for step in range(1, steps + 1):
+        block.pin_targets = (x0 - centre) * np.exp(stretch * step * 0.005) + centre
+        solver.step()
+    y = block.positions
+    assert np.array_equal(y, block.pin_targets)
+    inner = np.flatnonzero(np.all((k >= 2) & (k <= n - 3), axis=1))
+    sqrt_j2, strength = block.yield_state()
+    d = np.array([bond_rate_rms(y, i, rate, block.horizon) for i in inner])
+    return (sqrt_j2 - strength)[inner], strength[inner], d
+
+
+def test_a_pinned_block_flowing_at_a_constant_rate_keeps_the_overstress_of_the_law():
+    """The rate-dependent return's steady state, without a free surface or a flow of its own:
+    a block pinned whole and moved affinely in an isochoric extension at 0.5/s for 0.6 s (6
+    relaxation times `tau = eta_p / G` = 0.1 s, to the stretch 1.35). With ``plastic_viscosity``
+    = 500 Pa s its 64 inner particles carry the overstress `sqrt(15) eta_p d` of their bonds'
+    RMS deviatoric strain rate `d` within 2 % (measured 0.993 of it, 524 Pa; 0.984 at 5
+    `tau`: the overstress lags `d`, which grows 2 % per `tau` as the bonds turn toward the
+    pull); without, they sit on the cone within 1e-3 of the strength (measured 5.5e-4
+    inside, 289 Pa).
+    `d` is not `sqrt(2/15) |D|`, an isotropic neighbourhood's: on the lattice an extension
+    along an axis gives 1.117 times that at the start (a shear in a lattice plane 0.914), 1.22
+    at the stretch 1.35; the middle of a bar 4 particles across pinned likewise, 1.21 at the
+    start, 1.30 at 1.35 and 1.34 at 1.5 (the surface adds), where it carries 1.35 times
+    Trouton's `sqrt(3) eta_p eps_dot`: the excess of the pulled bar's middle (1.41 times) and
+    of its settled slope (1.29 times;
+    `test_with_a_plastic_viscosity_the_flow_stress_grows_with_the_rate_as_troutons`)."""
+    over, strength, d = pinned_extension(500.0)
+    ratio = over / (np.sqrt(15.0) * 500.0 * d)
+    assert np.all(np.abs(ratio - 1.0) < 0.02), ratio
+    over, strength, _ = pinned_extension(0.0)
+    assert np.all(np.abs(over) < 1e-3 * strength), over / strength
 
 
 def test_a_rate_dependent_return_is_bit_identical_for_threads_and_f32_follows_f64():

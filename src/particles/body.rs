@@ -456,6 +456,15 @@ impl Particles {
     pub fn plasticity(&self) -> Option<&DruckerPrager> {
         self.plasticity.as_ref()
     }
+    /// The relaxation time `tau` (s) of the body's plastic return: the fluid material's
+    /// `eta_p / G` ([`ViscoelasticFluid::relaxation_time`]) for a viscoelastic fluid, 0 (the
+    /// rate-independent return of eq. 18) for every other body. The plastic law reads it here,
+    /// so that it does not depend on the fluid material.
+    pub fn relaxation_time(&self) -> f64 {
+        self.fluid
+            .as_ref()
+            .map_or(0.0, ViscoelasticFluid::relaxation_time)
+    }
     /// The current reference bonds of a plastic body that a solver has stepped (`None`
     /// before: the bonds are those of [`Self::reference`] and [`Self::horizons`]).
     pub fn rest_bonds(&self) -> Option<&RestBonds> {

@@ -61,10 +61,29 @@
 //! by the fraction `r = h / (tau + h)` of the way (`alpha`, `beta` of eq. 18 times `r`), so the
 //! overstress `q = sqrt(J2) - f` decays as `q' = q_trial tau / (tau + h)`. In a steady flow at
 //! the deviatoric bond strain rate `d` (RMS, 1/s) each step adds `sqrt(15) G d h` to `q` and the
-//! return keeps `q = sqrt(15) G tau d = sqrt(15) eta_p d`, which is `sqrt(2) eta_p |D_dev|`
-//! (an affine rate's bond strain rates have the RMS deviation `sqrt(2/15) |D_dev|`): the
-//! Bingham stress, for any step. The overstress is elastic strain kept in the reference bonds
+//! return keeps `q = sqrt(15) G tau d = sqrt(15) eta_p d`, for any step. In an isotropic
+//! neighbourhood an affine rate's bond strain rates have the RMS deviation
+//! `sqrt(2/15) |D_dev|`, and `q = sqrt(2) eta_p |D_dev|` is the Bingham stress; on the lattice
+//! `d` is 1.117 times that for an extension along an axis (0.914 for a shear in a lattice
+//! plane), and more where a surface cuts the bonds or the flow turns them (1.34 in the middle
+//! of a bar 4 particles across stretched to 1.5): the overstress carries the same factor
+//! (docs/particles/fluids.md, round z). The overstress is elastic strain kept in the reference bonds
 //! (state already saved with them); `tau = 0` gives `r = 1` exactly, eq. 18's return.
+//!
+//! Scaling `alpha` and `beta` by `r` moves the bond strains to `(1 - r)` times the trial's
+//! plus `r` times eq. 18's return, Duvaut and Lions' update, and `sqrt(J2)` and `I1` are
+//! linear in them: in both of eq. 18's regions, the apex (`B > 0`, `f <= 0`: returned to
+//! `sqrt(J2) = 0`, `f = 0`) included, the cone function `sqrt(J2) - A - B I1` of the state
+//! falls to `(1 - r)` times the trial's (cone_tests). For `B > 0` eq. 18's return keeps `I1`
+//! where `f > 0` (it is not the cone's closest point), so the relaxed return is Duvaut and
+//! Lions' form of that non-associated return, not Perzyna's flow along the cone's gradient.
+//! No body relaxes on such a cone: only a viscoelastic fluid has `tau > 0`, and its cone has
+//! `B = 0` (no apex; fluid.rs, `ViscoelasticFluid::elastoplastic`). The kept mean's correction
+//! toward the rest volume ([`Cone::factors_at`]) is not relaxed: it is no plastic flow (a cone
+//! with `B = 0` flows isochorically) but the reference's record of the particle's true
+//! volume, which each return's drift of the mean bond strain (the relaxed return's too) moves;
+//! relaxed by `r`, it would leave `(1 - r)` of every step's drift, `tau / h` steps' drift in a
+//! steady flow.
 
 use nalgebra::Vector3;
 

@@ -412,3 +412,59 @@ fn a_rate_dependent_return_keeps_the_bingham_overstress_of_a_steady_flow() {
     };
     assert_eq!(plain.factors(0.001, 0.01), timed.factors(0.001, 0.01));
 }
+
+/// The relaxed return is Duvaut and Lions' update in both of eq. 18's regions: from a trial
+/// beyond the apex (`B` = 0.3, `f` = -200 Pa, `sqrt(J2)` = 200 Pa) and one beyond the side
+/// (`f` = 70 Pa), `sqrt(J2)`, `f` and the cone function `sqrt(J2) - f` of the returned state are
+/// `(1 - r)` times the trial's plus `r` times eq. 18's return (to 1e-12 of the trial's
+/// stress; `tau` = 0.1 s, `h` = 5 ms, `r = h / (tau + h)`). The kept mean's correction toward
+/// the rest volume is not relaxed: it reaches `cbrt(J_i) - 1` as the rate-independent one does.
+#[test]
+fn the_relaxed_return_interpolates_toward_eq_18_at_the_apex_and_keeps_the_volume_whole() {
+    let plain = super::Cone {
+        a: 100.0,
+        b: 0.3,
+        bulk9: 1e6,
+        shear15: 1e6,
+        volume: None,
+        relaxation_time: 0.0,
+        step: 0.005,
+    };
+    let timed = super::Cone {
+        relaxation_time: 0.1,
+        ..plain
+    };
+    let r = 0.005 / 0.105;
+    let state = |f: &super::Factors<f64>, dev: f64| plain.state(f.kept, (1.0 - f.beta) * dev);
+    for (iso, dev) in [(0.001, 0.0002), (0.0001, 0.0002)] {
+        let trial = plain.state(iso, dev);
+        let full = state(&plain.factors(iso, dev).unwrap(), dev);
+        let relaxed = state(&timed.factors(iso, dev).unwrap(), dev);
+        let mix = |t: f64, f: f64| (1.0 - r) * t + r * f;
+        let tol = 1e-12 * trial.0;
+        assert!(
+            (relaxed.0 - mix(trial.0, full.0)).abs() < tol,
+            "{relaxed:?} {full:?}"
+        );
+        assert!(
+            (relaxed.1 - mix(trial.1, full.1)).abs() < tol,
+            "{relaxed:?} {full:?}"
+        );
+        let over = |s: (f64, f64)| s.0 - s.1;
+        assert!(
+            (over(relaxed) - (1.0 - r) * over(trial) - r * over(full)).abs() < tol,
+            "{iso}: {relaxed:?} {trial:?}"
+        );
+    }
+    let anchored = |relaxation_time: f64| super::Cone {
+        b: 0.0,
+        volume: Some(1.0),
+        relaxation_time,
+        ..plain
+    };
+    let det = 1.005f64;
+    for tau in [0.0, 0.1] {
+        let f = anchored(tau).factors_at(0.001, 0.01, det).unwrap();
+        assert!((f.kept - (det.cbrt() - 1.0)).abs() < 1e-15, "{tau}: {f:?}");
+    }
+}

@@ -463,7 +463,7 @@ impl PlasticLaw {
             delta: body.horizon(),
             volume: body.volume(),
             anchored: law.friction_angle == 0.0 && body.granular().is_none() && !thin,
-            relaxation_time: body.fluid_material().map_or(0.0, |f| f.relaxation_time()),
+            relaxation_time: body.relaxation_time(),
             step: 0.0,
         })
     }
