@@ -332,3 +332,45 @@ def test_bad_plastic_parameters_are_value_errors_naming_the_value(kwargs, needle
 def test_plasticity_must_be_a_drucker_prager():
     with pytest.raises(ValueError, match="plasticity must be None or a peridyn.DruckerPrager, got float"):
         bar(1.0)
+
+
+def bond_pairs(body):
+    """A plastic body's bond pattern: its reference bonds' CSR offsets and neighbours."""
+    bonds = body.rest_bonds
+    return bonds["offsets"].copy(), bonds["neighbours"].copy()
+
+
+def test_the_direct_solver_refactors_a_flowing_bar_on_its_pattern():
+    """A perfectly plastic bar (phi = 0, yield strain 0.05 %, hardening 500 Pa) pulled as the
+    soft bar is, with ``global_solver="direct"`` and its neighbourhoods kept
+    (``rebuild_neighbours=False``): its bonds are born again after every step it flows
+    (``PlasticLaw::reanchor``), which changes the global matrix's values on the same pattern.
+    The direct solver analyses the pattern once, on the first step, and refactors numerically
+    (one factorisation or more) on every later step, so that each solve is exact for the
+    matrix of the current bonds (the Rust test ``direct_tests`` measures that residual at
+    rounding). Until issue 38's round z such a step dropped the solver and analysed anew (an
+    analysis on every step), and the step's factorisations went uncounted (0 reported)."""
+    body = bar(pd.DruckerPrager(friction_angle=0.0, cohesion=50.0, hardening=500.0,
+                                rebuild_neighbours=False))
+    pinned, top = pinned_ends(body)
+    body.pin(pinned)
+    s = pd.Solver(dt=0.02, gravity=(0.0, 0.0, 0.0), max_iters=60, global_solver="direct")
+    s.add(body)
+    rest, span = body.rest_positions, (LENGTH - 1) * S
+    pattern = None
+    for k in range(1, 16):
+        targets = rest[pinned].copy()
+        targets[top, 2] += SOFT_PULL * k * span
+        body.pin_targets = targets
+        stats = s.step()
+        counts = stats.particles["analyses"], stats.particles["factorizations"]
+        if k == 1:
+            assert counts[0] == 1, counts
+        else:
+            assert counts[0] == 0 and counts[1] >= 1, (k, counts)
+            offsets, neighbours = bond_pairs(body)
+            assert np.array_equal(offsets, pattern[0]), k
+            assert np.array_equal(neighbours, pattern[1]), k
+        pattern = bond_pairs(body)
+    flowed = body.rest_bonds["plastic_strain"].max()
+    assert flowed > 0.01, flowed

@@ -292,34 +292,25 @@ impl PlasticLaw {
     /// [`RestBonds::volume`] is set anew, given in `volumes` its volume `J_i` with the step's
     /// bonds ([`Self::apply`]): `R_i = J_i / det F_i` with the new bonds and weights
     /// ([`reanchored`]), so that `J_i` changes only as the positions do. `volumes` is left
-    /// holding the old ratios (a buffer the next [`Self::apply`] refills). Returns whether a
-    /// birth length changed (then the springs, and the global matrix, have).
-    pub fn reanchor(
-        &self,
-        bonds: &mut RestBonds,
-        y: &[Vector3<f64>],
-        volumes: &mut Vec<f64>,
-    ) -> bool {
-        let reborn = bonds
+    /// holding the old ratios (a buffer the next [`Self::apply`] refills). The springs, and
+    /// the global matrix's values, change with the birth lengths; its pattern does not.
+    pub fn reanchor(&self, bonds: &mut RestBonds, y: &[Vector3<f64>], volumes: &mut Vec<f64>) {
+        bonds
             .born
             .par_iter_mut()
             .zip(&bonds.xi)
-            .map(|(born, xi)| {
+            .for_each(|(born, xi)| {
                 let length = xi.norm();
-                let changed = length > 0.0 && length.is_finite() && *born != length;
-                if changed {
+                if length > 0.0 && length.is_finite() {
                     *born = length;
                 }
-                changed
-            })
-            .reduce(|| false, |a, b| a || b);
+            });
         volumes.par_iter_mut().enumerate().for_each(|(i, v)| {
             let det = local_strain(bonds, i, y, self.delta, self.volume)
                 .map_or(0.0, |l| l.f.determinant());
             *v = reanchored(bonds.volume[i], *v, det);
         });
         std::mem::swap(&mut bonds.volume, volumes);
-        reborn
     }
 
     /// Every particle's yield measure at the positions `y` (m; `None` for a particle without

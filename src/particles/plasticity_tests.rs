@@ -375,7 +375,9 @@ fn a_return_without_friction_keeps_the_rest_volume() {
             .collect();
         let volumes_before = volumes.clone();
         if plastic.anchored {
-            assert!(plastic.reanchor(&mut bonds, &y, &mut volumes));
+            let before = bonds.born.clone();
+            plastic.reanchor(&mut bonds, &y, &mut volumes);
+            assert_ne!(bonds.born, before, "{phi}: no bond was born anew");
             let mut reborn = bonds.born.iter().zip(&bonds.xi);
             assert!(reborn.all(|(&b, x)| b == x.norm()));
         }

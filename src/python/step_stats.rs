@@ -154,8 +154,9 @@ impl PyStepStats {
     /// solver's move, refactorisations included; of it `coarse_ms`, the bodies' coarse
     /// translation, and `two_level_ms`, the two-level correction), `line_search_ms` (the
     /// trials of eq. 13; of it `trial_kernel_ms`, their kernel passes), `project_ms` (collider projection, extrapolation, measures); `evaluations` (kernel
-    /// passes, trials included), `factorizations` (of the direct solver's matrix) and
-    /// `held_static` (granular particles that static friction held, eq. 28); for fluids
+    /// passes, trials included), `factorizations` (numeric, of the direct solver's matrix or
+    /// the two-level correction's coarse matrix), `analyses` (symbolic: a new pattern, on the
+    /// first step and after a plastic body's neighbourhoods changed) and `held_static` (granular particles that static friction held, eq. 28); for fluids
     /// `density_passes` (density projections) and `density_error` (the largest relative
     /// excess density `rho / rho0 - 1` they left); `roundoff_floor` (m), the largest round-off
     /// floor `eps |y_i| D_i / m_i` the last convergence measure subtracted (it grows with the
@@ -181,6 +182,7 @@ impl PyStepStats {
         }
         d.set_item("evaluations", p.evaluations)?;
         d.set_item("factorizations", p.factorizations)?;
+        d.set_item("analyses", p.analyses)?;
         d.set_item("held_static", p.held_static)?;
         d.set_item("density_passes", p.density_passes)?;
         d.set_item("density_error", p.density_error)?;

@@ -112,6 +112,12 @@ impl<T: Real> Solver<T> {
             .map_or_else(rayon::current_num_threads, |p| p.current_num_threads())
     }
 
+    /// The particle family's working set, once a step built it (tests reach its solvers).
+    #[cfg(test)]
+    pub(crate) fn particle_system(&mut self) -> Option<&mut super::particles::ParticleSystem<T>> {
+        self.families.as_mut()?.particles.as_mut()
+    }
+
     /// Adds a collider (any shape, friction and motion).
     pub fn add_collider(&mut self, collider: Collider) -> Result<()> {
         self.colliders.push(MovingCollider::new(collider));

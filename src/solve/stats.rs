@@ -77,8 +77,15 @@ pub struct ParticleTimings {
     /// Kernel passes of the step (at the iterates and at the line search's trials).
     pub evaluations: usize,
     /// Numeric factorisations of the direct solver's matrix or of the two-level correction's
-    /// coarse matrix (`src/solve/particles/two_level.rs`).
+    /// coarse matrix (`src/solve/particles/two_level.rs`); a change of values alone (a sand's
+    /// stiffness from its density, a flowing body's re-born bonds) refactors on the pattern at
+    /// hand.
     pub factorizations: usize,
+    /// Symbolic analyses of those matrices (the pattern, its fill-reducing ordering and
+    /// symbolic factor): on the first step that asks for the solver, and after a plastic
+    /// body's neighbourhoods changed. Not a subset of `factorizations`: each analysis is
+    /// followed by a factorisation, counted there.
+    pub analyses: usize,
     /// Particles of granular bodies that static friction held at the end of the step (He et
     /// al. 2017, eq. 28).
     pub held_static: usize,

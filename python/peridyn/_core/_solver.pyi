@@ -67,8 +67,12 @@ class StepStats:
     def particles(self) -> dict:
         """The particle bodies' share of the step (zeros without them), from its start:
         milliseconds 'kernel_ms', 'residual_ms', 'solve_ms', 'line_search_ms', 'project_ms';
-        'evaluations' (kernel passes, line search trials included), 'factorizations' (of
-        the direct solver's matrix), 'held_static' (granular particles held by static
+        'evaluations' (kernel passes, line search trials included), 'factorizations'
+        (numeric, of the direct solver's matrix or the two-level correction's coarse matrix),
+        'analyses' (symbolic: a new pattern, on the first step and after a plastic body's
+        neighbourhoods changed; a change of values alone, such as a granular body's stiffness
+        or a flowing body's re-anchored bonds, refactors on the pattern at hand, so that the
+        direct solve stays exact), 'held_static' (granular particles held by static
         friction, eq. 28), 'density_passes' (the fluids' density projections) and
         'density_error' (the largest relative excess density rho / rho0 - 1 left);
         'roundoff_floor' (m: the largest round-off floor eps |y_i| D_i / m_i that the last

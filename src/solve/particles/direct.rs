@@ -20,12 +20,17 @@
 //! Jacobi sweep is, by the bodies' coarse correction (`super::coarse`), whose translations
 //! carry the contacts' tangential reactions within their Coulomb cones to the whole body.
 //!
-//! The pattern of the whole matrix and its symbolic factorisation are computed once; a change
-//! of the time step or of the held set only refills the values (held couplings as explicit
-//! zeros) and refactors them numerically in the buffers at hand, so a refactorisation inside
-//! the iterations allocates nothing. The factor is computed in f64 for either precision (one
-//! code path: the solver's values are converted on the way in and out), sequentially, so its
-//! results do not depend on the number of threads.
+//! The pattern of the whole matrix and its symbolic factorisation are computed once per
+//! pattern; a change of the time step, of the held set or of the rest data's values (the
+//! stiffness of a granular body from its density, eq. 25-27, and the bonds a flowing body's
+//! return re-anchors, [`crate::particles::PlasticLaw::reanchor`], both at the end of a step
+//! whose neighbourhoods stayed: [`Self::values_changed`]) only refills the values (held
+//! couplings as explicit zeros) and refactors them numerically in the buffers at hand, so a
+//! refactorisation inside the iterations allocates nothing and every solve is exact for the
+//! matrix of the current rest data. A change of a plastic body's neighbourhoods changes the
+//! pattern: its owner builds the solver anew ([`super::system`]). The factor is computed in
+//! f64 for either precision (one code path: the solver's values are converted on the way in
+//! and out), sequentially, so its results do not depend on the number of threads.
 
 use nalgebra::Vector3;
 
@@ -48,7 +53,9 @@ pub(crate) struct DirectSolver {
     llt: SparseLlt,
     diagonal_slot: Vec<usize>,
     bond_slot: Vec<usize>,
-    /// Numeric factorisations since the last [`Self::take_factorizations`].
+    /// Symbolic analyses (this solver's one, until taken) and numeric factorisations since
+    /// the last [`Self::take_counts`].
+    analyses: usize,
     factorizations: usize,
 }
 
@@ -87,13 +94,15 @@ impl DirectSolver {
             llt,
             diagonal_slot,
             bond_slot,
+            analyses: 1,
             factorizations: 0,
         })
     }
 
     /// Factors `M + h^2 L` (`h` in s) with the `held` particles' couplings taken out, unless
-    /// the factor at hand is that one; allocates nothing. Fails if the matrix is not positive
-    /// definite (it always is for positive masses and couplings, see the module's doc).
+    /// the factor at hand is that one (same `h`, same held set, no [`Self::values_changed`]
+    /// since); allocates nothing. Fails if the matrix is not positive definite (it always is
+    /// for positive masses and couplings, see the module's doc).
     pub fn factor<T: Real>(&mut self, rest: &ParticleRest<T>, h: f64, held: &[bool]) -> Result<()> {
         if self.h == h && self.held == held {
             return Ok(());
@@ -123,9 +132,19 @@ impl DirectSolver {
         Ok(())
     }
 
-    /// Numeric factorisations since the last call (a measure for [`crate::solve::StepStats`]).
-    pub fn take_factorizations(&mut self) -> usize {
-        std::mem::take(&mut self.factorizations)
+    /// Marks the numeric factor stale after the rest data's values changed on the same
+    /// pattern (bond for bond): the next [`Self::factor`] refills and refactors them.
+    pub fn values_changed(&mut self) {
+        self.h = f64::NAN;
+    }
+
+    /// Symbolic analyses and numeric factorisations since the last call (measures for
+    /// [`crate::solve::StepStats`]).
+    pub fn take_counts(&mut self) -> (usize, usize) {
+        (
+            std::mem::take(&mut self.analyses),
+            std::mem::take(&mut self.factorizations),
+        )
     }
 
     /// `delta = B^-1 r` (m) for the residual `r` (N s^2 = kg m; zero at pins), with `B` the
@@ -144,3 +163,7 @@ impl DirectSolver {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "direct_tests.rs"]
+mod tests;

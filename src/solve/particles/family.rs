@@ -127,12 +127,7 @@ impl<T: Real> Family<T> for ParticleSystem<T> {
         self.plastic_end_step(timings)
     }
     fn report(&mut self, stats: &mut StepStats) {
-        if let Some(direct) = &mut self.direct {
-            self.timings.factorizations += direct.take_factorizations();
-        }
-        if let Some(two_level) = &mut self.two_level {
-            self.timings.factorizations += two_level.take_factorizations();
-        }
+        self.count_factorizations();
         stats.particles = std::mem::take(&mut self.timings);
     }
     fn acceleration(&self, params: &SolverParams) -> Acceleration {

@@ -158,7 +158,8 @@ impl PlasticBodies {
     /// The second half of the plastic end of a step, at the step's final positions `y` (m;
     /// see the module's doc), after `yielded` particles yielded in [`Self::returns`]: the
     /// family's new rest data, refilled into `rest` in place, and whether some neighbourhood
-    /// changed (then the bond count and the global matrix's pattern may have too); `None`
+    /// changed (then the bond count and the global matrix's pattern may have too; otherwise
+    /// the bonds are the same pairs in the same order, and only values changed); `None`
     /// when no particle yielded, no neighbourhood changed and no body is granular, so the rest
     /// data at hand stands. On an error `rest` is partly filled and must be built anew.
     pub fn rebuild<T: Real>(
@@ -212,8 +213,9 @@ impl PlasticBodies {
         for entry in &mut self.entries {
             if let Some(law) = entry.law.filter(|l| l.anchored) {
                 let y = &y[entry.range.clone()];
-                // Bonds born anew change the springs, and with them the global matrix.
-                changed |= law.reanchor(&mut entry.bonds, y, &mut entry.volumes);
+                // Bonds born anew change the springs, and with them the global matrix's values
+                // (its pattern only where the neighbourhood changed, above).
+                law.reanchor(&mut entry.bonds, y, &mut entry.volumes);
             }
         }
         let sources: Vec<(&RestBonds, RestConstants, Option<&[f64]>)> = self

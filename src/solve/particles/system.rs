@@ -263,9 +263,15 @@ impl<T: Real> ParticleSystem<T> {
     }
 
     /// The plastic end of a step ([`super::plastic`]): the rest data rebuilt from the returned
-    /// bonds; the evaluations start afresh, and so does the direct solver's pattern when a
-    /// neighbourhood changed. Nothing when no body is plastic, or no particle yielded and no
-    /// neighbourhood changed.
+    /// bonds; the evaluations start afresh. When a neighbourhood changed, the bonds are
+    /// renumbered and the global matrix's pattern may have changed: the direct solver and the
+    /// two-level correction are built anew. Otherwise only values did (a granular body's
+    /// stiffness, eq. 25-27; a flowing body's re-anchored bonds): the direct solver refactors
+    /// numerically on its pattern ([`DirectSolver::values_changed`]), and the two-level
+    /// correction stands, since no plastic, granular or fluid body takes part in it and an
+    /// elastic body's rest data comes out of the rebuild bit for bit ([`super::two_level`],
+    /// "Aggregates"). Nothing when no body is plastic, or no particle yielded, no
+    /// neighbourhood changed and no body is granular.
     ///
     /// Between the returns and the rebuild, the static friction of granular bodies (eq. 28,
     /// [`super::static_friction`]) holds the particles that did not yield or whose contacts
@@ -294,13 +300,29 @@ impl<T: Real> ParticleSystem<T> {
             let bonds = self.rest.indices.len();
             self.current.resize_bonds(bonds);
             self.trial.resize_bonds(bonds);
+            // The step's counts, before the solvers that hold them go.
+            self.count_factorizations();
             self.direct = None;
             self.two_level = None;
         } else {
             self.current.valid = false;
             self.trial.valid = false;
+            if let Some(direct) = &mut self.direct {
+                direct.values_changed();
+            }
         }
         Ok(())
+    }
+
+    /// Adds the direct solver's and the two-level correction's symbolic analyses and numeric
+    /// factorisations since the last call to the step's counts.
+    pub fn count_factorizations(&mut self) {
+        let direct = self.direct.as_mut().map(DirectSolver::take_counts);
+        let two_level = self.two_level.as_mut().map(TwoLevel::take_counts);
+        for (analyses, factorizations) in direct.into_iter().chain(two_level) {
+            self.timings.analyses += analyses;
+            self.timings.factorizations += factorizations;
+        }
     }
 
     /// The Jacobi diagonal `D_i = m_i + h^2 L_ii` (kg) of particle `i` ([`ParticleRest::diagonal`]).

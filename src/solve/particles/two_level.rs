@@ -145,7 +145,9 @@ pub(crate) struct TwoLevel {
     /// solution `e` (m): the prolongation and the post-smoothing read it once per bond, from
     /// here rather than through the factor's right-hand-side matrix.
     coarse: Vec<Vector3<f64>>,
-    /// Numeric factorisations since the last [`Self::take_factorizations`].
+    /// Symbolic analyses (of the coarse matrix and of the normal coordinate's) and numeric
+    /// factorisations since the last [`Self::take_counts`].
+    analyses: usize,
     factorizations: usize,
     /// Whether the step's first iteration is still to come ([`Self::past_first_iteration`]).
     first_iteration: bool,
@@ -214,6 +216,7 @@ impl TwoLevel {
             remainder: vec![Vector3::zeros(); n],
             held_move: vec![Vector3::zeros(); n],
             coarse: vec![Vector3::zeros(); count],
+            analyses: 1,
             factorizations: 0,
             first_iteration: true,
             chunks: Vec::new(),
@@ -231,9 +234,13 @@ impl TwoLevel {
         !std::mem::replace(&mut self.first_iteration, false)
     }
 
-    /// Numeric factorisations since the last call (a measure for [`crate::solve::StepStats`]).
-    pub fn take_factorizations(&mut self) -> usize {
-        std::mem::take(&mut self.factorizations)
+    /// Symbolic analyses and numeric factorisations since the last call (measures for
+    /// [`crate::solve::StepStats`]).
+    pub fn take_counts(&mut self) -> (usize, usize) {
+        (
+            std::mem::take(&mut self.analyses),
+            std::mem::take(&mut self.factorizations),
+        )
     }
 
     /// The correction for the particle bodies `ranges` of the working set `rest`, if some
@@ -417,10 +424,13 @@ impl TwoLevel {
             let (aggregate, count) = (&self.aggregate, self.coarse.len());
             let (along, _) = match &mut self.along {
                 Some(along) => along,
-                None => self.along.insert((
-                    AggregateMatrix::new(rest, aggregate, &self.lower, count, 1)?,
-                    vec![Vector3::zeros(); count],
-                )),
+                None => {
+                    self.analyses += 1;
+                    self.along.insert((
+                        AggregateMatrix::new(rest, aggregate, &self.lower, count, 1)?,
+                        vec![Vector3::zeros(); count],
+                    ))
+                }
             };
             if along.factor(rest, aggregate, &self.free_along, h.to_f64())? {
                 self.factorizations += 1;
