@@ -54,10 +54,14 @@
 //! with `c_i` the particle's projection move (`D_i = m_i + h^2 L_ii`, kg), and the repulsion's
 //! reactions are pairwise equal and opposite (they share in the Jacobi metric): so
 //! `F_b = sum_c lambda_c n_c` holds with `t = 0` and the multipliers of the projection,
-//! `lambda_c = D_i (margin - gap)` at a collider and `D_i D_j / (D_i + D_j)` times the overlap
-//! at a pair (the share of [`super::repulsion::Repulsion::share`]), the gaps at the sweep's
-//! positions, and the friction's `D_i` times its tangential correction (within the cone by
-//! construction; each collider's own, as the projection applied it). The solve starts from these multipliers, so at the fixed point it starts at its
+//! `lambda_c = D_i (margin - gap)` at a collider, its gap measured where the colliders before
+//! it left the particle (the push [`out_of_colliders`] gives it, not the gap at the sweep's
+//! position: in a corner the first collider's friction may take back part of the second's
+//! depth, and a start above the push let the friction start beyond `mu lambda_c`), and
+//! `D_i D_j / (D_i + D_j)` times the overlap at a pair (the share of
+//! [`super::repulsion::Repulsion::share`]) at the sweep's positions, and the friction's `D_i`
+//! times its tangential correction (within the cone by construction; each collider's own, as
+//! the projection applied it). The solve starts from these multipliers, so at the fixed point it starts at its
 //! solution and moves nothing, whatever the number of sweeps; elsewhere they are a warm start.
 //! (From the sweep's moves, `F_b = sum_i (r_i - m_i delta_i)`, and from zero multipliers, the
 //! redundant contacts of bodies in contact are not solved within the sweeps, and the
@@ -164,7 +168,7 @@ fn settle<T: Real>(
                     points.margin[i],
                     rest.diagonal(i, h2),
                     colliders,
-                    |_, _| {},
+                    |_, _, _| {},
                 );
                 *settled = moved.map(|c| c.to_f64());
             });
@@ -229,7 +233,7 @@ fn gather_contacts<T: Real>(
         collider_gap,
         settled,
         swept,
-        collider_friction,
+        collider_reaction,
         ..
     } = coarse;
     let reach = |b: usize| (energy * inverse_mass[b]).sqrt();
@@ -261,31 +265,29 @@ fn gather_contacts<T: Real>(
             } else {
                 &[]
             };
-            collider_friction.clear();
-            collider_friction.resize(near.len(), Vector3::zeros());
-            if solid[a] && near.iter().any(|c| c.friction > T::zero()) {
+            collider_reaction.clear();
+            collider_reaction.resize(near.len(), (0.0, Vector3::zeros()));
+            if solid[a] && !near.is_empty() {
+                let d = diagonal(i);
                 out_of_colliders(
                     &points.y[i],
                     &points.y_start[i],
                     swept[i].map(T::of),
                     points.margin[i],
-                    diagonal(i),
+                    d,
                     near,
-                    |k, phi| collider_friction[k] = phi.map(|c| c.to_f64()),
+                    |k, push, phi| {
+                        collider_reaction[k] = (d.to_f64() * push.to_f64(), phi.map(|c| c.to_f64()))
+                    },
                 );
             }
-            for (c, start) in near.iter().zip(collider_friction.iter()) {
+            for (c, (reaction, start)) in near.iter().zip(collider_reaction.iter()) {
                 let gap = (c.signed_distance(&p) - points.margin[i]).to_f64();
                 if gap >= s_a {
                     continue;
                 }
                 let n = c.normal(&p).map(|x| x.to_f64());
-                let reaction = if solid[a] {
-                    diagonal(i).to_f64() * (-gap).max(0.0)
-                } else {
-                    0.0
-                };
-                contacts.push(Contact::new(a, None, n, -gap.max(0.0)).starting_from(reaction));
+                contacts.push(Contact::new(a, None, n, -gap.max(0.0)).starting_from(*reaction));
                 if c.friction > T::zero() && !solid[a] {
                     if gap <= 0.0 {
                         let normal = contacts.len() - 1;

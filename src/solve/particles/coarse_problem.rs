@@ -147,8 +147,9 @@ pub(crate) struct Coarse {
     /// gathering recomputes each collider's friction reaction.
     pub settled: Vec<Vector3<f64>>,
     pub swept: Vec<Vector3<f64>>,
-    /// The friction reaction (N s^2) at each collider of the particle being gathered.
-    pub collider_friction: Vec<Vector3<f64>>,
+    /// The projection's normal and friction reactions (N s^2) at each collider of the
+    /// particle being gathered.
+    pub collider_reaction: Vec<(f64, Vector3<f64>)>,
 }
 
 impl Coarse {
@@ -165,7 +166,7 @@ impl Coarse {
             collider_gap: Vec::new(),
             settled: Vec::new(),
             swept: Vec::new(),
-            collider_friction: Vec::new(),
+            collider_reaction: Vec::new(),
         }
     }
 

@@ -19,9 +19,10 @@ use crate::real::Real;
 /// `friction * d * push`. Measured at the sweep's end for every collider instead, a
 /// particle in a corner of two frictional colliders was pushed out of the second by the
 /// depth the first one's friction had already taken back, and its settled move stayed away
-/// from zero at the fixed point. Returns the settled move (m); `each(k, phi)` receives the
-/// friction's reaction at `colliders[k]`, `d` times its tangential correction (N s^2), for
-/// every frictional collider the particle is within.
+/// from zero at the fixed point. Returns the settled move (m); `each(k, push, phi)` receives,
+/// for every collider `colliders[k]` the particle is within, its push along the normal
+/// `push = margin - gap` (m; the normal reaction is `d push`, N s^2) and its friction's
+/// reaction, `d` times its tangential correction (N s^2; zero without friction).
 #[inline]
 pub(crate) fn out_of_colliders<T: Real>(
     y: &Vector3<T>,
@@ -30,7 +31,7 @@ pub(crate) fn out_of_colliders<T: Real>(
     margin: T,
     d: T,
     colliders: &[ColliderModel<T>],
-    mut each: impl FnMut(usize, Vector3<T>),
+    mut each: impl FnMut(usize, T, Vector3<T>),
 ) -> Vector3<T> {
     for (k, c) in colliders.iter().enumerate() {
         let at = y + moved;
@@ -39,16 +40,19 @@ pub(crate) fn out_of_colliders<T: Real>(
             continue;
         }
         let n = c.normal(&at);
-        moved += n * (margin - gap);
+        let push = margin - gap;
+        moved += n * push;
+        let mut phi = Vector3::zeros();
         if c.friction > T::zero() {
             let at = y + moved;
             let slip = (at - start) - c.displacement(&at);
             let slip_t = slip - n * n.dot(&slip);
-            let budget = c.friction * d * (margin - gap);
+            let budget = c.friction * d * push;
             let share = coulomb_share(&slip_t, slip_t.norm_squared() / d, budget);
             moved -= slip_t * share;
-            each(k, -slip_t * (share * d));
+            phi = -slip_t * (share * d);
         }
+        each(k, push, phi);
     }
     moved
 }

@@ -329,7 +329,7 @@ impl TwoLevel {
                     margin,
                     rest.diagonal(i, h2),
                     colliders,
-                    |_, _| {},
+                    |_, _, _| {},
                 );
                 *held_move = moved.map(|c| c.to_f64());
                 if let Some(n) = slides {
