@@ -426,8 +426,12 @@ def test_without_adhesion_a_blob_hangs_on_below_its_weights_stress_at_800_pa_and
                    "divergence or parts), or bonds that flow at a plateau at constant volume "
                    "(round y: the stiff bulk's blob parts at 500 Pa, hangs from 520 Pa), or a "
                    "rate-dependent (Bingham) return (round z: 10-1000 Pa s delay the parting "
-                   "or hang it, the stretch still gathering in one gap) either part it the "
-                   "same way, hang it, or diverge (docs/particles/fluids.md)")
+                   "or hang it, the stretch still gathering in one gap), or a divergence-free "
+                   "velocity projection (round aa: the SPH sums held within 1-3 %, the layers "
+                   "at the gap contract in-plane and part; with a least distance too this "
+                   "honey hangs or parts later, a Newtonian one draws a 2 x 2 thread that "
+                   "breaks by 0.16 s) either part it the same way, hang "
+                   "it, or diverge (docs/particles/fluids.md, docs/particles/honey.md)")
 def test_honey_dripping_from_its_ghost_ceiling_draws_a_thread():
     """After 0.4 s the blob has dripped (its lowest particle more than 10 spacings below the
     ceiling) and a thread joins it to the film at the ceiling: every spacing-tall slab
