@@ -455,3 +455,67 @@ def test_a_pinned_jump_whose_f32_velocity_overflows_is_a_divergence(mesh):
         with pytest.raises(peridyn.DivergenceError, match="non-finite"):
             s.step()
     assert np.array_equal(m.positions, x) and np.all(np.isfinite(m.velocities))
+
+
+# ------------------------------------------------------------------------------------------------
+# particle bodies (issue 38-40)
+
+S = 0.01  # lattice spacing of the particle bodies below (m)
+
+
+def lattice(n, origin=(0.0, 0.0, 0.0)):
+    """Particles on a cubic lattice of spacing S: n = (nx, ny, nz) sites from `origin` (m)."""
+    axes = [np.arange(k) * S for k in n]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3) + np.asarray(origin)
+
+
+def frictional_sand():
+    """A 3 x 3 x 3 block of sand with contact friction between its grains, released half a
+    spacing above a plane: its grains touch, so the solver carries their friction
+    multipliers from step to step."""
+    s = peridyn.Solver(dt=2e-3, max_iters=10, tol=0.0)
+    s.add(peridyn.Particles(lattice((3, 3, 3), (0.0, 0.0, 0.005)), spacing=S, density=1600.0,
+                            material=peridyn.Granular(friction_angle=30.0, contact_friction=0.5)))
+    s.add_collider(peridyn.Plane(friction=0.3))
+    return s
+
+
+def cloth_on_cloth():
+    """A free 5 x 5 cloth 2.8 mm above a pinned one, within the barrier's reach of the 2 mm
+    contact thickness: the contact local step's warm start and rest gaps are solver state."""
+    v, t = make_grid(5, 5, 0.1, 0.1)
+    under, over = membrane(v, t), membrane(v + [0.0, 0.0, 0.0028], t)
+    under.pin(np.arange(len(v)))
+    s = peridyn.Solver(dt=2e-3, max_iters=20, contact=peridyn.Contact(thickness=0.002))
+    s.add(under)
+    s.add(over)
+    return s
+
+
+@pytest.mark.parametrize("scene", [frictional_sand, cloth_on_cloth])
+def test_a_diverging_step_keeps_the_solver_state_and_the_next_step_is_the_one_it_replaces(scene):
+    """A step that raises DivergenceError (forced by a max_speed of 1 nm/s) keeps the solver's
+    internal state (the grains' friction multipliers, the contact warm start) as well as the
+    bodies: the step after it, with max_speed restored, is bit for bit the step an
+    undisturbed twin takes. Before, the failed step's grain multipliers (and warm start) were
+    kept, and the next step differed."""
+    s, twin = scene(), scene()
+    for _ in range(4):
+        s.step()
+        twin.step()
+    state = s.internal_state()
+    assert state["grain_contact_multipliers"].size or state["contact_warm_start"].size
+    s.max_speed = 1e-9
+    with pytest.raises(peridyn.DivergenceError):
+        s.step()
+    after = s.internal_state()
+    for key, value in state.items():
+        assert np.array_equal(after[key], value), key
+    s.max_speed = 1e4
+    s.step()
+    twin.step()
+    for body, other in zip(s.bodies, twin.bodies):
+        assert np.array_equal(body.positions, other.positions)
+        assert np.array_equal(body.velocities, other.velocities)
+    for key, value in twin.internal_state().items():
+        assert np.array_equal(s.internal_state()[key], value), key
