@@ -519,3 +519,24 @@ def test_a_diverging_step_keeps_the_solver_state_and_the_next_step_is_the_one_it
         assert np.array_equal(body.velocities, other.velocities)
     for key, value in twin.internal_state().items():
         assert np.array_equal(s.internal_state()[key], value), key
+
+
+@pytest.mark.parametrize("kick", ["velocities", "gravity"])
+def test_a_granular_step_predicted_beyond_any_distance_is_a_divergence(kick):
+    """Sand whose step would move it 1e297 m (velocities of 1e300 m/s, or gravity of 1e300
+    m/s^2 at dt = 2 ms): the grains' contact search would need an infinite radius. That is a
+    DivergenceError naming the particle, the bodies kept as before the step; before, a
+    ValueError about "the horizon delta" escaped, which named nothing the user set."""
+    gravity = (0.0, 0.0, -1e300) if kick == "gravity" else (0.0, 0.0, -9.81)
+    s = peridyn.Solver(dt=2e-3, max_iters=10, gravity=gravity, max_speed=float("inf"))
+    sand = peridyn.Particles(lattice((3, 3, 3), (0.0, 0.0, 0.005)), spacing=S, density=1600.0,
+                             material=peridyn.Granular(friction_angle=30.0))
+    s.add(sand)
+    s.add_collider(peridyn.Plane())
+    if kick == "velocities":
+        sand.velocities = np.full((27, 3), 1e300)
+    x, v = sand.positions, sand.velocities
+    with pytest.raises(peridyn.DivergenceError, match=r"vertex \d+ of body 0 became non-finite"):
+        s.step()
+    assert np.array_equal(sand.positions, x) and np.array_equal(sand.velocities, v)
+    assert s.steps_taken == 0

@@ -363,6 +363,20 @@ impl<T: Real> Solver<T> {
         if let (Some(restored), Some(contact)) = (restored, &mut self.contact) {
             contact.set_warm_start(&restored.contact_warm_start);
         }
+        let list_indices = by_kind.list_indices();
+        for (family, indices) in families.each().zip(&list_indices) {
+            let points = family.points();
+            if let Some(point) = points.first_unbounded_move(params.dt, params.gravity.into()) {
+                let (body, vertex) = points.locate(point);
+                return Err(Error::Diverged {
+                    step: self.clock.steps,
+                    iteration: 0,
+                    body: indices[body],
+                    vertex,
+                    cause: Divergence::NonFinite,
+                });
+            }
+        }
         let mut energy = 0.0;
         let mut timed_elsewhere = 0.0;
         for (family, colliders) in families.each().zip(&framed) {
@@ -415,7 +429,6 @@ impl<T: Real> Solver<T> {
         // Per family, the threshold its convergence measure must fall below.
         let thresholds: Vec<f64> = families.each().map(|f| f.threshold(&params)).collect();
         let mut omegas = vec![1.0; accelerations.len()];
-        let list_indices = by_kind.list_indices();
         let mut updates = Vec::with_capacity(list_indices.len());
         let mut search = LineSearch::new(energy);
         let mut omega = 1.0;
