@@ -540,3 +540,23 @@ def test_a_granular_step_predicted_beyond_any_distance_is_a_divergence(kick):
         s.step()
     assert np.array_equal(sand.positions, x) and np.array_equal(sand.velocities, v)
     assert s.steps_taken == 0
+
+
+@pytest.mark.parametrize("material", [peridyn.Elastic.from_young(1e5, 0.25),
+                                      peridyn.Granular(friction_angle=30.0),
+                                      peridyn.ViscoelasticFluid()])
+def test_particles_at_the_same_place_are_refused_naming_both(material):
+    """Two particles at one position would be joined by a bond of length 0, without a
+    direction: before, the body was built and its first step diverged at iteration 0. Now a
+    ValueError names both; `set_material` to a solid where a liquid's particles met is refused
+    the same way, changing nothing."""
+    x = lattice((3, 3, 3))
+    x[7] = x[3]
+    expect_value_error(lambda: peridyn.Particles(x, spacing=S, density=1000.0, material=material),
+                       r"particles 3 and 7", r"same position")
+    liquid = peridyn.Particles(lattice((3, 3, 3)), spacing=S, density=1000.0,
+                               material=peridyn.ViscoelasticFluid())
+    liquid.positions = x
+    expect_value_error(lambda: liquid.set_material(peridyn.Elastic.from_young(1e5, 0.25)),
+                       r"particles 3 and 7")
+    assert isinstance(liquid.material, peridyn.ViscoelasticFluid)
