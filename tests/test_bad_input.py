@@ -560,3 +560,19 @@ def test_particles_at_the_same_place_are_refused_naming_both(material):
     expect_value_error(lambda: liquid.set_material(peridyn.Elastic.from_young(1e5, 0.25)),
                        r"particles 3 and 7")
     assert isinstance(liquid.material, peridyn.ViscoelasticFluid)
+
+
+@pytest.mark.parametrize("kw, pattern", [
+    (dict(density=1e-320), r"^density 0\.0+1 kg/m\^3 .* particle mass of 0 kg"),
+    (dict(density=1e308, spacing=1e3), r"^density 10+ kg/m\^3 .* particle mass of inf kg"),
+    (dict(spacing=1e-320), r"^spacing 0\.0+1 m gives the default horizon"),
+    (dict(spacing=1e308), r"^spacing 10+ m gives the default horizon"),
+])
+def test_a_spacing_or_density_whose_mass_or_horizon_overflows_is_named(kw, pattern):
+    """Finite, positive, yet unusable: a particle mass ``density * spacing^3`` that is not a
+    normal number (its inverse overflows; before, the body was built and its first step
+    diverged) or a default horizon (2.2 spacings) whose square is not one (before, the error
+    named "the horizon delta", which the user did not set)."""
+    args = dict(spacing=S, density=1000.0, material=peridyn.Elastic.from_young(1e5, 0.25))
+    args.update(kw)
+    expect_value_error(lambda: peridyn.Particles(lattice((3, 3, 3)), **args), pattern)

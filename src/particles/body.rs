@@ -58,6 +58,16 @@ impl ParticleParams {
                 |v| v > self.spacing,
                 &format!("a finite length above the spacing ({} m)", self.spacing),
             )?;
+        } else {
+            let delta = self.delta();
+            if !(delta.is_finite() && (delta * delta).is_normal()) {
+                return Err(crate::error::invalid!(
+                    "spacing {} m gives the default horizon ({DEFAULT_HORIZON} spacings) {delta} \
+                     m, whose square is not a finite, normal number (horizons from 1.5e-154 to \
+                     1.3e154 m)",
+                    self.spacing
+                ));
+            }
         }
         self.material.validate()
     }
@@ -153,6 +163,15 @@ impl Particles {
         params: ParticleParams,
     ) -> Result<Self> {
         params.validate()?;
+        let mass = params.density * volume;
+        if !(mass.is_normal() && mass.is_finite()) {
+            return Err(crate::error::invalid!(
+                "density {} kg/m^3 times each particle's volume {volume} m^3 (from the spacing \
+                 {} m) gives a particle mass of {mass} kg: not a finite, normal number",
+                params.density,
+                params.spacing
+            ));
+        }
         if reference.is_empty() {
             return Err(crate::error::invalid!(
                 "a particle body needs at least one particle"
