@@ -576,3 +576,10 @@ def test_a_spacing_or_density_whose_mass_or_horizon_overflows_is_named(kw, patte
     args = dict(spacing=S, density=1000.0, material=peridyn.Elastic.from_young(1e5, 0.25))
     args.update(kw)
     expect_value_error(lambda: peridyn.Particles(lattice((3, 3, 3)), **args), pattern)
+
+
+@pytest.mark.parametrize("ratio", [NAN, INF, -1.0])
+def test_granular_stiffness_refuses_a_bad_density_ratio(ratio):
+    """Before, NaN and -1 read a stiffness of 0 Pa."""
+    expect_value_error(lambda: peridyn.Granular(friction_angle=30.0).stiffness(ratio),
+                       r"density_ratio")
