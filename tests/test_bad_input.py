@@ -583,3 +583,11 @@ def test_granular_stiffness_refuses_a_bad_density_ratio(ratio):
     """Before, NaN and -1 read a stiffness of 0 Pa."""
     expect_value_error(lambda: peridyn.Granular(friction_angle=30.0).stiffness(ratio),
                        r"density_ratio")
+
+
+@pytest.mark.parametrize("name", ["density_iterations", "redistribution_iterations"])
+@pytest.mark.parametrize("value", [2.5, NAN, "5"])
+def test_fluid_iteration_counts_that_are_not_integers_are_named(name, value):
+    """Before, a TypeError said "'float' object cannot be interpreted as an integer" without
+    naming the argument."""
+    expect_value_error(lambda: peridyn.ViscoelasticFluid(**{name: value}), name)
