@@ -591,3 +591,12 @@ def test_fluid_iteration_counts_that_are_not_integers_are_named(name, value):
     """Before, a TypeError said "'float' object cannot be interpreted as an integer" without
     naming the argument."""
     expect_value_error(lambda: peridyn.ViscoelasticFluid(**{name: value}), name)
+
+
+@pytest.mark.parametrize("kw, name", [(dict(shear_modulus=1e308), "shear_modulus"),
+                                      (dict(shear_modulus=5e307, bulk_modulus=1e308),
+                                       "bulk_modulus")])
+def test_fluid_moduli_whose_youngs_modulus_overflows_are_named(kw, name):
+    """Before, the shear modulus was taken and building the body failed on "E", which the
+    user never set."""
+    expect_value_error(lambda: peridyn.ViscoelasticFluid(**kw), name)
