@@ -600,3 +600,11 @@ def test_fluid_moduli_whose_youngs_modulus_overflows_are_named(kw, name):
     """Before, the shear modulus was taken and building the body failed on "E", which the
     user never set."""
     expect_value_error(lambda: peridyn.ViscoelasticFluid(**kw), name)
+
+
+def test_a_fluid_bodys_repr_shows_its_material():
+    """Before, it showed the placeholder ``Elastic(mu=1, lam=0)`` a Newtonian liquid carries
+    inside."""
+    fluid = peridyn.ViscoelasticFluid(viscosity=0.5)
+    body = peridyn.Particles(lattice((3, 3, 3)), spacing=S, density=1000.0, material=fluid)
+    assert repr(fluid) in repr(body) and "Elastic" not in repr(body)

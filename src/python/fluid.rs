@@ -139,7 +139,7 @@ impl PyViscoelasticFluid {
     fn plastic_viscosity(&self) -> f64 {
         self.inner.plastic_viscosity
     }
-    fn __repr__(&self) -> String {
+    pub(crate) fn __repr__(&self) -> String {
         let f = &self.inner;
         let optional = |v: Option<f64>| v.map_or("None".to_string(), |v| v.to_string());
         let (yield_stress, bulk_modulus) = (optional(f.yield_stress), optional(f.bulk_modulus));

@@ -558,9 +558,10 @@ impl PyParticles {
             params.spacing,
             params.density,
             p.horizon(),
-            match p.granular() {
-                Some(&inner) => PyGranular { inner }.__repr__(),
-                None => PyElastic {
+            match (p.fluid_material(), p.granular()) {
+                (Some(&inner), _) => PyViscoelasticFluid { inner }.__repr__(),
+                (None, Some(&inner)) => PyGranular { inner }.__repr__(),
+                (None, None) => PyElastic {
                     inner: params.material,
                 }
                 .__repr__(),
