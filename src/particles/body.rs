@@ -322,12 +322,15 @@ impl Particles {
     pub fn velocities(&self) -> &[Vector3<f64>] {
         &self.state.velocities
     }
-    /// Replaces the positions (m); every value must be finite.
+    /// Replaces the positions (m); every value must be finite. The last step's pressure,
+    /// which was of other positions, reads zeros until the next step.
     pub fn set_positions(&mut self, positions: Vec<Vector3<f64>>) -> Result<()> {
         self.state
             .check_field("positions", "particle", &positions)?;
         self.state.positions = positions;
         self.positions_revision += 1;
+        // The last step's pressure was of other positions: zeros until the next step.
+        self.pressure = None;
         Ok(())
     }
     /// See [`Self::set_positions`].
@@ -452,8 +455,8 @@ impl Particles {
         self.wetted = Some(theta);
     }
     /// Per particle, the pressure of its density constraint over the last step a solver took
-    /// (Pa; `solve::particles::fluid_pressure`): zeros before any step and for a particle without
-    /// one (a solid, a partner).
+    /// (Pa; `solve::particles::fluid_pressure`): zeros before any step, after positions were
+    /// set ([`Self::set_positions`]) and for a particle without one (a solid, a partner).
     pub fn pressure(&self) -> Vec<f64> {
         (self.pressure.clone()).unwrap_or_else(|| vec![0.0; self.num_particles()])
     }
