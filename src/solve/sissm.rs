@@ -324,7 +324,7 @@ impl<T: Real> Solver<T> {
         let gravity = Vector3::from(params.gravity).map(T::of);
 
         by_kind.sync()?;
-        families.load(&by_kind);
+        families.load(&by_kind)?;
         // Each family's colliders in its frame (a particle family's origin near its bodies,
         // docs/architecture.md "Particle frame"); a family in the world frame keeps the world
         // models of `colliders` bit for bit.
