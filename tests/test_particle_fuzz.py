@@ -3,8 +3,8 @@ as tests/test_fuzz.py does for membranes.
 
 Hypothesis draws a small scene (a lattice block of 8 to 64 particles of an elastic, plastic,
 granular (dry or wet, with or without contact friction) or fluid (Newtonian or viscoelastic)
-material; a solver of random time step, global solver, tolerance and iteration cap; maybe a
-ground plane; maybe pins) and a sequence of calls (steps, pins and unpins with valid and invalid
+material; a solver of random time step, precision, global solver, tolerance and iteration
+cap; maybe a ground plane; maybe pins) and a sequence of calls (steps, pins and unpins with valid and invalid
 indices, settings of positions and velocities with good and bad arrays, time steps good and
 bad, material changes, and a step forced to diverge by a max_speed of 1 nm/s). Every example
 asserts what peridyn promises (docs/model.md, "Bad input, divergence and state files"):
@@ -50,6 +50,7 @@ def scenes(draw):
         "stiffness": draw(st.sampled_from([1e3, 1e5, 1e7])),
         "density": draw(st.sampled_from([500.0, 1600.0])),
         "dt": draw(st.sampled_from([1e-4, 2e-3, 1e-2, 1 / 30])),
+        "precision": draw(st.sampled_from(["f64", "f32"])),
         "global_solver": draw(st.sampled_from(["direct", "jacobi", "chebyshev", "position"])),
         "tol": draw(st.sampled_from([0.0, 1e-6])),
         "max_iters": draw(st.integers(1, 8)),
@@ -85,7 +86,8 @@ def build(scene):
     if pins:
         body.pin(pins)
     solver = peridyn.Solver(dt=scene["dt"], tol=scene["tol"], max_iters=scene["max_iters"],
-                            global_solver=scene["global_solver"], threads=1)
+                            global_solver=scene["global_solver"], precision=scene["precision"],
+                            threads=1)
     solver.add(body)
     if scene["plane"]:
         solver.add_collider(peridyn.Plane(friction=0.3))
