@@ -455,3 +455,156 @@ def test_a_pinned_jump_whose_f32_velocity_overflows_is_a_divergence(mesh):
         with pytest.raises(peridyn.DivergenceError, match="non-finite"):
             s.step()
     assert np.array_equal(m.positions, x) and np.all(np.isfinite(m.velocities))
+
+
+# ------------------------------------------------------------------------------------------------
+# particle bodies (issue 38-40)
+
+S = 0.01  # lattice spacing of the particle bodies below (m)
+
+
+def lattice(n, origin=(0.0, 0.0, 0.0)):
+    """Particles on a cubic lattice of spacing S: n = (nx, ny, nz) sites from `origin` (m)."""
+    axes = [np.arange(k) * S for k in n]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3) + np.asarray(origin)
+
+
+def frictional_sand():
+    """A 3 x 3 x 3 block of sand with contact friction between its grains, released half a
+    spacing above a plane: its grains touch, so the solver carries their friction
+    multipliers from step to step."""
+    s = peridyn.Solver(dt=2e-3, max_iters=10, tol=0.0)
+    s.add(peridyn.Particles(lattice((3, 3, 3), (0.0, 0.0, 0.005)), spacing=S, density=1600.0,
+                            material=peridyn.Granular(friction_angle=30.0, contact_friction=0.5)))
+    s.add_collider(peridyn.Plane(friction=0.3))
+    return s
+
+
+def cloth_on_cloth():
+    """A free 5 x 5 cloth 2.8 mm above a pinned one, within the barrier's reach of the 2 mm
+    contact thickness: the contact local step's warm start and rest gaps are solver state."""
+    v, t = make_grid(5, 5, 0.1, 0.1)
+    under, over = membrane(v, t), membrane(v + [0.0, 0.0, 0.0028], t)
+    under.pin(np.arange(len(v)))
+    s = peridyn.Solver(dt=2e-3, max_iters=20, contact=peridyn.Contact(thickness=0.002))
+    s.add(under)
+    s.add(over)
+    return s
+
+
+@pytest.mark.parametrize("scene", [frictional_sand, cloth_on_cloth])
+def test_a_diverging_step_keeps_the_solver_state_and_the_next_step_is_the_one_it_replaces(scene):
+    """A step that raises DivergenceError (forced by a max_speed of 1 nm/s) keeps the solver's
+    internal state (the grains' friction multipliers, the contact warm start) as well as the
+    bodies: the step after it, with max_speed restored, is bit for bit the step an
+    undisturbed twin takes. Before, the failed step's grain multipliers (and warm start) were
+    kept, and the next step differed."""
+    s, twin = scene(), scene()
+    for _ in range(4):
+        s.step()
+        twin.step()
+    state = s.internal_state()
+    assert state["grain_contact_multipliers"].size or state["contact_warm_start"].size
+    s.max_speed = 1e-9
+    with pytest.raises(peridyn.DivergenceError):
+        s.step()
+    after = s.internal_state()
+    for key, value in state.items():
+        assert np.array_equal(after[key], value), key
+    s.max_speed = 1e4
+    s.step()
+    twin.step()
+    for body, other in zip(s.bodies, twin.bodies):
+        assert np.array_equal(body.positions, other.positions)
+        assert np.array_equal(body.velocities, other.velocities)
+    for key, value in twin.internal_state().items():
+        assert np.array_equal(s.internal_state()[key], value), key
+
+
+@pytest.mark.parametrize("kick", ["velocities", "gravity"])
+def test_a_granular_step_predicted_beyond_any_distance_is_a_divergence(kick):
+    """Sand whose step would move it 1e297 m (velocities of 1e300 m/s, or gravity of 1e300
+    m/s^2 at dt = 2 ms): the grains' contact search would need an infinite radius. That is a
+    DivergenceError naming the particle, the bodies kept as before the step; before, a
+    ValueError about "the horizon delta" escaped, which named nothing the user set."""
+    gravity = (0.0, 0.0, -1e300) if kick == "gravity" else (0.0, 0.0, -9.81)
+    s = peridyn.Solver(dt=2e-3, max_iters=10, gravity=gravity, max_speed=float("inf"))
+    sand = peridyn.Particles(lattice((3, 3, 3), (0.0, 0.0, 0.005)), spacing=S, density=1600.0,
+                             material=peridyn.Granular(friction_angle=30.0))
+    s.add(sand)
+    s.add_collider(peridyn.Plane())
+    if kick == "velocities":
+        sand.velocities = np.full((27, 3), 1e300)
+    x, v = sand.positions, sand.velocities
+    with pytest.raises(peridyn.DivergenceError, match=r"vertex \d+ of body 0 became non-finite"):
+        s.step()
+    assert np.array_equal(sand.positions, x) and np.array_equal(sand.velocities, v)
+    assert s.steps_taken == 0
+
+
+@pytest.mark.parametrize("material", [peridyn.Elastic.from_young(1e5, 0.25),
+                                      peridyn.Granular(friction_angle=30.0),
+                                      peridyn.ViscoelasticFluid()])
+def test_particles_at_the_same_place_are_refused_naming_both(material):
+    """Two particles at one position would be joined by a bond of length 0, without a
+    direction: before, the body was built and its first step diverged at iteration 0. Now a
+    ValueError names both; `set_material` to a solid where a liquid's particles met is refused
+    the same way, changing nothing."""
+    x = lattice((3, 3, 3))
+    x[7] = x[3]
+    expect_value_error(lambda: peridyn.Particles(x, spacing=S, density=1000.0, material=material),
+                       r"particles 3 and 7", r"same position")
+    liquid = peridyn.Particles(lattice((3, 3, 3)), spacing=S, density=1000.0,
+                               material=peridyn.ViscoelasticFluid())
+    liquid.positions = x
+    expect_value_error(lambda: liquid.set_material(peridyn.Elastic.from_young(1e5, 0.25)),
+                       r"particles 3 and 7")
+    assert isinstance(liquid.material, peridyn.ViscoelasticFluid)
+
+
+@pytest.mark.parametrize("kw, pattern", [
+    (dict(density=1e-320), r"^density 0\.0+1 kg/m\^3 .* particle mass of 0 kg"),
+    (dict(density=1e308, spacing=1e3), r"^density 10+ kg/m\^3 .* particle mass of inf kg"),
+    (dict(spacing=1e-320), r"^spacing 0\.0+1 m gives the default horizon"),
+    (dict(spacing=1e308), r"^spacing 10+ m gives the default horizon"),
+])
+def test_a_spacing_or_density_whose_mass_or_horizon_overflows_is_named(kw, pattern):
+    """Finite, positive, yet unusable: a particle mass ``density * spacing^3`` that is not a
+    normal number (its inverse overflows; before, the body was built and its first step
+    diverged) or a default horizon (2.2 spacings) whose square is not one (before, the error
+    named "the horizon delta", which the user did not set)."""
+    args = dict(spacing=S, density=1000.0, material=peridyn.Elastic.from_young(1e5, 0.25))
+    args.update(kw)
+    expect_value_error(lambda: peridyn.Particles(lattice((3, 3, 3)), **args), pattern)
+
+
+@pytest.mark.parametrize("ratio", [NAN, INF, -1.0])
+def test_granular_stiffness_refuses_a_bad_density_ratio(ratio):
+    """Before, NaN and -1 read a stiffness of 0 Pa."""
+    expect_value_error(lambda: peridyn.Granular(friction_angle=30.0).stiffness(ratio),
+                       r"density_ratio")
+
+
+@pytest.mark.parametrize("name", ["density_iterations", "redistribution_iterations"])
+@pytest.mark.parametrize("value", [2.5, NAN, "5"])
+def test_fluid_iteration_counts_that_are_not_integers_are_named(name, value):
+    """Before, a TypeError said "'float' object cannot be interpreted as an integer" without
+    naming the argument."""
+    expect_value_error(lambda: peridyn.ViscoelasticFluid(**{name: value}), name)
+
+
+@pytest.mark.parametrize("kw, name", [(dict(shear_modulus=1e308), "shear_modulus"),
+                                      (dict(shear_modulus=5e307, bulk_modulus=1e308),
+                                       "bulk_modulus")])
+def test_fluid_moduli_whose_youngs_modulus_overflows_are_named(kw, name):
+    """Before, the shear modulus was taken and building the body failed on "E", which the
+    user never set."""
+    expect_value_error(lambda: peridyn.ViscoelasticFluid(**kw), name)
+
+
+def test_a_fluid_bodys_repr_shows_its_material():
+    """Before, it showed the placeholder ``Elastic(mu=1, lam=0)`` a Newtonian liquid carries
+    inside."""
+    fluid = peridyn.ViscoelasticFluid(viscosity=0.5)
+    body = peridyn.Particles(lattice((3, 3, 3)), spacing=S, density=1000.0, material=fluid)
+    assert repr(fluid) in repr(body) and "Elastic" not in repr(body)

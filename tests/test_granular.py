@@ -572,3 +572,25 @@ def test_the_direct_solver_refactors_sand_as_its_stiffness_changes():
         assert kinds[True] > 0 and kinds[False] > 0, kinds
         runs.append(body.positions)
     assert np.array_equal(runs[0], runs[1])
+
+
+@pytest.mark.parametrize("global_solver", ["direct", "chebyshev"])
+def test_a_step_after_positions_are_set_takes_the_stiffness_of_the_new_positions(global_solver):
+    """A granular body's stiffness ``lam`` follows its SPH density (eq. 25-27), taken at the
+    end of every step for the next. Positions set between steps (squeezed to 0.9 of their
+    height) change the density, so the next step takes the stiffness there, as a body built
+    at those positions does (its twin, whose ``rest_bonds`` set to themselves make the solver
+    build its working set anew): both step to the same bits. Before, the step kept the
+    stiffness of the positions the last step ended at."""
+    bodies = [column(0.02, 0.04, sand()) for _ in range(2)]
+    solvers = [ground_solver(global_solver=global_solver) for _ in bodies]
+    for s, body in zip(solvers, bodies):
+        s.add(body)
+        for _ in range(5):
+            s.step()
+        body.positions = body.positions * [1.0, 1.0, 0.9]
+    bodies[1].rest_bonds = bodies[1].rest_bonds
+    for s in solvers:
+        s.step()
+    assert np.array_equal(bodies[0].positions, bodies[1].positions)
+    assert np.array_equal(bodies[0].velocities, bodies[1].velocities)

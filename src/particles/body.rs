@@ -58,6 +58,16 @@ impl ParticleParams {
                 |v| v > self.spacing,
                 &format!("a finite length above the spacing ({} m)", self.spacing),
             )?;
+        } else {
+            let delta = self.delta();
+            if !(delta.is_finite() && (delta * delta).is_normal()) {
+                return Err(crate::error::invalid!(
+                    "spacing {} m gives the default horizon ({DEFAULT_HORIZON} spacings) {delta} \
+                     m, whose square is not a finite, normal number (horizons from 1.5e-154 to \
+                     1.3e154 m)",
+                    self.spacing
+                ));
+            }
         }
         self.material.validate()
     }
@@ -153,6 +163,15 @@ impl Particles {
         params: ParticleParams,
     ) -> Result<Self> {
         params.validate()?;
+        let mass = params.density * volume;
+        if !(mass.is_normal() && mass.is_finite()) {
+            return Err(crate::error::invalid!(
+                "density {} kg/m^3 times each particle's volume {volume} m^3 (from the spacing \
+                 {} m) gives a particle mass of {mass} kg: not a finite, normal number",
+                params.density,
+                params.spacing
+            ));
+        }
         if reference.is_empty() {
             return Err(crate::error::invalid!(
                 "a particle body needs at least one particle"
@@ -303,12 +322,15 @@ impl Particles {
     pub fn velocities(&self) -> &[Vector3<f64>] {
         &self.state.velocities
     }
-    /// Replaces the positions (m); every value must be finite.
+    /// Replaces the positions (m); every value must be finite. The last step's pressure,
+    /// which was of other positions, reads zeros until the next step.
     pub fn set_positions(&mut self, positions: Vec<Vector3<f64>>) -> Result<()> {
         self.state
             .check_field("positions", "particle", &positions)?;
         self.state.positions = positions;
         self.positions_revision += 1;
+        // The last step's pressure was of other positions: zeros until the next step.
+        self.pressure = None;
         Ok(())
     }
     /// See [`Self::set_positions`].
@@ -433,8 +455,8 @@ impl Particles {
         self.wetted = Some(theta);
     }
     /// Per particle, the pressure of its density constraint over the last step a solver took
-    /// (Pa; `solve::particles::fluid_pressure`): zeros before any step and for a particle without
-    /// one (a solid, a partner).
+    /// (Pa; `solve::particles::fluid_pressure`): zeros before any step, after positions were
+    /// set ([`Self::set_positions`]) and for a particle without one (a solid, a partner).
     pub fn pressure(&self) -> Vec<f64> {
         (self.pressure.clone()).unwrap_or_else(|| vec![0.0; self.num_particles()])
     }

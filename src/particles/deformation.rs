@@ -136,12 +136,20 @@ pub fn flat_neighbourhood(i: usize, count: usize, delta: f64) -> crate::error::E
 /// Checks that every particle of the reference positions `x` (m) with the `horizons` of
 /// radius `delta` (m) has an invertible shape matrix `K_i` (any positive weights give the
 /// same answer: `K_i` is singular exactly when the neighbours' bonds span less than 3D);
-/// fails naming the first that has not.
+/// fails naming the first that has not, or the first two particles at the same position (a
+/// bond of length 0 has no direction, and its influence `1 / |xi|` no value).
 pub fn check_shapes(x: &[Vector3<f64>], horizons: &Horizons, delta: f64) -> Result<()> {
     for i in 0..x.len() {
         let mut shape = Matrix3::<f64>::zeros();
         for &j in horizons.of(i) {
             let xi = x[j as usize] - x[i];
+            if xi == Vector3::zeros() {
+                return Err(crate::error::invalid!(
+                    "particles {i} and {j} are at the same position {:?}: a bond needs two \
+                     distinct ends",
+                    x[i].as_slice()
+                ));
+            }
             shape += xi * xi.transpose() * influence(xi.norm(), delta);
         }
         if shape_inverse(&shape).is_none() {

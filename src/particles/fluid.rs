@@ -196,8 +196,8 @@ impl ViscoelasticFluid {
         check_param(
             "shear_modulus",
             self.shear_modulus,
-            |v| v >= 0.0,
-            "a finite shear modulus >= 0 Pa",
+            |v| v >= 0.0 && (3.0 * v).is_finite(),
+            "a finite shear modulus >= 0 Pa whose Young's modulus (up to 2.9 times it) is finite",
         )?;
         check_param(
             "surface_tension",
@@ -220,7 +220,7 @@ impl ViscoelasticFluid {
             check_param(
                 "bulk_modulus",
                 k,
-                |v| v > 0.0 && (g == 0.0 || (lo..=hi).contains(&v)),
+                |v| v > 0.0 && (3.0 * v).is_finite() && (g == 0.0 || (lo..=hi).contains(&v)),
                 &format!(
                     "a finite stress > 0 Pa within [{lo}, {hi}] Pa ({} to {} times the shear modulus)",
                     BULK_RANGE.0, BULK_RANGE.1

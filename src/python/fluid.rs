@@ -5,7 +5,7 @@ use pyo3::prelude::*;
 use crate::particles::{DensitySolver, ViscoelasticFluid};
 
 use super::errors::IntoPyResult;
-use super::scalars::Real;
+use super::scalars::{Int, Real};
 
 /// A fluid material of particle bodies (He et al. 2017, section 6): position-based density
 /// constraints and an implicit viscosity; the defaults make a Newtonian liquid.
@@ -31,16 +31,16 @@ impl PyViscoelasticFluid {
     /// viscoelastic fluid's flow beyond yield, which relaxes its overstress over
     /// `plastic_viscosity / shear_modulus`; 0: rate-independent).
     #[new]
-    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = 50, density_solver = "cg", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = 5, shear_modulus = Real::of(0.0), yield_stress = None, bulk_modulus = None, adhesion = false, surface_tension = Real::of(0.0), plastic_viscosity = Real::of(0.0)))]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = Int::of(50), density_solver = "cg", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = Int::of(5), shear_modulus = Real::of(0.0), yield_stress = None, bulk_modulus = None, adhesion = false, surface_tension = Real::of(0.0), plastic_viscosity = Real::of(0.0)))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         viscosity: Real,
-        density_iterations: i64,
+        density_iterations: Int,
         density_solver: &str,
         density_tolerance: Real,
         relaxation: Real,
         redistribution: Real,
-        redistribution_iterations: i64,
+        redistribution_iterations: Int,
         shear_modulus: Real,
         yield_stress: Option<Real>,
         bulk_modulus: Option<Real>,
@@ -48,6 +48,9 @@ impl PyViscoelasticFluid {
         surface_tension: Real,
         plastic_viscosity: Real,
     ) -> PyResult<Self> {
+        let density_iterations = density_iterations.get("density_iterations")?;
+        let redistribution_iterations =
+            redistribution_iterations.get("redistribution_iterations")?;
         let iterations = usize::try_from(density_iterations).map_err(|_| {
             pyo3::exceptions::PyValueError::new_err(format!(
                 "density_iterations must be at least 1, got {density_iterations}"
@@ -136,7 +139,7 @@ impl PyViscoelasticFluid {
     fn plastic_viscosity(&self) -> f64 {
         self.inner.plastic_viscosity
     }
-    fn __repr__(&self) -> String {
+    pub(crate) fn __repr__(&self) -> String {
         let f = &self.inner;
         let optional = |v: Option<f64>| v.map_or("None".to_string(), |v| v.to_string());
         let (yield_stress, bulk_modulus) = (optional(f.yield_stress), optional(f.bulk_modulus));

@@ -2,6 +2,7 @@
 
 use pyo3::prelude::*;
 
+use crate::error::check_param;
 use crate::particles::{Granular, DEFAULT_WICKING};
 
 use super::errors::IntoPyResult;
@@ -111,9 +112,16 @@ impl PyGranular {
     fn wicking(&self) -> f64 {
         self.inner.wicking
     }
-    /// `k_f + k_c` (Pa) at the density ratio `rho / rho_0` (eq. 25-27).
+    /// `k_f + k_c` (Pa) at the density ratio `rho / rho_0` (eq. 25-27; finite, >= 0).
     fn stiffness(&self, density_ratio: Real) -> PyResult<f64> {
-        Ok(self.inner.stiffness(density_ratio.get("density_ratio")?))
+        let ratio = check_param(
+            "density_ratio",
+            density_ratio.get("density_ratio")?,
+            |r| r >= 0.0,
+            "a finite ratio >= 0",
+        )
+        .py()?;
+        Ok(self.inner.stiffness(ratio))
     }
     pub(crate) fn __repr__(&self) -> String {
         let g = &self.inner;

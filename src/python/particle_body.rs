@@ -370,9 +370,10 @@ impl PyParticles {
     /// (N,) pressure of each fluid particle's density constraint over the last step (Pa,
     /// float64, read-only): `p_i = -kappa rho0 lambda_i / h^2` of the projection's
     /// multipliers summed over the step's passes, `kappa` = 0.817 the kernel's gradient
-    /// factor on the lattice (docs/particles/fluids.md, round y2). Zeros before the first step
-    /// and at particles without a constraint (solids); not part of a saved state (the next
-    /// step does not start from it).
+    /// factor on the lattice (docs/particles/fluids.md, round y2). Zeros before the first step,
+    /// after ``positions`` were set (the last step's pressure was of other positions; so after
+    /// ``load_state`` too) and at particles without a constraint (solids); not part of a saved
+    /// state (the next step does not start from it).
     #[getter]
     fn pressure<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         to_numpy_1d(py, self.lock().pressure())
@@ -558,9 +559,10 @@ impl PyParticles {
             params.spacing,
             params.density,
             p.horizon(),
-            match p.granular() {
-                Some(&inner) => PyGranular { inner }.__repr__(),
-                None => PyElastic {
+            match (p.fluid_material(), p.granular()) {
+                (Some(&inner), _) => PyViscoelasticFluid { inner }.__repr__(),
+                (None, Some(&inner)) => PyGranular { inner }.__repr__(),
+                (None, None) => PyElastic {
                     inner: params.material,
                 }
                 .__repr__(),

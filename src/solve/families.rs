@@ -75,16 +75,18 @@ impl<T: Real> Families<T> {
     }
 
     /// Copies the bodies' positions, velocities and pins into their families (forgetting the
-    /// grains' contact friction of a particle body whose positions were replaced): the
+    /// grains' contact friction of a particle body whose positions were replaced, and taking
+    /// a granular body's stiffness anew there): the
     /// particles in their own frame, unless membranes share the step with them (the
     /// coupling's pairs are measured in the world frame).
-    pub fn load(&mut self, bodies: &ByKind<'_>) {
+    pub fn load(&mut self, bodies: &ByKind<'_>) -> Result<()> {
         if let Some(m) = &mut self.membranes {
             m.points.load(&bodies.membranes);
         }
         if let Some(p) = &mut self.particles {
-            p.load(&bodies.particles, self.membranes.is_none());
+            p.load(&bodies.particles, self.membranes.is_none())?;
         }
+        Ok(())
     }
 
     /// Copies the families' state back into the bodies (in f64), and the liquids' pressures.

@@ -151,6 +151,18 @@ impl<T: Real> Points<T> {
         (body, point - self.ranges.get(body).map_or(0, |r| r.start))
     }
 
+    /// The first free point whose move in the step by its velocity and `gravity` (m/s^2),
+    /// `|h v_t + h^2 g|` (m, in f64, `h` in s), has no finite square (above about 1.3e154 m):
+    /// no distance can measure where it goes (a granular body's contact search would be asked
+    /// for an infinite radius), so the step diverges before it starts.
+    pub fn first_unbounded_move(&self, h: f64, gravity: Vector3<f64>) -> Option<usize> {
+        let kick = gravity * (h * h);
+        (0..self.velocity.len()).into_par_iter().find_first(|&i| {
+            let moved = self.velocity[i].map(|c| c.to_f64()) * h + kick;
+            !self.pinned[i] && !moved.norm_squared().is_finite()
+        })
+    }
+
     /// `y* = y_t + h v_t + h^2 g` for free points (h in s, g in m/s^2); the initial iterate is
     /// `y*` (Algorithm 1, line 2).
     pub fn predict(&mut self, h: T, gravity: Vector3<T>) {

@@ -41,6 +41,7 @@ use super::membranes::auto;
 use super::membranes::contact_step::ContactState;
 use super::membranes::descent::{descent_iteration, DescentState, LineSearch};
 use super::membranes::newton::{newton_iteration, start_iteration, NewtonState};
+use super::particles::ParticleSystem;
 use super::update::{MoveOptions, Update};
 use super::{Acceleration, Clock, Method, SolverParams, SolverState, StepStats, Timings};
 use crate::timing::millis;
@@ -61,8 +62,12 @@ pub struct Solver<T: Real> {
     descent: Option<DescentState>,
     /// The Newton method's working set (built on the first Newton step).
     newton: Option<NewtonState<T>>,
-    /// A state given to [`Self::restore_state`], taken by the next step.
+    /// A state given to [`Self::restore_state`], or the one a failed step started from,
+    /// taken by the next step.
     restored: Option<SolverState>,
+    /// Whether `restored` is a failed step's start, which a change of the body list drops
+    /// (as it drops the state a step leaves), where a restored one is checked against it.
+    rolled_back: bool,
     clock: Clock,
 }
 
@@ -90,6 +95,7 @@ impl<T: Real> Solver<T> {
             descent: None,
             newton: None,
             restored: None,
+            rolled_back: false,
             clock: Clock::default(),
         })
     }
@@ -183,16 +189,8 @@ impl<T: Real> Solver<T> {
         if let Some(restored) = &self.restored {
             return restored.clone();
         }
-        let contact = self.contact.as_ref();
-        SolverState {
-            contact_warm_start: contact.map(|c| c.warm_start().to_vec()).unwrap_or_default(),
-            contact_rest_gaps: contact.and_then(|c| c.rest_gaps()),
-            grain_contacts: self
-                .families
-                .as_ref()
-                .and_then(|f| f.particles.as_ref())
-                .map_or_else(Vec::new, |p| p.saved_friction()),
-        }
+        let particles = self.families.as_ref().and_then(|f| f.particles.as_ref());
+        carried_state(None, self.contact.as_ref(), particles)
     }
 
     /// Restores a state read with [`Self::saved_state`] (from a solver set up the same way),
@@ -201,6 +199,7 @@ impl<T: Real> Solver<T> {
     pub fn restore_state(&mut self, state: SolverState) -> Result<()> {
         state.validate()?;
         self.restored = Some(state);
+        self.rolled_back = false;
         Ok(())
     }
 
@@ -233,12 +232,38 @@ impl<T: Real> Solver<T> {
         }
     }
 
+    /// [`Self::step`] in the pool. A step that fails (a divergence, bad input found on the
+    /// way) leaves the bodies as they were and hands the next step the state this one started
+    /// from, as a restore would ([`Self::restore_state`]): the contact warm start and rest
+    /// gaps and the grains' friction multipliers, which the step changes as it goes.
     fn step_in_pool(&mut self, bodies: &mut [BodyMut<'_>]) -> Result<StepStats> {
+        // A restore given from outside stays one; a failed step's start is the solver's own.
+        let own = self.restored.is_none() || self.rolled_back;
+        let mut start = None;
+        let stepped = self.advance(bodies, &mut start);
+        if let (Err(_), Some(start)) = (&stepped, start) {
+            self.restored = Some(start);
+            self.rolled_back = own;
+        }
+        stepped
+    }
+
+    /// One step. Sets `start` to the state it starts from ([`Self::saved_state`], the grain
+    /// contacts of a body whose positions were replaced forgotten) before it changes any.
+    fn advance(
+        &mut self,
+        bodies: &mut [BodyMut<'_>],
+        start: &mut Option<SolverState>,
+    ) -> Result<StepStats> {
         let started = Instant::now();
         let mut params = self.params;
         let mut by_kind = ByKind::sort(bodies);
         if !self.families.as_ref().is_some_and(|f| f.matches(&by_kind)) {
             let families = Families::build(&by_kind, true)?;
+            if self.rolled_back {
+                self.restored = None;
+                self.rolled_back = false;
+            }
             self.coupling = ClothCoupling::of(&by_kind.membranes, &families);
             self.families = Some(families);
             self.contact = None;
@@ -299,7 +324,7 @@ impl<T: Real> Solver<T> {
         let gravity = Vector3::from(params.gravity).map(T::of);
 
         by_kind.sync()?;
-        families.load(&by_kind);
+        families.load(&by_kind)?;
         // Each family's colliders in its frame (a particle family's origin near its bodies,
         // docs/architecture.md "Particle frame"); a family in the world frame keeps the world
         // models of `colliders` bit for bit.
@@ -317,9 +342,15 @@ impl<T: Real> Solver<T> {
             })
             .collect();
         let restored = self.restored.take();
+        self.rolled_back = false;
         if let Some(restored) = &restored {
             families.restore(restored);
         }
+        *start = Some(carried_state(
+            restored.as_ref(),
+            self.contact.as_ref(),
+            families.particles.as_ref(),
+        ));
         if let (Some(sys), true) = (families.membranes.as_mut(), params.contact.is_some()) {
             let contact = self
                 .contact
@@ -331,6 +362,20 @@ impl<T: Real> Solver<T> {
         }
         if let (Some(restored), Some(contact)) = (restored, &mut self.contact) {
             contact.set_warm_start(&restored.contact_warm_start);
+        }
+        let list_indices = by_kind.list_indices();
+        for (family, indices) in families.each().zip(&list_indices) {
+            let points = family.points();
+            if let Some(point) = points.first_unbounded_move(params.dt, params.gravity.into()) {
+                let (body, vertex) = points.locate(point);
+                return Err(Error::Diverged {
+                    step: self.clock.steps,
+                    iteration: 0,
+                    body: indices[body],
+                    vertex,
+                    cause: Divergence::NonFinite,
+                });
+            }
         }
         let mut energy = 0.0;
         let mut timed_elsewhere = 0.0;
@@ -384,7 +429,6 @@ impl<T: Real> Solver<T> {
         // Per family, the threshold its convergence measure must fall below.
         let thresholds: Vec<f64> = families.each().map(|f| f.threshold(&params)).collect();
         let mut omegas = vec![1.0; accelerations.len()];
-        let list_indices = by_kind.list_indices();
         let mut updates = Vec::with_capacity(list_indices.len());
         let mut search = LineSearch::new(energy);
         let mut omega = 1.0;
@@ -649,6 +693,28 @@ impl<T: Real> Solver<T> {
         stats.time = self.clock.time;
         stats.timings = timings;
         Ok(stats)
+    }
+}
+
+/// The state a solver carries to its next step ([`SolverState`]): the contact warm start and
+/// rest gaps of `restored` when given (a restore the contact state has not taken yet), else
+/// of `contact`; the grains' friction multipliers of the particle family `particles`.
+fn carried_state<T: Real>(
+    restored: Option<&SolverState>,
+    contact: Option<&ContactState<T>>,
+    particles: Option<&ParticleSystem<T>>,
+) -> SolverState {
+    let (contact_warm_start, contact_rest_gaps) = match restored {
+        Some(r) => (r.contact_warm_start.clone(), r.contact_rest_gaps.clone()),
+        None => (
+            contact.map(|c| c.warm_start().to_vec()).unwrap_or_default(),
+            contact.and_then(|c| c.rest_gaps()),
+        ),
+    };
+    SolverState {
+        contact_warm_start,
+        contact_rest_gaps,
+        grain_contacts: particles.map_or_else(Vec::new, |p| p.saved_friction()),
     }
 }
 

@@ -154,9 +154,9 @@ class Particles:
         ``p_i = -kappa rho0 lambda_i / h^2`` of the density projection's multipliers summed
         over the step's passes (``kappa`` = 0.817, the SPH gradient's factor on the rest
         lattice), so a resting column reads ``rho0 g depth`` (within 10 % below its top
-        layers). Zeros before the
-        first step and at particles without a density constraint (solids, sand beside a
-        liquid); never negative but at adhered ghosts (``ViscoelasticFluid(adhesion=True)``).
+        layers). Zeros before the first step, after ``positions`` were set (the last step's
+        pressure was of other positions; so after :func:`peridyn.load_state` too) and at
+        particles without a density constraint (solids, sand beside a liquid); never negative but at adhered ghosts (``ViscoelasticFluid(adhesion=True)``).
         Not part of a saved state: the next step does not start from it."""
     @property
     def fluid_particles(self) -> np.ndarray:

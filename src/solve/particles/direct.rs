@@ -45,8 +45,9 @@ const UPPER: usize = usize::MAX;
 /// The pattern of `M + h^2 L`, its symbolic factor, the numeric factor for one time step and
 /// held set, and the workspace of its solves.
 pub(crate) struct DirectSolver {
-    /// The time step (s) and held particles the numeric factor is for (`h = NaN`: none yet).
-    h: f64,
+    /// The time step (s) the numeric factor is for, with `held`; `None` when there is no
+    /// usable factor (none yet, a failed factorisation, or values changed since).
+    factored: Option<f64>,
     held: Vec<bool>,
     /// `M + h^2 L` and its factor (right-hand sides `n x 3`); per particle the slot of its
     /// diagonal and per bond the slot of its entry in the values (or [`UPPER`]).
@@ -89,7 +90,7 @@ impl DirectSolver {
             }
         }
         Ok(Self {
-            h: f64::NAN,
+            factored: None,
             held: vec![false; n],
             llt,
             diagonal_slot,
@@ -104,7 +105,7 @@ impl DirectSolver {
     /// since); allocates nothing. Fails if the matrix is not positive definite (it always is
     /// for positive masses and couplings, see the module's doc).
     pub fn factor<T: Real>(&mut self, rest: &ParticleRest<T>, h: f64, held: &[bool]) -> Result<()> {
-        if self.h == h && self.held == held {
+        if self.factored == Some(h) && self.held == held {
             return Ok(());
         }
         let h2 = h * h;
@@ -124,10 +125,10 @@ impl DirectSolver {
             }
         }
         // Marked stale first: a failed factorisation leaves no usable factor.
-        self.h = f64::NAN;
+        self.factored = None;
         self.factorizations += 1;
         self.llt.factor().map_err(|e| failed(&e))?;
-        self.h = h;
+        self.factored = Some(h);
         self.held.copy_from_slice(held);
         Ok(())
     }
@@ -135,7 +136,7 @@ impl DirectSolver {
     /// Marks the numeric factor stale after the rest data's values changed on the same
     /// pattern (bond for bond): the next [`Self::factor`] refills and refactors them.
     pub fn values_changed(&mut self) {
-        self.h = f64::NAN;
+        self.factored = None;
     }
 
     /// Symbolic analyses and numeric factorisations since the last call (measures for

@@ -218,6 +218,43 @@ impl PlasticBodies {
                 law.reanchor(&mut entry.bonds, y, &mut entry.volumes);
             }
         }
+        self.refill(rest)?;
+        timings.plasticity += millis(t);
+        Ok(Some(changed))
+    }
+
+    /// Takes every granular body's stiffness (eq. 25-27) from its density at its own
+    /// positions in `bodies` (m, f64), as building the working set from the bodies does, and
+    /// refills `rest` with it: after positions were replaced from outside, the stiffness the
+    /// last step ended with belongs to other positions. `false` (nothing changed) when no
+    /// body is granular. On an error `rest` may be partly filled and must be built anew.
+    pub fn restiffen<T: Real>(
+        &mut self,
+        bodies: &[&mut Particles],
+        rest: &mut ParticleRest<T>,
+    ) -> Result<bool> {
+        let mut granular = false;
+        for (entry, body) in self.entries.iter_mut().zip(bodies) {
+            let Some(material) = entry.constants.granular else {
+                continue;
+            };
+            let (delta, volume) = (entry.constants.delta, entry.constants.volume);
+            let ratios = density_ratios(&entry.bonds, body.positions(), delta, volume)?;
+            entry.lam = match entry.wetted.as_slice() {
+                [] => material.stiffness_of(&ratios),
+                theta => material.wet_stiffness_of(&ratios, theta),
+            };
+            granular = true;
+        }
+        if granular {
+            self.refill(rest)?;
+        }
+        Ok(granular)
+    }
+
+    /// Refills `rest` from every body's bonds (a granular body's with its stiffness `lam`)
+    /// and sets the plastic bodies' cones.
+    fn refill<T: Real>(&self, rest: &mut ParticleRest<T>) -> Result<()> {
         let sources: Vec<(&RestBonds, RestConstants, Option<&[f64]>)> = self
             .entries
             .iter()
@@ -234,8 +271,7 @@ impl PlasticBodies {
                 rest.set_cones(entry.range.start, &law, &entry.bonds, cohesion.as_deref());
             }
         }
-        timings.plasticity += millis(t);
-        Ok(Some(changed))
+        Ok(())
     }
 
     /// Writes the plastic bodies' bonds (into the bodies' own allocations), and the wetted

@@ -160,8 +160,10 @@ impl<T: Real> ParticleSystem<T> {
     /// family's own frame when `own_frame` ([`origin_near`] the bodies), else in the world's
     /// (the coupling with membranes measures both families' positions from one origin); the
     /// contact friction of a body whose positions were replaced since starts from 0
-    /// ([`Repulsion::forget_friction`]).
-    pub fn load(&mut self, bodies: &[&mut Particles], own_frame: bool) {
+    /// ([`Repulsion::forget_friction`]), and the granular bodies' stiffness is taken anew at
+    /// the positions loaded ([`PlasticBodies::restiffen`]; an error leaves the working set to
+    /// be built anew).
+    pub fn load(&mut self, bodies: &[&mut Particles], own_frame: bool) -> Result<()> {
         self.points.origin = if own_frame {
             let positions = bodies.iter().flat_map(|b| b.positions().iter());
             origin_near(positions)
@@ -169,6 +171,7 @@ impl<T: Real> ParticleSystem<T> {
             Vector3::zeros()
         };
         self.points.load(bodies);
+        let mut replaced = false;
         for ((placed, body), range) in self
             .placements
             .iter_mut()
@@ -177,11 +180,24 @@ impl<T: Real> ParticleSystem<T> {
         {
             if *placed != body.positions_revision() {
                 *placed = body.positions_revision();
+                replaced = true;
                 if let Some(repulsion) = &mut self.repulsion {
                     repulsion.forget_friction(range.clone());
                 }
             }
         }
+        if let (true, Some(plastic)) = (replaced, self.plastic.as_mut()) {
+            let restiffened = plastic.restiffen(bodies, &mut self.rest);
+            self.stale = restiffened.is_err();
+            if restiffened? {
+                self.current.valid = false;
+                self.trial.valid = false;
+                if let Some(direct) = &mut self.direct {
+                    direct.values_changed();
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The grains' contact friction the next step starts from ([`Repulsion::saved_friction`]).
