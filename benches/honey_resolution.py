@@ -17,10 +17,11 @@ number at every size) and reports:
   between the film and the lowest particle, those holding liquid and the empty ones (the
   strict xfail asks depth > 10 spacings and none missing);
 * ``samples``: at every ``--sample`` seconds, the slab profile of the liquid still hanging
-  from the film (above the first gap of 2.2 spacings), its neck (thinnest pair of slabs
-  between film and drop, as a fraction of the n^2 of a full layer) and the neck's length
-  (slabs holding at most a quarter of a layer: a neck drawn over several slabs is a thread);
-  see :func:`attached`;
+  from the film (above the first gap of 2.2 spacings): counts and rms radii per slab, its neck
+  (thinnest pair of slabs between film and drop, as a fraction of the n^2 of a full layer),
+  the neck's length (slabs holding at most a quarter of a layer: a neck drawn over several
+  slabs is a thread) and its narrowest slab's rms radius (a fraction of a full layer's); see
+  :func:`attached`;
 * ``diverged`` (a ``DivergenceError``, with its step), ``seconds_per_step`` (wall), and
   ``peak_rss_mib`` (the process's ``VmHWM``).
 
@@ -64,27 +65,35 @@ def slab_counts(depth):
     return np.bincount(np.clip(np.floor(depth).astype(int), 0, None))
 
 
-def attached(depth, layer):
+def attached(depth, radial, layer):
     """The liquid hanging from the film: the particles above the first gap of more than
-    ``GAP`` spacings between consecutive depths. Returns its slab profile on slabs centred on
-    the rest layers (slab j at depths j + 0.5 .. j + 1.5; slab 0 the film), its neck (the
-    thinnest mean of two neighbouring slabs between the film and the drop's lowest widest
-    pair, as a fraction of a full layer; pairs, so that a stretched lattice's layer falling
-    between two slab edges does not read as an empty slab) and the neck's length (the slabs
-    there holding at most a quarter of a layer)."""
-    sorted_depth = np.sort(depth)
+    ``GAP`` spacings between consecutive depths. ``radial`` is each particle's squared
+    in-plane distance from the blob's axis (spacings^2). Returns its slab profile on slabs
+    centred on the rest layers (slab j at depths j + 0.5 .. j + 1.5; slab 0 the film): counts
+    and rms in-plane radii (spacings); its neck (the thinnest mean count of two neighbouring
+    slabs between the film and the drop's lowest widest pair, as a fraction of a full layer;
+    pairs, so that a stretched lattice's layer falling between two slab edges does not read
+    as an empty slab), the neck's length (the slabs there holding at most a quarter of a
+    layer) and the narrowest of those slabs' rms radii as a fraction of a full rest layer's."""
+    order = np.argsort(depth)
+    sorted_depth = depth[order]
     gaps = np.flatnonzero(np.diff(sorted_depth) > GAP)
-    hanging = sorted_depth[: gaps[0] + 1] if gaps.size else sorted_depth
-    counts = np.bincount(np.clip(np.floor(hanging - 0.5).astype(int), 0, None))
-    pairs = 0.5 * (counts[1:-1] + counts[2:]) if counts.size > 2 else np.zeros(0)
-    if pairs.size == 0:
-        return {"counts": counts.tolist(), "neck": None, "thin_slabs": 0}
-    widest = pairs.size - 1 - int(np.argmax(pairs[::-1]))
-    return {
-        "counts": counts.tolist(),
-        "neck": float(pairs[: widest + 1].min()) / layer,
-        "thin_slabs": int((counts[1: widest + 1] <= layer / 4).sum()),
-    }
+    keep = order[: gaps[0] + 1] if gaps.size else order
+    slab = np.clip(np.floor(depth[keep] - 0.5).astype(int), 0, None)
+    counts = np.bincount(slab)
+    sums = np.bincount(slab, weights=radial[keep], minlength=counts.size)
+    radius = np.sqrt(sums / np.maximum(counts, 1))
+    full = np.sqrt((layer - 1) / 6.0)  # rms radius of an n x n layer of unit spacing
+    out = {"counts": counts.tolist(), "radius": np.round(radius, 3).tolist(), "neck": None,
+           "thin_slabs": 0, "narrowest": None}
+    if counts.size > 2:
+        pairs = 0.5 * (counts[1:-1] + counts[2:])
+        widest = pairs.size - 1 - int(np.argmax(pairs[::-1]))
+        filled = np.flatnonzero(counts[1: widest + 2] > 0) + 1
+        out.update(neck=float(pairs[: widest + 1].min()) / layer,
+                   thin_slabs=int((counts[1: widest + 1] <= layer / 4).sum()),
+                   narrowest=float(radius[filled].min() / full) if filled.size else None)
+    return out
 
 
 def run_one(material, n, dt, end, sample, steps_cap):
@@ -100,6 +109,11 @@ def run_one(material, n, dt, end, sample, steps_cap):
     solver = pd.Solver(dt=dt, gravity=(0, 0, -9.81), global_solver="jacobi")
     solver.add(honey)
     top = x[ceiling, 2].min()
+    axis = 0.5 * WIDTH
+
+    def radial(pos):
+        return ((pos[:, 0] - axis) ** 2 + (pos[:, 1] - axis) ** 2) / spacing**2
+
     steps = int(round(end / dt))
     if steps_cap:
         steps = min(steps, steps_cap)
@@ -118,12 +132,13 @@ def run_one(material, n, dt, end, sample, steps_cap):
             break
         wall += time.perf_counter() - t0
         done = step
-        depth = (top - honey.positions[~ceiling, 2]) / spacing
+        pos = honey.positions[~ceiling]
+        depth = (top - pos[:, 2]) / spacing
         if out["parts_s"] is None and np.diff(np.sort(depth)).max() > GAP:
             out["parts_s"] = round(step * dt, 6)
         if step % every == 0 or step == steps:
             out["samples"].append({"t": round(step * dt, 6), "depth": float(depth.max()),
-                                   **attached(depth, n * n)})
+                                   **attached(depth, radial(pos), n * n)})
     out["steps_done"] = done
     out["seconds_per_step"] = wall / max(done, 1)
     depth = (top - honey.positions[~ceiling, 2]) / spacing
@@ -146,7 +161,7 @@ def child(args):
 def predicted_seconds(took, n, n_next):
     """A run's wall time at ``n_next`` across from one at ``n`` (``took`` s): the particle count
     to the power 1.5 (measured on 17 -> 25 at dt 5 ms, the viscoelastic honey: 3.2 times the
-    particles, 5.7 times the time)."""
+    particles, 5.7-7.3 times the time under load)."""
     return took * (n_next / n) ** 4.5
 
 
