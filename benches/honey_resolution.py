@@ -61,7 +61,8 @@ GAP = 2.2  # spacings between consecutive depths that count as a parting (round 
 
 def slab_counts(depth):
     """Particle counts of the spacing-tall slabs 0 .. floor(max depth) (depth in spacings below
-    the ceiling's lowest layer; slab 0 holds the film): the test's slabs."""
+    the ceiling's lowest layer; the film, at about 1.0, falls on the edge of slabs 0 and 1): the
+    test's slabs."""
     return np.bincount(np.clip(np.floor(depth).astype(int), 0, None))
 
 
