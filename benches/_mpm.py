@@ -30,6 +30,7 @@ with Coulomb friction ``floor_friction`` (``0``: slip). Units SI.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -187,6 +188,20 @@ class Mpm:
         self.J.fill(1.0)
         self.F.from_numpy(np.tile(np.eye(3, dtype=np.float32), (self.n, 1, 1)))
 
+    def timed(self, seconds: float) -> tuple:
+        """After a warm-up, steps for ``seconds`` (s) from the initial state: (steps, wall s)."""
+        self.warm_up()
+        t = time.perf_counter()
+        steps = self.advance(seconds)
+        return steps, time.perf_counter() - t
+
+    def warm_up(self) -> None:
+        """Compiles the kernels by 20 steps (so a timed run leaves out the compilation) and
+        restarts from the initial state."""
+        self.reset()
+        self.advance(20 * self.dt)
+        self.reset()
+
     def advance(self, seconds: float) -> int:
         """Steps for ``seconds`` (s); returns the steps taken."""
         steps = int(np.ceil(seconds / self.dt))
@@ -197,3 +212,16 @@ class Mpm:
 
     def positions(self) -> np.ndarray:
         return self.x.to_numpy().astype(np.float64)
+
+
+def sand_column(positions, *, spacing, radius, height, density, young, friction_angle,
+                floor_friction, threads):
+    """A sand column's particles (m, one per lattice site of ``spacing`` m, volume spacing^3)
+    of ``radius`` and ``height`` (m) on a floor at z = 0: Drucker-Prager sand (E ``young`` Pa,
+    nu 0.3, ``friction_angle`` degrees) on a grid of twice the spacing reaching 3.5 radii
+    from the axis and 1.3 heights up, the floor's Coulomb coefficient ``floor_friction``."""
+    reach = 3.5 * radius
+    return Mpm(positions, volume=spacing ** 3, density=density, dx=2 * spacing,
+               low=(-reach, -reach, 0.0), high=(reach, reach, 1.3 * height), material="sand",
+               young=young, nu=0.3, friction_angle=friction_angle,
+               floor_friction=floor_friction, threads=threads)

@@ -209,9 +209,7 @@ def mpm_water(na: int, a: float, threads: int) -> dict:
                   threads=threads)
     except Exception as e:  # a peer that is missing or fails is recorded, not fatal
         return {"na": na, "failed": f"{type(e).__name__}: {e}"}
-    mpm.reset()
-    mpm.advance(20 * mpm.dt)  # compiles the kernels
-    mpm.reset()
+    mpm.warm_up()
     c = np.sqrt(2 * G / a)
     fronts, elapsed, wall = [], 0.0, 0.0
     for T, Z in MARTIN_MOYCE:

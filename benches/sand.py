@@ -143,20 +143,14 @@ def stream_worker(a) -> dict:
 
 
 def mpm_worker(a) -> dict:
-    from _mpm import Mpm
+    from _mpm import sand_column
 
     base = C.vm_kib("VmHWM")
     x, s = column(a.n)
-    reach = 3.5 * RADIUS
-    mpm = Mpm(x, volume=s ** 3, density=DENSITY, dx=2 * s, low=(-reach, -reach, 0.0),
-              high=(reach, reach, 1.3 * ASPECT * RADIUS), material="sand", young=a.mpm_young,
-              nu=0.3, friction_angle=ANGLE, floor_friction=FLOOR, threads=a.threads)
-    mpm.reset()
-    mpm.advance(20 * mpm.dt)  # compiles the kernels
-    mpm.reset()
-    t = time.perf_counter()
-    steps = mpm.advance(a.duration)
-    wall = time.perf_counter() - t
+    mpm = sand_column(x, spacing=s, radius=RADIUS, height=ASPECT * RADIUS, density=DENSITY,
+                      young=a.mpm_young, friction_angle=ANGLE, floor_friction=FLOOR,
+                      threads=a.threads)
+    steps, wall = mpm.timed(a.duration)
     return {"particles": len(x), "spacing_m": s, "dt": mpm.dt, "steps": steps, "wall_s": wall,
             "wall_seconds_per_simulated_second": wall / a.duration,
             "grid_cells": list(mpm.cells), "runout": runout(mpm.positions()),
