@@ -4,7 +4,6 @@ against the friction angle, the angle of repose measured by tilting a layer, wet
 standing taller than dry, a pile held by static friction and creeping without, sand poured
 into a pile, sand kept out of colliders, threads bit-identical, bad input."""
 
-import functools
 
 import numpy as np
 import pytest
@@ -92,38 +91,37 @@ SLOPES = ("measured deposit slopes 4.8, 6.2 and 7.1 degrees at friction angles 2
           "packing, seeds 0-2, contact friction 0.1, 0.3, 1 tan(phi): slopes 8-13 unordered "
           "with runouts 1.06-1.31; 11-26 ordered but 13-21 below phi at 30 and 40 with "
           "runouts 0.69-0.91; the column standing: none gives the slopes with Lube's "
-          "runout)")
+          "runout; round aa, on jittered columns: the contacts' Love-Weber pressure in the "
+          "cone, 4.7-10.9 unordered, settled packings standing far beyond phi; a one-sided "
+          "density constraint holding the grains apart, its pressure in the cone, -2.6 to 4.4 "
+          "(docs/particles/granular_pressure.md, granular_incompressible.md))")
 
 
 @pytest.mark.xfail(strict=True, raises=AssertionError, reason=SLOPES)
 def test_the_deposit_slope_grows_with_the_friction_angle():
     """Columns (R = 6 cm, a = 1) of sand with friction angles 20, 30 and 40 degrees: the
-    deposit's slope grows with the angle, by more than 4 degrees over the range. The flank of
+    deposit's slope grows with the angle, by more than 4 degrees over the range, as a
+    Drucker-Prager continuum's does at this size (Taichi MLS-MPM on the same sites,
+    benches/collapse_deposit.py: 6.9, 9.7, 11.9 degrees, +5.0; +9.6 at 0.5 cm). The flank of
     a collapse deposit is not the angle of repose (at a = 1 Lube et al. find the deposit
     independent of the material); the issue's angle of repose is measured by tilting a layer
-    (test_the_angle_of_repose_lies_within_10_degrees_of_the_friction_angle)."""
+    (test_the_angle_of_repose_lies_within_10_degrees_of_the_friction_angle). No test asks the
+    flank to lie within 10 degrees of the angle: the continuum's lies 13-28 degrees below it
+    at this size and 7-18 below at a quarter of the spacing (docs/particles/performance.md,
+    "The collapse deposit beside a Drucker-Prager continuum")."""
     slopes = deposit_slopes()
     assert slopes[0] < slopes[1] < slopes[2], slopes
     assert slopes[2] - slopes[0] > 4.0, slopes
 
 
-@functools.lru_cache(maxsize=1)
 def deposit_slopes():
-    """The deposit slopes (degrees) of the columns at 20, 30 and 40 degrees (run once for the
-    two tests that read them)."""
+    """The deposit slopes (degrees) of the columns at 20, 30 and 40 degrees."""
     slopes = []
     for angle in (20.0, 30.0, 40.0):
         body = column(0.06, 0.06, sand(angle))
         settle(body, 0.5)
         slopes.append(slope_angle(body))
     return slopes
-
-
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=SLOPES)
-def test_the_deposit_slope_lies_within_10_degrees_of_the_friction_angle():
-    """The same deposits' slopes lie within 10 degrees of their friction angles."""
-    slopes = deposit_slopes()
-    assert np.all(np.abs(np.array(slopes) - [20.0, 30.0, 40.0]) < 10.0), slopes
 
 
 def layer_moves(tilt, jitter=0.0, seed=0, window=0.3, **material):
