@@ -629,6 +629,7 @@ def test_particles_at_the_same_place_are_refused_naming_both(material):
     (dict(density=1e308, spacing=1e3), r"^density 10+ kg/m\^3 .* particle mass of inf kg"),
     (dict(spacing=1e-320), r"^spacing 0\.0+1 m gives the default horizon"),
     (dict(spacing=1e308), r"^spacing 10+ m gives the default horizon"),
+    (dict(spacing=1.0, horizon=1e200), r"^horizon must be .* whose square is a finite, normal"),
 ])
 def test_a_spacing_or_density_whose_mass_or_horizon_overflows_is_named(kw, pattern):
     """Finite, positive, yet unusable: a particle mass ``density * spacing^3`` that is not a
