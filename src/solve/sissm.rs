@@ -395,7 +395,7 @@ impl<T: Real> Solver<T> {
                     iteration: 0,
                     body: indices[body],
                     vertex,
-                    cause: Divergence::NonFinite,
+                    cause: Divergence::UnboundedMove,
                 });
             }
         }
