@@ -76,6 +76,8 @@ pub(crate) struct ParticleSystem<T: Real> {
     /// the first, so that the next one drops the friction and takes the stiffness again.
     placements: Vec<u64>,
     loaded: Vec<u64>,
+    /// Per body, whether the last [`Self::load`] found its positions replaced (reused).
+    replaced: Vec<bool>,
     /// Whether the rest data was left partly built by a failed end of a step.
     stale: bool,
     /// Whether the initial guess's next evaluation at the prediction `y*` takes the energy
@@ -142,6 +144,7 @@ impl<T: Real> ParticleSystem<T> {
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
             placements: bodies.iter().map(|b| b.positions_revision()).collect(),
             loaded: bodies.iter().map(|b| b.positions_revision()).collect(),
+            replaced: vec![false; bodies.len()],
             stale: false,
             energy_alone: false,
             probing: false,
@@ -179,7 +182,7 @@ impl<T: Real> ParticleSystem<T> {
     /// (the coupling with membranes measures both families' positions from one origin); the
     /// contact friction of a body whose positions were replaced since the last step that
     /// succeeded starts from 0 ([`Repulsion::forget_friction`], after a restored state's is
-    /// set), and the granular bodies' stiffness is taken anew at the positions loaded
+    /// set), and such a granular body's stiffness is taken anew at the positions loaded
     /// ([`PlasticBodies::restiffen`]; an error leaves the working set to be built anew).
     pub fn load(&mut self, bodies: &[&mut Particles], own_frame: bool) -> Result<()> {
         self.points.origin = if own_frame {
@@ -189,24 +192,23 @@ impl<T: Real> ParticleSystem<T> {
             Vector3::zeros()
         };
         self.points.load(bodies);
-        let mut replaced = false;
-        for (((placed, loaded), body), range) in self
+        for ((((placed, loaded), replaced), body), range) in self
             .placements
             .iter()
             .zip(&mut self.loaded)
+            .zip(&mut self.replaced)
             .zip(bodies)
             .zip(&self.points.ranges)
         {
             *loaded = body.positions_revision();
-            if *placed != *loaded {
-                replaced = true;
-                if let Some(repulsion) = &mut self.repulsion {
-                    repulsion.forget_friction(range.clone());
-                }
+            *replaced = *placed != *loaded;
+            if let (true, Some(repulsion)) = (*replaced, &mut self.repulsion) {
+                repulsion.forget_friction(range.clone());
             }
         }
-        if let (true, Some(plastic)) = (replaced, self.plastic.as_mut()) {
-            let restiffened = plastic.restiffen(bodies, &mut self.rest);
+        let any = self.replaced.contains(&true);
+        if let (true, Some(plastic)) = (any, self.plastic.as_mut()) {
+            let restiffened = plastic.restiffen(bodies, &self.replaced, &mut self.rest);
             self.stale = restiffened.is_err();
             if restiffened? {
                 self.current.valid = false;
