@@ -27,6 +27,9 @@ pub enum Error {
 pub enum Divergence {
     /// A coordinate became infinite or NaN.
     NonFinite,
+    /// Its predicted move in the step, `|h v_t + h^2 g|` (m), has no finite square: no
+    /// distance can measure where it goes, though every number is finite.
+    UnboundedMove,
     /// Its new velocity's magnitude `speed` (m/s) exceeded the solver's `limit` (m/s):
     /// positions still finite but running away (a blown-up step can reach 1e129 m).
     TooFast { speed: f64, limit: f64 },
@@ -36,6 +39,11 @@ impl std::fmt::Display for Divergence {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::NonFinite => write!(f, "became non-finite"),
+            Self::UnboundedMove => write!(
+                f,
+                "has a predicted move in the step (velocity and gravity) without a finite square \
+                 (above 1.3e154 m)"
+            ),
             Self::TooFast { speed, limit } => write!(
                 f,
                 "reached {speed:.3e} m/s, above the solver's max_speed of {limit:.3e} m/s \

@@ -521,6 +521,68 @@ def test_a_diverging_step_keeps_the_solver_state_and_the_next_step_is_the_one_it
         assert np.array_equal(s.internal_state()[key], value), key
 
 
+def two_frictional_sands():
+    """:func:`frictional_sand` and a second such block a spacing beside it (x from 3 cm)."""
+    s = frictional_sand()
+    s.add(peridyn.Particles(lattice((3, 3, 3), (0.03, 0.0, 0.005)), spacing=S, density=1600.0,
+                            material=peridyn.Granular(friction_angle=30.0, contact_friction=0.5)))
+    return s
+
+
+def assert_same_run(s, twin):
+    """Every body's positions and velocities and the solvers' internal states bit for bit."""
+    for body, other in zip(s.bodies, twin.bodies):
+        assert np.array_equal(body.positions, other.positions)
+        assert np.array_equal(body.velocities, other.velocities)
+    state = s.internal_state()
+    for key, value in twin.internal_state().items():
+        assert np.array_equal(state[key], value), key
+
+
+def test_a_diverging_step_after_positions_are_set_keeps_the_state_the_next_step_takes():
+    """Two frictional sand blocks, the first's positions set (to themselves) between steps:
+    the next step starts that body's grain friction from 0, and ``internal_state`` says so
+    already (the second body's contacts alone). A step that then raises DivergenceError
+    leaves it as it was, and the step after it drops the friction and takes the stiffness
+    again: bit for bit an undisturbed twin's. Before, the failed step's start was taken after
+    loading the bodies had dropped the friction and recorded the positions as seen, so
+    ``internal_state`` changed across the failed step (and reported, before it, friction the
+    step discards)."""
+    s, twin = two_frictional_sands(), two_frictional_sands()
+    for _ in range(4):
+        s.step()
+        twin.step()
+    for solver in (s, twin):
+        solver.bodies[0].positions = solver.bodies[0].positions
+    state = s.internal_state()
+    pairs = state["grain_contact_pairs"]
+    assert len(pairs) and np.all(pairs >= 27)
+    s.max_speed = 1e-9
+    with pytest.raises(peridyn.DivergenceError):
+        s.step()
+    after = s.internal_state()
+    for key, value in state.items():
+        assert np.array_equal(after[key], value), key
+    s.max_speed = twin.max_speed
+    s.step()
+    twin.step()
+    assert_same_run(s, twin)
+
+
+def test_a_state_saved_after_positions_are_set_continues_bit_for_bit(tmp_path):
+    """``save_state`` right after a body's positions are set, then ``load_state`` into a fresh
+    twin: both next steps are bit for bit the same. Before, the file held the body's grain
+    friction, which the saving solver's next step dropped and the twin's kept."""
+    s, twin = two_frictional_sands(), two_frictional_sands()
+    for _ in range(4):
+        s.step()
+    s.bodies[0].positions = s.bodies[0].positions
+    peridyn.load_state(peridyn.save_state(tmp_path / "state.npz", s), twin)
+    s.step()
+    twin.step()
+    assert_same_run(s, twin)
+
+
 @pytest.mark.parametrize("kick", ["velocities", "gravity"])
 def test_a_granular_step_predicted_beyond_any_distance_is_a_divergence(kick):
     """Sand whose step would move it 1e297 m (velocities of 1e300 m/s, or gravity of 1e300
@@ -536,7 +598,8 @@ def test_a_granular_step_predicted_beyond_any_distance_is_a_divergence(kick):
     if kick == "velocities":
         sand.velocities = np.full((27, 3), 1e300)
     x, v = sand.positions, sand.velocities
-    with pytest.raises(peridyn.DivergenceError, match=r"vertex \d+ of body 0 became non-finite"):
+    cause = r"vertex \d+ of body 0 has a predicted move .* without a finite square"
+    with pytest.raises(peridyn.DivergenceError, match=cause):
         s.step()
     assert np.array_equal(sand.positions, x) and np.array_equal(sand.velocities, v)
     assert s.steps_taken == 0
@@ -567,6 +630,7 @@ def test_particles_at_the_same_place_are_refused_naming_both(material):
     (dict(density=1e308, spacing=1e3), r"^density 10+ kg/m\^3 .* particle mass of inf kg"),
     (dict(spacing=1e-320), r"^spacing 0\.0+1 m gives the default horizon"),
     (dict(spacing=1e308), r"^spacing 10+ m gives the default horizon"),
+    (dict(spacing=1.0, horizon=1e200), r"^horizon must be .* whose square is a finite, normal"),
 ])
 def test_a_spacing_or_density_whose_mass_or_horizon_overflows_is_named(kw, pattern):
     """Finite, positive, yet unusable: a particle mass ``density * spacing^3`` that is not a

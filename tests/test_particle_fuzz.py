@@ -18,7 +18,8 @@ asserts what peridyn promises (docs/model.md, "Bad input, divergence and state f
   steps: the two runs end bit for bit equal.
 
 The examples are derandomised (the same ones on every run) and bounded so that the module
-runs in about a minute on two cores.
+runs in 35 to 101 s on two cores (35 s as round aa measured it, 101 s beside a release
+build and other runs at a load average of 12; docs/model.md, round aa).
 """
 
 import numpy as np

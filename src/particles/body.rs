@@ -55,8 +55,12 @@ impl ParticleParams {
             check_param(
                 "horizon",
                 h,
-                |v| v > self.spacing,
-                &format!("a finite length above the spacing ({} m)", self.spacing),
+                |v| v > self.spacing && (v * v).is_normal(),
+                &format!(
+                    "a finite length above the spacing ({} m) whose square is a finite, normal \
+                     number (from 1.5e-154 to 1.3e154 m)",
+                    self.spacing
+                ),
             )?;
         } else {
             let delta = self.delta();

@@ -355,12 +355,21 @@ impl PySolver {
     /// seeded, the reach in m, and per gap its pair's four vertices, whether it is edge-edge,
     /// and its distance in m), and the friction at the grains' contacts the next step starts
     /// from (``grain_contact_pairs``, (P, 2) particle indices over the particle bodies in
-    /// order, each touching pair in both orders, and ``grain_contact_multipliers``, (P, 3) m).
+    /// order, each touching pair in both orders, and ``grain_contact_multipliers``, (P, 3) m;
+    /// none at a body whose positions were set since the last step, which starts them at 0).
     /// The GPU backend has no contact: its arrays are empty.
     fn internal_state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let revisions: Vec<u64> = self
+            .bodies
+            .iter()
+            .filter_map(|body| match body.shared(py).lock() {
+                LockedBody::Particles(p) => Some(p.positions_revision()),
+                LockedBody::Membrane(_) => None,
+            })
+            .collect();
         let state = match &self.core {
-            Precision::F64(s) => s.saved_state(),
-            Precision::F32(s) => s.saved_state(),
+            Precision::F64(s) => s.saved_state(&revisions),
+            Precision::F32(s) => s.saved_state(&revisions),
             Precision::Gpu32(_) | Precision::Gpu64(_) => SolverState::default(),
         };
         solver_state::to_dict(py, state)

@@ -49,6 +49,36 @@ impl<T: Real> Families<T> {
         membranes && particles
     }
 
+    /// True when the families were built from exactly these bodies, whatever their rest data
+    /// since (a working set left stale by a failed step, bonds given from outside).
+    pub fn hold(&self, bodies: &ByKind<'_>) -> bool {
+        let membranes = match &self.membranes {
+            Some(m) => m.points.matches(&bodies.membranes),
+            None => bodies.membranes.is_empty(),
+        };
+        let particles = match &self.particles {
+            Some(p) => p.holds(&bodies.particles),
+            None => bodies.particles.is_empty(),
+        };
+        membranes && particles
+    }
+
+    /// Takes over the record of `old`, built for the same bodies ([`Self::hold`]), of the
+    /// positions the last step that succeeded loaded ([`ParticleSystem::keep_placements`]).
+    pub fn keep_placements(&mut self, old: &Self) {
+        if let (Some(p), Some(old)) = (&mut self.particles, &old.particles) {
+            p.keep_placements(old);
+        }
+    }
+
+    /// Records the positions the step loaded as a step that succeeded's
+    /// ([`ParticleSystem::settle`]).
+    pub fn settle(&mut self) {
+        if let Some(p) = &mut self.particles {
+            p.settle();
+        }
+    }
+
     /// Checks a restored state's grain contacts against the particle family: some body must
     /// have contact friction to hold them (the rest is [`SolverState::check_against`]).
     pub fn check_restored(&self, state: &SolverState) -> Result<()> {
@@ -67,7 +97,8 @@ impl<T: Real> Families<T> {
     }
 
     /// Sets the grains' contact friction of a restored state (checked by
-    /// [`Self::check_restored`]), after [`Self::load`]: the next step starts from it.
+    /// [`Self::check_restored`]), before [`Self::load`], which drops the friction of a body
+    /// whose positions were replaced: the next step starts from it.
     pub fn restore(&mut self, state: &SolverState) {
         if let Some(p) = &mut self.particles {
             p.restore_friction(&state.grain_contacts);

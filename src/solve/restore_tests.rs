@@ -93,7 +93,7 @@ fn run_for<T: Real>(params: SolverParams, interrupt: Interrupt, (k, n): (usize, 
         Interrupt::None => {}
         Interrupt::Forget(what) => solver.forget(what),
         Interrupt::Restore => {
-            let saved = solver.saved_state();
+            let saved = solver.saved_state(&[]);
             let mut fresh = self::solver::<T>(params);
             fresh.set_clock(solver.clock());
             for c in 0..1 {

@@ -184,13 +184,20 @@ impl<T: Real> Solver<T> {
     }
 
     /// The state the next steps depend on beyond the bodies, the clock and the colliders'
-    /// motion (see [`SolverState`]).
-    pub fn saved_state(&self) -> SolverState {
-        if let Some(restored) = &self.restored {
-            return restored.clone();
-        }
+    /// motion (see [`SolverState`]), `revisions` each particle body's
+    /// [`crate::particles::Particles::positions_revision`] (in the order of the bodies): the
+    /// grain contacts of a body whose positions were replaced since the last step are left
+    /// out, as the next step drops them.
+    pub fn saved_state(&self, revisions: &[u64]) -> SolverState {
         let particles = self.families.as_ref().and_then(|f| f.particles.as_ref());
-        carried_state(None, self.contact.as_ref(), particles)
+        let mut state = match &self.restored {
+            Some(restored) => restored.clone(),
+            None => carried_state(None, self.contact.as_ref(), particles),
+        };
+        if let Some(particles) = particles {
+            particles.forget_replaced(revisions, &mut state.grain_contacts);
+        }
+        state
     }
 
     /// Restores a state read with [`Self::saved_state`] (from a solver set up the same way),
@@ -241,9 +248,17 @@ impl<T: Real> Solver<T> {
         let own = self.restored.is_none() || self.rolled_back;
         let mut start = None;
         let stepped = self.advance(bodies, &mut start);
-        if let (Err(_), Some(start)) = (&stepped, start) {
-            self.restored = Some(start);
-            self.rolled_back = own;
+        match (&stepped, start) {
+            (Ok(_), _) => {
+                if let Some(families) = &mut self.families {
+                    families.settle();
+                }
+            }
+            (Err(_), Some(start)) => {
+                self.restored = Some(start);
+                self.rolled_back = own;
+            }
+            (Err(_), None) => {}
         }
         stepped
     }
@@ -259,10 +274,17 @@ impl<T: Real> Solver<T> {
         let mut params = self.params;
         let mut by_kind = ByKind::sort(bodies);
         if !self.families.as_ref().is_some_and(|f| f.matches(&by_kind)) {
-            let families = Families::build(&by_kind, true)?;
-            if self.rolled_back {
-                self.restored = None;
-                self.rolled_back = false;
+            let mut families = Families::build(&by_kind, true)?;
+            // A failed step's start is the same bodies' (a working set left stale, bonds
+            // given from outside, keep it); another body list drops it, as it drops the
+            // state a step leaves.
+            match self.families.as_ref().filter(|old| old.hold(&by_kind)) {
+                Some(old) => families.keep_placements(old),
+                None if self.rolled_back => {
+                    self.restored = None;
+                    self.rolled_back = false;
+                }
+                None => {}
             }
             self.coupling = ClothCoupling::of(&by_kind.membranes, &families);
             self.families = Some(families);
@@ -324,6 +346,9 @@ impl<T: Real> Solver<T> {
         let gravity = Vector3::from(params.gravity).map(T::of);
 
         by_kind.sync()?;
+        if let Some(restored) = &self.restored {
+            families.restore(restored);
+        }
         families.load(&by_kind)?;
         // Each family's colliders in its frame (a particle family's origin near its bodies,
         // docs/architecture.md "Particle frame"); a family in the world frame keeps the world
@@ -343,9 +368,6 @@ impl<T: Real> Solver<T> {
             .collect();
         let restored = self.restored.take();
         self.rolled_back = false;
-        if let Some(restored) = &restored {
-            families.restore(restored);
-        }
         *start = Some(carried_state(
             restored.as_ref(),
             self.contact.as_ref(),
@@ -373,7 +395,7 @@ impl<T: Real> Solver<T> {
                     iteration: 0,
                     body: indices[body],
                     vertex,
-                    cause: Divergence::NonFinite,
+                    cause: Divergence::UnboundedMove,
                 });
             }
         }
@@ -740,7 +762,7 @@ impl<T: Real> Solver<T> {
     pub(crate) fn forget(&mut self, what: Forget) {
         // Dropping the contact state drops the warm start with it: that is saved state, handed
         // back as a restore would.
-        let saved = self.saved_state();
+        let saved = self.saved_state(&[]);
         match what {
             Forget::Families => {
                 self.families = None;

@@ -156,8 +156,9 @@ class Particles:
         lattice), so a resting column reads ``rho0 g depth`` (within 10 % below its top
         layers). Zeros before the first step, after ``positions`` were set (the last step's
         pressure was of other positions; so after :func:`peridyn.load_state` too) and at
-        particles without a density constraint (solids, sand beside a liquid); never negative but at adhered ghosts (``ViscoelasticFluid(adhesion=True)``).
-        Not part of a saved state: the next step does not start from it."""
+        particles without a density constraint (solids, sand beside a liquid); never
+        negative but at adhered ghosts (``ViscoelasticFluid(adhesion=True)``). Not part of a
+        saved state: the next step does not start from it."""
     @property
     def fluid_particles(self) -> np.ndarray:
         """Per particle, True for a fluid particle (bool): all for a fluid body, none for a

@@ -254,7 +254,9 @@ class Solver:
         ``contact_rest_gap_distances`` (G,) m; the friction at the grains' contacts the next
         step starts from: ``grain_contact_pairs`` (P, 2) int64, particle indices over the
         particle bodies in order (each touching pair in both orders), and
-        ``grain_contact_multipliers`` (P, 3) m. The GPU backend has no contact: all empty."""
+        ``grain_contact_multipliers`` (P, 3) m (none at a body whose positions were set
+        since the last step, which starts them at 0). The GPU backend has no contact: all
+        empty."""
     def set_internal_state(self, state: Dict[str, ArrayLike]) -> None:
         """Restores a dict read with :meth:`internal_state` into a solver set up the same way
         (same bodies in the same order, parameters and colliders); the next step takes it.

@@ -223,18 +223,28 @@ impl PlasticBodies {
         Ok(Some(changed))
     }
 
-    /// Takes every granular body's stiffness (eq. 25-27) from its density at its own
-    /// positions in `bodies` (m, f64), as building the working set from the bodies does, and
-    /// refills `rest` with it: after positions were replaced from outside, the stiffness the
-    /// last step ended with belongs to other positions. `false` (nothing changed) when no
-    /// body is granular. On an error `rest` may be partly filled and must be built anew.
+    /// Takes the stiffness (eq. 25-27) of every granular body whose positions were replaced
+    /// from outside (`replaced`, per body) from its density at its own positions in `bodies`
+    /// (m, f64, in the world frame), as building the working set from the bodies does (a
+    /// solver given these bodies afresh, a restored run, takes the same bits), and refills
+    /// `rest` with it: the stiffness the last step ended with belongs to other positions. The
+    /// other bodies keep the stiffness the last step ended with. `false` (nothing changed)
+    /// when no replaced body is granular. On an error `rest` may be partly filled and must
+    /// be built anew.
     pub fn restiffen<T: Real>(
         &mut self,
         bodies: &[&mut Particles],
+        replaced: &[bool],
         rest: &mut ParticleRest<T>,
     ) -> Result<bool> {
         let mut granular = false;
-        for (entry, body) in self.entries.iter_mut().zip(bodies) {
+        for ((entry, body), _) in self
+            .entries
+            .iter_mut()
+            .zip(bodies)
+            .zip(replaced)
+            .filter(|(_, &replaced)| replaced)
+        {
             let Some(material) = entry.constants.granular else {
                 continue;
             };

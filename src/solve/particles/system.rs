@@ -71,8 +71,13 @@ pub(crate) struct ParticleSystem<T: Real> {
     yielded: Vec<bool>,
     /// Each body's [`Particles::bonds_revision`] when this working set was built.
     revisions: Vec<u64>,
-    /// Each body's [`Particles::positions_revision`] when its state was last loaded.
+    /// Each body's [`Particles::positions_revision`] when a step that succeeded loaded it
+    /// ([`Self::settle`]), and when the last step did ([`Self::load`]): a failed step leaves
+    /// the first, so that the next one drops the friction and takes the stiffness again.
     placements: Vec<u64>,
+    loaded: Vec<u64>,
+    /// Per body, whether the last [`Self::load`] found its positions replaced (reused).
+    replaced: Vec<bool>,
     /// Whether the rest data was left partly built by a failed end of a step.
     stale: bool,
     /// Whether the initial guess's next evaluation at the prediction `y*` takes the energy
@@ -138,6 +143,8 @@ impl<T: Real> ParticleSystem<T> {
             timings: ParticleTimings::default(),
             revisions: bodies.iter().map(|b| b.bonds_revision()).collect(),
             placements: bodies.iter().map(|b| b.positions_revision()).collect(),
+            loaded: bodies.iter().map(|b| b.positions_revision()).collect(),
+            replaced: vec![false; bodies.len()],
             stale: false,
             energy_alone: false,
             probing: false,
@@ -156,13 +163,27 @@ impl<T: Real> ParticleSystem<T> {
                 .all(|(&r, b)| r == b.bonds_revision())
     }
 
+    /// True when the working set was built for exactly these bodies (whatever their bonds
+    /// and its rest data since).
+    pub fn holds(&self, bodies: &[&mut Particles]) -> bool {
+        self.points.matches(bodies)
+    }
+
+    /// Takes over `old`'s record of the positions the last step that succeeded loaded
+    /// ([`Self::settle`]), `old` built for the same bodies ([`Self::holds`]): a working set
+    /// built anew for them still drops the friction of a body whose positions were replaced
+    /// since (a restored state's, [`Self::load`]).
+    pub fn keep_placements(&mut self, old: &Self) {
+        self.placements.clone_from(&old.placements);
+    }
+
     /// Copies the bodies' positions, velocities and pins in ([`Points::load`]), in the
     /// family's own frame when `own_frame` ([`origin_near`] the bodies), else in the world's
     /// (the coupling with membranes measures both families' positions from one origin); the
-    /// contact friction of a body whose positions were replaced since starts from 0
-    /// ([`Repulsion::forget_friction`]), and the granular bodies' stiffness is taken anew at
-    /// the positions loaded ([`PlasticBodies::restiffen`]; an error leaves the working set to
-    /// be built anew).
+    /// contact friction of a body whose positions were replaced since the last step that
+    /// succeeded starts from 0 ([`Repulsion::forget_friction`], after a restored state's is
+    /// set), and such a granular body's stiffness is taken anew at the positions loaded
+    /// ([`PlasticBodies::restiffen`]; an error leaves the working set to be built anew).
     pub fn load(&mut self, bodies: &[&mut Particles], own_frame: bool) -> Result<()> {
         self.points.origin = if own_frame {
             let positions = bodies.iter().flat_map(|b| b.positions().iter());
@@ -171,23 +192,23 @@ impl<T: Real> ParticleSystem<T> {
             Vector3::zeros()
         };
         self.points.load(bodies);
-        let mut replaced = false;
-        for ((placed, body), range) in self
+        for ((((placed, loaded), replaced), body), range) in self
             .placements
-            .iter_mut()
+            .iter()
+            .zip(&mut self.loaded)
+            .zip(&mut self.replaced)
             .zip(bodies)
             .zip(&self.points.ranges)
         {
-            if *placed != body.positions_revision() {
-                *placed = body.positions_revision();
-                replaced = true;
-                if let Some(repulsion) = &mut self.repulsion {
-                    repulsion.forget_friction(range.clone());
-                }
+            *loaded = body.positions_revision();
+            *replaced = *placed != *loaded;
+            if let (true, Some(repulsion)) = (*replaced, &mut self.repulsion) {
+                repulsion.forget_friction(range.clone());
             }
         }
-        if let (true, Some(plastic)) = (replaced, self.plastic.as_mut()) {
-            let restiffened = plastic.restiffen(bodies, &mut self.rest);
+        let any = self.replaced.contains(&true);
+        if let (true, Some(plastic)) = (any, self.plastic.as_mut()) {
+            let restiffened = plastic.restiffen(bodies, &self.replaced, &mut self.rest);
             self.stale = restiffened.is_err();
             if restiffened? {
                 self.current.valid = false;
@@ -200,11 +221,31 @@ impl<T: Real> ParticleSystem<T> {
         Ok(())
     }
 
+    /// Records the positions the step loaded as the ones a step that succeeded took.
+    pub fn settle(&mut self) {
+        self.placements.copy_from_slice(&self.loaded);
+    }
+
     /// The grains' contact friction the next step starts from ([`Repulsion::saved_friction`]).
     pub fn saved_friction(&self) -> Vec<SavedGrainContact> {
         self.repulsion
             .as_ref()
             .map_or_else(Vec::new, Repulsion::saved_friction)
+    }
+
+    /// Drops from `contacts` those of a body whose positions were replaced since the last
+    /// step that succeeded, `revisions` each body's [`Particles::positions_revision`] now:
+    /// the next step starts them from 0 ([`Self::load`]). Nothing when `revisions` is not
+    /// one per body (a body list the next step builds anew for).
+    pub fn forget_replaced(&self, revisions: &[u64], contacts: &mut Vec<SavedGrainContact>) {
+        if revisions.len() != self.placements.len() {
+            return;
+        }
+        let replaced = |i: u32| {
+            let body = self.points.locate(i as usize).0;
+            self.placements[body] != revisions[body]
+        };
+        contacts.retain(|c| !c.particles.iter().any(|&i| replaced(i)));
     }
 
     /// Whether some body has contact friction between its grains.
@@ -339,6 +380,13 @@ impl<T: Real> ParticleSystem<T> {
             self.timings.analyses += analyses;
             self.timings.factorizations += factorizations;
         }
+    }
+
+    /// Leaves the rest data as a failed end of a step does ([`Self::plastic_end_step`]): the
+    /// next step builds the working set anew.
+    #[cfg(test)]
+    pub(crate) fn make_stale(&mut self) {
+        self.stale = true;
     }
 
     /// The Jacobi diagonal `D_i = m_i + h^2 L_ii` (kg) of particle `i` ([`ParticleRest::diagonal`]).
