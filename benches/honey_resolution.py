@@ -187,7 +187,13 @@ def parent(args):
             if probe:
                 argv += ["--cap-steps", str(args.probe_steps)]
             t0 = time.perf_counter()
-            done = subprocess.run(argv, capture_output=True, text=True)
+            try:
+                done = subprocess.run(argv, capture_output=True, text=True,
+                                      timeout=4.0 * args.max_minutes * 60.0)
+            except subprocess.TimeoutExpired:
+                rec.note(f"{material} n={n} stopped after {4.0 * args.max_minutes:.0f} min "
+                         "(four times --max-minutes)")
+                continue
             took = time.perf_counter() - t0
             longest = max(longest, took)
             if done.returncode != 0:
