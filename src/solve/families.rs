@@ -36,17 +36,14 @@ impl<T: Real> Families<T> {
         })
     }
 
-    /// True when the families were built from exactly these bodies.
+    /// True when the families were built from exactly these bodies ([`Self::hold`]) and the
+    /// particles' rest data still serves them ([`ParticleSystem::matches`]).
     pub fn matches(&self, bodies: &ByKind<'_>) -> bool {
-        let membranes = match &self.membranes {
-            Some(m) => m.points.matches(&bodies.membranes),
-            None => bodies.membranes.is_empty(),
-        };
-        let particles = match &self.particles {
-            Some(p) => p.matches(&bodies.particles),
-            None => bodies.particles.is_empty(),
-        };
-        membranes && particles
+        self.hold(bodies)
+            && self
+                .particles
+                .as_ref()
+                .is_none_or(|p| p.matches(&bodies.particles))
     }
 
     /// True when the families were built from exactly these bodies, whatever their rest data

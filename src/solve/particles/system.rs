@@ -151,11 +151,12 @@ impl<T: Real> ParticleSystem<T> {
         })
     }
 
-    /// True when the working set was built for exactly these bodies with the bonds they have
-    /// (none was given bonds from outside since), and the rest data is whole.
+    /// True when the working set was built for exactly these bodies ([`Self::holds`]) with
+    /// the bonds they have (none was given bonds from outside since), and the rest data is
+    /// whole.
     pub fn matches(&self, bodies: &[&mut Particles]) -> bool {
         !self.stale
-            && self.points.matches(bodies)
+            && self.holds(bodies)
             && self
                 .revisions
                 .iter()
@@ -209,13 +210,11 @@ impl<T: Real> ParticleSystem<T> {
         let any = self.replaced.contains(&true);
         if let (true, Some(plastic)) = (any, self.plastic.as_mut()) {
             let restiffened = plastic.restiffen(bodies, &self.replaced, &mut self.rest);
-            self.stale = restiffened.is_err();
+            if restiffened.is_err() {
+                self.stale = true;
+            }
             if restiffened? {
-                self.current.valid = false;
-                self.trial.valid = false;
-                if let Some(direct) = &mut self.direct {
-                    direct.values_changed();
-                }
+                self.rest_values_changed();
             }
         }
         Ok(())
@@ -362,13 +361,19 @@ impl<T: Real> ParticleSystem<T> {
             self.direct = None;
             self.two_level = None;
         } else {
-            self.current.valid = false;
-            self.trial.valid = false;
-            if let Some(direct) = &mut self.direct {
-                direct.values_changed();
-            }
+            self.rest_values_changed();
         }
         Ok(())
+    }
+
+    /// After the rest data's values changed on the same bonds: the evaluations cached at the
+    /// old values go, and the direct solver refactors ([`DirectSolver::values_changed`]).
+    fn rest_values_changed(&mut self) {
+        self.current.valid = false;
+        self.trial.valid = false;
+        if let Some(direct) = &mut self.direct {
+            direct.values_changed();
+        }
     }
 
     /// Adds the direct solver's and the two-level correction's symbolic analyses and numeric
