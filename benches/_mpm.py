@@ -1,6 +1,7 @@
 """MLS-MPM in Taichi on the CPU (``ti.init(arch=ti.x64)``): the peer solver of the particle
 benches (benches/peer_mpm.py: an elastic cube; benches/sand.py: a sand column;
-benches/dam_break.py: a water column), one transfer loop with three constitutive models.
+benches/dam_break.py: a water column; benches/honey_peers.py: a hanging blob of honey), one
+transfer loop with five constitutive models.
 
 Written for these benches from the published algorithms, not copied:
 - MLS-MPM transfers (Hu et al. 2018, "A moving least squares material point method", eq. 16-18)
@@ -20,11 +21,24 @@ Written for these benches from the published algorithms, not copied:
   about ten times the flow's, so the density varies by about 1 %), the volume ratio ``J``
   carried per particle (``J <- J (1 + dt tr C)``), pressure ``p = K (1 - J)`` with
   ``K = rho c^2`` clamped at zero in tension (a free surface does not pull), Kirchhoff stress
-  ``tau = -p J I``; no viscosity (water's 1e-3 Pa s is far below this grid's numerical one).
+  ``tau = -p J I``; no viscosity (water's 1e-3 Pa s is far below this grid's numerical one);
+- ``"viscous"``: a weakly compressible Newtonian liquid, the same ``J`` and ``K`` but the
+  pressure two-sided (``p = K (1 - J)`` in tension too, as a liquid under the atmosphere's
+  pressure holds its volume when pulled) and a shear viscosity ``mu``: Kirchhoff stress
+  ``tau = J (-p I + 2 mu dev D)``, ``D = (C + C^T) / 2`` the particle's velocity gradient's
+  symmetric part (APIC's ``C`` is the MLS-MPM velocity gradient, Hu et al. 2018 section 5.3);
+- ``"honey"``: the same plus an elastic deviatoric stress with a von Mises yield (a Bingham-like
+  viscoelastic-viscoplastic liquid, in the spirit of Yue et al. 2015, "Continuum foam", without
+  their Herschel-Bulkley hardening): an isochoric elastic ``F_e`` updated by ``(I + dt C)``,
+  ``F_e = U Sigma V^T``, the Hencky strain's deviator ``e = log Sigma - mean`` returned onto the
+  cylinder ``2 G |e| <= sqrt(2/3) sigma_y`` (uniaxial yield stress ``sigma_y``), ``F_e <- U
+  exp(e) V^T``, and ``tau += U 2 G e U^T``.
 
 Boundaries: the grid box's outer three cells stop the velocity into them (slip walls at the
 box's faces, ``origin + 3 dx`` and ``origin + extent - 3 dx``), and the bottom face is a floor
-with Coulomb friction ``floor_friction`` (``0``: slip). Units SI.
+with Coulomb friction ``floor_friction`` (``0``: slip). With ``ceiling`` (m), every grid node at
+or above that height is sticky (its velocity zero, no-slip and holding in tension): a glued
+lid. Units SI.
 """
 
 from __future__ import annotations
@@ -44,33 +58,44 @@ class Mpm:
     positions: (N, 3) particles (m), each of volume ``volume`` (m^3) and density ``density``
     (kg/m^3); ``dx`` the grid spacing (m); ``low``, ``high`` the walls' corners (m; the floor
     at ``low[2]``); ``material`` ``"elastic"`` (needs ``young`` Pa, ``nu``), ``"sand"`` (also
-    ``friction_angle`` in degrees) or ``"water"`` (``sound_speed`` m/s); ``floor_friction`` the
-    floor's Coulomb coefficient; ``cfl`` the step's fraction of a cell per wave crossing;
+    ``friction_angle`` in degrees), ``"water"`` (``sound_speed`` m/s), ``"viscous"`` (also
+    ``viscosity`` Pa s) or ``"honey"`` (also ``shear_modulus`` and ``yield_stress``, Pa);
+    ``floor_friction`` the floor's Coulomb coefficient; ``ceiling`` (m, None: none) the height
+    from which grid nodes are sticky, on a grid node (``ceiling - low[2]`` a multiple of
+    ``dx``); ``cfl`` the step's fraction of a cell per wave crossing (with a viscosity, the
+    step is also at most ``rho dx^2 / (10 mu)``, explicit diffusion's limit with a margin);
     ``threads`` for Taichi."""
 
     def __init__(self, positions, *, volume, density, dx, low, high, material, young=0.0,
                  nu=0.0, friction_angle=0.0, sound_speed=0.0, floor_friction=0.0, cfl=0.4,
-                 threads=2):
+                 threads=2, viscosity=0.0, shear_modulus=0.0, yield_stress=1.0, ceiling=None):
         import taichi as ti
 
         ti.init(arch=ti.x64, cpu_max_num_threads=threads, default_fp=ti.f32,
                 offline_cache=True, log_level=ti.WARN)
-        if material not in ("elastic", "sand", "water"):
-            raise ValueError(f"material = {material!r}: elastic, sand or water")
+        if material not in ("elastic", "sand", "water", "viscous", "honey"):
+            raise ValueError(f"material = {material!r}: elastic, sand, water, viscous or honey")
+        liquid = material in ("water", "viscous", "honey")
         self.ti = ti
         self.n = len(positions)
         self.dx = dx
-        if material == "water":
+        if liquid:
             mu, lam, bulk = 0.0, 0.0, density * sound_speed ** 2
-            wave = sound_speed
+            wave = math.sqrt((bulk + 4.0 / 3.0 * shear_modulus) / density)
         else:
             mu = young / (2 * (1 + nu))
             lam = young * nu / ((1 + nu) * (1 - 2 * nu))
             bulk, wave = 0.0, math.sqrt((lam + 2 * mu) / density)
         self.dt = cfl * dx / wave
+        if viscosity > 0.0:
+            self.dt = min(self.dt, density * dx * dx / (10.0 * viscosity))
+        g_e, visc = shear_modulus, viscosity
+        e_max = math.sqrt(2.0 / 3.0) * yield_stress / (2.0 * max(shear_modulus, 1e-30))
         self.origin = np.asarray(low, dtype=float) - PADDING * dx
         extent = np.asarray(high, dtype=float) - np.asarray(low, dtype=float) + 2 * PADDING * dx
         self.cells = tuple(int(np.ceil(e / dx)) for e in extent)
+        sticky = (self.cells[2] + 1 if ceiling is None
+                  else int(round((ceiling - self.origin[2]) / dx)))
         s = math.sin(math.radians(friction_angle))
         alpha = math.sqrt(2.0 / 3.0) * 2.0 * s / (3.0 - s)
         self.x = ti.Vector.field(3, ti.f32, self.n)
@@ -116,10 +141,27 @@ class Mpm:
             """Updates particle p's state by its velocity gradient and returns its Kirchhoff
             stress (Pa)."""
             tau = ti.Matrix.zero(ti.f32, 3, 3)
-            if ti.static(material == "water"):
+            eye = ti.Matrix.identity(ti.f32, 3)
+            if ti.static(liquid):
                 J_[p] *= 1.0 + dt * C_[p].trace()
-                pressure = ti.max(0.0, bulk * (1.0 - J_[p]))
-                tau = -pressure * J_[p] * ti.Matrix.identity(ti.f32, 3)
+                pressure = bulk * (1.0 - J_[p])
+                if ti.static(material == "water"):
+                    pressure = ti.max(0.0, pressure)
+                tau = -pressure * J_[p] * eye
+                if ti.static(material != "water"):
+                    D = 0.5 * (C_[p] + C_[p].transpose())
+                    tau += J_[p] * 2.0 * visc * (D - D.trace() / 3.0 * eye)
+                if ti.static(material == "honey"):
+                    U, sig, V = ti.svd((eye + dt * C_[p]) @ F[p])
+                    e = ti.Vector([ti.log(ti.max(sig[i, i], 1e-6)) for i in ti.static(range(3))])
+                    e -= e.sum() / 3.0
+                    norm = e.norm()
+                    if norm > e_max:
+                        e *= e_max / norm
+                    F[p] = U @ ti.Matrix([[ti.exp(e[0]), 0, 0], [0, ti.exp(e[1]), 0],
+                                          [0, 0, ti.exp(e[2])]]) @ V.transpose()
+                    d = 2.0 * g_e * e
+                    tau += U @ ti.Matrix([[d[0], 0, 0], [0, d[1], 0], [0, 0, d[2]]]) @ U.transpose()
             elif ti.static(material == "sand"):
                 U, sig, V = ti.svd((ti.Matrix.identity(ti.f32, 3) + dt * C_[p]) @ F[p])
                 s_new = sand_return(sig)
@@ -159,6 +201,8 @@ class Mpm:
                         speed = tangent.norm()
                         keep = ti.max(0.0, 1.0 - mu_f * (-gv[2]) / (speed + 1e-20))
                         gv = tangent * keep
+                    if I[2] >= sticky:
+                        gv = ti.Vector.zero(ti.f32, 3)
                     for d in ti.static(range(3)):
                         if I[d] < PADDING and gv[d] < 0:
                             gv[d] = 0.0

@@ -97,7 +97,61 @@ def attached(depth, radial, layer):
     return out
 
 
-def run_one(material, n, dt, end, sample, steps_cap):
+class Tracker:
+    """The metrics of one run of the blob, fed its liquid's positions as it goes: ``n`` particles
+    across at ``spacing`` m, ``top`` the ceiling's lowest layer (m, z up), the blob's axis at
+    x = y = ``axis`` (m). :meth:`observe` at every step or frame (``sample``: also record the
+    slab profile of :func:`attached`), :meth:`finish` with the last positions. A frame holds a
+    thread when the strict xfail's test would pass on it: the lowest particle more than
+    ``drip`` spacings down (the test's 10) and every slab between it and the film holding
+    liquid (``thread_frames``:
+    the first and last such frame, their count, the fewest particles in a slab and the
+    deepest lowest particle, in spacings, over them)."""
+
+    def __init__(self, n, spacing, top, axis, drip=10.0):
+        self.n, self.spacing, self.top, self.axis, self.drip = n, spacing, top, axis, drip
+        self.parts_s = None
+        self.samples = []
+        self.thread = {"first_s": None, "last_s": None, "frames": 0, "thinnest": None,
+                       "deepest": 0.0}
+
+    def depth(self, pos):
+        return (self.top - pos[:, 2]) / self.spacing
+
+    def observe(self, t, pos, sample):
+        depth = self.depth(pos)
+        if self.parts_s is None and np.diff(np.sort(depth)).max() > GAP:
+            self.parts_s = round(t, 6)
+        between = slab_counts(depth)[1: int(depth.max())]
+        if depth.max() > self.drip and between.min() > 0:
+            th = self.thread
+            th["first_s"] = th["first_s"] if th["first_s"] is not None else round(t, 6)
+            th["last_s"] = round(t, 6)
+            th["frames"] += 1
+            thinnest = int(between.min())
+            th["thinnest"] = thinnest if th["thinnest"] is None else min(th["thinnest"], thinnest)
+            th["deepest"] = max(th["deepest"], float(depth.max()))
+        if sample:
+            radial = ((pos[:, 0] - self.axis) ** 2 + (pos[:, 1] - self.axis) ** 2) / self.spacing**2
+            self.samples.append({"t": round(t, 6), "depth": float(depth.max()),
+                                 **attached(depth, radial, self.n * self.n)})
+
+    def finish(self, pos):
+        """The end of the run: the first parting, the depth reached, the slabs filled and missing
+        between film and drop and whether that is the strict xfail's thread."""
+        depth = self.depth(pos)
+        counts = slab_counts(depth)
+        between = counts[1: int(depth.max())]
+        out = {"parts_s": self.parts_s, "samples": self.samples, "thread_frames": self.thread,
+               "depth_end": float(depth.max()),
+               "depth_end_cm": float(depth.max()) * self.spacing * 100.0,
+               "slabs_filled": int((between > 0).sum()),
+               "slabs_missing": int((between == 0).sum())}
+        out["thread"] = bool(out["depth_end"] > self.drip and out["slabs_missing"] == 0)
+        return out
+
+
+def run_one(material, n, dt, end, sample, steps_cap, drip=10.0):
     """One run in this process; returns its record."""
     import peridyn as pd
 
@@ -109,19 +163,14 @@ def run_one(material, n, dt, end, sample, steps_cap):
     honey.pin(np.flatnonzero(ceiling))
     solver = pd.Solver(dt=dt, gravity=(0, 0, -9.81), global_solver="jacobi")
     solver.add(honey)
-    top = x[ceiling, 2].min()
-    axis = 0.5 * WIDTH
-
-    def radial(pos):
-        return ((pos[:, 0] - axis) ** 2 + (pos[:, 1] - axis) ** 2) / spacing**2
-
+    tracker = Tracker(n, spacing, x[ceiling, 2].min(), 0.5 * WIDTH, drip)
     steps = int(round(end / dt))
     if steps_cap:
         steps = min(steps, steps_cap)
     every = max(1, int(round(sample / dt)))
     out = {"material": material, "n": n, "tall": tall, "spacing_m": spacing, "dt": dt,
            "particles": int((~ceiling).sum()), "ghosts": int(ceiling.sum()), "steps": steps,
-           "parts_s": None, "diverged": None, "samples": []}
+           "diverged": None}
     wall = 0.0
     done = 0
     for step in range(1, steps + 1):
@@ -133,23 +182,11 @@ def run_one(material, n, dt, end, sample, steps_cap):
             break
         wall += time.perf_counter() - t0
         done = step
-        pos = honey.positions[~ceiling]
-        depth = (top - pos[:, 2]) / spacing
-        if out["parts_s"] is None and np.diff(np.sort(depth)).max() > GAP:
-            out["parts_s"] = round(step * dt, 6)
-        if step % every == 0 or step == steps:
-            out["samples"].append({"t": round(step * dt, 6), "depth": float(depth.max()),
-                                   **attached(depth, radial(pos), n * n)})
+        tracker.observe(step * dt, honey.positions[~ceiling],
+                        step % every == 0 or step == steps)
     out["steps_done"] = done
     out["seconds_per_step"] = wall / max(done, 1)
-    depth = (top - honey.positions[~ceiling, 2]) / spacing
-    counts = slab_counts(depth)
-    between = counts[1: int(depth.max())]
-    out["depth_end"] = float(depth.max())
-    out["depth_end_cm"] = float(depth.max()) * spacing * 100.0
-    out["slabs_filled"] = int((between > 0).sum())
-    out["slabs_missing"] = int((between == 0).sum())
-    out["thread"] = bool(out["depth_end"] > 10.0 and out["slabs_missing"] == 0)
+    out.update(tracker.finish(honey.positions[~ceiling]))
     out["peak_rss_mib"] = vm_kib("VmHWM") / 1024.0
     return out
 
