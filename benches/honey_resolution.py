@@ -49,14 +49,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 from _common import Record, vm_kib  # noqa: E402
-from fluid_scenes import blob_under_a_ceiling  # noqa: E402
+from fluid_scenes import (  # noqa: E402
+    PARTING_GAP as GAP, blob_under_a_ceiling, hanging_slabs, neck_slabs, widest_pair)
 
 WIDTH = 0.05  # m, the blob's side (the test's 5 particles of 1 cm)
 MATERIALS = {
     "viscoelastic": dict(viscosity=10.0, shear_modulus=500.0, yield_stress=500.0),
     "newtonian": dict(viscosity=10.0),
 }
-GAP = 2.2  # spacings between consecutive depths that count as a parting (round aa)
 
 
 def slab_counts(depth):
@@ -67,32 +67,24 @@ def slab_counts(depth):
 
 
 def attached(depth, radial, layer):
-    """The liquid hanging from the film: the particles above the first gap of more than
-    ``GAP`` spacings between consecutive depths. ``radial`` is each particle's squared
-    in-plane distance from the blob's axis (spacings^2). Returns its slab profile on slabs
-    centred on the rest layers (slab j at depths j + 0.5 .. j + 1.5; slab 0 the film): counts
-    and rms in-plane radii (spacings); its neck (the thinnest mean count of two neighbouring
-    slabs between the film and the drop's lowest widest pair, as a fraction of a full layer;
-    pairs, so that a stretched lattice's layer falling between two slab edges does not read
-    as an empty slab), the neck's length (the slabs there holding at most a quarter of a
-    layer) and the narrowest of those slabs' rms radii as a fraction of a full rest layer's."""
-    order = np.argsort(depth)
-    sorted_depth = depth[order]
-    gaps = np.flatnonzero(np.diff(sorted_depth) > GAP)
-    keep = order[: gaps[0] + 1] if gaps.size else order
-    slab = np.clip(np.floor(depth[keep] - 0.5).astype(int), 0, None)
+    """The liquid hanging from the film (:func:`fluid_scenes.hanging_slabs`: above the first gap
+    of more than ``GAP`` spacings between consecutive depths). ``radial`` is each particle's
+    squared in-plane distance from the blob's axis (spacings^2). Returns its slab profile
+    (slab 0 the film): counts and rms in-plane radii (spacings); its neck (the thinnest mean
+    count of two neighbouring slabs between the film and the drop's lowest widest pair, as a
+    fraction of a full layer), the neck's length (:func:`fluid_scenes.neck_slabs`) and the
+    narrowest of the neck's slabs' rms radii as a fraction of a full rest layer's."""
+    keep, slab = hanging_slabs(depth)
     counts = np.bincount(slab)
     sums = np.bincount(slab, weights=radial[keep], minlength=counts.size)
     radius = np.sqrt(sums / np.maximum(counts, 1))
     full = np.sqrt((layer - 1) / 6.0)  # rms radius of an n x n layer of unit spacing
     out = {"counts": counts.tolist(), "radius": np.round(radius, 3).tolist(), "neck": None,
-           "thin_slabs": 0, "narrowest": None}
+           "thin_slabs": neck_slabs(counts, layer), "narrowest": None}
     if counts.size > 2:
-        pairs = 0.5 * (counts[1:-1] + counts[2:])
-        widest = pairs.size - 1 - int(np.argmax(pairs[::-1]))
+        widest, pairs = widest_pair(counts)
         filled = np.flatnonzero(counts[1: widest + 2] > 0) + 1
         out.update(neck=float(pairs[: widest + 1].min()) / layer,
-                   thin_slabs=int((counts[1: widest + 1] <= layer / 4).sum()),
                    narrowest=float(radius[filled].min() / full) if filled.size else None)
     return out
 
