@@ -705,3 +705,29 @@ def test_a_body_belongs_to_one_solver_at_a_time(kind):
     second.add(body)
     second.step()
     assert second.bodies[0] is body
+
+
+@pytest.mark.parametrize("spacing, side", [(1e30, "above"), (4.1 * S, "above"),
+                                           (1e-9, "below"), (S / 4.1, "below")])
+@pytest.mark.parametrize("material", [peridyn.Elastic.from_young(1e5, 0.25),
+                                      peridyn.ViscoelasticFluid()])
+def test_a_spacing_far_from_the_particles_own_is_refused_naming_both(spacing, side, material):
+    """Sites 1 cm apart given a spacing more than 4 times larger or smaller than that: a
+    ValueError giving the spacing and the particles' median distance to their nearest
+    neighbours. Before, a spacing of 1e30 m was taken (every pair a bond, each particle
+    1e96 times too heavy) and stepped, and 1e-9 m failed on a particle without a
+    three-dimensional neighbourhood, which named neither cause."""
+    expect_value_error(
+        lambda: peridyn.Particles(lattice((3, 3, 3)), spacing=spacing, density=1000.0,
+                                  material=material),
+        rf"^spacing [0-9.e-]+ m is [0-9.e]+ times {side} the median distance between the "
+        r"particles and their nearest neighbours, 1e-2 m \(at most 4 times either way\)")
+
+
+@pytest.mark.parametrize("spacing", [3.9 * S, S / 3.9])
+def test_a_spacing_within_four_times_the_particles_own_is_taken(spacing):
+    """Within the band both ways the body is built (with a horizon reaching the neighbours)."""
+    horizon = None if spacing > S else 2.2 * S
+    body = peridyn.Particles(lattice((3, 3, 3)), spacing=spacing, density=1000.0,
+                             material=peridyn.Elastic.from_young(1e5, 0.25), horizon=horizon)
+    assert body.spacing == spacing
