@@ -95,6 +95,16 @@ impl SparseLlt {
             .map_err(|e| format!("{e:?}"))
     }
 
+    /// The numeric factor's values, to put back with [`Self::restore_factor`].
+    pub fn factor_values(&self) -> &[f64] {
+        &self.factor
+    }
+
+    /// Puts back the factor `values` read with [`Self::factor_values`] (of this pattern).
+    pub fn restore_factor(&mut self, values: &[f64]) {
+        self.factor.copy_from_slice(values);
+    }
+
     /// The right-hand sides, `n x columns`: filled by the caller, then overwritten by
     /// [`Self::solve`] with the solutions.
     pub fn rhs_mut(&mut self) -> &mut Mat<f64> {

@@ -1,6 +1,7 @@
 """Bad input: every case raises ValueError naming the offending index and/or value; no Rust panic
 (pyo3 PanicException derives from BaseException) may reach Python."""
 
+import gc
 import re
 import warnings
 
@@ -187,6 +188,11 @@ def test_wrong_material_type(mesh):
     (dict(dt=1e-3, gravity=(0.0, 1.0)), r"gravity|length|\b3\b"),
     (dict(dt=1e-3, acceleration="chebyshev", method="descent", contact=peridyn.Contact()),
      r"chebyshev.*contact.*sissm"),
+    # the Chebyshev settings by the keywords users pass (before: "chebyshev rho", "... delay")
+    (dict(dt=1e-3, chebyshev_rho=1.5), r"^chebyshev_rho must be in \(0, 1\), got 1\.5$"),
+    (dict(dt=1e-3, acceleration="chebyshev", chebyshev_rho=0.0), r"^chebyshev_rho must be in"),
+    (dict(dt=1e-3, chebyshev_delay=0), r"^chebyshev_delay must be >= 1 iteration, got 0$"),
+    (dict(dt=1e-3, acceleration="chebyshev", chebyshev_delay=0), r"^chebyshev_delay must be"),
 ])
 def test_bad_solver_parameter(kw, pat):
     expect_value_error(lambda: peridyn.Solver(**kw), pat)
@@ -668,3 +674,87 @@ def test_a_fluid_bodys_repr_shows_its_material():
     fluid = peridyn.ViscoelasticFluid(viscosity=0.5)
     body = peridyn.Particles(lattice((3, 3, 3)), spacing=S, density=1000.0, material=fluid)
     assert repr(fluid) in repr(body) and "Elastic" not in repr(body)
+
+
+def newton_cloth():
+    """A 20 x 20 cloth (0.3 m) hanging from two corners, stepped by Newton (dt 1/60 s)."""
+    v, t = make_grid(20, 20, 0.3, 0.3)
+    cloth = membrane(v, t, s0=1e4, hourglass=0.5)
+    cloth.pin([0, 19])
+    s = peridyn.Solver(dt=1 / 60, method="newton", tol=1e-7, max_iters=50)
+    s.add(cloth)
+    return s
+
+
+@pytest.mark.parametrize("failed", [0, 2])
+def test_a_newton_step_after_a_diverging_one_is_the_one_it_replaces(failed):
+    """Newton's preconditioner (its coarse factor and when to refactor it) goes back to where a
+    step that raised DivergenceError found it: the steps after it are bit for bit those of an
+    undisturbed twin. Before, the failed step's factorisation was kept, and after a failed
+    first step the cloth ended 3.2e-10 m from its twin's three steps later."""
+    s, twin = newton_cloth(), newton_cloth()
+    for _ in range(failed):
+        s.step()
+        twin.step()
+    fail_a_step_keeping_the_internal_state(s)
+    for _ in range(3):
+        s.step()
+        twin.step()
+    assert_same_run(s, twin)
+
+
+def sand_block():
+    """A 3 x 3 x 3 block of sand with friction at its grains' contacts, 5 mm up."""
+    return peridyn.Particles(lattice((3, 3, 3), (0.0, 0.0, 0.005)), spacing=S, density=1600.0,
+                             material=peridyn.Granular(friction_angle=30.0, contact_friction=0.5))
+
+
+@pytest.mark.parametrize("kind", ["membrane", "particles"])
+def test_a_body_belongs_to_one_solver_at_a_time(kind):
+    """A body added to a second solver while the first holds it is a ValueError naming it:
+    before, both took it and stepped it in turn, each seeing positions set from outside (the
+    sand's friction at its grains' contacts dropped at every step: 1.0e-5 m from a run by one
+    solver after 8 steps each). Added twice to one solver, the ValueError names its index.
+    Once its solver is gone, another takes it."""
+    if kind == "membrane":
+        body, named = membrane(*make_grid(4, 4, 1.0, 1.0)), r"Membrane of 16 vertices"
+    else:
+        body, named = sand_block(), r"Particles of 27 particles"
+    first, second = peridyn.Solver(dt=2e-3), peridyn.Solver(dt=2e-3)
+    first.add(body)
+    expect_value_error(lambda: first.add(body), rf"^this {named} is already body 0 of this solver")
+    expect_value_error(lambda: second.add(body),
+                       rf"^this {named} already belongs to another Solver: a body is stepped by "
+                       r"one solver")
+    assert len(first.bodies) == 1 and second.bodies == []
+    del first
+    gc.collect()
+    second.add(body)
+    second.step()
+    assert second.bodies[0] is body
+
+
+@pytest.mark.parametrize("spacing, side", [(1e30, "above"), (4.1 * S, "above"),
+                                           (1e-9, "below"), (S / 4.1, "below")])
+@pytest.mark.parametrize("material", [peridyn.Elastic.from_young(1e5, 0.25),
+                                      peridyn.ViscoelasticFluid()])
+def test_a_spacing_far_from_the_particles_own_is_refused_naming_both(spacing, side, material):
+    """Sites 1 cm apart given a spacing more than 4 times larger or smaller than that: a
+    ValueError giving the spacing and the particles' median distance to their nearest
+    neighbours. Before, a spacing of 1e30 m was taken (every pair a bond, each particle
+    1e96 times too heavy) and stepped, and 1e-9 m failed on a particle without a
+    three-dimensional neighbourhood, which named neither cause."""
+    expect_value_error(
+        lambda: peridyn.Particles(lattice((3, 3, 3)), spacing=spacing, density=1000.0,
+                                  material=material),
+        rf"^spacing [0-9.e-]+ m is [0-9.e]+ times {side} the median distance between the "
+        r"particles and their nearest neighbours, 1e-2 m \(at most 4 times either way\)")
+
+
+@pytest.mark.parametrize("spacing", [3.9 * S, S / 3.9])
+def test_a_spacing_within_four_times_the_particles_own_is_taken(spacing):
+    """Within the band both ways the body is built (with a horizon reaching the neighbours)."""
+    horizon = None if spacing > S else 2.2 * S
+    body = peridyn.Particles(lattice((3, 3, 3)), spacing=spacing, density=1000.0,
+                             material=peridyn.Elastic.from_young(1e5, 0.25), horizon=horizon)
+    assert body.spacing == spacing

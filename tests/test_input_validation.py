@@ -1,10 +1,13 @@
 """The Python edge refuses, with a ValueError naming the culprit, every input it would otherwise
 take with a loss (issue 43): complex, bool and string values where real numbers are meant,
 integers that do not fit, time steps the precision cannot step with, grids that cannot be
-allocated, and reports thin sheets, rounded rotations and overflowing helpers truthfully."""
+allocated, and reports thin sheets, rounded rotations and overflowing helpers truthfully; a str or
+bool keyword given another type is a TypeError naming the keyword."""
 
+import ast
 import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -301,3 +304,95 @@ def test_plate_bending_stiffness_refuses_results_that_overflow(args, pattern):
 ])
 def test_plate_bending_stiffness_refuses_non_real_input(name, args):
     expect_value_error(lambda: peridyn.plate_bending_stiffness(*args), rf"\b{name}\b", r"real")
+
+
+# ------------------------------------------------------------------------------------------------
+# 4. str and bool keywords of another type: a TypeError whose own message names the keyword
+
+
+STUBS = Path(peridyn._core.__file__).with_name("_core")
+
+
+def option_aliases():
+    """The names the stubs give option strings (``Method = Literal[...]`` and the like)."""
+    tree = ast.parse((STUBS / "_options.pyi").read_text())
+    return {node.targets[0].id for node in tree.body if isinstance(node, ast.Assign)
+            and isinstance(node.value, ast.Subscript) and ast.unparse(node.value).startswith("Literal")}
+
+
+def str_and_bool_keywords():
+    """Every (class, keyword, wanted, how) of the stubs whose keyword takes a str (or an option
+    string; ``wanted`` "str or None" where None is accepted) or a bool, ``how`` "argument" for
+    a constructor's argument or "setter" for a property's."""
+    aliases, found = option_aliases(), []
+    for path in sorted(STUBS.glob("*.pyi")):
+        for cls in ast.parse(path.read_text()).body:
+            if not isinstance(cls, ast.ClassDef):
+                continue
+            for item in cls.body:
+                if not isinstance(item, ast.FunctionDef):
+                    continue
+                setter = any("setter" in ast.unparse(d) for d in item.decorator_list)
+                if item.name != "__init__" and not setter:
+                    continue
+                for arg in item.args.args[1:] + item.args.kwonlyargs:
+                    text = ast.unparse(arg.annotation) if arg.annotation else ""
+                    optional = text.startswith("Optional[")
+                    inner = text[len("Optional["):-1] if optional else text
+                    wanted = "bool" if inner == "bool" else \
+                        "str" if inner == "str" or inner in aliases else None
+                    if wanted:
+                        found.append((cls.name, item.name if setter else arg.arg,
+                                      wanted + (" or None" if optional else ""),
+                                      "setter" if setter else "argument"))
+    return found
+
+
+def make_with(mesh):
+    """A call per class making it, with the keywords given."""
+    v, t = mesh
+    return {
+        "Solver": lambda **kw: peridyn.Solver(dt=1e-3, **kw),
+        "Contact": lambda **kw: peridyn.Contact(**kw),
+        "ViscoelasticFluid": lambda **kw: peridyn.ViscoelasticFluid(**kw),
+        "DruckerPrager": lambda **kw: peridyn.DruckerPrager(friction_angle=30.0, cohesion=0.0, **kw),
+        "Membrane": lambda **kw: new_membrane(v, t, **kw),
+    }
+
+
+def test_the_str_and_bool_keywords_are_read_from_the_stubs():
+    """The parametrised test below covers every str and bool keyword the stubs declare; a class
+    that gains one must be added to ``make_with``."""
+    keywords = str_and_bool_keywords()
+    assert {cls for cls, *_ in keywords} <= set(make_with(make_grid(2, 2, 1.0, 1.0)))
+    for expected in [("Solver", "global_solver", "str", "argument"),
+                     ("Solver", "precision", "str or None", "argument"),
+                     ("Solver", "two_level", "bool", "argument"),
+                     ("Contact", "proximal", "str", "argument"),
+                     ("ViscoelasticFluid", "density_solver", "str", "argument"),
+                     ("ViscoelasticFluid", "adhesion", "bool", "argument"),
+                     ("DruckerPrager", "rebuild_neighbours", "bool", "argument"),
+                     ("Membrane", "self_contact", "bool", "setter")]:
+        assert expected in keywords
+    assert len(keywords) == 17
+
+
+@pytest.mark.parametrize("cls, keyword, wanted, how", str_and_bool_keywords())
+def test_a_str_or_bool_keyword_of_another_type_is_a_type_error_naming_it(mesh, cls, keyword,
+                                                                         wanted, how):
+    """``Solver(global_solver=3)``, ``ViscoelasticFluid(adhesion=1)`` and the like: the
+    TypeError's own message names the keyword, the type it takes and the value given. Before,
+    it said "'int' object is not an instance of 'str'" and only pyo3's exception note named
+    the keyword. A setter says the same and changes nothing."""
+    make = make_with(mesh)[cls]
+    bad = 1 if wanted == "bool" else 3
+    expected = rf"^{keyword} must be a {re.escape(wanted)}\b.*, got int {bad}$"
+    if how == "argument":
+        with pytest.raises(TypeError, match=expected):
+            make(**{keyword: bad})
+    else:
+        made = make()
+        before = getattr(made, keyword)
+        with pytest.raises(TypeError, match=expected):
+            setattr(made, keyword, bad)
+        assert getattr(made, keyword) == before

@@ -6,6 +6,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use nalgebra::Vector3;
 
 use crate::error::{check_param, Result};
+use crate::geometry::nearest::nearest_distances;
 use crate::geometry::{find_horizons, Horizons};
 use crate::point_state::PointState;
 
@@ -102,6 +103,73 @@ mod transition;
 pub use material_state::MaterialState;
 pub use transition::RegionMaterial;
 
+/// How far, as a factor either way, a body's `spacing` may be from the median distance of its
+/// particles to their nearest neighbours ([`check_spacing`]). A body sampled at its spacing
+/// sits well inside: a lattice at 1, a jittered lattice ([`super::sample_volume`]) and a
+/// surface layer ([`super::sample_surface`], at least a spacing apart) within a few tenths of
+/// it. Far outside, the spacing is not the positions' (another unit, another body's): it sets
+/// each particle's volume (`spacing^3`: 64 times too much or too little at the bound) and the
+/// default horizon (2.2 spacings: no neighbour at all beyond 2.2 times, thousands within at a
+/// quarter), so the body would not be the material it names.
+pub const SPACING_BAND: f64 = 4.0;
+
+/// Checks what a body is built from: the parameters, a particle mass `density volume` (kg,
+/// `volume` in m^3) that is a finite, normal number, at least one particle, finite positions.
+fn check_input(reference: &[Vector3<f64>], volume: f64, params: &ParticleParams) -> Result<()> {
+    params.validate()?;
+    let mass = params.density * volume;
+    if !(mass.is_normal() && mass.is_finite()) {
+        return Err(crate::error::invalid!(
+            "density {} kg/m^3 times each particle's volume {volume} m^3 (from the spacing \
+             {} m) gives a particle mass of {mass} kg: not a finite, normal number",
+            params.density,
+            params.spacing
+        ));
+    }
+    if reference.is_empty() {
+        return Err(crate::error::invalid!(
+            "a particle body needs at least one particle"
+        ));
+    }
+    if let Some(i) = reference
+        .iter()
+        .position(|x| !x.iter().all(|c| c.is_finite()))
+    {
+        return Err(crate::error::invalid!(
+            "positions of particle {i} are not finite: {:?}",
+            reference[i].as_slice()
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses a `spacing` (m) more than [`SPACING_BAND`] times above or below the median distance
+/// (m) from the particles at `reference` (m, finite) to their nearest neighbours (the upper
+/// median for an even count; a lone particle is not checked), naming both. Checked before the
+/// horizons are searched: a spacing far too large would make every pair a bond.
+fn check_spacing(reference: &[Vector3<f64>], spacing: f64) -> Result<()> {
+    if reference.len() < 2 {
+        return Ok(());
+    }
+    let mut nearest = nearest_distances(reference);
+    let middle = nearest.len() / 2;
+    let median = *nearest.select_nth_unstable_by(middle, f64::total_cmp).1;
+    if median * SPACING_BAND >= spacing && median <= SPACING_BAND * spacing {
+        return Ok(());
+    }
+    let (factor, side) = if median < spacing {
+        (spacing / median, "above")
+    } else {
+        (median / spacing, "below")
+    };
+    Err(crate::error::invalid!(
+        "spacing {spacing:e} m is {factor:.3e} times {side} the median distance between the \
+         particles and their nearest neighbours, {median:e} m (at most {SPACING_BAND} times \
+         either way): the spacing sets each particle's volume (spacing^3) and the default \
+         horizon (2.2 spacings), so pass the spacing the positions were sampled at"
+    ))
+}
+
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
 /// A body of particles. Not `Clone`: its `id` is unique.
@@ -148,17 +216,21 @@ pub struct Particles {
 
 impl Particles {
     /// Particles at rest at their reference positions `reference` (m). Fails, naming the
-    /// culprit, on a bad parameter, a non-finite position, or a particle whose neighbourhood
-    /// within the horizon is not three-dimensional (its shape matrix `K_i` is singular).
+    /// culprit, on a bad parameter, a non-finite position, a `spacing` away from the
+    /// particles' own ([`check_spacing`]), or a particle whose neighbourhood within the
+    /// horizon is not three-dimensional (its shape matrix `K_i` is singular).
     pub fn new(reference: Vec<Vector3<f64>>, params: ParticleParams) -> Result<Self> {
         let (volume, margin) = (params.spacing.powi(3), 0.5 * params.spacing);
-        Self::with_ghosts(reference, Vec::new(), volume, margin, params)
+        check_input(&reference, volume, &params)?;
+        check_spacing(&reference, params.spacing)?;
+        Self::build(reference, Vec::new(), volume, margin, params)
     }
 
     /// A body whose last `ghost_owners.len()` particles are ghosts (they take part in the
     /// elasticity but never in collisions), ghost `k` belonging to the real particle
     /// `ghost_owners[k]`; each particle stands for `volume` (m^3) and keeps `margin` (m) from
-    /// a collider's surface. The shells' and rods' builders ([`super::thin`]) make these.
+    /// a collider's surface. The shells' and rods' builders ([`super::thin`]) make these, with
+    /// positions they sample at the spacing.
     pub(crate) fn with_ghosts(
         reference: Vec<Vector3<f64>>,
         ghost_owners: Vec<u32>,
@@ -166,30 +238,18 @@ impl Particles {
         margin: f64,
         params: ParticleParams,
     ) -> Result<Self> {
-        params.validate()?;
-        let mass = params.density * volume;
-        if !(mass.is_normal() && mass.is_finite()) {
-            return Err(crate::error::invalid!(
-                "density {} kg/m^3 times each particle's volume {volume} m^3 (from the spacing \
-                 {} m) gives a particle mass of {mass} kg: not a finite, normal number",
-                params.density,
-                params.spacing
-            ));
-        }
-        if reference.is_empty() {
-            return Err(crate::error::invalid!(
-                "a particle body needs at least one particle"
-            ));
-        }
-        if let Some(i) = reference
-            .iter()
-            .position(|x| !x.iter().all(|c| c.is_finite()))
-        {
-            return Err(crate::error::invalid!(
-                "positions of particle {i} are not finite: {:?}",
-                reference[i].as_slice()
-            ));
-        }
+        check_input(&reference, volume, &params)?;
+        Self::build(reference, ghost_owners, volume, margin, params)
+    }
+
+    /// [`Self::with_ghosts`] once its input is checked ([`check_input`]).
+    fn build(
+        reference: Vec<Vector3<f64>>,
+        ghost_owners: Vec<u32>,
+        volume: f64,
+        margin: f64,
+        params: ParticleParams,
+    ) -> Result<Self> {
         let delta = params.delta();
         let horizons = find_horizons(&reference, delta)?;
         let moduli = params.material.resolve(params.spacing, delta)?;

@@ -1,7 +1,7 @@
-//! The Python side of the body seam: a body of any kind that `Solver.add` takes, and the lock
-//! a step holds on each body's core while it advances them.
+//! The Python side of the body seam: a body of any kind that `Solver.add` takes, the solver it
+//! belongs to, and the lock a step holds on each body's core while it advances them.
 
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard, Weak};
 
 use nalgebra::Vector3;
 use pyo3::exceptions::PyTypeError;
@@ -13,6 +13,34 @@ use crate::solve::BodyMut;
 
 use super::membrane::PyMembrane;
 use super::particle_body::PyParticles;
+
+/// The identity of one Python `Solver`, which holds it; the bodies it steps hold it weakly
+/// ([`Owner`]).
+pub struct SolverMark;
+
+/// The solver a body belongs to, if any. A body is stepped by one solver: a solver keeps its
+/// own record of its bodies from step to step (their working set and evaluation, the contact
+/// warm start, the friction at the grains' contacts, the positions its last step left, which
+/// tell it that they were set from outside), so a body stepped by two solvers in turn would
+/// be, for each, a body whose positions were replaced between its steps (its contact friction
+/// dropped) and not the run of either. The body is free again once its solver is gone (the
+/// mark is held weakly).
+#[derive(Default)]
+pub struct Owner(Mutex<Weak<SolverMark>>);
+
+impl Owner {
+    /// Whether a solver other than `mark`'s, still alive, holds the body.
+    pub fn held_by_other(&self, mark: &Arc<SolverMark>) -> bool {
+        let held = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        held.upgrade()
+            .is_some_and(|owner| !Arc::ptr_eq(&owner, mark))
+    }
+
+    /// Records that the solver of `mark` holds the body.
+    pub fn claim(&self, mark: &Arc<SolverMark>) {
+        *self.0.lock().unwrap_or_else(|p| p.into_inner()) = Arc::downgrade(mark);
+    }
+}
 
 /// A body a solver steps, by kind.
 pub enum PyBody {
@@ -45,6 +73,32 @@ impl PyBody {
             "Solver.add takes a body (peridyn.Membrane or peridyn.Particles), got {}",
             object.get_type().name()?
         )))
+    }
+
+    /// Runs `f` on the body's [`Owner`].
+    pub fn with_owner<R>(&self, py: Python<'_>, f: impl FnOnce(&Owner) -> R) -> R {
+        match self {
+            Self::Membrane(m) => f(&m.borrow(py).owner),
+            Self::Particles(p) => f(&p.borrow(py).owner),
+        }
+    }
+
+    /// What the body is, for messages: its class and size ("Particles of 27 particles").
+    pub fn describe(&self, py: Python<'_>) -> String {
+        match self {
+            Self::Membrane(m) => {
+                format!(
+                    "Membrane of {} vertices",
+                    m.borrow(py).lock().num_vertices()
+                )
+            }
+            Self::Particles(p) => {
+                format!(
+                    "Particles of {} particles",
+                    p.borrow(py).lock().num_particles()
+                )
+            }
+        }
     }
 
     pub fn shared(&self, py: Python<'_>) -> SharedBody {

@@ -18,7 +18,7 @@ use crate::geometry::distance::{edge_edge_closest, point_triangle_closest, Close
 use super::arrays::{self, to_numpy, to_numpy_1d, vec3s};
 use super::errors::IntoPyResult;
 use super::options::{DESCENT_STEP, PROXIMAL_METRIC};
-use super::scalars::{Int, Real};
+use super::scalars::{Flag, Int, Real, Text};
 
 /// Four (n, 3) arrays as n quadruples of points.
 fn quadruples(args: [(&Bound<'_, PyAny>, &str); 4]) -> PyResult<Vec<[Vector3<f64>; 4]>> {
@@ -280,10 +280,10 @@ pub struct PyContact {
 impl PyContact {
     #[new]
     #[pyo3(signature = (*, thickness = Real::of(1.5e-3), d_hat = None, eps = Real::of(0.1),
-                        weight = Real::of(1.0), max_iters = Int::of(32), step = "curvature",
+                        weight = Real::of(1.0), max_iters = Int::of(32), step = Text::of("curvature"),
                         toi_threshold = Real::of(0.1), ccd_s = Real::of(0.1),
-                        ccd_t_c = Real::of(0.95), warm_start = true, parallel_angle = None,
-                        proximal = "jacobi"))]
+                        ccd_t_c = Real::of(0.95), warm_start = Flag::of(true),
+                        parallel_angle = None, proximal = Text::of("jacobi")))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         thickness: Real,
@@ -291,13 +291,13 @@ impl PyContact {
         eps: Real,
         weight: Real,
         max_iters: Int,
-        step: &str,
+        step: Text,
         toi_threshold: Real,
         ccd_s: Real,
         ccd_t_c: Real,
-        warm_start: bool,
+        warm_start: Flag,
         parallel_angle: Option<Real>,
-        proximal: &str,
+        proximal: Text,
     ) -> PyResult<Self> {
         let thickness = thickness.get("thickness")?;
         let d_hat = d_hat.map(|d| d.get("d_hat")).transpose()?;
@@ -314,16 +314,16 @@ impl PyContact {
             eps,
             weight,
             max_iters: iteration_cap(max_iters)?,
-            step: DESCENT_STEP.parse(step)?,
+            step: DESCENT_STEP.parse(step.get("step")?)?,
             toi_threshold,
             ccd: AdditiveCcd {
                 s: ccd_s,
                 t_c: ccd_t_c,
                 ..AdditiveCcd::default()
             },
-            warm_start,
+            warm_start: warm_start.get("warm_start")?,
             parallel_angle: parallel_angle.unwrap_or_else(default_parallel_angle),
-            proximal: PROXIMAL_METRIC.parse(proximal)?,
+            proximal: PROXIMAL_METRIC.parse(proximal.get("proximal")?)?,
         };
         inner.validate().py()?;
         Ok(Self { inner })

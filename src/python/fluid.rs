@@ -5,7 +5,7 @@ use pyo3::prelude::*;
 use crate::particles::{DensitySolver, ViscoelasticFluid};
 
 use super::errors::IntoPyResult;
-use super::scalars::{Int, Real};
+use super::scalars::{Flag, Int, Real, Text};
 
 /// A fluid material of particle bodies (He et al. 2017, section 6): position-based density
 /// constraints and an implicit viscosity; the defaults make a Newtonian liquid.
@@ -31,12 +31,12 @@ impl PyViscoelasticFluid {
     /// viscoelastic fluid's flow beyond yield, which relaxes its overstress over
     /// `plastic_viscosity / shear_modulus`; 0: rate-independent).
     #[new]
-    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = Int::of(50), density_solver = "cg", density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = Int::of(5), shear_modulus = Real::of(0.0), yield_stress = None, bulk_modulus = None, adhesion = false, surface_tension = Real::of(0.0), plastic_viscosity = Real::of(0.0)))]
+    #[pyo3(signature = (*, viscosity = Real::of(1e-3), density_iterations = Int::of(50), density_solver = Text::of("cg"), density_tolerance = Real::of(1e-3), relaxation = Real::of(0.1), redistribution = Real::of(0.0), redistribution_iterations = Int::of(5), shear_modulus = Real::of(0.0), yield_stress = None, bulk_modulus = None, adhesion = Flag::of(false), surface_tension = Real::of(0.0), plastic_viscosity = Real::of(0.0)))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         viscosity: Real,
         density_iterations: Int,
-        density_solver: &str,
+        density_solver: Text,
         density_tolerance: Real,
         relaxation: Real,
         redistribution: Real,
@@ -44,7 +44,7 @@ impl PyViscoelasticFluid {
         shear_modulus: Real,
         yield_stress: Option<Real>,
         bulk_modulus: Option<Real>,
-        adhesion: bool,
+        adhesion: Flag,
         surface_tension: Real,
         plastic_viscosity: Real,
     ) -> PyResult<Self> {
@@ -64,7 +64,7 @@ impl PyViscoelasticFluid {
         let inner = ViscoelasticFluid {
             viscosity: viscosity.get("viscosity")?,
             density_iterations: iterations,
-            density_solver: DensitySolver::of_name(density_solver).py()?,
+            density_solver: DensitySolver::of_name(density_solver.get("density_solver")?).py()?,
             density_tolerance: density_tolerance.get("density_tolerance")?,
             relaxation: relaxation.get("relaxation")?,
             redistribution: redistribution.get("redistribution")?,
@@ -72,7 +72,7 @@ impl PyViscoelasticFluid {
             shear_modulus: shear_modulus.get("shear_modulus")?,
             yield_stress: yield_stress.map(|y| y.get("yield_stress")).transpose()?,
             bulk_modulus: bulk_modulus.map(|k| k.get("bulk_modulus")).transpose()?,
-            adhesion,
+            adhesion: adhesion.get("adhesion")?,
             surface_tension: surface_tension.get("surface_tension")?,
             plastic_viscosity: plastic_viscosity.get("plastic_viscosity")?,
         };

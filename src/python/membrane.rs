@@ -11,15 +11,18 @@ use crate::membrane::{Membrane, MembraneParams};
 use crate::mesh::TriangleMesh;
 
 use super::arrays::{to_numpy, to_numpy_1d, triangles, vec3s};
+use super::body::Owner;
 use super::errors::{guard, IntoPyResult};
 use super::material;
 use super::pins;
-use super::scalars::{Int, Real};
+use super::scalars::{Flag, Int, Real};
 
 /// A thin hyperelastic membrane (triangle mesh) simulated by projective peridynamics.
 #[pyclass(module = "peridyn._core", name = "Membrane")]
 pub struct PyMembrane {
     pub inner: Arc<Mutex<Membrane>>,
+    /// The solver stepping it ([`Owner`]).
+    pub owner: Owner,
 }
 
 impl PyMembrane {
@@ -53,7 +56,7 @@ impl PyMembrane {
     #[pyo3(signature = (vertices, triangles, *, thickness, density, material,
                         bending = Real::of(0.0),
                         hourglass = Real::of(MembraneParams::DEFAULT_HOURGLASS),
-                        neighbors = Int::of(1), self_contact = true,
+                        neighbors = Int::of(1), self_contact = Flag::of(true),
                         friction = Real::of(0.0)))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -66,10 +69,11 @@ impl PyMembrane {
         bending: Real,
         hourglass: Real,
         neighbors: Int,
-        self_contact: bool,
+        self_contact: Flag,
         friction: Real,
     ) -> PyResult<Self> {
         let friction = friction.get("friction")?;
+        let self_contact = self_contact.get("self_contact")?;
         let thickness = thickness.get("thickness")?;
         let density = density.get("density")?;
         let bending = bending.get("bending")?;
@@ -105,6 +109,7 @@ impl PyMembrane {
         })?;
         Ok(Self {
             inner: Arc::new(Mutex::new(membrane)),
+            owner: Owner::default(),
         })
     }
 
@@ -114,8 +119,9 @@ impl PyMembrane {
         self.lock().self_contact()
     }
     #[setter]
-    fn set_self_contact(&self, on: bool) {
-        self.lock().set_self_contact(on);
+    fn set_self_contact(&self, on: Flag) -> PyResult<()> {
+        self.lock().set_self_contact(on.get("self_contact")?);
+        Ok(())
     }
     /// Coulomb friction coefficient against membranes (>= 0; a pair takes the geometric mean
     /// of its two bodies' coefficients).

@@ -12,6 +12,7 @@ use crate::particles::{
 };
 
 use super::arrays::{indices as index_list, to_numpy, to_numpy_1d, vec3s};
+use super::body::Owner;
 use super::elastic::PyElastic;
 use super::errors::{guard, IntoPyResult};
 use super::fluid::PyViscoelasticFluid;
@@ -26,6 +27,8 @@ use super::scalars::Real;
 #[pyclass(module = "peridyn._core", name = "Particles")]
 pub struct PyParticles {
     pub inner: Arc<Mutex<Particles>>,
+    /// The solver stepping it ([`Owner`]).
+    pub owner: Owner,
 }
 
 impl PyParticles {
@@ -38,6 +41,7 @@ impl PyParticles {
     fn wrap(body: Particles) -> Self {
         Self {
             inner: Arc::new(Mutex::new(body)),
+            owner: Owner::default(),
         }
     }
 }

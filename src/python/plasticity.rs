@@ -5,7 +5,7 @@ use pyo3::prelude::*;
 use crate::particles::DruckerPrager;
 
 use super::errors::IntoPyResult;
-use super::scalars::Real;
+use super::scalars::{Flag, Real};
 
 /// Drucker-Prager plasticity of particle bodies (He et al. 2017, section 5; the inner cone).
 #[pyclass(module = "peridyn._core", name = "DruckerPrager", frozen)]
@@ -20,18 +20,18 @@ impl PyDruckerPrager {
     /// 0), `hardening` (Pa per unit of accumulated plastic strain, >= 0) and whether the
     /// neighbours are searched anew on the deformed positions after every step.
     #[new]
-    #[pyo3(signature = (*, friction_angle, cohesion, hardening = Real::of(0.0), rebuild_neighbours = true))]
+    #[pyo3(signature = (*, friction_angle, cohesion, hardening = Real::of(0.0), rebuild_neighbours = Flag::of(true)))]
     fn new(
         friction_angle: Real,
         cohesion: Real,
         hardening: Real,
-        rebuild_neighbours: bool,
+        rebuild_neighbours: Flag,
     ) -> PyResult<Self> {
         let inner = DruckerPrager {
             friction_angle: friction_angle.get("friction_angle")?,
             cohesion: cohesion.get("cohesion")?,
             hardening: hardening.get("hardening")?,
-            rebuild_neighbours,
+            rebuild_neighbours: rebuild_neighbours.get("rebuild_neighbours")?,
         };
         inner.validate().py()?;
         Ok(Self { inner })

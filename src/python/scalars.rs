@@ -4,10 +4,14 @@
 //! (True is not 1.0 here), complex numbers (their imaginary part would be dropped), strings
 //! (even "1.5"), and integers that do not fit in 64 bits (never truncated).
 //!
-//! pyo3 names an argument only in an exception note, so [`Real`] and [`Int`] never fail to
-//! extract: they keep what was wrong, and `get(name)` raises it under the argument's name.
+//! A string or a flag argument of any other type is a `TypeError` ([`Text`], [`Flag`]) whose
+//! message names the argument and the type it takes.
+//!
+//! pyo3 names an argument only in an exception note, so [`Real`], [`Int`], [`Text`] and
+//! [`Flag`] never fail to extract: they keep what was wrong, and `get(name)` raises it under
+//! the argument's name.
 
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyComplex, PyFloat, PyInt, PyString};
 
@@ -42,6 +46,72 @@ impl Int {
         self.0
             .clone()
             .map_err(|why| PyValueError::new_err(format!("{name} must be an integer, {why}")))
+    }
+}
+
+/// A string argument (an option's name): `get(name)` gives it or a `TypeError` naming `name`.
+#[derive(Debug, Clone)]
+pub struct Text(Result<String, String>);
+
+/// A flag argument (`True` or `False`; numpy's bool too): `get(name)` gives it or a
+/// `TypeError` naming `name`. An integer is refused (1 is not True here).
+#[derive(Debug, Clone)]
+pub struct Flag(Result<bool, String>);
+
+impl Text {
+    /// A default value.
+    pub fn of(value: &str) -> Self {
+        Self(Ok(value.to_owned()))
+    }
+    /// The string, or a `TypeError` saying that `name` takes a str.
+    pub fn get(&self, name: &str) -> PyResult<&str> {
+        self.0
+            .as_deref()
+            .map_err(|why| PyTypeError::new_err(format!("{name} must be a str, {why}")))
+    }
+    /// The string of an argument that may be None, or a `TypeError` saying that `name` takes
+    /// a str or None.
+    pub fn get_optional<'a>(text: &'a Option<Self>, name: &str) -> PyResult<Option<&'a str>> {
+        text.as_ref()
+            .map(|t| {
+                t.0.as_deref().map_err(|why| {
+                    PyTypeError::new_err(format!("{name} must be a str or None, {why}"))
+                })
+            })
+            .transpose()
+    }
+}
+
+impl Flag {
+    /// A default value.
+    pub const fn of(value: bool) -> Self {
+        Self(Ok(value))
+    }
+    /// The flag, or a `TypeError` saying that `name` takes a bool.
+    pub fn get(&self, name: &str) -> PyResult<bool> {
+        self.0.clone().map_err(|why| {
+            PyTypeError::new_err(format!("{name} must be a bool (True or False), {why}"))
+        })
+    }
+}
+
+impl<'a, 'py> FromPyObject<'a, 'py> for Text {
+    type Error = PyErr;
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        Ok(Self(match obj.extract::<String>() {
+            Ok(text) => Ok(text),
+            Err(_) => Err(described(&obj)?),
+        }))
+    }
+}
+
+impl<'a, 'py> FromPyObject<'a, 'py> for Flag {
+    type Error = PyErr;
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        Ok(Self(match obj.extract::<bool>() {
+            Ok(flag) => Ok(flag),
+            Err(_) => Err(described(&obj)?),
+        }))
     }
 }
 

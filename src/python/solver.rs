@@ -1,5 +1,7 @@
 //! Python wrapper of [`Solver`], in f32 or f64.
 
+use std::sync::Arc;
+
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -12,7 +14,7 @@ use crate::solve::{
 };
 
 use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, vec3};
-use super::body::{LockedBody, PyBody, SharedBody};
+use super::body::{LockedBody, PyBody, SharedBody, SolverMark};
 use super::collider;
 use super::contact::PyContact;
 use super::errors::{guard, IntoPyResult};
@@ -21,7 +23,7 @@ use super::options::{
     PRECONDITIONER,
 };
 use super::resolution;
-use super::scalars::{Int, Real};
+use super::scalars::{Flag, Int, Real, Text};
 use super::solver_state;
 use super::step_stats::PyStepStats;
 
@@ -84,20 +86,23 @@ pub struct PySolver {
     core: Precision,
     bodies: Vec<PyBody>,
     colliders: Vec<Py<PyAny>>,
+    /// This solver's identity, which its bodies hold ([`super::body::Owner`]).
+    mark: Arc<SolverMark>,
 }
 
 #[pymethods]
 impl PySolver {
     #[new]
     #[pyo3(signature = (*, dt, gravity = None, tol = Real::of(1e-4), max_iters = Int::of(100),
-                        threads = None, step_length = true, precision = None,
-                        preconditioner = "tangent", acceleration = None,
+                        threads = None, step_length = Flag::of(true), precision = None,
+                        preconditioner = Text::of("tangent"), acceleration = None,
                         chebyshev_rho = None,
                         chebyshev_delay = None,
-                        record_energy = false, method = "sissm", inner_iters = Int::of(1),
-                        backend = "cpu", contact = None, global_solver = "chebyshev",
+                        record_energy = Flag::of(false), method = Text::of("sissm"),
+                        inner_iters = Int::of(1), backend = Text::of("cpu"), contact = None,
+                        global_solver = Text::of("chebyshev"),
                         particle_tol = Real::of(SolverParams::DEFAULT_PARTICLE_TOL),
-                        two_level = true,
+                        two_level = Flag::of(true),
                         max_speed = Real::of(SolverParams::DEFAULT_MAX_SPEED)))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -106,20 +111,20 @@ impl PySolver {
         tol: Real,
         max_iters: Int,
         threads: Option<Int>,
-        step_length: bool,
-        precision: Option<&str>,
-        preconditioner: &str,
-        acceleration: Option<&str>,
+        step_length: Flag,
+        precision: Option<Text>,
+        preconditioner: Text,
+        acceleration: Option<Text>,
         chebyshev_rho: Option<Real>,
         chebyshev_delay: Option<Int>,
-        record_energy: bool,
-        method: &str,
+        record_energy: Flag,
+        method: Text,
         inner_iters: Int,
-        backend: &str,
+        backend: Text,
         contact: Option<PyRef<'_, PyContact>>,
-        global_solver: &str,
+        global_solver: Text,
         particle_tol: Real,
-        two_level: bool,
+        two_level: Flag,
         max_speed: Real,
     ) -> PyResult<Self> {
         let dt = dt.get("dt")?;
@@ -140,12 +145,13 @@ impl PySolver {
             })
             .transpose()?;
         let inner_iters = inner_iters.get("inner_iters")?;
-        let method = METHOD.parse(method)?;
+        let method = METHOD.parse(method.get("method")?)?;
         if inner_iters < 1 {
             return Err(PyValueError::new_err(format!(
                 "inner_iters must be >= 1, got {inner_iters}"
             )));
         }
+        let acceleration = Text::get_optional(&acceleration, "acceleration")?;
         let acceleration = match ACCELERATION.parse_optional(acceleration)? {
             AccelerationKind::Plain => Acceleration::None,
             AccelerationKind::Chebyshev => Acceleration::Chebyshev {
@@ -153,7 +159,7 @@ impl PySolver {
                 delay: chebyshev_delay.unwrap_or(Acceleration::DEFAULT_DELAY),
             },
         };
-        let global_solver = GLOBAL_SOLVER.parse(global_solver)?;
+        let global_solver = GLOBAL_SOLVER.parse(global_solver.get("global_solver")?)?;
         let chebyshev_runs =
             acceleration != Acceleration::None || global_solver == GlobalSolver::Chebyshev;
         for (name, given) in [
@@ -189,20 +195,22 @@ impl PySolver {
             particle_tol,
             max_iters,
             max_speed,
-            step_length,
-            preconditioner: PRECONDITIONER.parse(preconditioner)?,
+            step_length: step_length.get("step_length")?,
+            preconditioner: PRECONDITIONER.parse(preconditioner.get("preconditioner")?)?,
             acceleration,
             method,
             inner_iters: inner_iters as usize,
-            record_energy,
+            record_energy: record_energy.get("record_energy")?,
             contact: contact.map(|c| c.inner),
             global_solver,
             particle_chebyshev_rho: chebyshev_rho,
             particle_chebyshev_delay: chebyshev_delay,
-            particle_two_level: two_level,
+            particle_two_level: two_level.get("two_level")?,
         };
-        let backend = BACKEND.parse(backend)?;
-        let precision = precision.map(|p| PRECISION.parse(p)).transpose()?;
+        let backend = BACKEND.parse(backend.get("backend")?)?;
+        let precision = Text::get_optional(&precision, "precision")?
+            .map(|p| PRECISION.parse(p))
+            .transpose()?;
         check_dt(
             dt,
             precision.unwrap_or(match backend {
@@ -232,21 +240,34 @@ impl PySolver {
             core,
             bodies: Vec::new(),
             colliders: Vec::new(),
+            mark: Arc::new(SolverMark),
         })
     }
 
-    /// Adds a body (a Membrane or Particles); the solver steps it from now on.
+    /// Adds a body (a Membrane or Particles); the solver steps it from now on. A body belongs
+    /// to one solver at a time ([`super::body::Owner`]): adding it twice, or to a second
+    /// solver while the first is alive, is a `ValueError`.
     fn add(&mut self, body: &Bound<'_, PyAny>) -> PyResult<()> {
         let py = body.py();
         let new = PyBody::extract(body)?;
         let core = new.shared(py);
-        if self.bodies.iter().any(|b| b.shared(py).same(&core)) {
+        if let Some(index) = self.bodies.iter().position(|b| b.shared(py).same(&core)) {
             return Err(PyValueError::new_err(format!(
-                "this {} was already added to the solver",
-                body.get_type().name()?
+                "this {} is already body {index} of this solver: a body is added once",
+                new.describe(py)
+            )));
+        }
+        if new.with_owner(py, |owner| owner.held_by_other(&self.mark)) {
+            return Err(PyValueError::new_err(format!(
+                "this {} already belongs to another Solver: a body is stepped by one solver, \
+                 which keeps its own record of it between steps (its working set, contact warm \
+                 start and friction); build another body for this solver, or let the other \
+                 solver go (del it) first",
+                new.describe(py)
             )));
         }
         self.warn_resolution(py, Some(&new), &[&new])?;
+        new.with_owner(py, |owner| owner.claim(&self.mark));
         self.bodies.push(new);
         Ok(())
     }

@@ -228,20 +228,20 @@ impl SolverParams {
             )?;
         }
         if let Acceleration::Chebyshev { rho, delay } = self.acceleration {
-            check_param("chebyshev rho", rho, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
+            check_param("chebyshev_rho", rho, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
             if delay < 1 {
                 return Err(invalid!(
-                    "chebyshev delay must be >= 1 iteration, got {delay}"
+                    "chebyshev_delay must be >= 1 iteration, got {delay}"
                 ));
             }
         }
         if let Some(rho) = self.particle_chebyshev_rho {
-            check_param("chebyshev rho", rho, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
+            check_param("chebyshev_rho", rho, |v| v > 0.0 && v < 1.0, "in (0, 1)")?;
         }
         if let Some(delay) = self.particle_chebyshev_delay {
             if delay < 1 {
                 return Err(invalid!(
-                    "chebyshev delay must be >= 1 iteration, got {delay}"
+                    "chebyshev_delay must be >= 1 iteration, got {delay}"
                 ));
             }
         }

@@ -246,8 +246,14 @@ impl<T: Real> Solver<T> {
     fn step_in_pool(&mut self, bodies: &mut [BodyMut<'_>]) -> Result<StepStats> {
         // A restore given from outside stays one; a failed step's start is the solver's own.
         let own = self.restored.is_none() || self.rolled_back;
+        if let Some(newton) = &mut self.newton {
+            newton.begin_step();
+        }
         let mut start = None;
         let stepped = self.advance(bodies, &mut start);
+        if let (Err(_), Some(newton)) = (&stepped, &mut self.newton) {
+            newton.roll_back();
+        }
         match (&stepped, start) {
             (Ok(_), _) => {
                 if let Some(families) = &mut self.families {

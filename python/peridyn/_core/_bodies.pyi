@@ -14,7 +14,12 @@ class Particles:
     ----------
     positions : (N, 3) reference positions (m), finite; e.g. from :func:`sample_volume`.
     spacing : lattice spacing (m, > 0): each particle stands for a cube of this side (mass
-        ``density * spacing^3``) and keeps half of it from colliders.
+        ``density * spacing^3``) and keeps half of it from colliders. It must be the spacing
+        the positions were sampled at: within a factor of 4 either way of the median distance
+        between the particles and their nearest neighbours (a lattice or
+        :func:`sample_volume` sits within a few tenths of 1; far outside, the spacing is
+        another unit's or another body's, each particle's mass is off by 64 times or more and
+        the run diverges), else a ``ValueError`` gives both numbers.
     density : kg/m^3 (> 0).
     material : an :class:`Elastic`; a :class:`Granular` (sand: ``density`` is its reference
         density ``rho_0``, the packing it is sampled at); or a :class:`ViscoelasticFluid` for a

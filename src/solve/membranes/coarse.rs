@@ -290,6 +290,16 @@ impl CoarseLevel {
         out
     }
 
+    /// The coarse factor's values, to put back with [`Self::restore_factor`].
+    pub fn factor_values(&self) -> &[f64] {
+        self.llt.factor_values()
+    }
+
+    /// Puts back the factor `values` read with [`Self::factor_values`] of this level.
+    pub fn restore_factor(&mut self, values: &[f64]) {
+        self.llt.restore_factor(values);
+    }
+
     /// `z_k += (P A_c^-1 P^T r)_k` on the free vertices (m, for `r` in kg m).
     pub fn correct<T: Real>(&mut self, free: &[bool], r: &[Vector3<T>], z: &mut [Vector3<T>]) {
         let rhs = self.llt.rhs_mut();

@@ -84,6 +84,15 @@ enum Refactor {
     /// the products of the first CG after the last factorisation (`None` until it ran).
     After { fresh: Option<usize> },
 }
+/// What of the preconditioner a step started with, for [`NewtonState::roll_back`]: when the
+/// coarse level is factored again, whether it was built, and its factor's values, copied
+/// before the step's first factorisation (`None` while the step took none).
+struct StepStart {
+    refactor: Refactor,
+    coarse_built: bool,
+    factor: Option<Vec<f64>>,
+}
+
 /// The Newton method's working set: the rest data with its bonds (the model needs the
 /// stencils, which the packed host kernel keeps only in SIMD packs), the Hessian models, and
 /// the CG's vectors.
@@ -113,6 +122,8 @@ pub(crate) struct NewtonState<T: Real> {
     coarse_built: bool,
     /// When the coarse matrix is factored again (see [`Refactor`]).
     refactor: Refactor,
+    /// The preconditioner as the current step found it ([`Self::begin_step`]).
+    step_start: StepStart,
     /// Hessian products of the CG in the current time step.
     pub products: usize,
     /// Milliseconds per phase since the caller last took them.
@@ -146,9 +157,40 @@ impl<T: Real> NewtonState<T> {
             coarse: None,
             coarse_built: false,
             refactor: Refactor::Now,
+            step_start: StepStart {
+                refactor: Refactor::Now,
+                coarse_built: false,
+                factor: None,
+            },
             products: 0,
             timings: NewtonTimings::default(),
         })
+    }
+
+    /// Marks the start of a step: [`Self::roll_back`] returns the preconditioner here.
+    pub fn begin_step(&mut self) {
+        self.step_start = StepStart {
+            refactor: self.refactor,
+            coarse_built: self.coarse_built,
+            factor: None,
+        };
+    }
+
+    /// Returns the preconditioner to where the step began ([`Self::begin_step`]) after the
+    /// step failed: the coarse factor (none if the step built the coarse level), whether it
+    /// was built and when it is factored again. The step that replaces the failed one then
+    /// computes what a run that never took it computes, bit for bit (the rest of this working
+    /// set is written by every iteration before it is read).
+    pub fn roll_back(&mut self) {
+        let (refactor, coarse_built) = (self.step_start.refactor, self.step_start.coarse_built);
+        let factor = self.step_start.factor.take();
+        if !coarse_built {
+            self.coarse = None;
+        } else if let (Some(coarse), Some(values)) = (&mut self.coarse, &factor) {
+            coarse.restore_factor(values);
+        }
+        self.coarse_built = coarse_built;
+        self.refactor = refactor;
     }
 
     /// SISSM's Jacobi systems `D_k` at the last iteration's iterate `y` (before its move),
@@ -334,12 +376,16 @@ fn solve_newton_system<T: Real>(sys: &MembraneSystem<T>, state: &mut NewtonState
         free,
         coarse,
         refactor,
+        step_start,
         products,
         timings,
         ..
     } = state;
     let mut coarse = coarse.as_mut().and_then(|c| {
         if *refactor == Refactor::Now {
+            if step_start.factor.is_none() {
+                step_start.factor = Some(c.factor_values().to_vec());
+            }
             c.factor(&sys.nb, rest, models, free, h2, timings).ok()?;
             *refactor = Refactor::After { fresh: None };
         }
