@@ -1,12 +1,12 @@
-"""Viscoelastic fluids (He et al. 2017, section 6, Fig. 8, 10, 17; issue 40): a fluid body
-with ``shear_modulus > 0`` is also elastic, with bonds whose rest shape follows the flow beyond
-its yield stress. An imposed shear partly springs back where a Newtonian liquid keeps it;
-honey under a ceiling of ghost particles keeps a film on it with adhesion (that the blob
-should neck before it parts, as a reference MPM's does, is a strict xfail); without adhesion a blob hangs on exactly when its
-yield stress carries its weight; threads agree. A bar pulled apart keeps its volume only with
-a stiff bulk modulus, and then flows at its yield stress (the return keeps the particles'
-rest volume, not their mean bond strain); with a plastic (Bingham) viscosity its flow stress
-grows with the rate as Trouton's, and a slowly pulled bar no longer necks."""
+"""Viscoelastic fluids (He et al. 2017, section 6, Fig. 8, 10, 17; issue 40): a fluid body with
+``shear_modulus > 0`` is also elastic, with bonds whose rest shape follows the flow beyond its
+yield stress. An imposed shear partly springs back where a Newtonian liquid keeps it; honey
+under a ceiling of ghost particles keeps a film on it with adhesion (that the blob should neck
+before it parts, as a reference MPM's does, is a strict xfail); without adhesion a blob hangs on
+exactly when its yield stress carries its weight; threads agree. A bar pulled apart keeps its
+volume only with a stiff bulk modulus, and then flows at its yield stress (the return keeps the
+particles' rest volume, not their mean bond strain); with a plastic (Bingham) viscosity its flow
+stress grows with the rate as Trouton's, and a slowly pulled bar no longer necks."""
 
 import numpy as np
 import pytest

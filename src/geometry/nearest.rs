@@ -96,12 +96,14 @@ fn split(points: &[Vector3<f64>], order: &mut [u32], axis: &mut [u8]) {
     }
 }
 
-/// The distance (m) from each of `points` (m, finite) to its nearest other point: 0 where
-/// another point shares its position, infinite for a lone point.
-pub fn nearest_distances(points: &[Vector3<f64>]) -> Vec<f64> {
+/// The distance (m) from every `every`-th of `points` (m, finite; the points 0, `every`,
+/// `2 every`, ...; `every` >= 1) to its nearest other point of them all: 0 where another point
+/// shares its position, infinite for a lone point.
+pub fn nearest_distances(points: &[Vector3<f64>], every: usize) -> Vec<f64> {
     let tree = Tree::new(points);
     (0..points.len())
         .into_par_iter()
+        .step_by(every.max(1))
         .map(|i| tree.nearest(i, 0, points.len(), f64::INFINITY).sqrt())
         .collect()
 }
@@ -132,8 +134,13 @@ mod tests {
                         .sqrt()
                 })
                 .collect();
-            assert_eq!(nearest_distances(&points), brute);
+            assert_eq!(nearest_distances(&points, 1), brute);
+            let every_third: Vec<f64> = brute.iter().copied().step_by(3).collect();
+            assert_eq!(nearest_distances(&points, 3), every_third);
         }
-        assert_eq!(nearest_distances(&[Vector3::zeros()]), vec![f64::INFINITY]);
+        assert_eq!(
+            nearest_distances(&[Vector3::zeros()], 1),
+            vec![f64::INFINITY]
+        );
     }
 }

@@ -29,16 +29,18 @@ pub struct SolverMark;
 pub struct Owner(Mutex<Weak<SolverMark>>);
 
 impl Owner {
-    /// Whether a solver other than `mark`'s, still alive, holds the body.
-    pub fn held_by_other(&self, mark: &Arc<SolverMark>) -> bool {
-        let held = self.0.lock().unwrap_or_else(|p| p.into_inner());
-        held.upgrade()
+    /// Records that the solver of `mark` holds the body, unless another solver, still alive,
+    /// holds it: then `false`, and nothing changes (checked and set under one lock).
+    pub fn try_claim(&self, mark: &Arc<SolverMark>) -> bool {
+        let mut held = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        if held
+            .upgrade()
             .is_some_and(|owner| !Arc::ptr_eq(&owner, mark))
-    }
-
-    /// Records that the solver of `mark` holds the body.
-    pub fn claim(&self, mark: &Arc<SolverMark>) {
-        *self.0.lock().unwrap_or_else(|p| p.into_inner()) = Arc::downgrade(mark);
+        {
+            return false;
+        }
+        *held = Arc::downgrade(mark);
+        true
     }
 }
 

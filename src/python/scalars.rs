@@ -98,21 +98,25 @@ impl Flag {
 impl<'a, 'py> FromPyObject<'a, 'py> for Text {
     type Error = PyErr;
     fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
-        Ok(Self(match obj.extract::<String>() {
-            Ok(text) => Ok(text),
-            Err(_) => Err(described(&obj)?),
-        }))
+        kept(&obj).map(Self)
     }
 }
 
 impl<'a, 'py> FromPyObject<'a, 'py> for Flag {
     type Error = PyErr;
     fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
-        Ok(Self(match obj.extract::<bool>() {
-            Ok(flag) => Ok(flag),
-            Err(_) => Err(described(&obj)?),
-        }))
+        kept(&obj).map(Self)
     }
+}
+
+/// `obj` as a `V`, or why not ([`described`]) for the keyword's own `TypeError` later.
+fn kept<'py, V: for<'a> FromPyObject<'a, 'py>>(
+    obj: &Bound<'py, PyAny>,
+) -> PyResult<std::result::Result<V, String>> {
+    Ok(match obj.extract::<V>() {
+        Ok(value) => Ok(value),
+        Err(_) => Err(described(obj)?),
+    })
 }
 
 impl<'a, 'py> FromPyObject<'a, 'py> for Real {
@@ -129,10 +133,13 @@ impl<'a, 'py> FromPyObject<'a, 'py> for Int {
     }
 }
 
-/// `repr(obj)` and its type's name, for messages.
+/// `repr(obj)` and its type's name, for messages (the name alone if its `repr` raises).
 fn described(obj: &Bound<'_, PyAny>) -> PyResult<String> {
     let ty = obj.get_type().name()?;
-    Ok(format!("got {} {}", ty, obj.repr()?))
+    Ok(match obj.repr() {
+        Ok(repr) => format!("got {ty} {repr}"),
+        Err(_) => format!("got a {ty}"),
+    })
 }
 
 /// The numpy dtype kind of a numpy scalar or array (None for anything else).

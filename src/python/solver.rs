@@ -250,6 +250,9 @@ impl PySolver {
     fn add(&mut self, body: &Bound<'_, PyAny>) -> PyResult<()> {
         let py = body.py();
         let new = PyBody::extract(body)?;
+        // The warning may run Python (filters, `showwarning` hooks) that could add the body
+        // elsewhere: it comes before the checks, and no Python runs between them and the claim.
+        self.warn_resolution(py, Some(&new), &[&new])?;
         let core = new.shared(py);
         if let Some(index) = self.bodies.iter().position(|b| b.shared(py).same(&core)) {
             return Err(PyValueError::new_err(format!(
@@ -257,17 +260,16 @@ impl PySolver {
                 new.describe(py)
             )));
         }
-        if new.with_owner(py, |owner| owner.held_by_other(&self.mark)) {
+        if !new.with_owner(py, |owner| owner.try_claim(&self.mark)) {
             return Err(PyValueError::new_err(format!(
                 "this {} already belongs to another Solver: a body is stepped by one solver, \
                  which keeps its own record of it between steps (its working set, contact warm \
                  start and friction); build another body for this solver, or let the other \
-                 solver go (del it) first",
+                 solver go first (every reference to it: a notebook's Out[] or a stored \
+                 traceback keeps it alive)",
                 new.describe(py)
             )));
         }
-        self.warn_resolution(py, Some(&new), &[&new])?;
-        new.with_owner(py, |owner| owner.claim(&self.mark));
         self.bodies.push(new);
         Ok(())
     }
