@@ -8,8 +8,9 @@ its lowest layer comes within ``--drop`` spacings of the heap's apex (the highes
 slower than 5 cm/s) that layer is released with the column's speed: a stream fed at a constant
 rate from a funnel raised as the heap grows, so that no grain falls more than a few spacings.
 Floor: a plane with Coulomb friction ``--floor-friction`` (1: the grains do not slide on it).
-Sand: `Granular(friction_angle, contact_friction = --contact tan(friction_angle))` (the repose
-tests' `disordered_sand` at 0.1), density 1600 kg/m^3, dt 2 ms, ``--iters`` iterations a step
+Sand: `Granular(friction_angle, contact_friction = --contact tan(friction_angle),
+rolling_resistance = --rolling)` (the repose tests' `disordered_sand` at 0.1 without
+``--rolling``; round ab's rolling sand is ``--contact 1 --rolling 0.1``), density 1600 kg/m^3, dt 2 ms, ``--iters`` iterations a step
 (10); after the last release the heap settles ``--settle`` s (1.5 by default: at 3 s the shape
 is the same).
 
@@ -72,7 +73,8 @@ def pour(angle: float, seed: int, args: argparse.Namespace) -> dict:
     p += direction * (args.jitter * s_ * rng.random(len(p)) ** (1.0 / 3.0))[:, None]
     p += [0.0, 0.0, (1.0 + args.drop) * s_]
     material = peridyn.Granular(friction_angle=angle,
-                                contact_friction=args.contact * np.tan(np.radians(angle)))
+                                contact_friction=args.contact * np.tan(np.radians(angle)),
+                                rolling_resistance=args.rolling)
     body = peridyn.Particles(p, spacing=s_, density=RHO, material=material)
     n, per = len(p), c * c
     body.pin(np.arange(n))
@@ -127,6 +129,8 @@ def main() -> None:
     ap.add_argument("--drop", type=float, default=3.0, help="release height (spacings)")
     ap.add_argument("--contact", type=float, default=0.1,
                     help="contact friction over tan(friction angle)")
+    ap.add_argument("--rolling", type=float, default=None,
+                    help="the grains' rolling resistance mu_r (default: none, they do not turn)")
     ap.add_argument("--jitter", type=float, default=0.1, help="spacings")
     ap.add_argument("--floor-friction", type=float, default=1.0)
     ap.add_argument("--settle", type=float, default=1.5, help="s")
@@ -140,8 +144,8 @@ def main() -> None:
             r = pour(angle, seed, args)
             print({k: v for k, v in r.items() if k != "ring_tops_m"}, flush=True)
             runs.append(r)
-    rec.data["results"] = runs
-    rec.write(args.out)
+            rec.data["results"] = runs
+            rec.write(args.out)
 
 
 if __name__ == "__main__":

@@ -124,8 +124,8 @@ def deposit_slopes():
     return slopes
 
 
-def layer_moves(tilt, jitter=0.0, seed=0, window=0.3, **material):
-    """A layer of 12 x 6 x 4 spacings (``material``: the ``Particles`` keywords) on a base
+def layer_moves(tilt, jitter=0.0, seed=0, window=0.3, layers=4, **material):
+    """A layer of 12 x 6 x ``layers`` spacings (``material``: the ``Particles`` keywords) on a base
     layer of the same body pinned on the floor (a floor as rough as the material) filling an
     open box of frictionless walls, settled for 0.3 s under vertical gravity, then stepped for
     ``window`` (s) with gravity turned by ``tilt`` degrees about y (the box tilted, +x
@@ -134,7 +134,7 @@ def layer_moves(tilt, jitter=0.0, seed=0, window=0.3, **material):
     drawn (``seed``) uniform in a ball of ``jitter`` spacings: a disordered packing. Returns the
     surface layer's mean move (m) over the last 0.1 s of the window and the largest move of any
     particle over the whole window (m)."""
-    nx, ny, nz = 12, 6, 4
+    nx, ny, nz = 12, 6, layers
     x, y, z = np.meshgrid((np.arange(nx) + 0.5) * S, (np.arange(ny) + 0.5) * S,
                           (np.arange(nz + 1) + 0.5) * S, indexing="ij")
     p = np.stack([x, y, z], -1).reshape(-1, 3)
@@ -500,6 +500,8 @@ def test_the_stiffness_follows_eq_25_to_27():
         (dict(friction_angle=30.0, static_friction=1.5), "static_friction must be a coefficient in (0, 1]"),
         (dict(friction_angle=30.0, friction_hardening=-1.0), "friction_hardening must be a finite coefficient >= 0, got -1"),
         (dict(friction_angle=30.0, contact_friction=-0.5), "contact_friction must be a finite coefficient >= 0, got -0.5"),
+        (dict(friction_angle=30.0, rolling_resistance=-0.1), "rolling_resistance must be a finite coefficient >= 0 (or None for none), got -0.1"),
+        (dict(friction_angle=30.0, rolling_resistance=float("inf")), "rolling_resistance must be a finite coefficient >= 0 (or None for none), got inf"),
     ],
 )
 def test_bad_granular_parameters_are_value_errors_naming_the_value(kwargs, needle):

@@ -82,6 +82,12 @@ pub struct Granular {
     /// Coulomb friction coefficient `mu_c` (dimensionless, >= 0) at the contacts of touching
     /// grains (`crate::solve`'s grain friction; 0: frictionless balls, the default).
     pub contact_friction: f64,
+    /// Rolling resistance `mu_r` (dimensionless, >= 0) of the grains, which then turn within
+    /// each step until their contacts' friction torque lies within `mu_r` times their radius
+    /// times their contacts' normal loads (`crate::solve`'s grain rolling; 0: they roll
+    /// freely), or `None` (the default): the grains do not turn, and resist rolling without
+    /// bound. Acts only with contact friction.
+    pub rolling_resistance: Option<f64>,
     /// Capillary diffusivity `D` (m^2/s, in [0, [`MAX_WICKING`]]) of the water the grains
     /// hold, which wicks from grain to grain ([`super::wicking`]; 0: none).
     pub wicking: f64,
@@ -101,6 +107,7 @@ impl Granular {
             debonding: 1.0,
             static_friction: Some(0.8),
             contact_friction: 0.0,
+            rolling_resistance: None,
             wicking: DEFAULT_WICKING,
         }
     }
@@ -161,6 +168,14 @@ impl Granular {
             |v| (0.0..=MAX_WICKING).contains(&v),
             "a capillary diffusivity in [0, 0.01] m^2/s",
         )?;
+        if let Some(mu_r) = self.rolling_resistance {
+            check_param(
+                "rolling_resistance",
+                mu_r,
+                |v| v >= 0.0,
+                "a finite coefficient >= 0 (or None for none)",
+            )?;
+        }
         if let Some(eta) = self.static_friction {
             check_param(
                 "static_friction",

@@ -68,6 +68,15 @@ fn bad_parameters_name_themselves() {
     g.debonding = -0.1;
     assert!(message(g).contains("debonding"));
     let mut g = sand(0.0);
+    g.rolling_resistance = Some(-0.1);
+    assert!(message(g).contains(
+        "rolling_resistance must be a finite coefficient >= 0 (or None for none), got -0.1"
+    ));
+    g.rolling_resistance = Some(f64::INFINITY);
+    assert!(message(g).contains("rolling_resistance"));
+    g.rolling_resistance = Some(0.0);
+    assert!(g.validate().is_ok());
+    let mut g = sand(0.0);
     g.wicking = 0.02;
     assert!(message(g).contains("wicking must be a capillary diffusivity in [0, 0.01] m^2/s"));
     assert!(sand(1.0).validate().is_ok());

@@ -22,7 +22,8 @@ impl PyGranular {
     /// reference friction stiffness `K_f` (Pa) and its hardening `H_f`, the reference
     /// cohesion stiffness `K_c` (Pa) and falloff `H_0`, the debonding scale `b`, and the
     /// static friction `eta` (in (0, 1], None for none), the grains' contact friction
-    /// coefficient `mu_c` (>= 0), the capillary diffusivity `wicking` (m^2/s, in [0, 0.01])
+    /// coefficient `mu_c` (>= 0), their rolling resistance `mu_r` (>= 0, None for grains that
+    /// do not turn), the capillary diffusivity `wicking` (m^2/s, in [0, 0.01])
     /// of the water the grains hold: docs/particles/granular.md.
     #[new]
     #[pyo3(signature = (
@@ -30,7 +31,8 @@ impl PyGranular {
         friction_stiffness = Real::of(1e5), friction_hardening = Real::of(10.0),
         cohesion_stiffness = Real::of(2e4), cohesion_falloff = Real::of(10.0),
         debonding = Real::of(1.0), static_friction = Some(Real::of(0.8)),
-        contact_friction = Real::of(0.0), wicking = Real::of(DEFAULT_WICKING),
+        contact_friction = Real::of(0.0), rolling_resistance = None,
+        wicking = Real::of(DEFAULT_WICKING),
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -43,6 +45,7 @@ impl PyGranular {
         debonding: Real,
         static_friction: Option<Real>,
         contact_friction: Real,
+        rolling_resistance: Option<Real>,
         wicking: Real,
     ) -> PyResult<Self> {
         let inner = Granular {
@@ -57,6 +60,9 @@ impl PyGranular {
                 .map(|s| s.get("static_friction"))
                 .transpose()?,
             contact_friction: contact_friction.get("contact_friction")?,
+            rolling_resistance: rolling_resistance
+                .map(|r| r.get("rolling_resistance"))
+                .transpose()?,
             wicking: wicking.get("wicking")?,
         };
         inner.validate().py()?;
@@ -107,6 +113,11 @@ impl PyGranular {
     fn contact_friction(&self) -> f64 {
         self.inner.contact_friction
     }
+    /// Rolling resistance `mu_r` of the grains (dimensionless), or None: they do not turn.
+    #[getter]
+    fn rolling_resistance(&self) -> Option<f64> {
+        self.inner.rolling_resistance
+    }
     /// Capillary diffusivity `D` (m^2/s) of the water the grains hold.
     #[getter]
     fn wicking(&self) -> f64 {
@@ -128,7 +139,7 @@ impl PyGranular {
         format!(
             "Granular(friction_angle={}, saturation={}, friction_stiffness={}, \
              friction_hardening={}, cohesion_stiffness={}, cohesion_falloff={}, debonding={}, \
-             static_friction={}, contact_friction={}, wicking={})",
+             static_friction={}, contact_friction={}, rolling_resistance={}, wicking={})",
             g.friction_angle,
             g.saturation,
             g.friction_stiffness,
@@ -139,6 +150,8 @@ impl PyGranular {
             g.static_friction
                 .map_or("None".to_string(), |e| e.to_string()),
             g.contact_friction,
+            g.rolling_resistance
+                .map_or("None".to_string(), |r| r.to_string()),
             g.wicking
         )
     }

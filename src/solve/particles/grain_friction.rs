@@ -40,12 +40,17 @@
 //! (`m_i s_i = m_j s_j`) at every iteration, as its two copies of `lambda` are computed from
 //! exactly negated inputs; each particle's sums run over its partners in a fixed order, so the
 //! result is the same for any thread count.
+//! With a body's rolling resistance (`Granular::rolling_resistance`) its grains also turn within
+//! the step, and the slip above counts the turns' moves at the contact
+//! ([`super::grain_rolling`]); without one no grain turns.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::real::Real;
 use crate::solve::SavedGrainContact;
+
+use super::grain_rolling::GrainRolling;
 
 /// The pairs of touching particles at the proposed positions, as the repulsion found them.
 pub(crate) struct Pairs<'a, T: Real> {
@@ -62,7 +67,7 @@ pub(crate) struct Pairs<'a, T: Real> {
 
 impl<T: Real> Pairs<'_, T> {
     /// The candidate entries of particle `i`'s row.
-    fn row(&self, i: usize) -> std::ops::Range<usize> {
+    pub fn row(&self, i: usize) -> std::ops::Range<usize> {
         self.offsets[i] as usize..self.offsets[i + 1] as usize
     }
 }
@@ -85,6 +90,8 @@ pub(crate) struct GrainFriction<T: Real> {
     /// The previous step's candidate pairs, whose multipliers start the next step's.
     previous_offsets: Vec<u32>,
     previous_indices: Vec<u32>,
+    /// The grains' turns within the step ([`super::grain_rolling`]), if a body rolls.
+    rolling: Option<GrainRolling<T>>,
 }
 
 impl<T: Real> GrainFriction<T> {
@@ -101,7 +108,15 @@ impl<T: Real> GrainFriction<T> {
             previous_offsets: Vec::new(),
             previous_indices: Vec::new(),
             corrected: vec![Vector3::zeros(); n],
+            rolling: None,
         })
+    }
+
+    /// With the grains of particles whose rolling resistance `mu_r` in `resistance`
+    /// (dimensionless) is not `None` turning within the step ([`super::grain_rolling`]).
+    pub fn with_rolling(mut self, resistance: Vec<Option<T>>) -> Self {
+        self.rolling = GrainRolling::of(resistance);
+        self
     }
 
     /// The multipliers that start a step with the candidate pairs `indices` in the rows of
@@ -134,6 +149,9 @@ impl<T: Real> GrainFriction<T> {
         self.previous_offsets.extend_from_slice(offsets);
         self.previous_indices.clear();
         self.previous_indices.extend_from_slice(indices);
+        if let Some(rolling) = &mut self.rolling {
+            rolling.start_step();
+        }
     }
 
     /// The nonzero multipliers the next step starts from (the accepted ones of the last
@@ -196,6 +214,9 @@ impl<T: Real> GrainFriction<T> {
     /// Takes the multipliers of the last trial as the iteration's.
     pub fn accept(&mut self) {
         std::mem::swap(&mut self.accepted, &mut self.trial);
+        if let Some(rolling) = &mut self.rolling {
+            rolling.accept();
+        }
     }
 
     /// Whether particle `i` (not pinned) can be held where it started by its contacts
@@ -261,7 +282,11 @@ impl<T: Real> GrainFriction<T> {
                     }
                 }
             });
+        if let Some(rolling) = &mut self.rolling {
+            rolling.turn(pairs, &contact, share, accepted, &self.shares);
+        }
         let (owner, shares, corrected) = (&self.owner, &self.shares, &self.corrected);
+        let rolling = self.rolling.as_ref();
         self.trial
             .par_iter_mut()
             .enumerate()
@@ -280,7 +305,10 @@ impl<T: Real> GrainFriction<T> {
                     return;
                 };
                 let relaxation = T::one() / (shares[i] + shares[j]);
-                let slip = (corrected[i] - pairs.start[i]) - (corrected[j] - pairs.start[j]);
+                let mut slip = (corrected[i] - pairs.start[i]) - (corrected[j] - pairs.start[j]);
+                if let Some(rolling) = rolling {
+                    slip -= rolling.rolled(pairs.margin, i, j, &normal);
+                }
                 let free = tangential(&normal, &(accepted[e] - slip * relaxation));
                 let (length, limit) = (free.norm(), mu * overlap);
                 *lambda = if length <= limit {
@@ -301,12 +329,12 @@ impl<T: Real> GrainFriction<T> {
 }
 
 /// A touching frictional pair at an iteration's proposed positions.
-struct Contact<T: Real> {
+pub(super) struct Contact<T: Real> {
     /// The pair's unit normal, from the partner to the particle.
-    normal: Vector3<T>,
+    pub normal: Vector3<T>,
     /// Its overlap `g` (m) and coefficient `mu_c` (dimensionless).
-    overlap: T,
-    mu: T,
+    pub overlap: T,
+    pub mu: T,
 }
 
 /// The contact of particle `i` with `j` at the proposed positions `proposed` (m), the

@@ -19,6 +19,7 @@ mod family;
 mod fluid;
 mod fluid_viscosity;
 mod grain_friction;
+mod grain_rolling;
 mod plastic;
 mod repulsion;
 mod roundoff;
@@ -39,3 +40,6 @@ mod thin_tests;
 
 #[cfg(test)]
 mod repulsion_tests;
+
+#[cfg(test)]
+mod rolling_tests;

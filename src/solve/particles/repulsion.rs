@@ -112,6 +112,16 @@ impl<T: Real> Repulsion<T> {
         self
     }
 
+    /// With the grains of the bodies whose rolling resistance `mu_r` in `per_body`
+    /// (dimensionless) is not `None` turning within the step ([`super::grain_rolling`]; only
+    /// at contacts with friction, so after [`Self::with_friction`]).
+    pub fn with_rolling(mut self, per_body: &[Option<f64>]) -> Self {
+        let of = |b: u32| per_body.get(b as usize).copied().flatten().map(T::of);
+        let resistance = self.body.iter().map(|&b| of(b)).collect();
+        self.friction = self.friction.map(|f| f.with_rolling(resistance));
+        self
+    }
+
     /// With the moves of pairs between the bodies marked in `solid` (per body) shared in the
     /// Jacobi metric (module doc); mass shares for the rest.
     pub fn with_solid(mut self, solid: &[bool]) -> Self {

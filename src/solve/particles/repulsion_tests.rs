@@ -13,7 +13,7 @@ use super::tests::block;
 use crate::solve::clearance::Clearance;
 use crate::solve::points::Points;
 
-const S: f64 = 0.01;
+pub(super) const S: f64 = 0.01;
 
 /// A 4^3 block of spacing `S` moved by `offset` (m) at `velocity` (m/s).
 fn moving_block(offset: Vector3<f64>, velocity: Vector3<f64>) -> Particles {
@@ -200,7 +200,7 @@ fn a_grain_sticking_to_four_partners_does_not_overshoot() {
 
 /// Grains of one granular body at rest at `sites` (m) with masses `mass` (kg), those
 /// marked in `pinned` pinned: balls of half a spacing.
-fn grains(sites: &[Vector3<f64>], mass: &[f64], pinned: &[bool]) -> Points<f64> {
+pub(super) fn grains(sites: &[Vector3<f64>], mass: &[f64], pinned: &[bool]) -> Points<f64> {
     let zeros = vec![Vector3::zeros(); sites.len()];
     Points {
         ids: vec![0],

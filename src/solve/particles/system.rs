@@ -111,14 +111,21 @@ impl<T: Real> ParticleSystem<T> {
             .iter()
             .map(|b| b.granular().map_or(0.0, |g| g.contact_friction))
             .collect();
+        let rolling: Vec<Option<f64>> = bodies
+            .iter()
+            .map(|b| b.granular().and_then(|g| g.rolling_resistance))
+            .collect();
         let solid: Vec<bool> = bodies
             .iter()
             .map(|b| {
                 b.granular().is_none() && !(0..b.num_particles()).any(|i| b.is_fluid_particle(i))
             })
             .collect();
-        let repulsion = Repulsion::of(&points, within, &fluid)
-            .map(|r| r.with_friction(&friction).with_solid(&solid));
+        let repulsion = Repulsion::of(&points, within, &fluid).map(|r| {
+            r.with_friction(&friction)
+                .with_rolling(&rolling)
+                .with_solid(&solid)
+        });
         Ok(Self {
             points,
             rest,
