@@ -232,7 +232,7 @@ impl Particles {
         let (volume, margin) = (params.spacing.powi(3), 0.5 * params.spacing);
         check_input(&reference, volume, &params)?;
         check_spacing(&reference, params.spacing)?;
-        Self::build(reference, Vec::new(), volume, margin, params)
+        Self::with_ghosts(reference, Vec::new(), volume, margin, params)
     }
 
     /// A body whose last `ghost_owners.len()` particles are ghosts (they take part in the
@@ -248,17 +248,6 @@ impl Particles {
         params: ParticleParams,
     ) -> Result<Self> {
         check_input(&reference, volume, &params)?;
-        Self::build(reference, ghost_owners, volume, margin, params)
-    }
-
-    /// [`Self::with_ghosts`] once its input is checked ([`check_input`]).
-    fn build(
-        reference: Vec<Vector3<f64>>,
-        ghost_owners: Vec<u32>,
-        volume: f64,
-        margin: f64,
-        params: ParticleParams,
-    ) -> Result<Self> {
         let delta = params.delta();
         let horizons = find_horizons(&reference, delta)?;
         let moduli = params.material.resolve(params.spacing, delta)?;
