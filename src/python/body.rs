@@ -1,7 +1,7 @@
-//! The Python side of the body seam: a body of any kind that `Solver.add` takes, the solver it
-//! belongs to, and the lock a step holds on each body's core while it advances them.
+//! The Python side of the body seam: a body of any kind that `Solver.add` takes, and the lock
+//! a step holds on each body's core while it advances them.
 
-use std::sync::{Arc, Mutex, MutexGuard, Weak};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use nalgebra::Vector3;
 use pyo3::exceptions::PyTypeError;
@@ -12,37 +12,8 @@ use crate::particles::Particles;
 use crate::solve::BodyMut;
 
 use super::membrane::PyMembrane;
+use super::owner::Owner;
 use super::particle_body::PyParticles;
-
-/// The identity of one Python `Solver`, which holds it; the bodies it steps hold it weakly
-/// ([`Owner`]).
-pub struct SolverMark;
-
-/// The solver a body belongs to, if any. A body is stepped by one solver: a solver keeps its
-/// own record of its bodies from step to step (their working set and evaluation, the contact
-/// warm start, the friction at the grains' contacts, the positions its last step left, which
-/// tell it that they were set from outside), so a body stepped by two solvers in turn would
-/// be, for each, a body whose positions were replaced between its steps (its contact friction
-/// dropped) and not the run of either. The body is free again once its solver is gone (the
-/// mark is held weakly).
-#[derive(Default)]
-pub struct Owner(Mutex<Weak<SolverMark>>);
-
-impl Owner {
-    /// Records that the solver of `mark` holds the body, unless another solver, still alive,
-    /// holds it: then `false`, and nothing changes (checked and set under one lock).
-    pub fn try_claim(&self, mark: &Arc<SolverMark>) -> bool {
-        let mut held = self.0.lock().unwrap_or_else(|p| p.into_inner());
-        if held
-            .upgrade()
-            .is_some_and(|owner| !Arc::ptr_eq(&owner, mark))
-        {
-            return false;
-        }
-        *held = Arc::downgrade(mark);
-        true
-    }
-}
 
 /// A body a solver steps, by kind.
 pub enum PyBody {

@@ -11,9 +11,9 @@ use crate::membrane::{Membrane, MembraneParams};
 use crate::mesh::TriangleMesh;
 
 use super::arrays::{to_numpy, to_numpy_1d, triangles, vec3s};
-use super::body::Owner;
 use super::errors::{guard, IntoPyResult};
 use super::material;
+use super::owner::Owner;
 use super::pins;
 use super::scalars::{Flag, Int, Real};
 

@@ -14,6 +14,7 @@ mod material;
 mod material_state;
 mod membrane;
 mod options;
+mod owner;
 mod particle_body;
 mod particles;
 mod pins;

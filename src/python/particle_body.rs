@@ -12,12 +12,12 @@ use crate::particles::{
 };
 
 use super::arrays::{indices as index_list, to_numpy, to_numpy_1d, vec3s};
-use super::body::Owner;
 use super::elastic::PyElastic;
 use super::errors::{guard, IntoPyResult};
 use super::fluid::PyViscoelasticFluid;
 use super::granular::PyGranular;
 use super::material_state;
+use super::owner::Owner;
 use super::pins;
 use super::plasticity::PyDruckerPrager;
 use super::rest_bonds;

@@ -14,7 +14,7 @@ use crate::solve::{
 };
 
 use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, vec3};
-use super::body::{LockedBody, PyBody, SharedBody, SolverMark};
+use super::body::{LockedBody, PyBody, SharedBody};
 use super::collider;
 use super::contact::PyContact;
 use super::errors::{guard, IntoPyResult};
@@ -22,6 +22,7 @@ use super::options::{
     AccelerationKind, Backend, Float, ACCELERATION, BACKEND, GLOBAL_SOLVER, METHOD, PRECISION,
     PRECONDITIONER,
 };
+use super::owner::SolverMark;
 use super::resolution;
 use super::scalars::{Flag, Int, Real, Text};
 use super::solver_state;
@@ -86,7 +87,7 @@ pub struct PySolver {
     core: Precision,
     bodies: Vec<PyBody>,
     colliders: Vec<Py<PyAny>>,
-    /// This solver's identity, which its bodies hold ([`super::body::Owner`]).
+    /// This solver's identity, which its bodies hold ([`super::owner::Owner`]).
     mark: Arc<SolverMark>,
 }
 
@@ -245,32 +246,27 @@ impl PySolver {
     }
 
     /// Adds a body (a Membrane or Particles); the solver steps it from now on. A body belongs
-    /// to one solver at a time ([`super::body::Owner`]): adding it twice, or to a second
-    /// solver while the first is alive, is a `ValueError`.
+    /// to the solver it was last added to ([`super::owner::Owner`]): adding it twice to one
+    /// solver is a `ValueError`; adding it to another hands it over, and this solver's `step`
+    /// then refuses it until it is added here again (which takes it back, in its place).
     fn add(&mut self, body: &Bound<'_, PyAny>) -> PyResult<()> {
         let py = body.py();
         let new = PyBody::extract(body)?;
-        // The warning may run Python (filters, `showwarning` hooks) that could add the body
-        // elsewhere: it comes before the checks, and no Python runs between them and the claim.
-        self.warn_resolution(py, Some(&new), &[&new])?;
         let core = new.shared(py);
-        if let Some(index) = self.bodies.iter().position(|b| b.shared(py).same(&core)) {
-            return Err(PyValueError::new_err(format!(
-                "this {} is already body {index} of this solver: a body is added once",
-                new.describe(py)
-            )));
+        let listed = self.bodies.iter().position(|b| b.shared(py).same(&core));
+        if let Some(index) = listed {
+            if new.with_owner(py, |owner| owner.held_by(&self.mark)) {
+                return Err(PyValueError::new_err(format!(
+                    "this {} is already body {index} of this solver: a body is added once",
+                    new.describe(py)
+                )));
+            }
         }
-        if !new.with_owner(py, |owner| owner.try_claim(&self.mark)) {
-            return Err(PyValueError::new_err(format!(
-                "this {} already belongs to another Solver: a body is stepped by one solver, \
-                 which keeps its own record of it between steps (its working set, contact warm \
-                 start and friction); build another body for this solver, or let the other \
-                 solver go first (every reference to it: a notebook's Out[] or a stored \
-                 traceback keeps it alive)",
-                new.describe(py)
-            )));
+        self.warn_resolution(py, listed.is_none().then_some(&new), &[&new])?;
+        new.with_owner(py, |owner| owner.claim(&self.mark));
+        if listed.is_none() {
+            self.bodies.push(new);
         }
-        self.bodies.push(new);
         Ok(())
     }
 
@@ -445,6 +441,9 @@ impl PySolver {
             let bodies: Vec<&PyBody> = self.bodies.iter().collect();
             self.warn_resolution(py, None, &bodies)?;
         }
+        // After the warning (which may run Python) and with no Python after it: the owners are
+        // those the step sees.
+        self.check_owned(py)?;
         let shared: Vec<SharedBody> = self.bodies.iter().map(|b| b.shared(py)).collect();
         let core = &mut self.core;
         let stats = py.detach(move || {
@@ -673,6 +672,25 @@ impl PySolver {
             Float::F64 => ("f64", f64::EPSILON),
         };
         resolution::warn_resolution(py, &bodies, warned, precision, dt, &gravity.into())
+    }
+
+    /// A `ValueError` naming the first body another solver has taken over since this one took
+    /// it ([`super::owner::Owner`]).
+    fn check_owned(&self, py: Python<'_>) -> PyResult<()> {
+        match self
+            .bodies
+            .iter()
+            .position(|b| !b.with_owner(py, |owner| owner.held_by(&self.mark)))
+        {
+            None => Ok(()),
+            Some(index) => Err(PyValueError::new_err(format!(
+                "body {index} ({}) was added to another Solver since: a body is stepped by \
+                 the solver it was last added to, which keeps its own record of it between \
+                 steps (its working set, contact warm start and friction); step that solver, \
+                 or build another body for this one",
+                self.bodies[index].describe(py)
+            ))),
+        }
     }
 
     /// `index` checked against the colliders added.

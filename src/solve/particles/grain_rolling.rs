@@ -53,7 +53,7 @@ use rayon::prelude::*;
 
 use crate::real::Real;
 
-use super::grain_friction::{Contact, Pairs};
+use super::grain_contacts::{Contact, Pairs};
 
 /// The grains' turns within the step (module doc): each particle's resistance and its turn as
 /// accepted by the last iteration and as computed by the last trial.

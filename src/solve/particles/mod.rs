@@ -18,6 +18,7 @@ mod exact_iterate;
 mod family;
 mod fluid;
 mod fluid_viscosity;
+mod grain_contacts;
 mod grain_friction;
 mod grain_rolling;
 mod plastic;

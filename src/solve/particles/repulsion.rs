@@ -48,7 +48,8 @@ use crate::real::Real;
 use crate::solve::points::Points;
 use crate::solve::SavedGrainContact;
 
-use super::grain_friction::{GrainFriction, Pairs};
+use super::grain_contacts::Pairs;
+use super::grain_friction::GrainFriction;
 
 /// The repulsion of the particle bodies of one family, with its scratch.
 pub(crate) struct Repulsion<T: Real> {
