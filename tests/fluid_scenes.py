@@ -43,8 +43,10 @@ def widest_pair(counts):
 def neck_slabs(counts, layer):
     """The length of the neck drawn between the film and the hanging liquid's widest part
     (:func:`widest_pair`), in slabs: the slabs from the film's next one down to that part
-    holding at most a quarter of a full layer of ``layer`` particles."""
+    holding liquid, at most a quarter of a full layer of ``layer`` particles (an empty slab is
+    a gap opening, not a neck: whole layers drifting apart would read as one)."""
     if counts.size <= 2:
         return 0
     widest, _ = widest_pair(counts)
-    return int((counts[1: widest + 1] <= layer / 4).sum())
+    between = counts[1: widest + 1]
+    return int(((between > 0) & (between <= layer / 4)).sum())
