@@ -399,6 +399,13 @@ impl Particles {
     pub fn positions_revision(&self) -> u64 {
         self.positions_revision
     }
+    /// Counts the positions as replaced without changing them, as [`Self::set_positions`]
+    /// does: for a solver whose body another solver stepped in between (the Python edge's
+    /// hand-over), whose record of it (grain friction, stiffness) is then of other positions.
+    pub fn mark_positions_replaced(&mut self) {
+        self.positions_revision += 1;
+        self.pressure = None;
+    }
     /// Replaces the velocities (m/s); every value must be finite.
     pub fn set_velocities(&mut self, velocities: Vec<Vector3<f64>>) -> Result<()> {
         self.state

@@ -4,7 +4,7 @@
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use nalgebra::Vector3;
-use pyo3::exceptions::PyTypeError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 use crate::membrane::Membrane;
@@ -12,8 +12,26 @@ use crate::particles::Particles;
 use crate::solve::BodyMut;
 
 use super::membrane::PyMembrane;
-use super::owner::Owner;
+use super::owner::{Owner, SolverMark};
 use super::particle_body::PyParticles;
+
+/// A `ValueError` naming the first of a solver's `bodies` that another solver has taken over
+/// since ([`Owner`]): the solver of `mark` steps only the bodies it holds.
+pub fn check_held(py: Python<'_>, bodies: &[PyBody], mark: &Arc<SolverMark>) -> PyResult<()> {
+    match bodies
+        .iter()
+        .position(|b| !b.with_owner(py, |owner| owner.held_by(mark)))
+    {
+        None => Ok(()),
+        Some(index) => Err(PyValueError::new_err(format!(
+            "body {index} ({}) was added to another Solver since: a body is stepped by the \
+             solver it was last added to, which keeps its own record of it between steps (its \
+             working set, contact warm start and friction); step that solver, or add the body \
+             to this one again to take it back",
+            bodies[index].describe(py)
+        ))),
+    }
+}
 
 /// A body a solver steps, by kind.
 pub enum PyBody {

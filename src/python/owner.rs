@@ -8,12 +8,13 @@ pub struct SolverMark;
 
 /// The solver a body belongs to, if any: the last one it was added to. A body is stepped by one
 /// solver: a solver keeps its own record of its bodies from step to step (their working set
-/// and evaluation, the contact warm start, the friction at the grains' contacts, the positions
-/// its last step left, which tell it that they were set from outside), so a body stepped by two
-/// solvers in turn would be, for each, a body whose positions were replaced between its steps
-/// (its contact friction dropped) and not the run of either. Adding a body to a solver hands it
-/// over (a body settled by one solver goes on in another, built with other settings); the
-/// solver it was taken from refuses to step it (`Solver.step`'s `ValueError`).
+/// and evaluation, the contact warm start, the friction at the grains' contacts), so a body
+/// stepped by two solvers in turn would start each one's steps from that solver's record of
+/// other positions, and be the run of neither. Adding a body to a solver hands it over (a body
+/// settled by one solver goes on in another, built with other settings); the solver it was
+/// taken from refuses to step it (`Solver.step`'s `ValueError`) until it is added there again,
+/// which takes it back and counts its positions as replaced, as `set_positions` does (a
+/// particle body's grain friction starts from 0, its stiffness from its positions).
 #[derive(Default)]
 pub struct Owner(Mutex<Weak<SolverMark>>);
 

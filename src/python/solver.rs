@@ -14,7 +14,7 @@ use crate::solve::{
 };
 
 use super::arrays::{rotation_rows, to_numpy, to_numpy_1d, vec3};
-use super::body::{LockedBody, PyBody, SharedBody};
+use super::body::{check_held, LockedBody, PyBody, SharedBody};
 use super::collider;
 use super::contact::PyContact;
 use super::errors::{guard, IntoPyResult};
@@ -264,8 +264,15 @@ impl PySolver {
         }
         self.warn_resolution(py, listed.is_none().then_some(&new), &[&new])?;
         new.with_owner(py, |owner| owner.claim(&self.mark));
-        if listed.is_none() {
-            self.bodies.push(new);
+        match listed {
+            None => self.bodies.push(new),
+            // Taken back: another solver stepped it since this one's record of it, which is now
+            // of other positions, as after `set_positions`.
+            Some(_) => {
+                if let LockedBody::Particles(mut p) = core.lock() {
+                    p.mark_positions_replaced();
+                }
+            }
         }
         Ok(())
     }
@@ -443,7 +450,7 @@ impl PySolver {
         }
         // After the warning (which may run Python) and with no Python after it: the owners are
         // those the step sees.
-        self.check_owned(py)?;
+        check_held(py, &self.bodies, &self.mark)?;
         let shared: Vec<SharedBody> = self.bodies.iter().map(|b| b.shared(py)).collect();
         let core = &mut self.core;
         let stats = py.detach(move || {
@@ -672,25 +679,6 @@ impl PySolver {
             Float::F64 => ("f64", f64::EPSILON),
         };
         resolution::warn_resolution(py, &bodies, warned, precision, dt, &gravity.into())
-    }
-
-    /// A `ValueError` naming the first body another solver has taken over since this one took
-    /// it ([`super::owner::Owner`]).
-    fn check_owned(&self, py: Python<'_>) -> PyResult<()> {
-        match self
-            .bodies
-            .iter()
-            .position(|b| !b.with_owner(py, |owner| owner.held_by(&self.mark)))
-        {
-            None => Ok(()),
-            Some(index) => Err(PyValueError::new_err(format!(
-                "body {index} ({}) was added to another Solver since: a body is stepped by \
-                 the solver it was last added to, which keeps its own record of it between \
-                 steps (its working set, contact warm start and friction); step that solver, \
-                 or build another body for this one",
-                self.bodies[index].describe(py)
-            ))),
-        }
     }
 
     /// `index` checked against the colliders added.

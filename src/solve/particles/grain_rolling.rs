@@ -35,9 +35,11 @@
 //! relaxation; `t_j` 1 if `j` turns, else 0): the multipliers' next step moves by
 //! `w_ij (R_i theta_i + R_j theta_j) x n_ij`, which changes `tau_i` by
 //! `-R_i sum_j s_i w_ij (R_i theta_i + R_j theta_j)` in the tangent planes, so the turn takes
-//! at most the excess out of the torque even when every partner turns the same way (two free
-//! grains touching only each other turn alike: relaxed by `R_i` alone, they would overshoot
-//! twice the excess, and at `mu_r = 0` swap the torque's sign for ever). At the fixed point
+//! at most the excess out of the torque where the partners turn alike, by no more than it (two
+//! free grains touching only each other: relaxed by `R_i` alone, they would overshoot twice
+//! the excess, and at `mu_r = 0` swap the torque's sign for ever); a partner turning further
+//! in one Jacobi iteration can still carry the torque past its bound, which later iterations
+//! take back (the fixed point is the same). At the fixed point
 //! every torque lies within its limit and every contact obeys Coulomb's law with the turns
 //! in its slip. `mu_r = 0` rolls freely: the friction puts no torque on a grain, so a grain on
 //! a single contact is not held by it (it slides off a grain below as if frictionless); a
