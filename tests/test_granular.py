@@ -502,6 +502,7 @@ def test_the_stiffness_follows_eq_25_to_27():
         (dict(friction_angle=30.0, contact_friction=-0.5), "contact_friction must be a finite coefficient >= 0, got -0.5"),
         (dict(friction_angle=30.0, rolling_resistance=-0.1), "rolling_resistance must be a finite coefficient >= 0 (or None for none), got -0.1"),
         (dict(friction_angle=30.0, rolling_resistance=float("inf")), "rolling_resistance must be a finite coefficient >= 0 (or None for none), got inf"),
+        (dict(friction_angle=30.0, rolling_resistance=0.1), "rolling_resistance 0.1 needs contact_friction > 0"),
     ],
 )
 def test_bad_granular_parameters_are_value_errors_naming_the_value(kwargs, needle):

@@ -86,7 +86,7 @@ pub struct Granular {
     /// each step until their contacts' friction torque lies within `mu_r` times their radius
     /// times their contacts' normal loads (`crate::solve`'s grain rolling; 0: they roll
     /// freely), or `None` (the default): the grains do not turn, and resist rolling without
-    /// bound. Acts only with contact friction.
+    /// bound. Needs `contact_friction > 0` (a `ValueError` without: nothing to turn against).
     pub rolling_resistance: Option<f64>,
     /// Capillary diffusivity `D` (m^2/s, in [0, [`MAX_WICKING`]]) of the water the grains
     /// hold, which wicks from grain to grain ([`super::wicking`]; 0: none).
@@ -175,6 +175,12 @@ impl Granular {
                 |v| v >= 0.0,
                 "a finite coefficient >= 0 (or None for none)",
             )?;
+            if self.contact_friction == 0.0 {
+                return Err(crate::error::invalid!(
+                    "rolling_resistance {mu_r} needs contact_friction > 0: the grains turn \
+                     against their contacts' friction, which frictionless grains have none of"
+                ));
+            }
         }
         if let Some(eta) = self.static_friction {
             check_param(

@@ -75,6 +75,8 @@ fn bad_parameters_name_themselves() {
     g.rolling_resistance = Some(f64::INFINITY);
     assert!(message(g).contains("rolling_resistance"));
     g.rolling_resistance = Some(0.0);
+    assert!(message(g).contains("rolling_resistance 0 needs contact_friction > 0"));
+    g.contact_friction = 0.5;
     assert!(g.validate().is_ok());
     let mut g = sand(0.0);
     g.wicking = 0.02;

@@ -220,10 +220,10 @@ class Granular:
     ``H_0`` (> 0) and ``debonding`` ``b`` (in [0, 1]) of eq. 27, ``static_friction``
     ``eta`` (in (0, 1], None for none) of eq. 28, ``contact_friction`` ``mu_c`` (>= 0): the
     Coulomb friction coefficient at the contacts of touching grains (0: frictionless balls),
-    ``rolling_resistance`` ``mu_r`` (>= 0, None for none): with contact friction, each grain
-    turns within the step until its contacts' friction torque lies within ``mu_r`` times its
-    radius times its contacts' normal loads (0: it rolls freely; None, the default: grains do
-    not turn and resist rolling without bound),
+    ``rolling_resistance`` ``mu_r`` (>= 0, None for none; needs ``contact_friction`` > 0):
+    each grain turns within the step until its contacts' friction torque lies within ``mu_r``
+    times its radius times its contacts' normal loads (0: it rolls freely; None, the default:
+    grains do not turn and resist rolling without bound),
     ``wicking`` ``D`` (m^2/s, in [0, 0.01]; 0: none): the capillary diffusivity of the water
     the grains hold, which moves from grain to grain conserved (a wetting front advances
     about ``sqrt(D t)``); a step whose wicking would need more than 100 explicit substeps
